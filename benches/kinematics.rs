@@ -1,0 +1,61 @@
+//! Criterion benches of the core: FK, cable lengths, cable solve and pose IK
+//! for n = 3 (the paper's prototype) and n = 20.
+
+use cdsm::cables::CableGeometry;
+use cdsm::kinematics::fk;
+use cdsm::solve::{self, CableMethod, SolveOptions};
+use cdsm::Robot;
+use criterion::{criterion_group, criterion_main, Criterion};
+use std::hint::black_box;
+
+fn robot(n: usize) -> Robot {
+    if n == 3 {
+        return Robot::paper();
+    }
+    let mut text = String::new();
+    for i in 0..n {
+        text += &format!(
+            "[[linkage]]\nlink_before = 0.02\nlink_after = 0.02\nthickness = 0.005\nhole_height = {}\njoint_limits = [-0.5, 0.5]\n",
+            0.03 - 0.0005 * i as f64
+        );
+    }
+    Robot::from_toml(&text).unwrap()
+}
+
+fn theta(n: usize) -> Vec<f64> {
+    (0..n).map(|k| 0.3 * ((k as f64) * 1.7).sin()).collect()
+}
+
+fn benches(c: &mut Criterion) {
+    let opts = SolveOptions::default();
+    for n in [3usize, 20] {
+        let r = robot(n);
+        let th = theta(n);
+        let g = CableGeometry::new(&r, None);
+        let mut l = vec![0.0; 2 * n];
+        g.lengths(&th, &mut l);
+        let upper: Vec<f64> = (0..n).map(|i| l[2 * i]).collect();
+        let pose = fk(&r, &th);
+        c.bench_function(&format!("fk/n={n}"), |b| b.iter(|| fk(&r, black_box(&th))));
+        c.bench_function(&format!("cable_lengths/n={n}"), |b| {
+            b.iter(|| g.lengths(black_box(&th), &mut l))
+        });
+        for (name, m) in [("auto", CableMethod::Auto), ("newton", CableMethod::Newton)] {
+            c.bench_function(&format!("cable_solve_{name}/n={n}"), |b| {
+                b.iter(|| {
+                    let mut t: Vec<f64> = th.iter().map(|x| x + 0.02).collect();
+                    solve::solve_cables(&r, &g, black_box(&upper), &mut t, m, &opts)
+                })
+            });
+        }
+        c.bench_function(&format!("pose_ik/n={n}"), |b| {
+            b.iter(|| {
+                let mut t: Vec<f64> = th.iter().map(|x| x + 0.02).collect();
+                solve::ik(&r, black_box(&pose), &mut t, &opts)
+            })
+        });
+    }
+}
+
+criterion_group!(kinematics, benches);
+criterion_main!(kinematics);

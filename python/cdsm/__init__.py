@@ -1,0 +1,9 @@
+"""cdsm — kinematics and tip-positioning accuracy of cable-driven serpentine
+manipulators, with a Rust core. SI units everywhere (m, rad, N, kg)."""
+
+from ._cdsm import CdsmInputError
+from .robot import Robot, Solution
+from . import errors
+
+__all__ = ["Robot", "Solution", "CdsmInputError", "errors"]
+__version__ = "0.1.0"

@@ -1,0 +1,587 @@
+"""Independent, vectorised NumPy reference implementation of ``docs/model.md``.
+
+This module is written from ``docs/model.md`` alone and is used to cross-check
+the Rust core (``cdsm.Robot``) in the test-suite.  It is deliberately simple
+and readable rather than fast; every batch function is vectorised over the
+batch dimension ``N`` (Python loops run only over the ``n`` joints or over
+solver iterations).
+
+Robots are duck-typed: every function reads only these attributes of
+``robot`` (all SI; anything array-like is accepted):
+
+=================  ===================  ==========================================
+attribute          shape                meaning
+=================  ===================  ==========================================
+``n``              int                  number of joints / disks
+``link_before``    ``(n,)``             m, link from disk ``i-1`` to joint ``i``
+``link_after``     ``(n,)``             m, link from joint ``i`` to disk ``i``
+``thickness``      ``(n,)``             m, thickness of disk ``i`` (``B``)
+``holes``          ``(2n, n+1, 2, 2)``  m, ``holes[c, d, f] = (x, y)``
+``joint_limits``   ``(n, 2)``           rad, ``[lo, hi]`` per joint
+=================  ===================  ==========================================
+
+so both :class:`SimpleRobot` and ``cdsm.Robot`` can be passed.
+
+Conventions (see ``docs/model.md``): cables ``c = 0 .. 2n-1``; cable ``c``
+belongs to pair ``i = c // 2 + 1`` (1-based disk index), even ``c`` is the
+upper cable (hole at ``+h_i``), odd ``c`` the lower one.  Pair ``i`` crosses
+the base disk (face ``b`` only) and disks ``1..i`` (both faces).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+__all__ = [
+    "SimpleRobot",
+    "wrap_angle",
+    "used_hole_mask",
+    "default_holes",
+    "fk",
+    "fk_jacobian",
+    "cable_lengths",
+    "upper_cable_lengths",
+    "cable_jacobian",
+    "upper_cable_jacobian",
+    "ik",
+    "solve_cables",
+    "solve_cables_closed_form",
+    "deviation",
+    "hole_height_error",
+]
+
+#: Joint limit of the paper prototype, rad (35 deg).
+PAPER_JOINT_LIMIT = float(np.deg2rad(35.0))
+
+# LM constants of docs/model.md.
+_LAMBDA_0 = 1e-3
+_LAMBDA_MIN = 1e-12
+_LAMBDA_MAX = 1e12
+
+
+# --------------------------------------------------------------------------
+# Robot description
+# --------------------------------------------------------------------------
+def used_hole_mask(n: int) -> np.ndarray:
+    """Boolean mask ``(2n, n+1, 2)`` of the hole entries the model uses.
+
+    ``mask[c, d, f]`` is True when cable ``c`` crosses face ``f`` of disk ``d``:
+    ``d = 0`` (base) face ``b`` only, and ``1 <= d <= pair(c)`` both faces.
+    """
+    mask = np.zeros((2 * n, n + 1, 2), dtype=bool)
+    for c in range(2 * n):
+        pair = c // 2 + 1
+        mask[c, 0, 1] = True
+        mask[c, 1 : pair + 1, :] = True
+    return mask
+
+
+def default_holes(hole_height) -> np.ndarray:
+    """Default (straight) holes ``(2n, n+1, 2, 2)`` in m from heights ``(n,)`` in m.
+
+    Upper cable of pair ``i`` at ``(0, +h_i)``, lower at ``(0, -h_i)``, on every
+    face the pair crosses; unused entries are zero.
+    """
+    h = np.asarray(hole_height, dtype=float).reshape(-1)
+    n = h.size
+    holes = np.zeros((2 * n, n + 1, 2, 2))
+    mask = used_hole_mask(n)
+    for c in range(2 * n):
+        sign = 1.0 if c % 2 == 0 else -1.0
+        holes[c, mask[c], 1] = sign * h[c // 2]
+    return holes
+
+
+@dataclass
+class SimpleRobot:
+    """Minimal robot description accepted by every function of this module.
+
+    All arrays are SI: lengths in m, angles in rad.  Shapes: ``link_before``,
+    ``link_after``, ``thickness``: ``(n,)``; ``holes``: ``(2n, n+1, 2, 2)``;
+    ``joint_limits``: ``(n, 2)``.
+    """
+
+    link_before: np.ndarray
+    link_after: np.ndarray
+    thickness: np.ndarray
+    holes: np.ndarray
+    joint_limits: np.ndarray
+    n: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.link_before = np.asarray(self.link_before, dtype=float).reshape(-1)
+        self.n = int(self.link_before.size)
+        n = self.n
+        self.link_after = np.asarray(self.link_after, dtype=float).reshape(n)
+        self.thickness = np.asarray(self.thickness, dtype=float).reshape(n)
+        self.holes = np.asarray(self.holes, dtype=float).reshape(2 * n, n + 1, 2, 2)
+        self.joint_limits = np.asarray(self.joint_limits, dtype=float).reshape(n, 2)
+
+    @classmethod
+    def from_heights(
+        cls,
+        link_before,
+        link_after,
+        thickness,
+        hole_height,
+        joint_limits=None,
+    ) -> "SimpleRobot":
+        """Robot with straight holes of heights ``hole_height`` ``(n,)`` m.
+
+        ``joint_limits`` defaults to +-35 deg on every joint.
+        """
+        lb = np.asarray(link_before, dtype=float).reshape(-1)
+        n = lb.size
+        if joint_limits is None:
+            joint_limits = np.tile([-PAPER_JOINT_LIMIT, PAPER_JOINT_LIMIT], (n, 1))
+        return cls(lb, link_after, thickness, default_holes(hole_height), joint_limits)
+
+    @classmethod
+    def paper(cls) -> "SimpleRobot":
+        """The 3-DOF prototype of the seed paper (Table 1), limits +-35 deg."""
+        return cls.from_heights(
+            link_before=[0.033, 0.033, 0.033],
+            link_after=[0.033, 0.033, 0.033],
+            thickness=[0.010, 0.010, 0.010],
+            hole_height=[0.030, 0.028, 0.026],
+        )
+
+    @classmethod
+    def like(cls, robot, holes=None) -> "SimpleRobot":
+        """Copy of any duck-typed ``robot``, optionally with other ``holes``."""
+        g = _geometry(robot)
+        return cls(
+            g.lb.copy(),
+            g.la.copy(),
+            g.t.copy(),
+            g.holes.copy() if holes is None else holes,
+            g.limits.copy(),
+        )
+
+    def with_holes(self, holes) -> "SimpleRobot":
+        """Same robot with other hole positions ``(2n, n+1, 2, 2)`` m."""
+        return SimpleRobot.like(self, holes)
+
+
+@dataclass
+class _Geometry:
+    n: int
+    lb: np.ndarray
+    la: np.ndarray
+    t: np.ndarray
+    holes: np.ndarray
+    limits: np.ndarray
+
+
+def _geometry(robot) -> _Geometry:
+    """Read the duck-typed robot attributes once, as float arrays."""
+    n = int(robot.n)
+    if n < 1:
+        raise ValueError(f"robot.n must be >= 1, got {n}")
+    return _Geometry(
+        n=n,
+        lb=np.asarray(robot.link_before, dtype=float).reshape(n),
+        la=np.asarray(robot.link_after, dtype=float).reshape(n),
+        t=np.asarray(robot.thickness, dtype=float).reshape(n),
+        holes=np.asarray(robot.holes, dtype=float).reshape(2 * n, n + 1, 2, 2),
+        limits=np.asarray(robot.joint_limits, dtype=float).reshape(n, 2),
+    )
+
+
+def _batch(a, width: int, name: str) -> np.ndarray:
+    """``a`` as a float64 ``(N, width)`` array (no 1-D convenience here)."""
+    arr = np.asarray(a, dtype=float)
+    if arr.ndim != 2 or arr.shape[1] != width:
+        raise ValueError(f"{name} must have shape (N, {width}), got {arr.shape}")
+    return arr
+
+
+def wrap_angle(x):
+    """Wrap angles (rad) to the interval ``(-pi, pi]``."""
+    x = np.asarray(x, dtype=float)
+    return np.pi - np.mod(np.pi - x, 2.0 * np.pi)
+
+
+# --------------------------------------------------------------------------
+# Forward kinematics (Eq. 1-3)
+# --------------------------------------------------------------------------
+def _chain(g: _Geometry, theta: np.ndarray):
+    """Per-linkage position increments of the chain.
+
+    Returns ``inc_b`` and ``inc_a``, both ``(N, n, 2)`` m: the vector of
+    ``link_before[k]`` (direction ``alpha_{k-1}``) and of
+    ``link_after[k] + thickness[k]`` (direction ``alpha_k``), where
+    ``alpha_k = theta_1 + ... + theta_k``.
+    """
+    alpha = np.cumsum(theta, axis=1)
+    alpha_prev = np.concatenate([np.zeros_like(alpha[:, :1]), alpha[:, :-1]], axis=1)
+    inc_b = g.lb[None, :, None] * np.stack([np.cos(alpha_prev), np.sin(alpha_prev)], -1)
+    inc_a = (g.la + g.t)[None, :, None] * np.stack([np.cos(alpha), np.sin(alpha)], -1)
+    return inc_b, inc_a
+
+
+def fk(robot, theta) -> np.ndarray:
+    """End pose ``S = [X, Y, phi]`` (m, m, rad), shape ``(N, 3)``.
+
+    ``theta``: joint angles, rad, shape ``(N, n)``.
+    """
+    g = _geometry(robot)
+    theta = _batch(theta, g.n, "theta")
+    inc_b, inc_a = _chain(g, theta)
+    pos = (inc_b + inc_a).sum(axis=1)
+    return np.concatenate([pos, theta.sum(axis=1, keepdims=True)], axis=1)
+
+
+def fk_jacobian(robot, theta) -> np.ndarray:
+    """Analytic ``dS/dtheta``, shape ``(N, 3, n)`` (rows m/rad, m/rad, 1).
+
+    Column ``j`` is ``[-(Y - Jy_j), X - Jx_j, 1]`` with ``J_j`` the position of
+    joint ``j``; ``P - J_j`` is accumulated distally (no cancellation).
+    """
+    g = _geometry(robot)
+    theta = _batch(theta, g.n, "theta")
+    inc_b, inc_a = _chain(g, theta)
+    inc = inc_b + inc_a
+    # rev[:, j] = sum_{k >= j} inc[:, k]; tail_j = inc_a_j + rev_{j+1} = P - J_j.
+    rev = np.flip(np.cumsum(np.flip(inc, axis=1), axis=1), axis=1)
+    rev_next = np.concatenate([rev[:, 1:], np.zeros_like(rev[:, :1])], axis=1)
+    tail = inc_a + rev_next
+    jac = np.empty((theta.shape[0], 3, g.n))
+    jac[:, 0, :] = -tail[..., 1]
+    jac[:, 1, :] = tail[..., 0]
+    jac[:, 2, :] = 1.0
+    return jac
+
+
+# --------------------------------------------------------------------------
+# Cable lengths (Eq. 4-5)
+# --------------------------------------------------------------------------
+def _segment_vectors(g: _Geometry):
+    """``u``, ``w`` ``(2n, n, 2)`` m and the segment mask ``(2n, n)``.
+
+    Segment ``k`` (0-based ``k`` here, the model's ``k+1``) of cable ``c`` runs
+    from ``p = holes[c, k, 1]`` to ``A = w + Rot(theta_k) u`` + p, with
+    ``u = holes[c, k+1, 0] + (link_after[k], 0)`` and
+    ``w = (link_before[k], 0) - p``.
+    """
+    n = g.n
+    p = g.holes[:, :n, 1, :]  # (2n, n, 2): distal face of disk k-1
+    q = g.holes[:, 1:, 0, :]  # (2n, n, 2): proximal face of disk k
+    u = q.copy()
+    u[..., 0] += g.la[None, :]
+    w = -p
+    w[..., 0] += g.lb[None, :]
+    pair = np.arange(2 * n) // 2 + 1
+    mask = np.arange(1, n + 1)[None, :] <= pair[:, None]
+    return u, w, mask
+
+
+def _segment_pqr(g: _Geometry):
+    """``P, Q, R`` ``(2n, n)`` with ``s^2 = P + Q cos(theta_k) + R sin(theta_k)``."""
+    u, w, mask = _segment_vectors(g)
+    P = (w**2).sum(-1) + (u**2).sum(-1)
+    Q = 2.0 * (w * u).sum(-1)
+    R = 2.0 * (w[..., 1] * u[..., 0] - w[..., 0] * u[..., 1])
+    return P, Q, R, mask
+
+
+def _traversals(g: _Geometry) -> np.ndarray:
+    """Constant part of each cable length, ``(2n,)`` m: sum of disk traversals."""
+    n = g.n
+    a = g.holes[:, 1:, 0, :]  # (2n, n, 2) proximal face of disk k
+    b = g.holes[:, 1:, 1, :]  # distal face, in its own frame
+    d = b.copy()
+    d[..., 0] += g.t[None, :]
+    trav = np.hypot(d[..., 0] - a[..., 0], d[..., 1] - a[..., 1])  # (2n, n)
+    _, _, mask = _segment_vectors(g)
+    return np.where(mask, trav, 0.0).sum(axis=1)
+
+
+def _segments(g: _Geometry, theta: np.ndarray):
+    """Segment lengths ``s`` and ``ds/dtheta_k``, both ``(N, 2n, n)``, masked."""
+    u, w, mask = _segment_vectors(g)
+    c = np.cos(theta)[:, None, :]
+    s_ = np.sin(theta)[:, None, :]
+    vx = u[None, ..., 0] * c - u[None, ..., 1] * s_  # Rot(theta) u
+    vy = u[None, ..., 0] * s_ + u[None, ..., 1] * c
+    ax = w[None, ..., 0] + vx  # A - p
+    ay = w[None, ..., 1] + vy
+    s = np.hypot(ax, ay)
+    ds = (-ax * vy + ay * vx) / s
+    s = np.where(mask[None], s, 0.0)
+    ds = np.where(mask[None], ds, 0.0)
+    return s, ds
+
+
+def cable_lengths(robot, theta) -> np.ndarray:
+    """All cable lengths, m, shape ``(N, 2n)`` (upper 1, lower 1, upper 2, ...).
+
+    ``theta``: rad, ``(N, n)``.
+    """
+    g = _geometry(robot)
+    theta = _batch(theta, g.n, "theta")
+    s, _ = _segments(g, theta)
+    return s.sum(axis=2) + _traversals(g)[None, :]
+
+
+def cable_jacobian(robot, theta) -> np.ndarray:
+    """Analytic ``dL/dtheta``, m/rad, shape ``(N, 2n, n)``.
+
+    ``d s_k / d theta_k = (A - p) x d(Rot u)/d theta / s_k``; cable ``c`` of
+    pair ``i`` depends on ``theta_1..theta_i`` only.
+    """
+    g = _geometry(robot)
+    theta = _batch(theta, g.n, "theta")
+    _, ds = _segments(g, theta)
+    return ds
+
+
+def upper_cable_lengths(robot, theta) -> np.ndarray:
+    """Upper (position-controlled) cable lengths, m, ``(N, n)``."""
+    return cable_lengths(robot, theta)[:, 0::2]
+
+
+def upper_cable_jacobian(robot, theta) -> np.ndarray:
+    """``dL_upper/dtheta``, m/rad, ``(N, n, n)``, lower triangular."""
+    return cable_jacobian(robot, theta)[:, 0::2, :]
+
+
+# --------------------------------------------------------------------------
+# Levenberg-Marquardt (docs/model.md, "Solves")
+# --------------------------------------------------------------------------
+def _lm(residual, step, theta, tol, max_iter, project=None):
+    """Vectorised LM loop shared by the pose IK and the cable solve.
+
+    ``residual(theta, idx) -> r (k, m)`` for the batch rows ``idx``;
+    ``step(theta, r, lam, idx) -> delta (k, n)``; ``project`` maps a trial onto
+    the joint box (or None).  Each batch element has its own lambda and stops
+    independently: converged when ``max|r| <= tol``, failed after ``max_iter``
+    trials or when ``lambda > 1e12``.  Returns the solution dict.
+    """
+    N = theta.shape[0]
+    all_idx = np.arange(N)
+    r = residual(theta, all_idx)
+    f = (r**2).sum(axis=1)
+    lam = np.full(N, _LAMBDA_0)
+    iterations = np.zeros(N, dtype=np.int64)
+    converged = np.abs(r).max(axis=1, initial=0.0) <= tol
+    active = ~converged & (iterations < max_iter)
+    while active.any():
+        idx = np.flatnonzero(active)
+        trial = theta[idx] + step(theta[idx], r[idx], lam[idx], idx)
+        if project is not None:
+            trial = project(trial)
+        r_trial = residual(trial, idx)
+        f_trial = (r_trial**2).sum(axis=1)
+        iterations[idx] += 1
+        accept = f_trial < f[idx]  # NaN compares False: rejected
+        acc, rej = idx[accept], idx[~accept]
+        theta[acc] = trial[accept]
+        r[acc] = r_trial[accept]
+        f[acc] = f_trial[accept]
+        lam[acc] = np.maximum(lam[acc] / 10.0, _LAMBDA_MIN)
+        lam[rej] *= 10.0
+        converged[idx] = np.abs(r[idx]).max(axis=1) <= tol
+        active[idx] = ~converged[idx] & (iterations[idx] < max_iter) & (lam[idx] <= _LAMBDA_MAX)
+    return dict(
+        theta=theta,
+        converged=converged,
+        iterations=iterations,
+        residual=np.abs(r).max(axis=1, initial=0.0),
+    )
+
+
+def _batched_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solve ``A x = b`` for a stack ``A (k, m, m)``, ``b (k, m)``.
+
+    A singular matrix gives a NaN row (the trial is then rejected and lambda
+    raised) instead of failing the whole batch.
+    """
+    try:
+        return np.linalg.solve(A, b[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        x = np.full(b.shape, np.nan)
+        for i in range(A.shape[0]):
+            try:
+                x[i] = np.linalg.solve(A[i], b[i])
+            except np.linalg.LinAlgError:
+                pass
+        return x
+
+
+def _seed(seed, N: int, n: int) -> np.ndarray:
+    if seed is None:
+        return np.zeros((N, n))
+    seed = np.array(seed, dtype=float)  # copy: the solver updates it in place
+    if seed.ndim == 1:
+        seed = np.tile(seed, (N, 1))
+    seed = _batch(seed, n, "seed")
+    if seed.shape[0] != N:
+        raise ValueError(f"seed must have shape ({N}, {n}), got {seed.shape}")
+    return seed.copy()
+
+
+def _within_limits(g: _Geometry, theta: np.ndarray) -> np.ndarray:
+    lo, hi = g.limits[:, 0], g.limits[:, 1]
+    return np.all((theta >= lo) & (theta <= hi), axis=1)
+
+
+def ik(robot, pose, seed=None, tol=1e-12, max_iter=100, enforce_limits=False) -> dict:
+    """Pose IK by LM on ``r = pose - fk(theta)`` (docs/model.md).
+
+    ``pose``: ``(N, 3)`` ``[X m, Y m, phi rad]``; ``seed``: ``(N, n)`` or
+    ``(n,)`` rad, default zeros.  Step
+    ``delta = J^T (J J^T + lambda I_3)^{-1} r``.  Returns a dict with
+    ``theta (N, n)`` rad, ``converged (N,)`` bool, ``iterations (N,)`` int
+    (number of trials), ``residual (N,)`` = ``max|r|`` of the final iterate,
+    ``within_limits (N,)`` bool.
+    """
+    g = _geometry(robot)
+    pose = _batch(pose, 3, "pose")
+    theta = _seed(seed, pose.shape[0], g.n)
+
+    def residual(th, idx):
+        return pose[idx] - fk(robot, th)
+
+    def step(th, r, lam, idx):
+        J = fk_jacobian(robot, th)  # (k, 3, n)
+        A = J @ np.swapaxes(J, 1, 2) + lam[:, None, None] * np.eye(3)
+        y = _batched_solve(A, r)
+        return (np.swapaxes(J, 1, 2) @ y[..., None])[..., 0]
+
+    project = None
+    if enforce_limits:
+        lo, hi = g.limits[:, 0], g.limits[:, 1]
+
+        def project(th):
+            return np.clip(th, lo, hi)
+
+    sol = _lm(residual, step, theta, tol, max_iter, project)
+    sol["within_limits"] = _within_limits(g, sol["theta"])
+    return sol
+
+
+def solve_cables(robot, upper, seed=None, tol=1e-12, max_iter=100) -> dict:
+    """Upper cable lengths -> joint angles by LM (docs/model.md).
+
+    ``upper``: target upper-cable lengths ``(N, n)`` m; ``seed``: ``(N, n)`` or
+    ``(n,)`` rad, default zeros.  ``r = L_target - L_upper(theta)``, step
+    ``delta = (J^T J + lambda I_n)^{-1} J^T r``.  Returns the same dict as
+    :func:`ik`.
+    """
+    g = _geometry(robot)
+    upper = _batch(upper, g.n, "upper")
+    theta = _seed(seed, upper.shape[0], g.n)
+
+    def residual(th, idx):
+        return upper[idx] - upper_cable_lengths(robot, th)
+
+    def step(th, r, lam, idx):
+        J = upper_cable_jacobian(robot, th)  # (k, n, n)
+        Jt = np.swapaxes(J, 1, 2)
+        A = Jt @ J + lam[:, None, None] * np.eye(g.n)
+        return _batched_solve(A, (Jt @ r[..., None])[..., 0])
+
+    sol = _lm(residual, step, theta, tol, max_iter)
+    sol["within_limits"] = _within_limits(g, sol["theta"])
+    return sol
+
+
+def solve_cables_closed_form(robot, upper, seed=None) -> dict:
+    """Closed-form cable solve, joint by joint (k = 1..n).
+
+    With ``theta_1..theta_{k-1}`` known, the remaining length of upper cable
+    ``k`` fixes ``s_k``; ``P + Q cos + R sin = s_k^2`` gives
+    ``theta_k = atan2(R, Q) +- acos((s_k^2 - P) / hypot(Q, R))``.  Of the real
+    branches the one nearest the seed (difference wrapped to ``(-pi, pi]``) is
+    taken and returned as ``seed + wrapped difference``.
+
+    ``upper``: ``(N, n)`` m; ``seed``: ``(N, n)``/``(n,)`` rad, default zeros.
+    Returns ``theta (N, n)`` rad (NaN from the first joint without a real
+    branch on), ``converged (N,)`` (every joint had a real branch),
+    ``residual (N,)`` ``max|L_target - L_upper(theta)|`` m (inf when not
+    converged), ``n_branches (N, n)`` int (0, 1 or 2 distinct real branches;
+    0 for joints after a failed one).
+    """
+    g = _geometry(robot)
+    upper = _batch(upper, g.n, "upper")
+    N = upper.shape[0]
+    seed = _seed(seed, N, g.n)
+    P, Q, R, _ = _segment_pqr(g)
+    trav = _traversals(g)[0::2]  # (n,) upper cables
+    Pu, Qu, Ru = P[0::2], Q[0::2], R[0::2]  # (n cables, n segments)
+    u, w, _ = _segment_vectors(g)
+
+    theta = np.full((N, g.n), np.nan)
+    n_branches = np.zeros((N, g.n), dtype=np.int64)
+    ok = np.ones(N, dtype=bool)
+    for k in range(g.n):
+        # Length already used by segments 1..k-1 of upper cable k (0-based k).
+        used = np.zeros(N) + trav[k]
+        for j in range(k):
+            th = theta[:, j]
+            used = used + np.sqrt(
+                np.maximum(Pu[k, j] + Qu[k, j] * np.cos(th) + Ru[k, j] * np.sin(th), 0.0)
+            )
+        s = upper[:, k] - used
+        rho = np.hypot(Qu[k, k], Ru[k, k])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            arg = (s**2 - Pu[k, k]) / rho
+        real = ok & (s >= 0.0) & (np.abs(arg) <= 1.0)
+        base = np.arctan2(Ru[k, k], Qu[k, k])
+        acos = np.arccos(np.clip(arg, -1.0, 1.0))
+        cand = np.stack([base + acos, base - acos], axis=1)  # (N, 2)
+        diff = wrap_angle(cand - seed[:, k : k + 1])
+        pick = np.argmin(np.abs(diff), axis=1)
+        chosen = seed[:, k] + diff[np.arange(N), pick]
+        theta[:, k] = np.where(real, chosen, np.nan)
+        n_branches[:, k] = np.where(real, np.where(acos > 0.0, 2, 1), 0)
+        ok = real
+    residual = np.full(N, np.inf)
+    if ok.any():
+        r = upper[ok] - upper_cable_lengths(robot, theta[ok])
+        residual[ok] = np.abs(r).max(axis=1)
+    return dict(theta=theta, converged=ok, residual=residual, n_branches=n_branches)
+
+
+# --------------------------------------------------------------------------
+# Error analysis (paper Fig. 3)
+# --------------------------------------------------------------------------
+def deviation(robot, theta0, dL, holes_perturbed=None, tol=1e-12, max_iter=100) -> dict:
+    """Tip deviation caused by cable-length and/or hole errors (paper Fig. 3).
+
+    ``theta0``: nominal joint angles ``(N, n)`` rad; ``dL``: upper-cable length
+    errors ``(n,)`` (or ``(N, n)``) m; ``holes_perturbed``: hole positions of
+    the erroneous robot ``(2n, n+1, 2, 2)`` m (default: nominal holes).
+
+    ``L0 = L_upper(theta0)`` on the nominal robot; ``L0 + dL`` is solved by
+    LM (:func:`solve_cables`, seed ``theta0``) on the perturbed robot.
+    Returns ``dS = fk(theta) - fk(theta0)`` ``(N, 3)`` (m, m, rad),
+    ``theta (N, n)`` rad and ``converged (N,)``.
+    """
+    g = _geometry(robot)
+    theta0 = _batch(theta0, g.n, "theta0")
+    target = upper_cable_lengths(robot, theta0) + np.asarray(dL, dtype=float)
+    perturbed = robot if holes_perturbed is None else SimpleRobot.like(robot, holes_perturbed)
+    sol = solve_cables(perturbed, target, seed=theta0, tol=tol, max_iter=max_iter)
+    dS = fk(robot, sol["theta"]) - fk(robot, theta0)
+    return dict(dS=dS, theta=sol["theta"], converged=sol["converged"])
+
+
+def hole_height_error(robot, dh) -> np.ndarray:
+    """Holes ``(2n, n+1, 2, 2)`` m with the paper's "error on disk i's holes".
+
+    The hole height of pair ``i`` is increased by ``dh[i]`` m (``(n,)``): upper
+    ``y += dh[i]``, lower ``y -= dh[i]``, on every face that pair crosses.
+    """
+    g = _geometry(robot)
+    dh = np.asarray(dh, dtype=float).reshape(g.n)
+    holes = g.holes.copy()
+    mask = used_hole_mask(g.n)
+    for c in range(2 * g.n):
+        sign = 1.0 if c % 2 == 0 else -1.0
+        holes[c, mask[c], 1] += sign * dh[c // 2]
+    return holes

@@ -1,0 +1,256 @@
+"""The robot: a thin, typed front over the Rust core (SI units: m, rad, N, kg).
+
+Arrays in, arrays out. Batch inputs are ``(N, k)``; a single configuration may
+be given 1-D and then comes back 1-D. Integer and non-contiguous arrays are
+accepted (copied once); NaN/inf and wrong shapes raise :class:`CdsmInputError`
+naming the argument.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from typing import Optional, Tuple
+
+import numpy as np
+
+from . import _cdsm
+from ._cdsm import CdsmInputError
+
+__all__ = ["Robot", "Solution", "CdsmInputError"]
+
+
+def _batch(name: str, value, width: int) -> Tuple[np.ndarray, bool]:
+    """``value`` as a C-contiguous float64 ``(N, width)`` array, and whether it was 1-D."""
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise CdsmInputError(f"`{name}`: not a numeric array ({exc})") from None
+    single = arr.ndim == 1
+    if single:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != width:
+        raise CdsmInputError(
+            f"`{name}`: expected shape (N, {width}) or ({width},), got {np.shape(value)}"
+        )
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        raise CdsmInputError(f"`{name}`: non-finite value {arr[row, col]} at row {row}, column {col}")
+    return np.ascontiguousarray(arr), single
+
+
+def _vector(name: str, value, width: int) -> np.ndarray:
+    arr, single = _batch(name, value, width)
+    if not single:
+        raise CdsmInputError(f"`{name}`: expected shape ({width},), got {np.shape(value)}")
+    return arr[0]
+
+
+@dataclass(frozen=True)
+class Solution:
+    """Result of a batch of solves.
+
+    theta: (N, n) joint angles, rad. converged: (N,) bool; a failed element
+    keeps its last iterate and must not be used as an answer. iterations: (N,)
+    trial steps (0 = closed form). residual: (N,) max |residual| (m, or rad for
+    the attitude). within_limits: (N,) all angles within the joint limits.
+    """
+
+    theta: np.ndarray
+    converged: np.ndarray
+    iterations: np.ndarray
+    residual: np.ndarray
+    within_limits: np.ndarray
+
+    @classmethod
+    def _from_core(cls, parts, n: int, single: bool) -> "Solution":
+        theta, conv, it, res, lim = parts
+        theta = theta.reshape(-1, n)
+        if single:
+            return cls(theta[0], conv[0], it[0], res[0], lim[0])
+        return cls(theta, conv, it, res, lim)
+
+
+class Robot:
+    """A planar cable-driven serpentine manipulator with ``n`` joints and ``2n`` cables.
+
+    Build with :meth:`paper` (the seed paper's prototype, Table 1) or
+    :meth:`from_toml`. The model and solver conventions are in ``docs/model.md``.
+    """
+
+    def __init__(self, core: "_cdsm.CoreRobot", threads: int = 0):
+        self._core = core
+        self.threads = int(threads)
+
+    # ---- construction -------------------------------------------------
+    @classmethod
+    def paper(cls) -> "Robot":
+        """The paper's 3-DOF prototype: Table 1, lower cables 50/10/5 g, limits ±35°."""
+        return cls(_cdsm.CoreRobot.paper())
+
+    @classmethod
+    def from_toml(cls, path: "str | os.PathLike[str]") -> "Robot":
+        """Read a robot description (TOML, SI units; format in the README)."""
+        try:
+            text = open(path, encoding="utf-8").read()
+        except OSError as exc:
+            raise CdsmInputError(f"robot file {str(path)!r}: {exc.strerror}") from None
+        return cls.from_toml_str(text)
+
+    @classmethod
+    def from_toml_str(cls, text: str) -> "Robot":
+        """Parse a robot description given as TOML text."""
+        return cls(_cdsm.CoreRobot.from_toml(text))
+
+    def with_holes(self, holes) -> "Robot":
+        """The same robot with hole positions ``holes`` (2n, n+1, 2, 2), m."""
+        h = np.ascontiguousarray(np.asarray(holes, dtype=np.float64))
+        if h.shape != self.holes.shape:
+            raise CdsmInputError(f"`holes`: expected shape {self.holes.shape}, got {h.shape}")
+        return Robot(self._core.with_holes(h), self.threads)
+
+    def hole_height_error(self, dh) -> np.ndarray:
+        """Hole positions (2n, n+1, 2, 2), m, after the paper's per-disk hole-height
+        error ``dh`` (n,), m: pair i's holes move outward by ``dh[i]`` on every face."""
+        d = _vector("dh", dh, self.n)
+        return self._core.hole_height_error(d).reshape(self.holes.shape)
+
+    # ---- description --------------------------------------------------
+    @property
+    def n(self) -> int:
+        """Number of joints (the robot has 2n cables)."""
+        return self._core.n
+
+    @property
+    def name(self) -> str:
+        return self._core.name
+
+    @property
+    def link_before(self) -> np.ndarray:
+        """(n,) link before each joint, m (the paper's link_{i-1,J_i})."""
+        return self._core.link_before
+
+    @property
+    def link_after(self) -> np.ndarray:
+        """(n,) link after each joint, m (the paper's link_{J_i,i})."""
+        return self._core.link_after
+
+    @property
+    def thickness(self) -> np.ndarray:
+        """(n,) disk thickness, m (the paper's B)."""
+        return self._core.thickness
+
+    @property
+    def mass(self) -> np.ndarray:
+        """(n,) linkage masses, kg."""
+        return self._core.mass
+
+    @property
+    def lower_tension(self) -> np.ndarray:
+        """(n,) tension on the lower (force-controlled) cable of each pair, N."""
+        return self._core.lower_tension
+
+    @property
+    def joint_limits(self) -> np.ndarray:
+        """(n, 2) joint limits [lo, hi], rad."""
+        return self._core.joint_limits.reshape(-1, 2)
+
+    @property
+    def holes(self) -> np.ndarray:
+        """(2n, n+1, 2, 2) hole positions: cable, disk (0 = base), face (a, b), (x, y); m."""
+        n = self.n
+        return self._core.holes.reshape(2 * n, n + 1, 2, 2)
+
+    @property
+    def youngs_modulus(self) -> float:
+        """Cable Young's modulus, Pa."""
+        return self._core.youngs_modulus
+
+    @property
+    def cable_diameter(self) -> float:
+        """Cable diameter, m."""
+        return self._core.cable_diameter
+
+    def __repr__(self) -> str:
+        return f"Robot({self.name!r}, n={self.n})"
+
+    # ---- kinematics ---------------------------------------------------
+    def _out(self, flat: np.ndarray, shape: Tuple[int, ...], single: bool) -> np.ndarray:
+        out = flat.reshape((-1,) + shape)
+        return out[0] if single else out
+
+    def fk(self, theta) -> np.ndarray:
+        """End pose [x (m), y (m), phi (rad)]: (N, n) -> (N, 3); (n,) -> (3,)."""
+        t, single = _batch("theta", theta, self.n)
+        return self._out(self._core.fk(t, self.threads), (3,), single)
+
+    def fk_jacobian(self, theta) -> np.ndarray:
+        """d[x, y, phi]/d theta: (N, n) -> (N, 3, n)."""
+        t, single = _batch("theta", theta, self.n)
+        return self._out(self._core.fk_jacobian(t, self.threads), (3, self.n), single)
+
+    def cable_lengths(self, theta) -> np.ndarray:
+        """Lengths of all 2n cables, m: (N, n) -> (N, 2n), order L_c1_1, L_c1_2, ..., L_cn_2."""
+        t, single = _batch("theta", theta, self.n)
+        return self._out(self._core.cable_lengths(t, self.threads), (2 * self.n,), single)
+
+    def upper_lengths(self, theta) -> np.ndarray:
+        """Lengths of the n upper (position-controlled) cables, m: (N, n) -> (N, n)."""
+        return self.cable_lengths(theta)[..., 0::2]
+
+    def cable_jacobian(self, theta) -> np.ndarray:
+        """dL/d theta, m/rad: (N, n) -> (N, 2n, n) (lower triangular in pairs)."""
+        t, single = _batch("theta", theta, self.n)
+        return self._out(self._core.cable_jacobian(t, self.threads), (2 * self.n, self.n), single)
+
+    def within_limits(self, theta) -> np.ndarray:
+        """Whether every angle lies within the joint limits: (N, n) -> (N,) bool."""
+        t, single = _batch("theta", theta, self.n)
+        lim = self.joint_limits
+        ok = np.all((t >= lim[:, 0]) & (t <= lim[:, 1]), axis=1)
+        return ok[0] if single else ok
+
+    # ---- solves -------------------------------------------------------
+    def _seed(self, seed, rows: int) -> Optional[np.ndarray]:
+        if seed is None:
+            return None
+        s, single = _batch("seed", seed, self.n)
+        if single and rows > 1:
+            s = np.ascontiguousarray(np.broadcast_to(s, (rows, self.n)))
+        if s.shape[0] != rows:
+            raise CdsmInputError(f"`seed`: expected shape ({rows}, {self.n}) or ({self.n},), got {s.shape}")
+        return s
+
+    def ik(self, pose, seed=None, tol: float = 1e-12, max_iter: int = 100,
+           enforce_limits: bool = False) -> Solution:
+        """Pose IK by Levenberg–Marquardt: pose [x (m), y (m), phi (rad)] (N, 3) -> Solution.
+
+        ``seed`` (N, n) or (n,), rad; default theta = 0. For n > 3 the steps are
+        minimal-norm. Joint limits are flagged (``within_limits``) and enforced
+        only with ``enforce_limits``.
+        """
+        p, single = _batch("pose", pose, 3)
+        parts = self._core.ik(p, self._seed(seed, p.shape[0]), float(tol), _iters(max_iter),
+                              bool(enforce_limits), self.threads)
+        return Solution._from_core(parts, self.n, single)
+
+    def solve_cables(self, upper, seed=None, method: str = "auto", tol: float = 1e-12,
+                     max_iter: int = 100, enforce_limits: bool = False) -> Solution:
+        """Upper-cable lengths (N, n), m -> joint angles (hybrid control: the lower
+        cables are force controlled and follow).
+
+        method: ``"newton"`` (damped Newton / LM from the seed), ``"closed_form"``
+        (per joint, the acos branch nearest the seed) or ``"auto"`` (closed form,
+        verified, LM if it fails).
+        """
+        u, single = _batch("upper", upper, self.n)
+        parts = self._core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
+                                        _iters(max_iter), bool(enforce_limits), self.threads)
+        return Solution._from_core(parts, self.n, single)
+
+
+def _iters(max_iter: int) -> int:
+    if int(max_iter) < 1:
+        raise CdsmInputError(f"`max_iter`: must be at least 1, got {max_iter}")
+    return int(max_iter)

@@ -1,0 +1,293 @@
+//! The paper's error studies (Fig. 3): tip deviation caused by upper-cable
+//! length errors and hole-location errors, one scenario at a time or as a
+//! Monte-Carlo study reduced to per-configuration statistics.
+
+use crate::batch::{rows_of, split_rows, BatchSolution};
+use crate::cables::CableGeometry;
+use crate::error::{CdsmError, Result};
+use crate::kinematics::fk;
+use crate::robot::Robot;
+use crate::solve::{self, CableMethod, SolveOptions};
+
+/// Hole-location errors of the samples of a Monte-Carlo study.
+#[derive(Debug, Clone, Copy)]
+pub enum HoleErrors<'a> {
+    /// No hole error.
+    None,
+    /// `(S, n)`: the paper's per-disk hole-height errors (m).
+    PerPair(&'a [f64]),
+    /// `(S, 2n, n+1, 2, 2)`: an error on every hole coordinate (m).
+    Full(&'a [f64]),
+}
+
+/// Tip deviation `dS = fk(theta) - fk(theta0)` after the upper cables are set
+/// to `L0 + dl` (L0: nominal lengths at `theta0`) on a robot whose holes are
+/// `holes` (`None`: nominal). `theta0 (N, n)`, `dl (n,)`. Returns `dS (N, 3)`
+/// and the solves (seeded at `theta0`).
+pub fn deviation(
+    robot: &Robot,
+    theta0: &[f64],
+    dl: &[f64],
+    holes: Option<&[f64]>,
+    method: CableMethod,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<(Vec<f64>, BatchSolution)> {
+    let n = robot.n();
+    let rows = rows_of("theta0", theta0, n)?;
+    check_len("dl", dl, n)?;
+    crate::error::check_finite("dl", dl)?;
+    if let Some(h) = holes {
+        robot.with_holes(h)?;
+    }
+    let nominal = CableGeometry::new(robot, None);
+    let perturbed = CableGeometry::new(robot, holes);
+    let parts = split_rows(rows, threads, |r| {
+        let mut ds = Vec::with_capacity(r.len() * 3);
+        let mut sol = BatchSolution::default();
+        let (mut cs, mut target, mut th) = (vec![(1.0, 0.0); n], vec![0.0; n], vec![0.0; n]);
+        for i in r {
+            let t0 = &theta0[i * n..(i + 1) * n];
+            for (c, t) in cs.iter_mut().zip(t0) {
+                *c = (t.cos(), t.sin());
+            }
+            nominal.upper_lengths(&cs, &mut target);
+            for (t, d) in target.iter_mut().zip(dl) {
+                *t += d;
+            }
+            th.copy_from_slice(t0);
+            let st = solve::solve_cables(robot, &perturbed, &target, &mut th, method, opts);
+            let (p0, p) = (fk(robot, t0), fk(robot, &th));
+            ds.extend((0..3).map(|k| if st.converged { p[k] - p0[k] } else { f64::NAN }));
+            sol.theta.extend_from_slice(&th);
+            sol.converged.push(st.converged);
+            sol.iterations.push(st.iterations);
+            sol.residual.push(st.residual);
+            sol.within_limits.push(crate::kinematics::within_limits(robot, &th));
+        }
+        (ds, sol)
+    });
+    let mut ds = Vec::with_capacity(rows * 3);
+    let mut sol = BatchSolution::default();
+    for (d, s) in parts {
+        ds.extend(d);
+        sol.theta.extend(s.theta);
+        sol.converged.extend(s.converged);
+        sol.iterations.extend(s.iterations);
+        sol.residual.extend(s.residual);
+        sol.within_limits.extend(s.within_limits);
+    }
+    Ok((ds, sol))
+}
+
+fn check_len(name: &str, v: &[f64], n: usize) -> Result<()> {
+    if v.len() != n {
+        return Err(CdsmError::Shape { name: name.into(), expected: format!("({n},)"), got: format!("({},)", v.len()) });
+    }
+    Ok(())
+}
+
+/// Quantities tracked per configuration: dX (m), dY (m), dphi (rad), |d(X, Y)| (m).
+pub const QUANTITIES: usize = 4;
+/// Log-spaced histogram of the position-error norm: bins per decade.
+pub const HIST_PER_DECADE: usize = 60;
+/// Lower edge of the first regular bin (m); values below go to bin 0.
+pub const HIST_LO: f64 = 1e-9;
+/// Decades covered (up to 1 m); values above go to the last bin.
+pub const HIST_DECADES: usize = 9;
+/// Number of histogram bins, including the under- and overflow bins.
+pub const HIST_BINS: usize = HIST_PER_DECADE * HIST_DECADES + 2;
+
+/// Bin of a position-error norm (m).
+#[inline]
+pub fn hist_bin(v: f64) -> usize {
+    if v < HIST_LO {
+        return 0;
+    }
+    let b = ((v / HIST_LO).log10() * HIST_PER_DECADE as f64).floor() as usize + 1;
+    b.min(HIST_BINS - 1)
+}
+
+/// Per-configuration statistics of a Monte-Carlo study, mergeable across chunks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct McStats {
+    pub configs: usize,
+    /// Samples whose solve converged, per configuration.
+    pub count: Vec<u64>,
+    /// Samples whose solve failed (not included in the moments), per configuration.
+    pub failed: Vec<u64>,
+    /// `(N, 4)` sums, sums of squares, minima and maxima of dX, dY, dphi, |dXY|.
+    pub sum: Vec<f64>,
+    pub sum_sq: Vec<f64>,
+    pub min: Vec<f64>,
+    pub max: Vec<f64>,
+    /// `(N, HIST_BINS)` counts of |dXY| per log-spaced bin.
+    pub hist: Vec<u64>,
+}
+
+impl McStats {
+    pub fn new(configs: usize) -> Self {
+        McStats {
+            configs,
+            count: vec![0; configs],
+            failed: vec![0; configs],
+            sum: vec![0.0; configs * QUANTITIES],
+            sum_sq: vec![0.0; configs * QUANTITIES],
+            min: vec![f64::INFINITY; configs * QUANTITIES],
+            max: vec![f64::NEG_INFINITY; configs * QUANTITIES],
+            hist: vec![0; configs * HIST_BINS],
+        }
+    }
+
+    fn add(&mut self, j: usize, ds: [f64; 3]) {
+        let v = [ds[0], ds[1], ds[2], ds[0].hypot(ds[1])];
+        self.count[j] += 1;
+        for q in 0..QUANTITIES {
+            let k = j * QUANTITIES + q;
+            self.sum[k] += v[q];
+            self.sum_sq[k] += v[q] * v[q];
+            self.min[k] = self.min[k].min(v[q]);
+            self.max[k] = self.max[k].max(v[q]);
+        }
+        self.hist[j * HIST_BINS + hist_bin(v[3])] += 1;
+    }
+
+    /// Appends the configurations of `other` after those of `self`.
+    fn extend(&mut self, other: McStats) {
+        self.configs += other.configs;
+        self.count.extend(other.count);
+        self.failed.extend(other.failed);
+        self.sum.extend(other.sum);
+        self.sum_sq.extend(other.sum_sq);
+        self.min.extend(other.min);
+        self.max.extend(other.max);
+        self.hist.extend(other.hist);
+    }
+}
+
+/// Monte-Carlo study: for every sample `s` (upper-cable errors `dl[s] (n)`,
+/// hole errors per `holes`) and every configuration `theta0[j]`, the cable
+/// solve seeded at `theta0[j]` and the tip deviation, reduced to [`McStats`].
+/// No robot is rebuilt per sample: only its cable geometry.
+pub fn monte_carlo(
+    robot: &Robot,
+    theta0: &[f64],
+    dl: &[f64],
+    holes: HoleErrors,
+    method: CableMethod,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<McStats> {
+    let n = robot.n();
+    let rows = rows_of("theta0", theta0, n)?;
+    let samples = rows_of("dl", dl, n)?;
+    let hole_len = robot.holes.len();
+    match holes {
+        HoleErrors::None => {}
+        HoleErrors::PerPair(h) => same_samples("dh", rows_of("dh", h, n)?, samples)?,
+        HoleErrors::Full(h) => same_samples("dholes", rows_of("dholes", h, hole_len)?, samples)?,
+    }
+    let nominal = CableGeometry::new(robot, None);
+    let parts = split_rows(rows, threads, |r| {
+        let mut stats = McStats::new(r.len());
+        let mut cs = vec![(1.0, 0.0); n];
+        let mut l0 = vec![0.0; r.len() * n];
+        let mut p0 = Vec::with_capacity(r.len());
+        for (j, i) in r.clone().enumerate() {
+            let t0 = &theta0[i * n..(i + 1) * n];
+            for (c, t) in cs.iter_mut().zip(t0) {
+                *c = (t.cos(), t.sin());
+            }
+            nominal.upper_lengths(&cs, &mut l0[j * n..(j + 1) * n]);
+            p0.push(fk(robot, t0));
+        }
+        let mut hbuf = vec![0.0; hole_len];
+        let (mut target, mut th) = (vec![0.0; n], vec![0.0; n]);
+        for s in 0..samples {
+            let geom = match holes {
+                HoleErrors::None => None,
+                HoleErrors::PerPair(h) => {
+                    robot.hole_height_error_into(&h[s * n..(s + 1) * n], &mut hbuf);
+                    Some(CableGeometry::new(robot, Some(&hbuf)))
+                }
+                HoleErrors::Full(h) => {
+                    for (b, (a, e)) in hbuf.iter_mut().zip(robot.holes.iter().zip(&h[s * hole_len..(s + 1) * hole_len])) {
+                        *b = a + e;
+                    }
+                    Some(CableGeometry::new(robot, Some(&hbuf)))
+                }
+            };
+            let geom = geom.as_ref().unwrap_or(&nominal);
+            let dls = &dl[s * n..(s + 1) * n];
+            for (j, i) in r.clone().enumerate() {
+                let t0 = &theta0[i * n..(i + 1) * n];
+                for k in 0..n {
+                    target[k] = l0[j * n + k] + dls[k];
+                }
+                th.copy_from_slice(t0);
+                let st = solve::solve_cables(robot, geom, &target, &mut th, method, opts);
+                if st.converged {
+                    let p = fk(robot, &th);
+                    stats.add(j, [p[0] - p0[j][0], p[1] - p0[j][1], p[2] - p0[j][2]]);
+                } else {
+                    stats.failed[j] += 1;
+                }
+            }
+        }
+        stats
+    });
+    let mut out = McStats::new(0);
+    for p in parts {
+        out.extend(p);
+    }
+    Ok(out)
+}
+
+fn same_samples(name: &str, got: usize, want: usize) -> Result<()> {
+    if got != want {
+        return Err(CdsmError::Shape { name: name.into(), expected: format!("{want} samples (rows of dl)"), got: format!("{got} rows") });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table3_point1_singular_state() {
+        // Table 3, point 1: straight pose, upper cable 1 shortened by 1 mm.
+        let r = Robot::paper();
+        let (ds, sol) = deviation(&r, &[0.0; 3], &[-1e-3, 0.0, 0.0], None, CableMethod::Newton, &SolveOptions::default(), 1).unwrap();
+        assert!(sol.converged[0]);
+        assert!((ds[0] * 1e3 - (-0.0415)).abs() < 2e-4, "{}", ds[0] * 1e3);
+        assert!((ds[1] * 1e3 - 2.4299).abs() < 2e-4, "{}", ds[1] * 1e3);
+    }
+
+    #[test]
+    fn monte_carlo_of_one_sample_is_the_deviation() {
+        let r = Robot::paper();
+        let th = [0.1, -0.2, 0.3, -0.4, 0.2, 0.1];
+        let dl = [5e-4, -3e-4, 2e-4];
+        let dh = [1e-4, -2e-4, 3e-4];
+        let mut holes = vec![0.0; r.holes.len()];
+        r.hole_height_error_into(&dh, &mut holes);
+        let opts = SolveOptions::default();
+        let (ds, _) = deviation(&r, &th, &dl, Some(&holes), CableMethod::Auto, &opts, 2).unwrap();
+        let st = monte_carlo(&r, &th, &dl, HoleErrors::PerPair(&dh), CableMethod::Auto, &opts, 2).unwrap();
+        for j in 0..2 {
+            for q in 0..3 {
+                assert!((st.sum[j * 4 + q] - ds[j * 3 + q]).abs() < 1e-15);
+            }
+            assert_eq!(st.count[j], 1);
+        }
+    }
+
+    #[test]
+    fn histogram_bins_are_monotone() {
+        assert_eq!(hist_bin(0.0), 0);
+        assert_eq!(hist_bin(1e-9), 1);
+        assert_eq!(hist_bin(10.0), HIST_BINS - 1);
+        assert!(hist_bin(1e-3) < hist_bin(1.1e-3));
+    }
+}

@@ -1,0 +1,221 @@
+//! Batched, multi-threaded drivers over rows of configurations. Threads are
+//! `std::thread::scope` workers over contiguous row ranges (no rayon).
+
+use crate::cables::CableGeometry;
+use crate::error::{check_finite, check_rows, CdsmError, Result};
+use crate::kinematics;
+use crate::robot::Robot;
+use crate::solve::{self, CableMethod, SolveOptions};
+use std::ops::Range;
+
+/// Number of worker threads: `0` means all available cores.
+pub fn resolve_threads(threads: usize) -> usize {
+    if threads > 0 {
+        threads
+    } else {
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    }
+}
+
+/// Runs `work` on contiguous ranges of `0..rows` in up to `threads` scoped
+/// threads and returns the per-range results in row order.
+pub fn split_rows<T: Send>(rows: usize, threads: usize, work: impl Fn(Range<usize>) -> T + Sync) -> Vec<T> {
+    let threads = resolve_threads(threads).min(rows.max(1));
+    if threads <= 1 {
+        return vec![work(0..rows)];
+    }
+    let per = rows.div_ceil(threads);
+    std::thread::scope(|s| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let r = (t * per).min(rows)..((t + 1) * per).min(rows);
+                let w = &work;
+                s.spawn(move || w(r))
+            })
+            .collect();
+        handles.into_iter().map(|h| h.join().expect("worker thread panicked")).collect()
+    })
+}
+
+/// Per-row `f64` map: `f(row_index, out_row)` fills `width` outputs per row.
+pub fn map_rows(rows: usize, width: usize, threads: usize, f: impl Fn(usize, &mut [f64]) + Sync) -> Vec<f64> {
+    split_rows(rows, threads, |r| {
+        let mut out = vec![0.0; r.len() * width];
+        for (j, i) in r.enumerate() {
+            f(i, &mut out[j * width..(j + 1) * width]);
+        }
+        out
+    })
+    .concat()
+}
+
+/// Results of a batch of solves, one entry per row.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct BatchSolution {
+    /// `(N, n)` row-major joint angles (rad).
+    pub theta: Vec<f64>,
+    pub converged: Vec<bool>,
+    pub iterations: Vec<u32>,
+    /// max |residual| per row (m, or rad for phi).
+    pub residual: Vec<f64>,
+    /// All angles within the joint limits.
+    pub within_limits: Vec<bool>,
+}
+
+impl BatchSolution {
+    fn with_capacity(rows: usize, n: usize) -> Self {
+        BatchSolution {
+            theta: Vec::with_capacity(rows * n),
+            converged: Vec::with_capacity(rows),
+            iterations: Vec::with_capacity(rows),
+            residual: Vec::with_capacity(rows),
+            within_limits: Vec::with_capacity(rows),
+        }
+    }
+
+    fn push(&mut self, robot: &Robot, theta: &[f64], st: solve::Status) {
+        self.theta.extend_from_slice(theta);
+        self.converged.push(st.converged);
+        self.iterations.push(st.iterations);
+        self.residual.push(st.residual);
+        self.within_limits.push(kinematics::within_limits(robot, theta));
+    }
+
+    fn concat(parts: Vec<BatchSolution>) -> Self {
+        let mut out = BatchSolution::default();
+        for p in parts {
+            out.theta.extend(p.theta);
+            out.converged.extend(p.converged);
+            out.iterations.extend(p.iterations);
+            out.residual.extend(p.residual);
+            out.within_limits.extend(p.within_limits);
+        }
+        out
+    }
+}
+
+/// Validates a flat `(N, width)` batch; returns `N`.
+pub fn rows_of(name: &str, values: &[f64], width: usize) -> Result<usize> {
+    let rows = check_rows(name, values, width)?;
+    check_finite(name, values)?;
+    Ok(rows)
+}
+
+/// Seeds: `None` gives zeros, otherwise `(N, n)` checked against `rows`.
+fn seeds<'a>(seed: Option<&'a [f64]>, rows: usize, n: usize) -> Result<Option<&'a [f64]>> {
+    if let Some(s) = seed {
+        let got = rows_of("seed", s, n)?;
+        if got != rows {
+            return Err(CdsmError::Shape {
+                name: "seed".into(),
+                expected: format!("({rows}, {n})"),
+                got: format!("({got}, {n})"),
+            });
+        }
+    }
+    Ok(seed)
+}
+
+/// Batched forward kinematics: `(N, n)` -> `(N, 3)`.
+pub fn fk(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    let n = robot.n();
+    let rows = rows_of("theta", theta, n)?;
+    Ok(map_rows(rows, 3, threads, |i, out| {
+        out.copy_from_slice(&kinematics::fk(robot, &theta[i * n..(i + 1) * n]));
+    }))
+}
+
+/// Batched pose Jacobian: `(N, n)` -> `(N, 3, n)`.
+pub fn fk_jacobian(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    let n = robot.n();
+    let rows = rows_of("theta", theta, n)?;
+    Ok(map_rows(rows, 3 * n, threads, |i, out| {
+        let mut jac = vec![[0.0; 3]; n];
+        kinematics::fk_jacobian(robot, &theta[i * n..(i + 1) * n], &mut jac);
+        for (k, col) in jac.iter().enumerate() {
+            for r in 0..3 {
+                out[r * n + k] = col[r];
+            }
+        }
+    }))
+}
+
+/// Batched cable lengths: `(N, n)` -> `(N, 2n)`.
+pub fn cable_lengths(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    let n = robot.n();
+    let rows = rows_of("theta", theta, n)?;
+    let g = CableGeometry::new(robot, None);
+    Ok(map_rows(rows, 2 * n, threads, |i, out| g.lengths(&theta[i * n..(i + 1) * n], out)))
+}
+
+/// Batched cable Jacobian: `(N, n)` -> `(N, 2n, n)`.
+pub fn cable_jacobian(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    let n = robot.n();
+    let rows = rows_of("theta", theta, n)?;
+    let g = CableGeometry::new(robot, None);
+    Ok(map_rows(rows, 2 * n * n, threads, |i, out| g.jacobian(&theta[i * n..(i + 1) * n], out)))
+}
+
+/// Batched pose IK: `pose (N, 3)`, `seed (N, n)` or zeros.
+pub fn ik(robot: &Robot, pose: &[f64], seed: Option<&[f64]>, opts: &SolveOptions, threads: usize) -> Result<BatchSolution> {
+    let n = robot.n();
+    let rows = rows_of("pose", pose, 3)?;
+    let seed = seeds(seed, rows, n)?;
+    check_options(opts)?;
+    let parts = split_rows(rows, threads, |r| {
+        let mut out = BatchSolution::with_capacity(r.len(), n);
+        let mut th = vec![0.0; n];
+        for i in r {
+            match seed {
+                Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
+                None => th.fill(0.0),
+            }
+            let p = [pose[3 * i], pose[3 * i + 1], pose[3 * i + 2]];
+            let st = solve::ik(robot, &p, &mut th, opts);
+            out.push(robot, &th, st);
+        }
+        out
+    });
+    Ok(BatchSolution::concat(parts))
+}
+
+/// Batched cable solve: upper-cable lengths `(N, n)`, `seed (N, n)` or zeros.
+pub fn solve_cables(
+    robot: &Robot,
+    upper: &[f64],
+    seed: Option<&[f64]>,
+    method: CableMethod,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<BatchSolution> {
+    let n = robot.n();
+    let rows = rows_of("upper", upper, n)?;
+    let seed = seeds(seed, rows, n)?;
+    check_options(opts)?;
+    let g = CableGeometry::new(robot, None);
+    let parts = split_rows(rows, threads, |r| {
+        let mut out = BatchSolution::with_capacity(r.len(), n);
+        let mut th = vec![0.0; n];
+        for i in r {
+            match seed {
+                Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
+                None => th.fill(0.0),
+            }
+            let st = solve::solve_cables(robot, &g, &upper[i * n..(i + 1) * n], &mut th, method, opts);
+            out.push(robot, &th, st);
+        }
+        out
+    });
+    Ok(BatchSolution::concat(parts))
+}
+
+/// Rejects solver options outside their domain.
+pub fn check_options(opts: &SolveOptions) -> Result<()> {
+    if !(opts.tol.is_finite() && opts.tol > 0.0) {
+        return Err(CdsmError::Option { name: "tol".into(), problem: format!("must be positive and finite, got {}", opts.tol) });
+    }
+    if opts.max_iter == 0 {
+        return Err(CdsmError::Option { name: "max_iter".into(), problem: "must be at least 1".into() });
+    }
+    Ok(())
+}

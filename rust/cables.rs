@@ -1,0 +1,198 @@
+//! Cable lengths from hole positions (Eq. 4–5), their Jacobian, and the
+//! closed-form per-joint inverse.
+//!
+//! Each segment of cable `c` between disk `k-1` and disk `k` has squared length
+//! `P + Q cos(theta_k) + R sin(theta_k)`; cable `c` of pair `i` crosses joints
+//! `1..=i` only, so the upper-cable solve is triangular.
+
+use crate::robot::Robot;
+
+/// Segment coefficients of every cable: the geometry the solves need,
+/// precomputed once per set of hole positions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CableGeometry {
+    pub n: usize,
+    /// `[P, Q, R]` of cable `c`, joint `k`, at `c * n + k` (zero past the cable's pair).
+    pub seg: Vec<[f64; 3]>,
+    /// Constant part of each cable: the sum of its disk traversals (m).
+    pub traverse: Vec<f64>,
+}
+
+/// Pair (0-based) of cable `c`: cable `c` crosses joints `0..=pair(c)`.
+#[inline]
+pub fn pair(c: usize) -> usize {
+    c / 2
+}
+
+impl CableGeometry {
+    /// Coefficients for `robot` with the hole positions `holes` (flat
+    /// `(2n, n+1, 2, 2)`, m); `None` uses the robot's own holes.
+    pub fn new(robot: &Robot, holes: Option<&[f64]>) -> CableGeometry {
+        let n = robot.n();
+        let h = holes.unwrap_or(&robot.holes);
+        let hole = |c: usize, d: usize, f: usize| {
+            let i = robot.hole_index(c, d, f);
+            [h[i], h[i + 1]]
+        };
+        let mut seg = vec![[0.0; 3]; 2 * n * n];
+        let mut traverse = vec![0.0; 2 * n];
+        for c in 0..2 * n {
+            for k in 0..=pair(c) {
+                let p = hole(c, k, 1);
+                let q = hole(c, k + 1, 0);
+                let u = [q[0] + robot.link_after[k], q[1]];
+                let w = [robot.link_before[k] - p[0], -p[1]];
+                seg[c * n + k] = [
+                    w[0] * w[0] + w[1] * w[1] + u[0] * u[0] + u[1] * u[1],
+                    2.0 * (w[0] * u[0] + w[1] * u[1]),
+                    2.0 * (w[1] * u[0] - w[0] * u[1]),
+                ];
+                let b = hole(c, k + 1, 1);
+                let dx = robot.thickness[k] + b[0] - q[0];
+                let dy = b[1] - q[1];
+                traverse[c] += (dx * dx + dy * dy).sqrt();
+            }
+        }
+        CableGeometry { n, seg, traverse }
+    }
+
+    /// Length of segment `k` of cable `c` given `(cos, sin)` of theta_k.
+    #[inline]
+    pub fn segment(&self, c: usize, k: usize, cs: (f64, f64)) -> f64 {
+        let [p, q, r] = self.seg[c * self.n + k];
+        (p + q * cs.0 + r * cs.1).max(0.0).sqrt()
+    }
+
+    /// Length of cable `c` (m) from the `(cos, sin)` of every joint angle.
+    #[inline]
+    pub fn length(&self, c: usize, cs: &[(f64, f64)]) -> f64 {
+        self.traverse[c] + (0..=pair(c)).map(|k| self.segment(c, k, cs[k])).sum::<f64>()
+    }
+
+    /// All `2n` cable lengths (m) into `out`.
+    pub fn lengths(&self, theta: &[f64], out: &mut [f64]) {
+        let cs: Vec<(f64, f64)> = theta.iter().map(|t| (t.cos(), t.sin())).collect();
+        for (c, o) in out.iter_mut().enumerate() {
+            *o = self.length(c, &cs);
+        }
+    }
+
+    /// `d L_c / d theta_k` for the given cable (0 for joints it does not cross).
+    #[inline]
+    pub fn derivative(&self, c: usize, k: usize, cs: (f64, f64)) -> f64 {
+        if k > pair(c) {
+            return 0.0;
+        }
+        let [p, q, r] = self.seg[c * self.n + k];
+        let s2 = p + q * cs.0 + r * cs.1;
+        (r * cs.0 - q * cs.1) / (2.0 * s2.max(f64::MIN_POSITIVE).sqrt())
+    }
+
+    /// Cable Jacobian `(2n, n)` row-major into `out`.
+    pub fn jacobian(&self, theta: &[f64], out: &mut [f64]) {
+        let n = self.n;
+        let cs: Vec<(f64, f64)> = theta.iter().map(|t| (t.cos(), t.sin())).collect();
+        for c in 0..2 * n {
+            for k in 0..n {
+                out[c * n + k] = self.derivative(c, k, cs[k]);
+            }
+        }
+    }
+
+    /// Upper-cable lengths (cables 0, 2, 4, ...) at `theta` into `out` (n).
+    pub fn upper_lengths(&self, cs: &[(f64, f64)], out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.length(2 * i, cs);
+        }
+    }
+
+    /// Both angles of joint `k` that give segment `k` of cable `c` the length
+    /// `s` (m): `atan2(R, Q) ± acos((s² − P) / hypot(Q, R))`. `None` when no
+    /// angle does (the paper's "one-to-many" has two branches or none).
+    pub fn joint_branches(&self, c: usize, k: usize, s: f64) -> Option<[f64; 2]> {
+        let [p, q, r] = self.seg[c * self.n + k];
+        let amp = q.hypot(r);
+        if s < 0.0 || amp == 0.0 {
+            return None;
+        }
+        let arg = (s * s - p) / amp;
+        if !(-1.0..=1.0).contains(&arg) {
+            return None;
+        }
+        let mid = r.atan2(q);
+        let half = arg.acos();
+        Some([mid + half, mid - half])
+    }
+}
+
+/// Angle difference wrapped to `(-pi, pi]`.
+#[inline]
+pub fn wrap(a: f64) -> f64 {
+    let t = std::f64::consts::TAU;
+    let w = a - t * (a / t).round();
+    if w <= -std::f64::consts::PI {
+        w + t
+    } else {
+        w
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn straight_lengths_are_link_sums() {
+        let r = Robot::paper();
+        let g = CableGeometry::new(&r, None);
+        let mut l = [0.0; 6];
+        g.lengths(&[0.0; 3], &mut l);
+        for c in 0..6 {
+            let want = 0.076 * (c / 2 + 1) as f64;
+            assert!((l[c] - want).abs() < 1e-15, "{c}: {}", l[c]);
+        }
+    }
+
+    #[test]
+    fn bending_up_shortens_the_upper_cable() {
+        let r = Robot::paper();
+        let g = CableGeometry::new(&r, None);
+        let mut l = [0.0; 6];
+        g.lengths(&[0.1, 0.0, 0.0], &mut l);
+        assert!(l[0] < 0.076 && l[1] > 0.076);
+    }
+
+    #[test]
+    fn jacobian_matches_central_differences() {
+        let r = Robot::paper();
+        let g = CableGeometry::new(&r, None);
+        let th = [0.3, -0.2, 0.5];
+        let mut jac = [0.0; 18];
+        g.jacobian(&th, &mut jac);
+        for k in 0..3 {
+            let h = 1e-6;
+            let (mut a, mut b) = (th, th);
+            a[k] += h;
+            b[k] -= h;
+            let (mut la, mut lb) = ([0.0; 6], [0.0; 6]);
+            g.lengths(&a, &mut la);
+            g.lengths(&b, &mut lb);
+            for c in 0..6 {
+                assert!(((la[c] - lb[c]) / (2.0 * h) - jac[c * 3 + k]).abs() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn closed_form_branches_reproduce_the_segment() {
+        let r = Robot::paper();
+        let g = CableGeometry::new(&r, None);
+        let t: f64 = 0.4;
+        let s = g.segment(0, 0, (t.cos(), t.sin()));
+        let b = g.joint_branches(0, 0, s).unwrap();
+        assert!(b.iter().any(|x| wrap(x - t).abs() < 1e-12));
+        for x in b {
+            assert!((g.segment(0, 0, (x.cos(), x.sin())) - s).abs() < 1e-14);
+        }
+    }
+}

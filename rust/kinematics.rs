@@ -1,0 +1,87 @@
+//! The homogeneous-transform chain of Eq. (1)–(3): joint angles to end pose.
+
+use crate::robot::Robot;
+
+/// End pose `[x, y, phi]` (m, m, rad) for joint angles `theta` (rad, length n).
+pub fn fk(robot: &Robot, theta: &[f64]) -> [f64; 3] {
+    let (mut x, mut y, mut phi) = (0.0f64, 0.0f64, 0.0f64);
+    for (k, &t) in theta.iter().enumerate() {
+        let (s, c) = phi.sin_cos();
+        x += robot.link_before[k] * c;
+        y += robot.link_before[k] * s;
+        phi += t;
+        let (s, c) = phi.sin_cos();
+        let l = robot.link_after[k] + robot.thickness[k];
+        x += l * c;
+        y += l * s;
+    }
+    [x, y, phi]
+}
+
+/// End pose and its Jacobian: `jac[k] = d[x, y, phi]/d theta_k` (column k).
+pub fn fk_jacobian(robot: &Robot, theta: &[f64], jac: &mut [[f64; 3]]) -> [f64; 3] {
+    let (mut x, mut y, mut phi) = (0.0f64, 0.0f64, 0.0f64);
+    for (k, &t) in theta.iter().enumerate() {
+        let (s, c) = phi.sin_cos();
+        x += robot.link_before[k] * c;
+        y += robot.link_before[k] * s;
+        jac[k] = [x, y, 1.0]; // joint k position, finished below
+        phi += t;
+        let (s, c) = phi.sin_cos();
+        let l = robot.link_after[k] + robot.thickness[k];
+        x += l * c;
+        y += l * s;
+    }
+    for col in jac.iter_mut().take(theta.len()) {
+        let (jx, jy) = (col[0], col[1]);
+        *col = [-(y - jy), x - jx, 1.0];
+    }
+    [x, y, phi]
+}
+
+/// Whether every angle lies within the robot's joint limits (inclusive).
+pub fn within_limits(robot: &Robot, theta: &[f64]) -> bool {
+    theta
+        .iter()
+        .zip(&robot.joint_limits)
+        .all(|(t, l)| *t >= l[0] && *t <= l[1])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn straight_pose_is_the_straight_length() {
+        let r = Robot::paper();
+        let p = fk(&r, &[0.0; 3]);
+        assert!((p[0] - 0.228).abs() < 1e-15 && p[1] == 0.0 && p[2] == 0.0, "{p:?}");
+    }
+
+    #[test]
+    fn jacobian_matches_central_differences() {
+        let r = Robot::paper();
+        let th = [0.3, -0.2, 0.5];
+        let mut jac = [[0.0; 3]; 3];
+        fk_jacobian(&r, &th, &mut jac);
+        for k in 0..3 {
+            let h = 1e-6;
+            let (mut a, mut b) = (th, th);
+            a[k] += h;
+            b[k] -= h;
+            let (pa, pb) = (fk(&r, &a), fk(&r, &b));
+            for i in 0..3 {
+                assert!(((pa[i] - pb[i]) / (2.0 * h) - jac[k][i]).abs() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn all_zero_joints_lose_x() {
+        // Fig. 12: at theta = 0 no joint moves the tip along X.
+        let r = Robot::paper();
+        let mut jac = [[0.0; 3]; 3];
+        fk_jacobian(&r, &[0.0; 3], &mut jac);
+        assert!(jac.iter().all(|c| c[0] == 0.0));
+    }
+}

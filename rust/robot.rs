@@ -1,0 +1,338 @@
+//! The robot description: link lengths, disks, hole positions, masses,
+//! lower-cable tensions and joint limits (SI units), read from TOML.
+
+use crate::error::{CdsmError, Result};
+use serde::Deserialize;
+
+/// The paper's prototype (Table 1), shipped with the Python package.
+pub const PAPER_TOML: &str = include_str!("../python/cdsm/robots/paper.toml");
+
+/// Cable material, for the elasticity model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CableMaterial {
+    /// Young's modulus (Pa).
+    pub youngs_modulus: f64,
+    /// Cable diameter (m).
+    pub diameter: f64,
+}
+
+/// A planar CDSM with `n` joints and `2n` cables (see `docs/model.md`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Robot {
+    pub name: String,
+    /// Link before joint `i` (m), the paper's link_{i-1,J_i}.
+    pub link_before: Vec<f64>,
+    /// Link after joint `i` (m), the paper's link_{J_i,i}.
+    pub link_after: Vec<f64>,
+    /// Thickness of disk `i` (m), the paper's `B`.
+    pub thickness: Vec<f64>,
+    /// Mass of linkage `i` (kg).
+    pub mass: Vec<f64>,
+    /// Tension on the lower (force-controlled) cable of pair `i` (N).
+    pub lower_tension: Vec<f64>,
+    /// Joint limits `[lo, hi]` (rad).
+    pub joint_limits: Vec<[f64; 2]>,
+    /// Hole positions, flat `(2n, n+1, 2, 2)` C-order: cable, disk, face (a, b), (x, y) in m.
+    pub holes: Vec<f64>,
+    pub cable: CableMaterial,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RobotFile {
+    name: Option<String>,
+    n: Option<usize>,
+    cable: Option<CableFile>,
+    linkage: Vec<LinkageFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CableFile {
+    youngs_modulus: f64,
+    diameter: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LinkageFile {
+    link_before: f64,
+    link_after: f64,
+    thickness: f64,
+    hole_height: Option<f64>,
+    upper_holes: Option<Vec<[f64; 2]>>,
+    lower_holes: Option<Vec<[f64; 2]>>,
+    #[serde(default)]
+    mass: f64,
+    #[serde(default)]
+    lower_tension: f64,
+    joint_limits: Option<[f64; 2]>,
+}
+
+fn bad(field: String, problem: impl Into<String>) -> CdsmError {
+    CdsmError::Robot {
+        field,
+        problem: problem.into(),
+    }
+}
+
+fn positive(field: String, v: f64) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(bad(field, format!("must be a positive finite length, got {v}")))
+    }
+}
+
+fn non_negative(field: String, v: f64) -> Result<f64> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(bad(field, format!("must be finite and >= 0, got {v}")))
+    }
+}
+
+impl Robot {
+    /// The paper's 3-DOF prototype (Table 1; lower cables 50, 10, 5 g; ±35°).
+    pub fn paper() -> Robot {
+        Robot::from_toml(PAPER_TOML).expect("the shipped paper robot is valid")
+    }
+
+    /// Number of joints.
+    pub fn n(&self) -> usize {
+        self.link_before.len()
+    }
+
+    /// Index of `holes[c, d, f, 0]` in the flat hole array.
+    #[inline]
+    pub fn hole_index(&self, c: usize, d: usize, f: usize) -> usize {
+        ((c * (self.n() + 1) + d) * 2 + f) * 2
+    }
+
+    /// `(x, y)` of the hole of cable `c` in disk `d`, face `f` (0 = a, 1 = b).
+    #[inline]
+    pub fn hole(&self, c: usize, d: usize, f: usize) -> [f64; 2] {
+        let i = self.hole_index(c, d, f);
+        [self.holes[i], self.holes[i + 1]]
+    }
+
+    /// Parses and validates a TOML robot description (format in README).
+    pub fn from_toml(text: &str) -> Result<Robot> {
+        let file: RobotFile = toml::from_str(text).map_err(|e| {
+            let msg = e.message().to_string();
+            let field = msg
+                .split('`')
+                .nth(1)
+                .map(str::to_string)
+                .unwrap_or_else(|| "<file>".to_string());
+            bad(field, e.to_string().trim().replace('\n', " "))
+        })?;
+        let n = file.linkage.len();
+        if n == 0 {
+            return Err(bad("linkage".into(), "at least one [[linkage]] is required"));
+        }
+        if let Some(declared) = file.n {
+            if declared != n {
+                return Err(bad(
+                    "n".into(),
+                    format!("declares {declared} joints but {n} [[linkage]] tables are given"),
+                ));
+            }
+        }
+        let cable = match file.cable {
+            Some(c) => CableMaterial {
+                youngs_modulus: positive("cable.youngs_modulus".into(), c.youngs_modulus)?,
+                diameter: positive("cable.diameter".into(), c.diameter)?,
+            },
+            None => CableMaterial {
+                youngs_modulus: 1.8e11,
+                diameter: 0.18e-3,
+            },
+        };
+        let mut robot = Robot {
+            name: file.name.unwrap_or_else(|| "unnamed".to_string()),
+            link_before: Vec::with_capacity(n),
+            link_after: Vec::with_capacity(n),
+            thickness: Vec::with_capacity(n),
+            mass: Vec::with_capacity(n),
+            lower_tension: Vec::with_capacity(n),
+            joint_limits: Vec::with_capacity(n),
+            holes: vec![0.0; 2 * n * (n + 1) * 4],
+            cable,
+        };
+        for (i, l) in file.linkage.iter().enumerate() {
+            let f = |name: &str| format!("linkage[{i}].{name}");
+            robot.link_before.push(positive(f("link_before"), l.link_before)?);
+            robot.link_after.push(positive(f("link_after"), l.link_after)?);
+            robot.thickness.push(positive(f("thickness"), l.thickness)?);
+            robot.mass.push(non_negative(f("mass"), l.mass)?);
+            robot
+                .lower_tension
+                .push(non_negative(f("lower_tension"), l.lower_tension)?);
+            let lim = l
+                .joint_limits
+                .unwrap_or([-std::f64::consts::PI, std::f64::consts::PI]);
+            if !(lim[0].is_finite() && lim[1].is_finite() && lim[0] < lim[1]) {
+                return Err(bad(
+                    f("joint_limits"),
+                    format!("must be finite [lo, hi] with lo < hi (rad), got {lim:?}"),
+                ));
+            }
+            robot.joint_limits.push(lim);
+        }
+        for (i, l) in file.linkage.iter().enumerate() {
+            let f = |name: &str| format!("linkage[{i}].{name}");
+            let along = 2 * i + 3; // base face b, then faces a, b of disks 1..=i+1
+            let explicit = (l.upper_holes.as_ref(), l.lower_holes.as_ref());
+            let (upper, lower): (Vec<[f64; 2]>, Vec<[f64; 2]>) = match (l.hole_height, explicit) {
+                (Some(h), (None, None)) => {
+                    let h = positive(f("hole_height"), h)?;
+                    (vec![[0.0, h]; along], vec![[0.0, -h]; along])
+                }
+                (None, (Some(u), Some(w))) => (u.clone(), w.clone()),
+                _ => {
+                    return Err(bad(
+                        f("hole_height"),
+                        "give either hole_height or both upper_holes and lower_holes",
+                    ))
+                }
+            };
+            for (side, pts) in [("upper_holes", &upper), ("lower_holes", &lower)] {
+                if pts.len() != along {
+                    return Err(bad(
+                        f(side),
+                        format!(
+                            "needs {along} [x, y] points (base face b, then faces a and b of disks 1..{}), got {}",
+                            i + 1,
+                            pts.len()
+                        ),
+                    ));
+                }
+                if let Some(p) = pts.iter().find(|p| !(p[0].is_finite() && p[1].is_finite())) {
+                    return Err(bad(f(side), format!("non-finite hole position {p:?}")));
+                }
+            }
+            for (s, pts) in [upper, lower].iter().enumerate() {
+                let c = 2 * i + s;
+                for (j, p) in pts.iter().enumerate() {
+                    // j = 0: base disk face b; j = 2d-1: disk d face a; j = 2d: disk d face b.
+                    let (d, face) = if j == 0 { (0, 1) } else { (j.div_ceil(2), 1 - j % 2) };
+                    let k = robot.hole_index(c, d, face);
+                    robot.holes[k] = p[0];
+                    robot.holes[k + 1] = p[1];
+                }
+            }
+        }
+        robot.validate()?;
+        Ok(robot)
+    }
+
+    /// Checks array sizes and that every number is finite and physical.
+    pub fn validate(&self) -> Result<()> {
+        let n = self.n();
+        for (name, v) in [
+            ("link_after", &self.link_after),
+            ("thickness", &self.thickness),
+            ("mass", &self.mass),
+            ("lower_tension", &self.lower_tension),
+        ] {
+            if v.len() != n {
+                return Err(bad(name.into(), format!("has {} entries for {n} joints", v.len())));
+            }
+        }
+        if self.joint_limits.len() != n {
+            return Err(bad("joint_limits".into(), format!("needs {n} entries")));
+        }
+        if self.holes.len() != 2 * n * (n + 1) * 4 {
+            return Err(bad(
+                "holes".into(),
+                format!("needs shape (2n, n+1, 2, 2) = ({}, {}, 2, 2)", 2 * n, n + 1),
+            ));
+        }
+        for i in 0..n {
+            positive(format!("linkage[{i}].link_before"), self.link_before[i])?;
+            positive(format!("linkage[{i}].link_after"), self.link_after[i])?;
+            positive(format!("linkage[{i}].thickness"), self.thickness[i])?;
+        }
+        if let Some(k) = self.holes.iter().position(|v| !v.is_finite()) {
+            return Err(bad("holes".into(), format!("non-finite value at flat index {k}")));
+        }
+        Ok(())
+    }
+
+    /// The same robot with other hole positions (flat `(2n, n+1, 2, 2)`, m).
+    pub fn with_holes(&self, holes: &[f64]) -> Result<Robot> {
+        let mut r = self.clone();
+        r.holes = holes.to_vec();
+        r.validate()?;
+        Ok(r)
+    }
+
+    /// Hole positions after the paper's "error on disk i's holes": the hole
+    /// height of pair `i` grows by `dh[i]` (m) on every face that pair crosses
+    /// (upper `y += dh`, lower `y -= dh`). Writes into `out` (flat holes).
+    pub fn hole_height_error_into(&self, dh: &[f64], out: &mut [f64]) {
+        out.copy_from_slice(&self.holes);
+        let n = self.n();
+        for c in 0..2 * n {
+            let pair = c / 2;
+            let sign = if c % 2 == 0 { 1.0 } else { -1.0 };
+            for d in 0..=pair + 1 {
+                for f in 0..2 {
+                    out[self.hole_index(c, d, f) + 1] += sign * dh[pair];
+                }
+            }
+        }
+    }
+
+    /// Straight length of the whole arm (m): the tip X at theta = 0.
+    pub fn straight_length(&self) -> f64 {
+        (0..self.n())
+            .map(|i| self.link_before[i] + self.link_after[i] + self.thickness[i])
+            .sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_robot_matches_table_1() {
+        let r = Robot::paper();
+        assert_eq!(r.n(), 3);
+        assert!((r.straight_length() - 0.228).abs() < 1e-15);
+        assert_eq!(r.hole(0, 0, 1), [0.0, 0.030]);
+        assert_eq!(r.hole(3, 2, 0), [0.0, -0.028]);
+        assert_eq!(r.hole(4, 3, 1), [0.0, 0.026]);
+        // masses 50, 10, 5 g on the lower cables of disks 1, 2, 3
+        let g = 9.80665;
+        for (t, m) in r.lower_tension.iter().zip([0.050, 0.010, 0.005]) {
+            assert!((t - m * g).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn rejects_non_physical_and_unknown() {
+        let base = "[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
+        assert!(Robot::from_toml(base).is_ok());
+        let neg = base.replace("link_after = 0.033", "link_after = -0.033");
+        let e = Robot::from_toml(&neg).unwrap_err().to_string();
+        assert!(e.contains("linkage[0].link_after"), "{e}");
+        let unk = format!("{base}colour = 1\n");
+        let e = Robot::from_toml(&unk).unwrap_err().to_string();
+        assert!(e.contains("colour"), "{e}");
+        let nan = base.replace("0.03\n", "nan\n");
+        let e = Robot::from_toml(&nan).unwrap_err().to_string();
+        assert!(e.contains("hole_height"), "{e}");
+        let e = Robot::from_toml(&format!("n = 2\n{base}")).unwrap_err().to_string();
+        assert!(e.contains("`n`"), "{e}");
+    }
+
+    #[test]
+    fn explicit_holes_equal_hole_height() {
+        let a = "[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
+        let b = "[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nupper_holes = [[0, 0.03], [0, 0.03], [0, 0.03]]\nlower_holes = [[0, -0.03], [0, -0.03], [0, -0.03]]\n";
+        assert_eq!(Robot::from_toml(a).unwrap(), Robot::from_toml(b).unwrap());
+    }
+}

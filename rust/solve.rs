@@ -1,0 +1,332 @@
+//! Inverse solves: pose IK (pose -> theta) and the cable solve (upper-cable
+//! lengths -> theta), both Levenberg–Marquardt with adaptive damping, plus the
+//! closed-form triangular cable solve (fast path and branch census).
+//! The algorithms are specified in `docs/model.md`.
+
+use crate::cables::{wrap, CableGeometry};
+use crate::kinematics::{fk, fk_jacobian};
+use crate::robot::Robot;
+use faer::linalg::solvers::Solve;
+use faer::Mat;
+use nalgebra::{Matrix3, Vector3};
+
+/// Options shared by the solves.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SolveOptions {
+    /// Convergence: max |residual| (m for lengths and positions, rad for phi).
+    pub tol: f64,
+    /// Maximum number of trial steps.
+    pub max_iter: u32,
+    /// Project every trial onto the joint-limit box.
+    pub enforce_limits: bool,
+}
+
+impl Default for SolveOptions {
+    fn default() -> Self {
+        SolveOptions {
+            tol: 1e-12,
+            max_iter: 100,
+            enforce_limits: false,
+        }
+    }
+}
+
+/// Outcome of one solve; the angles are written to the caller's slice.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Status {
+    pub converged: bool,
+    /// Trial steps taken (0 for the closed form).
+    pub iterations: u32,
+    /// max |residual| at the returned angles.
+    pub residual: f64,
+}
+
+const LAMBDA0: f64 = 1e-3;
+const LAMBDA_MIN: f64 = 1e-12;
+const LAMBDA_MAX: f64 = 1e12;
+
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+fn project(robot: &Robot, theta: &mut [f64]) {
+    for (t, l) in theta.iter_mut().zip(&robot.joint_limits) {
+        *t = t.clamp(l[0], l[1]);
+    }
+}
+
+/// Generic LM driver: `eval(theta, r)` writes the residual; `step(theta, r,
+/// lambda, delta)` writes the damped step. Shared by both solves.
+fn levenberg_marquardt(
+    robot: &Robot,
+    theta: &mut [f64],
+    m: usize,
+    opts: &SolveOptions,
+    mut eval: impl FnMut(&[f64], &mut [f64]),
+    mut step: impl FnMut(&[f64], &[f64], f64, &mut [f64]) -> bool,
+) -> Status {
+    let n = theta.len();
+    let mut r = vec![0.0; m];
+    let mut r_trial = vec![0.0; m];
+    let mut delta = vec![0.0; n];
+    let mut trial = vec![0.0; n];
+    eval(theta, &mut r);
+    let mut cost: f64 = r.iter().map(|x| x * x).sum();
+    let mut lambda = LAMBDA0;
+    let mut iterations = 0;
+    loop {
+        let res = max_abs(&r);
+        if res <= opts.tol {
+            return Status { converged: true, iterations, residual: res };
+        }
+        if iterations >= opts.max_iter || lambda > LAMBDA_MAX || !res.is_finite() {
+            return Status { converged: false, iterations, residual: res };
+        }
+        iterations += 1;
+        if !step(theta, &r, lambda, &mut delta) {
+            lambda *= 10.0;
+            continue;
+        }
+        for k in 0..n {
+            trial[k] = theta[k] + delta[k];
+        }
+        if opts.enforce_limits {
+            project(robot, &mut trial);
+        }
+        eval(&trial, &mut r_trial);
+        let c: f64 = r_trial.iter().map(|x| x * x).sum();
+        if c < cost {
+            theta.copy_from_slice(&trial);
+            std::mem::swap(&mut r, &mut r_trial);
+            cost = c;
+            lambda = (lambda / 10.0).max(LAMBDA_MIN);
+        } else {
+            lambda *= 10.0;
+        }
+    }
+}
+
+/// Pose IK: `theta` holds the seed on entry and the answer on exit.
+/// Minimal-norm damped step `J^T (J J^T + lambda I)^-1 r` (any n >= 1).
+pub fn ik(robot: &Robot, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions) -> Status {
+    let n = theta.len();
+    let mut jac = vec![[0.0; 3]; n];
+    levenberg_marquardt(
+        robot,
+        theta,
+        3,
+        opts,
+        |th, r| {
+            let p = fk(robot, th);
+            for i in 0..3 {
+                r[i] = pose[i] - p[i];
+            }
+        },
+        |th, r, lambda, delta| {
+            fk_jacobian(robot, th, &mut jac);
+            let mut a = Matrix3::<f64>::identity() * lambda;
+            for col in &jac {
+                let v = Vector3::from(*col);
+                a += v * v.transpose();
+            }
+            let Some(y) = a.lu().solve(&Vector3::new(r[0], r[1], r[2])) else {
+                return false;
+            };
+            for (d, col) in delta.iter_mut().zip(&jac) {
+                *d = col[0] * y[0] + col[1] * y[1] + col[2] * y[2];
+            }
+            true
+        },
+    )
+}
+
+/// Cable solve by LM: upper-cable lengths `target` (m, n) to `theta`
+/// (seed on entry). Normal equations `(J^T J + lambda I) delta = J^T r` (faer).
+pub fn solve_cables_lm(
+    robot: &Robot,
+    geom: &CableGeometry,
+    target: &[f64],
+    theta: &mut [f64],
+    opts: &SolveOptions,
+) -> Status {
+    let n = theta.len();
+    let mut cs = vec![(1.0, 0.0); n];
+    let mut jac = Mat::<f64>::zeros(n, n);
+    levenberg_marquardt(
+        robot,
+        theta,
+        n,
+        opts,
+        |th, r| {
+            for (c, t) in cs.iter_mut().zip(th) {
+                *c = (t.cos(), t.sin());
+            }
+            geom.upper_lengths(&cs, r);
+            for (ri, ti) in r.iter_mut().zip(target) {
+                *ri = ti - *ri;
+            }
+        },
+        |th, r, lambda, delta| {
+            for i in 0..n {
+                for k in 0..n {
+                    let t = th[k];
+                    jac[(i, k)] = geom.derivative(2 * i, k, (t.cos(), t.sin()));
+                }
+            }
+            let mut a = jac.transpose() * &jac;
+            for k in 0..n {
+                a[(k, k)] += lambda;
+            }
+            let rhs = Mat::<f64>::from_fn(n, 1, |k, _| (0..n).map(|i| jac[(i, k)] * r[i]).sum());
+            let x = a.partial_piv_lu().solve(&rhs);
+            for k in 0..n {
+                delta[k] = x[(k, 0)];
+            }
+            delta.iter().all(|d| d.is_finite())
+        },
+    )
+}
+
+/// Closed-form cable solve, joint by joint (triangular): for each joint the
+/// `acos` branch nearest the seed. `theta`: seed on entry, answer on exit.
+/// Returns `false` (theta undefined) when some joint has no real solution.
+/// `branches[k]` counts the real solutions of joint k given joints `< k`.
+pub fn solve_cables_closed_form(
+    geom: &CableGeometry,
+    target: &[f64],
+    theta: &mut [f64],
+    cs: &mut [(f64, f64)],
+    mut branches: Option<&mut [u8]>,
+) -> bool {
+    let n = theta.len();
+    for i in 0..n {
+        let c = 2 * i;
+        let mut s = target[i] - geom.traverse[c];
+        for (k, csk) in cs.iter().enumerate().take(i) {
+            s -= geom.segment(c, k, *csk);
+        }
+        let Some(b) = geom.joint_branches(c, i, s) else {
+            if let Some(br) = branches.as_deref_mut() {
+                br[i] = 0;
+            }
+            return false;
+        };
+        if let Some(br) = branches.as_deref_mut() {
+            br[i] = if b[0] == b[1] { 1 } else { 2 };
+        }
+        let seed = theta[i];
+        let pick = if wrap(b[0] - seed).abs() <= wrap(b[1] - seed).abs() { b[0] } else { b[1] };
+        let t = seed + wrap(pick - seed);
+        theta[i] = t;
+        cs[i] = (t.cos(), t.sin());
+    }
+    true
+}
+
+/// Which cable-solve algorithm to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CableMethod {
+    /// Closed form, verified; LM from the closed form (or the seed) if it fails.
+    Auto,
+    /// Damped Newton (LM) only.
+    Newton,
+    /// Closed form only.
+    ClosedForm,
+}
+
+/// Upper-cable lengths `target` (m) to `theta` (seed on entry).
+pub fn solve_cables(
+    robot: &Robot,
+    geom: &CableGeometry,
+    target: &[f64],
+    theta: &mut [f64],
+    method: CableMethod,
+    opts: &SolveOptions,
+) -> Status {
+    let n = theta.len();
+    if method == CableMethod::Newton {
+        return solve_cables_lm(robot, geom, target, theta, opts);
+    }
+    let seed = theta.to_vec();
+    let mut cs = vec![(1.0, 0.0); n];
+    let ok = solve_cables_closed_form(geom, target, theta, &mut cs, None);
+    let residual = if ok {
+        let mut l = vec![0.0; n];
+        geom.upper_lengths(&cs, &mut l);
+        max_abs(&l.iter().zip(target).map(|(a, b)| a - b).collect::<Vec<_>>())
+    } else {
+        f64::INFINITY
+    };
+    let in_box = !opts.enforce_limits || crate::kinematics::within_limits(robot, theta);
+    if ok && residual <= opts.tol && in_box {
+        return Status { converged: true, iterations: 0, residual };
+    }
+    if method == CableMethod::ClosedForm {
+        if !ok {
+            theta.copy_from_slice(&seed);
+        }
+        return Status { converged: false, iterations: 0, residual };
+    }
+    if !ok || !in_box {
+        theta.copy_from_slice(&seed);
+    }
+    solve_cables_lm(robot, geom, target, theta, opts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ik_reaches_a_forward_pose() {
+        let r = Robot::paper();
+        let want = [0.2, -0.3, 0.45];
+        let pose = fk(&r, &want);
+        let mut th = want.map(|t| t + 0.05);
+        let st = ik(&r, &pose, &mut th, &SolveOptions::default());
+        assert!(st.converged, "{st:?}");
+        for k in 0..3 {
+            assert!((th[k] - want[k]).abs() < 1e-10);
+        }
+    }
+
+    #[test]
+    fn ik_flags_an_unreachable_pose() {
+        let r = Robot::paper();
+        let mut th = [0.0; 3];
+        let st = ik(&r, &[0.3, 0.0, 0.0], &mut th, &SolveOptions::default());
+        assert!(!st.converged);
+        assert!(st.residual > 0.07 - 1e-9, "{st:?}");
+    }
+
+    #[test]
+    fn cable_methods_agree() {
+        let r = Robot::paper();
+        let g = CableGeometry::new(&r, None);
+        let want = [0.3, -0.25, 0.1];
+        let mut l = [0.0; 6];
+        g.lengths(&want, &mut l);
+        let target = [l[0], l[2], l[4]];
+        for m in [CableMethod::Auto, CableMethod::Newton, CableMethod::ClosedForm] {
+            let mut th = [0.0; 3];
+            let st = solve_cables(&r, &g, &target, &mut th, m, &SolveOptions::default());
+            assert!(st.converged, "{m:?} {st:?}");
+            for k in 0..3 {
+                assert!((th[k] - want[k]).abs() < 1e-10, "{m:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn closed_form_counts_two_branches() {
+        let r = Robot::paper();
+        let g = CableGeometry::new(&r, None);
+        let mut th = [0.0; 3];
+        let mut cs = [(1.0, 0.0); 3];
+        let mut br = [9u8; 3];
+        let target = [0.076, 0.152, 0.228];
+        assert!(solve_cables_closed_form(&g, &target, &mut th, &mut cs, Some(&mut br)));
+        assert_eq!(br, [2, 2, 2]);
+        assert!(th.iter().all(|t| t.abs() < 1e-7), "{th:?}");
+    }
+}

@@ -1,0 +1,194 @@
+"""Shared fixtures: the NumPy reference, test robots and their TOML texts.
+
+The reference (``python/cdsm/reference.py``) is loaded straight from its file
+so that its self-checks run even when the compiled extension (and hence the
+``cdsm`` package) cannot be imported; tests that need the Rust core ask for
+the ``cdsm`` fixture.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+_spec = importlib.util.spec_from_file_location(
+    "cdsm_reference_standalone", ROOT / "python" / "cdsm" / "reference.py"
+)
+reference = importlib.util.module_from_spec(_spec)
+sys.modules[_spec.name] = reference  # dataclasses need the module registered
+_spec.loader.exec_module(reference)
+
+#: +-35 deg, the paper prototype's joint limit (rad).
+LIM35 = math.radians(35.0)
+
+
+@pytest.fixture(scope="session")
+def ref():
+    """The NumPy reference module."""
+    return reference
+
+
+@pytest.fixture(scope="session")
+def cdsm():
+    """The package under test (the Rust core through its Python wrapper)."""
+    import cdsm as _cdsm
+
+    return _cdsm
+
+
+# --------------------------------------------------------------------------
+# Robot descriptions
+# --------------------------------------------------------------------------
+@dataclass
+class Linkage:
+    """One ``[[linkage]]`` table (SI units)."""
+
+    link_before: float
+    link_after: float
+    thickness: float
+    hole_height: float
+    mass: float = 0.03
+    lower_tension: float = 0.1
+    joint_limits: tuple = (-LIM35, LIM35)
+
+
+def robot_toml(linkages, name="test robot", declare_n=True) -> str:
+    """TOML text of a robot made of ``linkages`` (list of :class:`Linkage`)."""
+    lines = [f'name = "{name}"']
+    if declare_n:
+        lines.append(f"n = {len(linkages)}")
+    for lk in linkages:
+        lines += [
+            "",
+            "[[linkage]]",
+            f"link_before = {lk.link_before!r}   # m",
+            f"link_after = {lk.link_after!r}   # m",
+            f"thickness = {lk.thickness!r}   # m",
+            f"hole_height = {lk.hole_height!r}   # m",
+            f"mass = {lk.mass!r}   # kg",
+            f"lower_tension = {lk.lower_tension!r}   # N",
+            f"joint_limits = [{lk.joint_limits[0]!r}, {lk.joint_limits[1]!r}]   # rad",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def reference_robot(linkages):
+    """The reference :class:`SimpleRobot` of ``linkages`` (built without Rust)."""
+    return reference.SimpleRobot.from_heights(
+        [lk.link_before for lk in linkages],
+        [lk.link_after for lk in linkages],
+        [lk.thickness for lk in linkages],
+        [lk.hole_height for lk in linkages],
+        [lk.joint_limits for lk in linkages],
+    )
+
+
+PAPER_LINKAGES = [
+    Linkage(0.033, 0.033, 0.010, 0.030),
+    Linkage(0.033, 0.033, 0.010, 0.028),
+    Linkage(0.033, 0.033, 0.010, 0.026),
+]
+
+N1_LINKAGES = [Linkage(0.030, 0.040, 0.012, 0.020)]
+
+# Twelve distinct linkages; hole heights comparable to the links so that the
+# fold of every upper cable (where dL/dtheta_k = 0) stays far outside +-35 deg.
+N12_LINKAGES = [
+    Linkage(
+        link_before=0.015 + 0.001 * i,
+        link_after=0.025 - 0.0008 * i,
+        thickness=0.008 + 0.0003 * i,
+        hole_height=0.025 - 0.0008 * i,
+        joint_limits=(-LIM35, LIM35) if i % 3 else (-0.5, 0.6),
+    )
+    for i in range(12)
+]
+
+
+def hole_perturbation(n: int, scale: float, seed: int) -> np.ndarray:
+    """Random per-hole offsets ``(2n, n+1, 2, 2)`` m on the used entries only."""
+    rng = np.random.default_rng(seed)
+    d = rng.normal(0.0, scale, (2 * n, n + 1, 2, 2))
+    return d * reference.used_hole_mask(n)[..., None]
+
+
+@dataclass
+class RobotPair:
+    """The same robot as ``cdsm.Robot`` (``rust``) and reference (``ref``)."""
+
+    name: str
+    rust: object
+    ref: object
+
+
+def make_pair(cdsm_mod, name: str) -> RobotPair:
+    """Build one of the named test robots in both implementations."""
+    if name == "paper":
+        return RobotPair(name, cdsm_mod.Robot.paper(), reference.SimpleRobot.paper())
+    if name == "n1":
+        lk = N1_LINKAGES
+    elif name == "n12":
+        lk = N12_LINKAGES
+    elif name in ("paper_perturbed", "n12_perturbed"):
+        base = make_pair(cdsm_mod, name.removesuffix("_perturbed"))
+        d = hole_perturbation(base.ref.n, 3e-4, seed=7)
+        holes = base.ref.holes + d
+        return RobotPair(name, base.rust.with_holes(holes), base.ref.with_holes(holes))
+    else:  # pragma: no cover
+        raise KeyError(name)
+    return RobotPair(name, cdsm_mod.Robot.from_toml_str(robot_toml(lk)), reference_robot(lk))
+
+
+ROBOT_NAMES = ["paper", "n1", "n12", "paper_perturbed", "n12_perturbed"]
+
+
+@pytest.fixture(params=ROBOT_NAMES)
+def pair(request, cdsm) -> RobotPair:
+    """Each test robot, in both implementations."""
+    return make_pair(cdsm, request.param)
+
+
+def random_theta(n: int, N: int = 500, seed: int = 0, lim: float = LIM35) -> np.ndarray:
+    """Joint angles ``(N, n)`` rad, uniform in ``[-lim, lim]``, seeded."""
+    return np.random.default_rng(seed).uniform(-lim, lim, (N, n))
+
+
+# Table 3 of the seed paper: experiment points (m, m, rad) and theoretical
+# deviations (mm) for a -1 mm error on cable 1 (upper cable of disk 1).
+TABLE3_POINTS = np.array(
+    [
+        [0.228, 0.0, 0.0],
+        [0.193, -0.097, 0.0],
+        [0.196, -0.093, 0.0],
+        [0.202, -0.083, 0.0],
+        [0.202, -0.084, 0.0],
+        [0.202, -0.085, 0.0],
+        [0.225, -0.008, 0.0],
+        [0.193, 0.097, 0.0],
+        [0.196, 0.093, 0.0],
+    ]
+)
+TABLE3_THEORETICAL_MM = np.array(
+    [
+        [-0.0415, 2.4299],
+        [3.6630, 5.7446],
+        [3.0294, 5.1021],
+        [1.7697, 3.7680],
+        [2.1139, 4.2225],
+        [2.7725, 5.1599],
+        [-0.6359, 0.6016],
+        [-0.7987, 0.3510],
+        [-0.7738, 0.1592],
+    ]
+)
+TABLE3_DL = np.array([-1e-3, 0.0, 0.0])
+#: The seed that selects the paper's theta_2 <= 0 branch at all nine points.
+TABLE3_SEED = np.array([0.0, -1e-3, 0.0])
