@@ -7,7 +7,7 @@ use crate::cables::CableGeometry;
 use crate::error::{CdsmError, Result};
 use crate::kinematics::fk;
 use crate::robot::Robot;
-use crate::solve::{self, CableMethod, SolveOptions};
+use crate::solve::{CableMethod, CableSolver, SolveOptions};
 
 /// Hole-location errors of the samples of a Monte-Carlo study.
 #[derive(Debug, Clone, Copy)]
@@ -46,6 +46,7 @@ pub fn deviation(
         let mut ds = Vec::with_capacity(r.len() * 3);
         let mut sol = BatchSolution::default();
         let (mut cs, mut target, mut th) = (vec![(1.0, 0.0); n], vec![0.0; n], vec![0.0; n]);
+        let mut solver = CableSolver::new(robot, method, *opts);
         for i in r {
             let t0 = &theta0[i * n..(i + 1) * n];
             for (c, t) in cs.iter_mut().zip(t0) {
@@ -56,8 +57,8 @@ pub fn deviation(
                 *t += d;
             }
             th.copy_from_slice(t0);
-            let st = solve::solve_cables(robot, &perturbed, &target, &mut th, method, opts);
-            let (p0, p) = (fk(robot, t0), fk(robot, &th));
+            let st = solver.solve(&perturbed, &target, &mut th);
+            let (p0, p) = (fk(robot, t0), solver.pose(&th));
             ds.extend((0..3).map(|k| if st.converged { p[k] - p0[k] } else { f64::NAN }));
             sol.theta.extend_from_slice(&th);
             sol.converged.push(st.converged);
@@ -203,6 +204,7 @@ pub fn monte_carlo(
         }
         let mut hbuf = vec![0.0; hole_len];
         let (mut target, mut th) = (vec![0.0; n], vec![0.0; n]);
+        let mut solver = CableSolver::new(robot, method, *opts);
         for s in 0..samples {
             let geom = match holes {
                 HoleErrors::None => None,
@@ -225,9 +227,9 @@ pub fn monte_carlo(
                     target[k] = l0[j * n + k] + dls[k];
                 }
                 th.copy_from_slice(t0);
-                let st = solve::solve_cables(robot, geom, &target, &mut th, method, opts);
+                let st = solver.solve(geom, &target, &mut th);
                 if st.converged {
-                    let p = fk(robot, &th);
+                    let p = solver.pose(&th);
                     stats.add(j, [p[0] - p0[j][0], p[1] - p0[j][1], p[2] - p0[j][2]]);
                 } else {
                     stats.failed[j] += 1;

@@ -196,12 +196,13 @@ pub fn solve_cables(
     let parts = split_rows(rows, threads, |r| {
         let mut out = BatchSolution::with_capacity(r.len(), n);
         let mut th = vec![0.0; n];
+        let mut solver = solve::CableSolver::new(robot, method, *opts);
         for i in r {
             match seed {
                 Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
                 None => th.fill(0.0),
             }
-            let st = solve::solve_cables(robot, &g, &upper[i * n..(i + 1) * n], &mut th, method, opts);
+            let st = solver.solve(&g, &upper[i * n..(i + 1) * n], &mut th);
             out.push(robot, &th, st);
         }
         out

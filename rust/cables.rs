@@ -16,6 +16,8 @@ pub struct CableGeometry {
     pub seg: Vec<[f64; 3]>,
     /// Constant part of each cable: the sum of its disk traversals (m).
     pub traverse: Vec<f64>,
+    /// `[atan2(R, Q), hypot(Q, R)]` of each segment, for the closed form.
+    pub phase: Vec<[f64; 2]>,
 }
 
 /// Pair (0-based) of cable `c`: cable `c` crosses joints `0..=pair(c)`.
@@ -53,7 +55,8 @@ impl CableGeometry {
                 traverse[c] += (dx * dx + dy * dy).sqrt();
             }
         }
-        CableGeometry { n, seg, traverse }
+        let phase = seg.iter().map(|[_, q, r]| [r.atan2(*q), q.hypot(*r)]).collect();
+        CableGeometry { n, seg, traverse, phase }
     }
 
     /// Length of segment `k` of cable `c` given `(cos, sin)` of theta_k.
@@ -110,8 +113,8 @@ impl CableGeometry {
     /// `s` (m): `atan2(R, Q) ± acos((s² − P) / hypot(Q, R))`. `None` when no
     /// angle does (the paper's "one-to-many" has two branches or none).
     pub fn joint_branches(&self, c: usize, k: usize, s: f64) -> Option<[f64; 2]> {
-        let [p, q, r] = self.seg[c * self.n + k];
-        let amp = q.hypot(r);
+        let p = self.seg[c * self.n + k][0];
+        let [mid, amp] = self.phase[c * self.n + k];
         if s < 0.0 || amp == 0.0 {
             return None;
         }
@@ -119,7 +122,6 @@ impl CableGeometry {
         if !(-1.0..=1.0).contains(&arg) {
             return None;
         }
-        let mid = r.atan2(q);
         let half = arg.acos();
         Some([mid + half, mid - half])
     }

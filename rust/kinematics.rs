@@ -18,6 +18,23 @@ pub fn fk(robot: &Robot, theta: &[f64]) -> [f64; 3] {
     [x, y, phi]
 }
 
+/// End pose from the `(cos, sin)` of each joint angle and their sum `phi`
+/// (no trigonometry: rotations compose by angle addition).
+#[inline]
+pub fn fk_cs(robot: &Robot, cs: &[(f64, f64)], phi: f64) -> [f64; 3] {
+    let (mut x, mut y) = (0.0f64, 0.0f64);
+    let (mut c, mut s) = (1.0f64, 0.0f64);
+    for (k, &(ck, sk)) in cs.iter().enumerate() {
+        x += robot.link_before[k] * c;
+        y += robot.link_before[k] * s;
+        (c, s) = (c * ck - s * sk, s * ck + c * sk);
+        let l = robot.link_after[k] + robot.thickness[k];
+        x += l * c;
+        y += l * s;
+    }
+    [x, y, phi]
+}
+
 /// End pose and its Jacobian: `jac[k] = d[x, y, phi]/d theta_k` (column k).
 pub fn fk_jacobian(robot: &Robot, theta: &[f64], jac: &mut [[f64; 3]]) -> [f64; 3] {
     let (mut x, mut y, mut phi) = (0.0f64, 0.0f64, 0.0f64);
@@ -73,6 +90,17 @@ mod tests {
             for i in 0..3 {
                 assert!(((pa[i] - pb[i]) / (2.0 * h) - jac[k][i]).abs() < 1e-9);
             }
+        }
+    }
+
+    #[test]
+    fn angle_addition_pose_equals_the_chain() {
+        let r = Robot::paper();
+        let th = [0.3, -0.7, 0.45];
+        let cs: Vec<(f64, f64)> = th.iter().map(|t: &f64| (t.cos(), t.sin())).collect();
+        let (a, b) = (fk(&r, &th), fk_cs(&r, &cs, th.iter().sum()));
+        for i in 0..3 {
+            assert!((a[i] - b[i]).abs() < 1e-15);
         }
     }
 

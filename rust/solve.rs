@@ -234,7 +234,71 @@ pub enum CableMethod {
     ClosedForm,
 }
 
-/// Upper-cable lengths `target` (m) to `theta` (seed on entry).
+/// A cable solver with its buffers, reused across many solves (no allocation
+/// per solve on the closed-form path).
+pub struct CableSolver<'a> {
+    robot: &'a Robot,
+    pub method: CableMethod,
+    pub opts: SolveOptions,
+    seed: Vec<f64>,
+    cs: Vec<(f64, f64)>,
+    lengths: Vec<f64>,
+}
+
+impl<'a> CableSolver<'a> {
+    pub fn new(robot: &'a Robot, method: CableMethod, opts: SolveOptions) -> Self {
+        let n = robot.n();
+        CableSolver { robot, method, opts, seed: vec![0.0; n], cs: vec![(1.0, 0.0); n], lengths: vec![0.0; n] }
+    }
+
+    /// Upper-cable lengths `target` (m) to `theta` (seed on entry, answer on exit).
+    pub fn solve(&mut self, geom: &CableGeometry, target: &[f64], theta: &mut [f64]) -> Status {
+        let (robot, opts) = (self.robot, &self.opts);
+        if self.method == CableMethod::Newton {
+            let st = solve_cables_lm(robot, geom, target, theta, opts);
+            self.refresh(theta);
+            return st;
+        }
+        self.seed.copy_from_slice(theta);
+        let ok = solve_cables_closed_form(geom, target, theta, &mut self.cs, None);
+        let residual = if ok {
+            geom.upper_lengths(&self.cs, &mut self.lengths);
+            self.lengths.iter().zip(target).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
+        } else {
+            f64::INFINITY
+        };
+        let in_box = !opts.enforce_limits || crate::kinematics::within_limits(robot, theta);
+        if ok && residual <= opts.tol && in_box {
+            return Status { converged: true, iterations: 0, residual };
+        }
+        if self.method == CableMethod::ClosedForm {
+            if !ok {
+                theta.copy_from_slice(&self.seed);
+                self.refresh(theta);
+            }
+            return Status { converged: false, iterations: 0, residual };
+        }
+        if !ok || !in_box {
+            theta.copy_from_slice(&self.seed);
+        }
+        let st = solve_cables_lm(robot, geom, target, theta, opts);
+        self.refresh(theta);
+        st
+    }
+
+    fn refresh(&mut self, theta: &[f64]) {
+        for (c, t) in self.cs.iter_mut().zip(theta) {
+            *c = (t.cos(), t.sin());
+        }
+    }
+
+    /// End pose at the angles of the last solve (uses the cached cos/sin).
+    pub fn pose(&self, theta: &[f64]) -> [f64; 3] {
+        crate::kinematics::fk_cs(self.robot, &self.cs, theta.iter().sum())
+    }
+}
+
+/// Upper-cable lengths `target` (m) to `theta` (seed on entry): one solve.
 pub fn solve_cables(
     robot: &Robot,
     geom: &CableGeometry,
@@ -243,34 +307,7 @@ pub fn solve_cables(
     method: CableMethod,
     opts: &SolveOptions,
 ) -> Status {
-    let n = theta.len();
-    if method == CableMethod::Newton {
-        return solve_cables_lm(robot, geom, target, theta, opts);
-    }
-    let seed = theta.to_vec();
-    let mut cs = vec![(1.0, 0.0); n];
-    let ok = solve_cables_closed_form(geom, target, theta, &mut cs, None);
-    let residual = if ok {
-        let mut l = vec![0.0; n];
-        geom.upper_lengths(&cs, &mut l);
-        max_abs(&l.iter().zip(target).map(|(a, b)| a - b).collect::<Vec<_>>())
-    } else {
-        f64::INFINITY
-    };
-    let in_box = !opts.enforce_limits || crate::kinematics::within_limits(robot, theta);
-    if ok && residual <= opts.tol && in_box {
-        return Status { converged: true, iterations: 0, residual };
-    }
-    if method == CableMethod::ClosedForm {
-        if !ok {
-            theta.copy_from_slice(&seed);
-        }
-        return Status { converged: false, iterations: 0, residual };
-    }
-    if !ok || !in_box {
-        theta.copy_from_slice(&seed);
-    }
-    solve_cables_lm(robot, geom, target, theta, opts)
+    CableSolver::new(robot, method, *opts).solve(geom, target, theta)
 }
 
 #[cfg(test)]
