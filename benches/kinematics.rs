@@ -1,9 +1,11 @@
 //! Criterion benches of the core: FK, cable lengths, cable solve and pose IK
-//! for n = 3 (the paper's prototype) and n = 20.
+//! for n = 3 (the paper's prototype) and n = 20; statics: upper tensions and
+//! the coupled elastic cable solve.
 
 use cdsm::cables::CableGeometry;
 use cdsm::kinematics::fk;
 use cdsm::solve::{self, CableMethod, SolveOptions};
+use cdsm::statics::{self, Loads, Statics};
 use cdsm::Robot;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
@@ -48,6 +50,36 @@ fn benches(c: &mut Criterion) {
                 })
             });
         }
+        // the n = 20 robot file has no weights: hang 0.5 N on every lower cable
+        let lower = if n == 3 {
+            r.lower_tension.clone()
+        } else {
+            vec![0.5; n]
+        };
+        let loads = Loads {
+            lower: &lower,
+            tip_wrench: [0.0, -0.1, 0.0],
+            gravity: [0.0, -9.81],
+        };
+        let mut st = Statics::new(&r);
+        let mut t = vec![0.0; n];
+        c.bench_function(&format!("tensions/n={n}"), |b| {
+            b.iter(|| st.tensions(black_box(&th), &loads, &mut t))
+        });
+        c.bench_function(&format!("cable_solve_elastic/n={n}"), |b| {
+            b.iter(|| {
+                let mut x = th.clone();
+                statics::solve_cables_elastic(
+                    &r,
+                    &g,
+                    black_box(&upper),
+                    &loads,
+                    &mut x,
+                    &mut t,
+                    &opts,
+                )
+            })
+        });
         c.bench_function(&format!("pose_ik/n={n}"), |b| {
             b.iter(|| {
                 let mut t: Vec<f64> = th.iter().map(|x| x + 0.02).collect();

@@ -64,7 +64,8 @@ pub fn deviation(
             sol.converged.push(st.converged);
             sol.iterations.push(st.iterations);
             sol.residual.push(st.residual);
-            sol.within_limits.push(crate::kinematics::within_limits(robot, &th));
+            sol.within_limits
+                .push(crate::kinematics::within_limits(robot, &th));
         }
         (ds, sol)
     });
@@ -83,7 +84,11 @@ pub fn deviation(
 
 fn check_len(name: &str, v: &[f64], n: usize) -> Result<()> {
     if v.len() != n {
-        return Err(CdsmError::Shape { name: name.into(), expected: format!("({n},)"), got: format!("({},)", v.len()) });
+        return Err(CdsmError::Shape {
+            name: name.into(),
+            expected: format!("({n},)"),
+            got: format!("({},)", v.len()),
+        });
     }
     Ok(())
 }
@@ -141,7 +146,7 @@ impl McStats {
     }
 
     fn add(&mut self, j: usize, ds: [f64; 3]) {
-        let v = [ds[0], ds[1], ds[2], ds[0].hypot(ds[1])];
+        let v = [ds[0], ds[1], ds[2], (ds[0] * ds[0] + ds[1] * ds[1]).sqrt()];
         self.count[j] += 1;
         for q in 0..QUANTITIES {
             let k = j * QUANTITIES + q;
@@ -213,7 +218,10 @@ pub fn monte_carlo(
                     Some(CableGeometry::new(robot, Some(&hbuf)))
                 }
                 HoleErrors::Full(h) => {
-                    for (b, (a, e)) in hbuf.iter_mut().zip(robot.holes.iter().zip(&h[s * hole_len..(s + 1) * hole_len])) {
+                    for (b, (a, e)) in hbuf
+                        .iter_mut()
+                        .zip(robot.holes.iter().zip(&h[s * hole_len..(s + 1) * hole_len]))
+                    {
                         *b = a + e;
                     }
                     Some(CableGeometry::new(robot, Some(&hbuf)))
@@ -247,7 +255,11 @@ pub fn monte_carlo(
 
 fn same_samples(name: &str, got: usize, want: usize) -> Result<()> {
     if got != want {
-        return Err(CdsmError::Shape { name: name.into(), expected: format!("{want} samples (rows of dl)"), got: format!("{got} rows") });
+        return Err(CdsmError::Shape {
+            name: name.into(),
+            expected: format!("{want} samples (rows of dl)"),
+            got: format!("{got} rows"),
+        });
     }
     Ok(())
 }
@@ -260,7 +272,16 @@ mod tests {
     fn table3_point1_singular_state() {
         // Table 3, point 1: straight pose, upper cable 1 shortened by 1 mm.
         let r = Robot::paper();
-        let (ds, sol) = deviation(&r, &[0.0; 3], &[-1e-3, 0.0, 0.0], None, CableMethod::Newton, &SolveOptions::default(), 1).unwrap();
+        let (ds, sol) = deviation(
+            &r,
+            &[0.0; 3],
+            &[-1e-3, 0.0, 0.0],
+            None,
+            CableMethod::Newton,
+            &SolveOptions::default(),
+            1,
+        )
+        .unwrap();
         assert!(sol.converged[0]);
         assert!((ds[0] * 1e3 - (-0.0415)).abs() < 2e-4, "{}", ds[0] * 1e3);
         assert!((ds[1] * 1e3 - 2.4299).abs() < 2e-4, "{}", ds[1] * 1e3);
@@ -276,7 +297,16 @@ mod tests {
         r.hole_height_error_into(&dh, &mut holes);
         let opts = SolveOptions::default();
         let (ds, _) = deviation(&r, &th, &dl, Some(&holes), CableMethod::Auto, &opts, 2).unwrap();
-        let st = monte_carlo(&r, &th, &dl, HoleErrors::PerPair(&dh), CableMethod::Auto, &opts, 2).unwrap();
+        let st = monte_carlo(
+            &r,
+            &th,
+            &dl,
+            HoleErrors::PerPair(&dh),
+            CableMethod::Auto,
+            &opts,
+            2,
+        )
+        .unwrap();
         for j in 0..2 {
             for q in 0..3 {
                 assert!((st.sum[j * 4 + q] - ds[j * 3 + q]).abs() < 1e-15);

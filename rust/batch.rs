@@ -19,7 +19,11 @@ pub fn resolve_threads(threads: usize) -> usize {
 
 /// Runs `work` on contiguous ranges of `0..rows` in up to `threads` scoped
 /// threads and returns the per-range results in row order.
-pub fn split_rows<T: Send>(rows: usize, threads: usize, work: impl Fn(Range<usize>) -> T + Sync) -> Vec<T> {
+pub fn split_rows<T: Send>(
+    rows: usize,
+    threads: usize,
+    work: impl Fn(Range<usize>) -> T + Sync,
+) -> Vec<T> {
     let threads = resolve_threads(threads).min(rows.max(1));
     if threads <= 1 {
         return vec![work(0..rows)];
@@ -33,12 +37,20 @@ pub fn split_rows<T: Send>(rows: usize, threads: usize, work: impl Fn(Range<usiz
                 s.spawn(move || w(r))
             })
             .collect();
-        handles.into_iter().map(|h| h.join().expect("worker thread panicked")).collect()
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("worker thread panicked"))
+            .collect()
     })
 }
 
 /// Per-row `f64` map: `f(row_index, out_row)` fills `width` outputs per row.
-pub fn map_rows(rows: usize, width: usize, threads: usize, f: impl Fn(usize, &mut [f64]) + Sync) -> Vec<f64> {
+pub fn map_rows(
+    rows: usize,
+    width: usize,
+    threads: usize,
+    f: impl Fn(usize, &mut [f64]) + Sync,
+) -> Vec<f64> {
     split_rows(rows, threads, |r| {
         let mut out = vec![0.0; r.len() * width];
         for (j, i) in r.enumerate() {
@@ -78,7 +90,8 @@ impl BatchSolution {
         self.converged.push(st.converged);
         self.iterations.push(st.iterations);
         self.residual.push(st.residual);
-        self.within_limits.push(kinematics::within_limits(robot, theta));
+        self.within_limits
+            .push(kinematics::within_limits(robot, theta));
     }
 
     fn concat(parts: Vec<BatchSolution>) -> Self {
@@ -145,7 +158,9 @@ pub fn cable_lengths(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec
     let n = robot.n();
     let rows = rows_of("theta", theta, n)?;
     let g = CableGeometry::new(robot, None);
-    Ok(map_rows(rows, 2 * n, threads, |i, out| g.lengths(&theta[i * n..(i + 1) * n], out)))
+    Ok(map_rows(rows, 2 * n, threads, |i, out| {
+        g.lengths(&theta[i * n..(i + 1) * n], out)
+    }))
 }
 
 /// Batched cable Jacobian: `(N, n)` -> `(N, 2n, n)`.
@@ -153,11 +168,19 @@ pub fn cable_jacobian(robot: &Robot, theta: &[f64], threads: usize) -> Result<Ve
     let n = robot.n();
     let rows = rows_of("theta", theta, n)?;
     let g = CableGeometry::new(robot, None);
-    Ok(map_rows(rows, 2 * n * n, threads, |i, out| g.jacobian(&theta[i * n..(i + 1) * n], out)))
+    Ok(map_rows(rows, 2 * n * n, threads, |i, out| {
+        g.jacobian(&theta[i * n..(i + 1) * n], out)
+    }))
 }
 
 /// Batched pose IK: `pose (N, 3)`, `seed (N, n)` or zeros.
-pub fn ik(robot: &Robot, pose: &[f64], seed: Option<&[f64]>, opts: &SolveOptions, threads: usize) -> Result<BatchSolution> {
+pub fn ik(
+    robot: &Robot,
+    pose: &[f64],
+    seed: Option<&[f64]>,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<BatchSolution> {
     let n = robot.n();
     let rows = rows_of("pose", pose, 3)?;
     let seed = seeds(seed, rows, n)?;
@@ -213,10 +236,16 @@ pub fn solve_cables(
 /// Rejects solver options outside their domain.
 pub fn check_options(opts: &SolveOptions) -> Result<()> {
     if !(opts.tol.is_finite() && opts.tol > 0.0) {
-        return Err(CdsmError::Option { name: "tol".into(), problem: format!("must be positive and finite, got {}", opts.tol) });
+        return Err(CdsmError::Option {
+            name: "tol".into(),
+            problem: format!("must be positive and finite, got {}", opts.tol),
+        });
     }
     if opts.max_iter == 0 {
-        return Err(CdsmError::Option { name: "max_iter".into(), problem: "must be at least 1".into() });
+        return Err(CdsmError::Option {
+            name: "max_iter".into(),
+            problem: "must be at least 1".into(),
+        });
     }
     Ok(())
 }

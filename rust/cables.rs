@@ -16,8 +16,8 @@ pub struct CableGeometry {
     pub seg: Vec<[f64; 3]>,
     /// Constant part of each cable: the sum of its disk traversals (m).
     pub traverse: Vec<f64>,
-    /// `[atan2(R, Q), hypot(Q, R)]` of each segment, for the closed form.
-    pub phase: Vec<[f64; 2]>,
+    /// `[atan2(R, Q), hypot(Q, R), Q / hypot, R / hypot]` of each segment, for the closed form.
+    pub phase: Vec<[f64; 4]>,
 }
 
 /// Pair (0-based) of cable `c`: cable `c` crosses joints `0..=pair(c)`.
@@ -55,8 +55,24 @@ impl CableGeometry {
                 traverse[c] += (dx * dx + dy * dy).sqrt();
             }
         }
-        let phase = seg.iter().map(|[_, q, r]| [r.atan2(*q), q.hypot(*r)]).collect();
-        CableGeometry { n, seg, traverse, phase }
+        let phase = seg
+            .iter()
+            .map(|[_, q, r]| {
+                let amp = q.hypot(*r);
+                let (cm, sm) = if amp > 0.0 {
+                    (q / amp, r / amp)
+                } else {
+                    (1.0, 0.0)
+                };
+                [r.atan2(*q), amp, cm, sm]
+            })
+            .collect();
+        CableGeometry {
+            n,
+            seg,
+            traverse,
+            phase,
+        }
     }
 
     /// Length of segment `k` of cable `c` given `(cos, sin)` of theta_k.
@@ -69,7 +85,10 @@ impl CableGeometry {
     /// Length of cable `c` (m) from the `(cos, sin)` of every joint angle.
     #[inline]
     pub fn length(&self, c: usize, cs: &[(f64, f64)]) -> f64 {
-        self.traverse[c] + (0..=pair(c)).map(|k| self.segment(c, k, cs[k])).sum::<f64>()
+        self.traverse[c]
+            + (0..=pair(c))
+                .map(|k| self.segment(c, k, cs[k]))
+                .sum::<f64>()
     }
 
     /// All `2n` cable lengths (m) into `out`.
@@ -113,8 +132,16 @@ impl CableGeometry {
     /// `s` (m): `atan2(R, Q) ± acos((s² − P) / hypot(Q, R))`. `None` when no
     /// angle does (the paper's "one-to-many" has two branches or none).
     pub fn joint_branches(&self, c: usize, k: usize, s: f64) -> Option<[f64; 2]> {
+        let b = self.joint_solution(c, k, s)?;
+        Some([b.angle(1.0), b.angle(-1.0)])
+    }
+
+    /// The two solutions of joint `k` for segment length `s`, in a form that
+    /// gives their cos/sin without trigonometry (see [`Branches`]).
+    #[inline]
+    pub fn joint_solution(&self, c: usize, k: usize, s: f64) -> Option<Branches> {
         let p = self.seg[c * self.n + k][0];
-        let [mid, amp] = self.phase[c * self.n + k];
+        let [mid, amp, cos_mid, sin_mid] = self.phase[c * self.n + k];
         if s < 0.0 || amp == 0.0 {
             return None;
         }
@@ -122,18 +149,55 @@ impl CableGeometry {
         if !(-1.0..=1.0).contains(&arg) {
             return None;
         }
-        let half = arg.acos();
-        Some([mid + half, mid - half])
+        Some(Branches {
+            mid,
+            half: arg.acos(),
+            cos_half: arg,
+            sin_half: (1.0 - arg * arg).max(0.0).sqrt(),
+            cos_mid,
+            sin_mid,
+        })
+    }
+}
+
+/// The two angles `mid ± half` solving one joint of the closed form.
+#[derive(Debug, Clone, Copy)]
+pub struct Branches {
+    pub mid: f64,
+    pub half: f64,
+    cos_half: f64,
+    sin_half: f64,
+    cos_mid: f64,
+    sin_mid: f64,
+}
+
+impl Branches {
+    /// Angle of the branch `mid + sign · half` (rad).
+    #[inline]
+    pub fn angle(&self, sign: f64) -> f64 {
+        self.mid + sign * self.half
+    }
+
+    /// `(cos, sin)` of the branch `mid + sign · half`, by angle addition.
+    #[inline]
+    pub fn cos_sin(&self, sign: f64) -> (f64, f64) {
+        (
+            self.cos_mid * self.cos_half - sign * self.sin_mid * self.sin_half,
+            self.sin_mid * self.cos_half + sign * self.cos_mid * self.sin_half,
+        )
     }
 }
 
 /// Angle difference wrapped to `(-pi, pi]`.
 #[inline]
 pub fn wrap(a: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let w = a - t * (a / t).round();
-    if w <= -std::f64::consts::PI {
-        w + t
+    use std::f64::consts::{PI, TAU};
+    if a > -PI && a <= PI {
+        return a; // the common case, without a division or a libm call
+    }
+    let w = a - TAU * (a / TAU).round();
+    if w <= -PI {
+        w + TAU
     } else {
         w
     }

@@ -72,7 +72,10 @@ mod tests {
     fn straight_pose_is_the_straight_length() {
         let r = Robot::paper();
         let p = fk(&r, &[0.0; 3]);
-        assert!((p[0] - 0.228).abs() < 1e-15 && p[1] == 0.0 && p[2] == 0.0, "{p:?}");
+        assert!(
+            (p[0] - 0.228).abs() < 1e-15 && p[1] == 0.0 && p[2] == 0.0,
+            "{p:?}"
+        );
     }
 
     #[test]

@@ -9,8 +9,10 @@ pub mod batch;
 pub mod cables;
 pub mod error;
 pub mod kinematics;
+pub mod plant;
 pub mod robot;
 pub mod solve;
+pub mod statics;
 
 #[cfg(feature = "python")]
 mod python;

@@ -5,6 +5,7 @@
 use crate::accuracy::{self, HoleErrors, McStats};
 use crate::batch::{self, BatchSolution};
 use crate::error::CdsmError;
+use crate::plant::{self, Observation};
 use crate::robot::Robot;
 use crate::solve::{CableMethod, SolveOptions};
 use numpy::{PyArray1, PyReadonlyArrayDyn};
@@ -13,15 +14,21 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-create_exception!(_cdsm, CdsmInputError, PyValueError, "Bad input: the message names the field and the problem.");
+create_exception!(
+    _cdsm,
+    CdsmInputError,
+    PyValueError,
+    "Bad input: the message names the field and the problem."
+);
 
 fn err(e: CdsmError) -> PyErr {
     CdsmInputError::new_err(e.to_string())
 }
 
 fn slice<'a>(name: &str, a: &'a PyReadonlyArrayDyn<'_, f64>) -> PyResult<&'a [f64]> {
-    a.as_slice()
-        .map_err(|_| CdsmInputError::new_err(format!("`{name}`: must be a C-contiguous float64 array")))
+    a.as_slice().map_err(|_| {
+        CdsmInputError::new_err(format!("`{name}`: must be a C-contiguous float64 array"))
+    })
 }
 
 fn vec1<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>) -> Bound<'py, PyArray1<T>> {
@@ -29,7 +36,11 @@ fn vec1<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>) -> Bound<'py, PyArra
 }
 
 fn options(tol: f64, max_iter: u32, enforce_limits: bool) -> SolveOptions {
-    SolveOptions { tol, max_iter, enforce_limits }
+    SolveOptions {
+        tol,
+        max_iter,
+        enforce_limits,
+    }
 }
 
 fn method(name: &str) -> PyResult<CableMethod> {
@@ -52,7 +63,13 @@ type SolutionArrays<'py> = (
 );
 
 fn solution<'py>(py: Python<'py>, s: BatchSolution) -> SolutionArrays<'py> {
-    (vec1(py, s.theta), vec1(py, s.converged), vec1(py, s.iterations), vec1(py, s.residual), vec1(py, s.within_limits))
+    (
+        vec1(py, s.theta),
+        vec1(py, s.converged),
+        vec1(py, s.iterations),
+        vec1(py, s.residual),
+        vec1(py, s.within_limits),
+    )
 }
 
 /// A validated robot (SI units); see `cdsm.Robot` for the documented API.
@@ -65,12 +82,16 @@ struct CoreRobot {
 impl CoreRobot {
     #[staticmethod]
     fn from_toml(text: &str) -> PyResult<Self> {
-        Ok(CoreRobot { inner: Robot::from_toml(text).map_err(err)? })
+        Ok(CoreRobot {
+            inner: Robot::from_toml(text).map_err(err)?,
+        })
     }
 
     #[staticmethod]
     fn paper() -> Self {
-        CoreRobot { inner: Robot::paper() }
+        CoreRobot {
+            inner: Robot::paper(),
+        }
     }
 
     #[getter]
@@ -121,13 +142,23 @@ impl CoreRobot {
     fn with_holes(&self, holes: PyReadonlyArrayDyn<'_, f64>) -> PyResult<Self> {
         let h = slice("holes", &holes)?;
         crate::error::check_finite("holes", h).map_err(err)?;
-        Ok(CoreRobot { inner: self.inner.with_holes(h).map_err(err)? })
+        Ok(CoreRobot {
+            inner: self.inner.with_holes(h).map_err(err)?,
+        })
     }
 
-    fn hole_height_error<'py>(&self, py: Python<'py>, dh: PyReadonlyArrayDyn<'_, f64>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn hole_height_error<'py>(
+        &self,
+        py: Python<'py>,
+        dh: PyReadonlyArrayDyn<'_, f64>,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let d = slice("dh", &dh)?;
         if d.len() != self.inner.n() {
-            return Err(err(CdsmError::Shape { name: "dh".into(), expected: format!("({},)", self.inner.n()), got: format!("{} values", d.len()) }));
+            return Err(err(CdsmError::Shape {
+                name: "dh".into(),
+                expected: format!("({},)", self.inner.n()),
+                got: format!("{} values", d.len()),
+            }));
         }
         crate::error::check_finite("dh", d).map_err(err)?;
         let mut out = vec![0.0; self.inner.holes.len()];
@@ -135,27 +166,55 @@ impl CoreRobot {
         Ok(vec1(py, out))
     }
 
-    fn fk<'py>(&self, py: Python<'py>, theta: PyReadonlyArrayDyn<'_, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn fk<'py>(
+        &self,
+        py: Python<'py>,
+        theta: PyReadonlyArrayDyn<'_, f64>,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let t = slice("theta", &theta)?;
-        let out = py.detach(|| batch::fk(&self.inner, t, threads)).map_err(err)?;
+        let out = py
+            .detach(|| batch::fk(&self.inner, t, threads))
+            .map_err(err)?;
         Ok(vec1(py, out))
     }
 
-    fn fk_jacobian<'py>(&self, py: Python<'py>, theta: PyReadonlyArrayDyn<'_, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn fk_jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        theta: PyReadonlyArrayDyn<'_, f64>,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let t = slice("theta", &theta)?;
-        let out = py.detach(|| batch::fk_jacobian(&self.inner, t, threads)).map_err(err)?;
+        let out = py
+            .detach(|| batch::fk_jacobian(&self.inner, t, threads))
+            .map_err(err)?;
         Ok(vec1(py, out))
     }
 
-    fn cable_lengths<'py>(&self, py: Python<'py>, theta: PyReadonlyArrayDyn<'_, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn cable_lengths<'py>(
+        &self,
+        py: Python<'py>,
+        theta: PyReadonlyArrayDyn<'_, f64>,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let t = slice("theta", &theta)?;
-        let out = py.detach(|| batch::cable_lengths(&self.inner, t, threads)).map_err(err)?;
+        let out = py
+            .detach(|| batch::cable_lengths(&self.inner, t, threads))
+            .map_err(err)?;
         Ok(vec1(py, out))
     }
 
-    fn cable_jacobian<'py>(&self, py: Python<'py>, theta: PyReadonlyArrayDyn<'_, f64>, threads: usize) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    fn cable_jacobian<'py>(
+        &self,
+        py: Python<'py>,
+        theta: PyReadonlyArrayDyn<'_, f64>,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
         let t = slice("theta", &theta)?;
-        let out = py.detach(|| batch::cable_jacobian(&self.inner, t, threads)).map_err(err)?;
+        let out = py
+            .detach(|| batch::cable_jacobian(&self.inner, t, threads))
+            .map_err(err)?;
         Ok(vec1(py, out))
     }
 
@@ -176,7 +235,9 @@ impl CoreRobot {
             None => None,
         };
         let o = options(tol, max_iter, enforce_limits);
-        let out = py.detach(|| batch::ik(&self.inner, p, s, &o, threads)).map_err(err)?;
+        let out = py
+            .detach(|| batch::ik(&self.inner, p, s, &o, threads))
+            .map_err(err)?;
         Ok(solution(py, out))
     }
 
@@ -200,7 +261,9 @@ impl CoreRobot {
         };
         let m = self::method(method)?;
         let o = options(tol, max_iter, enforce_limits);
-        let out = py.detach(|| batch::solve_cables(&self.inner, u, s, m, &o, threads)).map_err(err)?;
+        let out = py
+            .detach(|| batch::solve_cables(&self.inner, u, s, m, &o, threads))
+            .map_err(err)?;
         Ok(solution(py, out))
     }
 
@@ -231,6 +294,45 @@ impl CoreRobot {
         Ok((vec1(py, ds), solution(py, sol)))
     }
 
+    /// Plant predictions (see `plant.rs`): `params (K, P)`, `theta_cmd (N, n)`,
+    /// `dl (N, n)` -> flat `(K, N, 3)` observations and `(K, N)` converged.
+    #[pyo3(signature = (params, theta_cmd, dl, displacement, tol, max_iter, threads))]
+    #[allow(clippy::too_many_arguments)]
+    fn plant_predict<'py>(
+        &self,
+        py: Python<'py>,
+        params: PyReadonlyArrayDyn<'_, f64>,
+        theta_cmd: PyReadonlyArrayDyn<'_, f64>,
+        dl: PyReadonlyArrayDyn<'_, f64>,
+        displacement: bool,
+        tol: f64,
+        max_iter: u32,
+        threads: usize,
+    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<bool>>)> {
+        let p = slice("params", &params)?;
+        let t = slice("theta_cmd", &theta_cmd)?;
+        let d = slice("dl", &dl)?;
+        let kind = if displacement {
+            Observation::Displacement
+        } else {
+            Observation::Absolute
+        };
+        let o = options(tol, max_iter, false);
+        let (obs, conv) = py
+            .detach(|| plant::predict(&self.inner, p, t, d, kind, &o, threads))
+            .map_err(err)?;
+        Ok((vec1(py, obs), vec1(py, conv)))
+    }
+
+    /// Names and sizes of the plant's effects, in parameter order.
+    fn plant_effects(&self) -> Vec<(String, usize)> {
+        plant::EFFECTS
+            .iter()
+            .zip(plant::effect_sizes(self.inner.n()))
+            .map(|(a, b)| (a.to_string(), b))
+            .collect()
+    }
+
     #[pyo3(signature = (theta0, dl, dh, dholes, method, tol, max_iter, threads))]
     #[allow(clippy::too_many_arguments)]
     fn monte_carlo<'py>(
@@ -251,7 +353,11 @@ impl CoreRobot {
             (None, None) => HoleErrors::None,
             (Some(a), None) => HoleErrors::PerPair(slice("dh", a)?),
             (None, Some(a)) => HoleErrors::Full(slice("dholes", a)?),
-            _ => return Err(CdsmInputError::new_err("`dh`, `dholes`: give at most one of them")),
+            _ => {
+                return Err(CdsmInputError::new_err(
+                    "`dh`, `dholes`: give at most one of them",
+                ))
+            }
         };
         let m = self::method(method)?;
         let o = options(tol, max_iter, false);
@@ -279,5 +385,167 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HIST_PER_DECADE", accuracy::HIST_PER_DECADE)?;
     m.add("HIST_BINS", accuracy::HIST_BINS)?;
     m.add("QUANTITIES", accuracy::QUANTITIES)?;
+    m.add_function(wrap_pyfunction!(statics_tensions, m)?)?;
+    m.add_function(wrap_pyfunction!(statics_feasible, m)?)?;
+    m.add_function(wrap_pyfunction!(statics_stretch, m)?)?;
+    m.add_function(wrap_pyfunction!(statics_solve_elastic, m)?)?;
+    m.add_function(wrap_pyfunction!(statics_routing_length, m)?)?;
+    m.add_function(wrap_pyfunction!(statics_with_cable, m)?)?;
     Ok(())
+}
+
+// ---------------------------------------------------------------------------
+// Statics and cable elasticity (issue 4): free functions over a CoreRobot
+// (`crate::statics`), wrapped by `cdsm.Robot.tensions`, `feasible`, `stretch`,
+// `solve_cables_elastic` and `with_cable`.
+// ---------------------------------------------------------------------------
+
+fn opt_slice<'a>(
+    name: &str,
+    a: &'a Option<PyReadonlyArrayDyn<'_, f64>>,
+) -> PyResult<Option<&'a [f64]>> {
+    match a {
+        Some(a) => Ok(Some(slice(name, a)?)),
+        None => Ok(None),
+    }
+}
+
+fn batch_loads<'a>(
+    lower: &'a Option<PyReadonlyArrayDyn<'_, f64>>,
+    tip_wrench: &'a Option<PyReadonlyArrayDyn<'_, f64>>,
+    gravity: &'a Option<PyReadonlyArrayDyn<'_, f64>>,
+) -> PyResult<crate::statics::BatchLoads<'a>> {
+    Ok(crate::statics::BatchLoads {
+        lower: opt_slice("lower", lower)?,
+        tip_wrench: opt_slice("tip_wrench", tip_wrench)?,
+        gravity: opt_slice("gravity", gravity)?,
+    })
+}
+
+/// Upper-cable tensions (N), flat `(N, n)`.
+#[pyfunction]
+#[pyo3(signature = (robot, theta, lower, tip_wrench, gravity, threads))]
+fn statics_tensions<'py>(
+    py: Python<'py>,
+    robot: PyRef<'py, CoreRobot>,
+    theta: PyReadonlyArrayDyn<'_, f64>,
+    lower: Option<PyReadonlyArrayDyn<'_, f64>>,
+    tip_wrench: Option<PyReadonlyArrayDyn<'_, f64>>,
+    gravity: Option<PyReadonlyArrayDyn<'_, f64>>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let r = &robot.inner;
+    let t = slice("theta", &theta)?;
+    let loads = batch_loads(&lower, &tip_wrench, &gravity)?;
+    let out = py
+        .detach(|| crate::statics::tensions(r, t, &loads, threads))
+        .map_err(err)?;
+    Ok(vec1(py, out))
+}
+
+/// Every upper tension `> min_tension` (N), `(N,)` bool.
+#[pyfunction]
+#[pyo3(signature = (robot, theta, lower, tip_wrench, gravity, min_tension, threads))]
+#[allow(clippy::too_many_arguments)]
+fn statics_feasible<'py>(
+    py: Python<'py>,
+    robot: PyRef<'py, CoreRobot>,
+    theta: PyReadonlyArrayDyn<'_, f64>,
+    lower: Option<PyReadonlyArrayDyn<'_, f64>>,
+    tip_wrench: Option<PyReadonlyArrayDyn<'_, f64>>,
+    gravity: Option<PyReadonlyArrayDyn<'_, f64>>,
+    min_tension: f64,
+    threads: usize,
+) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    let r = &robot.inner;
+    let t = slice("theta", &theta)?;
+    let loads = batch_loads(&lower, &tip_wrench, &gravity)?;
+    let out = py
+        .detach(|| crate::statics::feasibility(r, t, &loads, min_tension, threads))
+        .map_err(err)?;
+    Ok(vec1(py, out))
+}
+
+/// Upper-cable elongation (m) under the statics tensions, flat `(N, n)`.
+#[pyfunction]
+#[pyo3(signature = (robot, theta, lower, tip_wrench, gravity, threads))]
+fn statics_stretch<'py>(
+    py: Python<'py>,
+    robot: PyRef<'py, CoreRobot>,
+    theta: PyReadonlyArrayDyn<'_, f64>,
+    lower: Option<PyReadonlyArrayDyn<'_, f64>>,
+    tip_wrench: Option<PyReadonlyArrayDyn<'_, f64>>,
+    gravity: Option<PyReadonlyArrayDyn<'_, f64>>,
+    threads: usize,
+) -> PyResult<Bound<'py, PyArray1<f64>>> {
+    let r = &robot.inner;
+    let t = slice("theta", &theta)?;
+    let loads = batch_loads(&lower, &tip_wrench, &gravity)?;
+    let out = py
+        .detach(|| crate::statics::stretches(r, t, &loads, threads))
+        .map_err(err)?;
+    Ok(vec1(py, out))
+}
+
+type ElasticArrays<'py> = (
+    SolutionArrays<'py>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
+/// Coupled elastic cable solve: (solution arrays, tensions flat (N, n), feasible (N,)).
+#[pyfunction]
+#[pyo3(signature = (robot, upper, seed, lower, tip_wrench, gravity, min_tension, tol, max_iter, threads))]
+#[allow(clippy::too_many_arguments)]
+fn statics_solve_elastic<'py>(
+    py: Python<'py>,
+    robot: PyRef<'py, CoreRobot>,
+    upper: PyReadonlyArrayDyn<'_, f64>,
+    seed: Option<PyReadonlyArrayDyn<'_, f64>>,
+    lower: Option<PyReadonlyArrayDyn<'_, f64>>,
+    tip_wrench: Option<PyReadonlyArrayDyn<'_, f64>>,
+    gravity: Option<PyReadonlyArrayDyn<'_, f64>>,
+    min_tension: f64,
+    tol: f64,
+    max_iter: u32,
+    threads: usize,
+) -> PyResult<ElasticArrays<'py>> {
+    let r = &robot.inner;
+    let u = slice("upper", &upper)?;
+    let s = opt_slice("seed", &seed)?;
+    let loads = batch_loads(&lower, &tip_wrench, &gravity)?;
+    let o = options(tol, max_iter, false);
+    let out = py
+        .detach(|| crate::statics::solve_elastic(r, u, s, &loads, min_tension, &o, threads))
+        .map_err(err)?;
+    Ok((
+        solution(py, out.solution),
+        vec1(py, out.tension),
+        vec1(py, out.feasible),
+    ))
+}
+
+/// Length of the cable path behind the base disk (m).
+#[pyfunction]
+fn statics_routing_length(robot: PyRef<'_, CoreRobot>) -> f64 {
+    robot.inner.cable.routing_length
+}
+
+/// The same robot with another cable material / routing length (validated).
+#[pyfunction]
+#[pyo3(signature = (robot, youngs_modulus, diameter, routing_length))]
+fn statics_with_cable(
+    robot: PyRef<'_, CoreRobot>,
+    youngs_modulus: f64,
+    diameter: f64,
+    routing_length: f64,
+) -> PyResult<CoreRobot> {
+    let mut r = robot.inner.clone();
+    r.cable = crate::robot::CableMaterial {
+        youngs_modulus,
+        diameter,
+        routing_length,
+    };
+    r.validate().map_err(err)?;
+    Ok(CoreRobot { inner: r })
 }

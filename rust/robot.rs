@@ -14,6 +14,10 @@ pub struct CableMaterial {
     pub youngs_modulus: f64,
     /// Cable diameter (m).
     pub diameter: f64,
+    /// Length of each upper cable's path behind the base disk, from the base
+    /// disk to the actuator (m, default 0). It carries the cable's tension and
+    /// stretches with it (see `statics.rs`).
+    pub routing_length: f64,
 }
 
 /// A planar CDSM with `n` joints and `2n` cables (see `docs/model.md`).
@@ -51,6 +55,8 @@ struct RobotFile {
 struct CableFile {
     youngs_modulus: f64,
     diameter: f64,
+    #[serde(default)]
+    routing_length: f64,
 }
 
 #[derive(Deserialize)]
@@ -80,7 +86,10 @@ fn positive(field: String, v: f64) -> Result<f64> {
     if v.is_finite() && v > 0.0 {
         Ok(v)
     } else {
-        Err(bad(field, format!("must be a positive finite length, got {v}")))
+        Err(bad(
+            field,
+            format!("must be a positive finite length, got {v}"),
+        ))
     }
 }
 
@@ -129,7 +138,10 @@ impl Robot {
         })?;
         let n = file.linkage.len();
         if n == 0 {
-            return Err(bad("linkage".into(), "at least one [[linkage]] is required"));
+            return Err(bad(
+                "linkage".into(),
+                "at least one [[linkage]] is required",
+            ));
         }
         if let Some(declared) = file.n {
             if declared != n {
@@ -143,10 +155,12 @@ impl Robot {
             Some(c) => CableMaterial {
                 youngs_modulus: positive("cable.youngs_modulus".into(), c.youngs_modulus)?,
                 diameter: positive("cable.diameter".into(), c.diameter)?,
+                routing_length: non_negative("cable.routing_length".into(), c.routing_length)?,
             },
             None => CableMaterial {
                 youngs_modulus: 1.8e11,
                 diameter: 0.18e-3,
+                routing_length: 0.0,
             },
         };
         let mut robot = Robot {
@@ -162,8 +176,12 @@ impl Robot {
         };
         for (i, l) in file.linkage.iter().enumerate() {
             let f = |name: &str| format!("linkage[{i}].{name}");
-            robot.link_before.push(positive(f("link_before"), l.link_before)?);
-            robot.link_after.push(positive(f("link_after"), l.link_after)?);
+            robot
+                .link_before
+                .push(positive(f("link_before"), l.link_before)?);
+            robot
+                .link_after
+                .push(positive(f("link_after"), l.link_after)?);
             robot.thickness.push(positive(f("thickness"), l.thickness)?);
             robot.mass.push(non_negative(f("mass"), l.mass)?);
             robot
@@ -216,7 +234,11 @@ impl Robot {
                 let c = 2 * i + s;
                 for (j, p) in pts.iter().enumerate() {
                     // j = 0: base disk face b; j = 2d-1: disk d face a; j = 2d: disk d face b.
-                    let (d, face) = if j == 0 { (0, 1) } else { (j.div_ceil(2), 1 - j % 2) };
+                    let (d, face) = if j == 0 {
+                        (0, 1)
+                    } else {
+                        (j.div_ceil(2), 1 - j % 2)
+                    };
                     let k = robot.hole_index(c, d, face);
                     robot.holes[k] = p[0];
                     robot.holes[k + 1] = p[1];
@@ -237,7 +259,10 @@ impl Robot {
             ("lower_tension", &self.lower_tension),
         ] {
             if v.len() != n {
-                return Err(bad(name.into(), format!("has {} entries for {n} joints", v.len())));
+                return Err(bad(
+                    name.into(),
+                    format!("has {} entries for {n} joints", v.len()),
+                ));
             }
         }
         if self.joint_limits.len() != n {
@@ -254,8 +279,14 @@ impl Robot {
             positive(format!("linkage[{i}].link_after"), self.link_after[i])?;
             positive(format!("linkage[{i}].thickness"), self.thickness[i])?;
         }
+        positive("cable.youngs_modulus".into(), self.cable.youngs_modulus)?;
+        positive("cable.diameter".into(), self.cable.diameter)?;
+        non_negative("cable.routing_length".into(), self.cable.routing_length)?;
         if let Some(k) = self.holes.iter().position(|v| !v.is_finite()) {
-            return Err(bad("holes".into(), format!("non-finite value at flat index {k}")));
+            return Err(bad(
+                "holes".into(),
+                format!("non-finite value at flat index {k}"),
+            ));
         }
         Ok(())
     }
@@ -325,8 +356,24 @@ mod tests {
         let nan = base.replace("0.03\n", "nan\n");
         let e = Robot::from_toml(&nan).unwrap_err().to_string();
         assert!(e.contains("hole_height"), "{e}");
-        let e = Robot::from_toml(&format!("n = 2\n{base}")).unwrap_err().to_string();
+        let e = Robot::from_toml(&format!("n = 2\n{base}"))
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("`n`"), "{e}");
+    }
+
+    #[test]
+    fn routing_length_is_optional_and_validated() {
+        let base = "[cable]\nyoungs_modulus = 1.8e11\ndiameter = 0.18e-3\n[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
+        assert_eq!(Robot::from_toml(base).unwrap().cable.routing_length, 0.0);
+        let with = base.replace(
+            "diameter = 0.18e-3\n",
+            "diameter = 0.18e-3\nrouting_length = 0.5\n",
+        );
+        assert_eq!(Robot::from_toml(&with).unwrap().cable.routing_length, 0.5);
+        let neg = with.replace("0.5", "-0.5");
+        let e = Robot::from_toml(&neg).unwrap_err().to_string();
+        assert!(e.contains("cable.routing_length"), "{e}");
     }
 
     #[test]

@@ -57,7 +57,7 @@ fn project(robot: &Robot, theta: &mut [f64]) {
 
 /// Generic LM driver: `eval(theta, r)` writes the residual; `step(theta, r,
 /// lambda, delta)` writes the damped step. Shared by both solves.
-fn levenberg_marquardt(
+pub(crate) fn levenberg_marquardt(
     robot: &Robot,
     theta: &mut [f64],
     m: usize,
@@ -77,10 +77,18 @@ fn levenberg_marquardt(
     loop {
         let res = max_abs(&r);
         if res <= opts.tol {
-            return Status { converged: true, iterations, residual: res };
+            return Status {
+                converged: true,
+                iterations,
+                residual: res,
+            };
         }
         if iterations >= opts.max_iter || lambda > LAMBDA_MAX || !res.is_finite() {
-            return Status { converged: false, iterations, residual: res };
+            return Status {
+                converged: false,
+                iterations,
+                residual: res,
+            };
         }
         iterations += 1;
         if !step(theta, &r, lambda, &mut delta) {
@@ -140,8 +148,47 @@ pub fn ik(robot: &Robot, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions
     )
 }
 
+/// Solves the symmetric positive-definite `n x n` system `a x = b` (`a`
+/// row-major): nalgebra fixed-size Cholesky for n <= 6, faer beyond.
+/// Returns `false` if `a` is not positive definite.
+pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+    fn fixed<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+        let m = nalgebra::SMatrix::<f64, N, N>::from_row_slice(a);
+        let v = nalgebra::SVector::<f64, N>::from_column_slice(b);
+        match m.cholesky() {
+            Some(ch) => {
+                x.copy_from_slice(ch.solve(&v).as_slice());
+                true
+            }
+            None => false,
+        }
+    }
+    match n {
+        1 => fixed::<1>(a, b, x),
+        2 => fixed::<2>(a, b, x),
+        3 => fixed::<3>(a, b, x),
+        4 => fixed::<4>(a, b, x),
+        5 => fixed::<5>(a, b, x),
+        6 => fixed::<6>(a, b, x),
+        _ => {
+            let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
+            let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
+            match m.llt(faer::Side::Lower) {
+                Ok(ch) => {
+                    let sol = ch.solve(&rhs);
+                    for (i, xi) in x.iter_mut().enumerate() {
+                        *xi = sol[(i, 0)];
+                    }
+                    true
+                }
+                Err(_) => false,
+            }
+        }
+    }
+}
+
 /// Cable solve by LM: upper-cable lengths `target` (m, n) to `theta`
-/// (seed on entry). Normal equations `(J^T J + lambda I) delta = J^T r` (faer).
+/// (seed on entry). Normal equations `(J^T J + lambda I) delta = J^T r`.
 pub fn solve_cables_lm(
     robot: &Robot,
     geom: &CableGeometry,
@@ -151,7 +198,9 @@ pub fn solve_cables_lm(
 ) -> Status {
     let n = theta.len();
     let mut cs = vec![(1.0, 0.0); n];
-    let mut jac = Mat::<f64>::zeros(n, n);
+    let mut jac = vec![0.0; n * n];
+    let mut a = vec![0.0; n * n];
+    let mut g = vec![0.0; n];
     levenberg_marquardt(
         robot,
         theta,
@@ -167,60 +216,78 @@ pub fn solve_cables_lm(
             }
         },
         |th, r, lambda, delta| {
-            for i in 0..n {
-                for k in 0..n {
-                    let t = th[k];
-                    jac[(i, k)] = geom.derivative(2 * i, k, (t.cos(), t.sin()));
+            for (k, t) in th.iter().enumerate() {
+                let csk = (t.cos(), t.sin());
+                for i in 0..n {
+                    jac[i * n + k] = geom.derivative(2 * i, k, csk);
                 }
             }
-            let mut a = jac.transpose() * &jac;
-            for k in 0..n {
-                a[(k, k)] += lambda;
-            }
-            let rhs = Mat::<f64>::from_fn(n, 1, |k, _| (0..n).map(|i| jac[(i, k)] * r[i]).sum());
-            let x = a.partial_piv_lu().solve(&rhs);
-            for k in 0..n {
-                delta[k] = x[(k, 0)];
-            }
-            delta.iter().all(|d| d.is_finite())
+            normal_equations(n, &jac, r, lambda, &mut a, &mut g);
+            solve_spd(n, &a, &g, delta) && delta.iter().all(|d| d.is_finite())
         },
     )
 }
 
+/// `a = J^T J + lambda I` and `g = J^T r` for a square `n x n` row-major `J`.
+pub(crate) fn normal_equations(
+    n: usize,
+    jac: &[f64],
+    r: &[f64],
+    lambda: f64,
+    a: &mut [f64],
+    g: &mut [f64],
+) {
+    for k in 0..n {
+        for l in 0..n {
+            a[k * n + l] = (0..n).map(|i| jac[i * n + k] * jac[i * n + l]).sum::<f64>();
+        }
+        a[k * n + k] += lambda;
+        g[k] = (0..n).map(|i| jac[i * n + k] * r[i]).sum();
+    }
+}
+
 /// Closed-form cable solve, joint by joint (triangular): for each joint the
 /// `acos` branch nearest the seed. `theta`: seed on entry, answer on exit.
-/// Returns `false` (theta undefined) when some joint has no real solution.
-/// `branches[k]` counts the real solutions of joint k given joints `< k`.
+/// Returns the residual max |L_upper(theta) - target| (m; each cable's length
+/// re-evaluated at the answer), or `None` (theta undefined) when some joint
+/// has no real solution. `branches[k]` counts the real solutions of joint k
+/// given joints `< k`.
 pub fn solve_cables_closed_form(
     geom: &CableGeometry,
     target: &[f64],
     theta: &mut [f64],
     cs: &mut [(f64, f64)],
     mut branches: Option<&mut [u8]>,
-) -> bool {
+) -> Option<f64> {
     let n = theta.len();
+    let mut residual = 0.0f64;
     for i in 0..n {
         let c = 2 * i;
         let mut s = target[i] - geom.traverse[c];
         for (k, csk) in cs.iter().enumerate().take(i) {
             s -= geom.segment(c, k, *csk);
         }
-        let Some(b) = geom.joint_branches(c, i, s) else {
+        let Some(b) = geom.joint_solution(c, i, s) else {
             if let Some(br) = branches.as_deref_mut() {
                 br[i] = 0;
             }
-            return false;
+            return None;
         };
         if let Some(br) = branches.as_deref_mut() {
-            br[i] = if b[0] == b[1] { 1 } else { 2 };
+            br[i] = if b.half == 0.0 { 1 } else { 2 };
         }
         let seed = theta[i];
-        let pick = if wrap(b[0] - seed).abs() <= wrap(b[1] - seed).abs() { b[0] } else { b[1] };
-        let t = seed + wrap(pick - seed);
-        theta[i] = t;
-        cs[i] = (t.cos(), t.sin());
+        let sign = if wrap(b.angle(1.0) - seed).abs() <= wrap(b.angle(-1.0) - seed).abs() {
+            1.0
+        } else {
+            -1.0
+        };
+        theta[i] = seed + wrap(b.angle(sign) - seed);
+        cs[i] = b.cos_sin(sign);
+        // cable i's length at the answer minus its target: only segment i is new
+        residual = residual.max((geom.segment(c, i, cs[i]) - s).abs());
     }
-    true
+    Some(residual)
 }
 
 /// Which cable-solve algorithm to use.
@@ -242,13 +309,18 @@ pub struct CableSolver<'a> {
     pub opts: SolveOptions,
     seed: Vec<f64>,
     cs: Vec<(f64, f64)>,
-    lengths: Vec<f64>,
 }
 
 impl<'a> CableSolver<'a> {
     pub fn new(robot: &'a Robot, method: CableMethod, opts: SolveOptions) -> Self {
         let n = robot.n();
-        CableSolver { robot, method, opts, seed: vec![0.0; n], cs: vec![(1.0, 0.0); n], lengths: vec![0.0; n] }
+        CableSolver {
+            robot,
+            method,
+            opts,
+            seed: vec![0.0; n],
+            cs: vec![(1.0, 0.0); n],
+        }
     }
 
     /// Upper-cable lengths `target` (m) to `theta` (seed on entry, answer on exit).
@@ -260,23 +332,27 @@ impl<'a> CableSolver<'a> {
             return st;
         }
         self.seed.copy_from_slice(theta);
-        let ok = solve_cables_closed_form(geom, target, theta, &mut self.cs, None);
-        let residual = if ok {
-            geom.upper_lengths(&self.cs, &mut self.lengths);
-            self.lengths.iter().zip(target).fold(0.0f64, |m, (a, b)| m.max((a - b).abs()))
-        } else {
-            f64::INFINITY
-        };
+        let closed = solve_cables_closed_form(geom, target, theta, &mut self.cs, None);
+        let ok = closed.is_some();
+        let residual = closed.unwrap_or(f64::INFINITY);
         let in_box = !opts.enforce_limits || crate::kinematics::within_limits(robot, theta);
         if ok && residual <= opts.tol && in_box {
-            return Status { converged: true, iterations: 0, residual };
+            return Status {
+                converged: true,
+                iterations: 0,
+                residual,
+            };
         }
         if self.method == CableMethod::ClosedForm {
             if !ok {
                 theta.copy_from_slice(&self.seed);
                 self.refresh(theta);
             }
-            return Status { converged: false, iterations: 0, residual };
+            return Status {
+                converged: false,
+                iterations: 0,
+                residual,
+            };
         }
         if !ok || !in_box {
             theta.copy_from_slice(&self.seed);
@@ -344,7 +420,11 @@ mod tests {
         let mut l = [0.0; 6];
         g.lengths(&want, &mut l);
         let target = [l[0], l[2], l[4]];
-        for m in [CableMethod::Auto, CableMethod::Newton, CableMethod::ClosedForm] {
+        for m in [
+            CableMethod::Auto,
+            CableMethod::Newton,
+            CableMethod::ClosedForm,
+        ] {
             let mut th = [0.0; 3];
             let st = solve_cables(&r, &g, &target, &mut th, m, &SolveOptions::default());
             assert!(st.converged, "{m:?} {st:?}");
@@ -362,7 +442,8 @@ mod tests {
         let mut cs = [(1.0, 0.0); 3];
         let mut br = [9u8; 3];
         let target = [0.076, 0.152, 0.228];
-        assert!(solve_cables_closed_form(&g, &target, &mut th, &mut cs, Some(&mut br)));
+        let res = solve_cables_closed_form(&g, &target, &mut th, &mut cs, Some(&mut br)).unwrap();
+        assert!(res < 1e-15, "{res}");
         assert_eq!(br, [2, 2, 2]);
         assert!(th.iter().all(|t| t.abs() < 1e-7), "{th:?}");
     }

@@ -585,3 +585,187 @@ def hole_height_error(robot, dh) -> np.ndarray:
         sign = 1.0 if c % 2 == 0 else -1.0
         holes[c, mask[c], 1] += sign * dh[c // 2]
     return holes
+
+
+# --------------------------------------------------------------------------
+# Statics and cable elasticity (issue 4)
+# --------------------------------------------------------------------------
+# Written from the physics: a cable is a straight, massless string between
+# holes; the joints are frictionless pins.  Cut the arm just distal of joint k
+# (across segment k of every cable that reaches disk k or beyond).  The cut-off
+# part (linkages k..n with the cable pieces inside them) is held by the pin
+# force at joint k (no moment), the cut cables, and the external loads.  Each
+# cut cable pulls the part at its hole A_k (proximal face of disk k) with
+# force T * unit(B_{k-1} - A_k).  The moment of all of these about joint k
+# vanishes: a lower-triangular linear system in the upper tensions.
+#
+# Mass model: linkage i's whole mass sits at the centre of disk i, the point
+# (thickness_i / 2, 0) of frame O_{i,a}.
+
+__all__ += ["tensions", "elastic_upper_lengths", "solve_cables_elastic", "cable_stretch"]
+
+#: Standard gravity (m/s^2), used for hanging weights given in kg.
+STANDARD_GRAVITY = 9.80665
+
+
+def _rot(angle, v):
+    """Rotate 2-vectors ``v (..., 2)`` by ``angle (...)`` rad."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], -1)
+
+
+def _cross(a, b):
+    """z component of ``a x b`` for 2-vectors."""
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _frames(g: _Geometry, theta: np.ndarray):
+    """Base-frame points of the chain for ``theta (N, n)``.
+
+    Returns dict with ``joint (N, n, 2)``, ``face_b_prev (N, n, 2)`` (origin of
+    O_{k-1,b}), ``face_a (N, n, 2)`` (O_{k,a}), ``centre (N, n, 2)`` (disk k
+    centre), ``tip (N, 2)``, ``alpha_prev (N, n)`` and ``alpha (N, n)`` (axis
+    angles of O_{k-1,b} and O_{k,a}), all in m and rad.
+    """
+    N = theta.shape[0]
+    alpha = np.cumsum(theta, axis=1)
+    alpha_prev = np.concatenate([np.zeros((N, 1)), alpha[:, :-1]], axis=1)
+    ex_prev = np.stack([np.cos(alpha_prev), np.sin(alpha_prev)], -1)
+    ex = np.stack([np.cos(alpha), np.sin(alpha)], -1)
+    # increments: face b of k-1 -> joint k -> face a of k -> face b of k
+    steps = g.lb[None, :, None] * ex_prev + (g.la + g.t)[None, :, None] * ex
+    face_b = np.cumsum(steps, axis=1)  # origin of O_{k,b}
+    face_b_prev = np.concatenate([np.zeros((N, 1, 2)), face_b[:, :-1]], axis=1)
+    joint = face_b_prev + g.lb[None, :, None] * ex_prev
+    face_a = joint + g.la[None, :, None] * ex
+    centre = face_a + 0.5 * g.t[None, :, None] * ex
+    return dict(joint=joint, face_b_prev=face_b_prev, face_a=face_a, centre=centre,
+                tip=face_b[:, -1], alpha_prev=alpha_prev, alpha=alpha)
+
+
+def _cable_moments(g: _Geometry, fr) -> np.ndarray:
+    """``M (N, 2n, n)``: moment about joint k (N m per N of tension) of the pull
+    of cable c on the part distal of joint k (zero where c does not cross k)."""
+    n = g.n
+    p = g.holes[:, :n, 1, :]  # (2n, n, 2) hole in face b of disk k-1
+    q = g.holes[:, 1:, 0, :]  # (2n, n, 2) hole in face a of disk k
+    B = fr["face_b_prev"][:, None] + _rot(fr["alpha_prev"][:, None], p[None])
+    A = fr["face_a"][:, None] + _rot(fr["alpha"][:, None], q[None])
+    d = B - A
+    e = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    M = _cross(A - fr["joint"][:, None], e)
+    _, _, mask = _segment_vectors(g)
+    return np.where(mask[None], M, 0.0)
+
+
+def _external_moments(g: _Geometry, fr, mass, gravity, tip_wrench) -> np.ndarray:
+    """Moment about each joint of the loads on the part distal of it, ``(N, n)`` N m."""
+    N = fr["tip"].shape[0]
+    tau = np.zeros((N, g.n))
+    if gravity is not None:
+        w = np.asarray(mass, dtype=float).reshape(g.n)[:, None] * np.asarray(gravity, float)  # (n, 2)
+        # cross((C_j - J_k), w_j) summed over j >= k
+        r = fr["centre"][:, None, :, :] - fr["joint"][:, :, None, :]  # (N, k, j, 2)
+        tj = _cross(r, w[None, None])
+        upper = np.triu(np.ones((g.n, g.n), dtype=bool))  # j >= k
+        tau += np.where(upper[None], tj, 0.0).sum(axis=2)
+    if tip_wrench is not None:
+        f = np.broadcast_to(np.asarray(tip_wrench, dtype=float), (N, 3))
+        tau += _cross(fr["tip"][:, None] - fr["joint"], f[:, None, :2]) + f[:, 2:3]
+    return tau
+
+
+def tensions(robot, theta, lower=None, tip_wrench=None, gravity=None, mass=None) -> np.ndarray:
+    """Upper-cable tensions (N) ``(N, n)`` from the moment balance at every joint.
+
+    ``lower``: lower-cable tensions ``(n,)`` or ``(N, n)`` N (default
+    ``robot.lower_tension``); ``tip_wrench``: ``[Fx N, Fy N, Mz N m]`` at the
+    tip, base frame, ``(3,)`` or ``(N, 3)``; ``gravity``: ``(2,)`` m/s^2 in the
+    base frame (default none); ``mass``: ``(n,)`` kg (default ``robot.mass``).
+    Positive = taut.  NaN where an upper cable has no moment about its joint.
+    """
+    g = _geometry(robot)
+    theta = _batch(theta, g.n, "theta")
+    N = theta.shape[0]
+    if lower is None:
+        lower = robot.lower_tension
+    lower = np.broadcast_to(np.asarray(lower, dtype=float), (N, g.n))
+    if gravity is not None and mass is None:
+        mass = robot.mass
+    fr = _frames(g, theta)
+    M = _cable_moments(g, fr)  # (N, 2n, n)
+    tau = _external_moments(g, fr, mass, gravity, tip_wrench)
+    # sum_c T_c M[c, k] + tau_k = 0  ->  Mu^T T_up = -(tau + Ml^T T_low)
+    Mu, Ml = M[:, 0::2, :], M[:, 1::2, :]  # (N, pair, joint)
+    rhs = -(tau + np.einsum("npk,np->nk", Ml, lower))
+    A = np.swapaxes(Mu, 1, 2)  # (N, joint, pair), upper triangular
+    with np.errstate(all="ignore"):
+        return _batched_solve(A, rhs)
+
+
+def elastic_upper_lengths(robot, theta, T, E, diameter, routing_length=0.0) -> np.ndarray:
+    """Unstretched (commanded) upper-cable lengths that hold the arm at ``theta``.
+
+    Hooke: a cable piece of rest length l under tension T has length
+    ``l (1 + T/(E A))``, ``A = pi d^2 / 4``.  The actuator fixes the rest
+    length ``L_cmd + routing_length`` between the screw and the anchor; the
+    path behind the base disk is geometrically ``routing_length`` long, so the
+    arm sees ``L_geom = (L_cmd + routing) (1 + eps) - routing``.
+    """
+    eps = np.asarray(T, float) / (E * np.pi * diameter**2 / 4.0)
+    Lg = upper_cable_lengths(robot, theta)
+    return (Lg + routing_length) / (1.0 + eps) - routing_length
+
+
+def cable_stretch(robot, theta, T, E, diameter, routing_length=0.0) -> np.ndarray:
+    """Elongation (m) of every upper cable at ``theta`` under tensions ``T``."""
+    Lg = upper_cable_lengths(robot, _batch(theta, robot.n, "theta"))
+    return Lg - elastic_upper_lengths(robot, theta, T, E, diameter, routing_length)
+
+
+def solve_cables_elastic(robot, upper, E, diameter, routing_length=0.0, lower=None,
+                         tip_wrench=None, gravity=None, mass=None, seed=None,
+                         tol=1e-12, max_iter=100) -> dict:
+    """Commanded (unstretched) upper lengths ``(N, n)`` m -> joint angles with
+    stretched cables, the tensions depending on theta (coupled solve).
+
+    First the rigid LM solve from ``seed``; then LM on
+    ``r = upper - L_cmd(theta)`` where ``L_cmd(theta)`` is
+    :func:`elastic_upper_lengths` with the statics tensions at theta, and the
+    Jacobian by central differences.  Returns the dict of :func:`solve_cables`
+    plus ``tension (N, n)`` N.
+    """
+    g = _geometry(robot)
+    upper = _batch(upper, g.n, "upper")
+    rigid = solve_cables(robot, upper, seed=seed, tol=tol, max_iter=max_iter)
+    theta = rigid["theta"].copy()
+
+    lower_b = None if lower is None else np.broadcast_to(np.asarray(lower, float), upper.shape)
+    wrench_b = None if tip_wrench is None else np.broadcast_to(np.asarray(tip_wrench, float),
+                                                               (upper.shape[0], 3))
+
+    def _T(th, idx):
+        return tensions(robot, th, None if lower_b is None else lower_b[idx],
+                        None if wrench_b is None else wrench_b[idx], gravity, mass)
+
+    def model(th, idx):
+        return elastic_upper_lengths(robot, th, _T(th, idx), E, diameter, routing_length)
+
+    def residual(th, idx):
+        return upper[idx] - model(th, idx)
+
+    def step(th, r, lam, idx):
+        h = 1e-6
+        J = np.empty((th.shape[0], g.n, g.n))
+        for k in range(g.n):
+            d = np.zeros(g.n)
+            d[k] = h
+            J[:, :, k] = (model(th + d, idx) - model(th - d, idx)) / (2 * h)
+        Jt = np.swapaxes(J, 1, 2)
+        A = Jt @ J + lam[:, None, None] * np.eye(g.n)
+        return _batched_solve(A, (Jt @ r[..., None])[..., 0])
+
+    sol = _lm(residual, step, theta, tol, max_iter)
+    sol["within_limits"] = _within_limits(g, sol["theta"])
+    sol["tension"] = _T(sol["theta"], np.arange(upper.shape[0]))
+    return sol

@@ -250,7 +250,120 @@ class Robot:
         return Solution._from_core(parts, self.n, single)
 
 
+    # ---- statics and cable elasticity (issue 4; model in rust/statics.rs) --
+    def _loads(self, rows: int, lower, tip_wrench, gravity):
+        """Validated load arrays for the core: shared (k,) or per row (N, k)."""
+        def rowed(name, value, width):
+            if value is None:
+                return None
+            arr, single = _batch(name, value, width)
+            if not single and arr.shape[0] != rows:
+                raise CdsmInputError(f"`{name}`: expected shape ({rows}, {width}) or ({width},), "
+                                     f"got {np.shape(value)}")
+            return arr.reshape(-1)
+        g = None if gravity is None else _vector("gravity", gravity, 2)
+        return rowed("lower", lower, self.n), rowed("tip_wrench", tip_wrench, 3), g
+
+    def tensions(self, theta, lower=None, tip_wrench=None, gravity=None) -> np.ndarray:
+        """Upper-cable tensions, N (positive = taut): (N, n) -> (N, n); (n,) -> (n,).
+
+        Moment balance about every (frictionless) joint of the part distal of
+        it; each cable pulls that part at its hole in disk k along its segment.
+        lower: lower (force-controlled) tensions, N, (n,) or (N, n); default the
+        robot file's (paper: 50, 10, 5 g on disks 1, 2, 3). tip_wrench:
+        [Fx (N), Fy (N), Mz (N m)] at the tip, base frame, (3,) or (N, 3).
+        gravity: [gx, gy] (m/s^2) in the base frame; default none (horizontal
+        plane); linkage i's mass sits at the centre of disk i. NaN where an
+        upper cable has no moment arm about its own joint.
+        """
+        t, single = _batch("theta", theta, self.n)
+        lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
+        out = _cdsm.statics_tensions(self._core, t, lo, w, g, self.threads)
+        return self._out(out, (self.n,), single)
+
+    def feasible(self, theta, min_tension: float = 0.0, lower=None, tip_wrench=None,
+                 gravity=None) -> np.ndarray:
+        """Whether every upper cable is taut beyond ``min_tension`` (N):
+        (N, n) -> (N,) bool. False where a cable would have to go slack
+        (tension <= min_tension) or the balance is impossible (NaN)."""
+        t, single = _batch("theta", theta, self.n)
+        lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
+        ok = _cdsm.statics_feasible(self._core, t, lo, w, g, _finite("min_tension", min_tension),
+                                    self.threads)
+        return ok[0] if single else ok
+
+    def stretch(self, theta, lower=None, tip_wrench=None, gravity=None) -> np.ndarray:
+        """Elongation of every upper cable, m, under the statics tensions at theta:
+        ``(L_geom + routing_length) * eps / (1 + eps)``, ``eps = T / (E A)``,
+        ``A = pi d^2 / 4``. (N, n) -> (N, n)."""
+        t, single = _batch("theta", theta, self.n)
+        lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
+        out = _cdsm.statics_stretch(self._core, t, lo, w, g, self.threads)
+        return self._out(out, (self.n,), single)
+
+    @property
+    def routing_length(self) -> float:
+        """Cable path behind the base disk to the actuator, m (stretches with the cable)."""
+        return _cdsm.statics_routing_length(self._core)
+
+    @property
+    def axial_stiffness(self) -> float:
+        """Cable axial stiffness E A, N (A = pi d^2 / 4)."""
+        return self.youngs_modulus * np.pi * self.cable_diameter ** 2 / 4.0
+
+    def with_cable(self, youngs_modulus: Optional[float] = None, diameter: Optional[float] = None,
+                   routing_length: Optional[float] = None) -> "Robot":
+        """The same robot with another cable material (Pa, m) or routing length (m)."""
+        e = self.youngs_modulus if youngs_modulus is None else _finite("youngs_modulus", youngs_modulus)
+        d = self.cable_diameter if diameter is None else _finite("diameter", diameter)
+        r = self.routing_length if routing_length is None else _finite("routing_length", routing_length)
+        return Robot(_cdsm.statics_with_cable(self._core, e, d, r), self.threads)
+
+    def solve_cables_elastic(self, upper, seed=None, lower=None, tip_wrench=None, gravity=None,
+                             min_tension: float = 0.0, tol: float = 1e-12,
+                             max_iter: int = 100) -> "ElasticSolution":
+        """Commanded (unstretched) upper-cable lengths (N, n), m -> joint angles
+        with elastic cables whose tensions depend on theta (coupled solve).
+
+        The arm sees ``L_geom = (L_cmd + routing_length)(1 + T/(E A)) - routing_length``
+        per upper cable, T from :meth:`tensions` at the answer. Each row: the
+        rigid cable solve (auto) from ``seed`` (default 0), then damped Newton
+        (LM) on the coupled equations. Returns an :class:`ElasticSolution`
+        (also flags slack cables: ``feasible``).
+        """
+        u, single = _batch("upper", upper, self.n)
+        lo, w, g = self._loads(u.shape[0], lower, tip_wrench, gravity)
+        parts, tension, ok = _cdsm.statics_solve_elastic(
+            self._core, u, self._seed(seed, u.shape[0]), lo, w, g,
+            _finite("min_tension", min_tension), float(tol), _iters(max_iter), self.threads)
+        base = Solution._from_core(parts, self.n, single)
+        tension = tension.reshape(-1, self.n)
+        return ElasticSolution(base.theta, base.converged, base.iterations, base.residual,
+                               base.within_limits, tension[0] if single else tension,
+                               ok[0] if single else ok)
+
 def _iters(max_iter: int) -> int:
     if int(max_iter) < 1:
         raise CdsmInputError(f"`max_iter`: must be at least 1, got {max_iter}")
     return int(max_iter)
+
+
+
+def _finite(name: str, value) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise CdsmInputError(f"`{name}`: expected a number, got {value!r}") from None
+    if not np.isfinite(v):
+        raise CdsmInputError(f"`{name}`: must be finite, got {v}")
+    return v
+
+
+@dataclass(frozen=True)
+class ElasticSolution(Solution):
+    """A :class:`Solution` of the elastic cable solve, plus the statics at the
+    answer: tension (N, n) upper-cable tensions, N; feasible (N,) every upper
+    tension above ``min_tension`` (False: some cable would have to go slack)."""
+
+    tension: np.ndarray = None
+    feasible: np.ndarray = None

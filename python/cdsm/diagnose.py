@@ -1,0 +1,424 @@
+"""Sim-to-real gap diagnosis: which unmodelled effect explains the difference
+between the nominal model and measurements, where the gap lies, and how far it
+shrinks once the effect is added — judged on held-out rows. SI units (m, rad).
+
+Pipeline (FIGAROH-like): prepare the commands (nominal pose IK for x_cmd rows),
+fit each candidate effect of :mod:`cdsm.plant` by Levenberg–Marquardt (model
+evaluations batched in the Rust core), rank by k-fold cross-validated held-out
+RMS with AIC/BIC beside it, grow a combination by forward selection, and
+report parameter uncertainty, identifiability, and the configuration features
+that explain the residual size.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence
+
+import numpy as np
+
+from . import plant, workspace
+from .errors import Progress
+from .measurements import Measurements
+from .robot import CdsmInputError, Robot
+
+__all__ = ["prepare", "Prepared", "fit", "Fit", "cross_validate", "diagnose", "Diagnosis",
+           "DEFAULT_NOISE"]
+
+# Measurement noise assumed when none is given: 10 µm per axis (laser tracker).
+DEFAULT_NOISE = 10e-6
+
+
+@dataclass
+class Prepared:
+    """Measurements with solved commands. theta_cmd (N, n) rad; usable (N,)
+    bool; flags: {row: reason} for rows left out of the fit (never silently)."""
+
+    robot: Robot
+    meas: Measurements
+    theta_cmd: np.ndarray
+    usable: np.ndarray
+    flags: Dict[int, str]
+
+    @property
+    def kind(self) -> str:
+        return self.meas.kind
+
+    @property
+    def rows(self) -> np.ndarray:
+        return np.flatnonzero(self.usable)
+
+
+def prepare(robot: Robot, meas: Measurements) -> Prepared:
+    """Solve each row's commanded configuration: theta_i given, or the nominal
+    pose IK of (x_cmd, y_cmd, phi_cmd) from the paper's seed."""
+    if meas.n != robot.n:
+        raise CdsmInputError(f"measurements are for n = {meas.n} joints, the robot has {robot.n}")
+    flags: Dict[int, str] = {}
+    if meas.theta is not None:
+        theta = np.array(meas.theta, dtype=float)
+        ok = np.ones(len(meas), bool)
+    else:
+        sol = robot.ik(meas.pose_cmd, seed=workspace.paper_ik_seed(robot.n))
+        theta = np.array(sol.theta, dtype=float)
+        ok = np.asarray(sol.converged, bool)
+        for i in np.flatnonzero(~ok):
+            flags[int(i)] = f"commanded pose not reachable by the nominal model (IK residual {sol.residual[i]:.2e})"
+        theta[~ok] = 0.0
+    # the nominal commands must settle on the nominal model too
+    obs, conv = plant.predict(robot, plant.params(robot), theta, meas.dL, meas.kind)
+    for i in np.flatnonzero(ok & ~conv):
+        flags[int(i)] = "the nominal model cannot realise the commanded cable lengths"
+    ok &= conv
+    return Prepared(robot, meas, theta, ok, flags)
+
+
+@dataclass
+class Fit:
+    """A fitted model: effects, the full parameter vector p (P,), free
+    parameter names and values, standard deviations, correlation, and fit
+    statistics on the rows it saw."""
+
+    effects: List[str]
+    p: np.ndarray
+    names: List[str]
+    values: np.ndarray
+    std: np.ndarray
+    corr: np.ndarray
+    singular: np.ndarray
+    rms: float
+    ssr: float
+    n_obs: int
+    aic: float
+    bic: float
+    converged: bool
+    iterations: int
+
+    def params_by_effect(self, robot: Robot) -> Dict[str, List[float]]:
+        lay = plant.layout(robot)
+        return {e: self.p[lay[e]].tolist() for e in self.effects}
+
+    def std_by_effect(self, robot: Robot) -> Dict[str, List[float]]:
+        out, k = {}, 0
+        lay = plant.layout(robot)
+        for e in self.effects:
+            w = lay[e].stop - lay[e].start
+            out[e] = self.std[k:k + w].tolist()
+            k += w
+        return out
+
+
+def _free(robot: Robot, effects: Sequence[str]):
+    lay = plant.layout(robot)
+    idx, scale, names, nonneg = [], [], [], []
+    for e in effects:
+        if e not in lay:
+            raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(plant.EFFECTS)}")
+        sl = lay[e]
+        w = sl.stop - sl.start
+        idx.extend(range(sl.start, sl.stop))
+        scale.extend([plant.TYPICAL[e]] * w)
+        names.extend([f"{e}[{j}]" if w > 1 else e for j in range(w)])
+        nonneg.extend([e in plant.NON_NEGATIVE] * w)
+    return np.array(idx, dtype=int), np.array(scale), names, np.array(nonneg, bool)
+
+
+def _residual(prep: Prepared, P: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """(K, 2·len(rows)) prediction minus measurement for parameter sets P (K, P)."""
+    obs, conv = plant.predict(prep.robot, P, prep.theta_cmd[rows], prep.meas.dL[rows], prep.kind)
+    r = obs[:, :, :2] - prep.meas.measured[rows][None]
+    r[~conv] = np.nan
+    return r.reshape(len(P), -1)
+
+
+def fit(prep: Prepared, effects: Sequence[str], rows: Optional[np.ndarray] = None,
+        max_iter: int = 30) -> Fit:
+    """Least-squares fit of ``effects`` on ``rows`` (default: all usable) by
+    Levenberg–Marquardt in parameters scaled by their typical size; the
+    Jacobian by central differences, all parameter sets in one Rust call."""
+    robot = prep.robot
+    rows = prep.rows if rows is None else np.asarray(rows)
+    idx, scale, names, nonneg = _free(robot, effects)
+    P0 = np.zeros(plant.size(robot))
+    k = len(idx)
+
+    def full(z):
+        p = P0.copy()
+        p[idx] = z * scale
+        return p
+
+    z = np.zeros(k)
+    r = _residual(prep, full(z)[None], rows)[0]
+    if not np.isfinite(r).all():
+        raise CdsmInputError("the nominal model cannot realise some commanded rows")
+    cost = float(r @ r)
+    lam, it, conv = 1e-3, 0, k == 0
+    h = 1e-4
+    J = np.zeros((len(r), k))
+    while k and it < max_iter:
+        it += 1
+        sets = [full(z)]
+        lo = z - h
+        lo[nonneg] = np.maximum(lo[nonneg], 0.0)  # one-sided at the bound
+        for j in range(k):
+            for v in (lo[j] + 2 * h, lo[j]):
+                zz = z.copy()
+                zz[j] = v
+                sets.append(full(zz))
+        R = _residual(prep, np.array(sets), rows)
+        J = (R[1::2] - R[2::2]).T / (2 * h)
+        if not np.isfinite(J).all():
+            J = np.nan_to_num(J)
+        g = J.T @ r
+        A = J.T @ J
+        improved = False
+        while lam < 1e12:
+            step = np.linalg.solve(A + lam * np.diag(np.maximum(np.diag(A), 1e-12)), -g)
+            zn = z + step
+            zn[nonneg] = np.maximum(zn[nonneg], 0.0)
+            rn = _residual(prep, full(zn)[None], rows)[0]
+            cn = float(rn @ rn) if np.isfinite(rn).all() else np.inf
+            if cn < cost:
+                rel = (cost - cn) / max(cost, 1e-300)
+                z, r, cost = zn, rn, cn
+                lam = max(lam / 10, 1e-12)
+                improved = True
+                break
+            lam *= 10
+        if not improved or rel < 1e-10:
+            conv = True
+            break
+    m = len(r)
+    sigma2 = cost / max(m - k, 1)
+    if k:
+        sv = np.linalg.svd(J / np.maximum(np.linalg.norm(J, axis=0), 1e-300), compute_uv=False)
+        cov_z = np.linalg.pinv(J.T @ J) * sigma2
+        std = np.sqrt(np.maximum(np.diag(cov_z), 0.0)) * scale
+        d = np.sqrt(np.maximum(np.diag(cov_z), 1e-300))
+        corr = cov_z / np.outer(d, d)
+    else:
+        sv, std, corr = np.zeros(0), np.zeros(0), np.zeros((0, 0))
+    ll = m * np.log(max(cost / m, 1e-300))
+    return Fit(list(effects), full(z), names, z * scale, std, corr, sv,
+               float(np.sqrt(cost / (m / 2))), cost, m, ll + 2 * k, ll + k * np.log(m), conv, it)
+
+
+def _folds(n_rows: int, k: int, seed: int = 0) -> List[np.ndarray]:
+    order = np.random.default_rng(seed).permutation(n_rows)
+    return [np.sort(order[i::k]) for i in range(k)]
+
+
+def cross_validate(prep: Prepared, effects: Sequence[str], folds: int = 10) -> np.ndarray:
+    """Held-out position error |e_xy| (m) of every usable row, by k-fold
+    cross-validation (leave-one-out when there are fewer rows than folds)."""
+    rows = prep.rows
+    k = min(folds, len(rows))
+    err = np.full(len(rows), np.nan)
+    for test in _folds(len(rows), k):
+        train = np.setdiff1d(np.arange(len(rows)), test)
+        f = fit(prep, effects, rows[train]) if effects else None
+        p = f.p if f is not None else np.zeros(plant.size(prep.robot))
+        r = _residual(prep, p[None], rows[test])[0].reshape(-1, 2)
+        err[test] = np.hypot(r[:, 0], r[:, 1])
+    return err
+
+
+def _rms(e: np.ndarray) -> float:
+    return float(np.sqrt(np.nanmean(e ** 2)))
+
+
+def better(e_new: np.ndarray, e_old: np.ndarray, z: float = 2.0) -> bool:
+    """Whether held-out errors ``e_new`` beat ``e_old`` beyond noise: a paired
+    test on the per-row squared errors (mean gain > z standard errors)."""
+    d = e_old ** 2 - e_new ** 2
+    d = d[np.isfinite(d)]
+    if len(d) < 2:
+        return False
+    se = d.std(ddof=1) / np.sqrt(len(d))
+    return bool(d.mean() > z * se and d.mean() > 0)
+
+
+@dataclass
+class Candidate:
+    """One effect or combination: its fit on all rows and its held-out errors."""
+
+    name: str
+    effects: List[str]
+    fit: Fit
+    heldout: np.ndarray
+
+    @property
+    def heldout_rms(self) -> float:
+        return _rms(self.heldout)
+
+
+@dataclass
+class Diagnosis:
+    """The answer: ``best`` (an effect, a '+'-joined combination, or 'none'),
+    the baseline, every candidate (best first), the chosen model, the noise
+    floor, per-row residuals and features, and identifiability notes."""
+
+    best: str
+    baseline: Candidate
+    singles: List[Candidate]
+    chosen: Optional[Candidate]
+    steps: List[Candidate]
+    noise: float
+    prep: Prepared
+    features: Dict[str, np.ndarray] = field(default_factory=dict)
+    feature_correlation: Dict[str, float] = field(default_factory=dict)
+    ties: List[str] = field(default_factory=list)
+    correlated: List[str] = field(default_factory=list)
+
+    @property
+    def noise_floor(self) -> float:
+        """Expected held-out position RMS of a correct model: sqrt(2)·noise (m)."""
+        return float(np.sqrt(2.0) * self.noise)
+
+    @property
+    def explained(self) -> bool:
+        final = self.chosen.heldout_rms if self.chosen else self.baseline.heldout_rms
+        return final <= 1.5 * self.noise_floor
+
+    def final(self) -> Candidate:
+        return self.chosen or self.baseline
+
+    def to_json(self) -> dict:
+        robot = self.prep.robot
+
+        def cand(c: Candidate) -> dict:
+            return dict(name=c.name, params=c.fit.params_by_effect(robot),
+                        std=c.fit.std_by_effect(robot), heldout_rms_m=c.heldout_rms,
+                        fit_rms_m=c.fit.rms, aic=c.fit.aic, bic=c.fit.bic,
+                        converged=bool(c.fit.converged))
+
+        return dict(
+            best=self.best,
+            baseline=dict(heldout_rms_m=self.baseline.heldout_rms, aic=self.baseline.fit.aic,
+                          bic=self.baseline.fit.bic),
+            effects=[cand(c) for c in self.singles],
+            selection=[cand(c) for c in self.steps],
+            chosen=cand(self.chosen) if self.chosen else None,
+            noise_m=self.noise, noise_floor_m=self.noise_floor, explained=self.explained,
+            kind=self.prep.kind, rows=int(len(self.prep.meas)), rows_used=int(self.prep.usable.sum()),
+            flagged_rows={str(k): v for k, v in self.prep.flags.items()},
+            ties=self.ties, correlated_parameters=self.correlated,
+            feature_correlation=self.feature_correlation,
+        )
+
+
+def features(prep: Prepared) -> Dict[str, np.ndarray]:
+    """Configuration features of every row (N,): closeness to a singular state
+    (sigma_min/sigma_max of the pose Jacobian), the largest |joint angle| and
+    |theta_2| (rad), the smallest upper tension (N), the tip sensitivity to the
+    upper cables (m/m), the cable that carries dL, and X, Y (m)."""
+    robot, th = prep.robot, prep.theta_cmd
+    sv = workspace.singular_values(robot, th)
+    sens = workspace.sensitivity(robot, th)
+    pose = robot.fk(th)
+    out = {
+        "singularity (sigma_min/sigma_max)": sv[:, -1] / sv[:, 0],
+        "max |joint angle| (rad)": np.abs(th).max(axis=1),
+        "tip sensitivity to cables (m/m)": np.linalg.norm(sens[:, :2, :], axis=(1, 2)),
+        "X (m)": pose[:, 0],
+        "Y (m)": pose[:, 1],
+        "cable with dL (index)": np.where(np.abs(prep.meas.dL).max(axis=1) > 0,
+                                          np.abs(prep.meas.dL).argmax(axis=1) * 2 + 1, 0).astype(float),
+    }
+    if robot.n >= 2:
+        out["|theta_2| (rad)"] = np.abs(th[:, 1])
+    if hasattr(robot, "tensions"):
+        try:
+            out["min upper tension (N)"] = np.asarray(robot.tensions(th)).min(axis=1)
+        except Exception:  # statics unavailable for this robot: feature left out
+            pass
+    return out
+
+
+def _spearman(a: np.ndarray, b: np.ndarray) -> float:
+    m = np.isfinite(a) & np.isfinite(b)
+    if m.sum() < 3:
+        return float("nan")
+    ra = np.argsort(np.argsort(a[m])).astype(float)
+    rb = np.argsort(np.argsort(b[m])).astype(float)
+    if ra.std() == 0 or rb.std() == 0:
+        return float("nan")
+    return float(np.corrcoef(ra, rb)[0, 1])
+
+
+def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] = None,
+             folds: int = 10, noise: float = DEFAULT_NOISE, max_combination: int = 3,
+             progress: bool = False) -> Diagnosis:
+    """Diagnose the gap between ``robot`` and ``meas`` (see the module doc).
+
+    effects: the candidate library (default: every effect of :mod:`cdsm.plant`).
+    noise: measurement noise per axis (m) for the noise floor. max_combination:
+    the largest combination forward selection may build.
+    """
+    library = list(plant.EFFECTS if effects is None else effects)
+    for e in library:
+        if e not in plant.EFFECTS:
+            raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(plant.EFFECTS)}")
+    if not (np.isfinite(noise) and noise > 0):
+        raise CdsmInputError(f"`noise`: must be a positive number of m, got {noise}")
+    prep = prepare(robot, meas)
+    if prep.usable.sum() < 3:
+        raise CdsmInputError(f"only {int(prep.usable.sum())} usable rows; the diagnosis needs at least 3")
+    bar = Progress(len(library) + 1, "diagnose", progress)
+    base = Candidate("none", [], fit(prep, []), cross_validate(prep, [], folds))
+    bar.update(1)
+    singles = []
+    for e in library:
+        singles.append(Candidate(e, [e], fit(prep, [e]), cross_validate(prep, [e], folds)))
+        bar.update(1)
+    singles.sort(key=lambda c: c.heldout_rms)
+    chosen, steps = None, []
+    top = singles[0] if singles else None
+    if top is not None and better(top.heldout, base.heldout) and top.fit.bic < base.fit.bic:
+        chosen = top
+        steps.append(top)
+        while len(chosen.effects) < max_combination:
+            rest = [c.name for c in singles if c.name not in chosen.effects]
+            trials = [Candidate("+".join(chosen.effects + [e]), chosen.effects + [e],
+                                fit(prep, chosen.effects + [e]),
+                                cross_validate(prep, chosen.effects + [e], folds)) for e in rest]
+            if not trials:
+                break
+            trials.sort(key=lambda c: c.heldout_rms)
+            nxt = trials[0]
+            if better(nxt.heldout, chosen.heldout) and nxt.fit.bic < chosen.fit.bic:
+                chosen = nxt
+                steps.append(nxt)
+            else:
+                break
+    d = Diagnosis(chosen.name if chosen else "none", base, singles, chosen, steps, float(noise), prep)
+    # candidates the held-out errors cannot tell apart from the best single one
+    if top is not None:
+        d.ties = [c.name for c in singles[1:] if not better(top.heldout, c.heldout)
+                  and c.heldout_rms < base.heldout_rms]
+    final = d.final()
+    if final.fit.corr.size:
+        c = final.fit.corr
+        names = final.fit.names
+        for i in range(len(names)):
+            for j in range(i + 1, len(names)):
+                if abs(c[i, j]) > 0.95:
+                    d.correlated.append(f"{names[i]} ~ {names[j]} (corr {c[i, j]:+.3f})")
+    # where the gap lies: residual sizes against configuration features
+    feats = features(prep)
+    d.features = feats
+    rows = prep.rows
+    r_base = _residual(prep, np.zeros(plant.size(robot))[None], rows)[0].reshape(-1, 2)
+    size = np.hypot(r_base[:, 0], r_base[:, 1])
+    d.feature_correlation = {k: _spearman(v[rows], size) for k, v in feats.items()}
+    return d
+
+
+def residuals(d: Diagnosis, which: str = "final") -> np.ndarray:
+    """Per-row residuals (N, 2) m (prediction − measurement) of the baseline or
+    the final model, NaN for unusable rows."""
+    prep = d.prep
+    p = np.zeros(plant.size(prep.robot)) if which == "baseline" else d.final().fit.p
+    out = np.full((len(prep.meas), 2), np.nan)
+    out[prep.rows] = _residual(prep, p[None], prep.rows)[0].reshape(-1, 2)
+    return out

@@ -1,0 +1,546 @@
+"""Figures of the paper study (matplotlib, Agg, no pyplot global state).
+
+Every ``*_figure`` function returns a :class:`matplotlib.figure.Figure`;
+:func:`save` writes it as PNG. Arrays come from :class:`cdsm.paper.PaperStudy`
+in SI units (m, rad); the figures show mm and degrees, as the paper's figures.
+
+Colours follow the paper: deviation in X red, in Y blue, in phi green; in the
+configuration diagrams the arm before the error is blue, after it red.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import LinearSegmentedColormap, LogNorm, Normalize
+from matplotlib.figure import Figure
+
+from .robot import Robot
+
+__all__ = [
+    "chain_points", "save", "PROTOCOL_TITLES", "scenario_figure", "overview_figure",
+    "monte_carlo_figure", "singular_figure", "workspace_figure", "table2_figures",
+    "singular_state_figure", "table3_figure", "all_figures",
+]
+
+DPI = 110
+RED, BLUE, GREEN = "#d62728", "#1f5fbf", "#2ca02c"
+HUES = (RED, BLUE, GREEN)
+PROTOCOL_TITLES = {
+    "attitude0": "attitude-0 protocol (grid tip, phi = 0, pose IK)",
+    "joint": "joint-space protocol (error at the grid angles)",
+}
+_FONT = {"font.size": 10, "axes.titlesize": 10.5, "axes.labelsize": 10,
+         "xtick.labelsize": 9, "ytick.labelsize": 9, "legend.fontsize": 9}
+
+
+# ---------------------------------------------------------------------------
+# helpers
+# ---------------------------------------------------------------------------
+def _figure(w: float, h: float) -> Figure:
+    """A new Figure with an Agg canvas (no pyplot state)."""
+    import matplotlib
+
+    with matplotlib.rc_context(_FONT):
+        fig = Figure(figsize=(w, h), dpi=DPI)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _rc():
+    import matplotlib
+
+    return matplotlib.rc_context(_FONT)
+
+
+def save(fig: Figure, path: "str | os.PathLike[str]", dpi: int = DPI) -> str:
+    """Write ``fig`` as PNG at ``path`` (directories created); returns the path."""
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    fig.savefig(path, dpi=dpi, format="png")
+    return str(path)
+
+
+def _hue_cmap(color: str) -> LinearSegmentedColormap:
+    """Diverging map: negative dark grey, zero white, positive ``color``."""
+    return LinearSegmentedColormap.from_list(f"div_{color}", ["#3a3a3a", "#f7f7f7", color])
+
+
+def _sym_norm(v: np.ndarray) -> Normalize:
+    m = float(np.nanmax(np.abs(v))) if np.isfinite(v).any() else 1.0
+    m = m if m > 0 else 1.0
+    return Normalize(-m, m)
+
+
+def chain_points(robot: Robot, theta) -> np.ndarray:
+    """Points of the arm for drawing, m: theta (n,) rad -> (3n+1, 2).
+
+    Row 0 is the base frame origin O_{0,b}; then for each linkage k = 1..n:
+    joint k, the proximal face centre of disk k (O_{k,a}) and its distal face
+    centre (O_{k,b}). The last row is the tip (equals ``robot.fk(theta)[:2]``).
+    The heading of linkage k (after joint k) is sum(theta[:k]).
+    """
+    t = np.asarray(theta, dtype=np.float64).reshape(-1)
+    if t.shape != (robot.n,):
+        raise ValueError(f"`theta`: expected shape ({robot.n},), got {np.shape(theta)}")
+    lb, la, th = robot.link_before, robot.link_after, robot.thickness
+    pts = [np.zeros(2)]
+    p, head = np.zeros(2), 0.0
+    for k in range(robot.n):
+        p = p + lb[k] * np.array([np.cos(head), np.sin(head)])
+        pts.append(p)
+        head += t[k]
+        d = np.array([np.cos(head), np.sin(head)])
+        p = p + la[k] * d
+        pts.append(p)
+        p = p + th[k] * d
+        pts.append(p)
+    return np.array(pts)
+
+
+def _hole_heights(robot: Robot) -> np.ndarray:
+    """(n,) hole height of each upper cable at its own disk, m."""
+    h = robot.holes
+    return np.array([abs(h[2 * i, i + 1, 0, 1]) for i in range(robot.n)])
+
+
+def draw_arm(ax, robot: Robot, theta, color: str, ls: str = "-", lw: float = 2.0,
+             label: Optional[str] = None, disks: bool = True, alpha: float = 1.0) -> None:
+    """Draw the arm at ``theta`` (n,) rad on ``ax`` in mm: links, joints (dots),
+    disks (bars across the linkage, as wide as twice the hole height)."""
+    pts = chain_points(robot, theta) * 1e3
+    ax.plot(pts[:, 0], pts[:, 1], ls=ls, color=color, lw=lw, label=label, alpha=alpha,
+            solid_capstyle="round")
+    ax.plot(pts[1::3, 0], pts[1::3, 1], "o", color=color, ms=4, alpha=alpha)
+    if disks:
+        hh = _hole_heights(robot) * 1e3
+        heads = np.cumsum(np.asarray(theta, float))
+        base = np.array([0.0, 1.0]) * max(hh) * 1.05
+        ax.plot([0, 0], [-base[1], base[1]], color="0.35", lw=4, solid_capstyle="butt")
+        for k in range(robot.n):
+            nrm = np.array([-np.sin(heads[k]), np.cos(heads[k])]) * hh[k] * 1.05
+            for c in (pts[3 * k + 2], pts[3 * k + 3]):
+                ax.plot([c[0] - nrm[0], c[0] + nrm[0]], [c[1] - nrm[1], c[1] + nrm[1]],
+                        ls=ls, color=color, lw=1.4, alpha=alpha)
+
+
+def _xy_mm(study, protocol: str) -> np.ndarray:
+    return study.workspaces[protocol].poses[:, :2] * 1e3
+
+
+def _scatter_map(fig, ax, xy, val, cmap, norm, label, size=9, order=True):
+    """Scatter of ``val`` at ``xy`` (mm), largest |val| drawn last; colour bar."""
+    ok = np.isfinite(val)
+    idx = np.where(ok)[0]
+    if order:
+        idx = idx[np.argsort(np.abs(val[idx]))]
+    sc = ax.scatter(xy[idx, 0], xy[idx, 1], c=val[idx], cmap=cmap, norm=norm, s=size,
+                    linewidths=0, rasterized=True)
+    cb = fig.colorbar(sc, ax=ax, shrink=0.92, pad=0.02)
+    cb.set_label(label)
+    return sc
+
+
+def _axes_mm(ax, equal=False):
+    ax.set_xlabel("tip X (mm)")
+    ax.set_ylabel("tip Y (mm)")
+    if equal:
+        ax.set_aspect("equal", adjustable="datalim")
+    ax.grid(True, lw=0.3, alpha=0.5)
+
+
+def _unreachable(ax, study, protocol):
+    ws = study.workspaces[protocol]
+    bad = ~ws.reachable
+    if bad.any():
+        xy = ws.poses[bad, :2] * 1e3
+        ax.scatter(xy[:, 0], xy[:, 1], s=3, c="0.82", marker=".", linewidths=0, zorder=0)
+
+
+# ---------------------------------------------------------------------------
+# Fig. 5 / Fig. 6: one scenario
+# ---------------------------------------------------------------------------
+def scenario_figure(study, key: str, protocol: str) -> Figure:
+    """Deviation dX (red), dY (blue) and dphi (green) of scenario ``key`` over
+    the workspace tip positions (mm), under ``protocol``; jump points ringed
+    black; unreachable grid tips (attitude-0) light grey."""
+    r = study.result(key, protocol)
+    xy = _xy_mm(study, protocol)
+    vals = [r.dS[:, 0] * 1e3, r.dS[:, 1] * 1e3, np.degrees(r.dS[:, 2])]
+    names = ["dX (mm)", "dY (mm)", "dphi (deg)"]
+    with _rc():
+        fig = _figure(15, 5.6)
+        axs = fig.subplots(1, 3)
+        for ax, v, nm, hue in zip(axs, vals, names, HUES):
+            _unreachable(ax, study, protocol)
+            _scatter_map(fig, ax, xy, v, _hue_cmap(hue), _sym_norm(v), nm)
+            jp = r.jumps.point
+            if jp.any():
+                ax.scatter(xy[jp, 0], xy[jp, 1], s=40, facecolors="none", edgecolors="k",
+                           linewidths=0.9, label=f"jump points ({int(jp.sum())})")
+                ax.legend(loc="lower left", framealpha=0.85)
+            ax.set_title(f"{nm.split()[0]}: max |{nm.split()[0]}| = {np.nanmax(np.abs(v)):.3g} "
+                         f"{nm.split()[1].strip('()')}", color=hue)
+            _axes_mm(ax)
+        ws = study.workspaces[protocol]
+        reach = (f"{ws.n_unreachable} grid tips unreachable at phi = 0 (grey dots)" if protocol == "attitude0"
+                 else "overlapping tips: largest |value| drawn on top")
+        fig.suptitle(f"{r.scenario.label}  ({r.scenario.figure or r.scenario.key}) — "
+                     f"{PROTOCOL_TITLES.get(protocol, protocol)}\n"
+                     f"{int(r.ok.sum())} of {len(r.ok)} grid configurations solved; {reach}; "
+                     f"{int((ws.reachable & ~r.ok).sum())} without a solution after the error",
+                     fontsize=11)
+        fig.tight_layout()
+    return fig
+
+
+def overview_figure(study, protocol: str) -> Figure:
+    """All single-error scenarios as thumbnails of |d(X, Y)| (mm) under
+    ``protocol``; rows: cable pair / disk, columns: cable -, cable +, disk -, disk +."""
+    n = study.robot.n
+    with _rc():
+        fig = _figure(16, 3.3 * n + 0.8)
+        axs = np.atleast_2d(fig.subplots(n, 4))
+        xy = _xy_mm(study, protocol)
+        for i in range(n):
+            keys = [f"cable{2 * i + 1}-", f"cable{2 * i + 1}+", f"disk{i + 1}-", f"disk{i + 1}+"]
+            for ax, key in zip(axs[i], keys):
+                r = study.result(key, protocol)
+                v = r.position_mm
+                _unreachable(ax, study, protocol)
+                vmax = float(np.nanmax(v)) if np.isfinite(v).any() else 1.0
+                _scatter_map(fig, ax, xy, v, "viridis", Normalize(0, vmax), "|dXY| (mm)", size=6)
+                jp = r.jumps.point
+                if jp.any():
+                    ax.scatter(xy[jp, 0], xy[jp, 1], s=16, facecolors="none", edgecolors="k",
+                               linewidths=0.6)
+                ax.set_title(f"{r.scenario.label}\nmax {vmax:.3g} mm, {int(jp.sum())} jump pts",
+                             fontsize=9.5)
+                ax.tick_params(labelsize=8)
+                if i == n - 1:
+                    ax.set_xlabel("tip X (mm)")
+                if ax is axs[i][0]:
+                    ax.set_ylabel("tip Y (mm)")
+        fig.suptitle(f"All single-error scenarios, |d(X, Y)| — {PROTOCOL_TITLES.get(protocol, protocol)}"
+                     " (black rings: jump points)", fontsize=12)
+        fig.tight_layout()
+    return fig
+
+
+# ---------------------------------------------------------------------------
+# Fig. 7: Monte Carlo
+# ---------------------------------------------------------------------------
+def monte_carlo_figure(study, protocol: str) -> Figure:
+    """Monte-Carlo maps under ``protocol``. Top row: mean, 95th percentile and
+    max of |d(X, Y)| (mm). Bottom row (Fig. 7): mean dX (red), dY (blue), dphi (green)."""
+    mc = study.monte_carlo[protocol]
+    ws = study.workspaces[protocol]
+    xy = ws.poses[ws.reachable, :2] * 1e3
+    mean = mc.mean
+    top = [(mean[:, 3] * 1e3, "mean |dXY| (mm)"), (mc.percentile(95.0) * 1e3, "95th pct |dXY| (mm)"),
+           (mc.max_abs[:, 3] * 1e3, "max |dXY| (mm)")]
+    bottom = [(mean[:, 0] * 1e3, "mean dX (mm)"), (mean[:, 1] * 1e3, "mean dY (mm)"),
+              (np.degrees(mean[:, 2]), "mean dphi (deg)")]
+    with _rc():
+        fig = _figure(15, 9.5)
+        axs = fig.subplots(2, 3)
+        vmax = float(np.nanmax(top[2][0]))
+        for ax, (v, nm) in zip(axs[0], top):
+            _scatter_map(fig, ax, xy, v, "magma_r", Normalize(0, vmax), nm, size=7)
+            ax.set_title(f"{nm.replace(' (mm)', '')}: workspace max {np.nanmax(v):.3g} mm")
+            _axes_mm(ax)
+        for ax, (v, nm), hue in zip(axs[1], bottom, HUES):
+            _scatter_map(fig, ax, xy, v, _hue_cmap(hue), _sym_norm(v), nm, size=7)
+            ax.set_title(nm.split(" (")[0], color=hue)
+            _axes_mm(ax)
+        p = mc.params
+        fig.suptitle(f"Monte Carlo (Fig. 7): {p.get('samples')} random groups, uniform ±"
+                     f"{p['dl_tol_m'][0] * 1e3:g} mm per upper cable and ±{p['dh_tol_m'][0] * 1e3:g} mm "
+                     f"per disk's holes, seed {p.get('seed')} — {PROTOCOL_TITLES.get(protocol, protocol)}\n"
+                     f"{len(xy)} configurations (all reachable ones); failed solves: {int(mc.failed.sum())}; "
+                     "percentile to the histogram bin (≤ 3.9 % high)", fontsize=11)
+        fig.tight_layout()
+    return fig
+
+
+# ---------------------------------------------------------------------------
+# singular states
+# ---------------------------------------------------------------------------
+def singular_figure(study) -> Figure:
+    """sigma_min / sigma_max of the pose Jacobian (attitude row scaled to m)
+    over the workspace, per protocol (log colour scale; low = near-singular)."""
+    protos = list(study.workspaces)
+    with _rc():
+        fig = _figure(7.2 * len(protos), 5.6)
+        axs = np.atleast_1d(fig.subplots(1, len(protos)))
+        for ax, p in zip(axs, protos):
+            ws = study.workspaces[p]
+            sv = study.singular[p]
+            ratio = np.where(ws.reachable, sv[:, -1] / np.maximum(sv[:, 0], 1e-300), np.nan)
+            xy = ws.poses[:, :2] * 1e3
+            _unreachable(ax, study, p)
+            lo = max(float(np.nanmin(ratio[ratio > 0])) if (ratio > 0).any() else 1e-4, 1e-4)
+            _scatter_map(fig, ax, xy, np.maximum(ratio, lo), "cividis",
+                         LogNorm(lo, max(float(np.nanmax(ratio)), lo * 10)),
+                         "sigma_min / sigma_max", size=8, order=False)
+            i0 = np.nanargmin(np.where(np.isfinite(ratio), ratio, np.inf))
+            ax.scatter([xy[i0, 0]], [xy[i0, 1]], s=90, facecolors="none", edgecolors=RED, linewidths=1.5,
+                       label=f"lowest ratio {ratio[i0]:.2g}\n(theta = "
+                             + ", ".join(f"{np.degrees(t):.0f}" for t in np.nan_to_num(ws.theta0[i0])) + " deg)")
+            ax.legend(loc="lower left", framealpha=0.85)
+            ax.set_title(PROTOCOL_TITLES.get(p, p))
+            _axes_mm(ax)
+        fig.suptitle("Singular states: conditioning of the pose Jacobian d[X, Y, L·phi]/dtheta "
+                     "(all joints zero loses X, Fig. 12; for 3 joints every theta_2 = 0 is singular)",
+                     fontsize=11)
+        fig.tight_layout()
+    return fig
+
+
+# ---------------------------------------------------------------------------
+# Fig. 9: workspace
+# ---------------------------------------------------------------------------
+def _phi0_tips(robot: Robot, step_deg: float = 1.0) -> np.ndarray:
+    """Tips (m) of phi = 0 configurations within the joint limits, (K, 2)."""
+    lim = robot.joint_limits
+    n = robot.n
+    if n < 2:
+        return np.zeros((0, 2))
+    axes = [np.arange(lim[k, 0], lim[k, 1] + 1e-12, np.radians(step_deg)) for k in range(n - 1)]
+    mesh = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, n - 1)
+    last = -mesh.sum(axis=1)
+    ok = (last >= lim[-1, 0]) & (last <= lim[-1, 1])
+    th = np.concatenate([mesh[ok], last[ok, None]], axis=1)
+    if len(th) > 40000:
+        th = th[np.random.default_rng(0).choice(len(th), 40000, replace=False)]
+    return robot.fk(th)[:, :2]
+
+
+def workspace_figure(study) -> Figure:
+    """Fig. 9-like workspace (mm): tips of the ±30° joint grid (any phi), tips
+    reachable at phi = 0 within the joint limits, the paper's experimental
+    range X 0.19–0.23 m, Y −0.1–0.1 m, and the Table 3 points."""
+    robot = study.robot
+    with _rc():
+        fig = _figure(8.0, 9.5)
+        ax = fig.subplots()
+        ws = next(iter(study.workspaces.values()))
+        grid_tips = robot.fk(ws.grid)[:, :2] * 1e3
+        ax.scatter(grid_tips[:, 0], grid_tips[:, 1], s=4, c="0.6", linewidths=0,
+                   label=f"±30° grid tips, any phi ({len(grid_tips)})")
+        a0 = study.workspaces.get("attitude0")
+        if a0 is not None:
+            g = a0.poses[a0.reachable, :2] * 1e3
+            ax.scatter(g[:, 0], g[:, 1], s=5, c=BLUE, linewidths=0,
+                       label=f"grid tips reachable at phi = 0 ({len(g)}; {a0.n_unreachable} not)")
+        t = _phi0_tips(robot) * 1e3
+        if len(t):
+            lim = np.degrees(robot.joint_limits[:, 1].max())
+            ax.scatter(t[:, 0], t[:, 1], s=2, c=GREEN, alpha=0.35, linewidths=0,
+                       label=f"phi = 0 within the joint limits (±{lim:.0f}°)")
+        if study.table3 is not None:
+            ax.add_patch(__import__("matplotlib.patches", fromlist=["Rectangle"]).Rectangle(
+                (190, -100), 40, 200, fill=False, ec="k", ls="--", lw=1.2,
+                label="paper's experimental range (Fig. 9)"))
+            p = study.table3["pose"] * 1e3
+            lim_ok = study.table3["within_limits"]
+            ax.scatter(p[lim_ok, 0], p[lim_ok, 1], marker="*", s=110, c=RED, ec="k", lw=0.5, zorder=5,
+                       label="Table 3 points within the limits")
+            ax.scatter(p[~lim_ok, 0], p[~lim_ok, 1], marker="*", s=110, c="w", ec=RED, lw=1.2, zorder=5,
+                       label="Table 3 points beyond ±35° (paper's branch)")
+            for lab, q in zip(study.table3["point"], p):
+                ax.annotate(str(lab), q[:2], xytext=(4, 3), textcoords="offset points", fontsize=8)
+        _axes_mm(ax, equal=True)
+        ax.legend(loc="upper left", fontsize=8.5, markerscale=2, framealpha=0.9)
+        ax.set_title("Workspace (Fig. 9): joint grid ±30° in 5° steps and the phi = 0 reach")
+        fig.tight_layout()
+    return fig
+
+
+# ---------------------------------------------------------------------------
+# Table 2 and Fig. 12: configuration diagrams
+# ---------------------------------------------------------------------------
+EXAGGERATION = 10.0
+
+
+def _diagram(ax, robot, theta0, theta, ok, title, target=None, dS=None):
+    draw_arm(ax, robot, theta0, BLUE, label="before the error")
+    if ok:
+        draw_arm(ax, robot, theta, RED, lw=1.6, label="after the error")
+        if np.degrees(np.abs(theta - theta0).max()) * EXAGGERATION <= 30.0:
+            ex = theta0 + EXAGGERATION * (theta - theta0)
+            draw_arm(ax, robot, ex, RED, ls="--", lw=1.1, disks=False, alpha=0.75,
+                     label=f"after, angle change ×{EXAGGERATION:g}")
+        else:
+            ax.plot([], [], ls="--", color=RED, label="(no ×10 view: change already large)")
+    else:
+        ax.text(0.5, 0.04, "no configuration after this error\n(the cable solve has no solution)",
+                transform=ax.transAxes, ha="center", va="bottom", color=RED, fontsize=9,
+                bbox=dict(fc="w", ec=RED, lw=0.8))
+    if target is not None:
+        ax.plot(target[0] * 1e3, target[1] * 1e3, "k+", ms=10, mew=1.5)
+    txt = title
+    if ok and dS is not None:
+        txt += (f"\ndX {dS[0] * 1e3:+.3f} mm, dY {dS[1] * 1e3:+.3f} mm, "
+                f"dphi {np.degrees(dS[2]):+.3f}°")
+    ax.set_title(txt, fontsize=9.5)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("X (mm)")
+    ax.set_ylabel("Y (mm)")
+    ax.grid(True, lw=0.3, alpha=0.5)
+
+
+def table2_figures(study) -> List[Tuple[str, Figure]]:
+    """Table 2 configuration diagrams: one figure per (pose, condition), one
+    panel per error; blue before, red after, red dashed after with the joint
+    angle change exaggerated ×10. Returns [(name, Figure)]."""
+    out = []
+    groups: Dict[Tuple, List[dict]] = {}
+    for e in study.table2:
+        groups.setdefault((tuple(np.round(e["pose"], 6)), e["condition"]), []).append(e)
+    for gi, ((pose, cond), items) in enumerate(groups.items()):
+        with _rc():
+            cols = min(len(items), 2)
+            rows = -(-len(items) // cols)
+            fig = _figure(6.6 * cols, 5.0 * rows + 1.1)
+            axs = np.atleast_1d(fig.subplots(rows, cols)).ravel()
+            for ax, e in zip(axs, items):
+                _diagram(ax, study.robot, e["theta0"], e["theta"], e["ok"], e["error"],
+                         target=e["pose"], dS=e["dS"])
+            for ax in axs[len(items):]:
+                ax.set_visible(False)
+            for ax in axs[:len(items)]:
+                ax.legend(loc="lower left", fontsize=8, framealpha=0.9)
+            th = ", ".join(f"{np.degrees(t):.1f}" for t in items[0]["theta0"])
+            fig.suptitle(f"Table 2 — pose [{pose[0]:g} m, {pose[1]:g} m, {pose[2]:g} rad], {cond}\n"
+                         f"initial theta = ({th})° (pose IK, theta_2 ≤ 0 branch); + marks the commanded tip; "
+                         "blue before, red after the error", fontsize=11)
+            fig.tight_layout()
+        out.append((f"table2_{gi + 1}", fig))
+    return out
+
+
+def singular_state_figure(study, dL: float = -1e-3) -> Figure:
+    """Fig. 12: the straight (singular) pose, ``dL`` (m) on cable 1, before and
+    after; right panel zooms on the tip."""
+    from . import errors
+
+    robot = study.robot
+    n = robot.n
+    dl = np.zeros(n)
+    dl[0] = dL
+    t0 = np.zeros((1, n))
+    d = errors.deviation(robot, t0, dL=dl)
+    theta, ds, ok = d.solution.theta[0], d.dS[0], bool(d.ok[0])
+    sv = np.linalg.svd(robot.fk_jacobian(t0)[0][:2], compute_uv=False)
+    with _rc():
+        fig = _figure(14, 5.2)
+        ax1, ax2 = fig.subplots(1, 2, gridspec_kw=dict(width_ratios=[1.6, 1]))
+        _diagram(ax1, robot, t0[0], theta, ok,
+                 f"{dL * 1e3:+g} mm on cable 1 at theta = 0 (tip {robot.fk(t0[0])[0] * 1e3:.0f}, 0 mm)",
+                 dS=ds)
+        ax1.legend(loc="upper left", fontsize=8.5)
+        tip0 = robot.fk(t0[0])[:2] * 1e3
+        tip1 = robot.fk(theta)[:2] * 1e3
+        ax2.plot(*tip0, "o", color=BLUE, ms=9, label="tip before")
+        ax2.plot(*tip1, "o", color=RED, ms=9, label="tip after")
+        ax2.annotate("", tip1, tip0, arrowprops=dict(arrowstyle="->", lw=1.5))
+        ax2.set_xlim(tip0[0] - 3, tip0[0] + 3)
+        ax2.set_ylim(tip0[1] - 1, tip0[1] + 3.5)
+        ax2.set_aspect("equal")
+        ax2.grid(True, lw=0.3)
+        ax2.set_xlabel("X (mm)")
+        ax2.set_ylabel("Y (mm)")
+        ax2.legend(loc="upper left")
+        ax2.set_title(f"tip, zoomed: dX = {ds[0] * 1e3:+.4f} mm, dY = {ds[1] * 1e3:+.4f} mm\n"
+                      f"singular values of d[X,Y]/dtheta: " + ", ".join(f"{s * 1e3:.3g}" for s in sv)
+                      + " mm/rad (X lost)", fontsize=9.5)
+        fig.suptitle("Fig. 12 — singular state: all joints zero; dX/dtheta = 0 (the pose Jacobian loses X), "
+                     "so dX is second order", fontsize=11)
+        fig.tight_layout()
+    return fig
+
+
+# ---------------------------------------------------------------------------
+# Table 3
+# ---------------------------------------------------------------------------
+def table3_figure(study) -> Figure:
+    """Table 3: measured vs ours vs the paper's theoretical deviation (mm) per
+    point, dX and dY; hollow diamonds: ours from the plain theta = 0 IK seed."""
+    t = study.table3
+    labels = [str(p) for p in t["point"]]
+    x = np.arange(len(labels))
+    with _rc():
+        fig = _figure(12, 7.5)
+        axs = fig.subplots(2, 1, sharex=True)
+        for j, (ax, nm) in enumerate(zip(axs, ["dX", "dY"])):
+            w = 0.27
+            ax.bar(x - w, t["measured"][:, j] * 1e3, w, color="0.55", label="measured (paper's prototype)")
+            ax.bar(x, t["ours"][:, j] * 1e3, w, color=HUES[j], label="ours (theta_2 ≤ 0 branch)")
+            ax.bar(x + w, t["paper"][:, j] * 1e3, w, color="w", ec=HUES[j], hatch="//",
+                   label="paper's theoretical")
+            diff = np.abs(t["ours_plain_seed"][:, j] - t["ours"][:, j]) > 1e-6
+            if diff.any():
+                ax.scatter(x[diff], t["ours_plain_seed"][diff, j] * 1e3, marker="D", s=45,
+                           facecolors="none", edgecolors="k", zorder=4,
+                           label="ours, plain theta = 0 seed (mirror branch)")
+            ax.axhline(0, color="k", lw=0.6)
+            ax.set_ylabel(f"{nm} (mm)")
+            ax.grid(True, axis="y", lw=0.3)
+            ax.set_title(f"{nm}: largest |ours − paper| = "
+                         f"{np.abs(t['ours'][:, j] - t['paper'][:, j]).max() * 1e3:.1e} mm, "
+                         f"largest |measured − ours| = "
+                         f"{np.abs(t['measured'][:, j] - t['ours'][:, j]).max() * 1e3:.3f} mm")
+            ax.legend(loc="upper right", fontsize=8.5)
+        axs[1].set_xticks(x)
+        axs[1].set_xticklabels([f"{l}\n({p[0] * 1e3:.0f}, {p[1] * 1e3:.0f})"
+                                for l, p in zip(labels, t["pose"])])
+        axs[1].set_xlabel("experiment point (commanded tip X, Y in mm, phi = 0)")
+        fig.suptitle("Table 3 — tip displacement for −1 mm on cable 1: measured vs ours vs paper "
+                     "(attitude-0 pose IK)", fontsize=11.5)
+        fig.tight_layout()
+    return fig
+
+
+# ---------------------------------------------------------------------------
+# everything
+# ---------------------------------------------------------------------------
+def all_figures(study, outdir: "str | os.PathLike[str]", progress: bool = False) -> Dict[str, str]:
+    """Write every figure of the study as ``outdir/<name>.png``; returns
+    {name: path} in report order. Shows a progress line when ``progress``."""
+    from .errors import Progress
+
+    jobs = []
+    for p in study.workspaces:
+        jobs.append((f"overview_{p}", lambda p=p: overview_figure(study, p)))
+    for p in study.workspaces:
+        for r in study.scenarios:
+            if r.protocol == p:
+                k = r.scenario.key
+                jobs.append((f"scenario_{p}_{_safe(k)}", lambda k=k, p=p: scenario_figure(study, k, p)))
+    for p in study.monte_carlo:
+        jobs.append((f"montecarlo_{p}", lambda p=p: monte_carlo_figure(study, p)))
+    jobs.append(("singular", lambda: singular_figure(study)))
+    jobs.append(("workspace", lambda: workspace_figure(study)))
+    jobs.append(("fig12_singular_state", lambda: singular_state_figure(study)))
+    if study.table3 is not None:
+        jobs.append(("table3", lambda: table3_figure(study)))
+    out: Dict[str, str] = {}
+    n_t2 = len({(tuple(np.round(e["pose"], 6)), e["condition"]) for e in study.table2})
+    bar = Progress(len(jobs) + n_t2, "figures", progress)
+    for name, make in jobs:
+        fig = make()
+        out[name] = save(fig, os.path.join(outdir, f"{name}.png"))
+        bar.update(1)
+    if study.table2:
+        figs = table2_figures(study)
+        for name, fig in figs:
+            out[name] = save(fig, os.path.join(outdir, f"{name}.png"))
+        bar.update(len(figs))
+    return out
+
+
+def _safe(key: str) -> str:
+    return key.replace("+", "plus").replace("-", "minus")

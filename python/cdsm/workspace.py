@@ -1,0 +1,219 @@
+"""Workspace sweeps, the two error-study protocols, singular states and jump
+points. SI units: m, rad.
+
+Protocols (each figure of the paper report says which one it uses):
+
+* ``joint`` — the error is applied at the grid angles themselves.
+* ``attitude0`` — the paper's protocol as we read it: the tip position of each
+  grid configuration, attitude set to 0, pose IK (seed :func:`paper_ik_seed`),
+  then the error. Grid points whose (X, Y, 0) the IK cannot reach are counted
+  and reported (``reachable`` False), never dropped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from .robot import CdsmInputError, Robot, Solution, _batch
+
+__all__ = [
+    "joint_grid", "grid_neighbours", "paper_ik_seed", "Workspace", "sweep",
+    "sensitivity", "singular_values", "jump_points", "Jumps",
+]
+
+
+def joint_grid(n: int, lo: float = np.radians(-30.0), hi: float = np.radians(30.0),
+               step: float = np.radians(5.0)) -> np.ndarray:
+    """Every combination of joint angles from ``lo`` to ``hi`` (rad) in ``step``
+    (rad): (K**n, n), joint 1 slowest (the paper's nested loops). ±30° in 5° for
+    n = 3 gives 2197 configurations."""
+    if not (np.isfinite([lo, hi, step]).all() and step > 0 and hi >= lo):
+        raise CdsmInputError(f"`lo`, `hi`, `step`: need finite lo <= hi and step > 0, got {lo}, {hi}, {step}")
+    k = int(np.floor((hi - lo) / step + 1e-9)) + 1
+    if k ** n > 50_000_000:
+        raise CdsmInputError(f"`step`: a grid of {k}**{n} configurations is too large")
+    axis = lo + step * np.arange(k)
+    mesh = np.meshgrid(*([axis] * n), indexing="ij")
+    return np.stack(mesh, axis=-1).reshape(-1, n)
+
+
+def grid_neighbours(k: int, n: int) -> np.ndarray:
+    """Grid-neighbour pairs of a :func:`joint_grid` with ``k`` values per joint:
+    (E, 4) int rows ``[a, b, prev, next]`` — points ``a`` and ``b`` one step
+    apart in one joint, and the indices of the edges before ``a`` and after
+    ``b`` along the same grid line (-1 at the line's ends)."""
+    idx = np.arange(k ** n).reshape((k,) * n)
+    rows, offset = [], 0
+    for ax in range(n):
+        a = np.take(idx, np.arange(k - 1), axis=ax)
+        b = np.take(idx, np.arange(1, k), axis=ax)
+        eid = offset + np.arange(a.size).reshape(a.shape)
+        prev = np.full(a.shape, -1)
+        nxt = np.full(a.shape, -1)
+        if k > 2:
+            sl = [slice(None)] * n
+            sl_lo, sl_hi = list(sl), list(sl)
+            sl_lo[ax], sl_hi[ax] = slice(0, k - 2), slice(1, k - 1)
+            prev[tuple(sl_hi)] = eid[tuple(sl_lo)]
+            nxt[tuple(sl_lo)] = eid[tuple(sl_hi)]
+        rows.append(np.stack([a.ravel(), b.ravel(), prev.ravel(), nxt.ravel()], axis=1))
+        offset += a.size
+    return np.concatenate(rows)
+
+
+def paper_ik_seed(n: int) -> np.ndarray:
+    """Pose-IK seed that picks the paper's branch: theta = 0 with theta_2 = -1 mrad.
+
+    For n = 3 at phi = 0 all nine Table 3 points lie on the theta_2 <= 0
+    solution; a mirror-symmetric damped Newton from exactly theta = 0 picks
+    theta_2 >= 0 for Y > 0 instead (see docs/model.md)."""
+    s = np.zeros(n)
+    if n >= 2:
+        s[1] = -1e-3
+    return s
+
+
+@dataclass(frozen=True)
+class Workspace:
+    """A set of initial configurations for an error study.
+
+    protocol: ``"joint"`` or ``"attitude0"``. grid: (N, n) grid angles, rad.
+    poses: (N, 3) initial poses [x, y, phi] (m, m, rad). theta0: (N, n) initial
+    angles (rad; for attitude0 the IK answer, NaN where unreachable).
+    reachable: (N,) bool. ik: the IK solution (attitude0 only).
+    neighbours: (E, 4) grid-neighbour pairs with their adjacent edges
+    (:func:`grid_neighbours`; empty for a plain list of configurations).
+    """
+
+    protocol: str
+    grid: np.ndarray
+    poses: np.ndarray
+    theta0: np.ndarray
+    reachable: np.ndarray
+    neighbours: np.ndarray
+    ik: Optional[Solution] = None
+
+    @property
+    def n_unreachable(self) -> int:
+        return int((~self.reachable).sum())
+
+
+def sweep(robot: Robot, protocol: str = "attitude0", grid=None, ik_seed=None,
+          neighbours=None) -> Workspace:
+    """Initial configurations of an error study over ``grid`` (N, n) rad
+    (default: ±30° in 5° steps, with its neighbour pairs)."""
+    if grid is None:
+        grid = joint_grid(robot.n)
+        k = round(len(grid) ** (1.0 / robot.n))
+        neighbours = grid_neighbours(k, robot.n)
+    g, _ = _batch("grid", grid, robot.n)
+    nb = np.zeros((0, 4), dtype=np.int64) if neighbours is None else np.asarray(neighbours, dtype=np.int64)
+    if protocol == "joint":
+        return Workspace("joint", g, robot.fk(g), g.copy(), np.ones(len(g), bool), nb)
+    if protocol != "attitude0":
+        raise CdsmInputError(f"`protocol`: expected 'joint' or 'attitude0', got {protocol!r}")
+    poses = robot.fk(g)
+    poses[:, 2] = 0.0
+    seed = paper_ik_seed(robot.n) if ik_seed is None else ik_seed
+    sol = robot.ik(poses, seed=seed)
+    ok = np.asarray(sol.converged, bool)
+    theta0 = np.where(ok[:, None], sol.theta, np.nan)
+    return Workspace("attitude0", g, poses, theta0, ok, nb, sol)
+
+
+def singular_values(robot: Robot, theta, attitude_scale: Optional[float] = None) -> np.ndarray:
+    """Singular values (N, 3), descending, of the pose Jacobian with the
+    attitude row scaled by ``attitude_scale`` (m/rad; default the straight
+    length) so that all rows are in m. A zero means a lost direction (Fig. 12:
+    all joints zero loses X)."""
+    t, _ = _batch("theta", theta, robot.n)
+    j = robot.fk_jacobian(t)
+    scale = float(np.sum(robot.link_before + robot.link_after + robot.thickness)) \
+        if attitude_scale is None else float(attitude_scale)
+    j = j.copy()
+    j[:, 2, :] *= scale
+    return np.linalg.svd(j, compute_uv=False)
+
+
+def sensitivity(robot: Robot, theta) -> np.ndarray:
+    """First-order tip sensitivity to the upper-cable lengths: d[x, y, phi]/dL
+    (N, 3, n) = J_pose · (dL_upper/dtheta)^-1 (m/m and rad/m). NaN where the
+    cable Jacobian is singular."""
+    t, _ = _batch("theta", theta, robot.n)
+    jp = robot.fk_jacobian(t)
+    jc = robot.cable_jacobian(t)[:, 0::2, :]
+    out = np.full((len(t), 3, robot.n), np.nan)
+    det = np.linalg.det(jc)
+    ok = np.abs(det) > 1e-300
+    out[ok] = jp[ok] @ np.linalg.inv(jc[ok])
+    return out
+
+
+@dataclass(frozen=True)
+class Jumps:
+    """Jump points of one deviation map.
+
+    change: (E,) |Δ d(X, Y)| across each neighbour pair, m (NaN if either end
+    failed). edge_jump: (E,) bool, pairs where the deviation changes abruptly:
+    by more than ``factor`` times the change across the adjacent pairs of the
+    same grid line (the paper: "the variation tendency changed … the deviation
+    suddenly changed greatly"), and by more than ``floor`` of the map's 95th
+    percentile. point: (N,) bool, configurations on a jump pair. reason: (E,)
+    str per jump pair — ``branch switch`` (the initial IK answer jumps to another
+    solution), ``near-singular`` (the pose Jacobian nearly loses rank at an end),
+    ``reach boundary`` (an end has an unreachable grid neighbour), or ``steep``.
+    """
+
+    change: np.ndarray
+    edge_jump: np.ndarray
+    point: np.ndarray
+    reason: np.ndarray
+
+    def counts(self) -> dict:
+        vals, cnt = np.unique(self.reason[self.edge_jump], return_counts=True)
+        return {str(v): int(c) for v, c in zip(vals, cnt)}
+
+
+def jump_points(robot: Robot, ws: Workspace, dS: np.ndarray, factor: float = 4.0,
+                floor: float = 0.1, singular_ratio: float = 0.02) -> Jumps:
+    """Jump points of the deviation map ``dS`` (N, 3) (NaN where failed) over
+    the grid workspace ``ws`` (see :class:`Jumps`)."""
+    ds = np.asarray(dS, dtype=np.float64)
+    nb = ws.neighbours
+    e = len(nb)
+    if e == 0:
+        z = np.zeros(0)
+        return Jumps(z, z.astype(bool), np.zeros(len(ds), bool), z.astype(str))
+    a, b, prev, nxt = nb[:, 0], nb[:, 1], nb[:, 2], nb[:, 3]
+    ok = np.isfinite(ds[:, :2]).all(axis=1)
+    both = ok[a] & ok[b]
+    change = np.full(e, np.nan)
+    change[both] = np.linalg.norm(ds[a[both], :2] - ds[b[both], :2], axis=1)
+    ext = np.append(change, np.nan)  # index -1 -> NaN
+    local = np.fmax(ext[prev], ext[nxt])  # the larger adjacent change along the line
+    pos = np.hypot(ds[:, 0], ds[:, 1])
+    scale = float(np.nanpercentile(pos[ok], 95)) if ok.any() else 0.0
+    with np.errstate(invalid="ignore"):
+        edge = both & np.isfinite(local) & (change > factor * local) & (change > floor * scale)
+    theta = np.where(np.isfinite(ws.theta0), ws.theta0, 0.0)
+    sv = singular_values(robot, theta)
+    near_sing = sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < singular_ratio
+    dtheta = np.abs(theta[a] - theta[b]).max(axis=1)
+    dgrid = np.abs(ws.grid[a] - ws.grid[b]).max(axis=1)
+    switch = dtheta > 3.0 * dgrid
+    unreach_nb = np.zeros(len(ds), bool)
+    cut = ws.reachable[a] != ws.reachable[b]
+    unreach_nb[a[cut]] = True
+    unreach_nb[b[cut]] = True
+    reason = np.full(e, "", dtype=object)
+    reason[edge] = "steep"
+    reason[edge & (unreach_nb[a] | unreach_nb[b])] = "reach boundary"
+    reason[edge & (near_sing[a] | near_sing[b])] = "near-singular"
+    reason[edge & switch] = "branch switch"
+    point = np.zeros(len(ds), bool)
+    point[a[edge]] = True
+    point[b[edge]] = True
+    return Jumps(change, edge, point, reason.astype(str))
