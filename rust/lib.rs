@@ -11,6 +11,7 @@ pub mod error;
 pub mod kinematics;
 pub mod plant;
 pub mod robot;
+pub mod sensitivity;
 pub mod solve;
 pub mod statics;
 

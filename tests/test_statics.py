@@ -315,8 +315,9 @@ def test_feasibility_map_helpers(cdsm):
     from cdsm import statics
 
     r = cdsm.Robot.paper()
-    assert statics.joint_grid(3).shape == (13**3, 3)
-    np.testing.assert_array_equal(statics.joint_grid(3), grid30())
+    from cdsm import workspace
+
+    np.testing.assert_allclose(workspace.joint_grid(3), grid30(), rtol=0, atol=1e-15)
     fm = statics.feasibility_map(r, lower=REVERSED_WEIGHTS)
     np.testing.assert_array_equal(fm.feasible, r.feasible(grid30(), lower=REVERSED_WEIGHTS))
     assert fm.slack_fraction > 0.5 and fm.pose.shape == (13**3, 3)

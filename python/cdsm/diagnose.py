@@ -269,6 +269,7 @@ class Diagnosis:
     feature_correlation: Dict[str, float] = field(default_factory=dict)
     ties: List[str] = field(default_factory=list)
     correlated: List[str] = field(default_factory=list)
+    folds: int = 10
 
     @property
     def noise_floor(self) -> float:
@@ -303,7 +304,7 @@ class Diagnosis:
             kind=self.prep.kind, rows=int(len(self.prep.meas)), rows_used=int(self.prep.usable.sum()),
             flagged_rows={str(k): v for k, v in self.prep.flags.items()},
             ties=self.ties, correlated_parameters=self.correlated,
-            feature_correlation=self.feature_correlation,
+            feature_correlation=self.feature_correlation, folds=self.folds,
         )
 
 
@@ -335,12 +336,21 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     return out
 
 
+def _ranks(v: np.ndarray) -> np.ndarray:
+    """Ranks of ``v`` (0-based), ties sharing their average rank."""
+    order = np.argsort(v, kind="stable")
+    r = np.empty(len(v))
+    r[order] = np.arange(len(v), dtype=float)
+    _, inv = np.unique(v, return_inverse=True)
+    sums = np.bincount(inv, weights=r)
+    return (sums / np.bincount(inv))[inv]
+
+
 def _spearman(a: np.ndarray, b: np.ndarray) -> float:
     m = np.isfinite(a) & np.isfinite(b)
     if m.sum() < 3:
         return float("nan")
-    ra = np.argsort(np.argsort(a[m])).astype(float)
-    rb = np.argsort(np.argsort(b[m])).astype(float)
+    ra, rb = _ranks(a[m]), _ranks(b[m])
     if ra.std() == 0 or rb.std() == 0:
         return float("nan")
     return float(np.corrcoef(ra, rb)[0, 1])
@@ -391,7 +401,8 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
                 steps.append(nxt)
             else:
                 break
-    d = Diagnosis(chosen.name if chosen else "none", base, singles, chosen, steps, float(noise), prep)
+    d = Diagnosis(chosen.name if chosen else "none", base, singles, chosen, steps, float(noise), prep,
+                  folds=int(min(folds, len(prep.rows))))
     # candidates the held-out errors cannot tell apart from the best single one
     if top is not None:
         d.ties = [c.name for c in singles[1:] if not better(top.heldout, c.heldout)

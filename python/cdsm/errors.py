@@ -18,7 +18,8 @@ import numpy as np
 from . import _cdsm
 from .robot import CdsmInputError, Robot, Solution, _batch, _vector
 
-__all__ = ["deviation", "Deviation", "monte_carlo", "MonteCarlo", "Progress"]
+__all__ = ["deviation", "Deviation", "monte_carlo", "monte_carlo_chunk", "chunk_sizes",
+           "MonteCarlo", "Progress"]
 
 
 @dataclass(frozen=True)
@@ -28,12 +29,16 @@ class Deviation:
     dS: (N, 3) tip deviation [dX (m), dY (m), dphi (rad)], NaN where the solve
     failed. theta0: (N, n) initial angles, rad. solution: the perturbed cable
     solves. ik: the pose IK that produced theta0, when poses were given.
+    feasible: (N,) every upper cable taut (tension > 0 N, the robot's lower
+    tensions, no external load) both before and after the error; False flags
+    a configuration the hybrid-controlled arm cannot hold with taut cables.
     """
 
     dS: np.ndarray
     theta0: np.ndarray
     solution: Solution
     ik: Optional[Solution] = None
+    feasible: Optional[np.ndarray] = None
 
     @property
     def ok(self) -> np.ndarray:
@@ -84,7 +89,8 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
         holes = np.ascontiguousarray(holes.reshape(-1))
     ds, parts = robot._core.deviation(t0, dl, holes, method, float(tol), int(max_iter), robot.threads)
     sol = Solution._from_core(parts, robot.n, False)
-    return Deviation(ds.reshape(-1, 3), t0, sol, ik)
+    feasible = robot.feasible(t0) & robot.feasible(sol.theta)
+    return Deviation(ds.reshape(-1, 3), t0, sol, ik, feasible)
 
 
 class Progress:
@@ -209,11 +215,8 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     dlt, dht = _tolerance("dl_tol", dl_tol, robot.n), _tolerance("dh_tol", dh_tol, robot.n)
     total, out = int(samples), None
     bar = Progress(total, "monte carlo", progress)
-    for c, start in enumerate(range(0, total, int(chunk))):
-        m = min(int(chunk), total - start)
-        dl, dh = sample_errors(robot.n, m, seed, c, dlt, dht)
-        raw = robot._core.monte_carlo(t0, dl, dh, None, method, 1e-12, 100, robot.threads)
-        part = _stats(t0, raw)
+    for c, m in enumerate(chunk_sizes(total, chunk)):
+        part = monte_carlo_chunk(robot, t0, seed, c, m, dlt, dht, method)
         if out is None:
             out = part
         else:
@@ -222,6 +225,28 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     out.params = dict(samples=total, seed=int(seed), chunk=int(chunk), dl_tol_m=dlt.tolist(),
                       dh_tol_m=dht.tolist(), method=method)
     return out
+
+
+def chunk_sizes(samples: int, chunk: int):
+    """Sample counts of the chunks of a study, lazily (an iterator): chunk c
+    holds samples [c * chunk, min((c + 1) * chunk, samples)) and draws from the
+    stream (seed, c)."""
+    total, chunk = int(samples), int(chunk)
+    return (min(chunk, total - start) for start in range(0, total, chunk))
+
+
+def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: int, size: int,
+                      dl_tol: np.ndarray, dh_tol: np.ndarray, method: str = "auto",
+                      threads: Optional[int] = None) -> MonteCarlo:
+    """One chunk of :func:`monte_carlo`: ``size`` samples from the stream
+    (seed, chunk_index), one Rust call over every configuration of ``theta0``
+    (N, n) rad (validated, C-contiguous). dl_tol, dh_tol: (n,) m. ``threads``
+    (default ``robot.threads``) only splits the configurations: the result does
+    not depend on it. This is the unit of work of local and cluster runs."""
+    dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
+    th = robot.threads if threads is None else int(threads)
+    raw = robot._core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, th)
+    return _stats(theta0, raw)
 
 
 def _stats(theta0: np.ndarray, raw: dict) -> MonteCarlo:

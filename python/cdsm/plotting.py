@@ -299,6 +299,35 @@ def singular_figure(study) -> Figure:
     return fig
 
 
+def feasibility_figure(study) -> Figure:
+    """Slack-cable map: initial configurations whose upper cables are all taut
+    (tension > 0 N under the robot's lower weights) vs those that need a slack
+    cable, over the workspace, per protocol; colour = smallest upper tension (N)."""
+    protos = list(study.feasibility)
+    with _rc():
+        fig = _figure(7.2 * len(protos), 5.6)
+        axs = np.atleast_1d(fig.subplots(1, len(protos)))
+        for ax, p in zip(axs, protos):
+            ws, fm = study.workspaces[p], study.feasibility[p]
+            xy = ws.poses[:, :2] * 1e3
+            tmin = np.where(ws.reachable, np.nanmin(fm.tension, axis=1), np.nan)
+            _unreachable(ax, study, p)
+            lim = float(np.nanmax(np.abs(tmin))) if np.isfinite(tmin).any() else 1.0
+            _scatter_map(fig, ax, xy, tmin, "RdBu", Normalize(-lim, lim), "smallest upper tension (N)",
+                         size=8, order=False)
+            slack = ws.reachable & ~fm.feasible
+            ax.scatter(xy[slack, 0], xy[slack, 1], s=40, facecolors="none", edgecolors="k", linewidths=0.8,
+                       label=f"slack cable needed: {int(slack.sum())} of {int(ws.reachable.sum())}")
+            ax.legend(loc="lower left", framealpha=0.85)
+            ax.set_title(PROTOCOL_TITLES.get(p, p))
+            _axes_mm(ax)
+        w = ", ".join(f"{t / 9.80665 * 1e3:.0f}" for t in study.robot.lower_tension)
+        fig.suptitle(f"Feasibility of hybrid control: upper-cable tensions with lower weights {w} g "
+                     "(no gravity, no tip load)", fontsize=11)
+        fig.tight_layout()
+    return fig
+
+
 # ---------------------------------------------------------------------------
 # Fig. 9: workspace
 # ---------------------------------------------------------------------------
@@ -523,6 +552,8 @@ def all_figures(study, outdir: "str | os.PathLike[str]", progress: bool = False)
     for p in study.monte_carlo:
         jobs.append((f"montecarlo_{p}", lambda p=p: monte_carlo_figure(study, p)))
     jobs.append(("singular", lambda: singular_figure(study)))
+    if study.feasibility:
+        jobs.append(("feasibility", lambda: feasibility_figure(study)))
     jobs.append(("workspace", lambda: workspace_figure(study)))
     jobs.append(("fig12_singular_state", lambda: singular_state_figure(study)))
     if study.table3 is not None:

@@ -128,7 +128,7 @@ def _f(x: float, nd: int = 3) -> str:
     return "—" if x is None or not np.isfinite(x) else f"{x:.{nd}f}"
 
 
-REASONS = ("branch switch", "near-singular", "reach boundary", "steep")
+from .workspace import REASONS
 
 
 def scenario_rows(study) -> List[dict]:
@@ -275,10 +275,9 @@ def _explanations(study) -> List[str]:
             f"−dh·(theta_1 + … + theta_{n}) = −dh·phi, which is zero when phi = 0. So under the attitude-0 protocol "
             f"the tip hardly moves: RMS |dXY| {a0[0]:.4f} / {a0[1]:.4f} mm (−/+; max {max(mx):.4f} mm), against "
             f"{jt[0]:.3f} / {jt[1]:.3f} mm under the joint-space protocol where phi ≠ 0. The paper's Fig. 6e/f "
-            "shows a visible effect; under its own stated attitude-0 setting our model says it should be tiny. "
-            f"The jump detector is scale-relative, so the {jumps.get((last + '-', 'attitude0'), 0)} / "
-            f"{jumps.get((last + '+', 'attitude0'), 0)} 'jump points' it reports on this sub-0.1 mm map are "
-            "artefacts of a near-zero map, not physical jumps.")
+            "shows a visible effect; under its own stated attitude-0 setting our model says it should be tiny "
+            f"(jump points found on this map: {jumps.get((last + '-', 'attitude0'), 0)} / "
+            f"{jumps.get((last + '+', 'attitude0'), 0)}; changes below 0.05 mm are not counted as jumps).")
     if n == 3 and "attitude0" in protos:
         listed = ["cable1-", "cable3+", "disk1-", "disk2-"]
         mirror = ["cable1+", "cable3-", "disk1+", "disk2+"]
@@ -440,17 +439,18 @@ def _build(study, pngs: Dict[str, str]) -> _Doc:
 
     doc.h(2, "Jump points and singular states")
     doc.p("A jump is a grid-neighbour pair whose |d(X, Y)| changes by more than 4× the change across the "
-          "adjacent pairs of the same grid line and by more than 10 % of the map's 95th percentile. Reasons: "
-          "**branch switch** (the initial IK answer jumps to another solution), **near-singular** (the pose "
+          "adjacent pairs of the same grid line, by more than 10 % of the map's 95th percentile and by more "
+          "than 0.05 mm. Reasons: "
+          "**branch switch** (the initial IK answer jumps to another solution), **cable fold** (an upper "
+          "cable is near its longest or shortest length: |dL_i/dtheta_i| below 10 % of its straight-pose "
+          "value), **near-singular** (the pose "
           "Jacobian nearly loses rank, sigma_min/sigma_max < 0.02), **reach boundary** (a neighbour is "
           "unreachable at phi = 0), else **steep**.")
     jrows = [r for r in srows if r["jump_points"] > 0]
     if jrows:
-        doc.table(["scenario", "protocol", "jump points", "jump pairs", "branch switch", "near-singular",
-                   "reach boundary", "steep"],
-                  [[r["label"], PROTO_NAMES.get(r["protocol"], r["protocol"]), r["jump_points"], r["jump_edges"],
-                    r["jumps_branch_switch"], r["jumps_near_singular"], r["jumps_reach_boundary"],
-                    r["jumps_steep"]] for r in jrows])
+        doc.table(["scenario", "protocol", "jump points", "jump pairs"] + list(REASONS),
+                  [[r["label"], PROTO_NAMES.get(r["protocol"], r["protocol"]), r["jump_points"], r["jump_edges"]]
+                   + [r["jumps_" + k.replace(" ", "_").replace("-", "_")] for k in REASONS] for r in jrows])
     else:
         doc.p("No jump points were found in any scenario.")
     for p, sv in study.singular.items():
@@ -468,6 +468,17 @@ def _build(study, pngs: Dict[str, str]) -> _Doc:
         doc.p(f"{PROTO_NAMES.get(p, p)}: {int(sing.sum())} configurations are singular "
               f"(sigma_min/sigma_max < 1e-6), {int(near.sum())} near-singular (< 0.02), of "
               f"{int(np.isfinite(ratio).sum())}.{extra}")
+    if study.feasibility:
+        doc.h(2, "Feasibility of hybrid control (slack cables)")
+        w = ", ".join(f"{t / 9.80665 * 1e3:.0f}" for t in robot.lower_tension)
+        for p, fm in study.feasibility.items():
+            ws = study.workspaces[p]
+            slack = ws.reachable & ~fm.feasible
+            doc.p(f"{PROTO_NAMES.get(p, p)}: with lower weights {w} g on disks 1..{n}, {int(slack.sum())} of "
+                  f"{int(ws.reachable.sum())} initial configurations ({100 * slack.mean() / max(ws.reachable.mean(), 1e-12):.1f} %) "
+                  f"need a slack upper cable; with the weights in the opposite order "
+                  f"{100 * study.slack_reversed[p]:.1f} % do. The paper had to 'guarantee that cable tensions were "
+                  "all positive': the order of its experimental conditions is the one that does.")
     t0 = np.zeros(n)
     sv0 = np.linalg.svd(robot.fk_jacobian(t0)[:2], compute_uv=False)
     doc.p(f"At theta = 0 the position Jacobian d[X, Y]/dtheta has singular values "
@@ -531,6 +542,8 @@ def _captions(study) -> Dict[str, str]:
                     f"{r.scenario.label} ({r.scenario.figure or r.scenario.key}) — {pn}: dX red, dY blue, dphi green "
                     "over the tip positions; black rings: jump points.")
     caps["singular"] = "sigma_min/sigma_max of the pose Jacobian over the workspace, both protocols."
+    caps["feasibility"] = ("Feasibility map: smallest upper-cable tension at each initial configuration; "
+                           "black rings need a slack (non-positive) upper cable.")
     caps["workspace"] = ("Workspace (Fig. 9): ±30° grid tips, the tips reachable at phi = 0 (attitude-0 protocol), "
                          "phi = 0 within the joint limits, the paper's experimental range and the Table 3 points.")
     caps["fig12_singular_state"] = "Fig. 12: −1 mm on cable 1 at theta = 0, before (blue) and after (red)."
@@ -544,7 +557,8 @@ def _captions(study) -> Dict[str, str]:
 def _order(pngs: Dict[str, str]) -> Dict[str, str]:
     """Report order: overview, Monte Carlo, workspace, singular, Fig. 12, Table 3, Table 2, scenarios."""
     keys = list(pngs)
-    pri = ["overview", "montecarlo", "workspace", "singular", "fig12", "table3", "table2", "scenario"]
+    pri = ["overview", "montecarlo", "workspace", "singular", "feasibility", "fig12", "table3", "table2",
+           "scenario"]
     rank = lambda k: next((i for i, p in enumerate(pri) if k.startswith(p)), len(pri))
     return {k: pngs[k] for k in sorted(keys, key=lambda k: (rank(k), keys.index(k)))}
 

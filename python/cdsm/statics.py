@@ -13,14 +13,9 @@ from typing import Optional
 import numpy as np
 
 from .robot import Robot
+from .workspace import joint_grid
 
-__all__ = ["joint_grid", "FeasibilityMap", "feasibility_map", "elastic_tip_deviation"]
-
-
-def joint_grid(n: int, lo_deg: float = -30.0, hi_deg: float = 30.0, step_deg: float = 5.0) -> np.ndarray:
-    """Every joint from ``lo_deg`` to ``hi_deg`` in ``step_deg`` (nested loops), rad, (N, n)."""
-    d = np.deg2rad(np.arange(lo_deg, hi_deg + 0.5 * step_deg, step_deg))
-    return np.array(np.meshgrid(*([d] * n), indexing="ij")).reshape(n, -1).T
+__all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation"]
 
 
 @dataclass(frozen=True)

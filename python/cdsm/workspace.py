@@ -21,7 +21,7 @@ from .robot import CdsmInputError, Robot, Solution, _batch
 
 __all__ = [
     "joint_grid", "grid_neighbours", "paper_ik_seed", "Workspace", "sweep",
-    "sensitivity", "singular_values", "jump_points", "Jumps",
+    "sensitivity", "singular_values", "cable_fold_ratio", "jump_points", "Jumps", "REASONS",
 ]
 
 
@@ -161,10 +161,13 @@ class Jumps:
     by more than ``factor`` times the change across the adjacent pairs of the
     same grid line (the paper: "the variation tendency changed … the deviation
     suddenly changed greatly"), and by more than ``floor`` of the map's 95th
-    percentile. point: (N,) bool, configurations on a jump pair. reason: (E,)
-    str per jump pair — ``branch switch`` (the initial IK answer jumps to another
-    solution), ``near-singular`` (the pose Jacobian nearly loses rank at an end),
-    ``reach boundary`` (an end has an unreachable grid neighbour), or ``steep``.
+    percentile and by more than ``min_change`` (m). point: (N,) bool,
+    configurations on a jump pair. reason: (E,) str per jump pair — ``branch
+    switch`` (the initial IK answer jumps to another solution), ``cable fold``
+    (an upper cable is near its longest or shortest: its own joint barely
+    changes its length, the cable Jacobian nearly loses rank), ``near-singular``
+    (the pose Jacobian nearly loses rank at an end), ``reach boundary`` (an end
+    has an unreachable grid neighbour), or ``steep``.
     """
 
     change: np.ndarray
@@ -177,10 +180,25 @@ class Jumps:
         return {str(v): int(c) for v, c in zip(vals, cnt)}
 
 
+REASONS = ("branch switch", "cable fold", "near-singular", "reach boundary", "steep")
+
+
+def cable_fold_ratio(robot: Robot, theta) -> np.ndarray:
+    """(N,) smallest |dL_i/dtheta_i| of the upper cables relative to its value
+    at the straight pose: near 0 the cable is at a fold (its longest or
+    shortest length), where the cable solve is ill-conditioned."""
+    t, _ = _batch("theta", theta, robot.n)
+    d = np.abs(np.diagonal(robot.cable_jacobian(t)[:, 0::2, :], axis1=1, axis2=2))
+    d0 = np.abs(np.diagonal(robot.cable_jacobian(np.zeros(robot.n))[0::2, :]))
+    return (d / np.maximum(d0, 1e-300)).min(axis=1)
+
+
 def jump_points(robot: Robot, ws: Workspace, dS: np.ndarray, factor: float = 4.0,
-                floor: float = 0.1, singular_ratio: float = 0.02) -> Jumps:
+                floor: float = 0.1, min_change: float = 5e-5, singular_ratio: float = 0.02,
+                fold_ratio: float = 0.1) -> Jumps:
     """Jump points of the deviation map ``dS`` (N, 3) (NaN where failed) over
-    the grid workspace ``ws`` (see :class:`Jumps`)."""
+    the grid workspace ``ws`` (see :class:`Jumps`). ``min_change`` (m, default
+    0.05 mm) keeps changes below what a laser tracker resolves from counting."""
     ds = np.asarray(dS, dtype=np.float64)
     nb = ws.neighbours
     e = len(nb)
@@ -197,10 +215,12 @@ def jump_points(robot: Robot, ws: Workspace, dS: np.ndarray, factor: float = 4.0
     pos = np.hypot(ds[:, 0], ds[:, 1])
     scale = float(np.nanpercentile(pos[ok], 95)) if ok.any() else 0.0
     with np.errstate(invalid="ignore"):
-        edge = both & np.isfinite(local) & (change > factor * local) & (change > floor * scale)
+        edge = (both & np.isfinite(local) & (change > factor * local) & (change > floor * scale)
+                & (change > min_change))
     theta = np.where(np.isfinite(ws.theta0), ws.theta0, 0.0)
     sv = singular_values(robot, theta)
     near_sing = sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < singular_ratio
+    fold = cable_fold_ratio(robot, theta) < fold_ratio
     dtheta = np.abs(theta[a] - theta[b]).max(axis=1)
     dgrid = np.abs(ws.grid[a] - ws.grid[b]).max(axis=1)
     switch = dtheta > 3.0 * dgrid
@@ -212,6 +232,7 @@ def jump_points(robot: Robot, ws: Workspace, dS: np.ndarray, factor: float = 4.0
     reason[edge] = "steep"
     reason[edge & (unreach_nb[a] | unreach_nb[b])] = "reach boundary"
     reason[edge & (near_sing[a] | near_sing[b])] = "near-singular"
+    reason[edge & (fold[a] | fold[b])] = "cable fold"
     reason[edge & switch] = "branch switch"
     point = np.zeros(len(ds), bool)
     point[a[edge]] = True

@@ -1,0 +1,322 @@
+//! First-order sensitivities of the tip pose to the upper-cable lengths and to
+//! the hole positions (issue 7), from analytic Jacobians.
+//!
+//! The cable solve keeps the upper-cable lengths at their targets:
+//! `L_upper(theta; holes) = L0 + dl`. By the implicit function theorem
+//!
+//! ```text
+//! dS/dl     =  J_pose · (dL_upper/dtheta)^-1                     (3, n)
+//! dS/dholes = -J_pose · (dL_upper/dtheta)^-1 · dL_upper/dholes   (3, H)
+//! ```
+//!
+//! with `J_pose = d[x, y, phi]/dtheta` (Eq. 1–3) and `dL_upper/dtheta` lower
+//! triangular (cable `2i` crosses joints `0..=i`), so the inverse is one
+//! triangular solve per pose row. `dL_upper/dholes` is analytic from the
+//! segment geometry of `docs/model.md`: segment `k` of cable `c` is
+//! `v = A_k - p`, `A_k = (link_before[k], 0) + Rot(theta_k)(q + (link_after[k], 0))`,
+//! `p = holes[c, k, b]`, `q = holes[c, k+1, a]`, so with `e = v / |v|`:
+//! `d|v|/dp = -e`, `d|v|/dq = Rot(theta_k)^T e`; the traversal of disk `k+1`,
+//! `t = (thickness[k] + b.x - a.x, b.y - a.y)`, gives `d|t|/db = t/|t|`,
+//! `d|t|/da = -t/|t|` (`a`, `b` its holes on faces a and b).
+//! Lower cables are force controlled: their holes do not move the tip.
+//!
+//! The paper's per-disk hole-height error `dh_i` moves every hole of the upper
+//! cable of pair `i` by `+dh_i` in y (and the lower one by `-dh_i`), so
+//! `dS/ddh_i = -J_pose · (dL_upper/dtheta)^-1 [:, i] · sum_holes dL_{2i}/dy`.
+//! Units: m/m for x, y; rad/m for phi.
+
+use crate::batch::{map_rows, rows_of};
+use crate::cables::{pair, CableGeometry};
+use crate::error::Result;
+use crate::kinematics::fk_jacobian;
+use crate::robot::Robot;
+
+/// Sensitivities of a batch of configurations (row-major, flat).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sensitivities {
+    /// `(N, 3, n)`: d[x, y, phi] / d(upper-cable length) (m/m, rad/m).
+    pub cable: Vec<f64>,
+    /// `(N, 3, n)`: d[x, y, phi] / d(hole height of disk i) (the paper's dh).
+    pub pair: Vec<f64>,
+    /// `(N, 3, H)`, `H = 2n (n+1) 2 2`: d[x, y, phi] / d(every hole
+    /// coordinate) in the flat hole layout; empty unless requested.
+    pub holes: Vec<f64>,
+    /// `(N,)`: the upper-cable Jacobian is invertible (otherwise NaN rows).
+    pub ok: Vec<bool>,
+}
+
+/// Gradient of the length of cable `c` with respect to every hole coordinate,
+/// written (added) into `grad` (flat hole layout, length H); `cs` are the
+/// `(cos, sin)` of the joint angles.
+pub fn cable_hole_gradient(robot: &Robot, c: usize, cs: &[(f64, f64)], grad: &mut [f64]) {
+    let h = &robot.holes;
+    let hole = |d: usize, f: usize| {
+        let i = robot.hole_index(c, d, f);
+        (i, [h[i], h[i + 1]])
+    };
+    for k in 0..=pair(c) {
+        let (ip, p) = hole(k, 1);
+        let (iq, q) = hole(k + 1, 0);
+        let (ct, st) = cs[k];
+        let u = [q[0] + robot.link_after[k], q[1]];
+        let a = [
+            robot.link_before[k] + ct * u[0] - st * u[1],
+            st * u[0] + ct * u[1],
+        ];
+        let v = [a[0] - p[0], a[1] - p[1]];
+        let s = v[0].hypot(v[1]);
+        if s > 0.0 {
+            let e = [v[0] / s, v[1] / s];
+            grad[ip] -= e[0];
+            grad[ip + 1] -= e[1];
+            grad[iq] += ct * e[0] + st * e[1];
+            grad[iq + 1] += -st * e[0] + ct * e[1];
+        }
+        let (ib, b) = hole(k + 1, 1);
+        let t = [robot.thickness[k] + b[0] - q[0], b[1] - q[1]];
+        let tl = t[0].hypot(t[1]);
+        if tl > 0.0 {
+            grad[ib] += t[0] / tl;
+            grad[ib + 1] += t[1] / tl;
+            grad[iq] -= t[0] / tl;
+            grad[iq + 1] -= t[1] / tl;
+        }
+    }
+}
+
+/// Sum of the y-gradients of cable `c` over the holes it uses: the derivative
+/// of its length with respect to a common shift of its hole heights.
+fn height_derivative(robot: &Robot, c: usize, grad: &[f64]) -> f64 {
+    let mut s = grad[robot.hole_index(c, 0, 1) + 1];
+    for d in 1..=pair(c) + 1 {
+        s += grad[robot.hole_index(c, d, 0) + 1] + grad[robot.hole_index(c, d, 1) + 1];
+    }
+    s
+}
+
+/// Sensitivities of one configuration `theta` (n). Writes `cable (3, n)`,
+/// `pair (3, n)` and, when given, `holes (3, H)` (overwritten); returns false
+/// (and NaN everywhere) when the upper-cable Jacobian is singular.
+pub fn config_sensitivity(
+    robot: &Robot,
+    geom: &CableGeometry,
+    theta: &[f64],
+    cable: &mut [f64],
+    pair_out: &mut [f64],
+    holes: Option<&mut [f64]>,
+) -> bool {
+    let n = robot.n();
+    let hl = robot.holes.len();
+    let cs: Vec<(f64, f64)> = theta.iter().map(|t| (t.cos(), t.sin())).collect();
+    let mut jp = vec![[0.0; 3]; n];
+    fk_jacobian(robot, theta, &mut jp);
+    // jc[i * n + k] = dL_{2i}/dtheta_k, lower triangular.
+    let mut jc = vec![0.0; n * n];
+    for i in 0..n {
+        for k in 0..=i {
+            jc[i * n + k] = geom.derivative(2 * i, k, cs[k]);
+        }
+    }
+    let scale = jc.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let singular = (0..n).any(|k| !(jc[k * n + k].abs() > 1e-12 * scale.max(f64::MIN_POSITIVE)));
+    if singular {
+        cable.fill(f64::NAN);
+        pair_out.fill(f64::NAN);
+        if let Some(h) = holes {
+            h.fill(f64::NAN);
+        }
+        return false;
+    }
+    // Row r of S = J_pose Jc^-1 solves x Jc = jp_r: back substitution
+    // x_k = (b_k - sum_{i>k} x_i Jc[i][k]) / Jc[k][k].
+    for r in 0..3 {
+        let x = &mut cable[r * n..(r + 1) * n];
+        for k in (0..n).rev() {
+            let mut acc = jp[k][r];
+            for i in k + 1..n {
+                acc -= x[i] * jc[i * n + k];
+            }
+            x[k] = acc / jc[k * n + k];
+        }
+    }
+    let want_holes = holes.is_some();
+    let mut hs = holes;
+    if let Some(h) = hs.as_deref_mut() {
+        h.fill(0.0);
+    }
+    let mut grad = vec![0.0; hl];
+    for i in 0..n {
+        let c = 2 * i;
+        grad.fill(0.0);
+        cable_hole_gradient(robot, c, &cs, &mut grad);
+        let dy = height_derivative(robot, c, &grad);
+        for r in 0..3 {
+            pair_out[r * n + i] = -cable[r * n + i] * dy;
+        }
+        if want_holes {
+            let h = hs.as_deref_mut().unwrap();
+            // Cable 2i uses only its own hole entries: copy them, scaled.
+            let lo = robot.hole_index(c, 0, 0);
+            let hi = robot.hole_index(c + 1, 0, 0);
+            for r in 0..3 {
+                let sr = -cable[r * n + i];
+                for j in lo..hi {
+                    h[r * hl + j] = sr * grad[j];
+                }
+            }
+        }
+    }
+    true
+}
+
+/// Batched sensitivities over `theta (N, n)` (rad); `with_holes` adds the
+/// full `(N, 3, H)` hole-coordinate sensitivities. Threads: 0 = all cores.
+pub fn sensitivities(
+    robot: &Robot,
+    theta: &[f64],
+    with_holes: bool,
+    threads: usize,
+) -> Result<Sensitivities> {
+    let n = robot.n();
+    let rows = rows_of("theta", theta, n)?;
+    let hl = robot.holes.len();
+    let geom = CableGeometry::new(robot, None);
+    let width = 6 * n + 1 + if with_holes { 3 * hl } else { 0 };
+    let flat = map_rows(rows, width, threads, |i, out| {
+        let (cable, rest) = out.split_at_mut(3 * n);
+        let (pair_out, rest) = rest.split_at_mut(3 * n);
+        let (flag, rest) = rest.split_at_mut(1);
+        let holes = if with_holes { Some(rest) } else { None };
+        let ok = config_sensitivity(robot, &geom, &theta[i * n..(i + 1) * n], cable, pair_out, holes);
+        flag[0] = if ok { 1.0 } else { 0.0 };
+    });
+    let mut out = Sensitivities {
+        cable: Vec::with_capacity(rows * 3 * n),
+        pair: Vec::with_capacity(rows * 3 * n),
+        holes: Vec::with_capacity(if with_holes { rows * 3 * hl } else { 0 }),
+        ok: Vec::with_capacity(rows),
+    };
+    for row in flat.chunks_exact(width.max(1)) {
+        out.cable.extend_from_slice(&row[..3 * n]);
+        out.pair.extend_from_slice(&row[3 * n..6 * n]);
+        out.ok.push(row[6 * n] != 0.0);
+        if with_holes {
+            out.holes.extend_from_slice(&row[6 * n + 1..]);
+        }
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accuracy::deviation;
+    use crate::solve::{CableMethod, SolveOptions};
+
+    fn dev(r: &Robot, th: &[f64], dl: &[f64], holes: Option<&[f64]>) -> Vec<f64> {
+        let (ds, sol) = deviation(
+            r,
+            th,
+            dl,
+            holes,
+            CableMethod::Newton,
+            &SolveOptions::default(),
+            1,
+        )
+        .unwrap();
+        assert!(sol.converged.iter().all(|c| *c));
+        ds
+    }
+
+    fn robot8() -> Robot {
+        let mut t = String::from("name = \"t8\"\n");
+        for i in 0..8 {
+            t += &format!(
+                "[[linkage]]\nlink_before = 0.02\nlink_after = 0.02\nthickness = 0.008\nhole_height = {}\njoint_limits = [-0.6, 0.6]\n",
+                0.025 - 0.001 * i as f64
+            );
+        }
+        Robot::from_toml(&t).unwrap()
+    }
+
+    fn check(r: &Robot, th: &[f64]) {
+        let n = r.n();
+        let hl = r.holes.len();
+        let s = sensitivities(r, th, true, 1).unwrap();
+        assert!(s.ok[0]);
+        let h = 1e-5;
+        let zero = vec![0.0; n];
+        for j in 0..n {
+            let mut a = zero.clone();
+            let mut b = zero.clone();
+            a[j] = h;
+            b[j] = -h;
+            let (pa, pb) = (dev(r, th, &a, None), dev(r, th, &b, None));
+            for q in 0..3 {
+                let fd = (pa[q] - pb[q]) / (2.0 * h);
+                let an = s.cable[q * n + j];
+                assert!((fd - an).abs() < 1e-6 * (1.0 + an.abs()), "cable {j} q{q}: {fd} vs {an}");
+            }
+            // per-pair hole height
+            let mut ha = vec![0.0; hl];
+            let mut hb = vec![0.0; hl];
+            let mut dh = zero.clone();
+            dh[j] = h;
+            r.hole_height_error_into(&dh, &mut ha);
+            dh[j] = -h;
+            r.hole_height_error_into(&dh, &mut hb);
+            let (pa, pb) = (dev(r, th, &zero, Some(&ha)), dev(r, th, &zero, Some(&hb)));
+            for q in 0..3 {
+                let fd = (pa[q] - pb[q]) / (2.0 * h);
+                let an = s.pair[q * n + j];
+                assert!((fd - an).abs() < 1e-6 * (1.0 + an.abs()), "dh {j} q{q}: {fd} vs {an}");
+            }
+        }
+        // every hole coordinate of every cable
+        for idx in 0..hl {
+            let mut ha = r.holes.clone();
+            let mut hb = r.holes.clone();
+            ha[idx] += h;
+            hb[idx] -= h;
+            let (pa, pb) = (dev(r, th, &zero, Some(&ha)), dev(r, th, &zero, Some(&hb)));
+            for q in 0..3 {
+                let fd = (pa[q] - pb[q]) / (2.0 * h);
+                let an = s.holes[q * hl + idx];
+                assert!((fd - an).abs() < 1e-6 * (1.0 + an.abs()), "hole {idx} q{q}: {fd} vs {an}");
+            }
+        }
+    }
+
+    #[test]
+    fn matches_finite_differences_of_the_deviation_paper() {
+        let r = Robot::paper();
+        check(&r, &[0.3, -0.2, 0.45]);
+        check(&r, &[-0.5, 0.1, -0.05]);
+    }
+
+    #[test]
+    fn matches_finite_differences_of_the_deviation_tilted_holes() {
+        // non-straight holes: perturb every hole so all terms matter
+        let mut r = Robot::paper();
+        for (k, v) in r.holes.iter_mut().enumerate() {
+            *v += 1e-3 * ((k * 37 % 11) as f64 - 5.0) / 5.0;
+        }
+        check(&r, &[0.2, 0.3, -0.4]);
+    }
+
+    #[test]
+    fn matches_finite_differences_of_the_deviation_8_joints() {
+        let r = robot8();
+        check(&r, &[0.1, -0.2, 0.3, 0.05, -0.15, 0.25, -0.3, 0.1]);
+    }
+
+    #[test]
+    fn straight_arm_has_no_first_order_x() {
+        // Fig. 12: at theta = 0 the tip loses X to first order.
+        let r = Robot::paper();
+        let s = sensitivities(&r, &[0.0; 3], false, 1).unwrap();
+        assert!(s.cable[0..3].iter().all(|v| v.abs() < 1e-15));
+        // Table 3, point 1: -1 mm on cable 1 gives dY ≈ 2.43 mm.
+        assert!((-s.cable[3] * 1e-3 * 1e3 - 2.4299).abs() < 0.01, "{}", s.cable[3]);
+    }
+}
