@@ -5,9 +5,9 @@
 use crate::batch::{rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
 use crate::error::{CdsmError, Result};
-use crate::kinematics::fk;
+use crate::kinematics::{fk, fk_cs};
 use crate::robot::Robot;
-use crate::solve::{CableMethod, CableSolver, SolveOptions};
+use crate::solve::{closed_form_cs, cs_difference, CableMethod, CableSolver, SolveOptions};
 
 /// Hole-location errors of the samples of a Monte-Carlo study.
 #[derive(Debug, Clone, Copy)]
@@ -104,14 +104,45 @@ pub const HIST_DECADES: usize = 9;
 /// Number of histogram bins, including the under- and overflow bins.
 pub const HIST_BINS: usize = HIST_PER_DECADE * HIST_DECADES + 2;
 
-/// Bin of a position-error norm (m).
+/// Edges (m) of the regular histogram bins: `HIST_LO · 10^(k / HIST_PER_DECADE)`,
+/// `k = 0..=HIST_PER_DECADE · HIST_DECADES`. Bin `b` (1-based regular bins)
+/// holds `[edges[b-1], edges[b])`; bin 0 is below `edges[0]`, the last bin at or
+/// above the last edge.
+pub fn hist_edges() -> &'static [f64] {
+    static EDGES: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+    EDGES.get_or_init(|| {
+        (0..=HIST_PER_DECADE * HIST_DECADES)
+            .map(|k| HIST_LO * 10f64.powf(k as f64 / HIST_PER_DECADE as f64))
+            .collect()
+    })
+}
+
+/// Bin of a position-error norm (m), exact against [`hist_edges`]: a cheap
+/// log estimate from the float's exponent and mantissa, corrected by the edges.
 #[inline]
 pub fn hist_bin(v: f64) -> usize {
-    if v < HIST_LO {
+    let edges = hist_edges();
+    if !(v >= edges[0]) {
         return 0;
     }
-    let b = ((v / HIST_LO).log10() * HIST_PER_DECADE as f64).floor() as usize + 1;
-    b.min(HIST_BINS - 1)
+    let last = edges.len(); // == HIST_BINS - 1
+    if v >= edges[last - 1] {
+        return last;
+    }
+    let bits = v.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as f64 - 1023.0;
+    let m = f64::from_bits((bits & ((1u64 << 52) - 1)) | (1023u64 << 52)) - 1.0;
+    let log2 = e + m * (1.3465 - 0.3465 * m); // |error| < 0.01
+    let per_log2 = HIST_PER_DECADE as f64 * std::f64::consts::LOG10_2;
+    let est = ((log2 - HIST_LO.log2()) * per_log2).floor() as isize + 1;
+    let mut b = est.clamp(1, last as isize - 1) as usize;
+    while b > 1 && v < edges[b - 1] {
+        b -= 1;
+    }
+    while b < last - 1 && v >= edges[b] {
+        b += 1;
+    }
+    b
 }
 
 /// Per-configuration statistics of a Monte-Carlo study, mergeable across chunks.
@@ -198,15 +229,19 @@ pub fn monte_carlo(
         let mut stats = McStats::new(r.len());
         let mut cs = vec![(1.0, 0.0); n];
         let mut l0 = vec![0.0; r.len() * n];
+        let mut seed_cs = vec![(1.0, 0.0); r.len() * n];
         let mut p0 = Vec::with_capacity(r.len());
         for (j, i) in r.clone().enumerate() {
             let t0 = &theta0[i * n..(i + 1) * n];
-            for (c, t) in cs.iter_mut().zip(t0) {
+            let sc = &mut seed_cs[j * n..(j + 1) * n];
+            for (c, t) in sc.iter_mut().zip(t0) {
                 *c = (t.cos(), t.sin());
             }
-            nominal.upper_lengths(&cs, &mut l0[j * n..(j + 1) * n]);
+            nominal.upper_lengths(sc, &mut l0[j * n..(j + 1) * n]);
             p0.push(fk(robot, t0));
         }
+        // |t_k - t0_k| below this on every joint keeps |dphi| < pi/2: one atan2
+        let small = (std::f64::consts::FRAC_PI_2 / n as f64).cos();
         let mut hbuf = vec![0.0; hole_len];
         let (mut target, mut th) = (vec![0.0; n], vec![0.0; n]);
         let mut solver = CableSolver::new(robot, method, *opts);
@@ -234,6 +269,21 @@ pub fn monte_carlo(
                 for k in 0..n {
                     target[k] = l0[j * n + k] + dls[k];
                 }
+                if let Some(ds) = fast_deviation(
+                    robot,
+                    geom,
+                    &target,
+                    &seed_cs[j * n..(j + 1) * n],
+                    &mut cs,
+                    p0[j],
+                    small,
+                    method,
+                    opts,
+                ) {
+                    stats.add(j, ds);
+                    continue;
+                }
+                // the general path (LM fallback, or the closed form's failure)
                 th.copy_from_slice(t0);
                 let st = solver.solve(geom, &target, &mut th);
                 if st.converged {
@@ -251,6 +301,51 @@ pub fn monte_carlo(
         out.extend(p);
     }
     Ok(out)
+}
+
+/// The closed form's tip deviation without inverse trigonometry: the pose from
+/// the answer's cos/sin, dphi from the product of the joint rotations (one
+/// atan2; per joint when a rotation is large). `None` when the general path
+/// must decide (Newton requested, no real solution, residual above tol).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn fast_deviation(
+    robot: &Robot,
+    geom: &CableGeometry,
+    target: &[f64],
+    seed_cs: &[(f64, f64)],
+    cs: &mut [(f64, f64)],
+    p0: [f64; 3],
+    small: f64,
+    method: CableMethod,
+    opts: &SolveOptions,
+) -> Option<[f64; 3]> {
+    if method == CableMethod::Newton {
+        return None;
+    }
+    let res = closed_form_cs(geom, target, seed_cs, cs, None)?;
+    if res > opts.tol {
+        return None;
+    }
+    let p = fk_cs(robot, cs, 0.0);
+    let (mut prod, mut large) = ((1.0f64, 0.0f64), false);
+    for (c, s0) in cs.iter().zip(seed_cs) {
+        let d = cs_difference(*c, *s0);
+        large |= d.0 < small;
+        prod = (prod.0 * d.0 - prod.1 * d.1, prod.0 * d.1 + prod.1 * d.0);
+    }
+    let dphi = if large {
+        cs.iter()
+            .zip(seed_cs)
+            .map(|(c, s0)| {
+                let d = cs_difference(*c, *s0);
+                d.1.atan2(d.0)
+            })
+            .sum()
+    } else {
+        prod.1.atan2(prod.0)
+    };
+    Some([p[0] - p0[0], p[1] - p0[1], dphi])
 }
 
 fn same_samples(name: &str, got: usize, want: usize) -> Result<()> {
@@ -316,10 +411,17 @@ mod tests {
     }
 
     #[test]
-    fn histogram_bins_are_monotone() {
+    fn histogram_bins_follow_the_edges() {
+        let e = hist_edges();
+        assert_eq!(e.len(), HIST_BINS - 1);
         assert_eq!(hist_bin(0.0), 0);
         assert_eq!(hist_bin(1e-9), 1);
         assert_eq!(hist_bin(10.0), HIST_BINS - 1);
-        assert!(hist_bin(1e-3) < hist_bin(1.1e-3));
+        for (k, w) in e.windows(2).enumerate() {
+            // every edge starts its bin; just below it is the previous bin
+            assert_eq!(hist_bin(w[0]), k + 1);
+            assert_eq!(hist_bin(w[1] * (1.0 - 1e-15)), k + 1);
+            assert_eq!(hist_bin(0.5 * (w[0] + w[1])), k + 1);
+        }
     }
 }

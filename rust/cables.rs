@@ -151,7 +151,6 @@ impl CableGeometry {
         }
         Some(Branches {
             mid,
-            half: arg.acos(),
             cos_half: arg,
             sin_half: (1.0 - arg * arg).max(0.0).sqrt(),
             cos_mid,
@@ -160,22 +159,28 @@ impl CableGeometry {
     }
 }
 
-/// The two angles `mid ± half` solving one joint of the closed form.
+/// The two angles `mid ± half` solving one joint of the closed form, with
+/// `cos(half) = (s² − P) / hypot(Q, R)`.
 #[derive(Debug, Clone, Copy)]
 pub struct Branches {
     pub mid: f64,
-    pub half: f64,
-    cos_half: f64,
-    sin_half: f64,
+    pub cos_half: f64,
+    pub sin_half: f64,
     cos_mid: f64,
     sin_mid: f64,
 }
 
 impl Branches {
+    /// Whether the two branches coincide (the cable is at a fold).
+    #[inline]
+    pub fn single(&self) -> bool {
+        self.sin_half == 0.0
+    }
+
     /// Angle of the branch `mid + sign · half` (rad).
     #[inline]
     pub fn angle(&self, sign: f64) -> f64 {
-        self.mid + sign * self.half
+        self.mid + sign * self.cos_half.acos()
     }
 
     /// `(cos, sin)` of the branch `mid + sign · half`, by angle addition.

@@ -376,6 +376,12 @@ impl CoreRobot {
     }
 }
 
+/// Edges (m) of the Monte-Carlo histogram's regular bins (see `accuracy::hist_edges`).
+#[pyfunction]
+fn hist_edges<'py>(py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+    vec1(py, accuracy::hist_edges().to_vec())
+}
+
 #[pymodule]
 fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<CoreRobot>()?;
@@ -384,6 +390,7 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HIST_LO", accuracy::HIST_LO)?;
     m.add("HIST_PER_DECADE", accuracy::HIST_PER_DECADE)?;
     m.add("HIST_BINS", accuracy::HIST_BINS)?;
+    m.add_function(wrap_pyfunction!(hist_edges, m)?)?;
     m.add("QUANTITIES", accuracy::QUANTITIES)?;
     m.add_function(wrap_pyfunction!(statics_tensions, m)?)?;
     m.add_function(wrap_pyfunction!(statics_feasible, m)?)?;
@@ -391,6 +398,7 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(statics_solve_elastic, m)?)?;
     m.add_function(wrap_pyfunction!(statics_routing_length, m)?)?;
     m.add_function(wrap_pyfunction!(statics_with_cable, m)?)?;
+    m.add_function(wrap_pyfunction!(sensitivity_tip, m)?)?;
     Ok(())
 }
 
@@ -548,4 +556,37 @@ fn statics_with_cable(
     };
     r.validate().map_err(err)?;
     Ok(CoreRobot { inner: r })
+}
+
+// ---------------------------------------------------------------------------
+// Tip sensitivities (issue 7): `crate::sensitivity`, wrapped by
+// `cdsm.tolerance.sensitivities`.
+// ---------------------------------------------------------------------------
+
+type SensitivityArrays<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Option<Bound<'py, PyArray1<f64>>>,
+    Bound<'py, PyArray1<bool>>,
+);
+
+/// d[x, y, phi]/d(upper cable lengths) flat `(N, 3, n)`, d/d(hole height per
+/// disk) flat `(N, 3, n)`, d/d(every hole coordinate) flat `(N, 3, H)` (only
+/// with `holes`), and `(N,)` ok (cable Jacobian invertible).
+#[pyfunction]
+#[pyo3(signature = (robot, theta, holes, threads))]
+fn sensitivity_tip<'py>(
+    py: Python<'py>,
+    robot: PyRef<'py, CoreRobot>,
+    theta: PyReadonlyArrayDyn<'_, f64>,
+    holes: bool,
+    threads: usize,
+) -> PyResult<SensitivityArrays<'py>> {
+    let r = &robot.inner;
+    let t = slice("theta", &theta)?;
+    let s = py
+        .detach(|| crate::sensitivity::sensitivities(r, t, holes, threads))
+        .map_err(err)?;
+    let h = if holes { Some(vec1(py, s.holes)) } else { None };
+    Ok((vec1(py, s.cable), vec1(py, s.pair), h, vec1(py, s.ok)))
 }

@@ -246,22 +246,22 @@ pub(crate) fn normal_equations(
     }
 }
 
-/// Closed-form cable solve, joint by joint (triangular): for each joint the
-/// `acos` branch nearest the seed. `theta`: seed on entry, answer on exit.
-/// Returns the residual max |L_upper(theta) - target| (m; each cable's length
-/// re-evaluated at the answer), or `None` (theta undefined) when some joint
+/// Closed-form cable solve in cos/sin form, joint by joint (triangular): for
+/// each joint the branch nearest the seed (largest `cos(t − seed)`), without
+/// inverse trigonometry. `seed_cs`: `(cos, sin)` of the seed angles; `cs`
+/// gets those of the answer. Returns the residual max |L_upper − target| (m;
+/// each cable's length re-evaluated at the answer), or `None` when some joint
 /// has no real solution. `branches[k]` counts the real solutions of joint k
 /// given joints `< k`.
-pub fn solve_cables_closed_form(
+pub fn closed_form_cs(
     geom: &CableGeometry,
     target: &[f64],
-    theta: &mut [f64],
+    seed_cs: &[(f64, f64)],
     cs: &mut [(f64, f64)],
     mut branches: Option<&mut [u8]>,
 ) -> Option<f64> {
-    let n = theta.len();
     let mut residual = 0.0f64;
-    for i in 0..n {
+    for i in 0..target.len() {
         let c = 2 * i;
         let mut s = target[i] - geom.traverse[c];
         for (k, csk) in cs.iter().enumerate().take(i) {
@@ -274,18 +274,43 @@ pub fn solve_cables_closed_form(
             return None;
         };
         if let Some(br) = branches.as_deref_mut() {
-            br[i] = if b.half == 0.0 { 1 } else { 2 };
+            br[i] = if b.single() { 1 } else { 2 };
         }
-        let seed = theta[i];
-        let sign = if wrap(b.angle(1.0) - seed).abs() <= wrap(b.angle(-1.0) - seed).abs() {
-            1.0
+        let (c0, s0) = seed_cs[i];
+        let (plus, minus) = (b.cos_sin(1.0), b.cos_sin(-1.0));
+        cs[i] = if plus.0 * c0 + plus.1 * s0 >= minus.0 * c0 + minus.1 * s0 {
+            plus
         } else {
-            -1.0
+            minus
         };
-        theta[i] = seed + wrap(b.angle(sign) - seed);
-        cs[i] = b.cos_sin(sign);
         // cable i's length at the answer minus its target: only segment i is new
         residual = residual.max((geom.segment(c, i, cs[i]) - s).abs());
+    }
+    Some(residual)
+}
+
+/// `(cos, sin)` of `t − t0` from those of `t` and `t0`.
+#[inline]
+pub fn cs_difference(a: (f64, f64), b: (f64, f64)) -> (f64, f64) {
+    (a.0 * b.0 + a.1 * b.1, a.1 * b.0 - a.0 * b.1)
+}
+
+/// Closed-form cable solve with angles: [`closed_form_cs`] from the seed
+/// `theta` (whose cos/sin are `seed_cs`), then `theta_k = seed_k + atan2(sin(t
+/// − seed), cos(t − seed))` (the answer within pi of the seed). `theta` is
+/// unchanged on `None`.
+pub fn solve_cables_closed_form(
+    geom: &CableGeometry,
+    target: &[f64],
+    theta: &mut [f64],
+    seed_cs: &[(f64, f64)],
+    cs: &mut [(f64, f64)],
+    branches: Option<&mut [u8]>,
+) -> Option<f64> {
+    let residual = closed_form_cs(geom, target, seed_cs, cs, branches)?;
+    for ((t, c), s0) in theta.iter_mut().zip(cs.iter()).zip(seed_cs) {
+        let d = cs_difference(*c, *s0);
+        *t += d.1.atan2(d.0);
     }
     Some(residual)
 }
@@ -308,6 +333,7 @@ pub struct CableSolver<'a> {
     pub method: CableMethod,
     pub opts: SolveOptions,
     seed: Vec<f64>,
+    seed_cs: Vec<(f64, f64)>,
     cs: Vec<(f64, f64)>,
 }
 
@@ -319,6 +345,7 @@ impl<'a> CableSolver<'a> {
             method,
             opts,
             seed: vec![0.0; n],
+            seed_cs: vec![(1.0, 0.0); n],
             cs: vec![(1.0, 0.0); n],
         }
     }
@@ -332,7 +359,11 @@ impl<'a> CableSolver<'a> {
             return st;
         }
         self.seed.copy_from_slice(theta);
-        let closed = solve_cables_closed_form(geom, target, theta, &mut self.cs, None);
+        for (c, t) in self.seed_cs.iter_mut().zip(theta.iter()) {
+            *c = (t.cos(), t.sin());
+        }
+        let closed =
+            solve_cables_closed_form(geom, target, theta, &self.seed_cs, &mut self.cs, None);
         let ok = closed.is_some();
         let residual = closed.unwrap_or(f64::INFINITY);
         let in_box = !opts.enforce_limits || crate::kinematics::within_limits(robot, theta);
@@ -442,7 +473,9 @@ mod tests {
         let mut cs = [(1.0, 0.0); 3];
         let mut br = [9u8; 3];
         let target = [0.076, 0.152, 0.228];
-        let res = solve_cables_closed_form(&g, &target, &mut th, &mut cs, Some(&mut br)).unwrap();
+        let seed = [(1.0, 0.0); 3];
+        let res =
+            solve_cables_closed_form(&g, &target, &mut th, &seed, &mut cs, Some(&mut br)).unwrap();
         assert!(res < 1e-15, "{res}");
         assert_eq!(br, [2, 2, 2]);
         assert!(th.iter().all(|t| t.abs() < 1e-7), "{th:?}");

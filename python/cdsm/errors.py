@@ -157,8 +157,7 @@ class MonteCarlo:
     @staticmethod
     def hist_edges() -> np.ndarray:
         """Edges (m) of the regular bins; bin 0 is below the first, the last above the last."""
-        k = np.arange(_cdsm.HIST_BINS - 1)
-        return _cdsm.HIST_LO * 10.0 ** (k / _cdsm.HIST_PER_DECADE)
+        return _cdsm.hist_edges()
 
     def percentile(self, p: float) -> np.ndarray:
         """(N,) p-th percentile (0–100) of |d(X, Y)|, m, to the bin resolution
