@@ -3,7 +3,7 @@
 //! closed-form triangular cable solve (fast path and branch census).
 //! The algorithms are specified in `docs/model.md`.
 
-use crate::cables::{wrap, CableGeometry};
+use crate::cables::CableGeometry;
 use crate::kinematics::{fk, fk_jacobian};
 use crate::robot::Robot;
 use faer::linalg::solvers::Solve;

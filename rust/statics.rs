@@ -44,8 +44,6 @@ use crate::error::{check_finite, CdsmError, Result};
 use crate::kinematics::within_limits;
 use crate::robot::Robot;
 use crate::solve::{self, levenberg_marquardt, CableMethod, SolveOptions, Status};
-use faer::linalg::solvers::Solve;
-use faer::Mat;
 
 /// External loads and force-controlled tensions for one configuration.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -215,7 +213,8 @@ pub fn solve_cables_elastic(
     let mut tp = vec![0.0; n];
     let mut tm = vec![0.0; n];
     let mut th = vec![0.0; n];
-    let mut jac = Mat::<f64>::zeros(n, n);
+    let mut jac = vec![0.0; n * n];
+    let (mut a, mut g) = (vec![0.0; n * n], vec![0.0; n]);
     let status = {
         let model =
             |th: &[f64], st: &mut Statics, cs: &mut [(f64, f64)], lg: &mut [f64], t: &mut [f64]| {
@@ -241,10 +240,10 @@ pub fn solve_cables_elastic(
             |x, r, lambda, delta| {
                 let mut s = st_cell.borrow_mut();
                 let h = 1e-7;
-                for i in 0..n {
-                    for k in 0..n {
-                        let a = x[k];
-                        jac[(i, k)] = geom.derivative(2 * i, k, (a.cos(), a.sin()));
+                for (k, xk) in x.iter().enumerate() {
+                    let csk = (xk.cos(), xk.sin());
+                    for i in 0..n {
+                        jac[i * n + k] = geom.derivative(2 * i, k, csk);
                     }
                 }
                 for k in 0..n {
@@ -254,20 +253,11 @@ pub fn solve_cables_elastic(
                     th[k] = x[k] - h;
                     s.tensions(&th, loads, &mut tm);
                     for i in 0..n {
-                        jac[(i, k)] -= (upper[i] + route) / ea * (tp[i] - tm[i]) / (2.0 * h);
+                        jac[i * n + k] -= (upper[i] + route) / ea * (tp[i] - tm[i]) / (2.0 * h);
                     }
                 }
-                let mut a = jac.transpose() * &jac;
-                for k in 0..n {
-                    a[(k, k)] += lambda;
-                }
-                let rhs =
-                    Mat::<f64>::from_fn(n, 1, |k, _| (0..n).map(|i| jac[(i, k)] * r[i]).sum());
-                let y = a.partial_piv_lu().solve(&rhs);
-                for k in 0..n {
-                    delta[k] = y[(k, 0)];
-                }
-                delta.iter().all(|d| d.is_finite())
+                solve::normal_equations(n, &jac, r, lambda, &mut a, &mut g);
+                solve::solve_spd(n, &a, &g, delta) && delta.iter().all(|d| d.is_finite())
             },
         )
     };

@@ -191,9 +191,15 @@ def fit(prep: Prepared, effects: Sequence[str], rows: Optional[np.ndarray] = Non
     m = len(r)
     sigma2 = cost / max(m - k, 1)
     if k:
-        sv = np.linalg.svd(J / np.maximum(np.linalg.norm(J, axis=0), 1e-300), compute_uv=False)
+        col = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
+        _, sv, vt = np.linalg.svd(J / col, full_matrices=False)
         cov_z = np.linalg.pinv(J.T @ J) * sigma2
         std = np.sqrt(np.maximum(np.diag(cov_z), 0.0)) * scale
+        # a parameter with a share in a direction the data cannot see is not
+        # determined: its standard deviation is infinite, reported as NaN
+        null = vt[sv < 1e-8 * max(sv[0], 1e-300)] if len(sv) else np.zeros((0, k))
+        blind = (np.linalg.norm(J, axis=0) == 0) | ((null ** 2).sum(axis=0) > 1e-2)
+        std[blind] = np.nan
         d = np.sqrt(np.maximum(np.diag(cov_z), 1e-300))
         corr = cov_z / np.outer(d, d)
     else:

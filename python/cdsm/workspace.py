@@ -20,7 +20,7 @@ import numpy as np
 from .robot import CdsmInputError, Robot, Solution, _batch
 
 __all__ = [
-    "joint_grid", "grid_neighbours", "paper_ik_seed", "Workspace", "sweep",
+    "joint_grid", "default_step", "grid_neighbours", "paper_ik_seed", "Workspace", "sweep",
     "sensitivity", "singular_values", "cable_fold_ratio", "jump_points", "Jumps", "REASONS",
 ]
 
@@ -101,12 +101,23 @@ class Workspace:
         return int((~self.reachable).sum())
 
 
+def default_step(n: int, max_points: int = 20_000) -> float:
+    """The paper's 5° step (rad) when the ±30° grid has at most ``max_points``
+    configurations (n <= 3), else the smallest step of the form 60°/(k-1)
+    that keeps it under that size (n = 4: 6°, n = 8: 20°)."""
+    k = 13
+    while k > 3 and k ** n > max_points:
+        k -= 1
+    return np.radians(60.0 / (k - 1))
+
+
 def sweep(robot: Robot, protocol: str = "attitude0", grid=None, ik_seed=None,
           neighbours=None) -> Workspace:
     """Initial configurations of an error study over ``grid`` (N, n) rad
-    (default: ±30° in 5° steps, with its neighbour pairs)."""
+    (default: ±30° in 5° steps — coarser for n > 3, see :func:`default_step` —
+    with its neighbour pairs)."""
     if grid is None:
-        grid = joint_grid(robot.n)
+        grid = joint_grid(robot.n, step=default_step(robot.n))
         k = round(len(grid) ** (1.0 / robot.n))
         neighbours = grid_neighbours(k, robot.n)
     g, _ = _batch("grid", grid, robot.n)
