@@ -122,7 +122,7 @@ pub fn hist_edges() -> &'static [f64] {
 #[inline]
 pub fn hist_bin(v: f64) -> usize {
     let edges = hist_edges();
-    if !(v >= edges[0]) {
+    if v.is_nan() || v < edges[0] {
         return 0;
     }
     let last = edges.len(); // == HIST_BINS - 1
@@ -179,12 +179,12 @@ impl McStats {
     fn add(&mut self, j: usize, ds: [f64; 3]) {
         let v = [ds[0], ds[1], ds[2], (ds[0] * ds[0] + ds[1] * ds[1]).sqrt()];
         self.count[j] += 1;
-        for q in 0..QUANTITIES {
+        for (q, vq) in v.iter().enumerate() {
             let k = j * QUANTITIES + q;
-            self.sum[k] += v[q];
-            self.sum_sq[k] += v[q] * v[q];
-            self.min[k] = self.min[k].min(v[q]);
-            self.max[k] = self.max[k].max(v[q]);
+            self.sum[k] += vq;
+            self.sum_sq[k] += vq * vq;
+            self.min[k] = self.min[k].min(*vq);
+            self.max[k] = self.max[k].max(*vq);
         }
         self.hist[j * HIST_BINS + hist_bin(v[3])] += 1;
     }

@@ -115,7 +115,7 @@ pub fn rows_of(name: &str, values: &[f64], width: usize) -> Result<usize> {
 }
 
 /// Seeds: `None` gives zeros, otherwise `(N, n)` checked against `rows`.
-fn seeds<'a>(seed: Option<&'a [f64]>, rows: usize, n: usize) -> Result<Option<&'a [f64]>> {
+fn seeds(seed: Option<&[f64]>, rows: usize, n: usize) -> Result<Option<&[f64]>> {
     if let Some(s) = seed {
         let got = rows_of("seed", s, n)?;
         if got != rows {

@@ -203,9 +203,9 @@ mod tests {
         let g = CableGeometry::new(&r, None);
         let mut l = [0.0; 6];
         g.lengths(&[0.0; 3], &mut l);
-        for c in 0..6 {
+        for (c, lc) in l.iter().enumerate() {
             let want = 0.076 * (c / 2 + 1) as f64;
-            assert!((l[c] - want).abs() < 1e-15, "{c}: {}", l[c]);
+            assert!((lc - want).abs() < 1e-15, "{c}: {lc}");
         }
     }
 

@@ -44,7 +44,7 @@ pub fn check_finite(name: &str, values: &[f64]) -> Result<()> {
 
 /// Checks that a flat batch has a whole number of rows of `width`.
 pub fn check_rows(name: &str, values: &[f64], width: usize) -> Result<usize> {
-    if width == 0 || values.len() % width != 0 {
+    if width == 0 || !values.len().is_multiple_of(width) {
         return Err(CdsmError::Shape {
             name: name.to_string(),
             expected: format!("rows of {width} values"),

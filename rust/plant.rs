@@ -140,11 +140,11 @@ impl<'a> Plant<'a> {
         for (i, o) in out.iter_mut().enumerate() {
             let c = 2 * i;
             let mut len = 0.0;
-            for k in 0..=i {
+            for (k, tk) in theta.iter().enumerate().take(i + 1) {
                 let d = shift(k);
                 let p = r.hole(c, k, 1);
                 let q = r.hole(c, k + 1, 0);
-                let (s, co) = theta[k].sin_cos();
+                let (s, co) = tk.sin_cos();
                 let u = [q[0] + r.link_after[k], q[1] + d];
                 let ax = r.link_before[k] + co * u[0] - s * u[1] - p[0];
                 let ay = s * u[0] + co * u[1] - (p[1] + d);

@@ -62,6 +62,8 @@ type SolutionArrays<'py> = (
     Bound<'py, PyArray1<bool>>,
 );
 
+type Predictions<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<bool>>);
+
 fn solution<'py>(py: Python<'py>, s: BatchSolution) -> SolutionArrays<'py> {
     (
         vec1(py, s.theta),
@@ -219,6 +221,7 @@ impl CoreRobot {
     }
 
     #[pyo3(signature = (pose, seed, tol, max_iter, enforce_limits, threads))]
+    #[allow(clippy::too_many_arguments)]
     fn ik<'py>(
         &self,
         py: Python<'py>,
@@ -308,7 +311,7 @@ impl CoreRobot {
         tol: f64,
         max_iter: u32,
         threads: usize,
-    ) -> PyResult<(Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<bool>>)> {
+    ) -> PyResult<Predictions<'py>> {
         let p = slice("params", &params)?;
         let t = slice("theta_cmd", &theta_cmd)?;
         let d = slice("dl", &dl)?;

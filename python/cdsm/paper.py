@@ -13,7 +13,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from . import errors, measurements, statics, workspace
+from . import errors, measurements, statics, tolerance, workspace
 from .robot import Robot
 
 __all__ = ["Scenario", "ScenarioResult", "PaperStudy", "paper_scenarios", "run",
@@ -88,6 +88,8 @@ class PaperStudy:
     feasibility: Dict[str, statics.FeasibilityMap] = field(default_factory=dict)
     #: per protocol: slack fraction with the lower weights in the opposite order
     slack_reversed: Dict[str, float] = field(default_factory=dict)
+    #: per protocol: first-order amplification maps (tolerance.amplification_maps)
+    amplification: Dict[str, dict] = field(default_factory=dict)
 
     def result(self, key: str, protocol: str = "attitude0") -> ScenarioResult:
         for r in self.scenarios:
@@ -260,5 +262,6 @@ def run(robot: Optional[Robot] = None, samples: int = 1000, seed: int = 0,
         study.feasibility[p] = fm
         rev = robot.feasible(th, lower=robot.lower_tension[::-1].copy())
         study.slack_reversed[p] = float(1.0 - rev[ws.reachable].mean())
+        study.amplification[p] = tolerance.amplification_maps(robot, p, ws)
     study.claims = check_claims(study)
     return study

@@ -328,6 +328,37 @@ def feasibility_figure(study) -> Figure:
     return fig
 
 
+AMPLIFICATION_TITLES = {
+    "cable_worst": "worst case, mm of tip per mm on every upper cable",
+    "cable_rms": "RMS, mm of tip per mm (uniform ±1) on every upper cable",
+    "hole_worst": "worst case, mm of tip per mm on every disk's hole height",
+    "hole_rms": "RMS, mm of tip per mm (uniform ±1) on every hole height",
+}
+
+
+def amplification_figure(study, protocol: str) -> Figure:
+    """First-order amplification of cable-length and hole-height errors into
+    the tip position over the workspace (analytic sensitivities, Rust core)."""
+    maps = study.amplification[protocol]
+    xy = maps["xy"] * 1e3
+    with _rc():
+        fig = _figure(12.5, 9.4)
+        axs = fig.subplots(2, 2)
+        for ax, (key, title) in zip(axs.ravel(), AMPLIFICATION_TITLES.items()):
+            v = maps[key]
+            pos = v[np.isfinite(v) & (v > 0)]
+            norm = LogNorm(max(float(pos.min()), 1e-3), float(pos.max())) if pos.size else Normalize(0, 1)
+            _unreachable(ax, study, protocol)
+            _scatter_map(fig, ax, xy, np.where(v > 0, v, np.nan), "viridis", norm, "mm / mm", size=7,
+                         order=False)
+            ax.set_title(title, fontsize=9.5)
+            _axes_mm(ax)
+        fig.suptitle(f"First-order tip-error amplification — {PROTOCOL_TITLES.get(protocol, protocol)}",
+                     fontsize=11)
+        fig.tight_layout()
+    return fig
+
+
 # ---------------------------------------------------------------------------
 # Fig. 9: workspace
 # ---------------------------------------------------------------------------
@@ -554,6 +585,8 @@ def all_figures(study, outdir: "str | os.PathLike[str]", progress: bool = False)
     jobs.append(("singular", lambda: singular_figure(study)))
     if study.feasibility:
         jobs.append(("feasibility", lambda: feasibility_figure(study)))
+    for p in study.amplification:
+        jobs.append((f"amplification_{p}", lambda p=p: amplification_figure(study, p)))
     jobs.append(("workspace", lambda: workspace_figure(study)))
     jobs.append(("fig12_singular_state", lambda: singular_state_figure(study)))
     if study.table3 is not None:

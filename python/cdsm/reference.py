@@ -769,3 +769,77 @@ def solve_cables_elastic(robot, upper, E, diameter, routing_length=0.0, lower=No
     sol["within_limits"] = _within_limits(g, sol["theta"])
     sol["tension"] = _T(sol["theta"], np.arange(upper.shape[0]))
     return sol
+
+
+# --------------------------------------------------------------------------
+# Tip sensitivities (issue 7)
+# --------------------------------------------------------------------------
+# The cable solve holds the upper-cable lengths: L_upper(theta; holes) = L0 + dl.
+# Differentiating, Jc dtheta + (dL_upper/dholes) dholes = dl, so
+#   dS/dl     =  Jp Jc^-1,
+#   dS/dholes = -Jp Jc^-1 dL_upper/dholes,
+# with Jp = dS/dtheta and Jc = dL_upper/dtheta.  dL/dholes by the chain rule on
+# the segment and traversal vectors of docs/model.md (no finite differences).
+
+__all__ += ["cable_hole_gradient", "tip_sensitivity"]
+
+
+def cable_hole_gradient(robot, theta) -> np.ndarray:
+    """``dL_c / d holes``, shape ``(N, 2n, 2n, n+1, 2, 2)`` m/m: cable ``c`` (axis 1)
+    against every hole coordinate (axes 2-5, the ``holes`` layout).
+
+    Segment ``k`` of cable ``c``: ``v = w + Rot(theta_k) u`` with
+    ``w = (link_before[k], 0) - p``, ``u = q + (link_after[k], 0)``; for
+    ``e = v / |v|``: ``d|v|/dp = -e``, ``d|v|/dq = Rot(theta_k)^T e``.  Traversal
+    of disk ``k+1``: ``t = (thickness[k] + b_x - a_x, b_y - a_y)``;
+    ``d|t|/db = t/|t|``, ``d|t|/da = -t/|t|``.  Entries a cable does not use are 0.
+    """
+    g = _geometry(robot)
+    theta = _batch(theta, g.n, "theta")
+    n, N = g.n, theta.shape[0]
+    u, w, mask = _segment_vectors(g)  # (2n, n, 2), (2n, n, 2), (2n, n)
+    c = np.cos(theta)[:, None, :]
+    s = np.sin(theta)[:, None, :]
+    vx = w[None, ..., 0] + u[None, ..., 0] * c - u[None, ..., 1] * s
+    vy = w[None, ..., 1] + u[None, ..., 0] * s + u[None, ..., 1] * c
+    ln = np.hypot(vx, vy)
+    ex, ey = vx / ln, vy / ln  # (N, 2n, n)
+    m = mask[None].astype(float)
+    grad_p = np.stack([-ex, -ey], -1) * m[..., None]  # d/d holes[c, k, 1]
+    grad_q = np.stack([c * ex + s * ey, -s * ex + c * ey], -1) * m[..., None]  # d/d holes[c, k+1, 0]
+    a = g.holes[:, 1:, 0, :]
+    b = g.holes[:, 1:, 1, :]
+    tx = g.t[None, :] + b[..., 0] - a[..., 0]
+    ty = b[..., 1] - a[..., 1]
+    tl = np.hypot(tx, ty)
+    dt = np.stack([tx / tl, ty / tl], -1) * mask[..., None]  # (2n, n, 2) d/d b
+    grad = np.zeros((N, 2 * n, 2 * n, n + 1, 2, 2))
+    for cab in range(2 * n):
+        grad[:, cab, cab, :n, 1, :] += grad_p[:, cab]
+        grad[:, cab, cab, 1:, 0, :] += grad_q[:, cab] - dt[None, cab]
+        grad[:, cab, cab, 1:, 1, :] += dt[None, cab]
+    return grad
+
+
+def tip_sensitivity(robot, theta) -> dict:
+    """First-order sensitivities of the tip pose at ``theta (N, n)`` rad.
+
+    Returns ``cable (N, 3, n)``: dS/dl_upper (m/m; rad/m for phi);
+    ``holes (N, 3, 2n, n+1, 2, 2)``: dS/d(every hole coordinate), zero for the
+    lower (force-controlled) cables and unused entries; ``pair (N, 3, n)``:
+    dS/d(hole height of disk i), the paper's dh (upper holes +dh, lower -dh).
+    """
+    g = _geometry(robot)
+    theta = _batch(theta, g.n, "theta")
+    n, N = g.n, theta.shape[0]
+    jp = fk_jacobian(robot, theta)  # (N, 3, n)
+    jc = upper_cable_jacobian(robot, theta)  # (N, n, n)
+    # S Jc = Jp  <=>  Jc^T S^T = Jp^T
+    S = np.swapaxes(np.linalg.solve(np.swapaxes(jc, 1, 2), np.swapaxes(jp, 1, 2)), 1, 2)
+    grad = cable_hole_gradient(robot, theta)[:, 0::2]  # (N, n, 2n, n+1, 2, 2) upper cables
+    holes = -np.einsum("nri,nicdfx->nrcdfx", S, grad)
+    # dh_i: +y on every used hole of cable 2i (lower cables do not move the tip)
+    mask = used_hole_mask(n)  # (2n, n+1, 2)
+    dy = np.array([(grad[:, i, 2 * i, ..., 1] * mask[2 * i][None]).sum(axis=(1, 2)) for i in range(n)]).T
+    pair = -S * dy[:, None, :]
+    return dict(cable=S, holes=holes, pair=pair)

@@ -468,6 +468,16 @@ def _build(study, pngs: Dict[str, str]) -> _Doc:
         doc.p(f"{PROTO_NAMES.get(p, p)}: {int(sing.sum())} configurations are singular "
               f"(sigma_min/sigma_max < 1e-6), {int(near.sum())} near-singular (< 0.02), of "
               f"{int(np.isfinite(ratio).sum())}.{extra}")
+    if study.amplification:
+        doc.h(2, "Sensitivity: how much each error is amplified at the tip")
+        for p, m in study.amplification.items():
+            parts = []
+            for key, what in (("cable_rms", "cable length"), ("hole_rms", "hole height")):
+                v = m[key][np.isfinite(m[key])]
+                if v.size:
+                    parts.append(f"{what}: RMS amplification median {np.median(v):.2f}, max {v.max():.2f} mm/mm")
+            doc.p(f"{PROTO_NAMES.get(p, p)} — " + "; ".join(parts) + ". Worst-case and RMS maps are in the "
+                  "figures; `cdsm tolerance` turns them into tolerances.")
     if study.feasibility:
         doc.h(2, "Feasibility of hybrid control (slack cables)")
         w = ", ".join(f"{t / 9.80665 * 1e3:.0f}" for t in robot.lower_tension)
@@ -542,6 +552,9 @@ def _captions(study) -> Dict[str, str]:
                     f"{r.scenario.label} ({r.scenario.figure or r.scenario.key}) — {pn}: dX red, dY blue, dphi green "
                     "over the tip positions; black rings: jump points.")
     caps["singular"] = "sigma_min/sigma_max of the pose Jacobian over the workspace, both protocols."
+    for p in study.amplification:
+        caps[f"amplification_{p}"] = (f"First-order amplification of cable and hole errors into the tip — "
+                                      f"{PROTO_NAMES.get(p, p)} (analytic sensitivities; log colour scale).")
     caps["feasibility"] = ("Feasibility map: smallest upper-cable tension at each initial configuration; "
                            "black rings need a slack (non-positive) upper cable.")
     caps["workspace"] = ("Workspace (Fig. 9): ±30° grid tips, the tips reachable at phi = 0 (attitude-0 protocol), "
@@ -557,8 +570,8 @@ def _captions(study) -> Dict[str, str]:
 def _order(pngs: Dict[str, str]) -> Dict[str, str]:
     """Report order: overview, Monte Carlo, workspace, singular, Fig. 12, Table 3, Table 2, scenarios."""
     keys = list(pngs)
-    pri = ["overview", "montecarlo", "workspace", "singular", "feasibility", "fig12", "table3", "table2",
-           "scenario"]
+    pri = ["overview", "montecarlo", "workspace", "singular", "amplification", "feasibility", "fig12", "table3",
+           "table2", "scenario"]
     rank = lambda k: next((i for i, p in enumerate(pri) if k.startswith(p)), len(pri))
     return {k: pngs[k] for k in sorted(keys, key=lambda k: (rank(k), keys.index(k)))}
 
