@@ -1,0 +1,377 @@
+"""Experiment design from a diagnosis: which measurements to take next so
+that tied candidate models separate (or, for one model, so that its
+parameters become precise). SI units (m, rad).
+
+Criterion (model discrimination, Box–Hill / Buzzi-Ferraris style, linearised).
+The candidates are the diagnosis' chosen model, its best single effect and
+every effect tied with it (``diag.ties``), each with its fitted parameters.
+Each model's parameters keep the uncertainty the data so far leave them:
+posterior covariance ``C_m = (J_m^T J_m / sigma^2 + I / prior^2)^-1`` in
+parameters scaled by their typical size (:data:`cdsm.plant.TYPICAL`; prior:
+``prior`` typical sizes). For a set S of new rows the expected chi-square by
+which the measurements would separate models a and b is
+
+    D_ab(S) = d^T (2 sigma^2 I + J_a C_a J_a^T + J_b C_b J_b^T)^-1 d,   d = y_a(S) - y_b(S)
+
+(y: predicted observations [x, y] or [dx, dy], m; J: Jacobians on S; sigma:
+noise per axis, m). A difference a model could absorb by moving a poorly
+determined parameter counts little, and rows that tell the same thing share
+one covariance, so they add little together. The score of S is the sum of D_ab
+over the pairs (> ~10 per pair is decisive); K rows are picked greedily from a
+candidate pool, each maximising the score of the set so far. With a single
+candidate the fallback is greedy D-optimality (log det of the posterior
+information of its parameters).
+
+Candidate pool: commanded configurations uniform within the joint limits
+(shrunk by ``margin``), with dL as in the data: displacement data gets one
+upper cable at ±``dl`` (Table-3 style), absolute data dL uniform in ±``dl``;
+kept only when every upper cable stays taut (:meth:`Robot.feasible`) at the
+commanded configuration and at the nominal one with dL, and when every
+candidate model predicts the row.
+
+Suggestion CSV (:meth:`Suggestion.to_csv`): a measurement table
+(:mod:`cdsm.measurements`) without measured columns: ``point`` (s1, s2, ...),
+``theta_1..theta_n`` (rad), ``dL_1..dL_n`` (m), and for orientation the nominal
+tip pose ``x_nom, y_nom`` (m), ``phi_nom`` (rad) (read back as labels). Measure
+each row, add ``x, y`` (absolute) or ``dx, dy`` (displacement, the tip motion
+caused by dL) in m, and feed it to ``cdsm diagnose`` with the earlier data.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from dataclasses import dataclass, field
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import plant
+from .diagnose import Diagnosis, Prepared, _free, prepare
+from .measurements import Measurements
+from .robot import CdsmInputError, Robot
+
+__all__ = ["suggest", "Suggestion", "candidate_pool", "combine", "discrimination"]
+
+
+@dataclass
+class Suggestion:
+    """K proposed measurements.
+
+    theta: (K, n) commanded angles, rad. dL: (K, n) upper-cable extras, m.
+    kind: "absolute" or "displacement" (as the data). criterion:
+    "discrimination" or "d-optimal". models: candidate names compared.
+    predictions: {model: (K, 2) predicted observation, m}. gain: (K,) score
+    after each greedy pick (chi-square units for discrimination, log det for
+    d-optimal). score_before: the score of the data already taken.
+    pairs_before / pairs_after: {"a vs b": D_ab + D_ba} (chi-square).
+    noise: per-axis noise, m. pose: (K, 3) nominal tip poses (m, m, rad).
+    """
+
+    theta: np.ndarray
+    dL: np.ndarray
+    kind: str
+    criterion: str
+    models: List[str]
+    predictions: Dict[str, np.ndarray]
+    gain: np.ndarray
+    score_before: float
+    pairs_before: Dict[str, float] = field(default_factory=dict)
+    pairs_after: Dict[str, float] = field(default_factory=dict)
+    noise: float = 10e-6
+    pose: Optional[np.ndarray] = None
+    pool_size: int = 0
+    #: held-out RMS of the best model over the noise floor (sqrt(2)·noise);
+    #: far above 1 the chi-square figures overstate the separation
+    misfit: float = float("nan")
+
+    def __len__(self) -> int:
+        return len(self.theta)
+
+    def to_csv(self, path: "str | os.PathLike[str]") -> None:
+        """Write the proposed commands as a measurement CSV without measured
+        columns (format in the module docstring)."""
+        n = self.theta.shape[1]
+        mcols = "x, y" if self.kind == "absolute" else "dx, dy"
+        buf = io.StringIO()
+        buf.write(f"# cdsm diagnose --suggest: {len(self)} proposed measurements ({self.criterion}; "
+                  f"models: {', '.join(self.models)})\n")
+        buf.write("# SI units: theta_i, phi_nom in rad; dL_i, x_nom, y_nom in m. x_nom, y_nom, phi_nom: "
+                  "nominal tip pose (labels only)\n")
+        buf.write(f"# measurement kind: {self.kind}; after measuring add columns {mcols} (m) and run "
+                  "cdsm diagnose on it together with the earlier data\n")
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["point"] + [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in range(1, n + 1)]
+                   + ["x_nom", "y_nom", "phi_nom"])
+        pose = self.pose if self.pose is not None else np.full((len(self), 3), np.nan)
+        for i in range(len(self)):
+            w.writerow([f"s{i + 1}"] + [repr(float(v)) for v in self.theta[i]]
+                       + [repr(float(v)) for v in self.dL[i]] + [repr(float(v)) for v in pose[i]])
+        try:
+            with open(path, "w", encoding="utf-8", newline="") as fh:
+                fh.write(buf.getvalue())
+        except OSError as exc:
+            raise CdsmInputError(f"suggestion file {str(path)!r}: {exc.strerror}") from None
+
+    def summary(self) -> str:
+        """A short human-readable account (units in the text)."""
+        n = self.theta.shape[1]
+        lines = []
+        if np.isfinite(self.misfit) and self.misfit > 3.0:
+            lines.append(f"warning: the best model still misses the data by {self.misfit:.1f}x the noise floor; "
+                         "the separation figures below assume the stated noise and overstate how decisive "
+                         "the suggestions are — they still say where the candidates differ most")
+        if self.criterion == "discrimination":
+            lines.append(f"{len(self)} suggested {self.kind} measurements to tell apart: {', '.join(self.models)}")
+            lines.append(f"chi-square separation (>~10 is decisive; noise {self.noise * 1e6:.3g} µm per axis): "
+                         f"{self.score_before:.3g} in the data so far (difference of the fits' chi-square), "
+                         f"{self.gain[-1]:.3g} expected from the suggestions")
+            for k in self.pairs_before:
+                lines.append(f"  {k}: so far {self.pairs_before[k]:.3g}, expected from the suggestions "
+                             f"{self.pairs_after.get(k, float('nan')):.3g}")
+        else:
+            lines.append(f"{len(self)} suggested {self.kind} measurements (D-optimal for the parameters of "
+                         f"{', '.join(self.models) or 'the model'}); log det gain {self.gain[-1] - self.score_before:.3g}")
+        lines.append(f"picked from {self.pool_size} feasible candidates (taut cables, within joint limits)")
+        for i in range(len(self)):
+            th = ", ".join(f"{np.degrees(v):+.1f}" for v in self.theta[i])
+            dl = ", ".join(f"{v * 1e3:+.2f}" for v in self.dL[i])
+            pr = "; ".join(f"{m}: ({p[i, 0] * 1e3:+.3f}, {p[i, 1] * 1e3:+.3f})"
+                           for m, p in self.predictions.items())
+            lines.append(f"  s{i + 1}: theta = ({th}) deg, dL = ({dl}) mm; predicted [mm] {pr}")
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------
+def candidate_pool(robot: Robot, kind: str, size: int = 400, seed: int = 0, dl: float = 1e-3,
+                   margin: float = 0.9) -> Tuple[np.ndarray, np.ndarray]:
+    """Random candidate commands (theta (C, n) rad, dL (C, n) m) within
+    ``margin`` x the joint limits, with taut upper cables (see module doc)."""
+    rng = np.random.default_rng(seed)
+    n = robot.n
+    lim = robot.joint_limits
+    mid, half = lim.mean(axis=1), 0.5 * (lim[:, 1] - lim[:, 0]) * margin
+    half = np.minimum(half, np.radians(40.0))
+    theta = mid + rng.uniform(-1.0, 1.0, (size, n)) * half
+    d = np.zeros((size, n))
+    if kind == "displacement":
+        d[np.arange(size), rng.integers(0, n, size)] = rng.choice([-dl, dl], size)
+    else:
+        d = rng.uniform(-dl, dl, (size, n))
+    return _feasible(robot, theta, d)
+
+
+def _feasible(robot: Robot, theta: np.ndarray, d: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    ok = robot.within_limits(theta) & robot.feasible(theta)
+    sol = robot.solve_cables(robot.upper_lengths(theta) + d, seed=theta)
+    th2 = np.array(sol.theta, dtype=float)
+    conv = np.asarray(sol.converged, bool)
+    ok &= conv
+    if conv.any():
+        ok[conv] &= robot.within_limits(th2[conv]) & robot.feasible(th2[conv])
+    return theta[ok], d[ok]
+
+
+def combine(robot: Robot, *tables: "Measurements | Prepared") -> Measurements:
+    """One measurement table (commands as theta) from several of the same
+    kind, e.g. Table 3 (x_cmd rows) plus measured suggestions (theta rows).
+    Pose-commanded rows are solved by the nominal IK (paper seed); unusable
+    rows are dropped."""
+    th, dl, ms, kind = [], [], [], None
+    for t in tables:
+        prep = t if isinstance(t, Prepared) else prepare(robot, t)
+        if kind is None:
+            kind = prep.kind
+        elif prep.kind != kind:
+            raise CdsmInputError(f"combine: tables of different kinds ({kind}, {prep.kind})")
+        rows = prep.rows
+        th.append(prep.theta_cmd[rows])
+        dl.append(prep.meas.dL[rows])
+        ms.append(prep.meas.measured[rows])
+    if kind is None:
+        raise CdsmInputError("combine: no tables")
+    return Measurements(kind, robot.n, np.concatenate(dl), np.concatenate(ms), theta=np.concatenate(th),
+                        source="combined")
+
+
+# ---------------------------------------------------------------------------
+def _model_set(diag: Diagnosis):
+    """[(name, effects, p)] of the candidates to tell apart, best first."""
+    out, seen = [], set()
+
+    def add(c):
+        if c is not None and c.name not in seen and c.effects:
+            out.append((c.name, list(c.effects), np.array(c.fit.p)))
+            seen.add(c.name)
+
+    add(diag.chosen)
+    if diag.singles:
+        add(diag.singles[0])
+    by = {c.name: c for c in diag.singles}
+    for t in diag.ties:
+        add(by.get(t))
+    return out
+
+
+def _pred_and_jac(robot: Robot, effects, p, theta, dl, kind, h: float = 1e-4):
+    """Predictions (R, 2) and Jacobian (R, 2, k) in scaled parameters; NaN rows
+    where the plant does not settle."""
+    idx, scale, _, nonneg = _free(robot, effects)
+    z = p[idx] / scale
+    sets = [p]
+    lo = z - h
+    lo[nonneg] = np.maximum(lo[nonneg], 0.0)
+    for j in range(len(idx)):
+        for v in (lo[j] + 2 * h, lo[j]):
+            q = p.copy()
+            q[idx[j]] = v * scale[j]
+            sets.append(q)
+    obs, conv = plant.predict(robot, np.array(sets), theta, dl, kind)
+    obs = obs[..., :2]
+    obs[~conv] = np.nan
+    y = obs[0]
+    J = np.stack([(obs[1 + 2 * j] - obs[2 + 2 * j]) / (2 * h) for j in range(len(idx))], axis=-1)
+    return y, J
+
+
+def _posterior_cov(J_old: np.ndarray, noise: float, prior: float) -> np.ndarray:
+    """Parameter covariance (k, k) in scaled units from the rows already
+    measured (J_old (R, 2, k)) and a Gaussian prior of ``prior`` typical sizes."""
+    J = J_old.reshape(-1, J_old.shape[-1]) / noise
+    return np.linalg.inv(J.T @ J + np.eye(J.shape[1]) / prior ** 2)
+
+
+def discrimination(y: Dict[str, np.ndarray], J: Dict[str, np.ndarray], C: Dict[str, np.ndarray],
+                   noise: float) -> Dict[Tuple[str, str], float]:
+    """Expected chi-square separation of every pair of models on a set of
+    new rows: ``d^T (2 sigma^2 I + J_a C_a J_a^T + J_b C_b J_b^T)^-1 d`` with
+    ``d = y_a - y_b`` over the rows. y[m]: (S, 2) m; J[m]: (S, 2, k) per
+    scaled parameter; C[m]: (k, k) posterior covariance (see module doc)."""
+    out = {}
+    names = list(y)
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            d = (y[a] - y[b]).reshape(-1)
+            Ja = J[a].reshape(len(d), -1)
+            Jb = J[b].reshape(len(d), -1)
+            S = 2 * noise ** 2 * np.eye(len(d)) + Ja @ C[a] @ Ja.T + Jb @ C[b] @ Jb.T
+            out[(a, b)] = float(d @ np.linalg.solve(S, d)) if len(d) else 0.0
+    return out
+
+
+def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.ndarray]] = None,
+            seed: int = 0, pool: int = 400, dl: float = 1e-3, prior: float = 10.0) -> Suggestion:
+    """The ``k`` next measurements that best separate the diagnosis' tied
+    candidates (or, with one candidate, D-optimal ones for its parameters).
+
+    candidates: optional pool (theta (C, n) rad, dL (C, n) m), filtered for
+    joint limits and taut cables; default a random pool of ``pool`` commands
+    (seed ``seed``) with dL as in the data (±``dl`` m). The measurement kind is
+    the data's. See the module docstring for the criterion.
+    """
+    if int(k) < 1:
+        raise CdsmInputError(f"`k`: must be at least 1, got {k}")
+    k = int(k)
+    prep = diag.prep
+    robot, kind, noise = prep.robot, prep.kind, float(diag.noise)
+    if candidates is None:
+        cth, cdl = candidate_pool(robot, kind, pool, seed, dl)
+    else:
+        cth = np.atleast_2d(np.asarray(candidates[0], float))
+        cdl = np.atleast_2d(np.asarray(candidates[1], float))
+        if cth.shape != cdl.shape or cth.shape[1] != robot.n:
+            raise CdsmInputError(f"`candidates`: need theta and dL of shape (C, {robot.n})")
+        cth, cdl = _feasible(robot, cth, cdl)
+    if len(cth) == 0:
+        raise CdsmInputError("no feasible candidate measurements (joint limits / slack cables)")
+    rows = prep.rows
+    th_all = np.concatenate([prep.theta_cmd[rows], cth])
+    dl_all = np.concatenate([prep.meas.dL[rows], cdl])
+    nU = len(rows)
+    models = _model_set(diag)
+    criterion = "discrimination" if len(models) >= 2 else "d-optimal"
+    if not models:
+        c = diag.singles[0] if diag.singles else None
+        if c is None:
+            raise CdsmInputError("the diagnosis has no candidate effects to design for")
+        models = [(c.name, list(c.effects), np.array(c.fit.p))]
+    Y, JJ = {}, {}
+    for name, eff, p in models:
+        Y[name], JJ[name] = _pred_and_jac(robot, eff, p, th_all, dl_all, kind)
+    okc = np.ones(len(cth), bool)
+    for name in Y:
+        okc &= np.isfinite(Y[name][nU:]).all(axis=1) & np.isfinite(JJ[name][nU:]).all(axis=(1, 2))
+    keepU = np.ones(nU, bool)
+    for name in Y:
+        keepU &= np.isfinite(Y[name][:nU]).all(axis=1) & np.isfinite(JJ[name][:nU]).all(axis=(1, 2))
+    cand = np.flatnonzero(okc)
+    if len(cand) < k:
+        raise CdsmInputError(f"only {len(cand)} feasible candidate measurements for k = {k}")
+    base = list(np.flatnonzero(keepU))
+    names = list(Y)
+    chosen: List[int] = []
+    gains = []
+
+    def pair_terms(sel):
+        """Separation of the new rows sel (indices into all rows) plus each candidate."""
+        idx = np.array(sel, dtype=int)
+        Cr = nU + cand
+        M, s = len(Cr), 2 * len(idx)
+        tot = np.zeros(M)
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                d = np.concatenate([np.broadcast_to((Y[a][idx] - Y[b][idx]).reshape(-1), (M, s)),
+                                    Y[a][Cr] - Y[b][Cr]], axis=1)                      # (M, s+2)
+                S = 2 * noise ** 2 * np.eye(s + 2)[None].repeat(M, 0)
+                for m in (a, b):
+                    Jm = np.concatenate([np.broadcast_to(JJ[m][idx].reshape(s, JJ[m].shape[-1]), (M, s, JJ[m].shape[-1])),
+                                         JJ[m][Cr]], axis=1)                         # (M, s+2, k)
+                    S = S + Jm @ Cov[m] @ np.transpose(Jm, (0, 2, 1))
+                tot += np.einsum("mi,mi->m", d, np.linalg.solve(S, d[..., None])[..., 0])
+        return tot
+
+    def logdet_terms(sel):
+        idx = np.array(sel, dtype=int)
+        name = names[0]
+        J0 = (JJ[name][idx] / noise).reshape(2 * len(idx), -1)
+        kk = J0.shape[1]
+        G0 = J0.T @ J0
+        G0 = G0 + np.eye(kk) / prior ** 2  # Gaussian prior of `prior` typical sizes
+        Jc = JJ[name][nU + cand] / noise
+        G = G0[None] + np.einsum("mik,mil->mkl", Jc, Jc)
+        return np.linalg.slogdet(G)[1], float(np.linalg.slogdet(G0)[1])
+
+    Cov = {m: _posterior_cov(JJ[m][base], noise, prior) for m in names}
+    if criterion == "discrimination":
+        # evidence so far: the difference of the fits' chi-square on the data taken
+        ssr = {name: c.fit.ssr for c in list(diag.singles) + list(diag.steps) for name in [c.name]}
+        before = {(a, b): abs(ssr.get(a, np.nan) - ssr.get(b, np.nan)) / noise ** 2
+                  for i, a in enumerate(names) for b in names[i + 1:]}
+        score0 = float(sum(before.values()))
+    else:
+        score0 = logdet_terms(base)[1]
+        before = {}
+    avail = np.ones(len(cand), bool)
+    for _ in range(k):
+        newrows = [nU + c for c in (cand[chosen] if chosen else [])]
+        sc = pair_terms(newrows) if criterion == "discrimination" else logdet_terms(base + newrows)[0]
+        sc = np.where(avail, sc, -np.inf)
+        j = int(np.argmax(sc))
+        chosen.append(j)
+        avail[j] = False
+        gains.append(float(sc[j]))
+    pick = cand[np.array(chosen)]
+    new = list(nU + pick)
+    after = discrimination({m: Y[m][new] for m in names}, {m: JJ[m][new] for m in names}, Cov, noise) \
+        if criterion == "discrimination" else {}
+
+    def sym(dd):
+        return {f"{a} vs {b}": v for (a, b), v in dd.items()}
+
+    theta, dL = cth[pick], cdl[pick]
+    best = diag.final()
+    misfit = best.heldout_rms / diag.noise_floor if diag.noise_floor > 0 else float("nan")
+    return Suggestion(theta, dL, kind, criterion, names, {m: Y[m][nU + pick] for m in names},
+                      np.array(gains), score0, sym(before), sym(after), noise, robot.fk(theta), len(cand),
+                      float(misfit))

@@ -1,0 +1,676 @@
+"""A fitted model of the real arm (nominal robot + fitted effects) that can be
+saved, loaded and used to compensate cable commands. SI units (m, rad, N).
+
+The model is what the sim-to-real diagnosis (:mod:`cdsm.diagnose`) chose: the
+nominal :class:`~cdsm.robot.Robot` the controller believes in, plus the
+unmodelled effects of :mod:`cdsm.plant` with their fitted parameters. With it,
+:meth:`Model.compensate` finds the upper-cable length commands that put the
+tip of the *fitted* plant on target poses.
+
+Model file format ``cdsm-model/1`` (JSON, UTF-8)
+------------------------------------------------
+One JSON object; every number is a JSON float written by Python's ``repr``
+(shortest round-trip form), so a model loads back bit-exactly::
+
+    {
+      "format": "cdsm-model/1",           # required; other versions are refused
+      "cdsm_version": "0.1.0",            # the package that wrote it (informative)
+      "name": "hole_height",              # the chosen model ('+'-joined, or 'none')
+      "effects": ["hole_height"],         # fitted effects, in fit order
+      "robot": {                          # the nominal robot
+        "name": "...", "n": 3,
+        "toml": "..."                     # a complete robot TOML (explicit holes),
+      },                                  #   read by Robot.from_toml_str
+      "params": {
+        "layout": {"actuation_scale": [0, 1], ...},   # slice [start, stop) of each
+                                                      #   effect in the flat vector
+        "flat": [...],                    # (P,) the full plant parameter vector, SI
+        "by_effect": {"hole_height": [...]},          # the fitted effects' values
+        "std": {"hole_height": [...]}     # their 1-sigma uncertainty (SI), may be {}
+      },
+      "data": {                           # provenance (null when built by hand)
+        "source": "table3.csv", "kind": "displacement",
+        "rows": 9, "rows_used": 9,
+        "sha256": "...",                  # of the measurement arrays (see below)
+        "file_sha256": "..." | null       # of the source file, if it was readable
+      },
+      "heldout": {                        # cross-validated figures (null by hand)
+        "baseline_rms_m": ..., "final_rms_m": ..., "noise_m": ...,
+        "noise_floor_m": ..., "explained": true, "best": "...", "ties": [...],
+        "candidates": {"hole_height": <held-out RMS, m>, ...}
+      }
+    }
+
+``data.sha256`` is the SHA-256 of: the kind and n as ASCII (``"absolute 3\\n"``)
+followed by the little-endian float64 bytes of the commanded ``theta`` (N, n)
+or ``pose_cmd`` (N, 3), ``dL`` (N, n), ``measured`` (N, 2) and ``measured_phi``
+(N,) when present, in that order. Non-finite figures are written as ``null``.
+Readers must ignore unknown keys; a new major format bumps the version.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import math
+import os
+from dataclasses import dataclass
+from typing import Dict, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from . import plant, workspace
+from .measurements import Measurements
+from .robot import CdsmInputError, Robot, _batch
+
+__all__ = ["Model", "Compensation", "FORMAT", "robot_toml", "read_targets"]
+
+#: Version tag of the model file format (see the module docstring).
+FORMAT = "cdsm-model/1"
+
+
+# ---------------------------------------------------------------------------
+# robot -> TOML (exact: explicit holes, floats by repr)
+# ---------------------------------------------------------------------------
+def _f(v) -> str:
+    x = float(v)
+    if not math.isfinite(x):
+        raise CdsmInputError(f"robot_toml: non-finite value {x}")
+    return repr(x)
+
+
+def robot_toml(robot: Robot, link_before=None, link_after=None, holes=None) -> str:
+    """A TOML description that rebuilds ``robot`` exactly (explicit
+    ``upper_holes``/``lower_holes``, every float by ``repr``). ``link_before``
+    (n,), ``link_after`` (n,) m and ``holes`` (2n, n+1, 2, 2) m override the
+    robot's arrays (used to build the fitted arm). Hole entries the model
+    never uses (base face a, disks beyond a cable's pair) are not written and
+    read back as 0."""
+    n = robot.n
+    lb = robot.link_before if link_before is None else np.asarray(link_before, float)
+    la = robot.link_after if link_after is None else np.asarray(link_after, float)
+    h = robot.holes if holes is None else np.asarray(holes, float)
+    lim = robot.joint_limits
+    lines = [
+        "# written by cdsm.model.robot_toml; SI units (m, kg, N, rad, Pa)",
+        f"name = {json.dumps(robot.name)}",
+        f"n = {n}",
+        "",
+        "[cable]",
+        f"youngs_modulus = {_f(robot.youngs_modulus)}",
+        f"diameter = {_f(robot.cable_diameter)}",
+        f"routing_length = {_f(robot.routing_length)}",
+    ]
+    for i in range(n):
+        pts = []
+        for c in (2 * i, 2 * i + 1):
+            row = []
+            for j in range(2 * i + 3):  # base face b, then faces a, b of disks 1..i+1
+                d, face = (0, 1) if j == 0 else ((j + 1) // 2, 1 - j % 2)
+                x, y = h[c, d, face]
+                row.append(f"[{_f(x)}, {_f(y)}]")
+            pts.append("[" + ", ".join(row) + "]")
+        lines += [
+            "",
+            "[[linkage]]",
+            f"link_before = {_f(lb[i])}",
+            f"link_after = {_f(la[i])}",
+            f"thickness = {_f(robot.thickness[i])}",
+            f"mass = {_f(robot.mass[i])}",
+            f"lower_tension = {_f(robot.lower_tension[i])}",
+            f"joint_limits = [{_f(lim[i, 0])}, {_f(lim[i, 1])}]",
+            f"upper_holes = {pts[0]}",
+            f"lower_holes = {pts[1]}",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def _data_hash(meas: Measurements) -> str:
+    hsh = hashlib.sha256(f"{meas.kind} {meas.n}\n".encode("ascii"))
+    cmd = meas.theta if meas.theta is not None else meas.pose_cmd
+    for arr in (cmd, meas.dL, meas.measured, meas.measured_phi):
+        if arr is not None:
+            hsh.update(np.ascontiguousarray(arr, dtype="<f8").tobytes())
+    return hsh.hexdigest()
+
+
+def _finite_or_none(v):
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+# ---------------------------------------------------------------------------
+# targets
+# ---------------------------------------------------------------------------
+def read_targets(path: "str | os.PathLike[str]") -> np.ndarray:
+    """Target poses from a CSV file: columns ``x, y`` (m) and optional ``phi``
+    (rad); lines starting with ``#`` are comments, other columns are ignored.
+    Returns (N, 3) or (N, 2). Raises :class:`CdsmInputError` on a missing
+    column, a non-number or a non-finite value."""
+    src = str(path)
+    try:
+        text = open(path, encoding="utf-8").read()
+    except OSError as exc:
+        raise CdsmInputError(f"targets file {src!r}: {exc.strerror}") from None
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise CdsmInputError(f"{src}: no header and no rows")
+    reader = csv.DictReader(io.StringIO("\n".join(lines)))
+    cols = [c.strip() for c in (reader.fieldnames or [])]
+    reader.fieldnames = cols
+    rows = list(reader)
+    if not rows:
+        raise CdsmInputError(f"{src}: header but no rows")
+    missing = [c for c in ("x", "y") if c not in cols]
+    if missing:
+        raise CdsmInputError(f"{src}: missing target columns {', '.join(missing)} (need x, y [m] "
+                             f"and optional phi [rad]); found {', '.join(cols)}")
+    use = ["x", "y"] + (["phi"] if "phi" in cols else [])
+    out = np.empty((len(rows), len(use)))
+    for i, r in enumerate(rows):
+        for j, c in enumerate(use):
+            cell = (r.get(c) or "").strip()
+            try:
+                out[i, j] = float(cell)
+            except ValueError:
+                raise CdsmInputError(f"{src}: row {i + 1}, column {c!r}: not a number: {cell!r}") from None
+            if not math.isfinite(out[i, j]):
+                raise CdsmInputError(f"{src}: row {i + 1}, column {c!r}: non-finite value {cell!r}")
+    return out
+
+
+# ---------------------------------------------------------------------------
+# compensation result
+# ---------------------------------------------------------------------------
+@dataclass
+class Compensation:
+    """Compensated commands for N target poses (robot with n joints).
+
+    targets: (N, 2) or (N, 3) the targets [x, y(, phi)] (m, m, rad).
+    commands: (N, n) upper-cable length commands L_1..L_n, m (what the
+    controller sends; NaN where the target is unreachable). theta_cmd: (N, n)
+    rad, the nominal IK of the target (the uncompensated configuration) and dL:
+    (N, n) m the correction, so ``commands = upper_lengths(theta_cmd) + dL``.
+    nominal_commands: (N, n) m, the uncompensated commands
+    ``upper_lengths(theta_cmd)``. converged: (N,) bool. predicted_error: (N,) m,
+    the model's predicted tip position error |xy - target| with the commands;
+    predicted_error_nominal: (N,) m, the same with the nominal commands;
+    predicted_phi_error: (N,) rad (NaN when phi was not given). theta_pred:
+    (N, n) rad, the configuration the fitted arm is predicted to settle at.
+    flags: one str per row, "" when fine, else '; '-joined reasons
+    (``unreachable: ...``, ``slack cable``, ``joint limits``, ``not converged``).
+    """
+
+    targets: np.ndarray
+    commands: np.ndarray
+    theta_cmd: np.ndarray
+    dL: np.ndarray
+    nominal_commands: np.ndarray
+    converged: np.ndarray
+    predicted_error: np.ndarray
+    predicted_error_nominal: np.ndarray
+    predicted_phi_error: np.ndarray
+    theta_pred: np.ndarray
+    flags: List[str]
+    model_name: str = ""
+
+    def __len__(self) -> int:
+        return len(self.targets)
+
+    @property
+    def ok(self) -> np.ndarray:
+        """(N,) converged and not flagged."""
+        return self.converged & np.array([not f for f in self.flags], bool)
+
+    def to_csv(self, path: "str | os.PathLike[str]") -> None:
+        """Write the commands table: target columns (x, y[, phi]), L_1..L_n (m),
+        converged (0/1), predicted_error and predicted_error_nominal (m),
+        predicted_phi_error (rad, empty without phi), theta_1..theta_n (rad,
+        the nominal configuration) and dL_1..dL_n (m, the correction), flags.
+        Undefined numbers are written as ``nan``; floats by ``repr`` (exact)."""
+        n = self.commands.shape[1]
+        has_phi = self.targets.shape[1] == 3
+        head = ["x", "y"] + (["phi"] if has_phi else []) + [f"L_{i}" for i in range(1, n + 1)] + \
+            ["converged", "predicted_error", "predicted_error_nominal"] + \
+            (["predicted_phi_error"] if has_phi else []) + \
+            [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in range(1, n + 1)] + ["flags"]
+        buf = io.StringIO()
+        buf.write(f"# cdsm compensate: upper-cable length commands from model {self.model_name!r}\n")
+        buf.write("# SI units: x, y, L_i, dL_i, predicted_error* in m; phi, theta_i, predicted_phi_error in rad\n")
+        buf.write("# L_i = nominal upper length at theta_cmd + dL_i; converged 1/0; flags empty when fine\n")
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(head)
+        for i in range(len(self)):
+            row = [repr(float(v)) for v in self.targets[i]]
+            row += [repr(float(v)) for v in self.commands[i]]
+            row += [str(int(self.converged[i])), repr(float(self.predicted_error[i])),
+                    repr(float(self.predicted_error_nominal[i]))]
+            if has_phi:
+                row.append(repr(float(self.predicted_phi_error[i])))
+            row += [repr(float(v)) for v in self.theta_cmd[i]] + [repr(float(v)) for v in self.dL[i]]
+            row.append(self.flags[i])
+            w.writerow(row)
+        try:
+            with open(path, "w", encoding="utf-8", newline="") as fh:
+                fh.write(buf.getvalue())
+        except OSError as exc:
+            raise CdsmInputError(f"commands file {str(path)!r}: {exc.strerror}") from None
+
+    def summary(self) -> str:
+        """A few lines: counts and the predicted errors before/after (µm)."""
+        ok = self.converged
+        fl = sum(1 for f in self.flags if f)
+        lines = [f"{len(self)} targets: {int(ok.sum())} converged, {fl} flagged"]
+        if ok.any():
+            lines.append(f"predicted tip error with nominal commands: max "
+                         f"{np.nanmax(self.predicted_error_nominal[ok]) * 1e6:.1f} µm; compensated: max "
+                         f"{np.nanmax(self.predicted_error[ok]) * 1e6:.3g} µm")
+        return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------
+# the model
+# ---------------------------------------------------------------------------
+class Model:
+    """Nominal robot + fitted effects (see the module docstring for the file).
+
+    robot: the nominal :class:`Robot`. p: (P,) the full plant parameter vector
+    (:func:`cdsm.plant.layout`), SI. effects: the fitted effects' names.
+    name: the model name. std: {effect: 1-sigma list}. data, heldout: the
+    provenance and cross-validated figures (dicts as in the file, or None).
+    """
+
+    def __init__(self, robot: Robot, p, effects: Sequence[str] = (), name: Optional[str] = None,
+                 std: Optional[Mapping[str, Sequence[float]]] = None, data: Optional[dict] = None,
+                 heldout: Optional[dict] = None, robot_toml_text: Optional[str] = None):
+        self.robot = robot
+        self.p = np.array(p, dtype=np.float64).reshape(-1)
+        if self.p.size != plant.size(robot) or not np.isfinite(self.p).all():
+            raise CdsmInputError(f"`p`: expected {plant.size(robot)} finite plant parameters, got {self.p.size}")
+        lay = plant.layout(robot)
+        for e in effects:
+            if e not in lay:
+                raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(plant.EFFECTS)}")
+        self.effects = list(effects)
+        self.name = name if name is not None else ("+".join(self.effects) or "none")
+        self.std = {k: [float(x) for x in v] for k, v in (std or {}).items()}
+        self.data = data
+        self.heldout = heldout
+        self._toml = robot_toml_text if robot_toml_text is not None else robot_toml(robot)
+
+    # ---- construction ---------------------------------------------------
+    @classmethod
+    def from_effects(cls, robot: Robot, effects: Mapping[str, Sequence[float]], **kw) -> "Model":
+        """A model with given effect values ``{effect: values}`` (SI), e.g. a
+        virtual prototype's truth."""
+        return cls(robot, plant.params(robot, effects), list(effects), **kw)
+
+    @classmethod
+    def from_diagnosis(cls, diag) -> "Model":
+        """The chosen model of a :class:`cdsm.diagnose.Diagnosis` (its final
+        fit on all usable rows), with the data provenance and held-out figures."""
+        robot = diag.prep.robot
+        fin = diag.final()
+        meas = diag.prep.meas
+        src = meas.source or ""
+        file_hash = None
+        if src and os.path.isfile(src):
+            try:
+                file_hash = hashlib.sha256(open(src, "rb").read()).hexdigest()
+            except OSError:
+                file_hash = None
+        data = dict(source=src, kind=meas.kind, rows=int(len(meas)),
+                    rows_used=int(diag.prep.usable.sum()), sha256=_data_hash(meas),
+                    file_sha256=file_hash)
+        heldout = dict(baseline_rms_m=_finite_or_none(diag.baseline.heldout_rms),
+                       final_rms_m=_finite_or_none(fin.heldout_rms),
+                       noise_m=_finite_or_none(diag.noise),
+                       noise_floor_m=_finite_or_none(diag.noise_floor),
+                       explained=bool(diag.explained), best=diag.best, ties=list(diag.ties),
+                       candidates={c.name: _finite_or_none(c.heldout_rms) for c in diag.singles})
+        std = fin.fit.std_by_effect(robot) if fin.effects else {}
+        return cls(robot, fin.fit.p, fin.effects, name=diag.best, std=std, data=data, heldout=heldout)
+
+    # ---- file -------------------------------------------------------------
+    def params_by_effect(self) -> Dict[str, List[float]]:
+        """{effect: values} of the fitted effects, SI."""
+        lay = plant.layout(self.robot)
+        return {e: self.p[lay[e]].tolist() for e in self.effects}
+
+    def to_dict(self) -> dict:
+        """The file content as a dict (format ``cdsm-model/1``)."""
+        from . import __version__
+
+        lay = plant.layout(self.robot)
+        return {
+            "format": FORMAT,
+            "cdsm_version": __version__,
+            "name": self.name,
+            "effects": list(self.effects),
+            "robot": {"name": self.robot.name, "n": int(self.robot.n), "toml": self._toml},
+            "params": {
+                "layout": {k: [s.start, s.stop] for k, s in lay.items()},
+                "flat": [float(x) for x in self.p],
+                "by_effect": self.params_by_effect(),
+                "std": {k: list(v) for k, v in self.std.items()},
+            },
+            "data": self.data,
+            "heldout": self.heldout,
+        }
+
+    def save(self, path: "str | os.PathLike[str]") -> None:
+        """Write the model file (JSON, format ``cdsm-model/1``)."""
+        text = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
+        try:
+            with open(path, "w", encoding="utf-8") as fh:
+                fh.write(text)
+        except OSError as exc:
+            raise CdsmInputError(f"model file {str(path)!r}: {exc.strerror}") from None
+
+    @classmethod
+    def from_dict(cls, d: dict, source: str = "<model>") -> "Model":
+        """Rebuild a model from :meth:`to_dict` output; checks the version and
+        the parameter layout."""
+        if not isinstance(d, dict):
+            raise CdsmInputError(f"model file {source!r}: not a JSON object")
+        fmt = d.get("format")
+        if fmt != FORMAT:
+            raise CdsmInputError(f"model file {source!r}: format {fmt!r} is not supported "
+                                 f"(this cdsm reads {FORMAT!r})")
+        try:
+            rob = d["robot"]
+            toml = rob["toml"]
+            par = d["params"]
+            flat = par["flat"]
+            effects = list(d["effects"])
+        except (KeyError, TypeError) as exc:
+            raise CdsmInputError(f"model file {source!r}: missing field {exc}") from None
+        try:
+            robot = Robot.from_toml_str(toml)
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"model file {source!r}: bad robot: {exc}") from None
+        lay = {k: [s.start, s.stop] for k, s in plant.layout(robot).items()}
+        if par.get("layout") is not None and par["layout"] != lay:
+            raise CdsmInputError(f"model file {source!r}: parameter layout {par['layout']} does not match "
+                                 f"this cdsm's {lay}")
+        try:
+            p = np.array(flat, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise CdsmInputError(f"model file {source!r}: params.flat is not a list of numbers") from None
+        if p.ndim != 1 or p.size != plant.size(robot) or not np.isfinite(p).all():
+            raise CdsmInputError(f"model file {source!r}: params.flat needs {plant.size(robot)} finite "
+                                 f"numbers, got {p.size}")
+        try:
+            return cls(robot, p, effects, name=d.get("name"), std=par.get("std") or {},
+                       data=d.get("data"), heldout=d.get("heldout"), robot_toml_text=toml)
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"model file {source!r}: {exc}") from None
+
+    @classmethod
+    def load(cls, path: "str | os.PathLike[str]") -> "Model":
+        """Read a model file written by :meth:`save` (exact round trip)."""
+        src = str(path)
+        try:
+            text = open(path, encoding="utf-8").read()
+        except OSError as exc:
+            raise CdsmInputError(f"model file {src!r}: {exc.strerror}") from None
+        except UnicodeDecodeError:
+            raise CdsmInputError(f"model file {src!r}: not UTF-8 text") from None
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise CdsmInputError(f"model file {src!r}: not JSON ({exc.msg} at line {exc.lineno})") from None
+        return cls.from_dict(d, src)
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Model):
+            return NotImplemented
+        return json.dumps(self.to_dict(), sort_keys=True) == json.dumps(other.to_dict(), sort_keys=True)
+
+    def __repr__(self) -> str:
+        return f"Model({self.name!r}, robot={self.robot.name!r}, n={self.robot.n})"
+
+    # ---- use --------------------------------------------------------------
+    def predict(self, theta_cmd, dL=None, kind: str = "absolute"):
+        """The fitted plant's observations for commands ``theta_cmd`` (N, n) rad
+        + ``dL`` (N, n) m: ((N, 3), converged (N,)), see :func:`cdsm.plant.predict`."""
+        t, _ = _batch("theta_cmd", theta_cmd, self.robot.n)
+        d = np.zeros_like(t) if dL is None else dL
+        return plant.predict(self.robot, self.p, t, d, kind)
+
+    def fitted_arm(self) -> Robot:
+        """The arm geometry of the fitted plant (hole heights and link lengths
+        applied), as a :class:`Robot`."""
+        r = self.robot
+        lay = plant.layout(r)
+        dh = self.p[lay["hole_height"]]
+        dl = self.p[lay["link_length"]]
+        lb = r.link_before.copy()
+        lb[0] += dl[0]
+        la = r.link_after + dl[1:]
+        holes = r.hole_height_error(dh) if np.any(dh) else r.holes
+        return Robot.from_toml_str(robot_toml(r, lb, la, holes))
+
+    def _settled_theta(self, commands: np.ndarray, seed: np.ndarray) -> np.ndarray:
+        """Configuration (N, n) rad the fitted arm settles at for ``commands``
+        (N, n) m: realised lengths (actuation scale, offsets) on the fitted
+        geometry, with cable stretch by fixed-point iteration on the statics
+        tensions; the hole clearance (sub-0.2 mm hole shifts) is left out.
+        NaN rows where the solve fails."""
+        r, lay = self.robot, plant.layout(self.robot)
+        s = float(self.p[lay["actuation_scale"]][0])
+        off = self.p[lay["cable_offset"]]
+        comp = float(self.p[lay["cable_elasticity"]][0])
+        arm = self.fitted_arm()
+        l_ref = r.upper_lengths(np.zeros(r.n))
+        real = l_ref + (1.0 + s) * (commands - l_ref) + off
+        sol = arm.solve_cables(real, seed=seed)
+        th = np.array(sol.theta, dtype=float)
+        ok = np.asarray(sol.converged, bool)
+        if comp > 0.0:
+            route = arm.routing_length
+            for _ in range(4):
+                t = np.nan_to_num(arm.tensions(th))
+                sol = arm.solve_cables((real + route) * (1.0 + comp * t) - route, seed=th)
+                th = np.array(sol.theta, dtype=float)
+                ok = np.asarray(sol.converged, bool)
+        th[~ok] = np.nan
+        return th
+
+    def compensate(self, poses, tol: float = 1e-9, max_iter: int = 40, h: float = 1e-6,
+                   min_tension: float = 0.0, enforce_limits: bool = False) -> Compensation:
+        """Upper-cable length commands that put the fitted plant's tip on ``poses``.
+
+        poses: (N, 3) [x, y, phi] (m, m, rad) or (N, 2) [x, y]. Each row: the
+        nominal configuration ``theta_cmd`` is the nominal pose IK of the target
+        from the paper's seed (:func:`cdsm.workspace.paper_ik_seed`; without phi,
+        the IK of (x, y, 0) — for n = 3 the paper's branch — or of (x, y) alone
+        when that fails or leaves the joint limits). The commands are ``upper_lengths(theta_cmd) + dL`` and
+        dL (n,) m is found by damped Newton (Levenberg–Marquardt, minimal-norm
+        steps) on the plant's absolute observation, Jacobian by central
+        differences of ``h`` m — every row and perturbation in one Rust call
+        per iteration. Residual [x, y(, phi·L)] with L the straight arm length
+        (m/rad); converged when its largest component is <= ``tol`` (m).
+
+        Flags: ``unreachable`` (nominal IK fails), ``outside the joint limits``
+        (the nominal IK answer leaves them: flagged, and left out only with
+        ``enforce_limits``),
+        ``slack cable`` (an upper tension <= ``min_tension`` N at the predicted
+        configuration of the fitted arm), ``joint limits`` (that configuration
+        leaves the limits), ``not converged``.
+        """
+        r = self.robot
+        n = r.n
+        arr = np.asarray(poses, dtype=np.float64)
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        if arr.ndim != 2 or arr.shape[1] not in (2, 3):
+            raise CdsmInputError(f"`poses`: expected shape (N, 3) or (N, 2), got {np.shape(poses)}")
+        if not np.isfinite(arr).all():
+            i, j = np.argwhere(~np.isfinite(arr))[0]
+            raise CdsmInputError(f"`poses`: non-finite value {arr[i, j]} at row {i}, column {j}")
+        N = len(arr)
+        has_phi = arr.shape[1] == 3
+        flags: List[List[str]] = [[] for _ in range(N)]
+        seed = workspace.paper_ik_seed(n)
+        full = arr if has_phi else np.column_stack([arr, np.zeros(N)])
+        sol = r.ik(full, seed=seed) if N else None
+        theta = np.array(sol.theta, dtype=float).reshape(N, n) if N else np.zeros((0, n))
+        reach = np.asarray(sol.converged, bool).reshape(N) if N else np.zeros(0, bool)
+        if not has_phi and N:
+            # (x, y, 0) unreachable or outside the limits: position-only IK
+            idx = np.flatnonzero(~(reach & r.within_limits(theta)))
+            if len(idx):
+                th2, ok2 = _ik_xy(r, arr[idx], seed)
+                ok2 &= r.within_limits(th2) | ~reach[idx]
+                theta[idx[ok2]] = th2[ok2]
+                reach[idx[ok2]] = True
+        for i in np.flatnonzero(~reach):
+            flags[i].append("unreachable: the nominal pose IK finds no configuration")
+        lim = r.within_limits(theta) if N else np.zeros(0, bool)
+        for i in np.flatnonzero(reach & ~lim):
+            flags[i].append("outside the joint limits: the nominal IK answer leaves them"
+                            + (" (not compensated: enforce_limits)" if enforce_limits else ""))
+        if enforce_limits:
+            reach &= lim
+        theta[~reach] = 0.0
+        scale = float(np.sum(r.link_before + r.link_after + r.thickness))
+        m = 3 if has_phi else 2
+        w = np.array([1.0, 1.0, scale])[:m]
+        dL = np.zeros((N, n))
+
+        def resid(rows, d):
+            obs, conv = plant.predict(r, self.p, theta[rows], d, "absolute")
+            res = (arr[rows, :m] - obs[:, :m]) * w
+            res[~conv] = np.nan
+            return res
+
+        res = np.full((N, m), np.nan)
+        conv = np.zeros(N, bool)
+        if reach.any():
+            res[reach] = resid(np.flatnonzero(reach), dL[reach])
+        res0 = res.copy()
+        bad0 = reach & ~np.isfinite(res).all(axis=1)
+        for i in np.flatnonzero(bad0):
+            flags[i].append("the fitted model cannot realise the nominal commands")
+        active = reach & ~bad0
+        lam = np.full(N, 1e-8)
+        conv[active] = np.abs(res[active]).max(axis=1) <= tol
+        active &= ~conv
+        it = 0
+        while active.any() and it < max_iter:
+            it += 1
+            rows = np.flatnonzero(active)
+            k = len(rows)
+            # Jacobian: rows x (+h, -h) per cable, one call
+            pert = np.repeat(dL[rows], 2 * n, axis=0).reshape(k, 2 * n, n)
+            for j in range(n):
+                pert[:, 2 * j, j] += h
+                pert[:, 2 * j + 1, j] -= h
+            rr = np.repeat(rows, 2 * n)
+            obs, cv = plant.predict(r, self.p, theta[rr], pert.reshape(-1, n), "absolute")
+            o = obs[:, :m].reshape(k, 2 * n, m) * w
+            J = np.transpose((o[:, 0::2] - o[:, 1::2]) / (2 * h), (0, 2, 1))  # (k, m, n)
+            good = np.isfinite(J).all(axis=(1, 2)) & cv.reshape(k, 2 * n).all(axis=1)
+            J = np.nan_to_num(J)
+            rk = res[rows]
+            cost = np.einsum("ij,ij->i", rk, rk)
+            # damped, minimal-norm steps; retry a row with more damping when a step fails
+            accepted = np.zeros(k, bool)
+            for _ in range(12):
+                todo = ~accepted & good & (lam[rows] < 1e10)
+                if not todo.any():
+                    break
+                t = np.flatnonzero(todo)
+                Jt = J[t]
+                if m <= n:
+                    A = Jt @ np.transpose(Jt, (0, 2, 1)) + lam[rows[t], None, None] * np.eye(m)
+                    y = np.linalg.solve(A, rk[t][..., None])
+                    step = (np.transpose(Jt, (0, 2, 1)) @ y)[..., 0]
+                else:
+                    A = np.transpose(Jt, (0, 2, 1)) @ Jt + lam[rows[t], None, None] * np.eye(n)
+                    step = np.linalg.solve(A, (np.transpose(Jt, (0, 2, 1)) @ rk[t][..., None]))[..., 0]
+                trial = dL[rows[t]] + step
+                rn = resid(rows[t], trial)
+                cn = np.einsum("ij,ij->i", rn, rn)
+                win = np.isfinite(cn) & (cn < cost[t])
+                wi = rows[t][win]
+                dL[wi] = trial[win]
+                res[wi] = rn[win]
+                lam[wi] = np.maximum(lam[wi] / 10.0, 1e-12)
+                lam[rows[t][~win]] *= 10.0
+                accepted[t[win]] = True
+            done = np.abs(res[rows]).max(axis=1) <= tol
+            conv[rows[done]] = True
+            stuck = ~accepted | ~good | (lam[rows] >= 1e10)
+            active[rows[done | stuck]] = False
+        commands = np.full((N, n), np.nan)
+        nominal = np.full((N, n), np.nan)
+        if reach.any():
+            nominal[reach] = r.upper_lengths(theta[reach])
+            commands[reach] = nominal[reach] + dL[reach]
+        err = np.hypot(res[:, 0] / w[0], res[:, 1] / w[1])
+        err0 = np.hypot(res0[:, 0], res0[:, 1])
+        perr = np.abs(res[:, 2] / scale) if has_phi else np.full(N, np.nan)
+        for i in np.flatnonzero(reach & ~bad0 & ~conv):
+            flags[i].append(f"not converged (predicted residual {np.nanmax(np.abs(res[i])):.2e} m)")
+        th_pred = np.full((N, n), np.nan)
+        if reach.any():
+            rows = np.flatnonzero(reach)
+            th_pred[rows] = self._settled_theta(commands[rows], theta[rows])
+            fin = np.isfinite(th_pred[rows]).all(axis=1)
+            feas = np.zeros(len(rows), bool)
+            inlim = np.zeros(len(rows), bool)
+            if fin.any():
+                feas[fin] = r.feasible(th_pred[rows[fin]], min_tension=min_tension)
+                inlim[fin] = r.within_limits(th_pred[rows[fin]])
+            for i, f, li, fi in zip(rows, feas, inlim, fin):
+                if not fi:
+                    flags[i].append("the fitted arm's configuration could not be solved (tension check skipped)")
+                    continue
+                if not f:
+                    flags[i].append("slack cable: an upper cable tension <= "
+                                    f"{min_tension:g} N at the predicted configuration")
+                if not li:
+                    flags[i].append("joint limits: the predicted configuration leaves them")
+        dL[~reach] = np.nan
+        return Compensation(arr.copy(), commands, theta, dL, nominal, conv, err, err0, perr, th_pred,
+                            ["; ".join(f) for f in flags], self.name)
+
+
+def _ik_xy(robot: Robot, xy: np.ndarray, seed: np.ndarray, tol: float = 1e-12, max_iter: int = 100):
+    """Nominal IK of positions only: (N, 2) m -> theta (N, n) rad, converged
+    (N,). Levenberg–Marquardt with minimal-norm steps from ``seed``."""
+    n = robot.n
+    N = len(xy)
+    th = np.tile(np.asarray(seed, float), (N, 1))
+    lam = np.full(N, 1e-3)
+    r = xy - robot.fk(th)[:, :2]
+    cost = np.einsum("ij,ij->i", r, r)
+    conv = np.abs(r).max(axis=1) <= tol
+    for _ in range(max_iter):
+        act = ~conv & (lam < 1e12)
+        if not act.any():
+            break
+        J = robot.fk_jacobian(th[act])[:, :2, :]
+        Jt = np.transpose(J, (0, 2, 1))
+        if n >= 2:
+            A = J @ Jt + lam[act, None, None] * np.eye(2)
+            step = (Jt @ np.linalg.solve(A, r[act][..., None]))[..., 0]
+        else:
+            A = Jt @ J + lam[act, None, None] * np.eye(n)
+            step = np.linalg.solve(A, Jt @ r[act][..., None])[..., 0]
+        trial = th[act] + step
+        rn = xy[act] - robot.fk(trial)[:, :2]
+        cn = np.einsum("ij,ij->i", rn, rn)
+        win = cn < cost[act]
+        idx = np.flatnonzero(act)
+        th[idx[win]], r[idx[win]], cost[idx[win]] = trial[win], rn[win], cn[win]
+        lam[idx[win]] = np.maximum(lam[idx[win]] / 10, 1e-12)
+        lam[idx[~win]] *= 10
+        conv = np.abs(r).max(axis=1) <= tol
+    return th, conv

@@ -1,0 +1,90 @@
+"""Issue 6: experiment design (cdsm.design.suggest) on Table-3-style data.
+
+Setting: the virtual prototype has a 2 % actuation-scale error and is
+measured like Table 3 — the nine commanded poses, upper cable 1 shortened by
+1 mm, tip displacement with 30 µm noise per axis. On such data shortening
+cable 1 by (1 + s) mm and moving the holes of pair 1 change the same
+displacement almost identically. With 10 µm noise the 9 rows still separate
+the two (held-out 13 vs 23 µm); with 30 µm (closer to what the laser-tracker
+data of the real prototype show) they tie, and for noise seed 12 the
+diagnosis even ranks hole_height first with actuation_scale tied.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+NOISE = 30e-6
+TRUTH = {"actuation_scale": [0.02]}
+
+
+@pytest.fixture(scope="module")
+def setting(cdsm):
+    from cdsm import diagnose, measurements, plant
+
+    robot = cdsm.Robot.paper()
+    t3 = measurements.packaged("table3")
+    prep = diagnose.prepare(robot, t3)
+    vp = plant.VirtualPrototype(robot, TRUTH, noise=NOISE, seed=12)
+    data = vp.measure(prep.theta_cmd, t3.dL, kind="displacement")
+    diag = diagnose.diagnose(robot, data, noise=NOISE)
+    return robot, data, diag
+
+
+def test_table3_style_data_tie_actuation_scale_and_hole_height(setting):
+    _, _, diag = setting
+    assert diag.best == "hole_height"          # the wrong one ranks first ...
+    assert "actuation_scale" in diag.ties      # ... and the truth is tied with it
+
+
+def test_suggested_measurements_break_the_tie(setting, tmp_path):
+    from cdsm import design, diagnose, measurements, plant
+
+    robot, data, diag = setting
+    sug = design.suggest(diag, 6)
+    assert sug.criterion == "discrimination" and sug.kind == "displacement"
+    assert sug.models[:2] == ["hole_height", "actuation_scale"]
+    # within the joint limits, taut cables, one cable at ±1 mm per row (Table-3 style)
+    assert robot.within_limits(sug.theta).all() and robot.feasible(sug.theta).all()
+    assert np.allclose(np.sort(np.abs(sug.dL), axis=1), [0, 0, 1e-3])
+    # expected separation grows; the summary says so
+    assert sug.pairs_after["hole_height vs actuation_scale"] > 10
+    assert "hole_height vs actuation_scale" in sug.summary()
+    # measure the suggestions on the prototype (fresh noise) and diagnose again
+    new = plant.VirtualPrototype(robot, TRUTH, noise=NOISE, seed=112).measure(sug.theta, sug.dL, "displacement")
+    again = diagnose.diagnose(robot, design.combine(robot, data, new), noise=NOISE)
+    assert again.best == "actuation_scale"
+    assert "hole_height" not in again.ties
+    # the CSV is a measurement table once the measured columns are added
+    path = tmp_path / "suggest.csv"
+    sug.to_csv(path)
+    text = path.read_text()
+    lines = [ln for ln in text.splitlines() if not ln.startswith("#")]
+    assert lines[0].split(",")[:7] == ["point", "theta_1", "theta_2", "theta_3", "dL_1", "dL_2", "dL_3"]
+    filled = "\n".join([lines[0] + ",dx,dy"] + [ln + f",{a!r},{b!r}" for ln, (a, b)
+                                                  in zip(lines[1:], new.measured.tolist())])
+    back = measurements.parse_csv(filled, 3)
+    assert back.kind == "displacement"
+    assert np.array_equal(back.theta, sug.theta) and np.array_equal(back.dL, sug.dL)
+
+
+def test_single_model_falls_back_to_d_optimal(cdsm):
+    from cdsm import design, diagnose, plant
+
+    robot = cdsm.Robot.paper()
+    vp = plant.VirtualPrototype(robot, {"hole_height": [2e-4, -1e-4, 1.5e-4]}, seed=3)
+    th, dl = vp.random_commands(30)
+    diag = diagnose.diagnose(robot, vp.measure(th, dl), effects=["hole_height", "tip_offset"])
+    assert diag.best == "hole_height" and not diag.ties
+    sug = design.suggest(diag, 3, pool=100)
+    assert sug.criterion == "d-optimal" and sug.kind == "absolute" and len(sug) == 3
+    assert np.all(np.diff(sug.gain) > 0)
+    assert np.abs(sug.dL).max() <= 1e-3
+
+
+def test_bad_k(setting, cdsm):
+    from cdsm import design
+
+    with pytest.raises(cdsm.CdsmInputError, match="k"):
+        design.suggest(setting[2], 0)
