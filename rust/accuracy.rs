@@ -2,7 +2,7 @@
 //! length errors and hole-location errors, one scenario at a time or as a
 //! Monte-Carlo study reduced to per-configuration statistics.
 
-use crate::batch::{rows_of, split_rows, BatchSolution};
+use crate::batch::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
 use crate::error::{CdsmError, Result};
 use crate::kinematics::{fk, fk_cs};
@@ -221,8 +221,8 @@ pub fn monte_carlo(
     let hole_len = robot.holes.len();
     match holes {
         HoleErrors::None => {}
-        HoleErrors::PerPair(h) => same_samples("dh", rows_of("dh", h, n)?, samples)?,
-        HoleErrors::Full(h) => same_samples("dholes", rows_of("dholes", h, hole_len)?, samples)?,
+        HoleErrors::PerPair(h) => rows_exactly("dh", h, n, samples)?,
+        HoleErrors::Full(h) => rows_exactly("dholes", h, hole_len, samples)?,
     }
     let nominal = CableGeometry::new(robot, None);
     let parts = split_rows(rows, threads, |r| {
@@ -346,17 +346,6 @@ fn fast_deviation(
         prod.1.atan2(prod.0)
     };
     Some([p[0] - p0[0], p[1] - p0[1], dphi])
-}
-
-fn same_samples(name: &str, got: usize, want: usize) -> Result<()> {
-    if got != want {
-        return Err(CdsmError::Shape {
-            name: name.into(),
-            expected: format!("{want} samples (rows of dl)"),
-            got: format!("{got} rows"),
-        });
-    }
-    Ok(())
 }
 
 #[cfg(test)]

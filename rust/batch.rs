@@ -114,17 +114,23 @@ pub fn rows_of(name: &str, values: &[f64], width: usize) -> Result<usize> {
     Ok(rows)
 }
 
+/// Validates a flat `(rows, width)` batch that must have exactly `rows` rows.
+pub fn rows_exactly(name: &str, values: &[f64], width: usize, rows: usize) -> Result<()> {
+    let got = rows_of(name, values, width)?;
+    if got != rows {
+        return Err(CdsmError::Shape {
+            name: name.into(),
+            expected: format!("({rows}, {width})"),
+            got: format!("({got}, {width})"),
+        });
+    }
+    Ok(())
+}
+
 /// Seeds: `None` gives zeros, otherwise `(N, n)` checked against `rows`.
-fn seeds(seed: Option<&[f64]>, rows: usize, n: usize) -> Result<Option<&[f64]>> {
+pub fn seeds(seed: Option<&[f64]>, rows: usize, n: usize) -> Result<Option<&[f64]>> {
     if let Some(s) = seed {
-        let got = rows_of("seed", s, n)?;
-        if got != rows {
-            return Err(CdsmError::Shape {
-                name: "seed".into(),
-                expected: format!("({rows}, {n})"),
-                got: format!("({got}, {n})"),
-            });
-        }
+        rows_exactly("seed", s, n, rows)?;
     }
     Ok(seed)
 }

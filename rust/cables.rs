@@ -246,7 +246,9 @@ mod tests {
         let t: f64 = 0.4;
         let s = g.segment(0, 0, (t.cos(), t.sin()));
         let b = g.joint_branches(0, 0, s).unwrap();
-        assert!(b.iter().any(|x| (x - t).sin().abs() < 1e-12 && (x - t).cos() > 0.0));
+        assert!(b
+            .iter()
+            .any(|x| (x - t).sin().abs() < 1e-12 && (x - t).cos() > 0.0));
         for x in b {
             assert!((g.segment(0, 0, (x.cos(), x.sin())) - s).abs() < 1e-14);
         }

@@ -280,14 +280,7 @@ pub fn predict(
     let (_, total) = effect_offsets(n);
     let k = rows_of("params", params, total)?;
     let rows = rows_of("theta_cmd", theta_cmd, n)?;
-    let dl_rows = rows_of("dl", dl, n)?;
-    if dl_rows != rows {
-        return Err(CdsmError::Shape {
-            name: "dl".into(),
-            expected: format!("({rows}, {n})"),
-            got: format!("({dl_rows}, {n})"),
-        });
-    }
+    crate::batch::rows_exactly("dl", dl, n, rows)?;
     let plants: Vec<Plant> = (0..k)
         .map(|j| Plant::new(robot, &params[j * total..(j + 1) * total]))
         .collect::<Result<_>>()?;

@@ -80,6 +80,24 @@ struct CoreRobot {
     inner: Robot,
 }
 
+type Array<'py> = Bound<'py, PyArray1<f64>>;
+type ThetaMap = fn(&Robot, &[f64], usize) -> crate::Result<Vec<f64>>;
+
+impl CoreRobot {
+    /// A batched map of `theta (N, n)`, run with the GIL released.
+    fn theta_map<'py>(
+        &self,
+        py: Python<'py>,
+        theta: PyReadonlyArrayDyn<'_, f64>,
+        threads: usize,
+        f: ThetaMap,
+    ) -> PyResult<Array<'py>> {
+        let t = slice("theta", &theta)?;
+        let out = py.detach(|| f(&self.inner, t, threads)).map_err(err)?;
+        Ok(vec1(py, out))
+    }
+}
+
 #[pymethods]
 impl CoreRobot {
     #[staticmethod]
@@ -173,12 +191,8 @@ impl CoreRobot {
         py: Python<'py>,
         theta: PyReadonlyArrayDyn<'_, f64>,
         threads: usize,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let t = slice("theta", &theta)?;
-        let out = py
-            .detach(|| batch::fk(&self.inner, t, threads))
-            .map_err(err)?;
-        Ok(vec1(py, out))
+    ) -> PyResult<Array<'py>> {
+        self.theta_map(py, theta, threads, batch::fk)
     }
 
     fn fk_jacobian<'py>(
@@ -186,12 +200,8 @@ impl CoreRobot {
         py: Python<'py>,
         theta: PyReadonlyArrayDyn<'_, f64>,
         threads: usize,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let t = slice("theta", &theta)?;
-        let out = py
-            .detach(|| batch::fk_jacobian(&self.inner, t, threads))
-            .map_err(err)?;
-        Ok(vec1(py, out))
+    ) -> PyResult<Array<'py>> {
+        self.theta_map(py, theta, threads, batch::fk_jacobian)
     }
 
     fn cable_lengths<'py>(
@@ -199,12 +209,8 @@ impl CoreRobot {
         py: Python<'py>,
         theta: PyReadonlyArrayDyn<'_, f64>,
         threads: usize,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let t = slice("theta", &theta)?;
-        let out = py
-            .detach(|| batch::cable_lengths(&self.inner, t, threads))
-            .map_err(err)?;
-        Ok(vec1(py, out))
+    ) -> PyResult<Array<'py>> {
+        self.theta_map(py, theta, threads, batch::cable_lengths)
     }
 
     fn cable_jacobian<'py>(
@@ -212,12 +218,8 @@ impl CoreRobot {
         py: Python<'py>,
         theta: PyReadonlyArrayDyn<'_, f64>,
         threads: usize,
-    ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-        let t = slice("theta", &theta)?;
-        let out = py
-            .detach(|| batch::cable_jacobian(&self.inner, t, threads))
-            .map_err(err)?;
-        Ok(vec1(py, out))
+    ) -> PyResult<Array<'py>> {
+        self.theta_map(py, theta, threads, batch::cable_jacobian)
     }
 
     #[pyo3(signature = (pose, seed, tol, max_iter, enforce_limits, threads))]

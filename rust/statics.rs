@@ -457,16 +457,7 @@ pub fn solve_elastic(
 ) -> Result<ElasticSolution> {
     let n = robot.n();
     let rows = rows_of("upper", upper, n)?;
-    if let Some(s) = seed {
-        let got = rows_of("seed", s, n)?;
-        if got != rows {
-            return Err(CdsmError::Shape {
-                name: "seed".into(),
-                expected: format!("({rows}, {n})"),
-                got: format!("({got}, {n})"),
-            });
-        }
-    }
+    let seed = crate::batch::seeds(seed, rows, n)?;
     crate::batch::check_options(opts)?;
     check_min_tension(min_tension)?;
     let lr = LoadRows::new(robot, loads, rows)?;

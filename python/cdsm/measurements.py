@@ -49,7 +49,9 @@ class Measurements:
         return len(self.measured)
 
 
-def _column(rows, name: str, source: str) -> np.ndarray:
+def column(rows, name: str, source: str) -> np.ndarray:
+    """Column ``name`` of parsed rows as floats; an error naming the row and
+    column for a non-number or a non-finite value."""
     out = np.empty(len(rows))
     for i, r in enumerate(rows):
         cell = (r.get(name) or "").strip()
@@ -62,8 +64,9 @@ def _column(rows, name: str, source: str) -> np.ndarray:
     return out
 
 
-def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
-    """Parse a measurement table for a robot with ``n`` joints (format above)."""
+def read_table(text: str, source: str):
+    """Header (list of column names) and rows (dicts) of a CSV text whose
+    ``#`` lines are comments; an error naming ``source`` if either is empty."""
     lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
         raise CdsmInputError(f"{source}: no header and no rows")
@@ -73,15 +76,21 @@ def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
     rows = list(reader)
     if not rows:
         raise CdsmInputError(f"{source}: header but no rows")
+    return cols, rows
+
+
+def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
+    """Parse a measurement table for a robot with ``n`` joints (format above)."""
+    cols, rows = read_table(text, source)
     has = set(cols)
     theta_cols = [f"theta_{i}" for i in range(1, n + 1)]
     pose_cols = ["x_cmd", "y_cmd", "phi_cmd"]
     if set(theta_cols) <= has:
-        theta, pose = np.stack([_column(rows, c, source) for c in theta_cols], 1), None
+        theta, pose = np.stack([column(rows, c, source) for c in theta_cols], 1), None
     elif set(pose_cols[:2]) <= has:
         theta = None
-        phi = _column(rows, "phi_cmd", source) if "phi_cmd" in has else np.zeros(len(rows))
-        pose = np.stack([_column(rows, "x_cmd", source), _column(rows, "y_cmd", source), phi], 1)
+        phi = column(rows, "phi_cmd", source) if "phi_cmd" in has else np.zeros(len(rows))
+        pose = np.stack([column(rows, "x_cmd", source), column(rows, "y_cmd", source), phi], 1)
     else:
         raise CdsmInputError(f"{source}: missing command columns: need {', '.join(theta_cols)} "
                              f"or x_cmd, y_cmd[, phi_cmd]; found {', '.join(cols)}")
@@ -89,7 +98,7 @@ def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
     extra = sorted(c for c in has if c.startswith("dL_") and c not in dl_cols)
     if extra:
         raise CdsmInputError(f"{source}: columns {extra} do not fit a robot with {n} joints")
-    dL = np.stack([_column(rows, c, source) if c in has else np.zeros(len(rows)) for c in dl_cols], 1)
+    dL = np.stack([column(rows, c, source) if c in has else np.zeros(len(rows)) for c in dl_cols], 1)
     if {"x", "y"} <= has and {"dx", "dy"} & has:
         raise CdsmInputError(f"{source}: both absolute (x, y) and displacement (dx, dy) columns; give one kind")
     if {"x", "y"} <= has:
@@ -99,8 +108,8 @@ def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
     else:
         raise CdsmInputError(f"{source}: missing measured columns: need x, y (absolute) or dx, dy "
                              f"(displacement); found {', '.join(cols)}")
-    measured = np.stack([_column(rows, c, source) for c in mcols], 1)
-    mphi = _column(rows, pcol, source) if pcol in has else None
+    measured = np.stack([column(rows, c, source) for c in mcols], 1)
+    mphi = column(rows, pcol, source) if pcol in has else None
     used = set(theta_cols + pose_cols + dl_cols + list(mcols) + [pcol])
     labels = {c: [r[c] for r in rows] for c in cols if c not in used}
     return Measurements(kind, n, dL, measured, theta, pose, mphi, labels, source)

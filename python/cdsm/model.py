@@ -62,7 +62,7 @@ from typing import Dict, List, Mapping, Optional, Sequence
 import numpy as np
 
 from . import plant, workspace
-from .measurements import Measurements
+from .measurements import Measurements, column, read_table
 from .robot import CdsmInputError, Robot, _batch
 
 __all__ = ["Model", "Compensation", "FORMAT", "robot_toml", "read_targets"]
@@ -156,31 +156,13 @@ def read_targets(path: "str | os.PathLike[str]") -> np.ndarray:
         text = open(path, encoding="utf-8").read()
     except OSError as exc:
         raise CdsmInputError(f"targets file {src!r}: {exc.strerror}") from None
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
-        raise CdsmInputError(f"{src}: no header and no rows")
-    reader = csv.DictReader(io.StringIO("\n".join(lines)))
-    cols = [c.strip() for c in (reader.fieldnames or [])]
-    reader.fieldnames = cols
-    rows = list(reader)
-    if not rows:
-        raise CdsmInputError(f"{src}: header but no rows")
+    cols, rows = read_table(text, src)
     missing = [c for c in ("x", "y") if c not in cols]
     if missing:
         raise CdsmInputError(f"{src}: missing target columns {', '.join(missing)} (need x, y [m] "
                              f"and optional phi [rad]); found {', '.join(cols)}")
     use = ["x", "y"] + (["phi"] if "phi" in cols else [])
-    out = np.empty((len(rows), len(use)))
-    for i, r in enumerate(rows):
-        for j, c in enumerate(use):
-            cell = (r.get(c) or "").strip()
-            try:
-                out[i, j] = float(cell)
-            except ValueError:
-                raise CdsmInputError(f"{src}: row {i + 1}, column {c!r}: not a number: {cell!r}") from None
-            if not math.isfinite(out[i, j]):
-                raise CdsmInputError(f"{src}: row {i + 1}, column {c!r}: non-finite value {cell!r}")
-    return out
+    return np.stack([column(rows, c, src) for c in use], axis=1)
 
 
 # ---------------------------------------------------------------------------
