@@ -54,10 +54,9 @@ pub fn cable_hole_gradient(robot: &Robot, c: usize, cs: &[(f64, f64)], grad: &mu
         let i = robot.hole_index(c, d, f);
         (i, [h[i], h[i + 1]])
     };
-    for k in 0..=pair(c) {
+    for (k, &(ct, st)) in cs.iter().enumerate().take(pair(c) + 1) {
         let (ip, p) = hole(k, 1);
         let (iq, q) = hole(k + 1, 0);
-        let (ct, st) = cs[k];
         let u = [q[0] + robot.link_after[k], q[1]];
         let a = [
             robot.link_before[k] + ct * u[0] - st * u[1],
@@ -118,7 +117,11 @@ pub fn config_sensitivity(
         }
     }
     let scale = jc.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let singular = (0..n).any(|k| !(jc[k * n + k].abs() > 1e-12 * scale.max(f64::MIN_POSITIVE)));
+    // a NaN diagonal counts as singular too
+    let singular = (0..n).any(|k| {
+        let d = jc[k * n + k].abs();
+        d.is_nan() || d <= 1e-12 * scale.max(f64::MIN_POSITIVE)
+    });
     if singular {
         cable.fill(f64::NAN);
         pair_out.fill(f64::NAN);
