@@ -15,8 +15,6 @@ import argparse
 import os
 import time
 
-import numpy as np
-
 import cdsm
 from cdsm import reference, workspace
 from cdsm.errors import monte_carlo, sample_errors

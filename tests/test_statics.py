@@ -323,3 +323,16 @@ def test_feasibility_map_helpers(cdsm):
     assert fm.slack_fraction > 0.5 and fm.pose.shape == (13**3, 3)
     d = statics.elastic_tip_deviation(r, grid30()[:20], youngs_modulus=3e9)
     assert d.shape == (20, 3) and np.nanmax(np.abs(d[:, :2])) > 1e-4
+
+
+def test_solves_and_monte_carlo_flag_slack_cables(cdsm):
+    """Every solve reports whether its answer can be held with taut cables."""
+    r = cdsm.Robot.paper()
+    straight = r.solve_cables(r.upper_lengths(np.zeros(3)))
+    assert straight.feasible  # the weights pull the straight arm taut
+    grid = grid30()
+    sol = r.ik(r.fk(grid))
+    np.testing.assert_array_equal(sol.feasible, r.feasible(sol.theta))
+    assert 0 < (~sol.feasible).sum() < len(grid)  # some grid poses need a slack cable
+    mc = cdsm.errors.monte_carlo(r, grid, samples=2, progress=False)
+    np.testing.assert_array_equal(mc.feasible0, r.feasible(grid))

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from cdsm import _cdsm, design_config, reference as ref, tolerance
+from cdsm import design_config, reference as ref, tolerance
 from cdsm.cli import main
 from cdsm.errors import deviation
 from cdsm.robot import Robot

@@ -43,7 +43,7 @@ import csv
 import io
 import os
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -147,7 +147,9 @@ class Suggestion:
 def candidate_pool(robot: Robot, kind: str, size: int = 400, seed: int = 0, dl: float = 1e-3,
                    margin: float = 0.9) -> Tuple[np.ndarray, np.ndarray]:
     """Random candidate commands (theta (C, n) rad, dL (C, n) m) within
-    ``margin`` x the joint limits, with taut upper cables (see module doc)."""
+    ``margin`` x the joint limits around their midpoints, each half-width at
+    most 40° (0.698 rad), with taut upper cables (see module doc). ``size``
+    draws before the feasibility filter (C <= size); ``dl`` in m."""
     rng = np.random.default_rng(seed)
     n = robot.n
     lim = robot.joint_limits

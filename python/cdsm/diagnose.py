@@ -334,11 +334,7 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     }
     if robot.n >= 2:
         out["|theta_2| (rad)"] = np.abs(th[:, 1])
-    if hasattr(robot, "tensions"):
-        try:
-            out["min upper tension (N)"] = np.asarray(robot.tensions(th)).min(axis=1)
-        except Exception:  # statics unavailable for this robot: feature left out
-            pass
+    out["min upper tension (N)"] = robot.tensions(th).min(axis=1)
     return out
 
 

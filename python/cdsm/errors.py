@@ -124,6 +124,8 @@ class MonteCarlo:
 
     Columns of the (N, 4) arrays: dX (m), dY (m), dphi (rad), |d(X, Y)| (m).
     ``hist`` (N, bins) counts |d(X, Y)| in log-spaced bins (:attr:`hist_edges`).
+    ``feasible0`` (N,): every upper cable taut at the initial configuration
+    (the samples themselves are not checked for slack cables).
     """
 
     theta0: np.ndarray
@@ -135,6 +137,7 @@ class MonteCarlo:
     max: np.ndarray
     hist: np.ndarray
     params: dict = field(default_factory=dict)
+    feasible0: Optional[np.ndarray] = None
 
     @property
     def mean(self) -> np.ndarray:
@@ -221,6 +224,7 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
         else:
             out.merge(part)
         bar.update(m)
+    out.feasible0 = robot.feasible(t0)
     out.params = dict(samples=total, seed=int(seed), chunk=int(chunk), dl_tol_m=dlt.tolist(),
                       dh_tol_m=dht.tolist(), method=method)
     return out

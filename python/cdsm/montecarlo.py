@@ -58,6 +58,7 @@ import numpy as np
 
 from . import _cdsm
 from .errors import MonteCarlo, Progress, QUANTITY_NAMES, _tolerance, monte_carlo, monte_carlo_chunk
+from .model import robot_toml
 from .robot import CdsmInputError, Robot, _batch
 
 __all__ = ["run", "ClusterError", "OrderedMerge", "robot_spec", "robot_from_spec",
@@ -83,26 +84,12 @@ class ClusterError(RuntimeError):
 # ---------------------------------------------------------------------------
 def robot_spec(robot: Robot) -> dict:
     """The robot as plain data for another process: ``{"toml": str, "holes":
-    (2n, n+1, 2, 2) m}``. The TOML carries every parameter except the holes
-    (written with a placeholder hole height), which are then set exactly, so
-    robots built in code (``with_holes``, ``with_cable``) travel too. Floats
-    are written with ``repr`` and parsed back to the same bits."""
-    n = robot.n
-    lines = [f"name = {json.dumps(robot.name)}", f"n = {n}", "", "[cable]",
-             f"youngs_modulus = {float(robot.youngs_modulus)!r}",
-             f"diameter = {float(robot.cable_diameter)!r}",
-             f"routing_length = {float(robot.routing_length)!r}"]
-    lim = robot.joint_limits
-    for i in range(n):
-        lines += ["", "[[linkage]]",
-                  f"link_before = {float(robot.link_before[i])!r}",
-                  f"link_after = {float(robot.link_after[i])!r}",
-                  f"thickness = {float(robot.thickness[i])!r}",
-                  "hole_height = 1.0   # placeholder: the holes are set exactly",
-                  f"mass = {float(robot.mass[i])!r}",
-                  f"lower_tension = {float(robot.lower_tension[i])!r}",
-                  f"joint_limits = [{float(lim[i, 0])!r}, {float(lim[i, 1])!r}]"]
-    return {"toml": "\n".join(lines) + "\n", "holes": np.array(robot.holes, dtype=np.float64)}
+    (2n, n+1, 2, 2) m}``. The TOML is :func:`cdsm.model.robot_toml` (every
+    parameter, explicit holes, floats by ``repr``: parsed back to the same
+    bits); the full hole array is then set exactly (also the entries the TOML
+    leaves out), so robots built in code (``with_holes``, ``with_cable``)
+    travel too."""
+    return {"toml": robot_toml(robot), "holes": np.array(robot.holes, dtype=np.float64)}
 
 
 def robot_from_spec(spec: dict, threads: int = 0) -> Robot:

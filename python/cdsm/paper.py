@@ -112,12 +112,13 @@ def table3(robot: Robot) -> dict:
     theoretical displacement, the paper's, and the measured one (all m)."""
     meas = measurements.packaged("table3", robot.n)
     theory = measurements.packaged("table3_theory", robot.n)
-    ours = []
+    ours, theta0 = [], []
     ik_ok, limits = [], []
     for i in range(len(meas)):
         d = errors.deviation(robot, poses=meas.pose_cmd[i:i + 1], dL=meas.dL[i],
                              ik_seed=workspace.paper_ik_seed(robot.n))
         ours.append(d.dS[0, :2])
+        theta0.append(d.theta0[0])
         ik_ok.append(bool(d.ok[0]))
         limits.append(bool(d.ik.within_limits[0]))
     ours = np.array(ours)
@@ -125,8 +126,7 @@ def table3(robot: Robot) -> dict:
     return dict(point=np.array(meas.labels.get("point", [str(i + 1) for i in range(len(meas))])),
                 pose=meas.pose_cmd, ours=ours, ours_plain_seed=plain, paper=theory.measured,
                 measured=meas.measured, ok=np.array(ik_ok), within_limits=np.array(limits),
-                theta0=errors.deviation(robot, poses=meas.pose_cmd, dL=meas.dL[0],
-                                        ik_seed=workspace.paper_ik_seed(robot.n)).theta0)
+                theta0=np.array(theta0))
 
 
 # Table 2 of the paper: poses and the conditions drawn before/after the error.
@@ -158,7 +158,8 @@ def table2(robot: Robot) -> List[dict]:
     return out
 
 
-def _rms(v):
+def _rms(v: np.ndarray) -> float:
+    """RMS of the finite entries of ``v`` (NaN when there are none)."""
     v = v[np.isfinite(v)]
     return float(np.sqrt(np.mean(v ** 2))) if len(v) else float("nan")
 

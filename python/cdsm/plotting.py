@@ -11,12 +11,13 @@ configuration diagrams the arm before the error is blue, after it red.
 from __future__ import annotations
 
 import os
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import LinearSegmentedColormap, LogNorm, Normalize
 from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
 
 from .robot import Robot
 
@@ -42,15 +43,14 @@ _FONT = {"font.size": 10, "axes.titlesize": 10.5, "axes.labelsize": 10,
 # ---------------------------------------------------------------------------
 def _figure(w: float, h: float) -> Figure:
     """A new Figure with an Agg canvas (no pyplot state)."""
-    import matplotlib
-
-    with matplotlib.rc_context(_FONT):
+    with _rc():
         fig = Figure(figsize=(w, h), dpi=DPI)
     FigureCanvasAgg(fig)
     return fig
 
 
 def _rc():
+    """The report fonts, for the duration of a ``with`` block."""
     import matplotlib
 
     return matplotlib.rc_context(_FONT)
@@ -401,7 +401,7 @@ def workspace_figure(study) -> Figure:
             ax.scatter(t[:, 0], t[:, 1], s=2, c=GREEN, alpha=0.35, linewidths=0,
                        label=f"phi = 0 within the joint limits (±{lim:.0f}°)")
         if study.table3 is not None:
-            ax.add_patch(__import__("matplotlib.patches", fromlist=["Rectangle"]).Rectangle(
+            ax.add_patch(Rectangle(
                 (190, -100), 40, 200, fill=False, ec="k", ls="--", lw=1.2,
                 label="paper's experimental range (Fig. 9)"))
             p = study.table3["pose"] * 1e3

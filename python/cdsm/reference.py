@@ -31,7 +31,6 @@ the base disk (face ``b`` only) and disks ``1..i`` (both faces).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
 
 import numpy as np
 

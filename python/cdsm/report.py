@@ -11,11 +11,13 @@ import base64
 import csv
 import html
 import os
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, List
 
 import numpy as np
 
 from . import __version__, plotting
+from .paper import _rms
+from .workspace import REASONS
 
 __all__ = ["write", "headline"]
 
@@ -114,11 +116,6 @@ figcaption{font-size:.9em;color:#444;margin-top:.3em}code{background:#f3f3f3;pad
 # ---------------------------------------------------------------------------
 # numbers
 # ---------------------------------------------------------------------------
-def _rms(v: np.ndarray) -> float:
-    v = v[np.isfinite(v)]
-    return float(np.sqrt(np.mean(v ** 2))) if len(v) else float("nan")
-
-
 def _nanmax(v: np.ndarray) -> float:
     v = v[np.isfinite(v)]
     return float(v.max()) if len(v) else float("nan")
@@ -126,9 +123,6 @@ def _nanmax(v: np.ndarray) -> float:
 
 def _f(x: float, nd: int = 3) -> str:
     return "—" if x is None or not np.isfinite(x) else f"{x:.{nd}f}"
-
-
-from .workspace import REASONS
 
 
 def scenario_rows(study) -> List[dict]:
@@ -254,10 +248,6 @@ def _mc_config_rows(study) -> List[dict]:
 # ---------------------------------------------------------------------------
 # analysis paragraphs (numbers computed here)
 # ---------------------------------------------------------------------------
-def _pair_stats(study, key_a, key_b, proto):
-    return _rms(study.result(key_a, proto).position_mm), _rms(study.result(key_b, proto).position_mm)
-
-
 def _explanations(study) -> List[str]:
     """Why our model agrees or disagrees with the paper, with our numbers."""
     robot, n = study.robot, study.robot.n

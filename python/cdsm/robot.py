@@ -55,6 +55,9 @@ class Solution:
     keeps its last iterate and must not be used as an answer. iterations: (N,)
     trial steps (0 = closed form). residual: (N,) max |residual| (m, or rad for
     the attitude). within_limits: (N,) all angles within the joint limits.
+    feasible: (N,) every upper cable taut (tension > 0 N) at theta under the
+    robot's lower tensions and no external load — False flags a configuration
+    the hybrid-controlled arm cannot hold (None where not computed).
     """
 
     theta: np.ndarray
@@ -62,14 +65,16 @@ class Solution:
     iterations: np.ndarray
     residual: np.ndarray
     within_limits: np.ndarray
+    feasible: Optional[np.ndarray] = None
 
     @classmethod
-    def _from_core(cls, parts, n: int, single: bool) -> "Solution":
+    def _from_core(cls, parts, n: int, single: bool, robot: Optional["Robot"] = None) -> "Solution":
         theta, conv, it, res, lim = parts
         theta = theta.reshape(-1, n)
+        feas = robot.feasible(theta) if robot is not None else None
         if single:
-            return cls(theta[0], conv[0], it[0], res[0], lim[0])
-        return cls(theta, conv, it, res, lim)
+            return cls(theta[0], conv[0], it[0], res[0], lim[0], None if feas is None else feas[0])
+        return cls(theta, conv, it, res, lim, feas)
 
 
 class Robot:
@@ -233,7 +238,7 @@ class Robot:
         p, single = _batch("pose", pose, 3)
         parts = self._core.ik(p, self._seed(seed, p.shape[0]), float(tol), _iters(max_iter),
                               bool(enforce_limits), self.threads)
-        return Solution._from_core(parts, self.n, single)
+        return Solution._from_core(parts, self.n, single, self)
 
     def solve_cables(self, upper, seed=None, method: str = "auto", tol: float = 1e-12,
                      max_iter: int = 100, enforce_limits: bool = False) -> Solution:
@@ -247,7 +252,7 @@ class Robot:
         u, single = _batch("upper", upper, self.n)
         parts = self._core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
                                         _iters(max_iter), bool(enforce_limits), self.threads)
-        return Solution._from_core(parts, self.n, single)
+        return Solution._from_core(parts, self.n, single, self)
 
 
     # ---- statics and cable elasticity (issue 4; model in rust/statics.rs) --
@@ -339,8 +344,8 @@ class Robot:
         base = Solution._from_core(parts, self.n, single)
         tension = tension.reshape(-1, self.n)
         return ElasticSolution(base.theta, base.converged, base.iterations, base.residual,
-                               base.within_limits, tension[0] if single else tension,
-                               ok[0] if single else ok)
+                               base.within_limits, feasible=ok[0] if single else ok,
+                               tension=tension[0] if single else tension)
 
 def _iters(max_iter: int) -> int:
     if int(max_iter) < 1:
@@ -362,8 +367,7 @@ def _finite(name: str, value) -> float:
 @dataclass(frozen=True)
 class ElasticSolution(Solution):
     """A :class:`Solution` of the elastic cable solve, plus the statics at the
-    answer: tension (N, n) upper-cable tensions, N; feasible (N,) every upper
-    tension above ``min_tension`` (False: some cable would have to go slack)."""
+    answer: tension (N, n) upper-cable tensions, N; ``feasible`` (N,) here means
+    every upper tension above ``min_tension`` (False: some cable would go slack)."""
 
     tension: np.ndarray = None
-    feasible: np.ndarray = None

@@ -37,8 +37,9 @@ class FeasibilityMap:
 
 def feasibility_map(robot: Robot, theta=None, lower=None, tip_wrench=None, gravity=None,
                     min_tension: float = 0.0) -> FeasibilityMap:
-    """Tensions and the feasibility flag over ``theta`` (default the paper's
-    +-30 deg, 5 deg grid); plot ``pose[:, :2]`` coloured by ``feasible``."""
+    """Tensions (N) and the feasibility flag over ``theta`` (N, n) rad (default
+    the paper's +-30 deg, 5 deg grid); ``min_tension`` in N; loads as in
+    :meth:`cdsm.Robot.tensions`. Plot ``pose[:, :2]`` coloured by ``feasible``."""
     th = joint_grid(robot.n) if theta is None else np.atleast_2d(np.asarray(theta, dtype=float))
     T = robot.tensions(th, lower=lower, tip_wrench=tip_wrench, gravity=gravity)
     with np.errstate(invalid="ignore"):
@@ -49,7 +50,7 @@ def feasibility_map(robot: Robot, theta=None, lower=None, tip_wrench=None, gravi
 def elastic_tip_deviation(robot: Robot, theta, youngs_modulus: Optional[float] = None,
                           diameter: Optional[float] = None, lower=None) -> np.ndarray:
     """Tip deviation (N, 3) [dX m, dY m, dphi rad] when the rigid model's cable
-    lengths at ``theta`` are commanded to elastic cables (optionally of another
+    lengths at ``theta`` (N, n) rad are commanded to elastic cables (optionally of another
     material); NaN where the elastic solve did not converge."""
     th = np.atleast_2d(np.asarray(theta, dtype=float))
     rob = robot.with_cable(youngs_modulus=youngs_modulus, diameter=diameter)

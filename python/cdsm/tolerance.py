@@ -40,7 +40,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from . import _cdsm
-from .errors import MonteCarlo, monte_carlo, sample_errors
+from .errors import MonteCarlo, monte_carlo
 from .robot import CdsmInputError, Robot, _batch
 
 __all__ = [

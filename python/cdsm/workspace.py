@@ -151,16 +151,12 @@ def singular_values(robot: Robot, theta, attitude_scale: Optional[float] = None)
 
 def sensitivity(robot: Robot, theta) -> np.ndarray:
     """First-order tip sensitivity to the upper-cable lengths: d[x, y, phi]/dL
-    (N, 3, n) = J_pose · (dL_upper/dtheta)^-1 (m/m and rad/m). NaN where the
-    cable Jacobian is singular."""
-    t, _ = _batch("theta", theta, robot.n)
-    jp = robot.fk_jacobian(t)
-    jc = robot.cable_jacobian(t)[:, 0::2, :]
-    out = np.full((len(t), 3, robot.n), np.nan)
-    det = np.linalg.det(jc)
-    ok = np.abs(det) > 1e-300
-    out[ok] = jp[ok] @ np.linalg.inv(jc[ok])
-    return out
+    (N, 3, n) = J_pose · (dL_upper/dtheta)^-1 (m/m and rad/m), theta (N, n)
+    rad. NaN where the cable Jacobian is singular. The ``cable`` part of
+    :func:`cdsm.tolerance.sensitivities` (Rust core)."""
+    from .tolerance import sensitivities
+
+    return sensitivities(robot, theta).cable
 
 
 @dataclass(frozen=True)
