@@ -264,9 +264,18 @@ pub enum Observation {
     Displacement,
 }
 
+/// Predictions of a batch: observations `(K, N, 3)`, converged `(K, N)`, and
+/// the joint angles the arm settles at with `dL` applied `(K, N, n)` (rad).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Predictions {
+    pub observation: Vec<f64>,
+    pub converged: Vec<bool>,
+    pub theta: Vec<f64>,
+}
+
 /// Predicted observations for `K` parameter sets (`params (K, P)`) and `N`
-/// rows (`theta_cmd (N, n)`, `dl (N, n)`): `(K, N, 3)` and `(K, N)` converged.
-/// Work is split over `K x N` in scoped threads.
+/// rows (`theta_cmd (N, n)`, `dl (N, n)`); see [`Predictions`]. Work is split
+/// over `K x N` in scoped threads.
 pub fn predict(
     robot: &Robot,
     params: &[f64],
@@ -275,7 +284,7 @@ pub fn predict(
     kind: Observation,
     opts: &SolveOptions,
     threads: usize,
-) -> Result<(Vec<f64>, Vec<bool>)> {
+) -> Result<Predictions> {
     let n = robot.n();
     let (_, total) = effect_offsets(n);
     let k = rows_of("params", params, total)?;
@@ -286,8 +295,7 @@ pub fn predict(
         .collect::<Result<_>>()?;
     let nominal = CableGeometry::new(robot, None);
     let parts = split_rows(k * rows, threads, |range| {
-        let mut out = Vec::with_capacity(range.len() * 3);
-        let mut conv = Vec::with_capacity(range.len());
+        let mut out = Predictions::default();
         let mut cs = vec![(1.0, 0.0); n];
         let (mut cmd, mut th) = (vec![0.0; n], vec![0.0; n]);
         let mut statics: Vec<Option<Statics>> = (0..k).map(|_| None).collect();
@@ -322,18 +330,21 @@ pub fn predict(
                     (ok0 && ok1, [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]])
                 }
             };
-            out.extend_from_slice(&if ok { obs } else { [f64::NAN; 3] });
-            conv.push(ok);
+            out.observation
+                .extend_from_slice(&if ok { obs } else { [f64::NAN; 3] });
+            out.converged.push(ok);
+            out.theta
+                .extend(th.iter().map(|t| if ok { *t } else { f64::NAN }));
         }
-        (out, conv)
+        out
     });
-    let mut out = Vec::with_capacity(k * rows * 3);
-    let mut conv = Vec::with_capacity(k * rows);
-    for (o, c) in parts {
-        out.extend(o);
-        conv.extend(c);
+    let mut all = Predictions::default();
+    for p in parts {
+        all.observation.extend(p.observation);
+        all.converged.extend(p.converged);
+        all.theta.extend(p.theta);
     }
-    Ok((out, conv))
+    Ok(all)
 }
 
 #[cfg(test)]
@@ -350,7 +361,11 @@ mod tests {
         let th = [0.2, -0.3, 0.25, -0.1, 0.0, 0.3];
         let dl = [-1e-3, 0.0, 0.0, 0.0, 5e-4, 0.0];
         let o = SolveOptions::default();
-        let (abs, ok) = predict(&r, &zeros(&r), &th, &dl, Observation::Absolute, &o, 1).unwrap();
+        let Predictions {
+            observation: abs,
+            converged: ok,
+            ..
+        } = predict(&r, &zeros(&r), &th, &dl, Observation::Absolute, &o, 1).unwrap();
         assert!(ok.iter().all(|x| *x));
         let (dev, _) =
             crate::accuracy::deviation(&r, &th[..3], &dl[..3], None, CableMethod::Auto, &o, 1)
@@ -369,11 +384,17 @@ mod tests {
         let th = [0.2, -0.3, 0.25];
         let dl = [0.0; 3];
         let o = SolveOptions::default();
-        let (a, _) = predict(&r, &zeros(&r), &th, &dl, Observation::Absolute, &o, 1).unwrap();
+        let a = predict(&r, &zeros(&r), &th, &dl, Observation::Absolute, &o, 1)
+            .unwrap()
+            .observation;
         for idx in [off[4], off[5]] {
             let mut p = zeros(&r);
             p[idx] = 1e-12;
-            let (b, ok) = predict(&r, &p, &th, &dl, Observation::Absolute, &o, 1).unwrap();
+            let Predictions {
+                observation: b,
+                converged: ok,
+                ..
+            } = predict(&r, &p, &th, &dl, Observation::Absolute, &o, 1).unwrap();
             assert!(ok[0]);
             for q in 0..3 {
                 assert!((a[q] - b[q]).abs() < 1e-9, "{idx}: {a:?} {b:?}");
@@ -391,8 +412,12 @@ mod tests {
         let th = [0.2, -0.3, 0.25];
         let dl = [-1e-3, 0.0, 0.0];
         let o = SolveOptions::default();
-        let (a, _) = predict(&r, &zeros(&r), &th, &dl, Observation::Displacement, &o, 1).unwrap();
-        let (b, _) = predict(&r, &p, &th, &dl, Observation::Displacement, &o, 1).unwrap();
+        let a = predict(&r, &zeros(&r), &th, &dl, Observation::Displacement, &o, 1)
+            .unwrap()
+            .observation;
+        let b = predict(&r, &p, &th, &dl, Observation::Displacement, &o, 1)
+            .unwrap()
+            .observation;
         for q in 0..3 {
             assert!((a[q] - b[q]).abs() < 1e-15);
         }

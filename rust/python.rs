@@ -62,7 +62,11 @@ type SolutionArrays<'py> = (
     Bound<'py, PyArray1<bool>>,
 );
 
-type Predictions<'py> = (Bound<'py, PyArray1<f64>>, Bound<'py, PyArray1<bool>>);
+type Predictions<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<bool>>,
+    Bound<'py, PyArray1<f64>>,
+);
 
 fn solution<'py>(py: Python<'py>, s: BatchSolution) -> SolutionArrays<'py> {
     (
@@ -300,7 +304,8 @@ impl CoreRobot {
     }
 
     /// Plant predictions (see `plant.rs`): `params (K, P)`, `theta_cmd (N, n)`,
-    /// `dl (N, n)` -> flat `(K, N, 3)` observations and `(K, N)` converged.
+    /// `dl (N, n)` -> flat `(K, N, 3)` observations, `(K, N)` converged and
+    /// `(K, N, n)` settled joint angles.
     #[pyo3(signature = (params, theta_cmd, dl, displacement, tol, max_iter, threads))]
     #[allow(clippy::too_many_arguments)]
     fn plant_predict<'py>(
@@ -323,10 +328,14 @@ impl CoreRobot {
             Observation::Absolute
         };
         let o = options(tol, max_iter, false);
-        let (obs, conv) = py
+        let out = py
             .detach(|| plant::predict(&self.inner, p, t, d, kind, &o, threads))
             .map_err(err)?;
-        Ok((vec1(py, obs), vec1(py, conv)))
+        Ok((
+            vec1(py, out.observation),
+            vec1(py, out.converged),
+            vec1(py, out.theta),
+        ))
     }
 
     /// Names and sizes of the plant's effects, in parameter order.

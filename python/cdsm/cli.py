@@ -565,8 +565,10 @@ def _tolerance_run(args) -> int:
     print(f"linear estimate {a.linear_m * 1e3:.4f} mm; failed solves {a.failed}; "
           f"done in {time.perf_counter() - t0:.1f} s")
     if args.json:
+        from .diagnose_report import json_safe
+
         with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump(out, fh, indent=2)
+            json.dump(json_safe(out), fh, indent=2, allow_nan=False)
         print(f"json: {args.json}")
     return 0
 

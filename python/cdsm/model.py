@@ -437,32 +437,6 @@ class Model:
         holes = r.hole_height_error(dh) if np.any(dh) else r.holes
         return Robot.from_toml_str(robot_toml(r, lb, la, holes))
 
-    def _settled_theta(self, commands: np.ndarray, seed: np.ndarray) -> np.ndarray:
-        """Configuration (N, n) rad the fitted arm settles at for ``commands``
-        (N, n) m: realised lengths (actuation scale, offsets) on the fitted
-        geometry, with cable stretch by fixed-point iteration on the statics
-        tensions; the hole clearance (sub-0.2 mm hole shifts) is left out.
-        NaN rows where the solve fails."""
-        r, lay = self.robot, plant.layout(self.robot)
-        s = float(self.p[lay["actuation_scale"]][0])
-        off = self.p[lay["cable_offset"]]
-        comp = float(self.p[lay["cable_elasticity"]][0])
-        arm = self.fitted_arm()
-        l_ref = r.upper_lengths(np.zeros(r.n))
-        real = l_ref + (1.0 + s) * (commands - l_ref) + off
-        sol = arm.solve_cables(real, seed=seed)
-        th = np.array(sol.theta, dtype=float)
-        ok = np.asarray(sol.converged, bool)
-        if comp > 0.0:
-            route = arm.routing_length
-            for _ in range(4):
-                t = np.nan_to_num(arm.tensions(th))
-                sol = arm.solve_cables((real + route) * (1.0 + comp * t) - route, seed=th)
-                th = np.array(sol.theta, dtype=float)
-                ok = np.asarray(sol.converged, bool)
-        th[~ok] = np.nan
-        return th
-
     def compensate(self, poses, tol: float = 1e-9, max_iter: int = 40, h: float = 1e-6,
                    min_tension: float = 0.0, enforce_limits: bool = False) -> Compensation:
         """Upper-cable length commands that put the fitted plant's tip on ``poses``.
@@ -603,7 +577,7 @@ class Model:
         th_pred = np.full((N, n), np.nan)
         if reach.any():
             rows = np.flatnonzero(reach)
-            th_pred[rows] = self._settled_theta(commands[rows], theta[rows])
+            th_pred[rows] = plant.settle(r, self.p, theta[rows], dL[rows])[0]
             fin = np.isfinite(th_pred[rows]).all(axis=1)
             feas = np.zeros(len(rows), bool)
             inlim = np.zeros(len(rows), bool)

@@ -77,22 +77,36 @@ def params(robot: Robot, effects: Optional[Mapping[str, Sequence[float]]] = None
     return p
 
 
+def _run(robot: Robot, p, theta_cmd, dL, kind: str, tol: float, max_iter: int):
+    pp, single = _batch("params", p, size(robot))
+    t, _ = _batch("theta_cmd", theta_cmd, robot.n)
+    d, _ = _batch("dL", dL, robot.n)
+    if kind not in ("absolute", "displacement"):
+        raise CdsmInputError(f"`kind`: expected 'absolute' or 'displacement', got {kind!r}")
+    obs, conv, theta = robot._core.plant_predict(pp, t, d, kind == "displacement", float(tol),
+                                                 int(max_iter), robot.threads)
+    shape = (len(pp), len(t))
+    out = obs.reshape(shape + (3,)), conv.reshape(shape), theta.reshape(shape + (robot.n,))
+    return tuple(a[0] for a in out) if single else out
+
+
 def predict(robot: Robot, p, theta_cmd, dL, kind: str = "absolute",
             tol: float = 1e-12, max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray]:
     """Observations of the plant(s) ``p`` ((P,) or (K, P)) for the commands
     ``theta_cmd`` (N, n) rad and ``dL`` (N, n) m: (N, 3) or (K, N, 3) —
     [x, y, phi] (absolute, instrument frame) or [dx, dy, dphi] (displacement)
     — and the converged flags (N,) or (K, N)."""
-    pp, single = _batch("params", p, size(robot))
-    t, _ = _batch("theta_cmd", theta_cmd, robot.n)
-    d, _ = _batch("dL", dL, robot.n)
-    if kind not in ("absolute", "displacement"):
-        raise CdsmInputError(f"`kind`: expected 'absolute' or 'displacement', got {kind!r}")
-    obs, conv = robot._core.plant_predict(pp, t, d, kind == "displacement", float(tol), int(max_iter),
-                                          robot.threads)
-    obs = obs.reshape(len(pp), len(t), 3)
-    conv = conv.reshape(len(pp), len(t))
-    return (obs[0], conv[0]) if single else (obs, conv)
+    obs, conv, _ = _run(robot, p, theta_cmd, dL, kind, tol, max_iter)
+    return obs, conv
+
+
+def settle(robot: Robot, p, theta_cmd, dL, tol: float = 1e-12,
+           max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray]:
+    """Joint angles (N, n) rad the plant ``p`` (P,) settles at for the nominal
+    commands at ``theta_cmd`` (N, n) rad plus ``dL`` (N, n) m — every effect of
+    the plant included — and the converged flags (N,); NaN rows where not."""
+    _, conv, theta = _run(robot, p, theta_cmd, dL, "absolute", tol, max_iter)
+    return theta, conv
 
 
 @dataclass

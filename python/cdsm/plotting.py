@@ -19,7 +19,7 @@ from matplotlib.colors import LinearSegmentedColormap, LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from .robot import Robot
+from .robot import CdsmInputError, Robot
 
 __all__ = [
     "chain_points", "save", "PROTOCOL_TITLES", "scenario_figure", "overview_figure",
@@ -84,7 +84,7 @@ def chain_points(robot: Robot, theta) -> np.ndarray:
     """
     t = np.asarray(theta, dtype=np.float64).reshape(-1)
     if t.shape != (robot.n,):
-        raise ValueError(f"`theta`: expected shape ({robot.n},), got {np.shape(theta)}")
+        raise CdsmInputError(f"`theta`: expected shape ({robot.n},), got {np.shape(theta)}")
     lb, la, th = robot.link_before, robot.link_after, robot.thickness
     pts = [np.zeros(2)]
     p, head = np.zeros(2), 0.0
@@ -414,7 +414,8 @@ def workspace_figure(study) -> Figure:
                 ax.annotate(str(lab), q[:2], xytext=(4, 3), textcoords="offset points", fontsize=8)
         _axes_mm(ax, equal=True)
         ax.legend(loc="upper left", fontsize=8.5, markerscale=2, framealpha=0.9)
-        ax.set_title("Workspace (Fig. 9): joint grid ±30° in 5° steps and the phi = 0 reach")
+        grid = next(iter(study.workspaces.values())).describe_grid()
+        ax.set_title(f"Workspace (Fig. 9): joint grid {grid} and the phi = 0 reach")
         fig.tight_layout()
     return fig
 

@@ -385,7 +385,7 @@ def _build(study, pngs: Dict[str, str]) -> _Doc:
                          "have IK angles within the joint limits.")
         else:
             items.append(f"**joint-space protocol**: the error is applied at the {k} grid angles themselves "
-                         f"(±30° in 5° steps); all {int(ws.reachable.sum())} are initial states.")
+                         f"({ws.describe_grid()}); all {int(ws.reachable.sum())} are initial states.")
     doc.ul(items)
     doc.p("Which protocol each figure uses: the scenario maps, overviews, Monte-Carlo maps and the singular-value "
           "map exist for **both** protocols and say so in their titles; the claims, jump-point conclusions and "

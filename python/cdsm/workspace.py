@@ -100,6 +100,13 @@ class Workspace:
     def n_unreachable(self) -> int:
         return int((~self.reachable).sum())
 
+    def describe_grid(self) -> str:
+        """'±A° in S° steps' for a symmetric joint grid, else 'N configurations'."""
+        v = np.unique(np.round(np.degrees(self.grid), 9))
+        if len(v) > 1 and np.isclose(v[0], -v[-1]):
+            return f"±{v[-1]:g}° in {np.diff(v).min():g}° steps"
+        return f"{len(self.grid)} configurations"
+
 
 def default_step(n: int, max_points: int = 20_000) -> float:
     """The paper's 5° step (rad) when the ±30° grid has at most ``max_points``
