@@ -13,7 +13,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from . import errors, measurements, statics, tolerance, workspace
+from . import diagnose, errors, measurements, statics, tolerance, workspace
 from .robot import Robot
 
 __all__ = ["Scenario", "ScenarioResult", "PaperStudy", "paper_scenarios", "run",
@@ -90,6 +90,8 @@ class PaperStudy:
     slack_reversed: Dict[str, float] = field(default_factory=dict)
     #: per protocol: first-order amplification maps (tolerance.amplification_maps)
     amplification: Dict[str, dict] = field(default_factory=dict)
+    #: the sim-to-real diagnosis of Table 3 (3-joint robots), or None
+    diagnosis: Optional["diagnose.Diagnosis"] = None
 
     def result(self, key: str, protocol: str = "attitude0") -> ScenarioResult:
         for r in self.scenarios:
@@ -264,5 +266,7 @@ def run(robot: Optional[Robot] = None, samples: int = 1000, seed: int = 0,
         rev = robot.feasible(th, lower=robot.lower_tension[::-1].copy())
         study.slack_reversed[p] = float(1.0 - rev[ws.reachable].mean())
         study.amplification[p] = tolerance.amplification_maps(robot, p, ws)
+    if robot.n == 3:
+        study.diagnosis = diagnose.diagnose(robot, measurements.packaged("table3", robot.n))
     study.claims = check_claims(study)
     return study

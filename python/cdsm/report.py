@@ -419,6 +419,17 @@ def _build(study, pngs: Dict[str, str]) -> _Doc:
               f"Measured − ours: RMS {np.sqrt(np.mean(gap ** 2)):.3f} mm, largest {np.abs(gap).max():.3f} mm. "
               "The measured column ships with the package (`cdsm/data/table3.csv`, SI units).")
 
+    if study.diagnosis is not None:
+        from . import diagnose_report
+
+        doc.h(2, "Where the model departs from the measurements (Table 3 diagnosis)")
+        doc.p("The paper stops at 'other secondary factors' for the Table 3 differences. `cdsm diagnose` fits "
+              "every candidate unmodelled effect to the nine measured displacements and judges them on "
+              "held-out rows (run `cdsm diagnose cdsm/data/table3.csv --report DIR` for the full report):")
+        f = diagnose_report.findings(study.diagnosis)
+        for key in ("answer", "where", "shrink", "identifiability"):
+            for para in f.get(key, []):
+                doc.p(para)
     doc.h(2, "The paper's claims, checked")
     doc.table(["claim", "paper", "ours", "verdict"],
               [[c["claim"], c["paper"], c["ours"], "holds" if c["holds"] else "**does not hold**"]
