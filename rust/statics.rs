@@ -38,7 +38,7 @@
 //! The lower cables are force controlled (hanging weights): their stretch is
 //! taken up by the weights and does not move the arm.
 
-use crate::batch::{map_rows, rows_of, split_rows, BatchSolution};
+use crate::batch::{rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
 use crate::error::{check_finite, CdsmError, Result};
 use crate::kinematics::within_limits;
@@ -417,20 +417,20 @@ pub fn stretches(
     threads: usize,
 ) -> Result<Vec<f64>> {
     let n = robot.n();
-    let rows = rows_of("theta", theta, n)?;
-    let lr = LoadRows::new(robot, loads, rows)?;
+    let mut out = tensions(robot, theta, loads, threads)?;
     let g = CableGeometry::new(robot, None);
     let ea = axial_stiffness(robot);
     let route = robot.cable.routing_length;
-    Ok(map_rows(rows, n, threads, |i, out| {
-        let th = &theta[i * n..(i + 1) * n];
-        let mut st = Statics::new(robot);
-        st.tensions(th, &lr.at(i), out);
-        let cs: Vec<(f64, f64)> = th.iter().map(|t| (t.cos(), t.sin())).collect();
-        for (p, o) in out.iter_mut().enumerate() {
+    let mut cs = vec![(1.0, 0.0); n];
+    for (th, row) in theta.chunks(n).zip(out.chunks_mut(n)) {
+        for (c, t) in cs.iter_mut().zip(th) {
+            *c = (t.cos(), t.sin());
+        }
+        for (p, o) in row.iter_mut().enumerate() {
             *o = stretch(g.length(2 * p, &cs), *o, ea, route);
         }
-    }))
+    }
+    Ok(out)
 }
 
 /// Result of a batch of elastic solves.
