@@ -225,60 +225,50 @@ pub fn monte_carlo(
         HoleErrors::Full(h) => rows_exactly("dholes", h, hole_len, samples)?,
     }
     let nominal = CableGeometry::new(robot, None);
+    // every sample's cable geometry once (no robot rebuilt), shared by the threads
+    let mut hbuf = vec![0.0; hole_len];
+    let geoms: Vec<CableGeometry> = match holes {
+        HoleErrors::None => Vec::new(),
+        HoleErrors::PerPair(h) => (0..samples)
+            .map(|s| {
+                robot.hole_height_error_into(&h[s * n..(s + 1) * n], &mut hbuf);
+                CableGeometry::new(robot, Some(&hbuf))
+            })
+            .collect(),
+        HoleErrors::Full(h) => (0..samples)
+            .map(|s| {
+                let e = &h[s * hole_len..(s + 1) * hole_len];
+                for (b, (a, d)) in hbuf.iter_mut().zip(robot.holes.iter().zip(e)) {
+                    *b = a + d;
+                }
+                CableGeometry::new(robot, Some(&hbuf))
+            })
+            .collect(),
+    };
+    let geom_of = |s: usize| geoms.get(s).unwrap_or(&nominal);
+    // |t_k - t0_k| below this on every joint keeps |dphi| < pi/2: one atan2
+    let small = (std::f64::consts::FRAC_PI_2 / n as f64).cos();
+    // configurations outermost: each one's statistics stay in cache while its
+    // samples are added (in sample order, as any chunking of the samples would)
     let parts = split_rows(rows, threads, |r| {
         let mut stats = McStats::new(r.len());
-        let mut cs = vec![(1.0, 0.0); n];
-        let mut l0 = vec![0.0; r.len() * n];
-        let mut seed_cs = vec![(1.0, 0.0); r.len() * n];
-        let mut p0 = Vec::with_capacity(r.len());
-        for (j, i) in r.clone().enumerate() {
+        let (mut cs, mut seed_cs) = (vec![(1.0, 0.0); n], vec![(1.0, 0.0); n]);
+        let (mut l0, mut target, mut th) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut solver = CableSolver::new(robot, method, *opts);
+        for (j, i) in r.enumerate() {
             let t0 = &theta0[i * n..(i + 1) * n];
-            let sc = &mut seed_cs[j * n..(j + 1) * n];
-            for (c, t) in sc.iter_mut().zip(t0) {
+            for (c, t) in seed_cs.iter_mut().zip(t0) {
                 *c = (t.cos(), t.sin());
             }
-            nominal.upper_lengths(sc, &mut l0[j * n..(j + 1) * n]);
-            p0.push(fk(robot, t0));
-        }
-        // |t_k - t0_k| below this on every joint keeps |dphi| < pi/2: one atan2
-        let small = (std::f64::consts::FRAC_PI_2 / n as f64).cos();
-        let mut hbuf = vec![0.0; hole_len];
-        let (mut target, mut th) = (vec![0.0; n], vec![0.0; n]);
-        let mut solver = CableSolver::new(robot, method, *opts);
-        for s in 0..samples {
-            let geom = match holes {
-                HoleErrors::None => None,
-                HoleErrors::PerPair(h) => {
-                    robot.hole_height_error_into(&h[s * n..(s + 1) * n], &mut hbuf);
-                    Some(CableGeometry::new(robot, Some(&hbuf)))
-                }
-                HoleErrors::Full(h) => {
-                    for (b, (a, e)) in hbuf
-                        .iter_mut()
-                        .zip(robot.holes.iter().zip(&h[s * hole_len..(s + 1) * hole_len]))
-                    {
-                        *b = a + e;
-                    }
-                    Some(CableGeometry::new(robot, Some(&hbuf)))
-                }
-            };
-            let geom = geom.as_ref().unwrap_or(&nominal);
-            let dls = &dl[s * n..(s + 1) * n];
-            for (j, i) in r.clone().enumerate() {
-                let t0 = &theta0[i * n..(i + 1) * n];
-                for k in 0..n {
-                    target[k] = l0[j * n + k] + dls[k];
+            nominal.upper_lengths(&seed_cs, &mut l0);
+            let p0 = fk(robot, t0);
+            for s in 0..samples {
+                let geom = geom_of(s);
+                for (k, tk) in target.iter_mut().enumerate() {
+                    *tk = l0[k] + dl[s * n + k];
                 }
                 if let Some(ds) = fast_deviation(
-                    robot,
-                    geom,
-                    &target,
-                    &seed_cs[j * n..(j + 1) * n],
-                    &mut cs,
-                    p0[j],
-                    small,
-                    method,
-                    opts,
+                    robot, geom, &target, &seed_cs, &mut cs, p0, small, method, opts,
                 ) {
                     stats.add(j, ds);
                     continue;
@@ -288,7 +278,7 @@ pub fn monte_carlo(
                 let st = solver.solve(geom, &target, &mut th);
                 if st.converged {
                     let p = solver.pose(&th);
-                    stats.add(j, [p[0] - p0[j][0], p[1] - p0[j][1], p[2] - p0[j][2]]);
+                    stats.add(j, [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]]);
                 } else {
                     stats.failed[j] += 1;
                 }
