@@ -5,6 +5,7 @@ a default-robot run."""
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -211,3 +212,19 @@ def test_chain_points_end_at_the_tip():
     pts = plotting.chain_points(robot, th)
     assert pts.shape == (3 * robot.n + 1, 2)
     assert np.allclose(pts[-1], robot.fk(th)[:2], atol=1e-12)
+
+
+def test_redundant_robots_get_a_coarser_grid_and_no_jump_search():
+    """n = 8: the ±30° grid is kept under 20000 points; with 3 values per joint
+    there is no trend along a grid line, so jump points are not searched; the
+    phi = 0 workspace is sampled instead of gridded (bounded memory)."""
+    import cdsm
+    from cdsm import plotting, workspace
+
+    r8 = cdsm.Robot.from_toml(Path(cdsm.__file__).parent / "robots" / "serpentine8.toml")
+    assert np.degrees(workspace.default_step(3)) == pytest.approx(5.0)
+    assert np.degrees(workspace.default_step(8)) == pytest.approx(30.0)
+    ws = workspace.sweep(r8, "joint")
+    assert len(ws.grid) == 3 ** 8 and len(ws.neighbours) == 0
+    tips = plotting._phi0_tips(r8, max_points=5000)
+    assert 0 < len(tips) <= 5000 and np.isfinite(tips).all()

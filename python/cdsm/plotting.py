@@ -362,14 +362,19 @@ def amplification_figure(study, protocol: str) -> Figure:
 # ---------------------------------------------------------------------------
 # Fig. 9: workspace
 # ---------------------------------------------------------------------------
-def _phi0_tips(robot: Robot, step_deg: float = 1.0) -> np.ndarray:
-    """Tips (m) of phi = 0 configurations within the joint limits, (K, 2)."""
+def _phi0_tips(robot: Robot, step_deg: float = 1.0, max_points: int = 200_000) -> np.ndarray:
+    """Tips (m) of phi = 0 configurations within the joint limits, (K, 2):
+    joints 1..n-1 on a ``step_deg`` grid (uniform random samples when that
+    grid would exceed ``max_points``), the last joint closing phi = 0."""
     lim = robot.joint_limits
     n = robot.n
     if n < 2:
         return np.zeros((0, 2))
     axes = [np.arange(lim[k, 0], lim[k, 1] + 1e-12, np.radians(step_deg)) for k in range(n - 1)]
-    mesh = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, n - 1)
+    if np.prod([float(len(a)) for a in axes]) <= max_points:
+        mesh = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, n - 1)
+    else:
+        mesh = np.random.default_rng(0).uniform(lim[:-1, 0], lim[:-1, 1], (max_points, n - 1))
     last = -mesh.sum(axis=1)
     ok = (last >= lim[-1, 0]) & (last <= lim[-1, 1])
     th = np.concatenate([mesh[ok], last[ok, None]], axis=1)

@@ -15,7 +15,7 @@ from typing import Dict, List
 
 import numpy as np
 
-from . import __version__, plotting
+from . import __version__, plotting, workspace
 from .paper import _rms
 from .workspace import REASONS
 
@@ -452,6 +452,10 @@ def _build(study, pngs: Dict[str, str]) -> _Doc:
         doc.table(["scenario", "protocol", "jump points", "jump pairs"] + list(REASONS),
                   [[r["label"], PROTO_NAMES.get(r["protocol"], r["protocol"]), r["jump_points"], r["jump_edges"]]
                    + [r["jumps_" + k.replace(" ", "_").replace("-", "_")] for k in REASONS] for r in jrows])
+    elif all(len(ws.neighbours) == 0 for ws in study.workspaces.values()):
+        doc.p(f"Jump points were not searched: the default grid of this {n}-joint robot "
+              f"({next(iter(study.workspaces.values())).describe_grid()}) has fewer than "
+              f"{workspace.MIN_LINE} values per joint, too few to judge a change against its neighbours.")
     else:
         doc.p("No jump points were found in any scenario.")
     for p, sv in study.singular.items():

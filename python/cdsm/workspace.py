@@ -108,6 +108,10 @@ class Workspace:
         return f"{len(self.grid)} configurations"
 
 
+#: Grid values per joint below which jump points are not detected.
+MIN_LINE = 5
+
+
 def default_step(n: int, max_points: int = 20_000) -> float:
     """The paper's 5° step (rad) when the ±30° grid has at most ``max_points``
     configurations (n <= 3), else the smallest step of the form 60°/(k-1)
@@ -126,7 +130,9 @@ def sweep(robot: Robot, protocol: str = "attitude0", grid=None, ik_seed=None,
     if grid is None:
         grid = joint_grid(robot.n, step=default_step(robot.n))
         k = round(len(grid) ** (1.0 / robot.n))
-        neighbours = grid_neighbours(k, robot.n)
+        # a jump is judged against the adjacent changes along a grid line: with
+        # fewer than MIN_LINE values per joint there is no trend to compare to
+        neighbours = grid_neighbours(k, robot.n) if k >= MIN_LINE else None
     g, _ = _batch("grid", grid, robot.n)
     nb = np.zeros((0, 4), dtype=np.int64) if neighbours is None else np.asarray(neighbours, dtype=np.int64)
     if protocol == "joint":
