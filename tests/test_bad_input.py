@@ -379,3 +379,14 @@ def test_single_linkage_robot_parses(cdsm):
     robot = cdsm.Robot.from_toml_str(text)
     assert robot.n == 1
     assert np.asarray(robot.holes).shape == (2, 2, 2, 2)
+
+
+@pytest.mark.parametrize("value", [-1, 1.5, "two", None])
+def test_threads_must_be_a_non_negative_integer(cdsm, value):
+    robot = cdsm.Robot.paper()
+    with pytest.raises(cdsm.CdsmInputError, match="threads"):
+        robot.threads = value
+    robot.threads = 1  # one worker gives the same answer as all cores
+    one = robot.cable_lengths(np.full((50, 3), 0.2))
+    robot.threads = 0
+    np.testing.assert_array_equal(one, robot.cable_lengths(np.full((50, 3), 0.2)))

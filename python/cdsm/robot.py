@@ -86,7 +86,22 @@ class Robot:
 
     def __init__(self, core: "_cdsm.CoreRobot", threads: int = 0):
         self._core = core
-        self.threads = int(threads)
+        self.threads = threads
+
+    @property
+    def threads(self) -> int:
+        """Worker threads of batch calls (0 = all cores); they run without the GIL."""
+        return self._threads
+
+    @threads.setter
+    def threads(self, value: int) -> None:
+        try:
+            v = int(value)
+        except (TypeError, ValueError):
+            raise CdsmInputError(f"`threads`: expected a non-negative integer, got {value!r}") from None
+        if v < 0 or v != value:
+            raise CdsmInputError(f"`threads`: expected a non-negative integer, got {value!r}")
+        self._threads = v
 
     # ---- construction -------------------------------------------------
     @classmethod
