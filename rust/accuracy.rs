@@ -8,6 +8,7 @@ use crate::error::{CdsmError, Result};
 use crate::kinematics::{fk, fk_cs};
 use crate::robot::Robot;
 use crate::solve::{closed_form_cs, cs_difference, CableMethod, CableSolver, SolveOptions};
+use crate::statics::{feasible, Loads, Statics};
 
 /// Hole-location errors of the samples of a Monte-Carlo study.
 #[derive(Debug, Clone, Copy)]
@@ -160,6 +161,9 @@ pub struct McStats {
     pub max: Vec<f64>,
     /// `(N, HIST_BINS)` counts of |dXY| per log-spaced bin.
     pub hist: Vec<u64>,
+    /// Converged samples whose perturbed configuration needs a slack upper
+    /// cable (counted only when asked), per configuration.
+    pub slack: Vec<u64>,
 }
 
 impl McStats {
@@ -168,6 +172,7 @@ impl McStats {
             configs,
             count: vec![0; configs],
             failed: vec![0; configs],
+            slack: vec![0; configs],
             sum: vec![0.0; configs * QUANTITIES],
             sum_sq: vec![0.0; configs * QUANTITIES],
             min: vec![f64::INFINITY; configs * QUANTITIES],
@@ -194,6 +199,7 @@ impl McStats {
         self.configs += other.configs;
         self.count.extend(other.count);
         self.failed.extend(other.failed);
+        self.slack.extend(other.slack);
         self.sum.extend(other.sum);
         self.sum_sq.extend(other.sum_sq);
         self.min.extend(other.min);
@@ -205,7 +211,12 @@ impl McStats {
 /// Monte-Carlo study: for every sample `s` (upper-cable errors `dl[s] (n)`,
 /// hole errors per `holes`) and every configuration `theta0[j]`, the cable
 /// solve seeded at `theta0[j]` and the tip deviation, reduced to [`McStats`].
-/// No robot is rebuilt per sample: only its cable geometry.
+/// No robot is rebuilt per sample: only its cable geometry. With
+/// `check_slack`, every converged sample's configuration also gets the upper
+/// tensions of the statics (robot's lower tensions, no load, nominal hole
+/// positions for the moment arms) and counts in `slack` when a cable would go
+/// slack.
+#[allow(clippy::too_many_arguments)]
 pub fn monte_carlo(
     robot: &Robot,
     theta0: &[f64],
@@ -213,6 +224,7 @@ pub fn monte_carlo(
     holes: HoleErrors,
     method: CableMethod,
     opts: &SolveOptions,
+    check_slack: bool,
     threads: usize,
 ) -> Result<McStats> {
     let n = robot.n();
@@ -250,11 +262,22 @@ pub fn monte_carlo(
     let small = (std::f64::consts::FRAC_PI_2 / n as f64).cos();
     // configurations outermost: each one's statistics stay in cache while its
     // samples are added (in sample order, as any chunking of the samples would)
+    let loads = Loads {
+        lower: &robot.lower_tension,
+        tip_wrench: [0.0; 3],
+        gravity: [0.0; 2],
+    };
     let parts = split_rows(rows, threads, |r| {
         let mut stats = McStats::new(r.len());
         let (mut cs, mut seed_cs) = (vec![(1.0, 0.0); n], vec![(1.0, 0.0); n]);
         let (mut l0, mut target, mut th) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
         let mut solver = CableSolver::new(robot, method, *opts);
+        let mut statics = Statics::new(robot);
+        let mut tension = vec![0.0; n];
+        let mut slack_at = |theta: &[f64]| {
+            statics.tensions(theta, &loads, &mut tension);
+            !feasible(&tension, 0.0)
+        };
         for (j, i) in r.enumerate() {
             let t0 = &theta0[i * n..(i + 1) * n];
             for (c, t) in seed_cs.iter_mut().zip(t0) {
@@ -271,6 +294,16 @@ pub fn monte_carlo(
                     robot, geom, &target, &seed_cs, &mut cs, p0, small, method, opts,
                 ) {
                     stats.add(j, ds);
+                    if check_slack {
+                        // the answer's angles from its cos/sin, relative to the seed
+                        for ((t, c), (s0, t0k)) in
+                            th.iter_mut().zip(&cs).zip(seed_cs.iter().zip(t0))
+                        {
+                            let d = cs_difference(*c, *s0);
+                            *t = t0k + d.1.atan2(d.0);
+                        }
+                        stats.slack[j] += u64::from(slack_at(&th));
+                    }
                     continue;
                 }
                 // the general path (LM fallback, or the closed form's failure)
@@ -279,6 +312,9 @@ pub fn monte_carlo(
                 if st.converged {
                     let p = solver.pose(&th);
                     stats.add(j, [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]]);
+                    if check_slack {
+                        stats.slack[j] += u64::from(slack_at(&th));
+                    }
                 } else {
                     stats.failed[j] += 1;
                 }
@@ -378,6 +414,7 @@ mod tests {
             HoleErrors::PerPair(&dh),
             CableMethod::Auto,
             &opts,
+            false,
             2,
         )
         .unwrap();

@@ -347,7 +347,7 @@ impl CoreRobot {
             .collect()
     }
 
-    #[pyo3(signature = (theta0, dl, dh, dholes, method, tol, max_iter, threads))]
+    #[pyo3(signature = (theta0, dl, dh, dholes, method, tol, max_iter, check_slack, threads))]
     #[allow(clippy::too_many_arguments)]
     fn monte_carlo<'py>(
         &self,
@@ -359,6 +359,7 @@ impl CoreRobot {
         method: &str,
         tol: f64,
         max_iter: u32,
+        check_slack: bool,
         threads: usize,
     ) -> PyResult<Bound<'py, PyDict>> {
         let t = slice("theta0", &theta0)?;
@@ -376,7 +377,7 @@ impl CoreRobot {
         let m = self::method(method)?;
         let o = options(tol, max_iter, false);
         let st: McStats = py
-            .detach(|| accuracy::monte_carlo(&self.inner, t, d, holes, m, &o, threads))
+            .detach(|| accuracy::monte_carlo(&self.inner, t, d, holes, m, &o, check_slack, threads))
             .map_err(err)?;
         let out = PyDict::new(py);
         out.set_item("count", vec1(py, st.count))?;
@@ -386,6 +387,7 @@ impl CoreRobot {
         out.set_item("min", vec1(py, st.min))?;
         out.set_item("max", vec1(py, st.max))?;
         out.set_item("hist", vec1(py, st.hist))?;
+        out.set_item("slack", vec1(py, st.slack))?;
         Ok(out)
     }
 }

@@ -124,8 +124,9 @@ class MonteCarlo:
 
     Columns of the (N, 4) arrays: dX (m), dY (m), dphi (rad), |d(X, Y)| (m).
     ``hist`` (N, bins) counts |d(X, Y)| in log-spaced bins (:attr:`hist_edges`).
-    ``feasible0`` (N,): every upper cable taut at the initial configuration
-    (the samples themselves are not checked for slack cables).
+    ``feasible0`` (N,): every upper cable taut at the initial configuration.
+    ``slack`` (N,): converged samples whose configuration needs a slack upper
+    cable (only with ``check_slack``, else None).
     """
 
     theta0: np.ndarray
@@ -138,6 +139,7 @@ class MonteCarlo:
     hist: np.ndarray
     params: dict = field(default_factory=dict)
     feasible0: Optional[np.ndarray] = None
+    slack: Optional[np.ndarray] = None
 
     @property
     def mean(self) -> np.ndarray:
@@ -184,6 +186,10 @@ class MonteCarlo:
         np.minimum(self.min, other.min, out=self.min)
         np.maximum(self.max, other.max, out=self.max)
         self.hist += other.hist
+        if self.slack is not None and other.slack is not None:
+            self.slack += other.slack
+        else:
+            self.slack = None
 
 
 def sample_errors(n: int, samples: int, seed: int, chunk_index: int, dl_tol, dh_tol):
@@ -204,12 +210,14 @@ def _tolerance(name: str, value, n: int) -> np.ndarray:
 
 def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol=1e-3,
                 dh_tol=0.35e-3, chunk: int = 100, progress: bool = True,
-                method: str = "auto") -> MonteCarlo:
+                method: str = "auto", check_slack: bool = False) -> MonteCarlo:
     """Random composite errors (the paper's Fig. 7): every sample draws a
     uniform error within ±dl_tol on each upper cable and ±dh_tol on each disk's
     hole height (m, scalars or (n,)); every configuration of theta0 (N, n) is
     solved for every sample in the Rust core. Chunks of ``chunk`` samples keep
-    memory bounded; chunk c draws from the stream (seed, c).
+    memory bounded; chunk c draws from the stream (seed, c). With
+    ``check_slack`` every converged sample is also checked for a slack upper
+    cable (statics; about twice the run time): ``MonteCarlo.slack``.
     """
     t0, _ = _batch("theta0", theta0, robot.n)
     if int(samples) < 1 or int(chunk) < 1:
@@ -218,7 +226,7 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     total, out = int(samples), None
     bar = Progress(total, "monte carlo", progress)
     for c, m in enumerate(chunk_sizes(total, chunk)):
-        part = monte_carlo_chunk(robot, t0, seed, c, m, dlt, dht, method)
+        part = monte_carlo_chunk(robot, t0, seed, c, m, dlt, dht, method, check_slack=check_slack)
         if out is None:
             out = part
         else:
@@ -226,7 +234,7 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
         bar.update(m)
     out.feasible0 = robot.feasible(t0)
     out.params = dict(samples=total, seed=int(seed), chunk=int(chunk), dl_tol_m=dlt.tolist(),
-                      dh_tol_m=dht.tolist(), method=method)
+                      dh_tol_m=dht.tolist(), method=method, check_slack=bool(check_slack))
     return out
 
 
@@ -240,7 +248,7 @@ def chunk_sizes(samples: int, chunk: int):
 
 def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: int, size: int,
                       dl_tol: np.ndarray, dh_tol: np.ndarray, method: str = "auto",
-                      threads: Optional[int] = None) -> MonteCarlo:
+                      threads: Optional[int] = None, check_slack: bool = False) -> MonteCarlo:
     """One chunk of :func:`monte_carlo`: ``size`` samples from the stream
     (seed, chunk_index), one Rust call over every configuration of ``theta0``
     (N, n) rad (validated, C-contiguous). dl_tol, dh_tol: (n,) m. ``threads``
@@ -248,8 +256,11 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     not depend on it. This is the unit of work of local and cluster runs."""
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
     th = robot.threads if threads is None else int(threads)
-    raw = robot._core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, th)
-    return _stats(theta0, raw)
+    raw = robot._core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
+    out = _stats(theta0, raw)
+    if check_slack:
+        out.slack = raw["slack"].astype(np.int64)
+    return out
 
 
 def _stats(theta0: np.ndarray, raw: dict) -> MonteCarlo:

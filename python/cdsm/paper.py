@@ -251,7 +251,8 @@ def run(robot: Optional[Robot] = None, samples: int = 1000, seed: int = 0,
     mcs = {}
     for p, ws in spaces.items():
         theta0 = ws.theta0[ws.reachable]
-        mc = errors.monte_carlo(robot, theta0, samples=samples, seed=seed, progress=progress)
+        mc = errors.monte_carlo(robot, theta0, samples=samples, seed=seed, progress=progress,
+                                check_slack=True)
         mcs[p] = mc
     singular = {p: workspace.singular_values(robot, np.where(ws.reachable[:, None], ws.theta0, 0.0))
                 for p, ws in spaces.items()}

@@ -514,6 +514,13 @@ def _build(study, pngs: Dict[str, str]) -> _Doc:
                     _f(r["mean_of_mean_dxy_m"] * 1e3), _f(r["max_mean_dxy_m"] * 1e3), _f(r["max_p95_dxy_m"] * 1e3),
                     _f(r["max_dxy_m"] * 1e3), _f(r["max_abs_mean_dx_m"] * 1e3), _f(r["max_abs_mean_dy_m"] * 1e3),
                     _f(np.degrees(r["max_abs_mean_dphi_rad"]))] for r in mrows])
+        for p, mc in study.monte_carlo.items():
+            if mc.slack is not None and mc.count.sum():
+                frac = mc.slack.sum() / mc.count.sum()
+                cfg = int((mc.slack > 0).sum())
+                doc.p(f"{PROTO_NAMES.get(p, p)}: {100 * frac:.1f} % of the converged samples need a slack "
+                      f"upper cable (statics at the perturbed configuration), at {cfg} of "
+                      f"{len(mc.slack)} configurations.")
         doc.p("The paper's Fig. 7 plots the mean signed deviation; because the errors are symmetric about zero the "
               "mean is much smaller than the typical deviation, so we also show mean, 95th percentile and max "
               "of |d(X, Y)|.")
