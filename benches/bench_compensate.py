@@ -20,18 +20,7 @@ from cdsm import diagnose as D
 from cdsm import plant
 from cdsm.model import Model
 
-#: The withheld effects (SI) of each scenario: ~1-2x plant.TYPICAL.
-SCENARIOS = {
-    "actuation_scale": {"actuation_scale": [0.03]},
-    "cable_offset": {"cable_offset": [3e-4, -2e-4, 1e-4]},
-    "hole_height": {"hole_height": [3e-4, -2e-4, 2e-4]},
-    "link_length": {"link_length": [4e-4, -3e-4, 2e-4, -2e-4]},
-    "cable_elasticity": {"cable_elasticity": [0.02]},
-    "hole_clearance": {"hole_clearance": [1.5e-4]},
-    "frame_misalignment": {"frame_misalignment": [5e-3, 1e-3, -1e-3]},
-    "tip_offset": {"tip_offset": [1e-3, -5e-4]},
-    "hole_height + actuation_scale": {"hole_height": [2e-4, -1e-4, 1.5e-4], "actuation_scale": [0.02]},
-}
+SCENARIOS = plant.EXAMPLES_N3
 
 
 def targets(robot, rows: int = 20, seed: int = 1234, limit: float = np.radians(30.0)) -> np.ndarray:

@@ -7,21 +7,13 @@ import json
 import numpy as np
 import pytest
 
+from cdsm import plant
+
 NOISE = 10e-6
 FLOOR = np.sqrt(2.0) * NOISE  # expected RMS |e_xy| of a perfect model, m
 
-# Withheld effects (SI), ~1-2x plant.TYPICAL; every effect of the library and a mixture.
-SCENARIOS = {
-    "actuation_scale": {"actuation_scale": [0.03]},
-    "cable_offset": {"cable_offset": [3e-4, -2e-4, 1e-4]},
-    "hole_height": {"hole_height": [3e-4, -2e-4, 2e-4]},
-    "link_length": {"link_length": [4e-4, -3e-4, 2e-4, -2e-4]},
-    "cable_elasticity": {"cable_elasticity": [0.02]},
-    "hole_clearance": {"hole_clearance": [1.5e-4]},
-    "frame_misalignment": {"frame_misalignment": [5e-3, 1e-3, -1e-3]},
-    "tip_offset": {"tip_offset": [1e-3, -5e-4]},
-    "mixture": {"hole_height": [2e-4, -1e-4, 1.5e-4], "actuation_scale": [0.02]},
-}
+# Withheld effects (SI): every effect of the library and a two-effect mixture.
+SCENARIOS = plant.EXAMPLES_N3
 
 
 @pytest.fixture(scope="module")

@@ -49,6 +49,7 @@ import numpy as np
 
 from . import plant
 from .diagnose import Diagnosis, Prepared, _free, prepare
+from .files import write_text
 from .measurements import Measurements
 from .robot import CdsmInputError, Robot
 
@@ -108,15 +109,10 @@ class Suggestion:
         for i in range(len(self)):
             w.writerow([f"s{i + 1}"] + [repr(float(v)) for v in self.theta[i]]
                        + [repr(float(v)) for v in self.dL[i]] + [repr(float(v)) for v in pose[i]])
-        try:
-            with open(path, "w", encoding="utf-8", newline="") as fh:
-                fh.write(buf.getvalue())
-        except OSError as exc:
-            raise CdsmInputError(f"suggestion file {str(path)!r}: {exc.strerror}") from None
+        write_text(path, buf.getvalue(), "suggestion")
 
     def summary(self) -> str:
         """A short human-readable account (units in the text)."""
-        n = self.theta.shape[1]
         lines = []
         if np.isfinite(self.misfit) and self.misfit > 3.0:
             lines.append(f"warning: the best model still misses the data by {self.misfit:.1f}x the noise floor; "

@@ -251,7 +251,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     k50 = int(np.searchsorted(np.cumsum(np.sort(sse)[::-1]) / max(tot, 1e-300), 0.5) + 1) if tot > 0 else 0
     top = order[:min(3, len(order))]
     out["where"].append(
-        f"Largest gaps (nominal model): " + "; ".join(
+        "Largest gaps (nominal model): " + "; ".join(
             f"{names[i]} at X = {_commanded_xy(d)[i, 0] * 1e3:.1f} mm, Y = {_commanded_xy(d)[i, 1] * 1e3:.1f} mm: "
             f"{_um(size_b[i])} (dX {_um(g_base[i, 0])}, dY {_um(g_base[i, 1])})" for i in top)
         + f". {k50} of {nu} rows carry{'' if k50 > 1 else 'es'} half of the squared gap"

@@ -20,6 +20,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
+from .files import read_text
 from .robot import CdsmInputError
 
 __all__ = ["Measurements", "read_csv", "packaged"]
@@ -117,11 +118,7 @@ def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
 
 def read_csv(path: "str | os.PathLike[str]", n: int) -> Measurements:
     """Read a measurement CSV file (format in the module docstring)."""
-    try:
-        text = open(path, encoding="utf-8").read()
-    except OSError as exc:
-        raise CdsmInputError(f"measurement file {str(path)!r}: {exc.strerror}") from None
-    return parse_csv(text, n, str(path))
+    return parse_csv(read_text(path, "measurement"), n, str(path))
 
 
 def packaged(name: str, n: int = 3) -> Measurements:

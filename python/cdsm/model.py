@@ -62,6 +62,7 @@ from typing import Dict, List, Mapping, Optional, Sequence
 import numpy as np
 
 from . import plant, workspace
+from .files import read_text, write_text
 from .measurements import Measurements, column, read_table
 from .robot import CdsmInputError, Robot, _batch
 
@@ -152,11 +153,7 @@ def read_targets(path: "str | os.PathLike[str]") -> np.ndarray:
     Returns (N, 3) or (N, 2). Raises :class:`CdsmInputError` on a missing
     column, a non-number or a non-finite value."""
     src = str(path)
-    try:
-        text = open(path, encoding="utf-8").read()
-    except OSError as exc:
-        raise CdsmInputError(f"targets file {src!r}: {exc.strerror}") from None
-    cols, rows = read_table(text, src)
+    cols, rows = read_table(read_text(path, "targets"), src)
     missing = [c for c in ("x", "y") if c not in cols]
     if missing:
         raise CdsmInputError(f"{src}: missing target columns {', '.join(missing)} (need x, y [m] "
@@ -236,11 +233,7 @@ class Compensation:
             row += [repr(float(v)) for v in self.theta_cmd[i]] + [repr(float(v)) for v in self.dL[i]]
             row.append(self.flags[i])
             w.writerow(row)
-        try:
-            with open(path, "w", encoding="utf-8", newline="") as fh:
-                fh.write(buf.getvalue())
-        except OSError as exc:
-            raise CdsmInputError(f"commands file {str(path)!r}: {exc.strerror}") from None
+        write_text(path, buf.getvalue(), "commands")
 
     def summary(self) -> str:
         """A few lines: counts and the predicted errors before/after (µm)."""
@@ -346,12 +339,7 @@ class Model:
 
     def save(self, path: "str | os.PathLike[str]") -> None:
         """Write the model file (JSON, format ``cdsm-model/1``)."""
-        text = json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n"
-        try:
-            with open(path, "w", encoding="utf-8") as fh:
-                fh.write(text)
-        except OSError as exc:
-            raise CdsmInputError(f"model file {str(path)!r}: {exc.strerror}") from None
+        write_text(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n", "model")
 
     @classmethod
     def from_dict(cls, d: dict, source: str = "<model>") -> "Model":
@@ -396,12 +384,7 @@ class Model:
     def load(cls, path: "str | os.PathLike[str]") -> "Model":
         """Read a model file written by :meth:`save` (exact round trip)."""
         src = str(path)
-        try:
-            text = open(path, encoding="utf-8").read()
-        except OSError as exc:
-            raise CdsmInputError(f"model file {src!r}: {exc.strerror}") from None
-        except UnicodeDecodeError:
-            raise CdsmInputError(f"model file {src!r}: not UTF-8 text") from None
+        text = read_text(path, "model")
         try:
             d = json.loads(text)
         except json.JSONDecodeError as exc:

@@ -21,7 +21,7 @@ tip_offset             2      measured point offset in the end frame, x, y (m)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, Mapping, Optional, Sequence, Tuple
+from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -43,6 +43,20 @@ TYPICAL: Dict[str, float] = {
     "actuation_scale": 0.02, "cable_offset": 2e-4, "hole_height": 2e-4, "link_length": 3e-4,
     "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "frame_misalignment": 5e-3,
     "tip_offset": 1e-3,
+}
+# Hidden effects for 3-joint robots, ~1-2x TYPICAL with mixed signs: every
+# effect of the library and a two-effect mixture (SI). The virtual-prototype
+# checks of compensation use them (tests and benches/bench_compensate.py).
+EXAMPLES_N3: Dict[str, Dict[str, List[float]]] = {
+    "actuation_scale": {"actuation_scale": [0.03]},
+    "cable_offset": {"cable_offset": [3e-4, -2e-4, 1e-4]},
+    "hole_height": {"hole_height": [3e-4, -2e-4, 2e-4]},
+    "link_length": {"link_length": [4e-4, -3e-4, 2e-4, -2e-4]},
+    "cable_elasticity": {"cable_elasticity": [0.02]},
+    "hole_clearance": {"hole_clearance": [1.5e-4]},
+    "frame_misalignment": {"frame_misalignment": [5e-3, 1e-3, -1e-3]},
+    "tip_offset": {"tip_offset": [1e-3, -5e-4]},
+    "hole_height + actuation_scale": {"hole_height": [2e-4, -1e-4, 1.5e-4], "actuation_scale": [0.02]},
 }
 # Parameters that must stay >= 0.
 NON_NEGATIVE = ("cable_elasticity", "hole_clearance")

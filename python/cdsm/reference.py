@@ -289,7 +289,6 @@ def _segment_pqr(g: _Geometry):
 
 def _traversals(g: _Geometry) -> np.ndarray:
     """Constant part of each cable length, ``(2n,)`` m: sum of disk traversals."""
-    n = g.n
     a = g.holes[:, 1:, 0, :]  # (2n, n, 2) proximal face of disk k
     b = g.holes[:, 1:, 1, :]  # distal face, in its own frame
     d = b.copy()
@@ -451,12 +450,8 @@ def ik(robot, pose, seed=None, tol=1e-12, max_iter=100, enforce_limits=False) ->
         y = _batched_solve(A, r)
         return (np.swapaxes(J, 1, 2) @ y[..., None])[..., 0]
 
-    project = None
-    if enforce_limits:
-        lo, hi = g.limits[:, 0], g.limits[:, 1]
-
-        def project(th):
-            return np.clip(th, lo, hi)
+    lo, hi = g.limits[:, 0], g.limits[:, 1]
+    project = (lambda th: np.clip(th, lo, hi)) if enforce_limits else None
 
     sol = _lm(residual, step, theta, tol, max_iter, project)
     sol["within_limits"] = _within_limits(g, sol["theta"])
@@ -830,7 +825,7 @@ def tip_sensitivity(robot, theta) -> dict:
     """
     g = _geometry(robot)
     theta = _batch(theta, g.n, "theta")
-    n, N = g.n, theta.shape[0]
+    n = g.n
     jp = fk_jacobian(robot, theta)  # (N, 3, n)
     jc = upper_cable_jacobian(robot, theta)  # (N, n, n)
     # S Jc = Jp  <=>  Jc^T S^T = Jp^T

@@ -16,6 +16,7 @@ import numpy as np
 
 from . import _cdsm
 from ._cdsm import CdsmInputError
+from .files import read_text
 
 __all__ = ["Robot", "Solution", "CdsmInputError"]
 
@@ -112,11 +113,7 @@ class Robot:
     @classmethod
     def from_toml(cls, path: "str | os.PathLike[str]") -> "Robot":
         """Read a robot description (TOML, SI units; format in the README)."""
-        try:
-            text = open(path, encoding="utf-8").read()
-        except OSError as exc:
-            raise CdsmInputError(f"robot file {str(path)!r}: {exc.strerror}") from None
-        return cls.from_toml_str(text)
+        return cls.from_toml_str(read_text(path, "robot"))
 
     @classmethod
     def from_toml_str(cls, text: str) -> "Robot":
