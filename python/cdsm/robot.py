@@ -9,7 +9,7 @@ naming the argument.
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Optional, Tuple
 
 import numpy as np
@@ -58,7 +58,8 @@ class Solution:
     the attitude). within_limits: (N,) all angles within the joint limits.
     feasible: (N,) every upper cable taut (tension > 0 N) at theta under the
     robot's lower tensions and no external load — False flags a configuration
-    the hybrid-controlled arm cannot hold (None where not computed).
+    the hybrid-controlled arm cannot hold (computed on first access; None
+    where no robot is attached).
     """
 
     theta: np.ndarray
@@ -66,16 +67,22 @@ class Solution:
     iterations: np.ndarray
     residual: np.ndarray
     within_limits: np.ndarray
-    feasible: Optional[np.ndarray] = None
+    _feasible: Optional[np.ndarray] = field(default=None, repr=False, compare=False)
+    _robot: Optional["Robot"] = field(default=None, repr=False, compare=False)
+
+    @property
+    def feasible(self) -> Optional[np.ndarray]:
+        if self._feasible is None and self._robot is not None:
+            object.__setattr__(self, "_feasible", self._robot.feasible(self.theta))
+        return self._feasible
 
     @classmethod
     def _from_core(cls, parts, n: int, single: bool, robot: Optional["Robot"] = None) -> "Solution":
         theta, conv, it, res, lim = parts
         theta = theta.reshape(-1, n)
-        feas = robot.feasible(theta) if robot is not None else None
         if single:
-            return cls(theta[0], conv[0], it[0], res[0], lim[0], None if feas is None else feas[0])
-        return cls(theta, conv, it, res, lim, feas)
+            return cls(theta[0], conv[0], it[0], res[0], lim[0], _robot=robot)
+        return cls(theta, conv, it, res, lim, _robot=robot)
 
 
 class Robot:
@@ -356,7 +363,7 @@ class Robot:
         base = Solution._from_core(parts, self.n, single)
         tension = tension.reshape(-1, self.n)
         return ElasticSolution(base.theta, base.converged, base.iterations, base.residual,
-                               base.within_limits, feasible=ok[0] if single else ok,
+                               base.within_limits, _feasible=ok[0] if single else ok,
                                tension=tension[0] if single else tension)
 
 def _iters(max_iter: int) -> int:
