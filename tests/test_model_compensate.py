@@ -217,3 +217,14 @@ def test_cli_compensate_bad_model(tmp_path, capsys):
     code, _, se = _run(["compensate", str(t), "--model", str(tmp_path / "nope.json"), "--out",
                         str(tmp_path / "o.csv")], capsys)
     assert code == 2 and "nope.json" in se
+
+
+def test_model_from_known_effects(robot):
+    """A model can be built from effects known by other means (e.g. a CMM)."""
+    from cdsm.model import Model
+
+    m = Model.from_effects(robot, {"hole_height": [1e-4, 0.0, -1e-4]})
+    assert np.array_equal(m.p, plant.params(robot, {"hole_height": [1e-4, 0.0, -1e-4]}))
+    th = np.radians([[10.0, -5.0, 20.0]])
+    obs, ok = m.predict(th)
+    assert ok.all() and np.abs(obs[0, :2] - robot.fk(th)[0, :2]).max() > 1e-6  # the holes matter

@@ -354,3 +354,17 @@ def test_monte_carlo_counts_slack_samples(cdsm):
     plain = monte_carlo(r, grid, samples=1, seed=5, chunk=1, progress=False)
     assert plain.slack is None
     np.testing.assert_array_equal(plain.sum, mc.sum)  # checking does not change the study
+
+
+def test_stretch_matches_reference(pair, ref):
+    """Elongation T·L/(EA) of every upper cable, Rust vs the NumPy reference
+    (which takes it as L_geom − L_rest: a difference of ~0.2 m lengths, so the
+    agreement is judged in absolute terms, 1e-15 m)."""
+    n = pair.rust.n
+    theta = random_theta(n, N=200, seed=17)
+    r = pair.rust
+    got = r.stretch(theta)
+    want = ref.cable_stretch(pair.ref, theta, r.tensions(theta), r.youngs_modulus, r.cable_diameter,
+                             r.routing_length)
+    assert np.abs(want).max() > 1e-7  # micrometre-scale stretches: the check is not empty
+    assert np.all(np.abs(got - want) <= 1e-15)

@@ -82,18 +82,13 @@ def _f(v) -> str:
     return repr(x)
 
 
-def robot_toml(robot: Robot, link_before=None, link_after=None, holes=None) -> str:
+def robot_toml(robot: Robot) -> str:
     """A TOML description that rebuilds ``robot`` exactly (explicit
-    ``upper_holes``/``lower_holes``, every float by ``repr``). ``link_before``
-    (n,), ``link_after`` (n,) m and ``holes`` (2n, n+1, 2, 2) m override the
-    robot's arrays (used to build the fitted arm). Hole entries the model
-    never uses (base face a, disks beyond a cable's pair) are not written and
-    read back as 0."""
+    ``upper_holes``/``lower_holes``, every float by ``repr``; SI units). Hole
+    entries the model never uses (base face a, disks beyond a cable's pair)
+    are not written and read back as 0."""
     n = robot.n
-    lb = robot.link_before if link_before is None else np.asarray(link_before, float)
-    la = robot.link_after if link_after is None else np.asarray(link_after, float)
-    h = robot.holes if holes is None else np.asarray(holes, float)
-    lim = robot.joint_limits
+    lb, la, h, lim = robot.link_before, robot.link_after, robot.holes, robot.joint_limits
     lines = [
         "# written by cdsm.model.robot_toml; SI units (m, kg, N, rad, Pa)",
         f"name = {json.dumps(robot.name)}",
@@ -406,19 +401,6 @@ class Model:
         t, _ = _batch("theta_cmd", theta_cmd, self.robot.n)
         d = np.zeros_like(t) if dL is None else dL
         return plant.predict(self.robot, self.p, t, d, kind)
-
-    def fitted_arm(self) -> Robot:
-        """The arm geometry of the fitted plant (hole heights and link lengths
-        applied), as a :class:`Robot`."""
-        r = self.robot
-        lay = plant.layout(r)
-        dh = self.p[lay["hole_height"]]
-        dl = self.p[lay["link_length"]]
-        lb = r.link_before.copy()
-        lb[0] += dl[0]
-        la = r.link_after + dl[1:]
-        holes = r.hole_height_error(dh) if np.any(dh) else r.holes
-        return Robot.from_toml_str(robot_toml(r, lb, la, holes))
 
     def compensate(self, poses, tol: float = 1e-9, max_iter: int = 40, h: float = 1e-6,
                    min_tension: float = 0.0, enforce_limits: bool = False) -> Compensation:
