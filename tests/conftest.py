@@ -1,6 +1,6 @@
 """Shared fixtures: the NumPy reference, test robots and their TOML texts.
 
-The reference (``python/cdsm/reference.py``) is loaded straight from its file
+The reference (the package ``python/cdsm/reference/``) is loaded straight from its files
 so that its self-checks run even when the compiled extension (and hence the
 ``cdsm`` package) cannot be imported; tests that need the Rust core ask for
 the ``cdsm`` fixture.
@@ -19,8 +19,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
+_REF = ROOT / "python" / "cdsm" / "reference"
 _spec = importlib.util.spec_from_file_location(
-    "cdsm_reference_standalone", ROOT / "python" / "cdsm" / "reference.py"
+    "cdsm_reference_standalone", _REF / "__init__.py", submodule_search_locations=[str(_REF)]
 )
 reference = importlib.util.module_from_spec(_spec)
 sys.modules[_spec.name] = reference  # dataclasses need the module registered

@@ -1,4 +1,4 @@
-"""Issue 6: experiment design (cdsm.design.suggest) on Table-3-style data.
+"""Issue 6: experiment design (cdsm.calibration.experiment.suggest) on Table-3-style data.
 
 Setting: the virtual prototype has a 2 % actuation-scale error and is
 measured like Table 3 — the nine commanded poses, upper cable 1 shortened by
@@ -21,7 +21,7 @@ TRUTH = {"actuation_scale": [0.02]}
 
 @pytest.fixture(scope="module")
 def setting(cdsm):
-    from cdsm import diagnose, measurements, plant
+    from cdsm.calibration import diagnosis as diagnose, measurements, plant
 
     robot = cdsm.Robot.paper()
     t3 = measurements.packaged("table3")
@@ -39,7 +39,7 @@ def test_table3_style_data_tie_actuation_scale_and_hole_height(setting):
 
 
 def test_suggested_measurements_break_the_tie(setting, tmp_path):
-    from cdsm import design, diagnose, measurements, plant
+    from cdsm.calibration import diagnosis as diagnose, experiment as design, measurements, plant
 
     robot, data, diag = setting
     sug = design.suggest(diag, 6)
@@ -70,7 +70,7 @@ def test_suggested_measurements_break_the_tie(setting, tmp_path):
 
 
 def test_single_model_falls_back_to_d_optimal(cdsm):
-    from cdsm import design, diagnose, plant
+    from cdsm.calibration import diagnosis as diagnose, experiment as design, plant
 
     robot = cdsm.Robot.paper()
     vp = plant.VirtualPrototype(robot, {"hole_height": [2e-4, -1e-4, 1.5e-4]}, seed=3)
@@ -84,7 +84,7 @@ def test_single_model_falls_back_to_d_optimal(cdsm):
 
 
 def test_bad_k(setting, cdsm):
-    from cdsm import design
+    from cdsm.calibration import experiment as design
 
     with pytest.raises(cdsm.CdsmInputError, match="k"):
         design.suggest(setting[2], 0)

@@ -1,4 +1,4 @@
-"""Sim-to-real gap diagnosis (``cdsm.diagnose``, its report and ``cdsm diagnose``),
+"""Sim-to-real gap diagnosis (``cdsm.calibration.diagnosis``, its report and ``cdsm diagnose``),
 checked on withheld effects: data come from a seeded virtual prototype with
 10 µm measurement noise, and the diagnosis is never told which effect is in
 them. Row counts and folds are kept small (30 rows, 5 folds) so the module
@@ -19,7 +19,9 @@ NOISE = 10e-6
 
 @pytest.fixture(scope="module")
 def mods(cdsm):
-    from cdsm import cli, diagnose, diagnose_report, measurements, plant
+    from cdsm import cli
+    from cdsm.calibration import diagnosis as diagnose, measurements, plant
+    from cdsm.report import diagnosis as diagnose_report
 
     return dict(cli=cli, diagnose=diagnose, report=diagnose_report, measurements=measurements, plant=plant)
 
@@ -74,7 +76,7 @@ def test_every_effect_is_named_first_and_explained(mods, robot, effect):
 
 def test_library_is_covered():
     """The parametrised list above is the whole library."""
-    from cdsm import plant
+    from cdsm.calibration import plant
 
     assert set(plant.EFFECTS) == {"actuation_scale", "cable_offset", "hole_height", "link_length",
                                   "cable_elasticity", "hole_clearance", "frame_misalignment", "tip_offset"}

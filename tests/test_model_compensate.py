@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from cdsm import plant
+from cdsm.calibration import plant
 
 NOISE = 10e-6
 FLOOR = np.sqrt(2.0) * NOISE  # expected RMS |e_xy| of a perfect model, m
@@ -27,7 +27,7 @@ def _targets(robot, rows=20, seed=1234):
 
 
 def _diagnosed(robot, effects, rows=40, seed=0):
-    from cdsm import diagnose, plant
+    from cdsm.calibration import diagnosis as diagnose, plant
 
     vp = plant.VirtualPrototype(robot, effects, noise=NOISE, seed=seed)
     th, dl = vp.random_commands(rows)
@@ -36,7 +36,7 @@ def _diagnosed(robot, effects, rows=40, seed=0):
 
 @pytest.fixture(scope="module")
 def hole_model(robot):
-    from cdsm.model import Model
+    from cdsm.calibration.model import Model
 
     return Model.from_diagnosis(_diagnosed(robot, SCENARIOS["hole_height"]))
 
@@ -46,10 +46,9 @@ def hole_model(robot):
 # ---------------------------------------------------------------------------
 @pytest.mark.parametrize("perturbed", [False, True])
 def test_robot_toml_rebuilds_the_robot_exactly(cdsm, ref, robot, perturbed):
-    from cdsm.model import robot_toml
 
     r = robot.with_holes(robot.hole_height_error([1e-4, -3e-5, 2e-6])) if perturbed else robot
-    r2 = cdsm.Robot.from_toml_str(robot_toml(r))
+    r2 = cdsm.Robot.from_toml_str(r.to_toml())
     for a in ("link_before", "link_after", "thickness", "mass", "lower_tension", "joint_limits",
               "youngs_modulus", "cable_diameter", "routing_length", "name"):
         assert np.array_equal(getattr(r, a), getattr(r2, a)), a
@@ -59,7 +58,7 @@ def test_robot_toml_rebuilds_the_robot_exactly(cdsm, ref, robot, perturbed):
 
 
 def test_save_load_round_trip_is_exact(cdsm, hole_model, tmp_path):
-    from cdsm import plant
+    from cdsm.calibration import plant
 
     path = tmp_path / "m.json"
     hole_model.save(path)
@@ -109,7 +108,7 @@ def test_wrong_parameter_count_is_refused(cdsm, hole_model, tmp_path):
 @pytest.mark.parametrize("name", list(SCENARIOS))
 def test_compensation_reaches_the_noise_floor(cdsm, robot, name):
     """Fit on 40 measurements, compensate 20 disjoint targets, measure them."""
-    from cdsm import plant
+    from cdsm.calibration import plant
 
     effects = SCENARIOS[name]
     model = cdsm.Model.from_diagnosis(_diagnosed(robot, effects))
@@ -221,7 +220,7 @@ def test_cli_compensate_bad_model(tmp_path, capsys):
 
 def test_model_from_known_effects(robot):
     """A model can be built from effects known by other means (e.g. a CMM)."""
-    from cdsm.model import Model
+    from cdsm.calibration.model import Model
 
     m = Model.from_effects(robot, {"hole_height": [1e-4, 0.0, -1e-4]})
     assert np.array_equal(m.p, plant.params(robot, {"hole_height": [1e-4, 0.0, -1e-4]}))

@@ -17,11 +17,12 @@ import time
 import numpy as np
 import pytest
 
-distributed = pytest.importorskip("distributed")
+dask_distributed = pytest.importorskip("distributed")
 cloudpickle = pytest.importorskip("cloudpickle")
 
 import cdsm  # noqa: E402
-from cdsm import errors, montecarlo, workspace  # noqa: E402
+from cdsm.accuracy import distributed, montecarlo, workspace  # noqa: E402
+from cdsm.accuracy.tolerance import load_tolerances  # noqa: E402
 from cdsm.cli import main  # noqa: E402
 
 from conftest import N12_LINKAGES, hole_perturbation, robot_toml  # noqa: E402
@@ -38,7 +39,7 @@ def _cluster(**kw):
     opts = dict(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                 dashboard_address="127.0.0.1:0")
     opts.update(kw)
-    return distributed.LocalCluster(**opts)
+    return dask_distributed.LocalCluster(**opts)
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +64,7 @@ def theta0():
 @pytest.fixture(scope="module")
 def local(robot, theta0):
     robot.threads = 0
-    return montecarlo.run(robot, theta0, SAMPLES, SEED, CHUNK, progress=False, **TOL)
+    return distributed.run(robot, theta0, SAMPLES, SEED, CHUNK, progress=False, **TOL)
 
 
 def assert_same(a, b):
@@ -83,7 +84,7 @@ def test_robot_spec_round_trip(robot):
     assert n12.name == 'n12 "q" – ü'
     cabled = cdsm.Robot.paper().with_cable(youngs_modulus=2e11, diameter=0.3e-3, routing_length=0.5)
     for r in (cdsm.Robot.paper(), robot, n12, cabled):
-        back = montecarlo.robot_from_spec(montecarlo.robot_spec(r))
+        back = distributed.robot_from_spec(distributed.robot_spec(r))
         assert back.name == r.name
         for name in ("link_before", "link_after", "thickness", "mass", "lower_tension",
                      "joint_limits", "holes"):
@@ -94,7 +95,7 @@ def test_robot_spec_round_trip(robot):
 
 def test_local_run_is_errors_monte_carlo_and_thread_independent(robot, theta0, local):
     robot.threads = 1
-    one = errors.monte_carlo(robot, theta0, SAMPLES, SEED, chunk=CHUNK, progress=False, **TOL)
+    one = montecarlo.monte_carlo(robot, theta0, SAMPLES, SEED, chunk=CHUNK, progress=False, **TOL)
     robot.threads = 0
     assert_same(local, one)
     assert local.count.sum() + local.failed.sum() == SAMPLES * len(theta0)
@@ -104,19 +105,19 @@ def test_ordered_merge_is_independent_of_arrival_order(robot, theta0, local):
     t0 = np.ascontiguousarray(theta0)
     dl = np.full(3, 1e-3)
     dh = np.full(3, 0.35e-3)
-    sizes = list(errors.chunk_sizes(SAMPLES, CHUNK))
-    parts = [montecarlo._pack(errors.monte_carlo_chunk(robot, t0, SEED, c, m, dl, dh))
+    sizes = list(montecarlo.chunk_sizes(SAMPLES, CHUNK))
+    parts = [distributed.pack(montecarlo.monte_carlo_chunk(robot, t0, SEED, c, m, dl, dh))
              for c, m in enumerate(sizes)]
     rng = np.random.default_rng(0)
     for _ in range(5):
         order = rng.permutation(len(parts))
-        m = montecarlo.OrderedMerge(len(parts))
+        m = distributed.OrderedMerge(len(parts))
         for c in order:
             m.add(c, parts[c])
         assert m.done and m.pending == 0
         assert_same(m.result, local)
     # reversed arrival parks everything but the last before merging
-    m = montecarlo.OrderedMerge(len(parts))
+    m = distributed.OrderedMerge(len(parts))
     for c in reversed(range(len(parts))):
         m.add(c, parts[c])
     assert m.peak == len(parts) and m.done
@@ -125,65 +126,66 @@ def test_ordered_merge_is_independent_of_arrival_order(robot, theta0, local):
 
 
 def test_pack_round_trip_is_exact(robot, theta0):
-    part = errors.monte_carlo_chunk(robot, np.ascontiguousarray(theta0), 1, 0, 30,
+    part = montecarlo.monte_carlo_chunk(robot, np.ascontiguousarray(theta0), 1, 0, 30,
                                     np.full(3, 1e-3), np.full(3, 0.35e-3))
-    wire = montecarlo._pack(part)
+    wire = distributed.pack(part)
     assert wire["hist"].dtype == np.uint32 and wire["hist"].shape[1] < part.hist.shape[1]
-    assert_same(montecarlo._unpack(wire), part)
+    assert_same(distributed.unpack(wire), part)
 
 
 def test_bad_scheduler_address_fails_fast(robot, theta0):
     t = time.perf_counter()
-    with pytest.raises(montecarlo.ClusterError, match=r"tcp://127\.0\.0\.1:1.*within 2 s"):
-        montecarlo.run(robot, theta0[:5], 10, scheduler="tcp://127.0.0.1:1", timeout=2,
+    with pytest.raises(distributed.ClusterError, match=r"tcp://127\.0\.0\.1:1.*within 2 s"):
+        distributed.run(robot, theta0[:5], 10, scheduler="tcp://127.0.0.1:1", timeout=2,
                        progress=False)
     assert time.perf_counter() - t < 8
-    with pytest.raises(montecarlo.ClusterError, match="bad Dask scheduler address 'a:b:c'"):
-        montecarlo.run(robot, theta0[:5], 10, scheduler="a:b:c", progress=False)
+    with pytest.raises(distributed.ClusterError, match="bad Dask scheduler address 'a:b:c'"):
+        distributed.run(robot, theta0[:5], 10, scheduler="a:b:c", progress=False)
 
 
 def test_missing_dask_is_a_clear_error(robot, theta0, monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", None)
-    with pytest.raises(montecarlo.ClusterError, match=r"pip install 'cdsm\[dask\]'"):
-        montecarlo.run(robot, theta0[:5], 10, scheduler="tcp://127.0.0.1:8786", progress=False)
+    with pytest.raises(distributed.ClusterError, match=r"pip install 'cdsm\[dask\]'"):
+        distributed.run(robot, theta0[:5], 10, scheduler="tcp://127.0.0.1:8786", progress=False)
 
 
 def test_tolerance_file(tmp_path, robot, theta0):
     f = tmp_path / "tol.json"
     f.write_text(json.dumps({"cable_length_tol_m": [1e-4, 2e-4, 3e-4],
                              "hole_height_tol_m": [5e-5, 6e-5, 7e-5], "other": "ignored"}))
-    dl, dh = montecarlo.load_tolerances(str(f), 3)
+    dl, dh = load_tolerances(str(f), 3)
     assert dl.tolist() == [1e-4, 2e-4, 3e-4] and dh.tolist() == [5e-5, 6e-5, 7e-5]
     f.write_text(json.dumps({"cable_length_tol_m": [1e-4, 2e-4], "hole_height_tol_m": 1e-4}))
     with pytest.raises(cdsm.CdsmInputError, match="needs 3 values"):
-        montecarlo.load_tolerances(str(f), 3)
+        load_tolerances(str(f), 3)
     f.write_text(json.dumps({"cable_length_tol_m": 1e-4}))
     with pytest.raises(cdsm.CdsmInputError, match="missing key 'hole_height_tol_m'"):
-        montecarlo.load_tolerances(str(f), 3)
+        load_tolerances(str(f), 3)
     f.write_text(json.dumps({"cable_length_tol_m": -1e-4, "hole_height_tol_m": 1e-4}))
     with pytest.raises(cdsm.CdsmInputError, match=">= 0"):
-        montecarlo.load_tolerances(str(f), 3)
+        load_tolerances(str(f), 3)
 
 
 # ---------------------------------------------------------------------------
 # on a LocalCluster
 # ---------------------------------------------------------------------------
-def test_cluster_equals_local_bitwise(cluster, robot, theta0, local, capsys):
+def test_cluster_equals_local_bitwise(cluster, robot, theta0, local, capsys, monkeypatch):
     addr = cluster.scheduler_address
-    got = montecarlo.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=addr, progress=True, **TOL)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # progress draws on terminals only
+    got = distributed.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=addr, progress=True, **TOL)
     assert_same(got, local)
     assert got.params["workers"] == 2 and got.params["scheduler"] == addr
     assert "monte carlo (2 workers)" in capsys.readouterr().err
     # strictly one chunk in flight, and everything in flight at once: same bits
     for window in (1, 100):
-        got = montecarlo.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=addr, window=window,
+        got = distributed.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=addr, window=window,
                              progress=False, **TOL)
         assert_same(got, local)
 
 
 def test_cluster_one_worker_equals_two(robot, theta0, local):
     with _cluster(n_workers=1) as cl1:
-        got = montecarlo.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=cl1, progress=False,
+        got = distributed.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=cl1, progress=False,
                              **TOL)
     assert got.params["workers"] == 1
     assert_same(got, local)
@@ -192,12 +194,12 @@ def test_cluster_one_worker_equals_two(robot, theta0, local):
 def _slow_chunk(job, c, size):
     """Chunk task whose early chunks finish last (completion order shuffled)."""
     time.sleep(0.02 * ((7 * c) % 15))
-    return montecarlo._chunk_task(job, c, size)
+    return distributed.chunk_task(job, c, size)
 
 
 def test_shuffled_completion_order_gives_same_bits(cluster, robot, theta0, local):
     arrived = []
-    got = montecarlo.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=cluster.scheduler_address,
+    got = distributed.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=cluster.scheduler_address,
                          window=100, progress=False, _task=_slow_chunk,
                          on_chunk=lambda c, merged, total: arrived.append(c), **TOL)
     assert sorted(arrived) == list(range(SAMPLES // CHUNK))
@@ -207,11 +209,11 @@ def test_shuffled_completion_order_gives_same_bits(cluster, robot, theta0, local
 
 def _steady_chunk(job, c, size):
     time.sleep(0.05)
-    return montecarlo._chunk_task(job, c, size)
+    return distributed.chunk_task(job, c, size)
 
 
 def test_worker_killed_mid_run_gives_same_bits(robot, theta0, local):
-    with _cluster() as cl, distributed.Client(cl) as client:
+    with _cluster() as cl, dask_distributed.Client(cl) as client:
         pids = client.run(os.getpid)
         killed = {}
 
@@ -221,7 +223,7 @@ def test_worker_killed_mid_run_gives_same_bits(robot, theta0, local):
                 os.kill(pid, signal.SIGKILL)
                 killed[addr] = (pid, merged, total)
 
-        got = montecarlo.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=client, window=4,
+        got = distributed.run(robot, theta0, SAMPLES, SEED, CHUNK, scheduler=client, window=4,
                              progress=False, _task=_steady_chunk, on_chunk=kill_one, **TOL)
         (pid, merged, total), = killed.values()
         assert merged < total - 4  # the kill happened with chunks still to run
@@ -235,8 +237,8 @@ def test_workers_without_cdsm_are_named(tmp_path, robot, theta0):
     pre.write_text("import sys\nsys.modules['cdsm'] = None  # as if cdsm were not installed\n")
     with _cluster(n_workers=1, preload=[str(pre)]) as cl:
         addr = next(iter(cl.workers.values())).worker_address
-        with pytest.raises(montecarlo.ClusterError, match=r"1 of 1 Dask workers cannot import cdsm") as ei:
-            montecarlo.run(robot, theta0[:5], 10, scheduler=cl.scheduler_address, progress=False)
+        with pytest.raises(distributed.ClusterError, match=r"1 of 1 Dask workers cannot import cdsm") as ei:
+            distributed.run(robot, theta0[:5], 10, scheduler=cl.scheduler_address, progress=False)
         assert addr in str(ei.value)
 
 

@@ -17,7 +17,7 @@ def paper_run(tmp_path_factory):
     from cdsm import cli
 
     out = tmp_path_factory.mktemp("paper")
-    rc = cli.main(["paper", "--out", str(out), "--samples", "50", "--seed", "3", "--quiet"])
+    rc = cli.main(["paper", "--out-dir", str(out), "--samples", "50", "--seed", "3", "--quiet"])
     return rc, out
 
 
@@ -84,7 +84,7 @@ def _cli_error(argv, capsys):
 def test_bad_robot_file(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "x"\nn = 3\n[[linkage]]\nlink_before = 0.03\n')
-    rc, err = _cli_error(["paper", "--robot", str(bad), "--out", str(tmp_path / "o"), "--quiet"], capsys)
+    rc, err = _cli_error(["paper", "--robot", str(bad), "--out-dir", str(tmp_path / "o"), "--quiet"], capsys)
     assert rc == 2
     assert err.startswith("cdsm: error:") and "link_after" in err and "bad.toml" in err
     assert "Traceback" not in err
@@ -107,15 +107,23 @@ def test_bad_options(argv, word, capsys):
 def test_out_is_a_file(tmp_path, capsys):
     f = tmp_path / "f"
     f.write_text("x")
+    rc, err = _cli_error(["paper", "--out-dir", str(f), "--quiet"], capsys)
+    assert rc == 2 and "--out-dir" in err
+
+
+def test_old_out_spelling_still_names_the_directory(tmp_path, capsys):
+    """``--out DIR`` (0.1) still works for ``cdsm paper`` and says to use ``--out-dir``."""
+    f = tmp_path / "f"
+    f.write_text("x")
     rc, err = _cli_error(["paper", "--out", str(f), "--quiet"], capsys)
-    assert rc == 2 and "--out" in err
+    assert rc == 2 and "deprecated" in err and "--out-dir" in err and "exists and is not a directory" in err
 
 
 # ---------------------------------------------------------------------------
 # workspace helpers
 # ---------------------------------------------------------------------------
 def test_joint_grid_and_neighbours():
-    from cdsm import workspace
+    from cdsm.accuracy import workspace
 
     g = workspace.joint_grid(3)
     assert g.shape == (2197, 3)
@@ -129,7 +137,7 @@ def test_joint_grid_and_neighbours():
 
 
 def _synthetic_ws(robot, k=13):
-    from cdsm import workspace
+    from cdsm.accuracy import workspace
 
     g = workspace.joint_grid(robot.n, step=np.radians(60.0 / (k - 1)))
     return workspace.Workspace("joint", g, robot.fk(g), g.copy(), np.ones(len(g), bool),
@@ -138,7 +146,7 @@ def _synthetic_ws(robot, k=13):
 
 def test_jump_detection_synthetic():
     import cdsm
-    from cdsm import workspace
+    from cdsm.accuracy import workspace
 
     robot = cdsm.Robot.paper()
     ws = _synthetic_ws(robot)
@@ -168,7 +176,7 @@ def test_jump_detection_synthetic():
 ])
 def test_parse_csv_errors_name_the_column(text, column):
     import cdsm
-    from cdsm import measurements
+    from cdsm.calibration import measurements
 
     with pytest.raises(cdsm.CdsmInputError) as ei:
         measurements.parse_csv(text, 3, "t.csv")
@@ -176,7 +184,7 @@ def test_parse_csv_errors_name_the_column(text, column):
 
 
 def test_packaged_measurements():
-    from cdsm import measurements
+    from cdsm.calibration import measurements
 
     m = measurements.packaged("table3", 3)
     assert len(m) == 9 and m.kind == "displacement"
@@ -205,11 +213,11 @@ def test_jump_points_only_under_attitude0(study):
 
 def test_chain_points_end_at_the_tip():
     import cdsm
-    from cdsm import plotting
+    from cdsm.report import figures
 
     robot = cdsm.Robot.paper()
     th = np.radians([12.0, -25.0, 7.0])
-    pts = plotting.chain_points(robot, th)
+    pts = figures.chain_points(robot, th)
     assert pts.shape == (3 * robot.n + 1, 2)
     assert np.allclose(pts[-1], robot.fk(th)[:2], atol=1e-12)
 
@@ -219,12 +227,13 @@ def test_redundant_robots_get_a_coarser_grid_and_no_jump_search():
     there is no trend along a grid line, so jump points are not searched; the
     phi = 0 workspace is sampled instead of gridded (bounded memory)."""
     import cdsm
-    from cdsm import plotting, workspace
+    from cdsm.accuracy import workspace
+    from cdsm.report import figures, paper_figures
 
     r8 = cdsm.Robot.from_toml(Path(cdsm.__file__).parent / "robots" / "serpentine8.toml")
     assert np.degrees(workspace.default_step(3)) == pytest.approx(5.0)
     assert np.degrees(workspace.default_step(8)) == pytest.approx(30.0)
     ws = workspace.sweep(r8, "joint")
     assert len(ws.grid) == 3 ** 8 and len(ws.neighbours) == 0
-    tips = plotting._phi0_tips(r8, max_points=5000)
+    tips = paper_figures.phi0_tips(r8, max_points=5000)
     assert 0 < len(tips) <= 5000 and np.isfinite(tips).all()

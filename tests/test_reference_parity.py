@@ -74,10 +74,9 @@ class TestReferenceAlone:
         robot = reference_robot(PAPER_LINKAGES)
         robot = robot.with_holes(robot.holes + hole_perturbation(3, 3e-4, seed=4))
         theta = random_theta(3, N=20, seed=2)
-        g = ref._geometry(robot)
-        P, Q, R, mask = ref._segment_pqr(g)
+        P, Q, R, mask = ref.segment_coefficients(robot)
         s2 = P + Q * np.cos(theta)[:, None, :] + R * np.sin(theta)[:, None, :]
-        s, _ = ref._segments(g, theta)
+        s, _ = ref.segment_lengths(robot, theta)
         assert_close(np.where(mask, np.sqrt(s2), 0.0), s, 1e-15, "sqrt(P+Qc+Rs)")
 
     def test_straight_invariants(self, ref):

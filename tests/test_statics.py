@@ -312,10 +312,10 @@ def test_routing_length_in_the_robot_file(cdsm):
 
 
 def test_feasibility_map_helpers(cdsm):
-    from cdsm import statics
+    from cdsm.accuracy import statics
 
     r = cdsm.Robot.paper()
-    from cdsm import workspace
+    from cdsm.accuracy import workspace
 
     np.testing.assert_allclose(workspace.joint_grid(3), grid30(), rtol=0, atol=1e-15)
     fm = statics.feasibility_map(r, lower=REVERSED_WEIGHTS)
@@ -334,7 +334,7 @@ def test_solves_and_monte_carlo_flag_slack_cables(cdsm):
     sol = r.ik(r.fk(grid))
     np.testing.assert_array_equal(sol.feasible, r.feasible(sol.theta))
     assert 0 < (~sol.feasible).sum() < len(grid)  # some grid poses need a slack cable
-    mc = cdsm.errors.monte_carlo(r, grid, samples=2, progress=False)
+    mc = cdsm.accuracy.monte_carlo(r, grid, samples=2, progress=False)
     np.testing.assert_array_equal(mc.feasible0, r.feasible(grid))
 
 
@@ -342,13 +342,13 @@ def test_monte_carlo_counts_slack_samples(cdsm):
     """check_slack counts, per configuration, the samples whose perturbed
     configuration needs a slack cable: with one sample it is exactly the slack
     flag of that sample's solved configuration."""
-    from cdsm.errors import monte_carlo, sample_errors
+    from cdsm.accuracy.montecarlo import monte_carlo, sample_errors
 
     r = cdsm.Robot.paper()
     grid = grid30()[::7]
     mc = monte_carlo(r, grid, samples=1, seed=5, chunk=1, progress=False, check_slack=True)
     dl, dh = sample_errors(3, 1, 5, 0, np.full(3, 1e-3), np.full(3, 0.35e-3))
-    d = cdsm.errors.deviation(r, grid, dL=dl[0], dh=dh[0])
+    d = cdsm.accuracy.deviation(r, grid, dL=dl[0], dh=dh[0])
     np.testing.assert_array_equal(mc.slack, (~r.feasible(d.solution.theta)).astype(int))
     assert 0 < mc.slack.sum() < len(grid)
     plain = monte_carlo(r, grid, samples=1, seed=5, chunk=1, progress=False)

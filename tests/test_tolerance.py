@@ -7,11 +7,12 @@ import json
 import numpy as np
 import pytest
 
-from cdsm import design_config, reference as ref, tolerance
+from cdsm import reference as ref
+from cdsm.accuracy import configurations as design_config, sensitivity, tolerance
 from cdsm.cli import main
-from cdsm.errors import deviation
+from cdsm.accuracy.scenarios import deviation
 from cdsm.robot import Robot
-from cdsm.workspace import joint_grid
+from cdsm.accuracy.workspace import joint_grid
 
 ROBOT8 = "python/cdsm/robots/serpentine8.toml"
 
@@ -43,7 +44,7 @@ def test_rust_matches_reference(which, paper, r8):
     rng = np.random.default_rng(7)
     lim = robot.joint_limits
     th = rng.uniform(lim[:, 0], lim[:, 1], (40, robot.n))
-    s = tolerance.sensitivities(robot, th, holes=True)
+    s = sensitivity.sensitivities(robot, th, holes=True)
     r = ref.tip_sensitivity(ref.SimpleRobot.like(robot), th)
     assert s.ok.all()
     for key in ("cable", "pair", "holes"):
@@ -55,7 +56,7 @@ def test_rust_matches_reference(which, paper, r8):
 
 
 def test_lower_cable_and_unused_holes_do_not_move_the_tip(paper):
-    s = tolerance.sensitivities(paper, [0.2, -0.3, 0.1], holes=True)
+    s = sensitivity.sensitivities(paper, [0.2, -0.3, 0.1], holes=True)
     h = s.holes[0]  # (3, 2n, n+1, 2, 2)
     assert np.all(h[:, 1::2] == 0.0)  # lower cables are force controlled
     mask = ref.used_hole_mask(paper.n)
@@ -65,7 +66,7 @@ def test_lower_cable_and_unused_holes_do_not_move_the_tip(paper):
 
 def test_sensitivities_match_finite_differences_of_the_deviation(paper):
     th = np.array([[0.3, -0.2, 0.45], [-0.5, 0.1, -0.05]])
-    s = tolerance.sensitivities(paper, th, holes=True)
+    s = sensitivity.sensitivities(paper, th, holes=True)
     h = 1e-5
     for j in range(paper.n):
         d = np.zeros(paper.n)
@@ -91,9 +92,9 @@ def test_sensitivities_match_finite_differences_of_the_deviation(paper):
 
 
 def test_amplification_formulas(paper):
-    s = tolerance.sensitivities(paper, [[0.1, -0.2, 0.3]])
-    m = tolerance.error_matrix(s)[0]
-    amp = tolerance.amplification(s, 1e-3, 0.35e-3)
+    s = sensitivity.sensitivities(paper, [[0.1, -0.2, 0.3]])
+    m = sensitivity.error_matrix(s)[0]
+    amp = sensitivity.amplification(s, 1e-3, 0.35e-3)
     t = np.r_[np.full(3, 1e-3), np.full(3, 0.35e-3)]
     assert np.isclose(amp["worst_x"][0], np.abs(m[0]) @ t)
     assert np.isclose(amp["rms_xy"][0], np.sqrt(((m ** 2).sum(0) @ t ** 2) / 3))
@@ -104,7 +105,7 @@ def test_amplification_formulas(paper):
 
 
 def test_pooled_percentile_merges_histograms(paper):
-    from cdsm.errors import monte_carlo
+    from cdsm.accuracy.montecarlo import monte_carlo
     mc = monte_carlo(paper, joint_grid(3, np.radians(-10), np.radians(10), np.radians(10)),
                      samples=200, progress=False)
     p = tolerance.pooled_percentile(mc, 95)
@@ -119,7 +120,7 @@ def test_allocation_holds_and_is_not_loose(paper):
     assert a.holds and a.achieved_m <= 1e-3
     assert a.not_loose
     # independent re-check of the two claims with the public Monte Carlo
-    from cdsm.errors import monte_carlo
+    from cdsm.accuracy.montecarlo import monte_carlo
     mc = monte_carlo(paper, theta, samples=200, seed=1, dl_tol=a.cable_length_tol_m,
                      dh_tol=a.hole_height_tol_m, progress=False)
     assert tolerance.pooled_percentile(mc, 95) <= 1e-3
@@ -235,10 +236,10 @@ def test_path_is_continuous(paper, r8):
 
 
 def test_linear_vs_mc_summary(paper):
-    from cdsm.workspace import grid_neighbours, sweep
+    from cdsm.accuracy.workspace import grid_neighbours, sweep
     g = joint_grid(3, np.radians(-30), np.radians(30), np.radians(10))
     ws = sweep(paper, "joint", grid=g, neighbours=grid_neighbours(7, 3))
-    res = tolerance.linear_vs_mc(paper, ws=ws, samples=100)
+    res = sensitivity.linear_vs_mc(paper, ws=ws, samples=100)
     other = res["summary"]["other"]
     assert other["count"] > 0
     assert other["rms_ratio_dev_median"] < 0.1

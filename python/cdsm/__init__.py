@@ -1,10 +1,35 @@
 """cdsm — kinematics and tip-positioning accuracy of cable-driven serpentine
-manipulators, with a Rust core. SI units everywhere (m, rad, N, kg)."""
+manipulators, with a Rust core. SI units everywhere (m, rad, N, kg).
 
+=====================  ==========================================================
+module                 holds
+=====================  ==========================================================
+``robot``              :class:`Robot` (kinematics, solves, statics) and :class:`Solution`
+``accuracy``           error studies of the nominal model (scenarios, Monte Carlo, tolerances)
+``calibration``        the gap to a real arm (measurements, plant, diagnosis, compensation)
+``paper``              the seed paper's study end to end
+``report``             Markdown/HTML reports and figures
+``cli``                the ``cdsm`` command
+``reference``          an independent NumPy implementation the tests check the core against
+=====================  ==========================================================
+"""
+
+import importlib as _importlib
+
+from . import deprecated as _deprecated
 from ._cdsm import CdsmInputError
+from .calibration.model import Model
 from .robot import Robot, Solution
-from . import errors
-from .model import Model
 
-__all__ = ["Robot", "Solution", "CdsmInputError", "errors", "Model"]
+__all__ = ["Robot", "Solution", "CdsmInputError", "Model", "accuracy", "calibration", "report"]
 __version__ = "0.1.0"
+
+_deprecated.install()
+
+
+def __getattr__(name: str):
+    """Subpackages on first use, and the 0.1 module names (deprecated aliases)."""
+    if name in ("accuracy", "calibration", "report", "paper", "reference", "cli") \
+            or f"cdsm.{name}" in _deprecated.MOVED:
+        return _importlib.import_module(f"cdsm.{name}")
+    raise AttributeError(f"module 'cdsm' has no attribute {name!r}")

@@ -1,32 +1,160 @@
-"""Reading and writing the text files of cdsm (robot TOML, measurement and
-command CSV, model JSON) with errors that name the file and what it is for."""
+"""Every file cdsm reads or writes goes through here: text (robot TOML, model
+JSON), CSV tables (measurements, targets, regions, report tables) and JSON,
+with errors that name the file and what it is for (:class:`CdsmInputError`).
+"""
 
 from __future__ import annotations
 
+import csv
+import io
+import json
+import math
 import os
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
 
 from ._cdsm import CdsmInputError
 
-__all__ = ["read_text", "write_text"]
+__all__ = ["read_text", "write_text", "parse_table", "read_table", "table_column", "write_csv",
+           "write_json", "json_safe", "csv_cell"]
 
 
 def read_text(path: "str | os.PathLike[str]", what: str) -> str:
     """The UTF-8 text of ``path``; :class:`CdsmInputError` ("<what> file
     '<path>': <reason>") when it cannot be read."""
+    if os.path.isdir(path):
+        raise CdsmInputError(f"{what} file {str(path)!r}: is a directory")
     try:
         with open(path, encoding="utf-8") as fh:
             return fh.read()
+    except FileNotFoundError:
+        raise CdsmInputError(f"{what} file {str(path)!r}: does not exist") from None
     except OSError as exc:
         raise CdsmInputError(f"{what} file {str(path)!r}: {exc.strerror}") from None
     except UnicodeDecodeError:
         raise CdsmInputError(f"{what} file {str(path)!r}: not UTF-8 text") from None
 
 
-def write_text(path: "str | os.PathLike[str]", text: str, what: str) -> None:
+def write_text(path: "str | os.PathLike[str]", text: str, what: str) -> str:
     """Write ``text`` (UTF-8, line endings as given) to ``path``;
-    :class:`CdsmInputError` naming the file when it cannot be written."""
+    :class:`CdsmInputError` naming the file when it cannot be written.
+    Returns the path."""
     try:
         with open(path, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
     except OSError as exc:
         raise CdsmInputError(f"{what} file {str(path)!r}: {exc.strerror}") from None
+    return str(path)
+
+
+def _numeric(cells: Sequence[str]) -> bool:
+    try:
+        [float(c) for c in cells]
+    except ValueError:
+        return False
+    return True
+
+
+def parse_table(text: str, source: str, headerless: Optional[Sequence[str]] = None
+                ) -> Tuple[List[str], List[Dict[str, str]]]:
+    """Header (column names) and rows (dicts of strings) of a CSV text whose
+    ``#`` lines (and trailing ``# ...`` remarks) are comments; an error naming
+    ``source`` if either is empty. With ``headerless`` (column names), a text
+    whose first line is all numbers has no header and takes those names."""
+    lines = [ln.split("#", 1)[0] if headerless is not None else ln for ln in text.splitlines()]
+    lines = [ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines:
+        raise CdsmInputError(f"{source}: no header and no rows")
+    first = next(csv.reader([lines[0]]))
+    if headerless is not None and _numeric(first):
+        if len(first) != len(headerless):
+            raise CdsmInputError(f"{source}: line 1: expected {len(headerless)} values "
+                                 f"({', '.join(headerless)}), got {len(first)}")
+        lines.insert(0, ",".join(headerless))
+    reader = csv.DictReader(io.StringIO("\n".join(lines)))
+    cols = [c.strip() for c in (reader.fieldnames or [])]
+    reader.fieldnames = cols
+    rows = list(reader)
+    for i, r in enumerate(rows):
+        if None in r:
+            raise CdsmInputError(f"{source}: row {i + 1}: more values than the {len(cols)} columns "
+                                 f"({', '.join(cols)})")
+        for k, v in r.items():
+            if v is None:
+                r[k] = ""  # a short row: the missing cells are empty
+    if not rows:
+        raise CdsmInputError(f"{source}: header but no rows")
+    return cols, rows
+
+
+def read_table(path: "str | os.PathLike[str]", what: str, headerless: Optional[Sequence[str]] = None
+               ) -> Tuple[List[str], List[Dict[str, str]]]:
+    """:func:`parse_table` of a CSV file (``what`` names it in errors)."""
+    return parse_table(read_text(path, what), str(path), headerless)
+
+
+def table_column(rows: Sequence[Dict[str, str]], name: str, source: str,
+                 allow_empty: bool = False) -> np.ndarray:
+    """Column ``name`` of parsed rows as floats; an error naming the row and
+    column for a non-number or a non-finite value. With ``allow_empty`` an
+    empty cell gives NaN (a value that was not measured)."""
+    out = np.empty(len(rows))
+    for i, r in enumerate(rows):
+        cell = (r.get(name) or "").strip()
+        if allow_empty and cell == "":
+            out[i] = np.nan
+            continue
+        try:
+            out[i] = float(cell)
+        except ValueError:
+            raise CdsmInputError(f"{source}: row {i + 1}, column {name!r}: not a number: {cell!r}") from None
+        if not np.isfinite(out[i]):
+            raise CdsmInputError(f"{source}: row {i + 1}, column {name!r}: non-finite value {cell!r}")
+    return out
+
+
+def csv_cell(v):
+    """A CSV cell: floats by ``repr`` (exact round trip), everything else as is."""
+    return repr(float(v)) if isinstance(v, (float, np.floating)) else v
+
+
+def write_csv(path: "str | os.PathLike[str]", rows: List[dict], what: str = "CSV",
+              comments: Sequence[str] = ()) -> str:
+    """Write dict rows (one header from the first row's keys; floats by
+    ``repr``) with optional ``# `` comment lines first. Returns the path."""
+    buf = io.StringIO()
+    for c in comments:
+        buf.write(f"# {c}\n")
+    if not rows:
+        buf.write("\n")
+    else:
+        w = csv.DictWriter(buf, fieldnames=list(rows[0].keys()), lineterminator="\r\n")
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: csv_cell(v) for k, v in r.items()})
+    return write_text(path, buf.getvalue(), what)
+
+
+def json_safe(obj):
+    """``obj`` with NumPy scalars and arrays turned into Python numbers and
+    lists, and non-finite floats into ``None`` (strict JSON)."""
+    if isinstance(obj, dict):
+        return {str(k): json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [json_safe(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return json_safe(obj.tolist())
+    if isinstance(obj, (np.bool_, bool)):
+        return bool(obj)
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        v = float(obj)
+        return v if math.isfinite(v) else None
+    return obj
+
+
+def write_json(path: "str | os.PathLike[str]", obj, what: str = "JSON", indent: int = 1) -> str:
+    """Write :func:`json_safe` of ``obj`` as strict JSON. Returns the path."""
+    return write_text(path, json.dumps(json_safe(obj), indent=indent, allow_nan=False) + "\n", what)

@@ -13,11 +13,13 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from . import diagnose, errors, measurements, statics, tolerance, workspace
+from .accuracy import montecarlo, scenarios, sensitivity, statics, workspace
+from .calibration import diagnosis, measurements
+from .progress import Progress
 from .robot import Robot
 
 __all__ = ["Scenario", "ScenarioResult", "PaperStudy", "paper_scenarios", "run",
-           "table3", "table2"]
+           "table3", "table2", "finite_rms"]
 
 
 @dataclass(frozen=True)
@@ -32,7 +34,8 @@ class Scenario:
     figure: str = ""
 
 
-def paper_scenarios(n: int, cable_error: float = 1e-3, hole_error: float = 0.35e-3) -> List[Scenario]:
+def paper_scenarios(n: int, cable_error: float = scenarios.PAPER_DL_TOL,
+                    hole_error: float = scenarios.PAPER_DH_TOL) -> List[Scenario]:
     """The single-error scenarios of Fig. 5 and 6: ±cable_error on each upper
     cable (the paper's cables 1, 3, 5, ...) and ±hole_error on each disk's holes."""
     out = []
@@ -78,7 +81,7 @@ class PaperStudy:
     robot: Robot
     workspaces: Dict[str, workspace.Workspace]
     scenarios: List[ScenarioResult]
-    monte_carlo: Dict[str, errors.MonteCarlo]
+    monte_carlo: Dict[str, montecarlo.MonteCarlo]
     singular: Dict[str, np.ndarray]
     table3: Optional[dict]
     table2: List[dict]
@@ -91,7 +94,7 @@ class PaperStudy:
     #: per protocol: first-order amplification maps (tolerance.amplification_maps)
     amplification: Dict[str, dict] = field(default_factory=dict)
     #: the sim-to-real diagnosis of Table 3 (3-joint robots), or None
-    diagnosis: Optional["diagnose.Diagnosis"] = None
+    diagnosis: Optional["diagnosis.Diagnosis"] = None
 
     def result(self, key: str, protocol: str = "attitude0") -> ScenarioResult:
         for r in self.scenarios:
@@ -103,7 +106,7 @@ class PaperStudy:
 def _scenario(robot: Robot, ws: workspace.Workspace, sc: Scenario) -> ScenarioResult:
     ok0 = ws.reachable
     theta0 = np.where(ok0[:, None], ws.theta0, 0.0)
-    dev = errors.deviation(robot, theta0, dL=sc.dL, dh=sc.dh if np.any(sc.dh) else None)
+    dev = scenarios.deviation(robot, theta0, dL=sc.dL, dh=sc.dh if np.any(sc.dh) else None)
     ok = ok0 & dev.ok
     ds = np.where(ok[:, None], dev.dS, np.nan)
     return ScenarioResult(sc, ws.protocol, ds, ok, workspace.jump_points(robot, ws, ds))
@@ -117,14 +120,14 @@ def table3(robot: Robot) -> dict:
     ours, theta0 = [], []
     ik_ok, limits = [], []
     for i in range(len(meas)):
-        d = errors.deviation(robot, poses=meas.pose_cmd[i:i + 1], dL=meas.dL[i],
+        d = scenarios.deviation(robot, poses=meas.pose_cmd[i:i + 1], dL=meas.dL[i],
                              ik_seed=workspace.paper_ik_seed(robot.n))
         ours.append(d.dS[0, :2])
         theta0.append(d.theta0[0])
         ik_ok.append(bool(d.ok[0]))
         limits.append(bool(d.ik.within_limits[0]))
     ours = np.array(ours)
-    plain = errors.deviation(robot, poses=meas.pose_cmd, dL=meas.dL[0]).dS[:, :2]
+    plain = scenarios.deviation(robot, poses=meas.pose_cmd, dL=meas.dL[0]).dS[:, :2]
     return dict(point=np.array(meas.labels.get("point", [str(i + 1) for i in range(len(meas))])),
                 pose=meas.pose_cmd, ours=ours, ours_plain_seed=plain, paper=theory.measured,
                 measured=meas.measured, ok=np.array(ik_ok), within_limits=np.array(limits),
@@ -151,7 +154,7 @@ def table2(robot: Robot) -> List[dict]:
         for kind, i, v in errs:
             dl, dh = np.zeros(robot.n), np.zeros(robot.n)
             (dl if kind == "cable" else dh)[i] = v
-            d = errors.deviation(robot, poses=np.array([pose]), dL=dl, dh=dh if kind == "hole" else None,
+            d = scenarios.deviation(robot, poses=np.array([pose]), dL=dl, dh=dh if kind == "hole" else None,
                                  ik_seed=seed)
             label = (f"{v * 1e3:+g} mm on cable {2 * i + 1}" if kind == "cable"
                      else f"{v * 1e3:+g} mm on disk {i + 1}'s holes")
@@ -160,7 +163,7 @@ def table2(robot: Robot) -> List[dict]:
     return out
 
 
-def _rms(v: np.ndarray) -> float:
+def finite_rms(v: np.ndarray) -> float:
     """RMS of the finite entries of ``v`` (NaN when there are none)."""
     v = v[np.isfinite(v)]
     return float(np.sqrt(np.mean(v ** 2))) if len(v) else float("nan")
@@ -171,7 +174,7 @@ def check_claims(study: PaperStudy) -> List[dict]:
     n = study.robot.n
     claims = []
     proto = "attitude0"
-    rms = {r.scenario.key: _rms(r.position_mm) for r in study.scenarios if r.protocol == proto}
+    rms = {r.scenario.key: finite_rms(r.position_mm) for r in study.scenarios if r.protocol == proto}
     cab = [0.5 * (rms[f"cable{2 * i + 1}-"] + rms[f"cable{2 * i + 1}+"]) for i in range(n)]
     hol = [0.5 * (rms[f"disk{i + 1}-"] + rms[f"disk{i + 1}+"]) for i in range(n)]
     shrink = cab[-1] < min(cab[:-1]) and hol[-1] < min(hol[:-1]) if n > 1 else True
@@ -242,7 +245,7 @@ def run(robot: Optional[Robot] = None, samples: int = 1000, seed: int = 0,
     robot = robot or Robot.paper()
     spaces = {p: workspace.sweep(robot, p, grid=grid) for p in ("attitude0", "joint")}
     scen = paper_scenarios(robot.n)
-    bar = errors.Progress(len(scen) * len(spaces), "error scenarios", progress)
+    bar = Progress(len(scen) * len(spaces), "error scenarios", progress)
     results = []
     for p, ws in spaces.items():
         for sc in scen:
@@ -251,7 +254,7 @@ def run(robot: Optional[Robot] = None, samples: int = 1000, seed: int = 0,
     mcs = {}
     for p, ws in spaces.items():
         theta0 = ws.theta0[ws.reachable]
-        mc = errors.monte_carlo(robot, theta0, samples=samples, seed=seed, progress=progress,
+        mc = montecarlo.monte_carlo(robot, theta0, samples=samples, seed=seed, progress=progress,
                                 check_slack=True)
         mcs[p] = mc
     singular = {p: workspace.singular_values(robot, np.where(ws.reachable[:, None], ws.theta0, 0.0))
@@ -266,8 +269,8 @@ def run(robot: Optional[Robot] = None, samples: int = 1000, seed: int = 0,
         study.feasibility[p] = fm
         rev = robot.feasible(th, lower=robot.lower_tension[::-1].copy())
         study.slack_reversed[p] = float(1.0 - rev[ws.reachable].mean())
-        study.amplification[p] = tolerance.amplification_maps(robot, p, ws)
+        study.amplification[p] = sensitivity.amplification_maps(robot, p, ws)
     if robot.n == 3:
-        study.diagnosis = diagnose.diagnose(robot, measurements.packaged("table3", robot.n))
+        study.diagnosis = diagnosis.diagnose(robot, measurements.packaged("table3", robot.n))
     study.claims = check_claims(study)
     return study

@@ -8,6 +8,8 @@ naming the argument.
 
 from __future__ import annotations
 
+import json
+import math
 import os
 from dataclasses import dataclass, field
 from typing import Optional, Tuple
@@ -15,37 +17,10 @@ from typing import Optional, Tuple
 import numpy as np
 
 from . import _cdsm
-from ._cdsm import CdsmInputError
 from .files import read_text
+from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
 
 __all__ = ["Robot", "Solution", "CdsmInputError"]
-
-
-def _batch(name: str, value, width: int) -> Tuple[np.ndarray, bool]:
-    """``value`` as a C-contiguous float64 ``(N, width)`` array, and whether it was 1-D."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise CdsmInputError(f"`{name}`: not a numeric array ({exc})") from None
-    single = arr.ndim == 1
-    if single:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] != width:
-        raise CdsmInputError(
-            f"`{name}`: expected shape (N, {width}) or ({width},), got {np.shape(value)}"
-        )
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
-        raise CdsmInputError(f"`{name}`: non-finite value {arr[row, col]} at row {row}, column {col}")
-    return np.ascontiguousarray(arr), single
-
-
-def _vector(name: str, value, width: int) -> np.ndarray:
-    arr, single = _batch(name, value, width)
-    if not single:
-        raise CdsmInputError(f"`{name}`: expected shape ({width},), got {np.shape(value)}")
-    return arr[0]
 
 
 @dataclass(frozen=True)
@@ -77,7 +52,7 @@ class Solution:
         return self._feasible
 
     @classmethod
-    def _from_core(cls, parts, n: int, single: bool, robot: Optional["Robot"] = None) -> "Solution":
+    def from_core(cls, parts, n: int, single: bool, robot: Optional["Robot"] = None) -> "Solution":
         theta, conv, it, res, lim = parts
         theta = theta.reshape(-1, n)
         if single:
@@ -93,7 +68,8 @@ class Robot:
     """
 
     def __init__(self, core: "_cdsm.CoreRobot", threads: int = 0):
-        self._core = core
+        #: the Rust core robot (:class:`cdsm._cdsm.CoreRobot`), used by the other modules
+        self.core = core
         self.threads = threads
 
     @property
@@ -132,69 +108,115 @@ class Robot:
         h = np.ascontiguousarray(np.asarray(holes, dtype=np.float64))
         if h.shape != self.holes.shape:
             raise CdsmInputError(f"`holes`: expected shape {self.holes.shape}, got {h.shape}")
-        return Robot(self._core.with_holes(h), self.threads)
+        return Robot(self.core.with_holes(h), self.threads)
 
     def hole_height_error(self, dh) -> np.ndarray:
         """Hole positions (2n, n+1, 2, 2), m, after the paper's per-disk hole-height
         error ``dh`` (n,), m: pair i's holes move outward by ``dh[i]`` on every face."""
-        d = _vector("dh", dh, self.n)
-        return self._core.hole_height_error(d).reshape(self.holes.shape)
+        d = as_vector("dh", dh, self.n)
+        return self.core.hole_height_error(d).reshape(self.holes.shape)
 
     # ---- description --------------------------------------------------
     @property
     def n(self) -> int:
         """Number of joints (the robot has 2n cables)."""
-        return self._core.n
+        return self.core.n
 
     @property
     def name(self) -> str:
-        return self._core.name
+        return self.core.name
 
     @property
     def link_before(self) -> np.ndarray:
         """(n,) link before each joint, m (the paper's link_{i-1,J_i})."""
-        return self._core.link_before
+        return self.core.link_before
 
     @property
     def link_after(self) -> np.ndarray:
         """(n,) link after each joint, m (the paper's link_{J_i,i})."""
-        return self._core.link_after
+        return self.core.link_after
 
     @property
     def thickness(self) -> np.ndarray:
         """(n,) disk thickness, m (the paper's B)."""
-        return self._core.thickness
+        return self.core.thickness
 
     @property
     def mass(self) -> np.ndarray:
         """(n,) linkage masses, kg."""
-        return self._core.mass
+        return self.core.mass
 
     @property
     def lower_tension(self) -> np.ndarray:
         """(n,) tension on the lower (force-controlled) cable of each pair, N."""
-        return self._core.lower_tension
+        return self.core.lower_tension
 
     @property
     def joint_limits(self) -> np.ndarray:
         """(n, 2) joint limits [lo, hi], rad."""
-        return self._core.joint_limits.reshape(-1, 2)
+        return self.core.joint_limits.reshape(-1, 2)
 
     @property
     def holes(self) -> np.ndarray:
         """(2n, n+1, 2, 2) hole positions: cable, disk (0 = base), face (a, b), (x, y); m."""
         n = self.n
-        return self._core.holes.reshape(2 * n, n + 1, 2, 2)
+        return self.core.holes.reshape(2 * n, n + 1, 2, 2)
 
     @property
     def youngs_modulus(self) -> float:
         """Cable Young's modulus, Pa."""
-        return self._core.youngs_modulus
+        return self.core.youngs_modulus
 
     @property
     def cable_diameter(self) -> float:
         """Cable diameter, m."""
-        return self._core.cable_diameter
+        return self.core.cable_diameter
+
+    def to_toml(self) -> str:
+        """A TOML description that rebuilds this robot exactly (explicit
+        ``upper_holes``/``lower_holes``, every float by ``repr``; SI units).
+        Hole entries the model never uses (base face a, disks beyond a
+        cable's pair) are not written and read back as 0."""
+        def f(v) -> str:
+            x = float(v)
+            if not math.isfinite(x):
+                raise CdsmInputError(f"to_toml: non-finite value {x}")
+            return repr(x)
+
+        n = self.n
+        lb, la, h, lim = self.link_before, self.link_after, self.holes, self.joint_limits
+        lines = [
+            "# written by cdsm.Robot.to_toml; SI units (m, kg, N, rad, Pa)",
+            f"name = {json.dumps(self.name)}",
+            f"n = {n}",
+            "",
+            "[cable]",
+            f"youngs_modulus = {f(self.youngs_modulus)}",
+            f"diameter = {f(self.cable_diameter)}",
+            f"routing_length = {f(self.routing_length)}",
+        ]
+        for i in range(n):
+            pts = []
+            for c in (2 * i, 2 * i + 1):
+                row = []
+                for j in range(2 * i + 3):  # base face b, then faces a, b of disks 1..i+1
+                    d, face = (0, 1) if j == 0 else ((j + 1) // 2, 1 - j % 2)
+                    x, y = h[c, d, face]
+                    row.append(f"[{f(x)}, {f(y)}]")
+                pts.append("[" + ", ".join(row) + "]")
+            lines += [
+                "",
+                "[[linkage]]",
+                f"link_before = {f(lb[i])}",
+                f"link_after = {f(la[i])}",
+                f"thickness = {f(self.thickness[i])}",
+                f"mass = {f(self.mass[i])}",
+                f"lower_tension = {f(self.lower_tension[i])}",
+                f"joint_limits = [{f(lim[i, 0])}, {f(lim[i, 1])}]",
+                f"upper_holes = {pts[0]}",
+                f"lower_holes = {pts[1]}",
+            ]
+        return "\n".join(lines) + "\n"
 
     def __repr__(self) -> str:
         return f"Robot({self.name!r}, n={self.n})"
@@ -206,18 +228,18 @@ class Robot:
 
     def fk(self, theta) -> np.ndarray:
         """End pose [x (m), y (m), phi (rad)]: (N, n) -> (N, 3); (n,) -> (3,)."""
-        t, single = _batch("theta", theta, self.n)
-        return self._out(self._core.fk(t, self.threads), (3,), single)
+        t, single = as_batch("theta", theta, self.n)
+        return self._out(self.core.fk(t, self.threads), (3,), single)
 
     def fk_jacobian(self, theta) -> np.ndarray:
         """d[x, y, phi]/d theta: (N, n) -> (N, 3, n)."""
-        t, single = _batch("theta", theta, self.n)
-        return self._out(self._core.fk_jacobian(t, self.threads), (3, self.n), single)
+        t, single = as_batch("theta", theta, self.n)
+        return self._out(self.core.fk_jacobian(t, self.threads), (3, self.n), single)
 
     def cable_lengths(self, theta) -> np.ndarray:
         """Lengths of all 2n cables, m: (N, n) -> (N, 2n), order L_c1_1, L_c1_2, ..., L_cn_2."""
-        t, single = _batch("theta", theta, self.n)
-        return self._out(self._core.cable_lengths(t, self.threads), (2 * self.n,), single)
+        t, single = as_batch("theta", theta, self.n)
+        return self._out(self.core.cable_lengths(t, self.threads), (2 * self.n,), single)
 
     def upper_lengths(self, theta) -> np.ndarray:
         """Lengths of the n upper (position-controlled) cables, m: (N, n) -> (N, n)."""
@@ -225,12 +247,12 @@ class Robot:
 
     def cable_jacobian(self, theta) -> np.ndarray:
         """dL/d theta, m/rad: (N, n) -> (N, 2n, n) (lower triangular in pairs)."""
-        t, single = _batch("theta", theta, self.n)
-        return self._out(self._core.cable_jacobian(t, self.threads), (2 * self.n, self.n), single)
+        t, single = as_batch("theta", theta, self.n)
+        return self._out(self.core.cable_jacobian(t, self.threads), (2 * self.n, self.n), single)
 
     def within_limits(self, theta) -> np.ndarray:
         """Whether every angle lies within the joint limits: (N, n) -> (N,) bool."""
-        t, single = _batch("theta", theta, self.n)
+        t, single = as_batch("theta", theta, self.n)
         lim = self.joint_limits
         ok = np.all((t >= lim[:, 0]) & (t <= lim[:, 1]), axis=1)
         return ok[0] if single else ok
@@ -239,7 +261,7 @@ class Robot:
     def _seed(self, seed, rows: int) -> Optional[np.ndarray]:
         if seed is None:
             return None
-        s, single = _batch("seed", seed, self.n)
+        s, single = as_batch("seed", seed, self.n)
         if single and rows > 1:
             s = np.ascontiguousarray(np.broadcast_to(s, (rows, self.n)))
         if s.shape[0] != rows:
@@ -254,10 +276,10 @@ class Robot:
         minimal-norm. Joint limits are flagged (``within_limits``) and enforced
         only with ``enforce_limits``.
         """
-        p, single = _batch("pose", pose, 3)
-        parts = self._core.ik(p, self._seed(seed, p.shape[0]), float(tol), _iters(max_iter),
+        p, single = as_batch("pose", pose, 3)
+        parts = self.core.ik(p, self._seed(seed, p.shape[0]), float(tol), as_iterations("max_iter", max_iter),
                               bool(enforce_limits), self.threads)
-        return Solution._from_core(parts, self.n, single, self)
+        return Solution.from_core(parts, self.n, single, self)
 
     def solve_cables(self, upper, seed=None, method: str = "auto", tol: float = 1e-12,
                      max_iter: int = 100, enforce_limits: bool = False) -> Solution:
@@ -268,10 +290,10 @@ class Robot:
         (per joint, the acos branch nearest the seed) or ``"auto"`` (closed form,
         verified, LM if it fails).
         """
-        u, single = _batch("upper", upper, self.n)
-        parts = self._core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
-                                        _iters(max_iter), bool(enforce_limits), self.threads)
-        return Solution._from_core(parts, self.n, single, self)
+        u, single = as_batch("upper", upper, self.n)
+        parts = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
+                                        as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
+        return Solution.from_core(parts, self.n, single, self)
 
 
     # ---- statics and cable elasticity (issue 4; model in rust/statics.rs) --
@@ -280,12 +302,12 @@ class Robot:
         def rowed(name, value, width):
             if value is None:
                 return None
-            arr, single = _batch(name, value, width)
+            arr, single = as_batch(name, value, width)
             if not single and arr.shape[0] != rows:
                 raise CdsmInputError(f"`{name}`: expected shape ({rows}, {width}) or ({width},), "
                                      f"got {np.shape(value)}")
             return arr.reshape(-1)
-        g = None if gravity is None else _vector("gravity", gravity, 2)
+        g = None if gravity is None else as_vector("gravity", gravity, 2)
         return rowed("lower", lower, self.n), rowed("tip_wrench", tip_wrench, 3), g
 
     def tensions(self, theta, lower=None, tip_wrench=None, gravity=None) -> np.ndarray:
@@ -300,9 +322,9 @@ class Robot:
         plane); linkage i's mass sits at the centre of disk i. NaN where an
         upper cable has no moment arm about its own joint.
         """
-        t, single = _batch("theta", theta, self.n)
+        t, single = as_batch("theta", theta, self.n)
         lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
-        out = _cdsm.statics_tensions(self._core, t, lo, w, g, self.threads)
+        out = _cdsm.statics_tensions(self.core, t, lo, w, g, self.threads)
         return self._out(out, (self.n,), single)
 
     def feasible(self, theta, min_tension: float = 0.0, lower=None, tip_wrench=None,
@@ -310,9 +332,9 @@ class Robot:
         """Whether every upper cable is taut beyond ``min_tension`` (N):
         (N, n) -> (N,) bool. False where a cable would have to go slack
         (tension <= min_tension) or the balance is impossible (NaN)."""
-        t, single = _batch("theta", theta, self.n)
+        t, single = as_batch("theta", theta, self.n)
         lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
-        ok = _cdsm.statics_feasible(self._core, t, lo, w, g, _finite("min_tension", min_tension),
+        ok = _cdsm.statics_feasible(self.core, t, lo, w, g, as_finite("min_tension", min_tension),
                                     self.threads)
         return ok[0] if single else ok
 
@@ -320,15 +342,15 @@ class Robot:
         """Elongation of every upper cable, m, under the statics tensions at theta:
         ``(L_geom + routing_length) * eps / (1 + eps)``, ``eps = T / (E A)``,
         ``A = pi d^2 / 4``. (N, n) -> (N, n)."""
-        t, single = _batch("theta", theta, self.n)
+        t, single = as_batch("theta", theta, self.n)
         lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
-        out = _cdsm.statics_stretch(self._core, t, lo, w, g, self.threads)
+        out = _cdsm.statics_stretch(self.core, t, lo, w, g, self.threads)
         return self._out(out, (self.n,), single)
 
     @property
     def routing_length(self) -> float:
         """Cable path behind the base disk to the actuator, m (stretches with the cable)."""
-        return _cdsm.statics_routing_length(self._core)
+        return _cdsm.statics_routing_length(self.core)
 
     @property
     def axial_stiffness(self) -> float:
@@ -338,10 +360,10 @@ class Robot:
     def with_cable(self, youngs_modulus: Optional[float] = None, diameter: Optional[float] = None,
                    routing_length: Optional[float] = None) -> "Robot":
         """The same robot with another cable material (Pa, m) or routing length (m)."""
-        e = self.youngs_modulus if youngs_modulus is None else _finite("youngs_modulus", youngs_modulus)
-        d = self.cable_diameter if diameter is None else _finite("diameter", diameter)
-        r = self.routing_length if routing_length is None else _finite("routing_length", routing_length)
-        return Robot(_cdsm.statics_with_cable(self._core, e, d, r), self.threads)
+        e = self.youngs_modulus if youngs_modulus is None else as_finite("youngs_modulus", youngs_modulus)
+        d = self.cable_diameter if diameter is None else as_finite("diameter", diameter)
+        r = self.routing_length if routing_length is None else as_finite("routing_length", routing_length)
+        return Robot(_cdsm.statics_with_cable(self.core, e, d, r), self.threads)
 
     def solve_cables_elastic(self, upper, seed=None, lower=None, tip_wrench=None, gravity=None,
                              min_tension: float = 0.0, tol: float = 1e-12,
@@ -355,33 +377,16 @@ class Robot:
         (LM) on the coupled equations. Returns an :class:`ElasticSolution`
         (also flags slack cables: ``feasible``).
         """
-        u, single = _batch("upper", upper, self.n)
+        u, single = as_batch("upper", upper, self.n)
         lo, w, g = self._loads(u.shape[0], lower, tip_wrench, gravity)
         parts, tension, ok = _cdsm.statics_solve_elastic(
-            self._core, u, self._seed(seed, u.shape[0]), lo, w, g,
-            _finite("min_tension", min_tension), float(tol), _iters(max_iter), self.threads)
-        base = Solution._from_core(parts, self.n, single)
+            self.core, u, self._seed(seed, u.shape[0]), lo, w, g,
+            as_finite("min_tension", min_tension), float(tol), as_iterations("max_iter", max_iter), self.threads)
+        base = Solution.from_core(parts, self.n, single)
         tension = tension.reshape(-1, self.n)
         return ElasticSolution(base.theta, base.converged, base.iterations, base.residual,
                                base.within_limits, _feasible=ok[0] if single else ok,
                                tension=tension[0] if single else tension)
-
-def _iters(max_iter: int) -> int:
-    if int(max_iter) < 1:
-        raise CdsmInputError(f"`max_iter`: must be at least 1, got {max_iter}")
-    return int(max_iter)
-
-
-
-def _finite(name: str, value) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise CdsmInputError(f"`{name}`: expected a number, got {value!r}") from None
-    if not np.isfinite(v):
-        raise CdsmInputError(f"`{name}`: must be finite, got {v}")
-    return v
-
 
 @dataclass(frozen=True)
 class ElasticSolution(Solution):

@@ -3,7 +3,7 @@ between the nominal model and measurements, where the gap lies, and how far it
 shrinks once the effect is added — judged on held-out rows. SI units (m, rad).
 
 Pipeline (FIGAROH-like): prepare the commands (nominal pose IK for x_cmd rows),
-fit each candidate effect of :mod:`cdsm.plant` by Levenberg–Marquardt (model
+fit each candidate effect of :mod:`cdsm.calibration.plant` by Levenberg–Marquardt (model
 evaluations batched in the Rust core), rank by k-fold cross-validated held-out
 RMS with AIC/BIC beside it, grow a combination by forward selection, and
 report parameter uncertainty, identifiability, and the configuration features
@@ -17,13 +17,17 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from . import plant, workspace
-from .errors import Progress
+from ..accuracy.sensitivity import sensitivity
+from ..accuracy.workspace import paper_ik_seed, singular_values
+from ..inputs import CdsmInputError
+from ..progress import Progress
+from ..robot import Robot
+from . import plant
+from .fit import Fit, fit, residual_matrix
 from .measurements import Measurements
-from .robot import CdsmInputError, Robot
 
-__all__ = ["prepare", "Prepared", "fit", "Fit", "cross_validate", "diagnose", "Diagnosis",
-           "DEFAULT_NOISE"]
+__all__ = ["prepare", "Prepared", "cross_validate", "diagnose", "Diagnosis", "Candidate", "better",
+           "features", "spearman", "residuals", "DEFAULT_NOISE"]
 
 # Measurement noise assumed when none is given: 10 µm per axis (laser tracker).
 DEFAULT_NOISE = 10e-6
@@ -59,7 +63,7 @@ def prepare(robot: Robot, meas: Measurements) -> Prepared:
         theta = np.array(meas.theta, dtype=float)
         ok = np.ones(len(meas), bool)
     else:
-        sol = robot.ik(meas.pose_cmd, seed=workspace.paper_ik_seed(robot.n))
+        sol = robot.ik(meas.pose_cmd, seed=paper_ik_seed(robot.n))
         theta = np.array(sol.theta, dtype=float)
         ok = np.asarray(sol.converged, bool)
         for i in np.flatnonzero(~ok):
@@ -71,142 +75,6 @@ def prepare(robot: Robot, meas: Measurements) -> Prepared:
         flags[int(i)] = "the nominal model cannot realise the commanded cable lengths"
     ok &= conv
     return Prepared(robot, meas, theta, ok, flags)
-
-
-@dataclass
-class Fit:
-    """A fitted model: effects, the full parameter vector p (P,), free
-    parameter names and values, standard deviations, correlation, and fit
-    statistics on the rows it saw."""
-
-    effects: List[str]
-    p: np.ndarray
-    names: List[str]
-    values: np.ndarray
-    std: np.ndarray
-    corr: np.ndarray
-    singular: np.ndarray
-    rms: float
-    ssr: float
-    n_obs: int
-    aic: float
-    bic: float
-    converged: bool
-    iterations: int
-
-    def params_by_effect(self, robot: Robot) -> Dict[str, List[float]]:
-        lay = plant.layout(robot)
-        return {e: self.p[lay[e]].tolist() for e in self.effects}
-
-    def std_by_effect(self, robot: Robot) -> Dict[str, List[float]]:
-        out, k = {}, 0
-        lay = plant.layout(robot)
-        for e in self.effects:
-            w = lay[e].stop - lay[e].start
-            out[e] = self.std[k:k + w].tolist()
-            k += w
-        return out
-
-
-def _free(robot: Robot, effects: Sequence[str]):
-    lay = plant.layout(robot)
-    idx, scale, names, nonneg = [], [], [], []
-    for e in effects:
-        if e not in lay:
-            raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(plant.EFFECTS)}")
-        sl = lay[e]
-        w = sl.stop - sl.start
-        idx.extend(range(sl.start, sl.stop))
-        scale.extend([plant.TYPICAL[e]] * w)
-        names.extend([f"{e}[{j}]" if w > 1 else e for j in range(w)])
-        nonneg.extend([e in plant.NON_NEGATIVE] * w)
-    return np.array(idx, dtype=int), np.array(scale), names, np.array(nonneg, bool)
-
-
-def _residual(prep: Prepared, P: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """(K, 2·len(rows)) prediction minus measurement for parameter sets P (K, P)."""
-    obs, conv = plant.predict(prep.robot, P, prep.theta_cmd[rows], prep.meas.dL[rows], prep.kind)
-    r = obs[:, :, :2] - prep.meas.measured[rows][None]
-    r[~conv] = np.nan
-    return r.reshape(len(P), -1)
-
-
-def fit(prep: Prepared, effects: Sequence[str], rows: Optional[np.ndarray] = None,
-        max_iter: int = 30) -> Fit:
-    """Least-squares fit of ``effects`` on ``rows`` (default: all usable) by
-    Levenberg–Marquardt in parameters scaled by their typical size; the
-    Jacobian by central differences, all parameter sets in one Rust call."""
-    robot = prep.robot
-    rows = prep.rows if rows is None else np.asarray(rows)
-    idx, scale, names, nonneg = _free(robot, effects)
-    P0 = np.zeros(plant.size(robot))
-    k = len(idx)
-
-    def full(z):
-        p = P0.copy()
-        p[idx] = z * scale
-        return p
-
-    z = np.zeros(k)
-    r = _residual(prep, full(z)[None], rows)[0]
-    if not np.isfinite(r).all():
-        raise CdsmInputError("the nominal model cannot realise some commanded rows")
-    cost = float(r @ r)
-    lam, it, conv = 1e-3, 0, k == 0
-    h = 1e-4
-    J = np.zeros((len(r), k))
-    while k and it < max_iter:
-        it += 1
-        sets = [full(z)]
-        lo = z - h
-        lo[nonneg] = np.maximum(lo[nonneg], 0.0)  # one-sided at the bound
-        for j in range(k):
-            for v in (lo[j] + 2 * h, lo[j]):
-                zz = z.copy()
-                zz[j] = v
-                sets.append(full(zz))
-        R = _residual(prep, np.array(sets), rows)
-        J = (R[1::2] - R[2::2]).T / (2 * h)
-        if not np.isfinite(J).all():
-            J = np.nan_to_num(J)
-        g = J.T @ r
-        A = J.T @ J
-        improved = False
-        while lam < 1e12:
-            step = np.linalg.solve(A + lam * np.diag(np.maximum(np.diag(A), 1e-12)), -g)
-            zn = z + step
-            zn[nonneg] = np.maximum(zn[nonneg], 0.0)
-            rn = _residual(prep, full(zn)[None], rows)[0]
-            cn = float(rn @ rn) if np.isfinite(rn).all() else np.inf
-            if cn < cost:
-                rel = (cost - cn) / max(cost, 1e-300)
-                z, r, cost = zn, rn, cn
-                lam = max(lam / 10, 1e-12)
-                improved = True
-                break
-            lam *= 10
-        if not improved or rel < 1e-10:
-            conv = True
-            break
-    m = len(r)
-    sigma2 = cost / max(m - k, 1)
-    if k:
-        col = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
-        _, sv, vt = np.linalg.svd(J / col, full_matrices=False)
-        cov_z = np.linalg.pinv(J.T @ J) * sigma2
-        std = np.sqrt(np.maximum(np.diag(cov_z), 0.0)) * scale
-        # a parameter with a share in a direction the data cannot see is not
-        # determined: its standard deviation is infinite, reported as NaN
-        null = vt[sv < 1e-8 * max(sv[0], 1e-300)] if len(sv) else np.zeros((0, k))
-        blind = (np.linalg.norm(J, axis=0) == 0) | ((null ** 2).sum(axis=0) > 1e-2)
-        std[blind] = np.nan
-        d = np.sqrt(np.maximum(np.diag(cov_z), 1e-300))
-        corr = cov_z / np.outer(d, d)
-    else:
-        sv, std, corr = np.zeros(0), np.zeros(0), np.zeros((0, 0))
-    ll = m * np.log(max(cost / m, 1e-300))
-    return Fit(list(effects), full(z), names, z * scale, std, corr, sv,
-               float(np.sqrt(cost / (m / 2))), cost, m, ll + 2 * k, ll + k * np.log(m), conv, it)
 
 
 def _folds(n_rows: int, k: int, seed: int = 0) -> List[np.ndarray]:
@@ -224,7 +92,7 @@ def cross_validate(prep: Prepared, effects: Sequence[str], folds: int = 10) -> n
         train = np.setdiff1d(np.arange(len(rows)), test)
         f = fit(prep, effects, rows[train]) if effects else None
         p = f.p if f is not None else np.zeros(plant.size(prep.robot))
-        r = _residual(prep, p[None], rows[test])[0].reshape(-1, 2)
+        r = residual_matrix(prep, p[None], rows[test])[0].reshape(-1, 2)
         err[test] = np.hypot(r[:, 0], r[:, 1])
     return err
 
@@ -320,8 +188,8 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     |theta_2| (rad), the smallest upper tension (N), the tip sensitivity to the
     upper cables (m/m), the cable that carries dL, and X, Y (m)."""
     robot, th = prep.robot, prep.theta_cmd
-    sv = workspace.singular_values(robot, th)
-    sens = workspace.sensitivity(robot, th)
+    sv = singular_values(robot, th)
+    sens = sensitivity(robot, th)
     pose = robot.fk(th)
     out = {
         "singularity (sigma_min/sigma_max)": sv[:, -1] / sv[:, 0],
@@ -348,7 +216,7 @@ def _ranks(v: np.ndarray) -> np.ndarray:
     return (sums / np.bincount(inv))[inv]
 
 
-def _spearman(a: np.ndarray, b: np.ndarray) -> float:
+def spearman(a: np.ndarray, b: np.ndarray) -> float:
     m = np.isfinite(a) & np.isfinite(b)
     if m.sum() < 3:
         return float("nan")
@@ -363,7 +231,7 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
              progress: bool = False) -> Diagnosis:
     """Diagnose the gap between ``robot`` and ``meas`` (see the module doc).
 
-    effects: the candidate library (default: every effect of :mod:`cdsm.plant`).
+    effects: the candidate library (default: every effect of :mod:`cdsm.calibration.plant`).
     noise: measurement noise per axis (m) for the noise floor. max_combination:
     the largest combination forward selection may build.
     """
@@ -421,9 +289,9 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     feats = features(prep)
     d.features = feats
     rows = prep.rows
-    r_base = _residual(prep, np.zeros(plant.size(robot))[None], rows)[0].reshape(-1, 2)
+    r_base = residual_matrix(prep, np.zeros(plant.size(robot))[None], rows)[0].reshape(-1, 2)
     size = np.hypot(r_base[:, 0], r_base[:, 1])
-    d.feature_correlation = {k: _spearman(v[rows], size) for k, v in feats.items()}
+    d.feature_correlation = {k: spearman(v[rows], size) for k, v in feats.items()}
     return d
 
 
@@ -433,5 +301,5 @@ def residuals(d: Diagnosis, which: str = "final") -> np.ndarray:
     prep = d.prep
     p = np.zeros(plant.size(prep.robot)) if which == "baseline" else d.final().fit.p
     out = np.full((len(prep.meas), 2), np.nan)
-    out[prep.rows] = _residual(prep, p[None], prep.rows)[0].reshape(-1, 2)
+    out[prep.rows] = residual_matrix(prep, p[None], prep.rows)[0].reshape(-1, 2)
     return out

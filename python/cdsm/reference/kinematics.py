@@ -45,6 +45,8 @@ __all__ = [
     "upper_cable_lengths",
     "cable_jacobian",
     "upper_cable_jacobian",
+    "segment_coefficients",
+    "segment_lengths",
     "ik",
     "solve_cables",
     "solve_cables_closed_form",
@@ -312,6 +314,20 @@ def _segments(g: _Geometry, theta: np.ndarray):
     s = np.where(mask[None], s, 0.0)
     ds = np.where(mask[None], ds, 0.0)
     return s, ds
+
+
+def segment_coefficients(robot):
+    """``P, Q, R`` ``(2n, n)`` (m^2) with ``s^2 = P + Q cos(theta_k) + R sin(theta_k)``
+    for segment ``k`` of cable ``c``, and the mask ``(2n, n)`` of the segments a
+    cable has."""
+    return _segment_pqr(_geometry(robot))
+
+
+def segment_lengths(robot, theta):
+    """Segment lengths ``s`` (m) and ``ds/dtheta_k`` (m/rad), both ``(N, 2n, n)``,
+    zero where a cable has no segment; ``theta (N, n)`` rad."""
+    g = _geometry(robot)
+    return _segments(g, _batch(theta, g.n, "theta"))
 
 
 def cable_lengths(robot, theta) -> np.ndarray:

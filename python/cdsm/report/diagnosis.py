@@ -4,28 +4,31 @@ self-contained HTML page (figures embedded), the figures as PNG, the per-row
 residuals as CSV and the diagnosis as JSON. SI units in the files; the text
 and figures show µm / mm / mrad / %.
 
-Every sentence is computed from the :class:`cdsm.diagnose.Diagnosis`; nothing
+Every sentence is computed from the :class:`cdsm.calibration.diagnosis.Diagnosis`; nothing
 is hard-coded. Entry points: :func:`write` (all files), :func:`findings` (the
 words, as a dict of paragraphs), :func:`summary` (a few lines for the CLI).
 
 Sign convention: the *gap* of a row is measured − model (m), i.e. minus the
-residual of :func:`cdsm.diagnose.residuals`.
+residual of :func:`cdsm.calibration.diagnosis.residuals`.
 """
 
 from __future__ import annotations
 
-import csv
-import json
 import math
 import os
 from typing import Dict, List, Tuple
 
 import numpy as np
 
-from . import __version__, diagnose, plant, plotting
-from .report import _Doc
+from .. import __version__
+from ..calibration import diagnosis as diagnose
+from ..calibration import plant
+from ..calibration.fit import residual_matrix
+from ..files import write_csv, write_json, write_text
+from .document import Document
+from .figures import BLUE, GREEN, RED, new_figure, save
 
-__all__ = ["write", "findings", "summary", "json_safe", "param_rows"]
+__all__ = ["write", "findings", "summary", "param_rows"]
 
 # words for the rank correlation of a feature with the residual size:
 # (meaning when rho > 0, meaning when rho < 0)
@@ -121,25 +124,6 @@ def param_rows(d: diagnose.Diagnosis, cand: diagnose.Candidate) -> List[Tuple[st
     return out
 
 
-def json_safe(obj):
-    """``obj`` with NumPy scalars/arrays turned into Python values and
-    non-finite floats into None (strict JSON)."""
-    if isinstance(obj, dict):
-        return {str(k): json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [json_safe(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return json_safe(obj.tolist())
-    if isinstance(obj, (np.bool_, bool)):
-        return bool(obj)
-    if isinstance(obj, (np.integer,)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        v = float(obj)
-        return v if math.isfinite(v) else None
-    return obj
-
-
 # ---------------------------------------------------------------------------
 # per-row quantities
 # ---------------------------------------------------------------------------
@@ -182,7 +166,7 @@ def _ranked_features(d: diagnose.Diagnosis, size: np.ndarray) -> List[Tuple[str,
     rows = d.prep.rows
     out = []
     for k, v in d.features.items():
-        rho = diagnose._spearman(np.asarray(v, float)[rows], size[rows])
+        rho = diagnose.spearman(np.asarray(v, float)[rows], size[rows])
         out.append((k, rho))
     fin = sorted([x for x in out if np.isfinite(x[1])], key=lambda x: -abs(x[1]))
     return fin + [x for x in out if not np.isfinite(x[1])]
@@ -193,7 +177,7 @@ def _similarity(d: diagnose.Diagnosis, a: diagnose.Candidate, b: diagnose.Candid
     that the fits of ``a`` and ``b`` make over the usable rows."""
     prep = d.prep
     P = np.stack([np.zeros(plant.size(prep.robot)), a.fit.p, b.fit.p])
-    r = diagnose._residual(prep, P, prep.rows)
+    r = residual_matrix(prep, P, prep.rows)
     ca, cb = r[1] - r[0], r[2] - r[0]
     den = float(np.linalg.norm(ca) * np.linalg.norm(cb))
     return float(ca @ cb / den) if den > 0 and np.isfinite(den) else float("nan")
@@ -385,7 +369,7 @@ def summary(d: diagnose.Diagnosis) -> List[str]:
 # figures
 # ---------------------------------------------------------------------------
 def _quiver_figure(d: diagnose.Diagnosis):
-    fig = plotting._figure(11.0, 4.8)
+    fig = new_figure(11.0, 4.8)
     xy = _commanded_xy(d) * 1e3
     g_b, g_f = _gaps(d)
     names = _row_names(d)
@@ -403,7 +387,7 @@ def _quiver_figure(d: diagnose.Diagnosis):
         ok = np.isfinite(g).all(1)
         ax.scatter(xy[:, 0], xy[:, 1], s=12, c="#999999", zorder=1)
         q = ax.quiver(xy[ok, 0], xy[ok, 1], g[ok, 0] * k, g[ok, 1] * k, angles="xy", scale_units="xy", scale=1,
-                      color=plotting.RED, width=0.006, zorder=3)
+                      color=RED, width=0.006, zorder=3)
         bad = ~d.prep.usable & np.isfinite(xy).all(1)
         if bad.any():
             ax.scatter(xy[bad, 0], xy[bad, 1], marker="x", s=50, c="k", zorder=4, label="flagged row")
@@ -429,11 +413,11 @@ def _quiver_figure(d: diagnose.Diagnosis):
 
 def _bars_figure(d: diagnose.Diagnosis):
     N = len(d.prep.meas)
-    fig = plotting._figure(max(7.0, min(16.0, 0.22 * N + 4)), 5.2)
+    fig = new_figure(max(7.0, min(16.0, 0.22 * N + 4)), 5.2)
     g_b, g_f = _gaps(d)
     axes = fig.subplots(2, 1, sharex=True)
     x = np.arange(N)
-    for ax, j, lab, col in ((axes[0], 0, "dX", plotting.RED), (axes[1], 1, "dY", plotting.BLUE)):
+    for ax, j, lab, col in ((axes[0], 0, "dX", RED), (axes[1], 1, "dY", BLUE)):
         ax.axhspan(-d.noise * 1e6, d.noise * 1e6, color="#2ca02c", alpha=0.15, label="± noise (1 σ)")
         ax.bar(x - 0.2, g_b[:, j] * 1e6, 0.4, color=col, alpha=0.35, label="nominal model")
         ax.bar(x + 0.2, g_f[:, j] * 1e6, 0.4, color=col, label=f"final: {d.best}")
@@ -454,16 +438,16 @@ def _bars_figure(d: diagnose.Diagnosis):
 def _candidates_figure(d: diagnose.Diagnosis):
     cands = list(d.singles) + [c for c in d.steps if len(c.effects) > 1]
     cands.sort(key=lambda c: c.heldout_rms)
-    fig = plotting._figure(8.0, max(3.0, 0.35 * (len(cands) + 1) + 1.2))
+    fig = new_figure(8.0, max(3.0, 0.35 * (len(cands) + 1) + 1.2))
     ax = fig.subplots()
     vals = [c.heldout_rms * 1e6 for c in cands] + [d.baseline.heldout_rms * 1e6]
     labels = [c.name for c in cands] + ["none (nominal)"]
-    cols = [plotting.RED if c.name == d.best else plotting.BLUE for c in cands] + ["#888888"]
+    cols = [RED if c.name == d.best else BLUE for c in cands] + ["#888888"]
     y = np.arange(len(vals))[::-1]
     ax.barh(y, vals, color=cols)
     ax.set_yticks(y)
     ax.set_yticklabels(labels, fontsize=8)
-    ax.axvline(d.noise_floor * 1e6, color=plotting.GREEN, ls="--", label=f"noise floor {d.noise_floor * 1e6:.1f} µm")
+    ax.axvline(d.noise_floor * 1e6, color=GREEN, ls="--", label=f"noise floor {d.noise_floor * 1e6:.1f} µm")
     ax.axvline(d.baseline.heldout_rms * 1e6, color="#555555", ls=":",
                label=f"nominal {d.baseline.heldout_rms * 1e6:.1f} µm")
     fin = [v for v in vals if np.isfinite(v) and v > 0]
@@ -483,13 +467,13 @@ def _features_figure(d: diagnose.Diagnosis, k: int = 4):
     feats = [(n, r) for n, r in _ranked_features(d, sb) if np.isfinite(r)][:k]
     if not feats:
         return None
-    fig = plotting._figure(4.0 * len(feats), 3.8)
+    fig = new_figure(4.0 * len(feats), 3.8)
     axes = np.atleast_1d(fig.subplots(1, len(feats), sharey=True))
     for ax, (name, rho) in zip(axes, feats):
         v = np.asarray(d.features[name], float)
-        ax.scatter(v, sb * 1e6, facecolors="none", edgecolors=plotting.BLUE, label="nominal model")
-        ax.scatter(v, sf * 1e6, c=plotting.RED, s=14, label=f"final: {d.best}")
-        ax.axhline(d.noise_floor * 1e6, color=plotting.GREEN, ls="--", lw=1)
+        ax.scatter(v, sb * 1e6, facecolors="none", edgecolors=BLUE, label="nominal model")
+        ax.scatter(v, sf * 1e6, c=RED, s=14, label=f"final: {d.best}")
+        ax.axhline(d.noise_floor * 1e6, color=GREEN, ls="--", lw=1)
         ax.set_xlabel(name)
         ax.set_title(f"ρ = {rho:+.2f}", loc="left")
         ax.grid(alpha=0.3)
@@ -506,7 +490,7 @@ def figures(d: diagnose.Diagnosis, figdir: str) -> Dict[str, str]:
                        ("candidates", _candidates_figure), ("features", _features_figure)):
         fig = make(d)
         if fig is not None:
-            out[name] = plotting.save(fig, os.path.join(figdir, f"{name}.png"))
+            out[name] = save(fig, os.path.join(figdir, f"{name}.png"))
     return out
 
 
@@ -525,11 +509,11 @@ _CAPTIONS = {
 # ---------------------------------------------------------------------------
 # the report
 # ---------------------------------------------------------------------------
-def _build(d: diagnose.Diagnosis, pngs: Dict[str, str]) -> _Doc:
+def _build(d: diagnose.Diagnosis, pngs: Dict[str, str]) -> Document:
     prep = d.prep
     f = findings(d)
     names = _row_names(d)
-    doc = _Doc()
+    doc = Document()
     doc.h(1, "Sim-to-real gap diagnosis")
     src = prep.meas.source or "measurements"
     doc.p(f"Data: `{src}` — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
@@ -627,20 +611,10 @@ def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]") -> Dict[str, str
     pngs = figures(d, figdir)
     doc = _build(d, pngs)
     paths = {"figures": figdir}
-    paths["report_md"] = os.path.join(out, "report.md")
-    with open(paths["report_md"], "w", encoding="utf-8") as fh:
-        fh.write(doc.markdown("figures"))
-    paths["report_html"] = os.path.join(out, "report.html")
-    with open(paths["report_html"], "w", encoding="utf-8") as fh:
-        fh.write(doc.html(pngs, f"cdsm diagnose — {d.prep.meas.source or 'measurements'}"))
-    paths["json"] = os.path.join(out, "diagnosis.json")
-    with open(paths["json"], "w", encoding="utf-8") as fh:
-        json.dump(json_safe(d.to_json()), fh, indent=1, allow_nan=False)
-    paths["csv"] = os.path.join(out, "residuals.csv")
-    rows = _residual_rows(d)
-    with open(paths["csv"], "w", newline="", encoding="utf-8") as fh:
-        w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (repr(float(v)) if isinstance(v, (float, np.floating)) else v) for k, v in r.items()})
+    paths["report_md"] = write_text(os.path.join(out, "report.md"), doc.markdown("figures"), "report")
+    paths["report_html"] = write_text(os.path.join(out, "report.html"),
+                                      doc.html(pngs, f"cdsm diagnose — {d.prep.meas.source or 'measurements'}"),
+                                      "report")
+    paths["json"] = write_json(os.path.join(out, "diagnosis.json"), d.to_json(), "diagnosis")
+    paths["csv"] = write_csv(os.path.join(out, "residuals.csv"), _residual_rows(d), "residuals")
     return paths

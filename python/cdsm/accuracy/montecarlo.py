@@ -1,118 +1,32 @@
-"""The paper's error studies (Fig. 3) over the Rust core. SI units: m, rad.
+"""Monte-Carlo error studies (the paper's Fig. 7) in the Rust core: random
+composite errors on the upper-cable lengths and hole heights, streamed in
+chunks with bounded memory and reduced to per-configuration statistics, and
+those statistics as arrays (``.npz``). SI units: m, rad.
 
-* :func:`deviation` — one scenario: cable-length error ``dL`` on the upper
-  cables, hole-location error (``dh`` per disk, or ``dholes`` per hole), or both.
-* :func:`monte_carlo` — random composite errors (Fig. 7), streamed in chunks with
-  bounded memory and reduced to per-configuration statistics.
+Cluster runs (Dask) split the same chunks over workers:
+:mod:`cdsm.accuracy.distributed`.
 """
 
 from __future__ import annotations
 
-import sys
-import time
+import json
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _cdsm
-from .robot import CdsmInputError, Robot, Solution, _batch, _vector
+from .. import _cdsm
+from ..inputs import CdsmInputError, as_batch, as_tolerances
+from ..progress import Progress
+from ..robot import Robot
+from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 
-__all__ = ["deviation", "Deviation", "monte_carlo", "monte_carlo_chunk", "chunk_sizes",
-           "MonteCarlo", "Progress"]
+__all__ = ["MonteCarlo", "monte_carlo", "monte_carlo_chunk", "chunk_sizes", "sample_errors",
+           "QUANTITY_NAMES", "QUANTITY_UNITS", "DEFAULT_PERCENTILES",
+           "summary", "save_npz", "load_npz"]
 
-
-@dataclass(frozen=True)
-class Deviation:
-    """Result of :func:`deviation`.
-
-    dS: (N, 3) tip deviation [dX (m), dY (m), dphi (rad)], NaN where the solve
-    failed. theta0: (N, n) initial angles, rad. solution: the perturbed cable
-    solves. ik: the pose IK that produced theta0, when poses were given.
-    feasible: (N,) every upper cable taut (tension > 0 N, the robot's lower
-    tensions, no external load) both before and after the error; False flags
-    a configuration the hybrid-controlled arm cannot hold with taut cables.
-    """
-
-    dS: np.ndarray
-    theta0: np.ndarray
-    solution: Solution
-    ik: Optional[Solution] = None
-    feasible: Optional[np.ndarray] = None
-
-    @property
-    def ok(self) -> np.ndarray:
-        """(N,) both the initial pose IK (if any) and the perturbed solve converged."""
-        ok = np.asarray(self.solution.converged, dtype=bool)
-        if self.ik is not None:
-            ok = ok & np.asarray(self.ik.converged, dtype=bool)
-        return ok
-
-
-def _theta0(robot: Robot, theta0, poses, ik_seed):
-    if (theta0 is None) == (poses is None):
-        raise CdsmInputError("`theta0`, `poses`: give exactly one of them")
-    if theta0 is not None:
-        t, _ = _batch("theta0", theta0, robot.n)
-        return t, None
-    p, _ = _batch("poses", poses, 3)
-    sol = robot.ik(p, seed=ik_seed)
-    return np.ascontiguousarray(np.atleast_2d(sol.theta)), sol
-
-
-def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes=None,
-              ik_seed=None, method: str = "auto", tol: float = 1e-12,
-              max_iter: int = 100) -> Deviation:
-    """Tip deviation caused by cable-length and hole-location errors (Fig. 3a–c).
-
-    theta0: (N, n) initial joint angles, rad — or poses: (N, 3) [x, y, phi]
-    (m, m, rad), solved by the pose IK from ``ik_seed`` (default theta = 0).
-    dL: (n,) error on each upper cable, m (L = L0 + dL). dh: (n,) the paper's
-    error on disk i's holes (hole height of pair i), m. dholes: (2n, n+1, 2, 2)
-    an error on every hole coordinate, m. Holes and lengths may be combined.
-    """
-    t0, ik = _theta0(robot, theta0, poses, ik_seed)
-    dl = np.zeros(robot.n) if dL is None else _vector("dL", dL, robot.n)
-    if dh is not None and dholes is not None:
-        raise CdsmInputError("`dh`, `dholes`: give at most one of them")
-    holes = None
-    if dh is not None:
-        holes = robot.hole_height_error(dh)
-    elif dholes is not None:
-        d = np.asarray(dholes, dtype=np.float64)
-        if d.shape != robot.holes.shape:
-            raise CdsmInputError(f"`dholes`: expected shape {robot.holes.shape}, got {d.shape}")
-        if not np.isfinite(d).all():
-            raise CdsmInputError("`dholes`: contains non-finite values")
-        holes = robot.holes + d
-    if holes is not None:
-        holes = np.ascontiguousarray(holes.reshape(-1))
-    ds, parts = robot._core.deviation(t0, dl, holes, method, float(tol), int(max_iter), robot.threads)
-    sol = Solution._from_core(parts, robot.n, False)
-    feasible = robot.feasible(t0) & robot.feasible(sol.theta)
-    return Deviation(ds.reshape(-1, 3), t0, sol, ik, feasible)
-
-
-class Progress:
-    """A plain progress line on stderr (shown when ``enabled``)."""
-
-    def __init__(self, total: int, label: str, enabled: bool = True):
-        self.total, self.label, self.enabled = total, label, enabled
-        self.done, self.t0 = 0, time.perf_counter()
-
-    def update(self, k: int) -> None:
-        self.done += k
-        if not self.enabled:
-            return
-        el = time.perf_counter() - self.t0
-        frac = self.done / max(self.total, 1)
-        eta = el / frac - el if frac > 0 else float("nan")
-        bar = "#" * int(30 * frac)
-        sys.stderr.write(f"\r{self.label} [{bar:<30}] {self.done}/{self.total} "
-                         f"{el:6.1f}s elapsed, {eta:6.1f}s left")
-        if self.done >= self.total:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+DEFAULT_PERCENTILES = (50.0, 95.0, 99.0)
+QUANTITY_UNITS = ("m", "m", "rad", "m")
 
 
 QUANTITY_NAMES = ("dX", "dY", "dphi", "dXY")
@@ -201,15 +115,8 @@ def sample_errors(n: int, samples: int, seed: int, chunk_index: int, dl_tol, dh_
     return np.ascontiguousarray(dl), np.ascontiguousarray(dh)
 
 
-def _tolerance(name: str, value, n: int) -> np.ndarray:
-    arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)).copy()
-    if not np.isfinite(arr).all() or (arr < 0).any():
-        raise CdsmInputError(f"`{name}`: tolerances must be finite and >= 0 (m), got {value}")
-    return arr
-
-
-def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol=1e-3,
-                dh_tol=0.35e-3, chunk: int = 100, progress: bool = True,
+def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol=PAPER_DL_TOL,
+                dh_tol=PAPER_DH_TOL, chunk: int = 100, progress: bool = True,
                 method: str = "auto", check_slack: bool = False) -> MonteCarlo:
     """Random composite errors (the paper's Fig. 7): every sample draws a
     uniform error within ±dl_tol on each upper cable and ±dh_tol on each disk's
@@ -219,10 +126,10 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     ``check_slack`` every converged sample is also checked for a slack upper
     cable (statics; about twice the run time): ``MonteCarlo.slack``.
     """
-    t0, _ = _batch("theta0", theta0, robot.n)
+    t0, _ = as_batch("theta0", theta0, robot.n)
     if int(samples) < 1 or int(chunk) < 1:
         raise CdsmInputError(f"`samples`, `chunk`: must be >= 1, got {samples}, {chunk}")
-    dlt, dht = _tolerance("dl_tol", dl_tol, robot.n), _tolerance("dh_tol", dh_tol, robot.n)
+    dlt, dht = as_tolerances("dl_tol", dl_tol, robot.n), as_tolerances("dh_tol", dh_tol, robot.n)
     total, out = int(samples), None
     bar = Progress(total, "monte carlo", progress)
     for c, m in enumerate(chunk_sizes(total, chunk)):
@@ -256,7 +163,7 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     not depend on it. This is the unit of work of local and cluster runs."""
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
     th = robot.threads if threads is None else int(threads)
-    raw = robot._core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
+    raw = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
     out = _stats(theta0, raw)
     if check_slack:
         out.slack = raw["slack"].astype(np.int64)
@@ -270,3 +177,64 @@ def _stats(theta0: np.ndarray, raw: dict) -> MonteCarlo:
                       sum=raw["sum"].reshape(-1, q), sum_sq=raw["sum_sq"].reshape(-1, q),
                       min=raw["min"].reshape(-1, q), max=raw["max"].reshape(-1, q),
                       hist=raw["hist"].reshape(-1, _cdsm.HIST_BINS).astype(np.int64))
+
+
+# ---------------------------------------------------------------------------
+# results as arrays
+# ---------------------------------------------------------------------------
+def _pkey(p: float) -> str:
+    return "p" + f"{p:g}".replace(".", "_")
+
+
+def summary(mc: MonteCarlo, percentiles: Sequence[float] = DEFAULT_PERCENTILES) -> Dict[str, np.ndarray]:
+    """Per-configuration arrays of a study (N configurations): ``count``,
+    ``failed`` (N,); ``mean``, ``std``, ``min``, ``max``, ``max_abs``, ``sum``,
+    ``sum_sq`` (N, 4) over [dX (m), dY (m), dphi (rad), |d(X, Y)| (m)];
+    ``p50``, ``p95``, ... (N,) percentiles of |d(X, Y)|, m (``p99_9`` for
+    99.9), also stacked as ``dxy_percentiles`` (N, P) with ``percentiles``
+    (P,); ``hist`` (N, bins) and ``hist_edges`` (bins - 1,) m."""
+    pct = np.asarray([float(p) for p in percentiles], dtype=np.float64)
+    out = dict(theta0=mc.theta0, count=mc.count, failed=mc.failed, mean=mc.mean, std=mc.std,
+               min=mc.min, max=mc.max, max_abs=mc.max_abs, sum=mc.sum, sum_sq=mc.sum_sq,
+               hist=mc.hist, hist_edges=mc.hist_edges(), percentiles=pct,
+               quantities=np.array(QUANTITY_NAMES), units=np.array(QUANTITY_UNITS))
+    cols = [mc.percentile(p) for p in pct]
+    out["dxy_percentiles"] = np.stack(cols, axis=1) if cols else np.zeros((len(mc.count), 0))
+    for p, col in zip(pct, cols):
+        out[_pkey(p)] = col
+    return out
+
+
+def save_npz(path: str, mc: MonteCarlo, poses: Optional[np.ndarray] = None,
+             params: Optional[dict] = None,
+             percentiles: Sequence[float] = DEFAULT_PERCENTILES) -> Dict[str, np.ndarray]:
+    """Writes :func:`summary` (+ ``poses`` (N, 3) [x, y, phi] m, m, rad) to a
+    compressed .npz; ``params`` (run parameters, merged over ``mc.params``) as
+    a JSON string (0-d str array, key ``params``). Returns the arrays."""
+    arrays = summary(mc, percentiles)
+    if poses is not None:
+        arrays["poses"] = np.asarray(poses, dtype=np.float64)
+    p = dict(mc.params)
+    p.update(params or {})
+    arrays["params"] = np.array(json.dumps(p, sort_keys=True, default=_json_default))
+    np.savez_compressed(path, **arrays)
+    return arrays
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def load_npz(path: str) -> Tuple[MonteCarlo, dict]:
+    """A study written by :func:`save_npz`: the :class:`MonteCarlo` (exact
+    sums and histogram, mergeable with another run's) and its params."""
+    with np.load(path, allow_pickle=False) as z:
+        params = json.loads(str(z["params"]))
+        mc = MonteCarlo(theta0=z["theta0"], count=z["count"], failed=z["failed"], sum=z["sum"],
+                        sum_sq=z["sum_sq"], min=z["min"], max=z["max"], hist=z["hist"],
+                        params=params)
+    return mc, params

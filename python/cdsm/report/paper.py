@@ -7,17 +7,19 @@ nothing is hard-coded. :func:`write` is the entry point.
 
 from __future__ import annotations
 
-import base64
-import csv
-import html
 import os
 from typing import Dict, List
 
 import numpy as np
 
-from . import __version__, plotting, workspace
-from .paper import _rms
-from .workspace import REASONS
+from .. import __version__
+from ..accuracy.workspace import MIN_LINE, REASONS
+from ..files import write_csv, write_text
+from ..paper import finite_rms
+from . import diagnosis as diagnosis_report
+from .document import Document
+from .figures import file_key
+from .paper_figures import all_figures
 
 __all__ = ["write", "headline"]
 
@@ -25,92 +27,6 @@ PROTO_NAMES = {
     "attitude0": "attitude-0 protocol",
     "joint": "joint-space protocol",
 }
-
-
-# ---------------------------------------------------------------------------
-# small document model rendered to Markdown and HTML
-# ---------------------------------------------------------------------------
-class _Doc:
-    def __init__(self):
-        self.blocks: List[tuple] = []
-
-    def h(self, level: int, text: str):
-        self.blocks.append(("h", level, text))
-
-    def p(self, text: str):
-        self.blocks.append(("p", text))
-
-    def ul(self, items: List[str]):
-        self.blocks.append(("ul", items))
-
-    def table(self, header: List[str], rows: List[List[str]]):
-        self.blocks.append(("table", header, rows))
-
-    def fig(self, name: str, caption: str):
-        self.blocks.append(("fig", name, caption))
-
-    # -- renderers --
-    def markdown(self, figdir: str) -> str:
-        out = []
-        for b in self.blocks:
-            if b[0] == "h":
-                out.append("#" * b[1] + " " + b[2])
-            elif b[0] == "p":
-                out.append(b[1])
-            elif b[0] == "ul":
-                out.append("\n".join(f"- {i}" for i in b[1]))
-            elif b[0] == "table":
-                hdr, rows = b[1], b[2]
-                lines = ["| " + " | ".join(str(h).replace("|", "\\|") for h in hdr) + " |", "|" + "---|" * len(hdr)]
-                lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
-                out.append("\n".join(lines))
-            elif b[0] == "fig":
-                out.append(f"![{b[2]}]({figdir}/{b[1]}.png)\n\n*{b[2]}*")
-        return "\n\n".join(out) + "\n"
-
-    def html(self, pngs: Dict[str, str], title: str) -> str:
-        def inline(t: str) -> str:
-            t = html.escape(t)
-            # **bold** and `code`
-            parts = t.split("**")
-            t = "".join(f"<b>{s}</b>" if i % 2 else s for i, s in enumerate(parts))
-            parts = t.split("`")
-            return "".join(f"<code>{s}</code>" if i % 2 else s for i, s in enumerate(parts))
-
-        body = []
-        for b in self.blocks:
-            if b[0] == "h":
-                body.append(f"<h{b[1]}>{inline(b[2])}</h{b[1]}>")
-            elif b[0] == "p":
-                body.append(f"<p>{inline(b[1])}</p>")
-            elif b[0] == "ul":
-                body.append("<ul>" + "".join(f"<li>{inline(i)}</li>" for i in b[1]) + "</ul>")
-            elif b[0] == "table":
-                hdr = "".join(f"<th>{inline(h)}</th>" for h in b[1])
-                rows = "".join("<tr>" + "".join(f"<td>{inline(str(c))}</td>" for c in r) + "</tr>"
-                               for r in b[2])
-                body.append(f"<div class='tw'><table><thead><tr>{hdr}</tr></thead><tbody>{rows}</tbody></table></div>")
-            elif b[0] == "fig":
-                path = pngs.get(b[1])
-                if path is None:
-                    continue
-                with open(path, "rb") as fh:
-                    data = base64.b64encode(fh.read()).decode("ascii")
-                body.append(f"<figure><img alt='{html.escape(b[2], quote=True)}' "
-                            f"src='data:image/png;base64,{data}'><figcaption>{inline(b[2])}</figcaption></figure>")
-        css = """
-body{font-family:-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:1200px;margin:2em auto;
-padding:0 1.2em;color:#222;line-height:1.5}
-h1{border-bottom:2px solid #1f5fbf;padding-bottom:.3em}h2{margin-top:2em;border-bottom:1px solid #ccc}
-table{border-collapse:collapse;margin:1em 0;font-size:.88em}th,td{border:1px solid #ccc;padding:.3em .6em;
-text-align:left;vertical-align:top}th{background:#eef3fb}tr:nth-child(even) td{background:#fafafa}
-.tw{overflow-x:auto}figure{margin:1.5em 0}img{max-width:100%;border:1px solid #ddd}
-figcaption{font-size:.9em;color:#444;margin-top:.3em}code{background:#f3f3f3;padding:0 .2em}
-"""
-        return (f"<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
-                f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
-                f"<title>{html.escape(title)}</title><style>{css}</style></head><body>\n"
-                + "\n".join(body) + "\n</body></html>\n")
 
 
 # ---------------------------------------------------------------------------
@@ -137,7 +53,7 @@ def scenario_rows(study) -> List[dict]:
             scenario=r.scenario.key, label=r.scenario.label, figure=r.scenario.figure, protocol=r.protocol,
             configurations=len(r.ok), solved=int(r.ok.sum()), unreachable=ws.n_unreachable,
             no_solution_after_error=int((ws.reachable & ~r.ok).sum()),
-            rms_dxy_m=_rms(pos), max_dxy_m=_nanmax(pos), max_abs_dx_m=_nanmax(np.abs(d[:, 0])),
+            rms_dxy_m=finite_rms(pos), max_dxy_m=_nanmax(pos), max_abs_dx_m=_nanmax(np.abs(d[:, 0])),
             max_abs_dy_m=_nanmax(np.abs(d[:, 1])), max_abs_dphi_rad=_nanmax(np.abs(d[:, 2])),
             jump_points=int(r.jumps.point.sum()), jump_edges=int(r.jumps.edge_jump.sum()),
             **{f"jumps_{k.replace(' ', '_').replace('-', '_')}": int(cnt.get(k, 0)) for k in REASONS}))
@@ -182,18 +98,6 @@ def headline(study) -> Dict[str, float]:
 # ---------------------------------------------------------------------------
 # CSV
 # ---------------------------------------------------------------------------
-def _write_csv(path: str, rows: List[dict]) -> str:
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        if not rows:
-            fh.write("\n")
-            return path
-        w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (repr(float(v)) if isinstance(v, (float, np.floating)) else v) for k, v in r.items()})
-    return path
-
-
 def _table3_rows(study) -> List[dict]:
     t = study.table3
     rows = []
@@ -256,8 +160,8 @@ def _explanations(study) -> List[str]:
     jumps = {(r.scenario.key, r.protocol): int(r.jumps.point.sum()) for r in study.scenarios}
     if n >= 1 and "attitude0" in protos and "joint" in protos:
         last = f"disk{n}"
-        a0 = [_rms(study.result(f"{last}{s}", "attitude0").position_mm) for s in "-+"]
-        jt = [_rms(study.result(f"{last}{s}", "joint").position_mm) for s in "-+"]
+        a0 = [finite_rms(study.result(f"{last}{s}", "attitude0").position_mm) for s in "-+"]
+        jt = [finite_rms(study.result(f"{last}{s}", "joint").position_mm) for s in "-+"]
         mx = [_nanmax(study.result(f"{last}{s}", "attitude0").position_mm) for s in "-+"]
         out.append(
             f"**Disk {n}'s hole error is second order under attitude 0.** The upper cable of pair {n} crosses "
@@ -363,9 +267,9 @@ def _explanations(study) -> List[str]:
 # ---------------------------------------------------------------------------
 # the report
 # ---------------------------------------------------------------------------
-def _build(study, pngs: Dict[str, str]) -> _Doc:
+def _build(study, pngs: Dict[str, str]) -> Document:
     robot, n = study.robot, study.robot.n
-    doc = _Doc()
+    doc = Document()
     prm = study.params
     doc.h(1, "Tip-positioning accuracy of a cable-driven serpentine manipulator — the seed paper's study")
     doc.p(f"Robot: **{robot.name}**, {n} joints, {2 * n} cables; cdsm {__version__}. Monte Carlo: "
@@ -420,13 +324,11 @@ def _build(study, pngs: Dict[str, str]) -> _Doc:
               "The measured column ships with the package (`cdsm/data/table3.csv`, SI units).")
 
     if study.diagnosis is not None:
-        from . import diagnose_report
-
         doc.h(2, "Where the model departs from the measurements (Table 3 diagnosis)")
         doc.p("The paper stops at 'other secondary factors' for the Table 3 differences. `cdsm diagnose` fits "
               "every candidate unmodelled effect to the nine measured displacements and judges them on "
               "held-out rows (run `cdsm diagnose cdsm/data/table3.csv --report DIR` for the full report):")
-        f = diagnose_report.findings(study.diagnosis)
+        f = diagnosis_report.findings(study.diagnosis)
         for key in ("answer", "where", "shrink", "identifiability"):
             for para in f.get(key, []):
                 doc.p(para)
@@ -455,7 +357,7 @@ def _build(study, pngs: Dict[str, str]) -> _Doc:
     elif all(len(ws.neighbours) == 0 for ws in study.workspaces.values()):
         doc.p(f"Jump points were not searched: the default grid of this {n}-joint robot "
               f"({next(iter(study.workspaces.values())).describe_grid()}) has fewer than "
-              f"{workspace.MIN_LINE} values per joint, too few to judge a change against its neighbours.")
+              f"{MIN_LINE} values per joint, too few to judge a change against its neighbours.")
     else:
         doc.p("No jump points were found in any scenario.")
     for p, sv in study.singular.items():
@@ -560,7 +462,7 @@ def _captions(study) -> Dict[str, str]:
                                    "mean dX (red), dY (blue), dphi (green).")
         for r in study.scenarios:
             if r.protocol == p:
-                caps[f"scenario_{p}_{plotting._safe(r.scenario.key)}"] = (
+                caps[f"scenario_{p}_{file_key(r.scenario.key)}"] = (
                     f"{r.scenario.label} ({r.scenario.figure or r.scenario.key}) — {pn}: dX red, dY blue, dphi green "
                     "over the tip positions; black rings: jump points.")
     caps["singular"] = "sigma_min/sigma_max of the pose Jacobian over the workspace, both protocols."
@@ -595,27 +497,25 @@ def write(study, out: "str | os.PathLike[str]", progress: bool = False) -> Dict[
     out = os.fspath(out)
     figdir = os.path.join(out, "figures")
     os.makedirs(figdir, exist_ok=True)
-    pngs = _order(plotting.all_figures(study, figdir, progress=progress))
+    pngs = _order(all_figures(study, figdir, progress=progress))
     paths: Dict[str, str] = {"figures": figdir}
     srows = scenario_rows(study)
-    paths["scenarios_csv"] = _write_csv(os.path.join(out, "scenarios.csv"), [
+    paths["scenarios_csv"] = write_csv(os.path.join(out, "scenarios.csv"), [
         {k: v for k, v in r.items() if not k.startswith("jumps_") and k != "jump_edges"} for r in srows])
-    paths["jumps_csv"] = _write_csv(os.path.join(out, "jumps.csv"), [
+    paths["jumps_csv"] = write_csv(os.path.join(out, "jumps.csv"), [
         dict(scenario=r["scenario"], protocol=r["protocol"], jump_points=r["jump_points"],
              jump_pairs=r["jump_edges"], **{k: v for k, v in r.items() if k.startswith("jumps_")}) for r in srows])
-    paths["claims_csv"] = _write_csv(os.path.join(out, "claims.csv"), [
+    paths["claims_csv"] = write_csv(os.path.join(out, "claims.csv"), [
         dict(claim=c["claim"], paper=c["paper"], ours=c["ours"], holds=bool(c["holds"])) for c in study.claims])
-    paths["montecarlo_csv"] = _write_csv(os.path.join(out, "montecarlo.csv"), _mc_config_rows(study))
+    paths["montecarlo_csv"] = write_csv(os.path.join(out, "montecarlo.csv"), _mc_config_rows(study))
     if study.table3 is not None:
-        paths["table3_csv"] = _write_csv(os.path.join(out, "table3.csv"), _table3_rows(study))
+        paths["table3_csv"] = write_csv(os.path.join(out, "table3.csv"), _table3_rows(study))
     if study.table2:
-        paths["table2_csv"] = _write_csv(os.path.join(out, "table2.csv"), _table2_rows(study))
+        paths["table2_csv"] = write_csv(os.path.join(out, "table2.csv"), _table2_rows(study))
     doc = _build(study, pngs)
     md = os.path.join(out, "report.md")
-    with open(md, "w", encoding="utf-8") as fh:
-        fh.write(doc.markdown("figures"))
+    write_text(md, doc.markdown("figures"), "report")
     ht = os.path.join(out, "report.html")
-    with open(ht, "w", encoding="utf-8") as fh:
-        fh.write(doc.html(pngs, f"cdsm paper study — {study.robot.name}"))
+    write_text(ht, doc.html(pngs, f"cdsm paper study — {study.robot.name}"), "report")
     paths["report_md"], paths["report_html"] = md, ht
     return paths

@@ -4,7 +4,7 @@ The paper's conclusion: "If we can avoid these special points in trajectory
 planning, the tip positioning accuracy will be significantly improved." For a
 target pose we pick the joint configuration whose tip is least sensitive to
 the cable-length and hole-height errors, measured by the linear RMS of the
-tip position error (``tolerance.amplification``: ``sqrt(sum_ij S_ij^2 t_j^2 / 3)``,
+tip position error (:func:`cdsm.accuracy.sensitivity.amplification`: ``sqrt(sum_ij S_ij^2 t_j^2 / 3)``,
 i in x, y; ``t`` the tolerances, default the paper's ±1 mm per cable and
 ±0.35 mm per disk):
 
@@ -31,19 +31,22 @@ from typing import Optional
 
 import numpy as np
 
-from .errors import monte_carlo
-from .robot import CdsmInputError, Robot, _batch
-from .tolerance import BASE_CABLE_M, BASE_HOLE_M, amplification, pooled_percentile, sensitivities
+from ..inputs import CdsmInputError, as_batch
+from ..robot import Robot
+from .montecarlo import monte_carlo
+from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
+from .sensitivity import amplification, sensitivities
+from .tolerance import pooled_percentile
 
 __all__ = ["rms_amplification", "ik_branches", "best_configurations", "null_space_optimize",
            "path_configurations", "compare_with_default"]
 
 
-def rms_amplification(robot: Robot, theta, dl_tol=BASE_CABLE_M, dh_tol=BASE_HOLE_M) -> np.ndarray:
+def rms_amplification(robot: Robot, theta, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL) -> np.ndarray:
     """(N,) linear RMS of |d(x, y)| (m) at ``theta (N, n)`` rad for uniform
     errors within ±dl_tol per upper cable and ±dh_tol per disk (m); inf where
     the cable Jacobian is singular."""
-    t, _ = _batch("theta", theta, robot.n)
+    t, _ = as_batch("theta", theta, robot.n)
     v = amplification(sensitivities(robot, t), dl_tol, dh_tol)["rms_xy"]
     return np.where(np.isfinite(v), v, np.inf)
 
@@ -59,7 +62,7 @@ def ik_branches(robot: Robot, poses, seeds=None):
 
     Returns ``theta (N, B, n)`` rad and ``valid (N, B)`` (converged, within the
     joint limits, not a duplicate of an earlier seed's answer)."""
-    p, _ = _batch("poses", poses, 3)
+    p, _ = as_batch("poses", poses, 3)
     n = robot.n
     if seeds is None:
         seeds = []
@@ -82,20 +85,20 @@ def ik_branches(robot: Robot, poses, seeds=None):
     return cand, valid
 
 
-def null_space_optimize(robot: Robot, poses, theta_start, dl_tol=BASE_CABLE_M, dh_tol=BASE_HOLE_M,
+def null_space_optimize(robot: Robot, poses, theta_start, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL,
                         iters: int = 60, theta_prev=None, mu: float = 0.0, step: float = 0.05,
                         margin: float = np.radians(0.5)) -> np.ndarray:
     """Null-space descent (n > 3) of ``rms² + mu |θ - θ_prev|²`` keeping the
     pose: ``poses (N, 3)``, ``theta_start (N, n)`` rad (must reach the poses);
     returns the improved ``theta (N, n)``. ``step``: initial max joint step,
     rad; joint limits shrunk by ``margin`` rad."""
-    p, _ = _batch("poses", poses, 3)
-    th, _ = _batch("theta_start", theta_start, robot.n)
+    p, _ = as_batch("poses", poses, 3)
+    th, _ = as_batch("theta_start", theta_start, robot.n)
     th = th.copy()
     n, N = robot.n, len(p)
     lim = robot.joint_limits
     lo, hi = lim[:, 0] + margin, lim[:, 1] - margin
-    prev = None if theta_prev is None else _batch("theta_prev", theta_prev, n)[0]
+    prev = None if theta_prev is None else as_batch("theta_prev", theta_prev, n)[0]
 
     def objective(t, rows=None):
         f = rms_amplification(robot, t, dl_tol, dh_tol) ** 2
@@ -139,7 +142,7 @@ def null_space_optimize(robot: Robot, poses, theta_start, dl_tol=BASE_CABLE_M, d
     return th
 
 
-def best_configurations(robot: Robot, poses, dl_tol=BASE_CABLE_M, dh_tol=BASE_HOLE_M,
+def best_configurations(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL,
                         iters: int = 60, starts: int = 4) -> dict:
     """Least-sensitive configuration of every pose (N, 3) against the default
     (θ = 0 seeded pose IK). Returns ``theta_default``, ``theta_best`` (N, n)
@@ -148,7 +151,7 @@ def best_configurations(robot: Robot, poses, dl_tol=BASE_CABLE_M, dh_tol=BASE_HO
     default cannot reach within the limits keep the default (not compared).
     n > 3: null-space descent from the default and from ``starts - 1`` IK
     answers of fixed random seeds; the lowest objective wins."""
-    p, _ = _batch("poses", poses, 3)
+    p, _ = as_batch("poses", poses, 3)
     n = robot.n
     sol = robot.ik(p)
     t_def = np.atleast_2d(sol.theta)
@@ -190,7 +193,7 @@ def best_configurations(robot: Robot, poses, dl_tol=BASE_CABLE_M, dh_tol=BASE_HO
     return dict(theta_default=t_def, theta_best=t_best, rms_default=f_def, rms_best=f_best, ok=ok)
 
 
-def path_configurations(robot: Robot, poses, dl_tol=BASE_CABLE_M, dh_tol=BASE_HOLE_M,
+def path_configurations(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL,
                         mu: float = 1e-4, max_step: float = 0.15, iters: int = 30) -> dict:
     """A continuous, low-sensitivity configuration sequence along a path of
     poses (M, 3). ``mu`` (m²/rad² on the squared objective for n > 3; m/rad²
@@ -198,7 +201,7 @@ def path_configurations(robot: Robot, poses, dl_tol=BASE_CABLE_M, dh_tol=BASE_HO
     largest joint change allowed between consecutive poses (n = 3).
 
     Returns ``theta (M, n)``, ``rms (M,)`` m, and ``max_joint_step`` (rad)."""
-    p, _ = _batch("poses", poses, 3)
+    p, _ = as_batch("poses", poses, 3)
     n, M = robot.n, len(p)
     if n <= 3:
         cand, valid = ik_branches(robot, p)
@@ -236,7 +239,7 @@ def path_configurations(robot: Robot, poses, dl_tol=BASE_CABLE_M, dh_tol=BASE_HO
                 max_joint_step=float(steps.max()) if len(steps) else 0.0)
 
 
-def compare_with_default(robot: Robot, poses, dl_tol=BASE_CABLE_M, dh_tol=BASE_HOLE_M,
+def compare_with_default(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL,
                          percentile: float = 95.0, samples: int = 500, seed: int = 0,
                          iters: int = 60, best: Optional[dict] = None) -> dict:
     """Monte-Carlo check (Rust core) of :func:`best_configurations` against the
@@ -246,7 +249,7 @@ def compare_with_default(robot: Robot, poses, dl_tol=BASE_CABLE_M, dh_tol=BASE_H
     percentiles ``pooled_default_m``, ``pooled_best_m``, the worst per-pose
     percentiles, the median per-pose ratio best/default, the fraction of poses
     improved by more than 1 % and the count of poses compared."""
-    p, _ = _batch("poses", poses, 3)
+    p, _ = as_batch("poses", poses, 3)
     res = best if best is not None else best_configurations(robot, p, dl_tol, dh_tol, iters)
     ok = res["ok"]
     kw = dict(samples=samples, seed=seed, dl_tol=dl_tol, dh_tol=dh_tol, progress=False)

@@ -1,13 +1,5 @@
-"""Design for accuracy (issue 7): tip sensitivities, amplification maps,
-linear-vs-Monte-Carlo comparison, tolerance allocation and the converse
-(tolerances -> tip-error distribution per region). SI units: m, rad.
-
-Sensitivities (Rust core, ``rust/sensitivity.rs``; implicit function theorem,
-the cable solve keeps the upper-cable lengths)::
-
-    dS/dl     =  J_pose (dL_upper/dtheta)^-1                      (N, 3, n)
-    dS/dholes = -J_pose (dL_upper/dtheta)^-1 dL_upper/dholes      (N, 3, 2n, n+1, 2, 2)
-    dS/ddh_i  =  dS/dholes summed over the holes of upper cable i (N, 3, n)
+"""Tolerance allocation and its converse (tolerances -> tip-error distribution
+per region), verified by the Rust Monte Carlo. SI units: m, rad.
 
 Error model of the allocation: every upper-cable length error ``dl_j`` is
 uniform in ``±tc_j`` and every per-disk hole-height error ``dh_i`` (the
@@ -18,128 +10,37 @@ tolerance vector is ``t = alpha * shape`` with ``shape_j = w_j * base_j``
 relative tolerance ``min_j t_j / (w_j base_j)``, which puts every tolerance at
 the same fraction ``alpha`` of its weighted reference. ``shape="equal-effect"``
 instead sets ``shape_j = w_j / rms_region |d(x, y)/de_j|`` (every error
-contributes equally to the linear tip variance).
-
-Linear amplification (per configuration, tolerances ``t``):
-
-* worst case: ``worst_x = sum_j |S_xj| t_j``, ``worst_y = sum_j |S_yj| t_j``,
-  ``worst_xy = hypot(worst_x, worst_y)`` (a bound on |d(x, y)|);
-* RMS of |d(x, y)| for uniform errors: ``sqrt(sum_{i in x,y} sum_j S_ij^2 t_j^2 / 3)``.
+contributes equally to the linear tip variance). The linear picture that
+starts the search is :mod:`cdsm.accuracy.sensitivity`.
 
 The pooled percentile over a region merges the per-configuration histograms
-of the Monte-Carlo study (``errors.MonteCarlo.hist``; 60 log bins per decade,
-the percentile is the upper edge of its bin: conservative, at most 3.9 %
-high). Failed solves count as errors above every bin.
+of the Monte-Carlo study (:attr:`cdsm.accuracy.MonteCarlo.hist`; 60 log bins
+per decade, the percentile is the upper edge of its bin: conservative, at
+most 3.9 % high). Failed solves count as errors above every bin.
 """
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _cdsm
-from .errors import MonteCarlo, monte_carlo
-from .robot import CdsmInputError, Robot, _batch
+from .. import _cdsm
+from ..files import read_table, read_text, table_column
+from ..inputs import CdsmInputError, as_batch, as_tolerances
+from ..robot import Robot
+from .montecarlo import MonteCarlo, monte_carlo
+from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
+from .sensitivity import error_matrix, linear_percentile, sensitivities, tolerance_vector
+from .workspace import joint_grid, paper_ik_seed
 
-__all__ = [
-    "BASE_CABLE_M", "BASE_HOLE_M", "HIST_RESOLUTION", "Sensitivities", "sensitivities",
-    "error_matrix", "amplification", "linear_percentile", "pooled_percentile",
-    "Allocation", "allocate", "distribution", "region_cells", "linear_vs_mc",
-    "amplification_maps",
-]
+__all__ = ["HIST_RESOLUTION", "pooled_percentile", "Allocation", "allocate", "distribution",
+           "region_cells", "load_tolerances", "parse_region"]
 
-#: Reference tolerances of the default cost (the paper's Monte-Carlo study), m.
-BASE_CABLE_M = 1e-3
-BASE_HOLE_M = 0.35e-3
 #: Relative width of a histogram bin of the Monte-Carlo study (10**(1/60) - 1).
 HIST_RESOLUTION = 10.0 ** (1.0 / _cdsm.HIST_PER_DECADE) - 1.0
-
-
-# ---------------------------------------------------------------------------
-# sensitivities
-# ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Sensitivities:
-    """First-order sensitivities of the tip pose at ``theta (N, n)`` rad.
-
-    cable: (N, 3, n) d[x, y, phi]/d(upper-cable length), m/m (rad/m for phi).
-    pair: (N, 3, n) d[x, y, phi]/d(hole height of disk i) (the paper's dh), m/m.
-    holes: (N, 3, 2n, n+1, 2, 2) d[x, y, phi]/d(every hole coordinate), or None.
-    ok: (N,) the upper-cable Jacobian is invertible (NaN rows otherwise).
-    """
-
-    theta: np.ndarray
-    cable: np.ndarray
-    pair: np.ndarray
-    holes: Optional[np.ndarray]
-    ok: np.ndarray
-
-
-def sensitivities(robot: Robot, theta, holes: bool = False) -> Sensitivities:
-    """Analytic tip sensitivities (Rust core) over ``theta (N, n)`` rad (or (n,))."""
-    t, _ = _batch("theta", theta, robot.n)
-    n = robot.n
-    c, p, h, ok = _cdsm.sensitivity_tip(robot._core, t, bool(holes), robot.threads)
-    hs = None if h is None else h.reshape((-1, 3) + robot.holes.shape)
-    return Sensitivities(t, c.reshape(-1, 3, n), p.reshape(-1, 3, n), hs, np.asarray(ok, bool))
-
-
-def error_matrix(sens: Sensitivities) -> np.ndarray:
-    """(N, 2, 2n) d(x, y)/d[dl_1..dl_n, dh_1..dh_n], m/m: the linear map from
-    the allocation's error vector to the tip position error."""
-    return np.concatenate([sens.cable[:, :2, :], sens.pair[:, :2, :]], axis=2)
-
-
-def _tol_vector(robot: Robot, dl_tol, dh_tol) -> np.ndarray:
-    n = robot.n
-    out = []
-    for name, v in (("dl_tol", dl_tol), ("dh_tol", dh_tol)):
-        a = np.broadcast_to(np.asarray(v, dtype=np.float64), (n,)).copy()
-        if not np.isfinite(a).all() or (a < 0).any():
-            raise CdsmInputError(f"`{name}`: tolerances must be finite and >= 0 (m), got {v}")
-        out.append(a)
-    return np.concatenate(out)
-
-
-def amplification(sens: Sensitivities, dl_tol, dh_tol) -> Dict[str, np.ndarray]:
-    """Linear tip-error amplification for tolerances ``dl_tol`` (per upper
-    cable) and ``dh_tol`` (per disk), m (scalars or (n,)).
-
-    Returns (N,) arrays in m: ``worst_x``, ``worst_y`` (sum_j |S_ij| t_j),
-    ``worst_xy`` (their hypot), ``rms_xy`` (RMS of |d(x, y)| for independent
-    uniform errors, sqrt(sum S^2 t^2 / 3)); and the per-unit maps (m of tip per
-    m of error, tolerances 1 on that group only): ``cable_worst``,
-    ``cable_rms``, ``hole_worst``, ``hole_rms``.
-    """
-    n = sens.cable.shape[2]
-    m = error_matrix(sens)
-    t = np.concatenate([np.broadcast_to(np.asarray(dl_tol, float), (n,)),
-                        np.broadcast_to(np.asarray(dh_tol, float), (n,))])
-    wx = np.abs(m[:, 0, :]) @ t
-    wy = np.abs(m[:, 1, :]) @ t
-    rms = np.sqrt(((m ** 2).sum(axis=1) @ (t ** 2)) / 3.0)
-    cab, hol = m[:, :, :n], m[:, :, n:]
-    return dict(
-        worst_x=wx, worst_y=wy, worst_xy=np.hypot(wx, wy), rms_xy=rms,
-        cable_worst=np.hypot(np.abs(cab[:, 0]).sum(1), np.abs(cab[:, 1]).sum(1)),
-        cable_rms=np.sqrt((cab ** 2).sum(axis=(1, 2)) / 3.0),
-        hole_worst=np.hypot(np.abs(hol[:, 0]).sum(1), np.abs(hol[:, 1]).sum(1)),
-        hole_rms=np.sqrt((hol ** 2).sum(axis=(1, 2)) / 3.0),
-    )
-
-
-def linear_percentile(m: np.ndarray, tol: np.ndarray, p: float, samples: int = 2000,
-                      seed: int = 0) -> float:
-    """Pooled p-th percentile (m) of |d(x, y)| over all configurations under
-    the linear model ``m (N, 2, k)`` with independent uniform errors within
-    ``±tol (k,)`` (``samples`` common draws). Exactly proportional to ``tol``."""
-    rng = np.random.default_rng([int(seed), 7])
-    v = rng.uniform(-1.0, 1.0, (int(samples), m.shape[2])) * tol
-    ok = np.isfinite(m).all(axis=(1, 2))
-    e = np.einsum("nik,sk->nsi", m[ok], v)
-    return float(np.percentile(np.hypot(e[..., 0], e[..., 1]), p))
 
 
 def pooled_percentile(mc: MonteCarlo, p: float, rows=None, interpolate: bool = False) -> float:
@@ -251,7 +152,7 @@ def _shape(robot: Robot, m: np.ndarray, weights, base, shape: str) -> np.ndarray
 
 
 def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0,
-             weights=None, base=(BASE_CABLE_M, BASE_HOLE_M), shape: str = "ratio",
+             weights=None, base=(PAPER_DL_TOL, PAPER_DH_TOL), shape: str = "ratio",
              samples: int = 1000, seed: int = 0, rel_tol: float = 0.01,
              max_evals: int = 30, progress: bool = False) -> Allocation:
     """Largest tolerances (common scale ``alpha`` of the cost shape, see the
@@ -266,10 +167,8 @@ def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0
        alpha until ``hi / lo <= 1 + rel_tol``; the answer is ``lo``, verified
        ``achieved(lo) <= T``, and ``achieved(1.25 lo) > T`` is evaluated.
     """
-    from .workspace import joint_grid
-
     t = joint_grid(robot.n) if theta is None else theta
-    t, _ = _batch("theta", t, robot.n)
+    t, _ = as_batch("theta", t, robot.n)
     target = float(target_m)
     if not (np.isfinite(target) and target > 0):
         raise CdsmInputError(f"`target_m`: must be positive and finite, got {target_m}")
@@ -364,11 +263,9 @@ def distribution(robot: Robot, dl_tol, dh_tol, theta=None, percentiles: Sequence
     per non-empty cell of a ``cells``×``cells`` grid over the nominal tip
     (X, Y) with its bounds (m), configuration count and pooled percentiles (m).
     """
-    from .workspace import joint_grid
-
     t = joint_grid(robot.n) if theta is None else theta
-    t, _ = _batch("theta", t, robot.n)
-    tol = _tol_vector(robot, dl_tol, dh_tol)
+    t, _ = as_batch("theta", t, robot.n)
+    tol = tolerance_vector(robot, dl_tol, dh_tol)
     n = robot.n
     if mc is None:
         mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:n], dh_tol=tol[n:],
@@ -393,89 +290,100 @@ def distribution(robot: Robot, dl_tol, dh_tol, theta=None, percentiles: Sequence
 
 
 # ---------------------------------------------------------------------------
-# where the linear picture holds
+# tolerances
 # ---------------------------------------------------------------------------
-def linear_vs_mc(robot: Robot, protocol: str = "joint", dl_tol=BASE_CABLE_M, dh_tol=BASE_HOLE_M,
-                 samples: int = 500, seed: int = 0, depart: float = 0.1, ws=None) -> dict:
-    """Compare the linear picture with the nonlinear solves over a workspace
-    (``workspace.sweep(robot, protocol)`` unless ``ws`` is given).
-
-    Two measures per configuration: ``ratio_rms`` = Monte-Carlo RMS of
-    |d(x, y)| / linear RMS (tolerances ``dl_tol``, ``dh_tol``, m), and
-    ``rel_single`` = |dS_solve - S dl| / |dS_solve| for the paper's single
-    error (upper cable 1 shortened by 1 mm). Departures above ``depart`` are
-    classified against the special points: ``jump`` (``workspace.jump_points``
-    of the single-error map), ``near_singular`` (pose-Jacobian singular-value
-    ratio < 0.02) and ``other``; ``summary`` gives median / 95th pct / max of
-    |ratio_rms - 1| and rel_single per class.
-    """
-    from .errors import deviation
-    from .workspace import jump_points, singular_values, sweep
-
-    if ws is None:
-        ws = sweep(robot, protocol)
-    ok = np.asarray(ws.reachable, bool) & np.isfinite(ws.theta0).all(axis=1)
-    t = np.where(ok[:, None], ws.theta0, 0.0)
-    n = robot.n
-    sens = sensitivities(robot, t)
-    amp = amplification(sens, dl_tol, dh_tol)
-    tol = _tol_vector(robot, dl_tol, dh_tol)
-    mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:n], dh_tol=tol[n:], progress=False)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mc_rms = np.sqrt(mc.sum_sq[:, 3] / mc.count)
-        ratio = mc_rms / amp["rms_xy"]
-    dl = np.zeros(n)
-    dl[0] = -1e-3
-    dev = deviation(robot, t, dL=dl)
-    lin = sens.cable[:, :, 0] * dl[0]
-    ds = np.where(ok[:, None], dev.dS, np.nan)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rel = np.linalg.norm(ds[:, :2] - lin[:, :2], axis=1) / np.linalg.norm(ds[:, :2], axis=1)
-    jumps = jump_points(robot, ws, ds)
-    sv = singular_values(robot, t)
-    sing = sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < 0.02
-    cls = np.full(len(t), "other", dtype=object)
-    cls[sing] = "near_singular"
-    cls[jumps.point] = "jump"
-    cls[~ok] = "unreachable"
-    summary = {}
-    for name in ("jump", "near_singular", "other"):
-        sel = (cls == name) & np.isfinite(ratio) & np.isfinite(rel)
-        if not sel.any():
-            summary[name] = dict(count=0)
-            continue
-        d = np.abs(ratio[sel] - 1.0)
-        summary[name] = dict(
-            count=int(sel.sum()),
-            rms_ratio_dev_median=float(np.median(d)), rms_ratio_dev_p95=float(np.percentile(d, 95)),
-            rms_ratio_dev_max=float(d.max()),
-            single_rel_median=float(np.median(rel[sel])), single_rel_p95=float(np.percentile(rel[sel], 95)),
-            single_rel_max=float(rel[sel].max()),
-            departing=int(((d > depart) | (rel[sel] > depart)).sum()))
-    return dict(protocol=ws.protocol, ratio_rms=ratio, rel_single=rel, klass=cls.astype(str),
-                jump=jumps.point, near_singular=sing, amplification=amp, mc=mc, summary=summary,
-                theta=t, ok=ok, ws=ws)
+def load_tolerances(path: str, n: int) -> Tuple[np.ndarray, np.ndarray]:
+    """Tolerances from a JSON file (as ``cdsm tolerance --json`` writes it):
+    ``cable_length_tol_m`` — (n,) per upper cable, m — and
+    ``hole_height_tol_m`` — (n,) per disk, m (a scalar applies to all; other
+    keys are ignored). Returns (dl_tol, dh_tol), each (n,) m."""
+    text = read_text(path, "tolerance")
+    try:
+        data = json.loads(text)
+    except ValueError as exc:
+        raise CdsmInputError(f"tolerance file {path!r}: not valid JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise CdsmInputError(f"tolerance file {path!r}: expected a JSON object")
+    out = []
+    for key in ("cable_length_tol_m", "hole_height_tol_m"):
+        if key not in data:
+            raise CdsmInputError(f"tolerance file {path!r}: missing key {key!r}")
+        try:
+            arr = np.asarray(data[key], dtype=np.float64)
+        except (TypeError, ValueError):
+            raise CdsmInputError(f"tolerance file {path!r}: `{key}` is not a number "
+                                 f"or a list of numbers") from None
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != n):
+            raise CdsmInputError(f"tolerance file {path!r}: `{key}` needs {n} values "
+                                 f"(one per {'upper cable' if key[0] == 'c' else 'disk'}), "
+                                 f"got shape {arr.shape}")
+        try:
+            out.append(as_tolerances(key, arr, n))
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"tolerance file {path!r}: {exc}") from None
+    return out[0], out[1]
 
 
 # ---------------------------------------------------------------------------
-# amplification maps (report)
+# regions
 # ---------------------------------------------------------------------------
-def amplification_maps(robot: Robot, protocol: str = "attitude0", ws=None) -> dict:
-    """Worst-case and RMS amplification maps over a workspace (default the
-    paper's attitude-0 protocol on the ±30°/5° grid): per configuration the
-    nominal tip (x, y) (m) and :func:`amplification` per unit tolerance
-    (``cable_worst``, ``cable_rms``: mm of tip per mm on every upper cable;
-    ``hole_worst``, ``hole_rms``: mm of tip per mm on every disk's hole height)."""
-    from .workspace import sweep
+def _region_file(spec: str, path: str, columns: List[str], what: str) -> np.ndarray:
+    """The ``columns`` of a region CSV file, (N, len(columns)): a header naming
+    them, or no header (or a header of other names) and exactly those columns
+    in that order."""
+    try:
+        cols, rows = read_table(path, f"--region {what}", headerless=columns)
+    except CdsmInputError as exc:
+        raise CdsmInputError(f"--region {spec!r}: {exc}") from None
+    missing = [c for c in columns if c not in cols]
+    if missing and len(cols) == len(columns):  # positional columns under other names
+        rows = [{c: r[k] for c, k in zip(columns, cols)} for r in rows]
+        missing = []
+    if missing:
+        raise CdsmInputError(f"--region {spec!r}: {path!r} has no column(s) {', '.join(missing)} "
+                             f"(need {', '.join(columns)}, or no header and {len(columns)} values a row)")
+    return np.stack([table_column(rows, c, path) for c in columns], axis=1)
 
-    if ws is None:
-        ws = sweep(robot, protocol)
-    ok = np.asarray(ws.reachable, bool) & np.isfinite(ws.theta0).all(axis=1)
-    t = np.where(ok[:, None], ws.theta0, 0.0)
-    amp = amplification(sensitivities(robot, t), 1.0, 1.0)
-    out = {k: np.where(ok, v, np.nan) for k, v in amp.items()
-           if k in ("cable_worst", "cable_rms", "hole_worst", "hole_rms")}
-    out["xy"] = ws.poses[:, :2]
-    out["ok"] = ok
-    out["protocol"] = ws.protocol
-    return out
+
+def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, str]:
+    """Joint angles (N, n) rad of a region spec, and a description:
+    ``grid:LO_DEG:HI_DEG:STEP_DEG[:N]`` (every joint; a grid of more than
+    20000 points, or N given, is subsampled to N (default 2000) with ``seed``),
+    ``joints:FILE.csv`` (columns ``theta_1..theta_n``, rad, or no header) or
+    ``poses:FILE.csv`` (columns ``x, y, phi``, m, m, rad, or no header; pose IK
+    from the paper's seed)."""
+    kind, _, rest = spec.partition(":")
+    if kind == "grid":
+        try:
+            vals = [float(v) for v in rest.split(":")]
+        except ValueError:
+            vals = []
+        if len(vals) not in (3, 4):
+            raise CdsmInputError(f"--region {spec!r}: expected grid:LO_DEG:HI_DEG:STEP_DEG[:N]")
+        lo, hi, step = vals[:3]
+        if not (np.isfinite(vals).all() and step > 0 and hi >= lo):
+            raise CdsmInputError(f"--region {spec!r}: need LO <= HI and STEP > 0 (degrees)")
+        k = int(np.floor((hi - lo) / step + 1e-9)) + 1
+        want = int(vals[3]) if len(vals) == 4 else None
+        if want is not None and want < 1:
+            raise CdsmInputError(f"--region {spec!r}: N must be >= 1")
+        total = k ** robot.n
+        if total <= 20000 and want is None:
+            return joint_grid(robot.n, np.radians(lo), np.radians(hi), np.radians(step)), \
+                f"grid {lo:g}..{hi:g} deg step {step:g} ({total} configurations)"
+        want = 2000 if want is None else want
+        rng = np.random.default_rng([int(seed), 11])
+        axis = np.radians(lo + step * np.arange(k))
+        theta = axis[rng.integers(0, k, (min(want, total), robot.n))]
+        return theta, f"grid {lo:g}..{hi:g} deg step {step:g}, {len(theta)} random points of {total}"
+    if kind == "joints":
+        t = _region_file(spec, rest, [f"theta_{i}" for i in range(1, robot.n + 1)], "joints")
+        return t, f"{len(t)} configurations from {rest}"
+    if kind == "poses":
+        p = _region_file(spec, rest, ["x", "y", "phi"], "poses")
+        sol = robot.ik(p, seed=paper_ik_seed(robot.n))
+        bad = np.flatnonzero(~np.asarray(sol.converged, bool))
+        if len(bad):
+            raise CdsmInputError(f"--region {spec!r}: pose IK failed for row(s) {bad[:5].tolist()} (unreachable?)")
+        return np.atleast_2d(sol.theta), f"{len(p)} poses from {rest} (pose IK, paper seed)"
+    raise CdsmInputError(f"--region {spec!r}: expected grid:LO:HI:STEP[:N], joints:FILE.csv or poses:FILE.csv")

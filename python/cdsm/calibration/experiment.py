@@ -7,7 +7,7 @@ The candidates are the diagnosis' chosen model, its best single effect and
 every effect tied with it (``diag.ties``), each with its fitted parameters.
 Each model's parameters keep the uncertainty the data so far leave them:
 posterior covariance ``C_m = (J_m^T J_m / sigma^2 + I / prior^2)^-1`` in
-parameters scaled by their typical size (:data:`cdsm.plant.TYPICAL`; prior:
+parameters scaled by their typical size (:data:`cdsm.calibration.plant.TYPICAL`; prior:
 ``prior`` typical sizes). For a set S of new rows the expected chi-square by
 which the measurements would separate models a and b is
 
@@ -30,7 +30,7 @@ commanded configuration and at the nominal one with dL, and when every
 candidate model predicts the row.
 
 Suggestion CSV (:meth:`Suggestion.to_csv`): a measurement table
-(:mod:`cdsm.measurements`) without measured columns: ``point`` (s1, s2, ...),
+(:mod:`cdsm.calibration.measurements`) without measured columns: ``point`` (s1, s2, ...),
 ``theta_1..theta_n`` (rad), ``dL_1..dL_n`` (m), and for orientation the nominal
 tip pose ``x_nom, y_nom`` (m), ``phi_nom`` (rad) (read back as labels). Measure
 each row, add ``x, y`` (absolute) or ``dx, dy`` (displacement, the tip motion
@@ -47,11 +47,13 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
+from ..files import write_text
+from ..inputs import CdsmInputError
+from ..robot import Robot
 from . import plant
-from .diagnose import Diagnosis, Prepared, _free, prepare
-from .files import write_text
+from .diagnosis import Diagnosis, Prepared, prepare
+from .fit import free_parameters
 from .measurements import Measurements
-from .robot import CdsmInputError, Robot
 
 __all__ = ["suggest", "Suggestion", "candidate_pool", "combine", "discrimination"]
 
@@ -215,7 +217,7 @@ def _model_set(diag: Diagnosis):
 def _pred_and_jac(robot: Robot, effects, p, theta, dl, kind, h: float = 1e-4):
     """Predictions (R, 2) and Jacobian (R, 2, k) in scaled parameters; NaN rows
     where the plant does not settle."""
-    idx, scale, _, nonneg = _free(robot, effects)
+    idx, scale, _, nonneg = free_parameters(robot, effects)
     z = p[idx] / scale
     sets = [p]
     lo = z - h

@@ -1,11 +1,11 @@
 """Monte-Carlo error studies at scale: locally (threads in the Rust core) or on
 a ``dask.distributed`` cluster, with identical results. SI units: m, rad.
 
-The study is the one of :func:`cdsm.errors.monte_carlo` (the paper's Fig. 7:
+The study is the one of :func:`cdsm.accuracy.montecarlo.monte_carlo` (the paper's Fig. 7:
 uniform errors within ±dl_tol on each upper cable and ±dh_tol on each disk's
 hole height), split into chunks of ``chunk`` samples. Chunk ``c`` draws its
 errors from its own counter-based stream ``np.random.default_rng([seed, c])``
-and is one call of :func:`cdsm.errors.monte_carlo_chunk` (one Rust call over
+and is one call of :func:`cdsm.accuracy.montecarlo.monte_carlo_chunk` (one Rust call over
 all configurations) — the same function on the laptop and on every worker.
 
 Exact reproducibility (bitwise-identical arrays whatever the number of
@@ -17,7 +17,7 @@ any order; the floating sums (sum, sum of squares) do not: ``(a + b) + c`` and
 (:class:`OrderedMerge`): results are taken as they complete, parked in a
 reorder buffer keyed by chunk index, and folded in as soon as every lower
 chunk is in — exactly the left fold ``((p0 + p1) + p2) + ...`` of the local
-:func:`cdsm.errors.monte_carlo`. So a cluster run equals the local run bit
+:func:`cdsm.accuracy.montecarlo.monte_carlo`. So a cluster run equals the local run bit
 for bit, at no extra arithmetic cost, with the existing :class:`MonteCarlo`.
 The reorder buffer is bounded by submitting at most ``window`` chunks beyond
 the oldest unmerged one (default: twice the cluster's threads), so the client
@@ -48,28 +48,22 @@ need their own histograms in the Rust kernel (not computed).
 
 from __future__ import annotations
 
-import json
 import os
 import time
 import uuid
-from typing import Callable, Dict, Optional, Sequence, Tuple
+from typing import Callable, Dict, Optional
 
 import numpy as np
 
-from . import _cdsm
-from .errors import MonteCarlo, Progress, QUANTITY_NAMES, _tolerance, monte_carlo, monte_carlo_chunk
-from .model import robot_toml
-from .robot import CdsmInputError, Robot, _batch
+from .. import _cdsm
+from ..inputs import CdsmInputError, as_batch, as_tolerances
+from ..progress import Progress
+from ..robot import Robot
+from .montecarlo import MonteCarlo, monte_carlo, monte_carlo_chunk
+from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 
-__all__ = ["run", "ClusterError", "OrderedMerge", "robot_spec", "robot_from_spec",
-           "load_tolerances", "summary", "save_npz", "load_npz", "PAPER_DL_TOL", "PAPER_DH_TOL",
-           "DEFAULT_PERCENTILES"]
-
-#: The paper's Monte-Carlo tolerances: ±1 mm on every upper cable, ±0.35 mm on every hole height.
-PAPER_DL_TOL = 1e-3
-PAPER_DH_TOL = 0.35e-3
-DEFAULT_PERCENTILES = (50.0, 95.0, 99.0)
-QUANTITY_UNITS = ("m", "m", "rad", "m")
+__all__ = ["run", "ClusterError", "OrderedMerge", "robot_spec", "robot_from_spec", "pack", "unpack",
+           "chunk_task"]
 
 _INSTALL_HINT = "install it with: pip install 'cdsm[dask]'  (or: pip install 'dask[distributed]')"
 
@@ -84,12 +78,12 @@ class ClusterError(RuntimeError):
 # ---------------------------------------------------------------------------
 def robot_spec(robot: Robot) -> dict:
     """The robot as plain data for another process: ``{"toml": str, "holes":
-    (2n, n+1, 2, 2) m}``. The TOML is :func:`cdsm.model.robot_toml` (every
+    (2n, n+1, 2, 2) m}``. The TOML is :meth:`cdsm.Robot.to_toml` (every
     parameter, explicit holes, floats by ``repr``: parsed back to the same
     bits); the full hole array is then set exactly (also the entries the TOML
     leaves out), so robots built in code (``with_holes``, ``with_cable``)
     travel too."""
-    return {"toml": robot_toml(robot), "holes": np.array(robot.holes, dtype=np.float64)}
+    return {"toml": robot.to_toml(), "holes": np.array(robot.holes, dtype=np.float64)}
 
 
 def robot_from_spec(spec: dict, threads: int = 0) -> Robot:
@@ -110,52 +104,15 @@ def _check_spec(robot: Robot, spec: dict) -> None:
 
 
 # ---------------------------------------------------------------------------
-# tolerances
-# ---------------------------------------------------------------------------
-def load_tolerances(path: str, n: int) -> Tuple[np.ndarray, np.ndarray]:
-    """Tolerances from a JSON file (as ``cdsm tolerance --json`` writes it):
-    ``cable_length_tol_m`` — (n,) per upper cable, m — and
-    ``hole_height_tol_m`` — (n,) per disk, m (a scalar applies to all; other
-    keys are ignored). Returns (dl_tol, dh_tol), each (n,) m."""
-    try:
-        with open(path, encoding="utf-8") as fh:
-            data = json.load(fh)
-    except OSError as exc:
-        raise CdsmInputError(f"tolerance file {path!r}: {exc.strerror}") from None
-    except ValueError as exc:
-        raise CdsmInputError(f"tolerance file {path!r}: not valid JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise CdsmInputError(f"tolerance file {path!r}: expected a JSON object")
-    out = []
-    for key in ("cable_length_tol_m", "hole_height_tol_m"):
-        if key not in data:
-            raise CdsmInputError(f"tolerance file {path!r}: missing key {key!r}")
-        try:
-            arr = np.asarray(data[key], dtype=np.float64)
-        except (TypeError, ValueError):
-            raise CdsmInputError(f"tolerance file {path!r}: `{key}` is not a number "
-                                 f"or a list of numbers") from None
-        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != n):
-            raise CdsmInputError(f"tolerance file {path!r}: `{key}` needs {n} values "
-                                 f"(one per {'upper cable' if key[0] == 'c' else 'disk'}), "
-                                 f"got shape {arr.shape}")
-        try:
-            out.append(_tolerance(key, arr, n))
-        except CdsmInputError as exc:
-            raise CdsmInputError(f"tolerance file {path!r}: {exc}") from None
-    return out[0], out[1]
-
-
-# ---------------------------------------------------------------------------
 # the order-independent reduction
 # ---------------------------------------------------------------------------
 class OrderedMerge:
     """Folds chunk results in chunk-index order, whatever order they arrive in.
 
     ``add(c, part)`` parks ``part`` (a :class:`MonteCarlo` of chunk ``c``, or
-    anything :func:`_unpack` accepts) and folds every consecutive chunk from
+    anything :func:`unpack` accepts) and folds every consecutive chunk from
     :attr:`next`; the total is ``((p0 + p1) + p2) + ...`` exactly as in
-    :func:`cdsm.errors.monte_carlo`. :attr:`pending` results wait for a lower
+    :func:`cdsm.accuracy.montecarlo.monte_carlo`. :attr:`pending` results wait for a lower
     chunk; :attr:`peak` is the most ever parked. Adding a chunk twice (a task
     re-run whose first result also arrived) is an error.
     """
@@ -182,7 +139,7 @@ class OrderedMerge:
         self._parked[c] = part
         self.peak = max(self.peak, len(self._parked))
         while self.next in self._parked:
-            p = _unpack(self._parked.pop(self.next))
+            p = unpack(self._parked.pop(self.next))
             if self.result is None:
                 self.result = p
             else:
@@ -190,7 +147,7 @@ class OrderedMerge:
             self.next += 1
 
 
-def _pack(part: MonteCarlo) -> dict:
+def pack(part: MonteCarlo) -> dict:
     """A chunk result for the wire: the histogram trimmed to its occupied
     columns and stored as uint32 (counts of one chunk), the rest as is."""
     cols = np.flatnonzero(part.hist.any(axis=0))
@@ -201,7 +158,7 @@ def _pack(part: MonteCarlo) -> dict:
                 min=part.min, max=part.max, hist_lo=lo, hist=np.ascontiguousarray(hist))
 
 
-def _unpack(obj, theta0: Optional[np.ndarray] = None) -> MonteCarlo:
+def unpack(obj, theta0: Optional[np.ndarray] = None) -> MonteCarlo:
     if isinstance(obj, MonteCarlo):
         return obj
     n_cfg = len(obj["count"])
@@ -223,19 +180,19 @@ def _job(spec: dict) -> dict:
     return spec
 
 
-def _chunk_task(job: dict, c: int, size: int) -> dict:
+def chunk_task(job: dict, c: int, size: int) -> dict:
     """One chunk on a worker: one Rust call, packed result."""
     robot = robot_from_spec(job["robot"], threads=job["threads"])
     # arrays arriving over the wire may be read-only views: hand the core owned copies
     theta0 = np.array(job["theta0"], dtype=np.float64, order="C")
     part = monte_carlo_chunk(robot, theta0, job["seed"], c, size, np.array(job["dl_tol"]),
                              np.array(job["dh_tol"]), job["method"])
-    return _pack(part)
+    return pack(part)
 
 
 # The probe is a string run by the builtin ``eval`` on each worker: a function of
 # this module would itself need cdsm to be unpickled there.
-_PROBE = "(__import__('cdsm').__version__, __import__('cdsm.montecarlo').montecarlo.__name__)"
+_PROBE = "(__import__('cdsm').__version__, __import__('cdsm.accuracy.distributed').accuracy.distributed.__name__)"
 
 
 # ---------------------------------------------------------------------------
@@ -289,7 +246,7 @@ def probe(client, timeout: float = 10.0) -> Dict[str, str]:
     """Checks that every worker imports cdsm (the same version as here):
     ``{worker address: cdsm version}``. Raises :class:`ClusterError` listing
     the workers that lack it, or if no worker joins within ``timeout`` s."""
-    from . import __version__
+    from .. import __version__
 
     try:
         client.wait_for_workers(1, timeout=float(timeout))
@@ -328,14 +285,14 @@ def run(robot: Robot, theta0, samples: int = 1000, seed: int = 0, chunk: int = 1
     unmerged one are in flight. timeout: s to reach the scheduler and find
     workers. on_chunk(c, merged_chunks, n_chunks) is called as each result
     arrives (cluster runs only). ``_task`` (tests only) replaces the chunk
-    task ``_chunk_task(job, c, size)``. Results are identical for both paths (module
+    task ``chunk_task(job, c, size)``. Results are identical for both paths (module
     docstring). Returns a :class:`MonteCarlo` (N configurations) whose
     ``params`` record the run.
     """
-    t0, _ = _batch("theta0", theta0, robot.n)
+    t0, _ = as_batch("theta0", theta0, robot.n)
     if int(samples) < 1 or int(chunk) < 1:
         raise CdsmInputError(f"`samples`, `chunk`: must be >= 1, got {samples}, {chunk}")
-    dlt, dht = _tolerance("dl_tol", dl_tol, robot.n), _tolerance("dh_tol", dh_tol, robot.n)
+    dlt, dht = as_tolerances("dl_tol", dl_tol, robot.n), as_tolerances("dh_tol", dh_tol, robot.n)
     samples, chunk, seed = int(samples), int(chunk), int(seed)
     if seed < 0:
         raise CdsmInputError(f"`seed`: must be >= 0, got {seed}")
@@ -357,7 +314,7 @@ def run(robot: Robot, theta0, samples: int = 1000, seed: int = 0, chunk: int = 1
             raise CdsmInputError(f"`window`: must be >= 1, got {window}")
         mc = _run_cluster(client, spec, t0, samples, seed, chunk, dlt, dht, method,
                           int(threads_per_chunk), win, progress, on_chunk,
-                          f"monte carlo ({len(versions)} workers)", _task or _chunk_task)
+                          f"monte carlo ({len(versions)} workers)", _task or chunk_task)
         mc.params = dict(samples=samples, seed=seed, chunk=chunk, dl_tol_m=dlt.tolist(),
                          dh_tol_m=dht.tolist(), method=method,
                          scheduler=str(client.scheduler.address), workers=len(versions),
@@ -414,64 +371,3 @@ def _run_cluster(client, spec, t0, samples, seed, chunk, dlt, dht, method, threa
     out = merge.result
     out.theta0 = t0
     return out
-
-
-# ---------------------------------------------------------------------------
-# results as arrays
-# ---------------------------------------------------------------------------
-def _pkey(p: float) -> str:
-    return "p" + f"{p:g}".replace(".", "_")
-
-
-def summary(mc: MonteCarlo, percentiles: Sequence[float] = DEFAULT_PERCENTILES) -> Dict[str, np.ndarray]:
-    """Per-configuration arrays of a study (N configurations): ``count``,
-    ``failed`` (N,); ``mean``, ``std``, ``min``, ``max``, ``max_abs``, ``sum``,
-    ``sum_sq`` (N, 4) over [dX (m), dY (m), dphi (rad), |d(X, Y)| (m)];
-    ``p50``, ``p95``, ... (N,) percentiles of |d(X, Y)|, m (``p99_9`` for
-    99.9), also stacked as ``dxy_percentiles`` (N, P) with ``percentiles``
-    (P,); ``hist`` (N, bins) and ``hist_edges`` (bins - 1,) m."""
-    pct = np.asarray([float(p) for p in percentiles], dtype=np.float64)
-    out = dict(theta0=mc.theta0, count=mc.count, failed=mc.failed, mean=mc.mean, std=mc.std,
-               min=mc.min, max=mc.max, max_abs=mc.max_abs, sum=mc.sum, sum_sq=mc.sum_sq,
-               hist=mc.hist, hist_edges=mc.hist_edges(), percentiles=pct,
-               quantities=np.array(QUANTITY_NAMES), units=np.array(QUANTITY_UNITS))
-    cols = [mc.percentile(p) for p in pct]
-    out["dxy_percentiles"] = np.stack(cols, axis=1) if cols else np.zeros((len(mc.count), 0))
-    for p, col in zip(pct, cols):
-        out[_pkey(p)] = col
-    return out
-
-
-def save_npz(path: str, mc: MonteCarlo, poses: Optional[np.ndarray] = None,
-             params: Optional[dict] = None,
-             percentiles: Sequence[float] = DEFAULT_PERCENTILES) -> Dict[str, np.ndarray]:
-    """Writes :func:`summary` (+ ``poses`` (N, 3) [x, y, phi] m, m, rad) to a
-    compressed .npz; ``params`` (run parameters, merged over ``mc.params``) as
-    a JSON string (0-d str array, key ``params``). Returns the arrays."""
-    arrays = summary(mc, percentiles)
-    if poses is not None:
-        arrays["poses"] = np.asarray(poses, dtype=np.float64)
-    p = dict(mc.params)
-    p.update(params or {})
-    arrays["params"] = np.array(json.dumps(p, sort_keys=True, default=_json_default))
-    np.savez_compressed(path, **arrays)
-    return arrays
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
-
-
-def load_npz(path: str) -> Tuple[MonteCarlo, dict]:
-    """A study written by :func:`save_npz`: the :class:`MonteCarlo` (exact
-    sums and histogram, mergeable with another run's) and its params."""
-    with np.load(path, allow_pickle=False) as z:
-        params = json.loads(str(z["params"]))
-        mc = MonteCarlo(theta0=z["theta0"], count=z["count"], failed=z["failed"], sum=z["sum"],
-                        sum_sq=z["sum_sq"], min=z["min"], max=z["max"], hist=z["hist"],
-                        params=params)
-    return mc, params

@@ -12,7 +12,7 @@ from typing import Optional
 
 import numpy as np
 
-from .robot import Robot
+from ..robot import Robot
 from .workspace import joint_grid
 
 __all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation"]

@@ -2,7 +2,7 @@
 prototype that makes measurement data from it. SI units (m, rad, N).
 
 Effects (all-zero parameters give the nominal model exactly; the equations are
-in ``rust/plant.rs``):
+in ``docs/model.md``):
 
 =====================  =====  ====================================================
 name                   size   parameters
@@ -25,10 +25,12 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..inputs import CdsmInputError, as_batch
+from ..robot import Robot
 from .measurements import Measurements
-from .robot import CdsmInputError, Robot, _batch
 
-__all__ = ["EFFECTS", "layout", "params", "predict", "VirtualPrototype", "TYPICAL"]
+__all__ = ["EFFECTS", "TYPICAL", "NON_NEGATIVE", "EXAMPLES_N3", "layout", "size", "params", "predict",
+           "settle", "VirtualPrototype"]
 
 EFFECTS: Tuple[str, ...] = (
     "actuation_scale", "cable_offset", "hole_height", "link_length",
@@ -65,7 +67,7 @@ NON_NEGATIVE = ("cable_elasticity", "hole_clearance")
 def layout(robot: Robot) -> Dict[str, slice]:
     """Slice of each effect in the flat parameter vector."""
     out, off = {}, 0
-    for name, size in robot._core.plant_effects():
+    for name, size in robot.core.plant_effects():
         out[name] = slice(off, off + size)
         off += size
     return out
@@ -73,7 +75,7 @@ def layout(robot: Robot) -> Dict[str, slice]:
 
 def size(robot: Robot) -> int:
     """Length of the flat parameter vector."""
-    return sum(s for _, s in robot._core.plant_effects())
+    return sum(s for _, s in robot.core.plant_effects())
 
 
 def params(robot: Robot, effects: Optional[Mapping[str, Sequence[float]]] = None) -> np.ndarray:
@@ -91,13 +93,13 @@ def params(robot: Robot, effects: Optional[Mapping[str, Sequence[float]]] = None
     return p
 
 
-def _run(robot: Robot, p, theta_cmd, dL, kind: str, tol: float, max_iter: int):
-    pp, single = _batch("params", p, size(robot))
-    t, _ = _batch("theta_cmd", theta_cmd, robot.n)
-    d, _ = _batch("dL", dL, robot.n)
+def _predict_all(robot: Robot, p, theta_cmd, dL, kind: str, tol: float, max_iter: int):
+    pp, single = as_batch("params", p, size(robot))
+    t, _ = as_batch("theta_cmd", theta_cmd, robot.n)
+    d, _ = as_batch("dL", dL, robot.n)
     if kind not in ("absolute", "displacement"):
         raise CdsmInputError(f"`kind`: expected 'absolute' or 'displacement', got {kind!r}")
-    obs, conv, theta = robot._core.plant_predict(pp, t, d, kind == "displacement", float(tol),
+    obs, conv, theta = robot.core.plant_predict(pp, t, d, kind == "displacement", float(tol),
                                                  int(max_iter), robot.threads)
     shape = (len(pp), len(t))
     out = obs.reshape(shape + (3,)), conv.reshape(shape), theta.reshape(shape + (robot.n,))
@@ -110,7 +112,7 @@ def predict(robot: Robot, p, theta_cmd, dL, kind: str = "absolute",
     ``theta_cmd`` (N, n) rad and ``dL`` (N, n) m: (N, 3) or (K, N, 3) —
     [x, y, phi] (absolute, instrument frame) or [dx, dy, dphi] (displacement)
     — and the converged flags (N,) or (K, N)."""
-    obs, conv, _ = _run(robot, p, theta_cmd, dL, kind, tol, max_iter)
+    obs, conv, _ = _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter)
     return obs, conv
 
 
@@ -119,7 +121,7 @@ def settle(robot: Robot, p, theta_cmd, dL, tol: float = 1e-12,
     """Joint angles (N, n) rad the plant ``p`` (P,) settles at for the nominal
     commands at ``theta_cmd`` (N, n) rad plus ``dL`` (N, n) m — every effect of
     the plant included — and the converged flags (N,); NaN rows where not."""
-    _, conv, theta = _run(robot, p, theta_cmd, dL, "absolute", tol, max_iter)
+    _, conv, theta = _predict_all(robot, p, theta_cmd, dL, "absolute", tol, max_iter)
     return theta, conv
 
 
@@ -136,8 +138,8 @@ class VirtualPrototype:
     def measure(self, theta_cmd, dL=None, kind: str = "absolute") -> Measurements:
         """Measure commands ``theta_cmd`` (N, n) rad with upper-cable extras ``dL``
         (N, n) m: a :class:`Measurements` of the given kind (phi not measured)."""
-        t, _ = _batch("theta_cmd", theta_cmd, self.robot.n)
-        d = np.zeros_like(t) if dL is None else _batch("dL", dL, self.robot.n)[0]
+        t, _ = as_batch("theta_cmd", theta_cmd, self.robot.n)
+        d = np.zeros_like(t) if dL is None else as_batch("dL", dL, self.robot.n)[0]
         obs, conv = predict(self.robot, params(self.robot, self.effects), t, d, kind)
         if not conv.all():
             raise CdsmInputError(f"virtual prototype: {int((~conv).sum())} commands do not settle")

@@ -1,7 +1,7 @@
 """Figures of the paper study (matplotlib, Agg, no pyplot global state).
 
 Every ``*_figure`` function returns a :class:`matplotlib.figure.Figure`;
-:func:`save` writes it as PNG. Arrays come from :class:`cdsm.paper.PaperStudy`
+:func:`cdsm.report.figures.save` writes it as PNG. Arrays come from :class:`cdsm.paper.PaperStudy`
 in SI units (m, rad); the figures show mm and degrees, as the paper's figures.
 
 Colours follow the paper: deviation in X red, in Y blue, in phi green; in the
@@ -11,121 +11,29 @@ configuration diagrams the arm before the error is blue, after it red.
 from __future__ import annotations
 
 import os
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, List, Tuple
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.colors import LinearSegmentedColormap, LogNorm, Normalize
+from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
-from .robot import CdsmInputError, Robot
+from ..accuracy.scenarios import deviation
+from ..progress import Progress
+from ..robot import Robot
+from .figures import (BLUE, GREEN, HUES, RED, draw_arm, file_key, hue_cmap, new_figure, report_style, save,
+                      sym_norm)
 
 __all__ = [
-    "chain_points", "save", "PROTOCOL_TITLES", "scenario_figure", "overview_figure",
+    "PROTOCOL_TITLES", "scenario_figure", "overview_figure",
     "monte_carlo_figure", "singular_figure", "workspace_figure", "table2_figures",
-    "singular_state_figure", "table3_figure", "all_figures",
+    "singular_state_figure", "table3_figure", "all_figures", "phi0_tips",
 ]
 
-DPI = 110
-RED, BLUE, GREEN = "#d62728", "#1f5fbf", "#2ca02c"
-HUES = (RED, BLUE, GREEN)
 PROTOCOL_TITLES = {
     "attitude0": "attitude-0 protocol (grid tip, phi = 0, pose IK)",
     "joint": "joint-space protocol (error at the grid angles)",
 }
-_FONT = {"font.size": 10, "axes.titlesize": 10.5, "axes.labelsize": 10,
-         "xtick.labelsize": 9, "ytick.labelsize": 9, "legend.fontsize": 9}
-
-
-# ---------------------------------------------------------------------------
-# helpers
-# ---------------------------------------------------------------------------
-def _figure(w: float, h: float) -> Figure:
-    """A new Figure with an Agg canvas (no pyplot state)."""
-    with _rc():
-        fig = Figure(figsize=(w, h), dpi=DPI)
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def _rc():
-    """The report fonts, for the duration of a ``with`` block."""
-    import matplotlib
-
-    return matplotlib.rc_context(_FONT)
-
-
-def save(fig: Figure, path: "str | os.PathLike[str]", dpi: int = DPI) -> str:
-    """Write ``fig`` as PNG at ``path`` (directories created); returns the path."""
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path, dpi=dpi, format="png")
-    return str(path)
-
-
-def _hue_cmap(color: str) -> LinearSegmentedColormap:
-    """Diverging map: negative dark grey, zero white, positive ``color``."""
-    return LinearSegmentedColormap.from_list(f"div_{color}", ["#3a3a3a", "#f7f7f7", color])
-
-
-def _sym_norm(v: np.ndarray) -> Normalize:
-    m = float(np.nanmax(np.abs(v))) if np.isfinite(v).any() else 1.0
-    m = m if m > 0 else 1.0
-    return Normalize(-m, m)
-
-
-def chain_points(robot: Robot, theta) -> np.ndarray:
-    """Points of the arm for drawing, m: theta (n,) rad -> (3n+1, 2).
-
-    Row 0 is the base frame origin O_{0,b}; then for each linkage k = 1..n:
-    joint k, the proximal face centre of disk k (O_{k,a}) and its distal face
-    centre (O_{k,b}). The last row is the tip (equals ``robot.fk(theta)[:2]``).
-    The heading of linkage k (after joint k) is sum(theta[:k]).
-    """
-    t = np.asarray(theta, dtype=np.float64).reshape(-1)
-    if t.shape != (robot.n,):
-        raise CdsmInputError(f"`theta`: expected shape ({robot.n},), got {np.shape(theta)}")
-    lb, la, th = robot.link_before, robot.link_after, robot.thickness
-    pts = [np.zeros(2)]
-    p, head = np.zeros(2), 0.0
-    for k in range(robot.n):
-        p = p + lb[k] * np.array([np.cos(head), np.sin(head)])
-        pts.append(p)
-        head += t[k]
-        d = np.array([np.cos(head), np.sin(head)])
-        p = p + la[k] * d
-        pts.append(p)
-        p = p + th[k] * d
-        pts.append(p)
-    return np.array(pts)
-
-
-def _hole_heights(robot: Robot) -> np.ndarray:
-    """(n,) hole height of each upper cable at its own disk, m."""
-    h = robot.holes
-    return np.array([abs(h[2 * i, i + 1, 0, 1]) for i in range(robot.n)])
-
-
-def draw_arm(ax, robot: Robot, theta, color: str, ls: str = "-", lw: float = 2.0,
-             label: Optional[str] = None, disks: bool = True, alpha: float = 1.0) -> None:
-    """Draw the arm at ``theta`` (n,) rad on ``ax`` in mm: links, joints (dots),
-    disks (bars across the linkage, as wide as twice the hole height)."""
-    pts = chain_points(robot, theta) * 1e3
-    ax.plot(pts[:, 0], pts[:, 1], ls=ls, color=color, lw=lw, label=label, alpha=alpha,
-            solid_capstyle="round")
-    ax.plot(pts[1::3, 0], pts[1::3, 1], "o", color=color, ms=4, alpha=alpha)
-    if disks:
-        hh = _hole_heights(robot) * 1e3
-        heads = np.cumsum(np.asarray(theta, float))
-        base = np.array([0.0, 1.0]) * max(hh) * 1.05
-        ax.plot([0, 0], [-base[1], base[1]], color="0.35", lw=4, solid_capstyle="butt")
-        for k in range(robot.n):
-            nrm = np.array([-np.sin(heads[k]), np.cos(heads[k])]) * hh[k] * 1.05
-            for c in (pts[3 * k + 2], pts[3 * k + 3]):
-                ax.plot([c[0] - nrm[0], c[0] + nrm[0]], [c[1] - nrm[1], c[1] + nrm[1]],
-                        ls=ls, color=color, lw=1.4, alpha=alpha)
-
-
 def _xy_mm(study, protocol: str) -> np.ndarray:
     return study.workspaces[protocol].poses[:, :2] * 1e3
 
@@ -170,12 +78,12 @@ def scenario_figure(study, key: str, protocol: str) -> Figure:
     xy = _xy_mm(study, protocol)
     vals = [r.dS[:, 0] * 1e3, r.dS[:, 1] * 1e3, np.degrees(r.dS[:, 2])]
     names = ["dX (mm)", "dY (mm)", "dphi (deg)"]
-    with _rc():
-        fig = _figure(15, 5.6)
+    with report_style():
+        fig = new_figure(15, 5.6)
         axs = fig.subplots(1, 3)
         for ax, v, nm, hue in zip(axs, vals, names, HUES):
             _unreachable(ax, study, protocol)
-            _scatter_map(fig, ax, xy, v, _hue_cmap(hue), _sym_norm(v), nm)
+            _scatter_map(fig, ax, xy, v, hue_cmap(hue), sym_norm(v), nm)
             jp = r.jumps.point
             if jp.any():
                 ax.scatter(xy[jp, 0], xy[jp, 1], s=40, facecolors="none", edgecolors="k",
@@ -200,8 +108,8 @@ def overview_figure(study, protocol: str) -> Figure:
     """All single-error scenarios as thumbnails of |d(X, Y)| (mm) under
     ``protocol``; rows: cable pair / disk, columns: cable -, cable +, disk -, disk +."""
     n = study.robot.n
-    with _rc():
-        fig = _figure(16, 3.3 * n + 0.8)
+    with report_style():
+        fig = new_figure(16, 3.3 * n + 0.8)
         axs = np.atleast_2d(fig.subplots(n, 4))
         xy = _xy_mm(study, protocol)
         for i in range(n):
@@ -243,8 +151,8 @@ def monte_carlo_figure(study, protocol: str) -> Figure:
            (mc.max_abs[:, 3] * 1e3, "max |dXY| (mm)")]
     bottom = [(mean[:, 0] * 1e3, "mean dX (mm)"), (mean[:, 1] * 1e3, "mean dY (mm)"),
               (np.degrees(mean[:, 2]), "mean dphi (deg)")]
-    with _rc():
-        fig = _figure(15, 9.5)
+    with report_style():
+        fig = new_figure(15, 9.5)
         axs = fig.subplots(2, 3)
         vmax = float(np.nanmax(top[2][0]))
         for ax, (v, nm) in zip(axs[0], top):
@@ -252,7 +160,7 @@ def monte_carlo_figure(study, protocol: str) -> Figure:
             ax.set_title(f"{nm.replace(' (mm)', '')}: workspace max {np.nanmax(v):.3g} mm")
             _axes_mm(ax)
         for ax, (v, nm), hue in zip(axs[1], bottom, HUES):
-            _scatter_map(fig, ax, xy, v, _hue_cmap(hue), _sym_norm(v), nm, size=7)
+            _scatter_map(fig, ax, xy, v, hue_cmap(hue), sym_norm(v), nm, size=7)
             ax.set_title(nm.split(" (")[0], color=hue)
             _axes_mm(ax)
         p = mc.params
@@ -272,8 +180,8 @@ def singular_figure(study) -> Figure:
     """sigma_min / sigma_max of the pose Jacobian (attitude row scaled to m)
     over the workspace, per protocol (log colour scale; low = near-singular)."""
     protos = list(study.workspaces)
-    with _rc():
-        fig = _figure(7.2 * len(protos), 5.6)
+    with report_style():
+        fig = new_figure(7.2 * len(protos), 5.6)
         axs = np.atleast_1d(fig.subplots(1, len(protos)))
         for ax, p in zip(axs, protos):
             ws = study.workspaces[p]
@@ -304,8 +212,8 @@ def feasibility_figure(study) -> Figure:
     (tension > 0 N under the robot's lower weights) vs those that need a slack
     cable, over the workspace, per protocol; colour = smallest upper tension (N)."""
     protos = list(study.feasibility)
-    with _rc():
-        fig = _figure(7.2 * len(protos), 5.6)
+    with report_style():
+        fig = new_figure(7.2 * len(protos), 5.6)
         axs = np.atleast_1d(fig.subplots(1, len(protos)))
         for ax, p in zip(axs, protos):
             ws, fm = study.workspaces[p], study.feasibility[p]
@@ -341,8 +249,8 @@ def amplification_figure(study, protocol: str) -> Figure:
     the tip position over the workspace (analytic sensitivities, Rust core)."""
     maps = study.amplification[protocol]
     xy = maps["xy"] * 1e3
-    with _rc():
-        fig = _figure(12.5, 9.4)
+    with report_style():
+        fig = new_figure(12.5, 9.4)
         axs = fig.subplots(2, 2)
         for ax, (key, title) in zip(axs.ravel(), AMPLIFICATION_TITLES.items()):
             v = maps[key]
@@ -362,7 +270,7 @@ def amplification_figure(study, protocol: str) -> Figure:
 # ---------------------------------------------------------------------------
 # Fig. 9: workspace
 # ---------------------------------------------------------------------------
-def _phi0_tips(robot: Robot, step_deg: float = 1.0, max_points: int = 200_000) -> np.ndarray:
+def phi0_tips(robot: Robot, step_deg: float = 1.0, max_points: int = 200_000) -> np.ndarray:
     """Tips (m) of phi = 0 configurations within the joint limits, (K, 2):
     joints 1..n-1 on a ``step_deg`` grid (uniform random samples when that
     grid would exceed ``max_points``), the last joint closing phi = 0."""
@@ -388,8 +296,8 @@ def workspace_figure(study) -> Figure:
     reachable at phi = 0 within the joint limits, the paper's experimental
     range X 0.19–0.23 m, Y −0.1–0.1 m, and the Table 3 points."""
     robot = study.robot
-    with _rc():
-        fig = _figure(8.0, 9.5)
+    with report_style():
+        fig = new_figure(8.0, 9.5)
         ax = fig.subplots()
         ws = next(iter(study.workspaces.values()))
         grid_tips = robot.fk(ws.grid)[:, :2] * 1e3
@@ -400,7 +308,7 @@ def workspace_figure(study) -> Figure:
             g = a0.poses[a0.reachable, :2] * 1e3
             ax.scatter(g[:, 0], g[:, 1], s=5, c=BLUE, linewidths=0,
                        label=f"grid tips reachable at phi = 0 ({len(g)}; {a0.n_unreachable} not)")
-        t = _phi0_tips(robot) * 1e3
+        t = phi0_tips(robot) * 1e3
         if len(t):
             lim = np.degrees(robot.joint_limits[:, 1].max())
             ax.scatter(t[:, 0], t[:, 1], s=2, c=GREEN, alpha=0.35, linewidths=0,
@@ -467,10 +375,10 @@ def table2_figures(study) -> List[Tuple[str, Figure]]:
     for e in study.table2:
         groups.setdefault((tuple(np.round(e["pose"], 6)), e["condition"]), []).append(e)
     for gi, ((pose, cond), items) in enumerate(groups.items()):
-        with _rc():
+        with report_style():
             cols = min(len(items), 2)
             rows = -(-len(items) // cols)
-            fig = _figure(6.6 * cols, 5.0 * rows + 1.1)
+            fig = new_figure(6.6 * cols, 5.0 * rows + 1.1)
             axs = np.atleast_1d(fig.subplots(rows, cols)).ravel()
             for ax, e in zip(axs, items):
                 _diagram(ax, study.robot, e["theta0"], e["theta"], e["ok"], e["error"],
@@ -491,18 +399,16 @@ def table2_figures(study) -> List[Tuple[str, Figure]]:
 def singular_state_figure(study, dL: float = -1e-3) -> Figure:
     """Fig. 12: the straight (singular) pose, ``dL`` (m) on cable 1, before and
     after; right panel zooms on the tip."""
-    from . import errors
-
     robot = study.robot
     n = robot.n
     dl = np.zeros(n)
     dl[0] = dL
     t0 = np.zeros((1, n))
-    d = errors.deviation(robot, t0, dL=dl)
+    d = deviation(robot, t0, dL=dl)
     theta, ds, ok = d.solution.theta[0], d.dS[0], bool(d.ok[0])
     sv = np.linalg.svd(robot.fk_jacobian(t0)[0][:2], compute_uv=False)
-    with _rc():
-        fig = _figure(14, 5.2)
+    with report_style():
+        fig = new_figure(14, 5.2)
         ax1, ax2 = fig.subplots(1, 2, gridspec_kw=dict(width_ratios=[1.6, 1]))
         _diagram(ax1, robot, t0[0], theta, ok,
                  f"{dL * 1e3:+g} mm on cable 1 at theta = 0 (tip {robot.fk(t0[0])[0] * 1e3:.0f}, 0 mm)",
@@ -538,8 +444,8 @@ def table3_figure(study) -> Figure:
     t = study.table3
     labels = [str(p) for p in t["point"]]
     x = np.arange(len(labels))
-    with _rc():
-        fig = _figure(12, 7.5)
+    with report_style():
+        fig = new_figure(12, 7.5)
         axs = fig.subplots(2, 1, sharex=True)
         for j, (ax, nm) in enumerate(zip(axs, ["dX", "dY"])):
             w = 0.27
@@ -576,8 +482,6 @@ def table3_figure(study) -> Figure:
 def all_figures(study, outdir: "str | os.PathLike[str]", progress: bool = False) -> Dict[str, str]:
     """Write every figure of the study as ``outdir/<name>.png``; returns
     {name: path} in report order. Shows a progress line when ``progress``."""
-    from .errors import Progress
-
     jobs = []
     for p in study.workspaces:
         jobs.append((f"overview_{p}", lambda p=p: overview_figure(study, p)))
@@ -585,7 +489,7 @@ def all_figures(study, outdir: "str | os.PathLike[str]", progress: bool = False)
         for r in study.scenarios:
             if r.protocol == p:
                 k = r.scenario.key
-                jobs.append((f"scenario_{p}_{_safe(k)}", lambda k=k, p=p: scenario_figure(study, k, p)))
+                jobs.append((f"scenario_{p}_{file_key(k)}", lambda k=k, p=p: scenario_figure(study, k, p)))
     for p in study.monte_carlo:
         jobs.append((f"montecarlo_{p}", lambda p=p: monte_carlo_figure(study, p)))
     jobs.append(("singular", lambda: singular_figure(study)))
@@ -610,7 +514,3 @@ def all_figures(study, outdir: "str | os.PathLike[str]", progress: bool = False)
             out[name] = save(fig, os.path.join(outdir, f"{name}.png"))
         bar.update(len(figs))
     return out
-
-
-def _safe(key: str) -> str:
-    return key.replace("+", "plus").replace("-", "minus")

@@ -11,8 +11,6 @@ comments; other columns (e.g. ``point``) are kept as labels.
 
 from __future__ import annotations
 
-import csv
-import io
 import os
 from dataclasses import dataclass, field
 from importlib import resources
@@ -20,10 +18,10 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from .files import read_text
-from .robot import CdsmInputError
+from ..files import parse_table, read_text, table_column
+from ..inputs import CdsmInputError
 
-__all__ = ["Measurements", "read_csv", "packaged"]
+__all__ = ["Measurements", "parse_csv", "read_csv", "packaged"]
 
 
 @dataclass
@@ -50,48 +48,18 @@ class Measurements:
         return len(self.measured)
 
 
-def column(rows, name: str, source: str) -> np.ndarray:
-    """Column ``name`` of parsed rows as floats; an error naming the row and
-    column for a non-number or a non-finite value."""
-    out = np.empty(len(rows))
-    for i, r in enumerate(rows):
-        cell = (r.get(name) or "").strip()
-        try:
-            out[i] = float(cell)
-        except ValueError:
-            raise CdsmInputError(f"{source}: row {i + 1}, column {name!r}: not a number: {cell!r}") from None
-        if not np.isfinite(out[i]):
-            raise CdsmInputError(f"{source}: row {i + 1}, column {name!r}: non-finite value {cell!r}")
-    return out
-
-
-def read_table(text: str, source: str):
-    """Header (list of column names) and rows (dicts) of a CSV text whose
-    ``#`` lines are comments; an error naming ``source`` if either is empty."""
-    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
-        raise CdsmInputError(f"{source}: no header and no rows")
-    reader = csv.DictReader(io.StringIO("\n".join(lines)))
-    cols = [c.strip() for c in (reader.fieldnames or [])]
-    reader.fieldnames = cols
-    rows = list(reader)
-    if not rows:
-        raise CdsmInputError(f"{source}: header but no rows")
-    return cols, rows
-
-
 def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
     """Parse a measurement table for a robot with ``n`` joints (format above)."""
-    cols, rows = read_table(text, source)
+    cols, rows = parse_table(text, source)
     has = set(cols)
     theta_cols = [f"theta_{i}" for i in range(1, n + 1)]
     pose_cols = ["x_cmd", "y_cmd", "phi_cmd"]
     if set(theta_cols) <= has:
-        theta, pose = np.stack([column(rows, c, source) for c in theta_cols], 1), None
+        theta, pose = np.stack([table_column(rows, c, source) for c in theta_cols], 1), None
     elif set(pose_cols[:2]) <= has:
         theta = None
-        phi = column(rows, "phi_cmd", source) if "phi_cmd" in has else np.zeros(len(rows))
-        pose = np.stack([column(rows, "x_cmd", source), column(rows, "y_cmd", source), phi], 1)
+        phi = table_column(rows, "phi_cmd", source) if "phi_cmd" in has else np.zeros(len(rows))
+        pose = np.stack([table_column(rows, "x_cmd", source), table_column(rows, "y_cmd", source), phi], 1)
     else:
         raise CdsmInputError(f"{source}: missing command columns: need {', '.join(theta_cols)} "
                              f"or x_cmd, y_cmd[, phi_cmd]; found {', '.join(cols)}")
@@ -99,7 +67,7 @@ def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
     extra = sorted(c for c in has if c.startswith("dL_") and c not in dl_cols)
     if extra:
         raise CdsmInputError(f"{source}: columns {extra} do not fit a robot with {n} joints")
-    dL = np.stack([column(rows, c, source) if c in has else np.zeros(len(rows)) for c in dl_cols], 1)
+    dL = np.stack([table_column(rows, c, source) if c in has else np.zeros(len(rows)) for c in dl_cols], 1)
     if {"x", "y"} <= has and {"dx", "dy"} & has:
         raise CdsmInputError(f"{source}: both absolute (x, y) and displacement (dx, dy) columns; give one kind")
     if {"x", "y"} <= has:
@@ -109,8 +77,8 @@ def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
     else:
         raise CdsmInputError(f"{source}: missing measured columns: need x, y (absolute) or dx, dy "
                              f"(displacement); found {', '.join(cols)}")
-    measured = np.stack([column(rows, c, source) for c in mcols], 1)
-    mphi = column(rows, pcol, source) if pcol in has else None
+    measured = np.stack([table_column(rows, c, source) for c in mcols], 1)
+    mphi = table_column(rows, pcol, source) if pcol in has else None
     used = set(theta_cols + pose_cols + dl_cols + list(mcols) + [pcol])
     labels = {c: [r[c] for r in rows] for c in cols if c not in used}
     return Measurements(kind, n, dL, measured, theta, pose, mphi, labels, source)

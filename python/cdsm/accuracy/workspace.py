@@ -17,11 +17,12 @@ from typing import Optional
 
 import numpy as np
 
-from .robot import CdsmInputError, Robot, Solution, _batch
+from ..inputs import CdsmInputError, as_batch
+from ..robot import Robot, Solution
 
 __all__ = [
     "joint_grid", "default_step", "grid_neighbours", "paper_ik_seed", "Workspace", "sweep",
-    "sensitivity", "singular_values", "cable_fold_ratio", "jump_points", "Jumps", "REASONS",
+    "singular_values", "cable_fold_ratio", "jump_points", "Jumps", "REASONS",
 ]
 
 
@@ -133,7 +134,7 @@ def sweep(robot: Robot, protocol: str = "attitude0", grid=None, ik_seed=None,
         # a jump is judged against the adjacent changes along a grid line: with
         # fewer than MIN_LINE values per joint there is no trend to compare to
         neighbours = grid_neighbours(k, robot.n) if k >= MIN_LINE else None
-    g, _ = _batch("grid", grid, robot.n)
+    g, _ = as_batch("grid", grid, robot.n)
     nb = np.zeros((0, 4), dtype=np.int64) if neighbours is None else np.asarray(neighbours, dtype=np.int64)
     if protocol == "joint":
         return Workspace("joint", g, robot.fk(g), g.copy(), np.ones(len(g), bool), nb)
@@ -153,23 +154,13 @@ def singular_values(robot: Robot, theta, attitude_scale: Optional[float] = None)
     attitude row scaled by ``attitude_scale`` (m/rad; default the straight
     length) so that all rows are in m. A zero means a lost direction (Fig. 12:
     all joints zero loses X)."""
-    t, _ = _batch("theta", theta, robot.n)
+    t, _ = as_batch("theta", theta, robot.n)
     j = robot.fk_jacobian(t)
     scale = float(np.sum(robot.link_before + robot.link_after + robot.thickness)) \
         if attitude_scale is None else float(attitude_scale)
     j = j.copy()
     j[:, 2, :] *= scale
     return np.linalg.svd(j, compute_uv=False)
-
-
-def sensitivity(robot: Robot, theta) -> np.ndarray:
-    """First-order tip sensitivity to the upper-cable lengths: d[x, y, phi]/dL
-    (N, 3, n) = J_pose · (dL_upper/dtheta)^-1 (m/m and rad/m), theta (N, n)
-    rad. NaN where the cable Jacobian is singular. The ``cable`` part of
-    :func:`cdsm.tolerance.sensitivities` (Rust core)."""
-    from .tolerance import sensitivities
-
-    return sensitivities(robot, theta).cable
 
 
 @dataclass(frozen=True)
@@ -207,7 +198,7 @@ def cable_fold_ratio(robot: Robot, theta) -> np.ndarray:
     """(N,) smallest |dL_i/dtheta_i| of the upper cables relative to its value
     at the straight pose: near 0 the cable is at a fold (its longest or
     shortest length), where the cable solve is ill-conditioned."""
-    t, _ = _batch("theta", theta, robot.n)
+    t, _ = as_batch("theta", theta, robot.n)
     d = np.abs(np.diagonal(robot.cable_jacobian(t)[:, 0::2, :], axis1=1, axis2=2))
     d0 = np.abs(np.diagonal(robot.cable_jacobian(np.zeros(robot.n))[0::2, :]))
     return (d / np.maximum(d0, 1e-300)).min(axis=1)

@@ -1,0 +1,203 @@
+"""First-order tip sensitivities and what they say: amplification maps,
+the linear picture of a composite error, and where it departs from the
+nonlinear solves. SI units: m, rad.
+
+Sensitivities (Rust core, ``rust/sensitivity.rs``; implicit function theorem,
+the cable solve keeps the upper-cable lengths)::
+
+    dS/dl     =  J_pose (dL_upper/dtheta)^-1                      (N, 3, n)
+    dS/dholes = -J_pose (dL_upper/dtheta)^-1 dL_upper/dholes      (N, 3, 2n, n+1, 2, 2)
+    dS/ddh_i  =  dS/dholes summed over the holes of upper cable i (N, 3, n)
+
+Linear amplification (per configuration, tolerances ``t``):
+
+* worst case: ``worst_x = sum_j |S_xj| t_j``, ``worst_y = sum_j |S_yj| t_j``,
+  ``worst_xy = hypot(worst_x, worst_y)`` (a bound on |d(x, y)|);
+* RMS of |d(x, y)| for uniform errors: ``sqrt(sum_{i in x,y} sum_j S_ij^2 t_j^2 / 3)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Dict, Optional
+
+import numpy as np
+
+from .. import _cdsm
+from ..inputs import as_batch, as_tolerances
+from ..robot import Robot
+from .montecarlo import monte_carlo
+from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, deviation
+from .workspace import jump_points, singular_values, sweep
+
+__all__ = ["Sensitivities", "sensitivities", "sensitivity", "error_matrix", "tolerance_vector", "amplification",
+           "linear_percentile", "linear_vs_mc", "amplification_maps"]
+
+
+@dataclass(frozen=True)
+class Sensitivities:
+    """First-order sensitivities of the tip pose at ``theta (N, n)`` rad.
+
+    cable: (N, 3, n) d[x, y, phi]/d(upper-cable length), m/m (rad/m for phi).
+    pair: (N, 3, n) d[x, y, phi]/d(hole height of disk i) (the paper's dh), m/m.
+    holes: (N, 3, 2n, n+1, 2, 2) d[x, y, phi]/d(every hole coordinate), or None.
+    ok: (N,) the upper-cable Jacobian is invertible (NaN rows otherwise).
+    """
+
+    theta: np.ndarray
+    cable: np.ndarray
+    pair: np.ndarray
+    holes: Optional[np.ndarray]
+    ok: np.ndarray
+
+
+def sensitivities(robot: Robot, theta, holes: bool = False) -> Sensitivities:
+    """Analytic tip sensitivities (Rust core) over ``theta (N, n)`` rad (or (n,))."""
+    t, _ = as_batch("theta", theta, robot.n)
+    n = robot.n
+    c, p, h, ok = _cdsm.sensitivity_tip(robot.core, t, bool(holes), robot.threads)
+    hs = None if h is None else h.reshape((-1, 3) + robot.holes.shape)
+    return Sensitivities(t, c.reshape(-1, 3, n), p.reshape(-1, 3, n), hs, np.asarray(ok, bool))
+
+
+def sensitivity(robot: Robot, theta) -> np.ndarray:
+    """First-order tip sensitivity to the upper-cable lengths: d[x, y, phi]/dL
+    (N, 3, n) = J_pose · (dL_upper/dtheta)^-1 (m/m and rad/m), theta (N, n)
+    rad. NaN where the cable Jacobian is singular (the ``cable`` part of
+    :func:`sensitivities`)."""
+    return sensitivities(robot, theta).cable
+
+
+def error_matrix(sens: Sensitivities) -> np.ndarray:
+    """(N, 2, 2n) d(x, y)/d[dl_1..dl_n, dh_1..dh_n], m/m: the linear map from
+    the allocation's error vector to the tip position error."""
+    return np.concatenate([sens.cable[:, :2, :], sens.pair[:, :2, :]], axis=2)
+
+
+def tolerance_vector(robot: Robot, dl_tol, dh_tol) -> np.ndarray:
+    """(2n,) tolerances, m: ``dl_tol`` per upper cable then ``dh_tol`` per disk
+    (each a scalar or (n,), finite and >= 0)."""
+    return np.concatenate([as_tolerances("dl_tol", dl_tol, robot.n), as_tolerances("dh_tol", dh_tol, robot.n)])
+
+
+def amplification(sens: Sensitivities, dl_tol, dh_tol) -> Dict[str, np.ndarray]:
+    """Linear tip-error amplification for tolerances ``dl_tol`` (per upper
+    cable) and ``dh_tol`` (per disk), m (scalars or (n,)).
+
+    Returns (N,) arrays in m: ``worst_x``, ``worst_y`` (sum_j |S_ij| t_j),
+    ``worst_xy`` (their hypot), ``rms_xy`` (RMS of |d(x, y)| for independent
+    uniform errors, sqrt(sum S^2 t^2 / 3)); and the per-unit maps (m of tip per
+    m of error, tolerances 1 on that group only): ``cable_worst``,
+    ``cable_rms``, ``hole_worst``, ``hole_rms``.
+    """
+    n = sens.cable.shape[2]
+    m = error_matrix(sens)
+    t = np.concatenate([np.broadcast_to(np.asarray(dl_tol, float), (n,)),
+                        np.broadcast_to(np.asarray(dh_tol, float), (n,))])
+    wx = np.abs(m[:, 0, :]) @ t
+    wy = np.abs(m[:, 1, :]) @ t
+    rms = np.sqrt(((m ** 2).sum(axis=1) @ (t ** 2)) / 3.0)
+    cab, hol = m[:, :, :n], m[:, :, n:]
+    return dict(
+        worst_x=wx, worst_y=wy, worst_xy=np.hypot(wx, wy), rms_xy=rms,
+        cable_worst=np.hypot(np.abs(cab[:, 0]).sum(1), np.abs(cab[:, 1]).sum(1)),
+        cable_rms=np.sqrt((cab ** 2).sum(axis=(1, 2)) / 3.0),
+        hole_worst=np.hypot(np.abs(hol[:, 0]).sum(1), np.abs(hol[:, 1]).sum(1)),
+        hole_rms=np.sqrt((hol ** 2).sum(axis=(1, 2)) / 3.0),
+    )
+
+
+def linear_percentile(m: np.ndarray, tol: np.ndarray, p: float, samples: int = 2000,
+                      seed: int = 0) -> float:
+    """Pooled p-th percentile (m) of |d(x, y)| over all configurations under
+    the linear model ``m (N, 2, k)`` with independent uniform errors within
+    ``±tol (k,)`` (``samples`` common draws). Exactly proportional to ``tol``."""
+    rng = np.random.default_rng([int(seed), 7])
+    v = rng.uniform(-1.0, 1.0, (int(samples), m.shape[2])) * tol
+    ok = np.isfinite(m).all(axis=(1, 2))
+    e = np.einsum("nik,sk->nsi", m[ok], v)
+    return float(np.percentile(np.hypot(e[..., 0], e[..., 1]), p))
+
+
+# ---------------------------------------------------------------------------
+# where the linear picture holds
+# ---------------------------------------------------------------------------
+def linear_vs_mc(robot: Robot, protocol: str = "joint", dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL,
+                 samples: int = 500, seed: int = 0, depart: float = 0.1, ws=None) -> dict:
+    """Compare the linear picture with the nonlinear solves over a workspace
+    (``workspace.sweep(robot, protocol)`` unless ``ws`` is given).
+
+    Two measures per configuration: ``ratio_rms`` = Monte-Carlo RMS of
+    |d(x, y)| / linear RMS (tolerances ``dl_tol``, ``dh_tol``, m), and
+    ``rel_single`` = |dS_solve - S dl| / |dS_solve| for the paper's single
+    error (upper cable 1 shortened by 1 mm). Departures above ``depart`` are
+    classified against the special points: ``jump`` (``workspace.jump_points``
+    of the single-error map), ``near_singular`` (pose-Jacobian singular-value
+    ratio < 0.02) and ``other``; ``summary`` gives median / 95th pct / max of
+    |ratio_rms - 1| and rel_single per class.
+    """
+    if ws is None:
+        ws = sweep(robot, protocol)
+    ok = np.asarray(ws.reachable, bool) & np.isfinite(ws.theta0).all(axis=1)
+    t = np.where(ok[:, None], ws.theta0, 0.0)
+    n = robot.n
+    sens = sensitivities(robot, t)
+    amp = amplification(sens, dl_tol, dh_tol)
+    tol = tolerance_vector(robot, dl_tol, dh_tol)
+    mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:n], dh_tol=tol[n:], progress=False)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mc_rms = np.sqrt(mc.sum_sq[:, 3] / mc.count)
+        ratio = mc_rms / amp["rms_xy"]
+    dl = np.zeros(n)
+    dl[0] = -1e-3
+    dev = deviation(robot, t, dL=dl)
+    lin = sens.cable[:, :, 0] * dl[0]
+    ds = np.where(ok[:, None], dev.dS, np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rel = np.linalg.norm(ds[:, :2] - lin[:, :2], axis=1) / np.linalg.norm(ds[:, :2], axis=1)
+    jumps = jump_points(robot, ws, ds)
+    sv = singular_values(robot, t)
+    sing = sv[:, -1] / np.maximum(sv[:, 0], 1e-300) < 0.02
+    cls = np.full(len(t), "other", dtype=object)
+    cls[sing] = "near_singular"
+    cls[jumps.point] = "jump"
+    cls[~ok] = "unreachable"
+    summary = {}
+    for name in ("jump", "near_singular", "other"):
+        sel = (cls == name) & np.isfinite(ratio) & np.isfinite(rel)
+        if not sel.any():
+            summary[name] = dict(count=0)
+            continue
+        d = np.abs(ratio[sel] - 1.0)
+        summary[name] = dict(
+            count=int(sel.sum()),
+            rms_ratio_dev_median=float(np.median(d)), rms_ratio_dev_p95=float(np.percentile(d, 95)),
+            rms_ratio_dev_max=float(d.max()),
+            single_rel_median=float(np.median(rel[sel])), single_rel_p95=float(np.percentile(rel[sel], 95)),
+            single_rel_max=float(rel[sel].max()),
+            departing=int(((d > depart) | (rel[sel] > depart)).sum()))
+    return dict(protocol=ws.protocol, ratio_rms=ratio, rel_single=rel, klass=cls.astype(str),
+                jump=jumps.point, near_singular=sing, amplification=amp, mc=mc, summary=summary,
+                theta=t, ok=ok, ws=ws)
+
+
+# ---------------------------------------------------------------------------
+# amplification maps (report)
+# ---------------------------------------------------------------------------
+def amplification_maps(robot: Robot, protocol: str = "attitude0", ws=None) -> dict:
+    """Worst-case and RMS amplification maps over a workspace (default the
+    paper's attitude-0 protocol on the ±30°/5° grid): per configuration the
+    nominal tip (x, y) (m) and :func:`amplification` per unit tolerance
+    (``cable_worst``, ``cable_rms``: mm of tip per mm on every upper cable;
+    ``hole_worst``, ``hole_rms``: mm of tip per mm on every disk's hole height)."""
+    if ws is None:
+        ws = sweep(robot, protocol)
+    ok = np.asarray(ws.reachable, bool) & np.isfinite(ws.theta0).all(axis=1)
+    t = np.where(ok[:, None], ws.theta0, 0.0)
+    amp = amplification(sensitivities(robot, t), 1.0, 1.0)
+    out = {k: np.where(ok, v, np.nan) for k, v in amp.items()
+           if k in ("cable_worst", "cable_rms", "hole_worst", "hole_rms")}
+    out["xy"] = ws.poses[:, :2]
+    out["ok"] = ok
+    out["protocol"] = ws.protocol
+    return out

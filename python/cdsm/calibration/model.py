@@ -1,0 +1,256 @@
+"""A fitted model of the real arm (nominal robot + fitted effects) that can be
+saved, loaded and used to compensate cable commands. SI units (m, rad, N).
+
+The model is what the sim-to-real diagnosis (:mod:`cdsm.calibration.diagnosis`) chose: the
+nominal :class:`~cdsm.robot.Robot` the controller believes in, plus the
+unmodelled effects of :mod:`cdsm.calibration.plant` with their fitted parameters. With it,
+:meth:`Model.compensate` finds the upper-cable length commands that put the
+tip of the *fitted* plant on target poses.
+
+Model file format ``cdsm-model/1`` (JSON, UTF-8)
+------------------------------------------------
+One JSON object; every number is a JSON float written by Python's ``repr``
+(shortest round-trip form), so a model loads back bit-exactly::
+
+    {
+      "format": "cdsm-model/1",           # required; other versions are refused
+      "cdsm_version": "0.1.0",            # the package that wrote it (informative)
+      "name": "hole_height",              # the chosen model ('+'-joined, or 'none')
+      "effects": ["hole_height"],         # fitted effects, in fit order
+      "robot": {                          # the nominal robot
+        "name": "...", "n": 3,
+        "toml": "..."                     # a complete robot TOML (explicit holes),
+      },                                  #   read by Robot.from_toml_str
+      "params": {
+        "layout": {"actuation_scale": [0, 1], ...},   # slice [start, stop) of each
+                                                      #   effect in the flat vector
+        "flat": [...],                    # (P,) the full plant parameter vector, SI
+        "by_effect": {"hole_height": [...]},          # the fitted effects' values
+        "std": {"hole_height": [...]}     # their 1-sigma uncertainty (SI), may be {}
+      },
+      "data": {                           # provenance (null when built by hand)
+        "source": "table3.csv", "kind": "displacement",
+        "rows": 9, "rows_used": 9,
+        "sha256": "...",                  # of the measurement arrays (see below)
+        "file_sha256": "..." | null       # of the source file, if it was readable
+      },
+      "heldout": {                        # cross-validated figures (null by hand)
+        "baseline_rms_m": ..., "final_rms_m": ..., "noise_m": ...,
+        "noise_floor_m": ..., "explained": true, "best": "...", "ties": [...],
+        "candidates": {"hole_height": <held-out RMS, m>, ...}
+      }
+    }
+
+``data.sha256`` is the SHA-256 of: the kind and n as ASCII (``"absolute 3\\n"``)
+followed by the little-endian float64 bytes of the commanded ``theta`` (N, n)
+or ``pose_cmd`` (N, 3), ``dL`` (N, n), ``measured`` (N, 2) and ``measured_phi``
+(N,) when present, in that order. Non-finite figures are written as ``null``.
+Readers must ignore unknown keys; a new major format bumps the version.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+from typing import Dict, List, Mapping, Optional, Sequence
+
+import numpy as np
+
+from ..files import read_text, write_text
+from ..inputs import CdsmInputError, as_batch
+from ..robot import Robot
+from . import plant
+from .compensation import Compensation, compensate
+from .measurements import Measurements
+
+__all__ = ["Model", "FORMAT"]
+
+#: Version tag of the model file format (see the module docstring).
+FORMAT = "cdsm-model/1"
+
+
+def _data_hash(meas: Measurements) -> str:
+    hsh = hashlib.sha256(f"{meas.kind} {meas.n}\n".encode("ascii"))
+    cmd = meas.theta if meas.theta is not None else meas.pose_cmd
+    for arr in (cmd, meas.dL, meas.measured, meas.measured_phi):
+        if arr is not None:
+            hsh.update(np.ascontiguousarray(arr, dtype="<f8").tobytes())
+    return hsh.hexdigest()
+
+
+def _finite_or_none(v):
+    if v is None:
+        return None
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+# ---------------------------------------------------------------------------
+# the model
+# ---------------------------------------------------------------------------
+class Model:
+    """Nominal robot + fitted effects (see the module docstring for the file).
+
+    robot: the nominal :class:`Robot`. p: (P,) the full plant parameter vector
+    (:func:`cdsm.calibration.plant.layout`), SI. effects: the fitted effects' names.
+    name: the model name. std: {effect: 1-sigma list}. data, heldout: the
+    provenance and cross-validated figures (dicts as in the file, or None).
+    """
+
+    def __init__(self, robot: Robot, p, effects: Sequence[str] = (), name: Optional[str] = None,
+                 std: Optional[Mapping[str, Sequence[float]]] = None, data: Optional[dict] = None,
+                 heldout: Optional[dict] = None, robot_toml_text: Optional[str] = None):
+        self.robot = robot
+        self.p = np.array(p, dtype=np.float64).reshape(-1)
+        if self.p.size != plant.size(robot) or not np.isfinite(self.p).all():
+            raise CdsmInputError(f"`p`: expected {plant.size(robot)} finite plant parameters, got {self.p.size}")
+        lay = plant.layout(robot)
+        for e in effects:
+            if e not in lay:
+                raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(plant.EFFECTS)}")
+        self.effects = list(effects)
+        self.name = name if name is not None else ("+".join(self.effects) or "none")
+        self.std = {k: [float(x) for x in v] for k, v in (std or {}).items()}
+        self.data = data
+        self.heldout = heldout
+        self._toml = robot_toml_text if robot_toml_text is not None else robot.to_toml()
+
+    # ---- construction ---------------------------------------------------
+    @classmethod
+    def from_effects(cls, robot: Robot, effects: Mapping[str, Sequence[float]], **kw) -> "Model":
+        """A model with given effect values ``{effect: values}`` (SI), e.g. a
+        virtual prototype's truth."""
+        return cls(robot, plant.params(robot, effects), list(effects), **kw)
+
+    @classmethod
+    def from_diagnosis(cls, diag) -> "Model":
+        """The chosen model of a :class:`cdsm.calibration.diagnosis.Diagnosis` (its final
+        fit on all usable rows), with the data provenance and held-out figures."""
+        robot = diag.prep.robot
+        fin = diag.final()
+        meas = diag.prep.meas
+        src = meas.source or ""
+        file_hash = None
+        if src and os.path.isfile(src):
+            try:
+                file_hash = hashlib.sha256(open(src, "rb").read()).hexdigest()
+            except OSError:
+                file_hash = None
+        data = dict(source=src, kind=meas.kind, rows=int(len(meas)),
+                    rows_used=int(diag.prep.usable.sum()), sha256=_data_hash(meas),
+                    file_sha256=file_hash)
+        heldout = dict(baseline_rms_m=_finite_or_none(diag.baseline.heldout_rms),
+                       final_rms_m=_finite_or_none(fin.heldout_rms),
+                       noise_m=_finite_or_none(diag.noise),
+                       noise_floor_m=_finite_or_none(diag.noise_floor),
+                       explained=bool(diag.explained), best=diag.best, ties=list(diag.ties),
+                       candidates={c.name: _finite_or_none(c.heldout_rms) for c in diag.singles})
+        std = fin.fit.std_by_effect(robot) if fin.effects else {}
+        return cls(robot, fin.fit.p, fin.effects, name=diag.best, std=std, data=data, heldout=heldout)
+
+    # ---- file -------------------------------------------------------------
+    def params_by_effect(self) -> Dict[str, List[float]]:
+        """{effect: values} of the fitted effects, SI."""
+        lay = plant.layout(self.robot)
+        return {e: self.p[lay[e]].tolist() for e in self.effects}
+
+    def to_dict(self) -> dict:
+        """The file content as a dict (format ``cdsm-model/1``)."""
+        from .. import __version__
+
+        lay = plant.layout(self.robot)
+        return {
+            "format": FORMAT,
+            "cdsm_version": __version__,
+            "name": self.name,
+            "effects": list(self.effects),
+            "robot": {"name": self.robot.name, "n": int(self.robot.n), "toml": self._toml},
+            "params": {
+                "layout": {k: [s.start, s.stop] for k, s in lay.items()},
+                "flat": [float(x) for x in self.p],
+                "by_effect": self.params_by_effect(),
+                "std": {k: list(v) for k, v in self.std.items()},
+            },
+            "data": self.data,
+            "heldout": self.heldout,
+        }
+
+    def save(self, path: "str | os.PathLike[str]") -> None:
+        """Write the model file (JSON, format ``cdsm-model/1``)."""
+        write_text(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n", "model")
+
+    @classmethod
+    def from_dict(cls, d: dict, source: str = "<model>") -> "Model":
+        """Rebuild a model from :meth:`to_dict` output; checks the version and
+        the parameter layout."""
+        if not isinstance(d, dict):
+            raise CdsmInputError(f"model file {source!r}: not a JSON object")
+        fmt = d.get("format")
+        if fmt != FORMAT:
+            raise CdsmInputError(f"model file {source!r}: format {fmt!r} is not supported "
+                                 f"(this cdsm reads {FORMAT!r})")
+        try:
+            rob = d["robot"]
+            toml = rob["toml"]
+            par = d["params"]
+            flat = par["flat"]
+            effects = list(d["effects"])
+        except (KeyError, TypeError) as exc:
+            raise CdsmInputError(f"model file {source!r}: missing field {exc}") from None
+        try:
+            robot = Robot.from_toml_str(toml)
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"model file {source!r}: bad robot: {exc}") from None
+        lay = {k: [s.start, s.stop] for k, s in plant.layout(robot).items()}
+        if par.get("layout") is not None and par["layout"] != lay:
+            raise CdsmInputError(f"model file {source!r}: parameter layout {par['layout']} does not match "
+                                 f"this cdsm's {lay}")
+        try:
+            p = np.array(flat, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise CdsmInputError(f"model file {source!r}: params.flat is not a list of numbers") from None
+        if p.ndim != 1 or p.size != plant.size(robot) or not np.isfinite(p).all():
+            raise CdsmInputError(f"model file {source!r}: params.flat needs {plant.size(robot)} finite "
+                                 f"numbers, got {p.size}")
+        try:
+            return cls(robot, p, effects, name=d.get("name"), std=par.get("std") or {},
+                       data=d.get("data"), heldout=d.get("heldout"), robot_toml_text=toml)
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"model file {source!r}: {exc}") from None
+
+    @classmethod
+    def load(cls, path: "str | os.PathLike[str]") -> "Model":
+        """Read a model file written by :meth:`save` (exact round trip)."""
+        src = str(path)
+        text = read_text(path, "model")
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise CdsmInputError(f"model file {src!r}: not JSON ({exc.msg} at line {exc.lineno})") from None
+        return cls.from_dict(d, src)
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Model):
+            return NotImplemented
+        return json.dumps(self.to_dict(), sort_keys=True) == json.dumps(other.to_dict(), sort_keys=True)
+
+    def __repr__(self) -> str:
+        return f"Model({self.name!r}, robot={self.robot.name!r}, n={self.robot.n})"
+
+    # ---- use --------------------------------------------------------------
+    def predict(self, theta_cmd, dL=None, kind: str = "absolute"):
+        """The fitted plant's observations for commands ``theta_cmd`` (N, n) rad
+        + ``dL`` (N, n) m: ((N, 3), converged (N,)), see :func:`cdsm.calibration.plant.predict`."""
+        t, _ = as_batch("theta_cmd", theta_cmd, self.robot.n)
+        d = np.zeros_like(t) if dL is None else dL
+        return plant.predict(self.robot, self.p, t, d, kind)
+
+    def compensate(self, poses, tol: float = 1e-9, max_iter: int = 40, h: float = 1e-6,
+                   min_tension: float = 0.0, enforce_limits: bool = False) -> Compensation:
+        """Upper-cable length commands that put the fitted plant's tip on
+        ``poses``: :func:`cdsm.calibration.compensation.compensate` (the
+        options and flags are documented there)."""
+        return compensate(self, poses, tol=tol, max_iter=max_iter, h=h, min_tension=min_tension,
+                          enforce_limits=enforce_limits)

@@ -1,0 +1,51 @@
+"""``cdsm compensate``: cable commands that put the tip on target poses under a fitted model."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from .registry import (UserError, check_out_file, options, subcommand)
+
+
+# ---------------------------------------------------------------------------
+def _compensate_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("targets", metavar="TARGETS.csv", help="target poses: columns x, y (m) and optional "
+                   "phi (rad); '#' comment lines")
+    p.add_argument("--model", metavar="MODEL.json", required=True,
+                   help="fitted model (cdsm diagnose --save-model; format cdsm-model/1)")
+    p.add_argument("--out", metavar="COMMANDS.csv", required=True,
+                   help="output: upper-cable length commands L_1..L_n (m) per target, converged, "
+                        "predicted tip error (m), flags")
+    p.add_argument("--tol", metavar="M", type=float, default=1e-9,
+                   help="tip residual tolerance of the compensation solve, m (default 1e-9)")
+    p.add_argument("--enforce-limits", action="store_true",
+                   help="leave out targets whose nominal IK answer is outside the joint limits "
+                        "(default: compensate them and flag the row)")
+
+
+@subcommand("compensate", help="upper-cable commands that put the tip on target poses under a fitted model")
+@options(_compensate_args)
+def _compensate_run(args) -> int:
+    from ..calibration.compensation import read_targets
+    from ..calibration.model import Model
+
+    if not (args.tol > 0 and args.tol < 1):
+        raise UserError(f"--tol: expected a positive length in m, got {args.tol}")
+    check_out_file(args.out, "--out")
+    model = Model.load(args.model)
+    poses = read_targets(args.targets)
+    res = model.compensate(poses, tol=args.tol, enforce_limits=args.enforce_limits)
+    res.to_csv(args.out)
+    print(f"model {model.name!r} ({model.robot.name}, {model.robot.n} joints)")
+    print(res.summary())
+    for i, f in enumerate(res.flags):
+        if f:
+            print(f"  row {i + 1}: {f}")
+    print(f"commands: {os.path.abspath(args.out)}")
+    return 0
+
+
+# ---------------------------------------------------------------------------
+# main
+# ---------------------------------------------------------------------------

@@ -1,0 +1,116 @@
+"""``cdsm diagnose``: the sim-to-real gap of measurements against a robot."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+from .registry import (check_out_file, load_robot, options, positive_int, prepare_dir, subcommand)
+from typing import List
+
+
+# ---------------------------------------------------------------------------
+def _noise_m(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a noise level in m, got {text!r}") from None
+    if not (v > 0 and v < 1e-2):  # also rejects nan and inf
+        raise argparse.ArgumentTypeError(f"expected a positive noise level in m below 0.01 m (SI units: "
+                                         f"10 µm is 1e-5), got {text!r}")
+    return v
+
+
+def _folds(text: str) -> int:
+    v = positive_int(text)
+    if v < 2:
+        raise argparse.ArgumentTypeError(f"expected at least 2 folds, got {text!r}")
+    return v
+
+
+def _effect_list(text: str) -> List[str]:
+    from ..calibration.plant import EFFECTS
+
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected a comma-separated list of effects, got {text!r}")
+    bad = [t for t in names if t not in EFFECTS]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown effect(s) {', '.join(map(repr, bad))}; "
+                                         f"known: {', '.join(EFFECTS)}")
+    dup = sorted({t for t in names if names.count(t) > 1})
+    if dup:
+        raise argparse.ArgumentTypeError(f"effect(s) listed twice: {', '.join(dup)}")
+    return names
+
+
+def _diagnose_args(p: argparse.ArgumentParser) -> None:
+    from ..calibration.diagnosis import DEFAULT_NOISE
+
+    p.add_argument("data", metavar="DATA.csv", help="measurement table (CSV, SI units; see cdsm.calibration.measurements)")
+    p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units); "
+                   "default: the paper's 3-joint prototype")
+    p.add_argument("--effects", metavar="a,b,...", type=_effect_list, default=None,
+                   help="candidate effects (comma list; default: the whole library)")
+    p.add_argument("--json", metavar="OUT", help="write the diagnosis as JSON (SI units)")
+    p.add_argument("--report", metavar="DIR", help="write report.md, report.html, figures and CSV into DIR")
+    p.add_argument("--noise", metavar="SIGMA_M", type=_noise_m, default=DEFAULT_NOISE,
+                   help=f"measurement noise per axis, m (default: {DEFAULT_NOISE:g})")
+    p.add_argument("--folds", metavar="K", type=_folds, default=10,
+                   help="cross-validation folds (default: 10; leave-one-out when fewer rows)")
+    p.add_argument("--save-model", metavar="MODEL.json", help="save the diagnosed model (cdsm.calibration.model)")
+    p.add_argument("--suggest", metavar="K", type=positive_int,
+                   help="suggest K new measurement configurations (cdsm.calibration.experiment)")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+@subcommand("diagnose", help="sim-to-real gap diagnosis: which unmodelled effect explains the measurements")
+@options(_diagnose_args)
+def _diagnose_run(args) -> int:
+    from ..calibration import diagnosis as diagnose
+    from ..calibration.measurements import read_csv
+    from ..files import write_json
+    from ..report import diagnosis as diagnose_report
+
+    t0 = time.perf_counter()
+    show = not args.quiet
+    robot = load_robot(args.robot)
+    meas = read_csv(args.data, robot.n)
+    report_dir = None if args.report is None else prepare_dir(args.report, "--report")
+    for opt, path in (("--json", args.json), ("--save-model", args.save_model)):
+        check_out_file(path, opt)
+    d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
+                          progress=show)
+    for line in diagnose_report.summary(d):
+        print(line)
+    if args.json is not None:
+        write_json(args.json, d.to_json(), "--json")
+        print(f"json: {args.json}")
+    if report_dir is not None:
+        paths = diagnose_report.write(d, report_dir)
+        print(f"report: {paths['report_html']}")
+        print(f"        {paths['report_md']}")
+    if args.save_model is not None:
+        from ..calibration.model import Model
+
+        Model.from_diagnosis(d).save(args.save_model)
+        print(f"model: {args.save_model}")
+    if args.suggest is not None:
+        from ..calibration.experiment import suggest
+
+        s = suggest(d, args.suggest)
+        print(s.summary())
+        if report_dir is not None:
+            path = os.path.join(report_dir, "suggested.csv")
+            s.to_csv(path)
+            print(f"suggested configurations: {path}")
+    if show:
+        print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return 0
+
+
+# ---------------------------------------------------------------------------
+# cdsm montecarlo
+# ---------------------------------------------------------------------------

@@ -1,0 +1,128 @@
+"""``cdsm montecarlo``: a Monte-Carlo study to ``.npz``, locally or on a Dask cluster."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from .registry import (UserError, check_out_file, load_robot, options, positive_int, seed_int,
+                       subcommand)
+from typing import List
+
+
+def _percentile_list(text: str) -> List[float]:
+    try:
+        vals = [float(t) for t in text.split(",") if t.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated percentiles, got {text!r}") from None
+    if not vals or not all(0.0 <= v <= 100.0 for v in vals):
+        raise argparse.ArgumentTypeError(f"expected percentiles within [0, 100], got {text!r}")
+    return vals
+
+
+def _angle_deg(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an angle in degrees, got {text!r}") from None
+    if not (v > 0 and v <= 180):
+        raise argparse.ArgumentTypeError(f"expected an angle in (0, 180] degrees, got {text!r}")
+    return v
+
+
+def _montecarlo_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units); "
+                   "default: the paper's 3-joint prototype")
+    p.add_argument("--out", metavar="FILE.npz", required=True,
+                   help="output: per-configuration statistics as arrays, with the run's parameters")
+    p.add_argument("--samples", metavar="N", type=positive_int, default=1000,
+                   help="Monte-Carlo samples (default: 1000, as the paper)")
+    p.add_argument("--seed", metavar="S", type=seed_int, default=0,
+                   help="seed; chunk c draws from the stream (S, c) (default: 0)")
+    p.add_argument("--chunk", metavar="C", type=positive_int, default=100,
+                   help="samples per chunk = per task (default: 100); results depend on S and C "
+                        "only, not on where they run. On a cluster pick C so a chunk runs >= 1 s")
+    p.add_argument("--tolerances", metavar="TOL.json",
+                   help="error bounds from JSON (cable_length_tol_m per upper cable, "
+                        "hole_height_tol_m per disk; as `cdsm tolerance --json` writes); "
+                        "default: the paper's +-1 mm and +-0.35 mm")
+    p.add_argument("--protocol", choices=("attitude0", "joint"), default="attitude0",
+                   help="initial configurations: the grid's tip positions at attitude 0 "
+                        "(default, the paper) or the grid angles themselves")
+    p.add_argument("--step", metavar="DEG", type=_angle_deg, default=5.0,
+                   help="joint grid step, degrees (default: 5)")
+    p.add_argument("--range", metavar="DEG", type=_angle_deg, default=30.0, dest="grid_range",
+                   help="joint grid from -DEG to +DEG (default: 30)")
+    p.add_argument("--percentiles", metavar="P,...", type=_percentile_list, default=[50.0, 95.0, 99.0],
+                   help="percentiles of |d(X, Y)| to store (default: 50,95,99)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the chunks on this dask.distributed scheduler (e.g. tcp://host:8786; "
+                        "needs pip install 'cdsm[dask]'); default: locally, threads in the Rust core")
+    p.add_argument("--timeout", metavar="SECONDS", type=float, default=10.0,
+                   help="seconds to reach the scheduler and find workers (default: 10)")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+@subcommand("montecarlo", help="Monte-Carlo accuracy study reduced to per-configuration statistics "
+                               "(.npz), locally or on a Dask cluster")
+@options(_montecarlo_args)
+def _montecarlo_run(args) -> int:
+    import math
+
+    import numpy as np
+
+    from .. import __version__
+    from ..accuracy import distributed, montecarlo, workspace
+    from ..accuracy.scenarios import PAPER_DH_TOL, PAPER_DL_TOL
+    from ..accuracy.tolerance import load_tolerances
+
+    t0 = time.perf_counter()
+    show = not args.quiet
+    out = args.out
+    check_out_file(out, "--out")
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise UserError(f"--timeout: expected a positive number of seconds, got {args.timeout}")
+    robot = load_robot(args.robot)
+    if args.tolerances is not None:
+        dl_tol, dh_tol = load_tolerances(args.tolerances, robot.n)
+    else:
+        dl_tol, dh_tol = PAPER_DL_TOL, PAPER_DH_TOL
+    r = math.radians(args.grid_range)
+    grid = workspace.joint_grid(robot.n, -r, r, math.radians(args.step))
+    ws = workspace.sweep(robot, args.protocol, grid=grid)
+    ok = ws.reachable
+    if not ok.any():
+        raise UserError("no configuration of the grid is reachable")
+    if show:
+        where = args.scheduler or "local threads"
+        print(f"cdsm montecarlo: robot {robot.name!r}, {int(ok.sum())} configurations "
+              f"({args.protocol}, {ws.n_unreachable} unreachable), {args.samples} samples in chunks of "
+              f"{args.chunk}, seed {args.seed}, on {where}", file=sys.stderr, flush=True)
+    try:
+        mc = distributed.run(robot, ws.theta0[ok], samples=args.samples, seed=args.seed,
+                            chunk=args.chunk, dl_tol=dl_tol, dh_tol=dh_tol,
+                            scheduler=args.scheduler, progress=show, timeout=args.timeout)
+    except distributed.ClusterError as exc:
+        raise UserError(str(exc)) from None
+    params = dict(robot=robot.name, robot_file=args.robot, robot_toml=robot.to_toml(),
+                  tolerances=args.tolerances or "paper", protocol=args.protocol, grid_step_deg=args.step,
+                  grid_range_deg=args.grid_range, configurations=int(ok.sum()),
+                  unreachable=ws.n_unreachable, cdsm_version=__version__)
+    try:
+        arrays = montecarlo.save_npz(out, mc, poses=ws.poses[ok], params=params,
+                                     percentiles=args.percentiles)
+    except OSError as exc:
+        raise UserError(f"--out {out!r}: {exc.strerror}") from None
+    written = out if out.endswith(".npz") else out + ".npz"
+    worst = np.nanmax(arrays["max_abs"][:, 3]) if (mc.count > 0).any() else float("nan")
+    pmax = np.nanmax(arrays["dxy_percentiles"], axis=0) if (mc.count > 0).any() else []
+    print(f"{written}: {len(mc.count)} configurations x {args.samples} samples, "
+          f"{int(mc.failed.sum())} failed solves; max |dXY| {worst * 1e3:.3f} mm; "
+          + ", ".join(f"worst p{p:g} {v * 1e3:.3f} mm" for p, v in zip(args.percentiles, pmax))
+          + f"; done in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+# ---------------------------------------------------------------------------
+# cdsm tolerance (issue 7)

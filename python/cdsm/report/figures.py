@@ -1,0 +1,117 @@
+"""Figure helpers shared by the reports (matplotlib, Agg, no pyplot global
+state): a figure with the report style, saving, colour maps, and the arm
+drawn in mm. Colours follow the paper: X red, Y blue, phi green.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Optional
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.colors import LinearSegmentedColormap, Normalize
+from matplotlib.figure import Figure
+
+from ..inputs import CdsmInputError
+from ..robot import Robot
+
+__all__ = ["DPI", "RED", "BLUE", "GREEN", "HUES", "new_figure", "report_style", "save", "hue_cmap",
+           "sym_norm", "chain_points", "draw_arm", "file_key"]
+
+DPI = 110
+RED, BLUE, GREEN = "#d62728", "#1f5fbf", "#2ca02c"
+HUES = (RED, BLUE, GREEN)
+FONT = {"font.size": 10, "axes.titlesize": 10.5, "axes.labelsize": 10,
+         "xtick.labelsize": 9, "ytick.labelsize": 9, "legend.fontsize": 9}
+
+
+def new_figure(w: float, h: float) -> Figure:
+    """A new Figure with an Agg canvas (no pyplot state)."""
+    with report_style():
+        fig = Figure(figsize=(w, h), dpi=DPI)
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def report_style():
+    """The report fonts, for the duration of a ``with`` block."""
+    import matplotlib
+
+    return matplotlib.rc_context(FONT)
+
+
+def save(fig: Figure, path: "str | os.PathLike[str]", dpi: int = DPI) -> str:
+    """Write ``fig`` as PNG at ``path`` (directories created); returns the path."""
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    fig.savefig(path, dpi=dpi, format="png")
+    return str(path)
+
+
+def hue_cmap(color: str) -> LinearSegmentedColormap:
+    """Diverging map: negative dark grey, zero white, positive ``color``."""
+    return LinearSegmentedColormap.from_list(f"div_{color}", ["#3a3a3a", "#f7f7f7", color])
+
+
+def sym_norm(v: np.ndarray) -> Normalize:
+    m = float(np.nanmax(np.abs(v))) if np.isfinite(v).any() else 1.0
+    m = m if m > 0 else 1.0
+    return Normalize(-m, m)
+
+
+def chain_points(robot: Robot, theta) -> np.ndarray:
+    """Points of the arm for drawing, m: theta (n,) rad -> (3n+1, 2).
+
+    Row 0 is the base frame origin O_{0,b}; then for each linkage k = 1..n:
+    joint k, the proximal face centre of disk k (O_{k,a}) and its distal face
+    centre (O_{k,b}). The last row is the tip (equals ``robot.fk(theta)[:2]``).
+    The heading of linkage k (after joint k) is sum(theta[:k]).
+    """
+    t = np.asarray(theta, dtype=np.float64).reshape(-1)
+    if t.shape != (robot.n,):
+        raise CdsmInputError(f"`theta`: expected shape ({robot.n},), got {np.shape(theta)}")
+    lb, la, th = robot.link_before, robot.link_after, robot.thickness
+    pts = [np.zeros(2)]
+    p, head = np.zeros(2), 0.0
+    for k in range(robot.n):
+        p = p + lb[k] * np.array([np.cos(head), np.sin(head)])
+        pts.append(p)
+        head += t[k]
+        d = np.array([np.cos(head), np.sin(head)])
+        p = p + la[k] * d
+        pts.append(p)
+        p = p + th[k] * d
+        pts.append(p)
+    return np.array(pts)
+
+
+def _hole_heights(robot: Robot) -> np.ndarray:
+    """(n,) hole height of each upper cable at its own disk, m."""
+    h = robot.holes
+    return np.array([abs(h[2 * i, i + 1, 0, 1]) for i in range(robot.n)])
+
+
+def draw_arm(ax, robot: Robot, theta, color: str, ls: str = "-", lw: float = 2.0,
+             label: Optional[str] = None, disks: bool = True, alpha: float = 1.0) -> None:
+    """Draw the arm at ``theta`` (n,) rad on ``ax`` in mm: links, joints (dots),
+    disks (bars across the linkage, as wide as twice the hole height)."""
+    pts = chain_points(robot, theta) * 1e3
+    ax.plot(pts[:, 0], pts[:, 1], ls=ls, color=color, lw=lw, label=label, alpha=alpha,
+            solid_capstyle="round")
+    ax.plot(pts[1::3, 0], pts[1::3, 1], "o", color=color, ms=4, alpha=alpha)
+    if disks:
+        hh = _hole_heights(robot) * 1e3
+        heads = np.cumsum(np.asarray(theta, float))
+        base = np.array([0.0, 1.0]) * max(hh) * 1.05
+        ax.plot([0, 0], [-base[1], base[1]], color="0.35", lw=4, solid_capstyle="butt")
+        for k in range(robot.n):
+            nrm = np.array([-np.sin(heads[k]), np.cos(heads[k])]) * hh[k] * 1.05
+            for c in (pts[3 * k + 2], pts[3 * k + 3]):
+                ax.plot([c[0] - nrm[0], c[0] + nrm[0]], [c[1] - nrm[1], c[1] + nrm[1]],
+                        ls=ls, color=color, lw=1.4, alpha=alpha)
+
+
+
+def file_key(key: str) -> str:
+    """A scenario key as a file-name part: ``+`` -> ``plus``, ``-`` -> ``minus``."""
+    return key.replace("+", "plus").replace("-", "minus")
