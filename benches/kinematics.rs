@@ -3,8 +3,10 @@
 //! the coupled elastic cable solve.
 
 use cdsm::cables::CableGeometry;
+use cdsm::ik::{IkSolver, TaskMask};
 use cdsm::kinematics::fk;
-use cdsm::solve::{self, CableMethod, SolveOptions};
+use cdsm::lm::Workspace;
+use cdsm::solve::{CableMethod, CableSolver, SolveOptions};
 use cdsm::statics::{self, Loads, Statics};
 use cdsm::Robot;
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -43,10 +45,14 @@ fn benches(c: &mut Criterion) {
             b.iter(|| g.lengths(black_box(&th), &mut l))
         });
         for (name, m) in [("auto", CableMethod::Auto), ("newton", CableMethod::Newton)] {
+            let mut solver = CableSolver::new(&r, m, opts);
+            let mut t = th.clone();
             c.bench_function(&format!("cable_solve_{name}/n={n}"), |b| {
                 b.iter(|| {
-                    let mut t: Vec<f64> = th.iter().map(|x| x + 0.02).collect();
-                    solve::solve_cables(&r, &g, black_box(&upper), &mut t, m, &opts)
+                    for (x, y) in t.iter_mut().zip(&th) {
+                        *x = y + 0.02;
+                    }
+                    solver.solve(&g, black_box(&upper), &mut t)
                 })
             });
         }
@@ -66,6 +72,7 @@ fn benches(c: &mut Criterion) {
         c.bench_function(&format!("tensions/n={n}"), |b| {
             b.iter(|| st.tensions(black_box(&th), &loads, &mut t))
         });
+        let mut ws = Workspace::default();
         c.bench_function(&format!("cable_solve_elastic/n={n}"), |b| {
             b.iter(|| {
                 let mut x = th.clone();
@@ -77,13 +84,18 @@ fn benches(c: &mut Criterion) {
                     &mut x,
                     &mut t,
                     &opts,
+                    &mut ws,
                 )
             })
         });
+        let mut ik = IkSolver::new(&r, TaskMask::POSE, opts);
+        let mut t = th.clone();
         c.bench_function(&format!("pose_ik/n={n}"), |b| {
             b.iter(|| {
-                let mut t: Vec<f64> = th.iter().map(|x| x + 0.02).collect();
-                solve::ik(&r, black_box(&pose), &mut t, &opts)
+                for (x, y) in t.iter_mut().zip(&th) {
+                    *x = y + 0.02;
+                }
+                ik.solve(black_box(&pose), &mut t)
             })
         });
     }

@@ -5,7 +5,8 @@
 use crate::batch::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
 use crate::error::{CdsmError, Result};
-use crate::kinematics::{fk, fk_cs};
+use crate::geometry::ArmGeometry;
+use crate::kinematics::fk;
 use crate::robot::Robot;
 use crate::solve::{closed_form_cs, cs_difference, CableMethod, CableSolver, SolveOptions};
 use crate::statics::{feasible, Loads, Statics};
@@ -45,7 +46,7 @@ pub fn deviation(
     let perturbed = CableGeometry::new(robot, holes);
     let parts = split_rows(rows, threads, |r| {
         let mut ds = Vec::with_capacity(r.len() * 3);
-        let mut sol = BatchSolution::default();
+        let mut sol = BatchSolution::with_capacity(r.len(), n);
         let (mut cs, mut target, mut th) = (vec![(1.0, 0.0); n], vec![0.0; n], vec![0.0; n]);
         let mut solver = CableSolver::new(robot, method, *opts);
         for i in r {
@@ -61,12 +62,7 @@ pub fn deviation(
             let st = solver.solve(&perturbed, &target, &mut th);
             let (p0, p) = (fk(robot, t0), solver.pose(&th));
             ds.extend((0..3).map(|k| if st.converged { p[k] - p0[k] } else { f64::NAN }));
-            sol.theta.extend_from_slice(&th);
-            sol.converged.push(st.converged);
-            sol.iterations.push(st.iterations);
-            sol.residual.push(st.residual);
-            sol.within_limits
-                .push(crate::kinematics::within_limits(robot, &th));
+            sol.push(robot, &th, st);
         }
         (ds, sol)
     });
@@ -74,11 +70,7 @@ pub fn deviation(
     let mut sol = BatchSolution::default();
     for (d, s) in parts {
         ds.extend(d);
-        sol.theta.extend(s.theta);
-        sol.converged.extend(s.converged);
-        sol.iterations.extend(s.iterations);
-        sol.residual.extend(s.residual);
-        sol.within_limits.extend(s.within_limits);
+        sol.extend(s);
     }
     Ok((ds, sol))
 }
@@ -214,7 +206,7 @@ impl McStats {
 /// No robot is rebuilt per sample: only its cable geometry. With
 /// `check_slack`, every converged sample's configuration also gets the upper
 /// tensions of the statics (robot's lower tensions, no load, nominal hole
-/// positions for the moment arms) and counts in `slack` when a cable would go
+/// positions for the moment arms, the robot's gravity) and counts in `slack` when a cable would go
 /// slack.
 #[allow(clippy::too_many_arguments)]
 pub fn monte_carlo(
@@ -262,11 +254,7 @@ pub fn monte_carlo(
     let small = (std::f64::consts::FRAC_PI_2 / n as f64).cos();
     // configurations outermost: each one's statistics stay in cache while its
     // samples are added (in sample order, as any chunking of the samples would)
-    let loads = Loads {
-        lower: &robot.lower_tension,
-        tip_wrench: [0.0; 3],
-        gravity: [0.0; 2],
-    };
+    let loads = Loads::of(robot);
     let parts = split_rows(rows, threads, |r| {
         let mut stats = McStats::new(r.len());
         let (mut cs, mut seed_cs) = (vec![(1.0, 0.0); n], vec![(1.0, 0.0); n]);
@@ -353,7 +341,7 @@ fn fast_deviation(
     if res > opts.tol {
         return None;
     }
-    let p = fk_cs(robot, cs, 0.0);
+    let p = robot.fk_cs(cs, 0.0);
     let (mut prod, mut large) = ((1.0f64, 0.0f64), false);
     for (c, s0) in cs.iter().zip(seed_cs) {
         let d = cs_difference(*c, *s0);

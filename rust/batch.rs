@@ -3,9 +3,10 @@
 
 use crate::cables::CableGeometry;
 use crate::error::{check_finite, check_rows, CdsmError, Result};
+use crate::ik::{IkSolver, TaskMask};
 use crate::kinematics;
 use crate::robot::Robot;
-use crate::solve::{self, CableMethod, SolveOptions};
+use crate::solve::{self, CableMethod, SolveOptions, Status};
 use std::ops::Range;
 
 /// Number of worker threads: `0` means all available cores.
@@ -61,7 +62,10 @@ pub fn map_rows(
     .concat()
 }
 
-/// Results of a batch of solves, one entry per row.
+/// Results of a batch of solves, one entry per row. Every batch solve of the
+/// crate (cable solves, pose IK, deviations, elastic solves) assembles its
+/// rows with [`BatchSolution::push`] and joins its threads' parts with
+/// [`BatchSolution::extend`].
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct BatchSolution {
     /// `(N, n)` row-major joint angles (rad).
@@ -72,36 +76,47 @@ pub struct BatchSolution {
     pub residual: Vec<f64>,
     /// All angles within the joint limits.
     pub within_limits: Vec<bool>,
+    /// Why each solve ended ([`crate::lm::Reason`] as `u8`).
+    pub reason: Vec<u8>,
 }
 
 impl BatchSolution {
-    fn with_capacity(rows: usize, n: usize) -> Self {
+    pub(crate) fn with_capacity(rows: usize, n: usize) -> Self {
         BatchSolution {
             theta: Vec::with_capacity(rows * n),
             converged: Vec::with_capacity(rows),
             iterations: Vec::with_capacity(rows),
             residual: Vec::with_capacity(rows),
             within_limits: Vec::with_capacity(rows),
+            reason: Vec::with_capacity(rows),
         }
     }
 
-    fn push(&mut self, robot: &Robot, theta: &[f64], st: solve::Status) {
+    /// Appends one row: the angles and the status of their solve.
+    pub(crate) fn push(&mut self, robot: &Robot, theta: &[f64], st: Status) {
         self.theta.extend_from_slice(theta);
         self.converged.push(st.converged);
         self.iterations.push(st.iterations);
         self.residual.push(st.residual);
         self.within_limits
             .push(kinematics::within_limits(robot, theta));
+        self.reason.push(st.reason as u8);
     }
 
-    fn concat(parts: Vec<BatchSolution>) -> Self {
+    /// Appends the rows of `other` after those of `self`.
+    pub(crate) fn extend(&mut self, other: BatchSolution) {
+        self.theta.extend(other.theta);
+        self.converged.extend(other.converged);
+        self.iterations.extend(other.iterations);
+        self.residual.extend(other.residual);
+        self.within_limits.extend(other.within_limits);
+        self.reason.extend(other.reason);
+    }
+
+    pub(crate) fn concat(parts: Vec<BatchSolution>) -> Self {
         let mut out = BatchSolution::default();
         for p in parts {
-            out.theta.extend(p.theta);
-            out.converged.extend(p.converged);
-            out.iterations.extend(p.iterations);
-            out.residual.extend(p.residual);
-            out.within_limits.extend(p.within_limits);
+            out.extend(p);
         }
         out
     }
@@ -179,11 +194,13 @@ pub fn cable_jacobian(robot: &Robot, theta: &[f64], threads: usize) -> Result<Ve
     }))
 }
 
-/// Batched pose IK: `pose (N, 3)`, `seed (N, n)` or zeros.
+/// Batched pose IK: `pose (N, 3)` targets matched on the coordinates of
+/// `mask`, `seed (N, n)` or zeros.
 pub fn ik(
     robot: &Robot,
     pose: &[f64],
     seed: Option<&[f64]>,
+    mask: TaskMask,
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<BatchSolution> {
@@ -191,16 +208,27 @@ pub fn ik(
     let rows = rows_of("pose", pose, 3)?;
     let seed = seeds(seed, rows, n)?;
     check_options(opts)?;
+    check_finite("mask", &mask.weights)?;
+    if mask.weights.iter().all(|w| *w == 0.0) || mask.weights.iter().any(|w| *w < 0.0) {
+        return Err(CdsmError::Option {
+            name: "mask".into(),
+            problem: format!(
+                "weights must be >= 0 with at least one > 0, got {:?}",
+                mask.weights
+            ),
+        });
+    }
     let parts = split_rows(rows, threads, |r| {
         let mut out = BatchSolution::with_capacity(r.len(), n);
         let mut th = vec![0.0; n];
+        let mut solver = IkSolver::new(robot, mask, *opts);
         for i in r {
             match seed {
                 Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
                 None => th.fill(0.0),
             }
             let p = [pose[3 * i], pose[3 * i + 1], pose[3 * i + 2]];
-            let st = solve::ik(robot, &p, &mut th, opts);
+            let st = solver.solve(&p, &mut th);
             out.push(robot, &th, st);
         }
         out

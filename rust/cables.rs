@@ -5,6 +5,8 @@
 //! `P + Q cos(theta_k) + R sin(theta_k)`; cable `c` of pair `i` crosses joints
 //! `1..=i` only, so the upper-cable solve is triangular.
 
+pub use crate::geometry::pair;
+use crate::geometry::{ArmGeometry, WithHoles};
 use crate::robot::Robot;
 
 /// Segment coefficients of every cable: the geometry the solves need,
@@ -20,39 +22,25 @@ pub struct CableGeometry {
     pub phase: Vec<[f64; 4]>,
 }
 
-/// Pair (0-based) of cable `c`: cable `c` crosses joints `0..=pair(c)`.
-#[inline]
-pub fn pair(c: usize) -> usize {
-    c / 2
-}
-
 impl CableGeometry {
     /// Coefficients for `robot` with the hole positions `holes` (flat
     /// `(2n, n+1, 2, 2)`, m); `None` uses the robot's own holes.
     pub fn new(robot: &Robot, holes: Option<&[f64]>) -> CableGeometry {
-        let n = robot.n();
-        let h = holes.unwrap_or(&robot.holes);
-        let hole = |c: usize, d: usize, f: usize| {
-            let i = robot.hole_index(c, d, f);
-            [h[i], h[i + 1]]
-        };
+        match holes {
+            Some(h) => Self::of(&WithHoles { robot, holes: h }),
+            None => Self::of(robot),
+        }
+    }
+
+    /// Coefficients of any arm description.
+    pub fn of<A: ArmGeometry<f64>>(arm: &A) -> CableGeometry {
+        let n = arm.n();
         let mut seg = vec![[0.0; 3]; 2 * n * n];
         let mut traverse = vec![0.0; 2 * n];
         for c in 0..2 * n {
             for k in 0..=pair(c) {
-                let p = hole(c, k, 1);
-                let q = hole(c, k + 1, 0);
-                let u = [q[0] + robot.link_after[k], q[1]];
-                let w = [robot.link_before[k] - p[0], -p[1]];
-                seg[c * n + k] = [
-                    w[0] * w[0] + w[1] * w[1] + u[0] * u[0] + u[1] * u[1],
-                    2.0 * (w[0] * u[0] + w[1] * u[1]),
-                    2.0 * (w[1] * u[0] - w[0] * u[1]),
-                ];
-                let b = hole(c, k + 1, 1);
-                let dx = robot.thickness[k] + b[0] - q[0];
-                let dy = b[1] - q[1];
-                traverse[c] += (dx * dx + dy * dy).sqrt();
+                seg[c * n + k] = arm.segment(c, k, 0.0).pqr();
+                traverse[c] += arm.traversal(c, k, 0.0, 0.0);
             }
         }
         let phase = seg
@@ -118,6 +106,27 @@ impl CableGeometry {
             for k in 0..n {
                 out[c * n + k] = self.derivative(c, k, cs[k]);
             }
+        }
+    }
+
+    /// Upper-cable lengths (m) and their Jacobian (row-major `n x n`, lower
+    /// triangular, m/rad) from the joints' `(cos, sin)`, in one pass.
+    #[inline]
+    pub fn upper_lengths_and_jacobian(&self, cs: &[(f64, f64)], len: &mut [f64], jac: &mut [f64]) {
+        let n = self.n;
+        for i in 0..n {
+            let c = 2 * i;
+            let mut l = self.traverse[c];
+            for (k, &(ck, sk)) in cs.iter().enumerate().take(i + 1) {
+                let [p, q, r] = self.seg[c * n + k];
+                let s2 = p + q * ck + r * sk;
+                l += s2.max(0.0).sqrt();
+                jac[i * n + k] = (r * ck - q * sk) / (2.0 * s2.max(f64::MIN_POSITIVE).sqrt());
+            }
+            for v in jac[i * n + i + 1..(i + 1) * n].iter_mut() {
+                *v = 0.0;
+            }
+            len[i] = l;
         }
     }
 

@@ -1,38 +1,14 @@
-//! The homogeneous-transform chain of Eq. (1)–(3): joint angles to end pose.
+//! The homogeneous-transform chain of Eq. (1)–(3): joint angles to end pose,
+//! its Jacobian, and the joint-limit check. The chain itself is written once
+//! in [`crate::geometry::ArmGeometry::fk`].
 
+use crate::geometry::ArmGeometry;
 use crate::robot::Robot;
 
 /// End pose `[x, y, phi]` (m, m, rad) for joint angles `theta` (rad, length n).
-pub fn fk(robot: &Robot, theta: &[f64]) -> [f64; 3] {
-    let (mut x, mut y, mut phi) = (0.0f64, 0.0f64, 0.0f64);
-    for (k, &t) in theta.iter().enumerate() {
-        let (s, c) = phi.sin_cos();
-        x += robot.link_before[k] * c;
-        y += robot.link_before[k] * s;
-        phi += t;
-        let (s, c) = phi.sin_cos();
-        let l = robot.link_after[k] + robot.thickness[k];
-        x += l * c;
-        y += l * s;
-    }
-    [x, y, phi]
-}
-
-/// End pose from the `(cos, sin)` of each joint angle and their sum `phi`
-/// (no trigonometry: rotations compose by angle addition).
 #[inline]
-pub fn fk_cs(robot: &Robot, cs: &[(f64, f64)], phi: f64) -> [f64; 3] {
-    let (mut x, mut y) = (0.0f64, 0.0f64);
-    let (mut c, mut s) = (1.0f64, 0.0f64);
-    for (k, &(ck, sk)) in cs.iter().enumerate() {
-        x += robot.link_before[k] * c;
-        y += robot.link_before[k] * s;
-        (c, s) = (c * ck - s * sk, s * ck + c * sk);
-        let l = robot.link_after[k] + robot.thickness[k];
-        x += l * c;
-        y += l * s;
-    }
-    [x, y, phi]
+pub fn fk(robot: &Robot, theta: &[f64]) -> [f64; 3] {
+    robot.fk(theta)
 }
 
 /// End pose and its Jacobian: `jac[k] = d[x, y, phi]/d theta_k` (column k).
@@ -101,7 +77,7 @@ mod tests {
         let r = Robot::paper();
         let th = [0.3, -0.7, 0.45];
         let cs: Vec<(f64, f64)> = th.iter().map(|t: &f64| (t.cos(), t.sin())).collect();
-        let (a, b) = (fk(&r, &th), fk_cs(&r, &cs, th.iter().sum()));
+        let (a, b) = (fk(&r, &th), r.fk_cs(&cs, th.iter().sum()));
         for i in 0..3 {
             assert!((a[i] - b[i]).abs() < 1e-15);
         }

@@ -2,16 +2,23 @@
 //! serpentine manipulators (CDSMs). SI units throughout (m, rad, N, kg).
 //!
 //! The model and the solver specifications are in `docs/model.md`. This crate
-//! knows nothing of Python; `python.rs` (feature `python`) converts types.
+//! knows nothing of Python; `python/` (feature `python`) converts types.
 
 pub mod accuracy;
 pub mod batch;
 pub mod cables;
+pub mod compensate;
 pub mod error;
+pub mod fit;
+pub mod geometry;
+pub mod ik;
 pub mod kinematics;
+pub mod lm;
 pub mod plant;
+pub mod real;
 pub mod robot;
 pub mod sensitivity;
+pub mod simd;
 pub mod solve;
 pub mod statics;
 

@@ -1,36 +1,29 @@
-//! The real arm as the nominal model plus candidate unmodelled effects: the
-//! parametric "plant" that the sim-to-real diagnosis fits to measurements and
-//! that the virtual prototype uses to make data. All-zero parameters give the
+//! The real arm as the nominal model plus candidate unmodelled effects (the
+//! "plant"), as specified in `docs/model.md` ("The plant"): commands in
+//! sequence through backlash and the actuators, an arm with perturbed holes
+//! and links whose cables bear on oversized holes and stretch, seen by an
+//! instrument through a tip offset and a frame. All-zero parameters give the
 //! nominal model exactly. SI units (m, rad, N).
 //!
-//! The controller commands the nominal model's upper-cable lengths
-//! `L_cmd = L_nom(theta_cmd) + dL`. The plant realises
-//! `L_real = L_ref + (1 + s)(L_cmd − L_ref) + o_i` (`L_ref`: straight-pose
-//! lengths; `s`: `actuation_scale`; `o`: `cable_offset`), on an arm whose hole
-//! heights (`hole_height`, per pair) and link lengths (`link_length`: base to
-//! joint 1, then joint `i` to disk `i`) differ from the nominal, whose cables
-//! stretch (`cable_elasticity`: compliance `1/(E A)` in 1/N, tensions from
-//! [`crate::statics`]) and bear on the wall of oversized holes
-//! (`hole_clearance` `c`: the holes on both sides of joint `k` shift by
-//! `c · tanh(theta_k / THETA_SMOOTH)` toward the concave side). The tip is then
-//! offset in the end frame (`tip_offset`) and seen in a rotated, translated
-//! instrument frame (`frame_misalignment`: angle, x, y).
+//! The residual of the settling equation and the observation are written
+//! once over [`Real`]: in `f64` they settle and predict, in [`Dual`] numbers
+//! they give exact derivatives, so the Jacobian of the predictions with
+//! respect to the parameters follows from the implicit function theorem at
+//! the settled configuration (no finite differences, no extra settles).
 
 use crate::batch::{rows_of, split_rows};
 use crate::cables::CableGeometry;
 use crate::error::{CdsmError, Result};
-use crate::kinematics::fk;
+use crate::geometry::{pair, Arm, ArmGeometry};
+use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
+use crate::real::{Dual, Real};
 use crate::robot::Robot;
-use crate::solve::{
-    levenberg_marquardt, normal_equations, solve_spd, CableMethod, CableSolver, SolveOptions,
-};
-use crate::statics::{Loads, Statics};
+use crate::solve::{CableMethod, CableSolver, SolveOptions};
+use crate::statics::{upper_tensions, Loads, TensionBuffers};
 
-/// Width of the clearance's smooth sign (rad): `tanh(theta / THETA_SMOOTH)`.
-pub const THETA_SMOOTH: f64 = 0.01;
-
-/// The effects, in the order of the parameter vector.
-pub const EFFECTS: [&str; 8] = [
+/// The effects, in the order of the parameter vector (the last two were
+/// added after the first eight and sit at the end).
+pub const EFFECTS: [&str; 10] = [
     "actuation_scale",
     "cable_offset",
     "hole_height",
@@ -39,17 +32,22 @@ pub const EFFECTS: [&str; 8] = [
     "hole_clearance",
     "frame_misalignment",
     "tip_offset",
+    "backlash",
+    "clearance_width",
 ];
 
+/// The clearance's transition width at `clearance_width = 0` (rad).
+pub const CLEARANCE_WIDTH: f64 = 0.01;
+
 /// Number of parameters of each effect for an `n`-joint robot.
-pub fn effect_sizes(n: usize) -> [usize; 8] {
-    [1, n, n, n + 1, 1, 1, 3, 2]
+pub fn effect_sizes(n: usize) -> [usize; 10] {
+    [1, n, n, n + 1, 1, 1, 3, 2, n, 1]
 }
 
 /// Offset of each effect's parameters in the flat parameter vector, and the total.
-pub fn effect_offsets(n: usize) -> ([usize; 8], usize) {
+pub fn effect_offsets(n: usize) -> ([usize; 10], usize) {
     let sizes = effect_sizes(n);
-    let mut off = [0; 8];
+    let mut off = [0; 10];
     let mut total = 0;
     for (o, s) in off.iter_mut().zip(sizes) {
         *o = total;
@@ -58,25 +56,385 @@ pub fn effect_offsets(n: usize) -> ([usize; 8], usize) {
     (off, total)
 }
 
-/// A plant: the nominal robot, the perturbed geometry and the effect values.
+/// The physical domain of each parameter as `[lower, upper]` bounds (SI):
+/// non-negative compliance, clearance and backlash, a positive clearance
+/// width, links and actuator gain kept above a tenth of their nominal value.
+pub fn bounds(robot: &Robot) -> (Vec<f64>, Vec<f64>) {
+    let n = robot.n();
+    let (off, total) = effect_offsets(n);
+    let mut lo = vec![f64::NEG_INFINITY; total];
+    let hi = vec![f64::INFINITY; total];
+    lo[off[0]] = -0.9;
+    lo[off[3]] = -0.9 * robot.link_before[0];
+    for i in 0..n {
+        lo[off[3] + 1 + i] = -0.9 * robot.link_after[i];
+        lo[off[8] + i] = 0.0;
+    }
+    lo[off[4]] = 0.0;
+    lo[off[5]] = 0.0;
+    lo[off[9]] = 1e-4 - CLEARANCE_WIDTH;
+    (lo, hi)
+}
+
+/// The parameters of one plant, unpacked, in any scalar.
+#[derive(Debug, Clone)]
+struct Params<S> {
+    scale: S,
+    offset: Vec<S>,
+    dh: Vec<S>,
+    dl: Vec<S>,
+    kappa: S,
+    clearance: S,
+    width: S,
+    frame: [S; 3],
+    tip: [S; 2],
+    backlash: Vec<S>,
+}
+
+impl<S: Real> Params<S> {
+    /// From the flat vector `p`; the component `dir` (if any) carries derivative 1.
+    fn unpack(n: usize, p: &[f64], lift: impl Fn(usize, f64) -> S) -> Params<S> {
+        let (off, _) = effect_offsets(n);
+        let v = |i: usize| lift(i, p[i]);
+        let span = |o: usize, len: usize| (o..o + len).map(v).collect::<Vec<S>>();
+        Params {
+            scale: v(off[0]),
+            offset: span(off[1], n),
+            dh: span(off[2], n),
+            dl: span(off[3], n + 1),
+            kappa: v(off[4]),
+            clearance: v(off[5]),
+            width: v(off[9]) + CLEARANCE_WIDTH,
+            frame: [v(off[6]), v(off[6] + 1), v(off[6] + 2)],
+            tip: [v(off[7]), v(off[7] + 1)],
+            backlash: span(off[8], n),
+        }
+    }
+
+    /// The plant's arm: holes of pair `i` moved by `dh_i` (upper `+`, lower
+    /// `-`) on every face it crosses, links lengthened by `dl`.
+    fn arm(&self, robot: &Robot) -> Arm<S> {
+        let n = robot.n();
+        let mut arm = Arm::<S>::of(robot, None);
+        for c in 0..2 * n {
+            let sign = if c % 2 == 0 { 1.0 } else { -1.0 };
+            for d in 0..=pair(c) + 1 {
+                for f in 0..2 {
+                    let i = robot.hole_index(c, d, f) + 1;
+                    arm.holes[i] += self.dh[pair(c)] * sign;
+                }
+            }
+        }
+        arm.link_before[0] += self.dl[0];
+        for i in 0..n {
+            arm.link_after[i] += self.dl[i + 1];
+        }
+        arm
+    }
+}
+
+/// Whether the flat parameters `p` describe a physical plant (within
+/// [`bounds`], finite).
+pub fn physical(robot: &Robot, p: &[f64]) -> bool {
+    let (lo, hi) = bounds(robot);
+    p.iter()
+        .zip(lo.iter().zip(&hi))
+        .all(|(v, (l, h))| v.is_finite() && *v >= *l && *v <= *h)
+}
+
+/// What a measurement row is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum RowKind {
+    /// One command `C + dL`, observed.
+    Absolute = 0,
+    /// Two commands `C` then `C + dL`; the difference of the observations.
+    Displacement = 1,
+    /// One command `C + dL`, executed, not observed.
+    Unmeasured = 2,
+}
+
+impl RowKind {
+    pub fn from_code(code: u8) -> Result<RowKind> {
+        match code {
+            0 => Ok(RowKind::Absolute),
+            1 => Ok(RowKind::Displacement),
+            2 => Ok(RowKind::Unmeasured),
+            other => Err(CdsmError::Option {
+                name: "kind".into(),
+                problem: format!("row kind must be 0, 1 or 2, got {other}"),
+            }),
+        }
+    }
+}
+
+/// A data set's commands in execution order: `theta_cmd (N, n)` rad,
+/// `dl (N, n)` m and each row's kind.
+#[derive(Debug, Clone, Copy)]
+pub struct Rows<'a> {
+    pub theta_cmd: &'a [f64],
+    pub dl: &'a [f64],
+    pub kind: &'a [RowKind],
+}
+
+/// The command sequence of a data set, built once from the nominal model:
+/// every command's nominal upper lengths and the row it belongs to.
+#[derive(Debug, Clone)]
+pub struct Sequence {
+    n: usize,
+    rows: usize,
+    /// `(commands, n)` nominal commanded upper lengths (m).
+    command: Vec<f64>,
+    /// Row of each command.
+    row: Vec<usize>,
+    /// First and last command of each row.
+    span: Vec<[usize; 2]>,
+    kind: Vec<RowKind>,
+    theta_cmd: Vec<f64>,
+}
+
+impl Sequence {
+    pub fn new(robot: &Robot, data: &Rows) -> Result<Sequence> {
+        let n = robot.n();
+        let rows = rows_of("theta_cmd", data.theta_cmd, n)?;
+        crate::batch::rows_exactly("dl", data.dl, n, rows)?;
+        if data.kind.len() != rows {
+            return Err(CdsmError::Shape {
+                name: "kind".into(),
+                expected: format!("({rows},)"),
+                got: format!("({},)", data.kind.len()),
+            });
+        }
+        let geom = CableGeometry::new(robot, None);
+        let mut seq = Sequence {
+            n,
+            rows,
+            command: Vec::with_capacity(2 * rows * n),
+            row: Vec::with_capacity(2 * rows),
+            span: Vec::with_capacity(rows),
+            kind: data.kind.to_vec(),
+            theta_cmd: data.theta_cmd.to_vec(),
+        };
+        let mut cs = vec![(1.0, 0.0); n];
+        let mut c = vec![0.0; n];
+        for i in 0..rows {
+            for (x, t) in cs.iter_mut().zip(&data.theta_cmd[i * n..(i + 1) * n]) {
+                let (s, co) = t.sin_cos();
+                *x = (co, s);
+            }
+            geom.upper_lengths(&cs, &mut c);
+            let first = seq.row.len();
+            if data.kind[i] == RowKind::Displacement {
+                seq.command.extend_from_slice(&c);
+                seq.row.push(i);
+            }
+            for (ck, d) in c.iter().zip(&data.dl[i * n..(i + 1) * n]) {
+                seq.command.push(ck + d);
+            }
+            seq.row.push(i);
+            seq.span.push([first, seq.row.len() - 1]);
+        }
+        Ok(seq)
+    }
+
+    /// Number of commands.
+    pub fn len(&self) -> usize {
+        self.row.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.row.is_empty()
+    }
+
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+}
+
+/// The realised rest lengths of every command (`(commands, n)`, m): the
+/// backlash scan from the straight pose, then the actuators.
+fn realised<S: Real>(seq: &Sequence, prm: &Params<S>, l_ref: &[f64]) -> Vec<S> {
+    let n = seq.n;
+    let mut state: Vec<S> = l_ref.iter().map(|v| S::cst(*v)).collect();
+    let mut out = Vec::with_capacity(seq.command.len());
+    for cmd in seq.command.chunks_exact(n) {
+        for i in 0..n {
+            let c = S::cst(cmd[i]);
+            let b = prm.backlash[i];
+            let gap = cmd[i] - state[i].val();
+            if gap > b.val() {
+                state[i] = c - b;
+            } else if gap < -b.val() {
+                state[i] = c + b;
+            }
+            let r = state[i];
+            out.push((r - l_ref[i]) * (prm.scale + 1.0) + l_ref[i] + prm.offset[i]);
+        }
+    }
+    out
+}
+
+/// Buffers of the plant's residual in one scalar.
+struct Buffers<S> {
+    cs: Vec<(S, S)>,
+    shift: Vec<S>,
+    lengths: Vec<S>,
+    tension: Vec<S>,
+    statics: TensionBuffers<S>,
+}
+
+impl<S: Real> Buffers<S> {
+    fn new(n: usize) -> Self {
+        let z = S::cst(0.0);
+        Buffers {
+            cs: vec![(z, z); n],
+            shift: vec![z; n],
+            lengths: vec![z; n],
+            tension: vec![z; n],
+            statics: TensionBuffers::new(n),
+        }
+    }
+}
+
+/// The settling residual `F_i = L_arm,i(theta) - (L_i + L_route)(1 + kappa T_i) + L_route`
+/// (m) of the plant with parameters `prm` and arm `arm` at `theta`, realised
+/// lengths `real`.
+fn residual<S: Real>(
+    robot: &Robot,
+    arm: &Arm<S>,
+    prm: &Params<S>,
+    real: &[S],
+    theta: &[S],
+    buf: &mut Buffers<S>,
+    out: &mut [S],
+) {
+    let n = robot.n();
+    let z = S::cst(0.0);
+    for ((cs, shift), t) in buf.cs.iter_mut().zip(buf.shift.iter_mut()).zip(theta) {
+        let (s, c) = t.sin_cos();
+        *cs = (c, s);
+        *shift = prm.clearance * (*t / prm.width).tanh();
+    }
+    for i in 0..n {
+        let c = 2 * i;
+        let mut len = z;
+        for k in 0..=i {
+            len += arm.segment(c, k, buf.shift[k]).length(buf.cs[k]);
+            let next = if k < i { buf.shift[k + 1] } else { z };
+            len += arm.traversal(c, k, buf.shift[k], next);
+        }
+        buf.lengths[i] = len;
+    }
+    let route = robot.cable.routing_length;
+    let elastic = prm.kappa.val() != 0.0 || prm.kappa.is_variable();
+    if elastic {
+        let loads = Loads::of(robot);
+        upper_tensions(
+            arm,
+            theta,
+            &loads,
+            &robot.mass,
+            &mut buf.statics,
+            &mut buf.tension,
+        );
+    }
+    for i in 0..n {
+        let stretch = if elastic {
+            (real[i] + route) * prm.kappa * buf.tension[i]
+        } else {
+            z
+        };
+        out[i] = buf.lengths[i] - real[i] - stretch;
+    }
+}
+
+/// What the instrument sees of the arm at `theta`: `[x, y, phi]`.
+fn observe<S: Real>(arm: &Arm<S>, prm: &Params<S>, theta: &[S]) -> [S; 3] {
+    let p = arm.fk(theta);
+    let (s, c) = p[2].sin_cos();
+    let [tx, ty] = prm.tip;
+    let tip = [p[0] + c * tx - s * ty, p[1] + s * tx + c * ty];
+    let (sa, ca) = prm.frame[0].sin_cos();
+    [
+        ca * tip[0] - sa * tip[1] + prm.frame[1],
+        sa * tip[0] + ca * tip[1] + prm.frame[2],
+        p[2] + prm.frame[0],
+    ]
+}
+
+/// The settle of one command as a problem of the shared solver: `F(theta) = 0`
+/// with the Jacobian `dF/dtheta` in dual numbers.
+struct SettleProblem<'a> {
+    robot: &'a Robot,
+    arm: &'a Arm<f64>,
+    darm: &'a Arm<Dual>,
+    prm: &'a Params<f64>,
+    dprm: &'a Params<Dual>,
+    real: &'a [f64],
+    buf: &'a mut Buffers<f64>,
+    dbuf: &'a mut Buffers<Dual>,
+    dtheta: &'a mut [Dual],
+    dreal: &'a mut [Dual],
+    dout: &'a mut [Dual],
+}
+
+impl Problem for SettleProblem<'_> {
+    fn dims(&self) -> (usize, usize) {
+        (self.real.len(), self.real.len())
+    }
+
+    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+        residual(self.robot, self.arm, self.prm, self.real, x, self.buf, r);
+        if let Some(j) = jac {
+            let n = x.len();
+            for (d, v) in self.dreal.iter_mut().zip(self.real) {
+                *d = Dual::new(*v, 0.0);
+            }
+            for k in 0..n {
+                for (l, d) in self.dtheta.iter_mut().enumerate() {
+                    *d = Dual::new(x[l], if l == k { 1.0 } else { 0.0 });
+                }
+                residual(
+                    self.robot,
+                    self.darm,
+                    self.dprm,
+                    self.dreal,
+                    self.dtheta,
+                    self.dbuf,
+                    self.dout,
+                );
+                for i in 0..n {
+                    j[i * n + k] = self.dout[i].d;
+                }
+            }
+        }
+        r.iter().all(|v| v.is_finite())
+    }
+}
+
+/// One plant (parameters `p`, flat), ready to settle and observe commands.
 pub struct Plant<'a> {
-    nominal: &'a Robot,
-    arm: Robot,
+    robot: &'a Robot,
+    p: Vec<f64>,
+    prm: Params<f64>,
+    arm: Arm<f64>,
+    /// The same parameters and arm as constants in dual numbers (for `dF/dtheta`).
+    cprm: Params<Dual>,
+    carm: Arm<Dual>,
+    /// The arm as a robot description (for the rigid closed form).
+    arm_robot: Robot,
     geom: CableGeometry,
     l_ref: Vec<f64>,
-    scale: f64,
-    offset: Vec<f64>,
-    compliance: f64,
-    clearance: f64,
-    frame: [f64; 3],
-    tip: [f64; 2],
+    rigid: bool,
 }
 
 impl<'a> Plant<'a> {
-    /// Builds the plant of `nominal` with the flat parameters `p` (see [`EFFECTS`]).
-    pub fn new(nominal: &'a Robot, p: &[f64]) -> Result<Plant<'a>> {
-        let n = nominal.n();
-        let (off, total) = effect_offsets(n);
+    /// The plant of `robot` with the flat parameters `p` (see [`EFFECTS`]);
+    /// an error when `p` has the wrong length or leaves the physical domain.
+    pub fn new(robot: &'a Robot, p: &[f64]) -> Result<Plant<'a>> {
+        let n = robot.n();
+        let (_, total) = effect_offsets(n);
         if p.len() != total {
             return Err(CdsmError::Shape {
                 name: "params".into(),
@@ -85,187 +443,241 @@ impl<'a> Plant<'a> {
             });
         }
         crate::error::check_finite("params", p)?;
-        let mut arm = nominal.clone();
-        let mut holes = vec![0.0; arm.holes.len()];
-        nominal.hole_height_error_into(&p[off[2]..off[2] + n], &mut holes);
-        arm.holes = holes;
-        arm.link_before[0] += p[off[3]];
-        for i in 0..n {
-            arm.link_after[i] += p[off[3] + 1 + i];
-        }
-        arm.validate().map_err(|e| CdsmError::Option {
-            name: "params".into(),
-            problem: format!("non-physical plant: {e}"),
-        })?;
-        if p[off[4]] < 0.0 || p[off[5]] < 0.0 {
+        if !physical(robot, p) {
             return Err(CdsmError::Option {
                 name: "params".into(),
-                problem: "cable_elasticity and hole_clearance must be >= 0".into(),
+                problem:
+                    "outside the physical domain (non-negative compliance, clearance and backlash, \
+                          links and actuator gain above a tenth of nominal)"
+                        .into(),
             });
         }
-        let nominal_geom = CableGeometry::new(nominal, None);
+        let prm = Params::<f64>::unpack(n, p, |_, v| v);
+        let arm = prm.arm(robot);
+        let arm_robot = Robot {
+            link_before: arm.link_before.clone(),
+            link_after: arm.link_after.clone(),
+            holes: arm.holes.clone(),
+            ..robot.clone()
+        };
+        let geom = CableGeometry::new(&arm_robot, None);
         let mut l_ref = vec![0.0; n];
-        nominal_geom.upper_lengths(&vec![(1.0, 0.0); n], &mut l_ref);
-        let geom = CableGeometry::new(&arm, None);
+        CableGeometry::new(robot, None).upper_lengths(&vec![(1.0, 0.0); n], &mut l_ref);
+        let rigid = prm.kappa == 0.0 && prm.clearance == 0.0;
+        let cprm = Params::<Dual>::unpack(n, p, |_, v| Dual::cst(v));
+        let carm = cprm.arm(robot);
         Ok(Plant {
-            nominal,
+            robot,
+            p: p.to_vec(),
+            prm,
+            arm,
+            cprm,
+            carm,
+            arm_robot,
             geom,
             l_ref,
-            scale: p[off[0]],
-            offset: p[off[1]..off[1] + n].to_vec(),
-            compliance: p[off[4]],
-            clearance: p[off[5]],
-            frame: [p[off[6]], p[off[6] + 1], p[off[6] + 2]],
-            tip: [p[off[7]], p[off[7] + 1]],
-            arm,
+            rigid,
         })
     }
 
-    /// The perturbed arm (hole heights and link lengths applied).
+    /// The plant's arm as a robot description (perturbed holes and links).
     pub fn arm(&self) -> &Robot {
-        &self.arm
+        &self.arm_robot
     }
 
-    /// Upper-cable lengths the actuators realise for commanded lengths `cmd` (m).
-    pub fn realised(&self, cmd: &[f64], out: &mut [f64]) {
+    /// The realised rest lengths of every command of `seq` (`(commands, n)`, m).
+    pub fn realised(&self, seq: &Sequence) -> Vec<f64> {
+        realised(seq, &self.prm, &self.l_ref)
+    }
+
+    /// The upper lengths the screws deliver and the actuators realise for
+    /// one command `cmd` from the backlash state `state` (updated), m.
+    pub fn realise_one(&self, cmd: &[f64], state: &mut [f64], out: &mut [f64]) {
         for i in 0..cmd.len() {
-            out[i] = self.l_ref[i] + (1.0 + self.scale) * (cmd[i] - self.l_ref[i]) + self.offset[i];
-        }
-    }
-
-    /// Geometric upper-cable lengths of the arm at `theta`, with hole clearance (m).
-    pub fn arm_lengths(&self, theta: &[f64], out: &mut [f64]) {
-        let r = &self.arm;
-        let shift = |k: usize| self.clearance * (theta[k] / THETA_SMOOTH).tanh();
-        for (i, o) in out.iter_mut().enumerate() {
-            let c = 2 * i;
-            let mut len = 0.0;
-            for (k, tk) in theta.iter().enumerate().take(i + 1) {
-                let d = shift(k);
-                let p = r.hole(c, k, 1);
-                let q = r.hole(c, k + 1, 0);
-                let (s, co) = tk.sin_cos();
-                let u = [q[0] + r.link_after[k], q[1] + d];
-                let ax = r.link_before[k] + co * u[0] - s * u[1] - p[0];
-                let ay = s * u[0] + co * u[1] - (p[1] + d);
-                len += ax.hypot(ay);
-                // traversal of disk k+1: face a shifted with joint k, face b with joint k+1 (if crossed)
-                let b = r.hole(c, k + 1, 1);
-                let d_next = if k < i { shift(k + 1) } else { 0.0 };
-                let dx = r.thickness[k] + b[0] - q[0];
-                let dy = (b[1] + d_next) - (q[1] + d);
-                len += dx.hypot(dy);
+            let b = self.prm.backlash[i];
+            let gap = cmd[i] - state[i];
+            if gap > b {
+                state[i] = cmd[i] - b;
+            } else if gap < -b {
+                state[i] = cmd[i] + b;
             }
-            *o = len;
+        }
+        self.actuate(state, out);
+    }
+
+    /// The realised rest lengths (m) for the delivered lengths `delivered`
+    /// (m): `L_ref + (1 + s)(delivered - L_ref) + o`.
+    pub fn actuate(&self, delivered: &[f64], out: &mut [f64]) {
+        for i in 0..delivered.len() {
+            out[i] = self.l_ref[i]
+                + (1.0 + self.prm.scale) * (delivered[i] - self.l_ref[i])
+                + self.prm.offset[i];
         }
     }
 
-    /// Joint angles the arm settles at for commanded upper lengths `cmd` (m);
-    /// `theta` holds the seed on entry. `statics` is the arm's statics.
-    pub fn settle(
-        &self,
-        cmd: &[f64],
-        theta: &mut [f64],
-        statics: &mut Statics,
-        opts: &SolveOptions,
-    ) -> bool {
-        let n = cmd.len();
-        let mut real = vec![0.0; n];
-        self.realised(cmd, &mut real);
-        // rigid, no clearance: the closed form on the perturbed geometry
-        let mut rigid = CableSolver::new(&self.arm, CableMethod::Auto, *opts);
-        let start = theta.to_vec();
-        let ok = rigid.solve(&self.geom, &real, theta).converged;
-        if self.compliance == 0.0 && self.clearance == 0.0 {
+    /// The straight-pose upper lengths of the nominal robot (the backlash
+    /// state at the start and the actuators' pivot), m.
+    pub fn reference_lengths(&self) -> &[f64] {
+        &self.l_ref
+    }
+
+    /// The backlash half-widths (m).
+    pub fn backlash(&self) -> &[f64] {
+        &self.prm.backlash
+    }
+
+    /// Settles the arm for realised lengths `real` (m); `theta` holds the seed
+    /// on entry (the commanded configuration) and the answer on exit.
+    /// `work` must have been made for this plant ([`SettleWork::new`]).
+    pub fn settle(&self, real: &[f64], theta: &mut [f64], work: &mut SettleWork) -> bool {
+        work.start.copy_from_slice(theta);
+        let ok = work.rigid.solve(&self.geom, real, theta).converged;
+        if self.rigid {
             return ok;
         }
         if !ok {
-            theta.copy_from_slice(&start);
+            theta.copy_from_slice(&work.start);
         }
-        let route = self.arm.cable.routing_length;
-        let lower = self.arm.lower_tension.clone();
-        let loads = Loads {
-            lower: &lower,
-            tip_wrench: [0.0; 3],
-            gravity: [0.0; 2],
+        let mut prob = SettleProblem {
+            robot: self.robot,
+            arm: &self.arm,
+            darm: &self.carm,
+            prm: &self.prm,
+            dprm: &self.cprm,
+            real,
+            buf: &mut work.buf,
+            dbuf: &mut work.dbuf,
+            dtheta: &mut work.dtheta,
+            dreal: &mut work.dreal,
+            dout: &mut work.dout,
         };
-        let (mut lg, mut t) = (vec![0.0; n], vec![0.0; n]);
-        let (mut jac, mut a, mut g) = (vec![0.0; n * n], vec![0.0; n * n], vec![0.0; n]);
-        let (mut rp, mut rm, mut th) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
-        let st = std::cell::RefCell::new(statics);
-        let residual = |x: &[f64], r: &mut [f64], lg: &mut [f64], t: &mut [f64]| {
-            self.arm_lengths(x, lg);
-            if self.compliance > 0.0 {
-                st.borrow_mut().tensions(x, &loads, t);
-            } else {
-                t.fill(0.0);
-            }
-            for i in 0..n {
-                r[i] = (real[i] + route) * (1.0 + self.compliance * t[i]) - route - lg[i];
-            }
-        };
-        let status = levenberg_marquardt(
-            &self.arm,
-            theta,
-            n,
-            opts,
-            |x, r| residual(x, r, &mut lg, &mut t),
-            |x, r, lambda, delta| {
-                // Jacobian of the residual by central differences (the clearance's
-                // tanh and the statics make it awkward analytically)
-                let h = 1e-7;
-                let (mut lg2, mut t2) = (vec![0.0; n], vec![0.0; n]);
-                for k in 0..n {
-                    th.copy_from_slice(x);
-                    th[k] = x[k] + h;
-                    residual(&th, &mut rp, &mut lg2, &mut t2);
-                    th[k] = x[k] - h;
-                    residual(&th, &mut rm, &mut lg2, &mut t2);
-                    for i in 0..n {
-                        // LM solves for r -> 0 with r = target - model: J = -dr/dtheta
-                        jac[i * n + k] = -(rp[i] - rm[i]) / (2.0 * h);
-                    }
-                }
-                normal_equations(n, &jac, r, lambda, &mut a, &mut g);
-                solve_spd(n, &a, &g, delta) && delta.iter().all(|d| d.is_finite())
-            },
-        );
-        status.converged
+        let lm = Lm::equations(Step::Normal, work.opts.tol, work.opts.max_iter);
+        lm::solve(&mut prob, theta, &lm, &mut work.ws).converged
     }
 
-    /// Tip pose of the arm at `theta` seen by the instrument: `[x, y, phi]`.
+    /// What the instrument sees at the settled `theta` for realised lengths
+    /// `real`, and its derivative with respect to `real` (`jac`, `(3, n)`
+    /// row-major, 1) by the implicit function theorem. False where `dF/dtheta`
+    /// is singular.
+    pub fn observe_linear(
+        &self,
+        real: &[f64],
+        theta: &[f64],
+        jac: &mut [f64],
+        work: &mut SettleWork,
+    ) -> bool {
+        let n = theta.len();
+        let mut ft = vec![0.0; n * n];
+        let mut fr = vec![0.0; n * n];
+        for (d, v) in work.dreal.iter_mut().zip(real) {
+            *d = Dual::cst(*v);
+        }
+        for k in 0..n {
+            for (l, d) in work.dtheta.iter_mut().enumerate() {
+                *d = Dual::new(theta[l], if l == k { 1.0 } else { 0.0 });
+            }
+            residual(
+                self.robot,
+                &self.carm,
+                &self.cprm,
+                &work.dreal,
+                &work.dtheta,
+                &mut work.dbuf,
+                &mut work.dout,
+            );
+            for i in 0..n {
+                ft[i * n + k] = work.dout[i].d;
+            }
+        }
+        for (l, d) in work.dtheta.iter_mut().enumerate() {
+            *d = Dual::cst(theta[l]);
+        }
+        for k in 0..n {
+            for (l, d) in work.dreal.iter_mut().enumerate() {
+                *d = Dual::new(real[l], if l == k { 1.0 } else { 0.0 });
+            }
+            residual(
+                self.robot,
+                &self.carm,
+                &self.cprm,
+                &work.dreal,
+                &work.dtheta,
+                &mut work.dbuf,
+                &mut work.dout,
+            );
+            for i in 0..n {
+                fr[i * n + k] = work.dout[i].d;
+            }
+        }
+        let mut rhs = vec![0.0; n];
+        let mut dth = vec![0.0; n];
+        for k in 0..n {
+            for i in 0..n {
+                rhs[i] = -fr[i * n + k];
+            }
+            if !solve_general(n, &ft, &rhs, &mut dth) {
+                return false;
+            }
+            for (l, d) in work.dtheta.iter_mut().enumerate() {
+                *d = Dual::new(theta[l], dth[l]);
+            }
+            let o = observe(&self.carm, &self.cprm, &work.dtheta);
+            for c in 0..3 {
+                jac[c * n + k] = o[c].d;
+            }
+        }
+        true
+    }
+
+    /// The actuators' gain `1 + s` (realised length per delivered length).
+    pub fn gain(&self) -> f64 {
+        1.0 + self.prm.scale
+    }
+
+    /// What the instrument sees at `theta`: `[x, y, phi]`.
     pub fn observe(&self, theta: &[f64]) -> [f64; 3] {
-        let p = fk(&self.arm, theta);
-        let (s, c) = p[2].sin_cos();
-        let tip = [
-            p[0] + c * self.tip[0] - s * self.tip[1],
-            p[1] + s * self.tip[0] + c * self.tip[1],
-        ];
-        let (sa, ca) = self.frame[0].sin_cos();
-        [
-            ca * tip[0] - sa * tip[1] + self.frame[1],
-            sa * tip[0] + ca * tip[1] + self.frame[2],
-            p[2] + self.frame[0],
-        ]
+        observe(&self.arm, &self.prm, theta)
     }
 
     /// The nominal robot the controller believes in.
     pub fn nominal(&self) -> &Robot {
-        self.nominal
+        self.robot
     }
 }
 
-/// What a measurement row observes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Observation {
-    /// The tip pose in the instrument frame.
-    Absolute,
-    /// The tip displacement caused by `dL` (same command with and without it).
-    Displacement,
+/// Per-thread buffers of the settles of one plant.
+pub struct SettleWork<'a> {
+    opts: SolveOptions,
+    rigid: CableSolver<'a>,
+    start: Vec<f64>,
+    buf: Buffers<f64>,
+    dbuf: Buffers<Dual>,
+    dtheta: Vec<Dual>,
+    dreal: Vec<Dual>,
+    dout: Vec<Dual>,
+    ws: Workspace,
 }
 
-/// Predictions of a batch: observations `(K, N, 3)`, converged `(K, N)`, and
-/// the joint angles the arm settles at with `dL` applied `(K, N, n)` (rad).
+impl<'a> SettleWork<'a> {
+    pub fn new(plant: &'a Plant, opts: SolveOptions) -> Self {
+        let n = plant.robot.n();
+        SettleWork {
+            opts,
+            rigid: CableSolver::new(&plant.arm_robot, CableMethod::Auto, opts),
+            start: vec![0.0; n],
+            buf: Buffers::new(n),
+            dbuf: Buffers::new(n),
+            dtheta: vec![Dual::default(); n],
+            dreal: vec![Dual::default(); n],
+            dout: vec![Dual::default(); n],
+            ws: Workspace::default(),
+        }
+    }
+}
+
+/// Predictions of `K` plants for one data set: observations `(K, N, 3)` (NaN
+/// for unmeasured rows and rows that did not settle), converged `(K, N)`, and
+/// the configuration each row's last command settles at `(K, N, n)` (rad).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Predictions {
     pub observation: Vec<f64>,
@@ -273,78 +685,295 @@ pub struct Predictions {
     pub theta: Vec<f64>,
 }
 
-/// Predicted observations for `K` parameter sets (`params (K, P)`) and `N`
-/// rows (`theta_cmd (N, n)`, `dl (N, n)`); see [`Predictions`]. Work is split
-/// over `K x N` in scoped threads.
+/// The settled configurations and observations of every command of `seq`
+/// for one plant (in parallel over the commands).
+fn settle_all(
+    plant: &Plant,
+    seq: &Sequence,
+    opts: &SolveOptions,
+    threads: usize,
+) -> (Vec<f64>, Vec<[f64; 3]>, Vec<bool>) {
+    let n = seq.n;
+    let real = plant.realised(seq);
+    let parts = split_rows(seq.len(), threads, |range| {
+        let mut work = SettleWork::new(plant, *opts);
+        let mut th = vec![0.0; n];
+        let mut out = (
+            Vec::with_capacity(range.len() * n),
+            Vec::with_capacity(range.len()),
+            Vec::with_capacity(range.len()),
+        );
+        for j in range {
+            let row = seq.row[j];
+            th.copy_from_slice(&seq.theta_cmd[row * n..(row + 1) * n]);
+            let ok = plant.settle(&real[j * n..(j + 1) * n], &mut th, &mut work);
+            out.0.extend_from_slice(&th);
+            out.1.push(if ok {
+                plant.observe(&th)
+            } else {
+                [f64::NAN; 3]
+            });
+            out.2.push(ok);
+        }
+        out
+    });
+    let mut theta = Vec::with_capacity(seq.len() * n);
+    let mut obs = Vec::with_capacity(seq.len());
+    let mut ok = Vec::with_capacity(seq.len());
+    for (t, o, c) in parts {
+        theta.extend(t);
+        obs.extend(o);
+        ok.extend(c);
+    }
+    (theta, obs, ok)
+}
+
+/// Row observations from command observations.
+fn rows_from_commands(
+    seq: &Sequence,
+    theta: &[f64],
+    obs: &[[f64; 3]],
+    ok: &[bool],
+    out: &mut Predictions,
+) {
+    let n = seq.n;
+    for (i, [a, b]) in seq.span.iter().enumerate() {
+        let conv = ok[*a] && ok[*b];
+        let o = match seq.kind[i] {
+            RowKind::Absolute => obs[*b],
+            RowKind::Displacement => [
+                obs[*b][0] - obs[*a][0],
+                obs[*b][1] - obs[*a][1],
+                obs[*b][2] - obs[*a][2],
+            ],
+            RowKind::Unmeasured => [f64::NAN; 3],
+        };
+        out.observation
+            .extend_from_slice(&if conv { o } else { [f64::NAN; 3] });
+        out.converged.push(conv);
+        out.theta.extend(
+            theta[b * n..(b + 1) * n]
+                .iter()
+                .map(|t| if conv { *t } else { f64::NAN }),
+        );
+    }
+}
+
+/// Predictions of `K` parameter sets (`params (K, P)`) for the data set
+/// `rows`; see [`Predictions`]. A parameter set outside the physical domain
+/// predicts no row (all not converged).
 pub fn predict(
     robot: &Robot,
     params: &[f64],
-    theta_cmd: &[f64],
-    dl: &[f64],
-    kind: Observation,
+    rows: &Rows,
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<Predictions> {
     let n = robot.n();
     let (_, total) = effect_offsets(n);
     let k = rows_of("params", params, total)?;
-    let rows = rows_of("theta_cmd", theta_cmd, n)?;
-    crate::batch::rows_exactly("dl", dl, n, rows)?;
-    let plants: Vec<Plant> = (0..k)
-        .map(|j| Plant::new(robot, &params[j * total..(j + 1) * total]))
-        .collect::<Result<_>>()?;
-    let nominal = CableGeometry::new(robot, None);
-    let parts = split_rows(k * rows, threads, |range| {
-        let mut out = Predictions::default();
-        let mut cs = vec![(1.0, 0.0); n];
-        let (mut cmd, mut th) = (vec![0.0; n], vec![0.0; n]);
-        let mut statics: Vec<Option<Statics>> = (0..k).map(|_| None).collect();
-        for idx in range {
-            let (j, i) = (idx / rows, idx % rows);
-            let plant = &plants[j];
-            let st = statics[j].get_or_insert_with(|| Statics::new(plant.arm()));
-            let t0 = &theta_cmd[i * n..(i + 1) * n];
-            for (c, t) in cs.iter_mut().zip(t0) {
-                *c = (t.cos(), t.sin());
+    let seq = Sequence::new(robot, rows)?;
+    let mut out = Predictions::default();
+    for j in 0..k {
+        let p = &params[j * total..(j + 1) * total];
+        match Plant::new(robot, p) {
+            Ok(plant) => {
+                let (theta, obs, ok) = settle_all(&plant, &seq, opts, threads);
+                rows_from_commands(&seq, &theta, &obs, &ok, &mut out);
             }
-            nominal.upper_lengths(&cs, &mut cmd);
-            let mut pose_at = |extra: Option<&[f64]>, th: &mut [f64]| {
-                let mut l = cmd.clone();
-                if let Some(e) = extra {
-                    for (a, b) in l.iter_mut().zip(e) {
-                        *a += b;
-                    }
+            Err(CdsmError::Option { .. }) => {
+                out.observation
+                    .extend(std::iter::repeat_n(f64::NAN, 3 * seq.rows()));
+                out.converged.extend(std::iter::repeat_n(false, seq.rows()));
+                out.theta
+                    .extend(std::iter::repeat_n(f64::NAN, n * seq.rows()));
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(out)
+}
+
+/// Predictions of one plant and their Jacobian with respect to the
+/// parameters `free` (indices into the flat vector): `jacobian (N, 3, k)`
+/// (NaN rows where a command did not settle or its Jacobian is singular).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Linearised {
+    pub predictions: Predictions,
+    pub jacobian: Vec<f64>,
+}
+
+/// The derivatives of every command's observation with respect to the
+/// parameter `dir`, by the implicit function theorem at the settled `theta`.
+#[allow(clippy::too_many_arguments)]
+fn command_derivatives(
+    plant: &Plant,
+    seq: &Sequence,
+    theta: &[f64],
+    ok: &[bool],
+    free: &[usize],
+    threads: usize,
+) -> Vec<f64> {
+    let n = seq.n;
+    let robot = plant.robot;
+    let kf = free.len();
+    let cmds = seq.len();
+    // realised lengths and their derivatives along every free direction
+    let dreal: Vec<Vec<Dual>> = free
+        .iter()
+        .map(|&f| {
+            let prm = Params::<Dual>::unpack(n, &plant.p, |i, v| {
+                Dual::new(v, if i == f { 1.0 } else { 0.0 })
+            });
+            realised(seq, &prm, &plant.l_ref)
+        })
+        .collect();
+    let real = plant.realised(seq);
+    let parts = split_rows(cmds, threads, |range| {
+        let mut out = vec![f64::NAN; range.len() * 3 * kf];
+        let mut dbuf = Buffers::<Dual>::new(n);
+        let (cst, carm) = (&plant.cprm, &plant.carm);
+        let dirs: Vec<(Params<Dual>, Arm<Dual>)> = free
+            .iter()
+            .map(|&f| {
+                let prm = Params::<Dual>::unpack(n, &plant.p, |i, v| {
+                    Dual::new(v, if i == f { 1.0 } else { 0.0 })
+                });
+                let arm = prm.arm(robot);
+                (prm, arm)
+            })
+            .collect();
+        let mut ftheta = vec![0.0; n * n];
+        let mut rhs = vec![0.0; n];
+        let mut dth = vec![0.0; n];
+        let mut th = vec![Dual::default(); n];
+        let mut dr = vec![Dual::default(); n];
+        let mut f = vec![Dual::default(); n];
+        for (local, j) in range.enumerate() {
+            if !ok[j] {
+                continue;
+            }
+            let t0 = &theta[j * n..(j + 1) * n];
+            let rj = &real[j * n..(j + 1) * n];
+            // F_theta by dual numbers along each joint
+            for (d, v) in dr.iter_mut().zip(rj) {
+                *d = Dual::cst(*v);
+            }
+            for k in 0..n {
+                for (l, d) in th.iter_mut().enumerate() {
+                    *d = Dual::new(t0[l], if l == k { 1.0 } else { 0.0 });
                 }
-                th.copy_from_slice(t0);
-                let ok = plant.settle(&l, th, st, opts);
-                (ok, plant.observe(th))
-            };
-            let d = &dl[i * n..(i + 1) * n];
-            let (ok, obs) = match kind {
-                Observation::Absolute => pose_at(Some(d), &mut th),
-                Observation::Displacement => {
-                    // both poses seen by the instrument: its translation cancels,
-                    // its rotation stays
-                    let (ok0, p0) = pose_at(None, &mut th);
-                    let (ok1, p1) = pose_at(Some(d), &mut th);
-                    (ok0 && ok1, [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]])
+                residual(robot, carm, cst, &dr, &th, &mut dbuf, &mut f);
+                for i in 0..n {
+                    ftheta[i * n + k] = f[i].d;
                 }
-            };
-            out.observation
-                .extend_from_slice(&if ok { obs } else { [f64::NAN; 3] });
-            out.converged.push(ok);
-            out.theta
-                .extend(th.iter().map(|t| if ok { *t } else { f64::NAN }));
+            }
+            for (q, (prm, arm)) in dirs.iter().enumerate() {
+                for (l, d) in th.iter_mut().enumerate() {
+                    *d = Dual::cst(t0[l]);
+                }
+                let drq = &dreal[q][j * n..(j + 1) * n];
+                residual(robot, arm, prm, drq, &th, &mut dbuf, &mut f);
+                for i in 0..n {
+                    rhs[i] = -f[i].d;
+                }
+                if !solve_general(n, &ftheta, &rhs, &mut dth) {
+                    continue;
+                }
+                for (l, d) in th.iter_mut().enumerate() {
+                    *d = Dual::new(t0[l], dth[l]);
+                }
+                let o = observe(arm, prm, &th);
+                for c in 0..3 {
+                    out[(local * 3 + c) * kf + q] = o[c].d;
+                }
+            }
         }
         out
     });
-    let mut all = Predictions::default();
-    for p in parts {
-        all.observation.extend(p.observation);
-        all.converged.extend(p.converged);
-        all.theta.extend(p.theta);
+    parts.concat()
+}
+
+/// [`Linearised`] predictions of the plant `p` (flat) for the data set `rows`.
+pub fn linearise(
+    robot: &Robot,
+    p: &[f64],
+    free: &[usize],
+    rows: &Rows,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<Linearised> {
+    let seq = Sequence::new(robot, rows)?;
+    let plant = Plant::new(robot, p)?;
+    let settled = Settled::new(&plant, &seq, opts, threads);
+    let predictions = settled.predictions(&seq);
+    let jacobian = settled.jacobian(&plant, &seq, free, threads)?;
+    Ok(Linearised {
+        predictions,
+        jacobian,
+    })
+}
+
+/// Every command of a data set settled by one plant: the configurations,
+/// observations and flags (the state a fit keeps between a trial and its
+/// Jacobian).
+#[derive(Debug, Clone, Default)]
+pub struct Settled {
+    theta: Vec<f64>,
+    obs: Vec<[f64; 3]>,
+    ok: Vec<bool>,
+}
+
+impl Settled {
+    /// Settles every command of `seq` for `plant` (threads over the commands).
+    pub fn new(plant: &Plant, seq: &Sequence, opts: &SolveOptions, threads: usize) -> Settled {
+        let (theta, obs, ok) = settle_all(plant, seq, opts, threads);
+        Settled { theta, obs, ok }
     }
-    Ok(all)
+
+    /// The rows' predictions.
+    pub fn predictions(&self, seq: &Sequence) -> Predictions {
+        let mut out = Predictions::default();
+        rows_from_commands(seq, &self.theta, &self.obs, &self.ok, &mut out);
+        out
+    }
+
+    /// `(N, 3, k)` derivatives of the rows' observations with respect to the
+    /// parameters `free` (NaN rows where not defined); `plant` must be the one
+    /// that settled.
+    pub fn jacobian(
+        &self,
+        plant: &Plant,
+        seq: &Sequence,
+        free: &[usize],
+        threads: usize,
+    ) -> Result<Vec<f64>> {
+        let total = plant.p.len();
+        if let Some(f) = free.iter().find(|f| **f >= total) {
+            return Err(CdsmError::Option {
+                name: "free".into(),
+                problem: format!("parameter index {f} is beyond the {total} parameters"),
+            });
+        }
+        let kf = free.len();
+        let dcmd = command_derivatives(plant, seq, &self.theta, &self.ok, free, threads);
+        let mut jac = vec![f64::NAN; seq.rows() * 3 * kf];
+        for (i, [a, b]) in seq.span.iter().enumerate() {
+            if !(self.ok[*a] && self.ok[*b]) || seq.kind[i] == RowKind::Unmeasured {
+                continue;
+            }
+            for c in 0..3 {
+                for q in 0..kf {
+                    let vb = dcmd[(b * 3 + c) * kf + q];
+                    jac[(i * 3 + c) * kf + q] = match seq.kind[i] {
+                        RowKind::Displacement => vb - dcmd[(a * 3 + c) * kf + q],
+                        _ => vb,
+                    };
+                }
+            }
+        }
+        Ok(jac)
+    }
 }
 
 #[cfg(test)]
@@ -355,49 +984,88 @@ mod tests {
         vec![0.0; effect_offsets(r.n()).1]
     }
 
+    fn rows(th: &[f64], dl: &[f64], kind: &[RowKind]) -> (Vec<f64>, Vec<f64>, Vec<RowKind>) {
+        (th.to_vec(), dl.to_vec(), kind.to_vec())
+    }
+
     #[test]
     fn zero_parameters_are_the_nominal_model() {
         let r = Robot::paper();
-        let th = [0.2, -0.3, 0.25, -0.1, 0.0, 0.3];
-        let dl = [-1e-3, 0.0, 0.0, 0.0, 5e-4, 0.0];
+        let (th, dl, kind) = rows(
+            &[0.2, -0.3, 0.25, -0.1, 0.0, 0.3],
+            &[-1e-3, 0.0, 0.0, 0.0, 5e-4, 0.0],
+            &[RowKind::Absolute, RowKind::Absolute],
+        );
         let o = SolveOptions::default();
-        let Predictions {
-            observation: abs,
-            converged: ok,
-            ..
-        } = predict(&r, &zeros(&r), &th, &dl, Observation::Absolute, &o, 1).unwrap();
-        assert!(ok.iter().all(|x| *x));
+        let data = Rows {
+            theta_cmd: &th,
+            dl: &dl,
+            kind: &kind,
+        };
+        let pr = predict(&r, &zeros(&r), &data, &o, 1).unwrap();
+        assert!(pr.converged.iter().all(|x| *x));
         let (dev, _) =
             crate::accuracy::deviation(&r, &th[..3], &dl[..3], None, CableMethod::Auto, &o, 1)
                 .unwrap();
-        let p0 = fk(&r, &th[..3]);
+        let p0 = r.fk(&th[..3]);
         for q in 0..3 {
-            assert!((abs[q] - (p0[q] + dev[q])).abs() < 1e-12);
+            assert!((pr.observation[q] - (p0[q] + dev[q])).abs() < 1e-12);
         }
     }
 
     #[test]
-    fn clearance_and_elasticity_paths_agree_with_the_rigid_one_at_zero() {
-        // tiny clearance / compliance move the answer continuously from the rigid one
+    fn dual_jacobian_matches_central_differences_of_the_predictions() {
+        // every effect at once, on absolute and displacement rows, with backlash
         let r = Robot::paper();
-        let (off, _) = effect_offsets(3);
-        let th = [0.2, -0.3, 0.25];
-        let dl = [0.0; 3];
+        let (off, total) = effect_offsets(3);
+        let mut p = zeros(&r);
+        p[off[0]] = 0.01;
+        p[off[1] + 1] = 1e-4;
+        p[off[2]] = 2e-4;
+        p[off[3] + 2] = -3e-4;
+        p[off[4]] = 0.02;
+        p[off[5]] = 1e-4;
+        p[off[6]] = 3e-3;
+        p[off[7]] = 5e-4;
+        p[off[8]] = 4e-5;
+        p[off[8] + 2] = 2e-5;
+        p[off[9]] = 0.005;
+        let (th, dl, kind) = rows(
+            &[0.2, -0.3, 0.25, -0.1, 0.15, 0.3, 0.05, 0.2, -0.2],
+            &[-1e-3, 0.0, 0.0, 0.0, 5e-4, 0.0, 0.0, 0.0, 1e-3],
+            &[RowKind::Absolute, RowKind::Displacement, RowKind::Absolute],
+        );
+        let data = Rows {
+            theta_cmd: &th,
+            dl: &dl,
+            kind: &kind,
+        };
         let o = SolveOptions::default();
-        let a = predict(&r, &zeros(&r), &th, &dl, Observation::Absolute, &o, 1)
-            .unwrap()
-            .observation;
-        for idx in [off[4], off[5]] {
-            let mut p = zeros(&r);
-            p[idx] = 1e-12;
-            let Predictions {
-                observation: b,
-                converged: ok,
-                ..
-            } = predict(&r, &p, &th, &dl, Observation::Absolute, &o, 1).unwrap();
-            assert!(ok[0]);
-            for q in 0..3 {
-                assert!((a[q] - b[q]).abs() < 1e-9, "{idx}: {a:?} {b:?}");
+        let free: Vec<usize> = (0..total).collect();
+        let lin = linearise(&r, &p, &free, &data, &o, 1).unwrap();
+        let h = 1e-7;
+        let (lo, _) = bounds(&r);
+        for (q, &f) in free.iter().enumerate() {
+            let step = h * (1.0 + p[f].abs() * 100.0);
+            let (mut a, mut b) = (p.clone(), p.clone());
+            a[f] += step;
+            // one-sided at a lower bound (backlash at 0)
+            let central = p[f] - step >= lo[f];
+            if central {
+                b[f] -= step;
+            }
+            let div = if central { 2.0 * step } else { step };
+            let pa = predict(&r, &a, &data, &o, 1).unwrap();
+            let pb = predict(&r, &b, &data, &o, 1).unwrap();
+            for i in 0..3 {
+                for c in 0..3 {
+                    let fd = (pa.observation[i * 3 + c] - pb.observation[i * 3 + c]) / div;
+                    let an = lin.jacobian[(i * 3 + c) * total + q];
+                    assert!(
+                        (fd - an).abs() < 1e-5 * (1.0 + an.abs()),
+                        "param {f} row {i} comp {c}: fd {fd} vs dual {an}"
+                    );
+                }
             }
         }
     }
@@ -409,31 +1077,55 @@ mod tests {
         let mut p = zeros(&r);
         p[off[6] + 1] = 0.01;
         p[off[6] + 2] = -0.02;
-        let th = [0.2, -0.3, 0.25];
-        let dl = [-1e-3, 0.0, 0.0];
+        let (th, dl, kind) = rows(
+            &[0.2, -0.3, 0.25],
+            &[-1e-3, 0.0, 0.0],
+            &[RowKind::Displacement],
+        );
+        let data = Rows {
+            theta_cmd: &th,
+            dl: &dl,
+            kind: &kind,
+        };
         let o = SolveOptions::default();
-        let a = predict(&r, &zeros(&r), &th, &dl, Observation::Displacement, &o, 1)
-            .unwrap()
-            .observation;
-        let b = predict(&r, &p, &th, &dl, Observation::Displacement, &o, 1)
-            .unwrap()
-            .observation;
+        let a = predict(&r, &zeros(&r), &data, &o, 1).unwrap().observation;
+        let b = predict(&r, &p, &data, &o, 1).unwrap().observation;
         for q in 0..3 {
             assert!((a[q] - b[q]).abs() < 1e-15);
         }
     }
 
     #[test]
-    fn clearance_shortens_nothing_at_the_straight_pose() {
+    fn a_reversal_loses_the_whole_dead_band() {
+        // cable 1 commanded +1 mm then back: the second move delivers 2b less
         let r = Robot::paper();
         let (off, _) = effect_offsets(3);
         let mut p = zeros(&r);
-        p[off[5]] = 1e-4;
+        p[off[8]] = 3e-5;
         let plant = Plant::new(&r, &p).unwrap();
-        let mut l = [0.0; 3];
-        plant.arm_lengths(&[0.0; 3], &mut l);
-        for (i, li) in l.iter().enumerate() {
-            assert!((li - 0.076 * (i + 1) as f64).abs() < 1e-15);
-        }
+        let l_ref = plant.reference_lengths().to_vec();
+        let mut state = l_ref.clone();
+        let mut out = [0.0; 3];
+        let up = [l_ref[0] + 1e-3, l_ref[1], l_ref[2]];
+        plant.realise_one(&up, &mut state, &mut out);
+        assert!((out[0] - (up[0] - 3e-5)).abs() < 1e-15);
+        plant.realise_one(&l_ref, &mut state, &mut out);
+        assert!((out[0] - (l_ref[0] + 3e-5)).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_non_physical_plant_predicts_no_row() {
+        let r = Robot::paper();
+        let (off, _) = effect_offsets(3);
+        let mut p = zeros(&r);
+        p[off[3] + 1] = -1.0; // a negative link
+        let (th, dl, kind) = rows(&[0.2, -0.3, 0.25], &[0.0; 3], &[RowKind::Absolute]);
+        let data = Rows {
+            theta_cmd: &th,
+            dl: &dl,
+            kind: &kind,
+        };
+        let pr = predict(&r, &p, &data, &SolveOptions::default(), 1).unwrap();
+        assert!(!pr.converged[0] && pr.observation[0].is_nan());
     }
 }

@@ -39,6 +39,9 @@ pub struct Robot {
     /// Hole positions, flat `(2n, n+1, 2, 2)` C-order: cable, disk, face (a, b), (x, y) in m.
     pub holes: Vec<f64>,
     pub cable: CableMaterial,
+    /// In-plane gravity `[gx, gy]` (m/s², base frame) the statics use by
+    /// default; `[0, 0]`: a horizontal plane.
+    pub gravity: [f64; 2],
 }
 
 #[derive(Deserialize)]
@@ -46,6 +49,7 @@ pub struct Robot {
 struct RobotFile {
     name: Option<String>,
     n: Option<usize>,
+    gravity: Option<[f64; 2]>,
     cable: Option<CableFile>,
     linkage: Vec<LinkageFile>,
 }
@@ -115,14 +119,7 @@ impl Robot {
     /// Index of `holes[c, d, f, 0]` in the flat hole array.
     #[inline]
     pub fn hole_index(&self, c: usize, d: usize, f: usize) -> usize {
-        ((c * (self.n() + 1) + d) * 2 + f) * 2
-    }
-
-    /// `(x, y)` of the hole of cable `c` in disk `d`, face `f` (0 = a, 1 = b).
-    #[inline]
-    pub fn hole(&self, c: usize, d: usize, f: usize) -> [f64; 2] {
-        let i = self.hole_index(c, d, f);
-        [self.holes[i], self.holes[i + 1]]
+        crate::geometry::hole_index(self.n(), c, d, f)
     }
 
     /// Parses and validates a TOML robot description (format in README).
@@ -173,6 +170,7 @@ impl Robot {
             joint_limits: Vec::with_capacity(n),
             holes: vec![0.0; 2 * n * (n + 1) * 4],
             cable,
+            gravity: file.gravity.unwrap_or([0.0, 0.0]),
         };
         for (i, l) in file.linkage.iter().enumerate() {
             let f = |name: &str| format!("linkage[{i}].{name}");
@@ -282,6 +280,12 @@ impl Robot {
         positive("cable.youngs_modulus".into(), self.cable.youngs_modulus)?;
         positive("cable.diameter".into(), self.cable.diameter)?;
         non_negative("cable.routing_length".into(), self.cable.routing_length)?;
+        if !(self.gravity[0].is_finite() && self.gravity[1].is_finite()) {
+            return Err(bad(
+                "gravity".into(),
+                format!("must be finite [gx, gy] (m/s^2), got {:?}", self.gravity),
+            ));
+        }
         if let Some(k) = self.holes.iter().position(|v| !v.is_finite()) {
             return Err(bad(
                 "holes".into(),
@@ -327,15 +331,16 @@ impl Robot {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::ArmGeometry;
 
     #[test]
     fn paper_robot_matches_table_1() {
         let r = Robot::paper();
         assert_eq!(r.n(), 3);
         assert!((r.straight_length() - 0.228).abs() < 1e-15);
-        assert_eq!(r.hole(0, 0, 1), [0.0, 0.030]);
-        assert_eq!(r.hole(3, 2, 0), [0.0, -0.028]);
-        assert_eq!(r.hole(4, 3, 1), [0.0, 0.026]);
+        assert_eq!(ArmGeometry::<f64>::hole(&r, 0, 0, 1), [0.0, 0.030]);
+        assert_eq!(ArmGeometry::<f64>::hole(&r, 3, 2, 0), [0.0, -0.028]);
+        assert_eq!(ArmGeometry::<f64>::hole(&r, 4, 3, 1), [0.0, 0.026]);
         // masses 50, 10, 5 g on the lower cables of disks 1, 2, 3
         let g = 9.80665;
         for (t, m) in r.lower_tension.iter().zip([0.050, 0.010, 0.005]) {
@@ -353,6 +358,11 @@ mod tests {
         let unk = format!("{base}colour = 1\n");
         let e = Robot::from_toml(&unk).unwrap_err().to_string();
         assert!(e.contains("colour"), "{e}");
+        let g = format!("gravity = [0, nan]\n{base}");
+        let e = Robot::from_toml(&g).unwrap_err().to_string();
+        assert!(e.contains("gravity"), "{e}");
+        let g = format!("gravity = [0, -9.81]\n{base}");
+        assert_eq!(Robot::from_toml(&g).unwrap().gravity, [0.0, -9.81]);
         let nan = base.replace("0.03\n", "nan\n");
         let e = Robot::from_toml(&nan).unwrap_err().to_string();
         assert!(e.contains("hole_height"), "{e}");

@@ -26,8 +26,9 @@
 //! Units: m/m for x, y; rad/m for phi.
 
 use crate::batch::{map_rows, rows_of};
-use crate::cables::{pair, CableGeometry};
+use crate::cables::CableGeometry;
 use crate::error::Result;
+use crate::geometry::{pair, traversal_vector, ArmGeometry};
 use crate::kinematics::fk_jacobian;
 use crate::robot::Robot;
 
@@ -49,30 +50,28 @@ pub struct Sensitivities {
 /// written (added) into `grad` (flat hole layout, length H); `cs` are the
 /// `(cos, sin)` of the joint angles.
 pub fn cable_hole_gradient(robot: &Robot, c: usize, cs: &[(f64, f64)], grad: &mut [f64]) {
-    let h = &robot.holes;
-    let hole = |d: usize, f: usize| {
-        let i = robot.hole_index(c, d, f);
-        (i, [h[i], h[i + 1]])
-    };
+    let z = 0.0;
     for (k, &(ct, st)) in cs.iter().enumerate().take(pair(c) + 1) {
-        let (ip, p) = hole(k, 1);
-        let (iq, q) = hole(k + 1, 0);
-        let u = [q[0] + robot.link_after[k], q[1]];
-        let a = [
-            robot.link_before[k] + ct * u[0] - st * u[1],
-            st * u[0] + ct * u[1],
-        ];
-        let v = [a[0] - p[0], a[1] - p[1]];
+        let ip = robot.hole_index(c, k, 1);
+        let iq = robot.hole_index(c, k + 1, 0);
+        let v = robot.segment(c, k, z).vector((ct, st));
         let s = v[0].hypot(v[1]);
         if s > 0.0 {
+            // v = w + Rot u, w = (lb, 0) - p, u = q + (la, 0): dv/dp = -I, dv/dq = Rot
             let e = [v[0] / s, v[1] / s];
             grad[ip] -= e[0];
             grad[ip + 1] -= e[1];
             grad[iq] += ct * e[0] + st * e[1];
             grad[iq + 1] += -st * e[0] + ct * e[1];
         }
-        let (ib, b) = hole(k + 1, 1);
-        let t = [robot.thickness[k] + b[0] - q[0], b[1] - q[1]];
+        let ib = robot.hole_index(c, k + 1, 1);
+        let t = traversal_vector(
+            robot.thickness[k],
+            robot.hole(c, k + 1, 0),
+            robot.hole(c, k + 1, 1),
+            z,
+            z,
+        );
         let tl = t[0].hypot(t[1]);
         if tl > 0.0 {
             grad[ib] += t[0] / tl;
@@ -215,6 +214,74 @@ pub fn sensitivities(
         }
     }
     Ok(out)
+}
+
+/// Linear RMS of the tip position error |d(x, y)| (m) at one configuration
+/// for independent uniform errors within `tol` (2n: per upper cable, then
+/// per disk's hole height, m): `sqrt(sum_{i in x, y} sum_j S_ij^2 t_j^2 / 3)`;
+/// infinite where the cable Jacobian is singular.
+fn rms_one(
+    robot: &Robot,
+    geom: &CableGeometry,
+    theta: &[f64],
+    tol: &[f64],
+    cable: &mut [f64],
+    pair_out: &mut [f64],
+) -> f64 {
+    let n = robot.n();
+    if !config_sensitivity(robot, geom, theta, cable, pair_out, None) {
+        return f64::INFINITY;
+    }
+    let mut acc = 0.0;
+    for r in 0..2 {
+        for j in 0..n {
+            acc += (cable[r * n + j] * tol[j]).powi(2) + (pair_out[r * n + j] * tol[n + j]).powi(2);
+        }
+    }
+    (acc / 3.0).sqrt()
+}
+
+/// [`rms_one`] over `theta (N, n)` and its gradient `(N, n)` (m/rad) by
+/// central differences of `h` rad (the objective of the least-sensitive
+/// configurations).
+pub fn rms_amplification(
+    robot: &Robot,
+    theta: &[f64],
+    tol: &[f64],
+    h: f64,
+    threads: usize,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let n = robot.n();
+    let rows = rows_of("theta", theta, n)?;
+    crate::batch::rows_exactly("tol", tol, 2 * n, 1)?;
+    if !(h > 0.0 && h.is_finite()) {
+        return Err(crate::error::CdsmError::Option {
+            name: "h".into(),
+            problem: format!("must be a positive step (rad), got {h}"),
+        });
+    }
+    let geom = CableGeometry::new(robot, None);
+    let flat = map_rows(rows, n + 1, threads, |i, out| {
+        let (mut cable, mut pair_out) = (vec![0.0; 3 * n], vec![0.0; 3 * n]);
+        let t = &theta[i * n..(i + 1) * n];
+        out[0] = rms_one(robot, &geom, t, tol, &mut cable, &mut pair_out);
+        let mut x = t.to_vec();
+        for k in 0..n {
+            x[k] = t[k] + h;
+            let a = rms_one(robot, &geom, &x, tol, &mut cable, &mut pair_out);
+            x[k] = t[k] - h;
+            let b = rms_one(robot, &geom, &x, tol, &mut cable, &mut pair_out);
+            x[k] = t[k];
+            out[1 + k] = (a - b) / (2.0 * h);
+        }
+    });
+    let mut v = Vec::with_capacity(rows);
+    let mut g = Vec::with_capacity(rows * n);
+    for row in flat.chunks_exact(n + 1) {
+        v.push(row[0]);
+        g.extend_from_slice(&row[1..]);
+    }
+    Ok((v, g))
 }
 
 #[cfg(test)]

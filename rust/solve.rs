@@ -1,14 +1,14 @@
-//! Inverse solves: pose IK (pose -> theta) and the cable solve (upper-cable
-//! lengths -> theta), both Levenberg–Marquardt with adaptive damping, plus the
-//! closed-form triangular cable solve (fast path and branch census).
+//! The cable solve (upper-cable lengths -> joint angles): the closed form,
+//! joint by joint (fast path and branch census), and damped Newton through
+//! the shared solver ([`crate::lm`]) with its triangular step. The options and
+//! the per-element status shared with the pose IK ([`crate::ik`]) live here.
 //! The algorithms are specified in `docs/model.md`.
 
 use crate::cables::CableGeometry;
-use crate::kinematics::{fk, fk_jacobian};
+use crate::geometry::ArmGeometry;
+use crate::kinematics::within_limits;
+use crate::lm::{self, Lm, Problem, Reason, Step, Workspace};
 use crate::robot::Robot;
-use faer::linalg::solvers::Solve;
-use faer::Mat;
-use nalgebra::{Matrix3, Vector3};
 
 /// Options shared by the solves.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -32,218 +32,45 @@ impl Default for SolveOptions {
 }
 
 /// Outcome of one solve; the angles are written to the caller's slice.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Status {
-    pub converged: bool,
-    /// Trial steps taken (0 for the closed form).
-    pub iterations: u32,
-    /// max |residual| at the returned angles.
-    pub residual: f64,
+pub type Status = lm::Status;
+
+/// The status of a closed-form answer (no trial steps).
+pub fn closed_form_status(residual: Option<f64>, tol: f64) -> Status {
+    match residual {
+        Some(r) => Status {
+            converged: r <= tol,
+            iterations: 0,
+            residual: r,
+            cost: r * r,
+            reason: if r <= tol {
+                Reason::Converged
+            } else {
+                Reason::Singular
+            },
+        },
+        None => Status {
+            converged: false,
+            iterations: 0,
+            residual: f64::INFINITY,
+            cost: f64::INFINITY,
+            reason: Reason::Unreachable,
+        },
+    }
 }
 
-const LAMBDA0: f64 = 1e-3;
-const LAMBDA_MIN: f64 = 1e-12;
-const LAMBDA_MAX: f64 = 1e12;
-
-fn max_abs(v: &[f64]) -> f64 {
-    v.iter().fold(0.0, |m, x| m.max(x.abs()))
-}
-
-fn project(robot: &Robot, theta: &mut [f64]) {
+/// The joint-limit box of a robot as the solver's bounds.
+pub(crate) fn clamp_to_limits(robot: &Robot, theta: &mut [f64]) {
     for (t, l) in theta.iter_mut().zip(&robot.joint_limits) {
         *t = t.clamp(l[0], l[1]);
     }
 }
 
-/// Generic LM driver: `eval(theta, r)` writes the residual; `step(theta, r,
-/// lambda, delta)` writes the damped step. Shared by both solves.
-pub(crate) fn levenberg_marquardt(
-    robot: &Robot,
-    theta: &mut [f64],
-    m: usize,
-    opts: &SolveOptions,
-    mut eval: impl FnMut(&[f64], &mut [f64]),
-    mut step: impl FnMut(&[f64], &[f64], f64, &mut [f64]) -> bool,
-) -> Status {
-    let n = theta.len();
-    let mut r = vec![0.0; m];
-    let mut r_trial = vec![0.0; m];
-    let mut delta = vec![0.0; n];
-    let mut trial = vec![0.0; n];
-    eval(theta, &mut r);
-    let mut cost: f64 = r.iter().map(|x| x * x).sum();
-    let mut lambda = LAMBDA0;
-    let mut iterations = 0;
-    loop {
-        let res = max_abs(&r);
-        if res <= opts.tol {
-            return Status {
-                converged: true,
-                iterations,
-                residual: res,
-            };
-        }
-        if iterations >= opts.max_iter || lambda > LAMBDA_MAX || !res.is_finite() {
-            return Status {
-                converged: false,
-                iterations,
-                residual: res,
-            };
-        }
-        iterations += 1;
-        if !step(theta, &r, lambda, &mut delta) {
-            lambda *= 10.0;
-            continue;
-        }
-        for k in 0..n {
-            trial[k] = theta[k] + delta[k];
-        }
-        if opts.enforce_limits {
-            project(robot, &mut trial);
-        }
-        eval(&trial, &mut r_trial);
-        let c: f64 = r_trial.iter().map(|x| x * x).sum();
-        if c < cost {
-            theta.copy_from_slice(&trial);
-            std::mem::swap(&mut r, &mut r_trial);
-            cost = c;
-            lambda = (lambda / 10.0).max(LAMBDA_MIN);
-        } else {
-            lambda *= 10.0;
-        }
-    }
-}
-
-/// Pose IK: `theta` holds the seed on entry and the answer on exit.
-/// Minimal-norm damped step `J^T (J J^T + lambda I)^-1 r` (any n >= 1).
-pub fn ik(robot: &Robot, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions) -> Status {
-    let n = theta.len();
-    let mut jac = vec![[0.0; 3]; n];
-    levenberg_marquardt(
-        robot,
-        theta,
-        3,
-        opts,
-        |th, r| {
-            let p = fk(robot, th);
-            for i in 0..3 {
-                r[i] = pose[i] - p[i];
-            }
-        },
-        |th, r, lambda, delta| {
-            fk_jacobian(robot, th, &mut jac);
-            let mut a = Matrix3::<f64>::identity() * lambda;
-            for col in &jac {
-                let v = Vector3::from(*col);
-                a += v * v.transpose();
-            }
-            let Some(y) = a.lu().solve(&Vector3::new(r[0], r[1], r[2])) else {
-                return false;
-            };
-            for (d, col) in delta.iter_mut().zip(&jac) {
-                *d = col[0] * y[0] + col[1] * y[1] + col[2] * y[2];
-            }
-            true
-        },
-    )
-}
-
-/// Solves the symmetric positive-definite `n x n` system `a x = b` (`a`
-/// row-major): nalgebra fixed-size Cholesky for n <= 6, faer beyond.
-/// Returns `false` if `a` is not positive definite.
-pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
-    fn fixed<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
-        let m = nalgebra::SMatrix::<f64, N, N>::from_row_slice(a);
-        let v = nalgebra::SVector::<f64, N>::from_column_slice(b);
-        match m.cholesky() {
-            Some(ch) => {
-                x.copy_from_slice(ch.solve(&v).as_slice());
-                true
-            }
-            None => false,
-        }
-    }
-    match n {
-        1 => fixed::<1>(a, b, x),
-        2 => fixed::<2>(a, b, x),
-        3 => fixed::<3>(a, b, x),
-        4 => fixed::<4>(a, b, x),
-        5 => fixed::<5>(a, b, x),
-        6 => fixed::<6>(a, b, x),
-        _ => {
-            let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
-            let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
-            match m.llt(faer::Side::Lower) {
-                Ok(ch) => {
-                    let sol = ch.solve(&rhs);
-                    for (i, xi) in x.iter_mut().enumerate() {
-                        *xi = sol[(i, 0)];
-                    }
-                    true
-                }
-                Err(_) => false,
-            }
-        }
-    }
-}
-
-/// Cable solve by LM: upper-cable lengths `target` (m, n) to `theta`
-/// (seed on entry). Normal equations `(J^T J + lambda I) delta = J^T r`.
-pub fn solve_cables_lm(
-    robot: &Robot,
-    geom: &CableGeometry,
-    target: &[f64],
-    theta: &mut [f64],
-    opts: &SolveOptions,
-) -> Status {
-    let n = theta.len();
-    let mut cs = vec![(1.0, 0.0); n];
-    let mut jac = vec![0.0; n * n];
-    let mut a = vec![0.0; n * n];
-    let mut g = vec![0.0; n];
-    levenberg_marquardt(
-        robot,
-        theta,
-        n,
-        opts,
-        |th, r| {
-            for (c, t) in cs.iter_mut().zip(th) {
-                *c = (t.cos(), t.sin());
-            }
-            geom.upper_lengths(&cs, r);
-            for (ri, ti) in r.iter_mut().zip(target) {
-                *ri = ti - *ri;
-            }
-        },
-        |th, r, lambda, delta| {
-            for (k, t) in th.iter().enumerate() {
-                let csk = (t.cos(), t.sin());
-                for i in 0..n {
-                    jac[i * n + k] = geom.derivative(2 * i, k, csk);
-                }
-            }
-            normal_equations(n, &jac, r, lambda, &mut a, &mut g);
-            solve_spd(n, &a, &g, delta) && delta.iter().all(|d| d.is_finite())
-        },
-    )
-}
-
-/// `a = J^T J + lambda I` and `g = J^T r` for a square `n x n` row-major `J`.
-pub(crate) fn normal_equations(
-    n: usize,
-    jac: &[f64],
-    r: &[f64],
-    lambda: f64,
-    a: &mut [f64],
-    g: &mut [f64],
-) {
-    for k in 0..n {
-        for l in 0..n {
-            a[k * n + l] = (0..n).map(|i| jac[i * n + k] * jac[i * n + l]).sum::<f64>();
-        }
-        a[k * n + k] += lambda;
-        g[k] = (0..n).map(|i| jac[i * n + k] * r[i]).sum();
-    }
+/// Whether some joint sits on its limit.
+pub(crate) fn at_limit(robot: &Robot, theta: &[f64]) -> bool {
+    theta
+        .iter()
+        .zip(&robot.joint_limits)
+        .any(|(t, l)| *t <= l[0] || *t >= l[1])
 }
 
 /// Closed-form cable solve in cos/sin form, joint by joint (triangular): for
@@ -318,20 +145,73 @@ pub fn solve_cables_closed_form(
 /// Which cable-solve algorithm to use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CableMethod {
-    /// Closed form, verified; LM from the closed form (or the seed) if it fails.
+    /// Closed form, verified; damped Newton from the closed form (or the seed) if it fails.
     Auto,
-    /// Damped Newton (LM) only.
+    /// Damped Newton only.
     Newton,
     /// Closed form only.
     ClosedForm,
 }
 
+/// The damped-Newton problem of the cable solve: `r = L_upper(theta) - target`
+/// with its lower-triangular Jacobian.
+struct CableProblem<'a> {
+    robot: &'a Robot,
+    geom: &'a CableGeometry,
+    target: &'a [f64],
+    cs: &'a mut [(f64, f64)],
+    enforce_limits: bool,
+}
+
+impl Problem for CableProblem<'_> {
+    fn dims(&self) -> (usize, usize) {
+        (self.target.len(), self.target.len())
+    }
+
+    #[inline]
+    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+        for (c, t) in self.cs.iter_mut().zip(x) {
+            let (s, co) = t.sin_cos();
+            *c = (co, s);
+        }
+        match jac {
+            Some(j) => self.geom.upper_lengths_and_jacobian(self.cs, r, j),
+            None => self.geom.upper_lengths(self.cs, r),
+        }
+        for (ri, ti) in r.iter_mut().zip(self.target) {
+            *ri -= ti;
+        }
+        true
+    }
+
+    fn project(&self, x: &mut [f64]) {
+        if self.enforce_limits {
+            clamp_to_limits(self.robot, x);
+        }
+    }
+
+    fn on_bound(&self, x: &[f64]) -> bool {
+        self.enforce_limits && at_limit(self.robot, x)
+    }
+}
+
+/// The damped-Newton settings of the cable solve: the triangular step,
+/// starting undamped.
+pub fn newton_lm(opts: &SolveOptions) -> Lm {
+    Lm {
+        lambda0: 0.0,
+        ..Lm::equations(Step::Triangular, opts.tol, opts.max_iter)
+    }
+}
+
 /// A cable solver with its buffers, reused across many solves (no allocation
-/// per solve on the closed-form path).
+/// per solve).
 pub struct CableSolver<'a> {
     robot: &'a Robot,
     pub method: CableMethod,
     pub opts: SolveOptions,
+    lm: Lm,
+    ws: Workspace,
     seed: Vec<f64>,
     seed_cs: Vec<(f64, f64)>,
     cs: Vec<(f64, f64)>,
@@ -344,64 +224,77 @@ impl<'a> CableSolver<'a> {
             robot,
             method,
             opts,
+            lm: newton_lm(&opts),
+            ws: Workspace::default(),
             seed: vec![0.0; n],
             seed_cs: vec![(1.0, 0.0); n],
             cs: vec![(1.0, 0.0); n],
         }
     }
 
+    fn newton(&mut self, geom: &CableGeometry, target: &[f64], theta: &mut [f64]) -> Status {
+        let mut p = CableProblem {
+            robot: self.robot,
+            geom,
+            target,
+            cs: &mut self.cs,
+            enforce_limits: self.opts.enforce_limits,
+        };
+        let st = lm::solve(&mut p, theta, &self.lm, &mut self.ws);
+        self.refresh(theta);
+        st
+    }
+
     /// Upper-cable lengths `target` (m) to `theta` (seed on entry, answer on exit).
     pub fn solve(&mut self, geom: &CableGeometry, target: &[f64], theta: &mut [f64]) -> Status {
-        let (robot, opts) = (self.robot, &self.opts);
         if self.method == CableMethod::Newton {
-            let st = solve_cables_lm(robot, geom, target, theta, opts);
-            self.refresh(theta);
-            return st;
+            return self.newton(geom, target, theta);
         }
         self.seed.copy_from_slice(theta);
         for (c, t) in self.seed_cs.iter_mut().zip(theta.iter()) {
-            *c = (t.cos(), t.sin());
+            let (s, co) = t.sin_cos();
+            *c = (co, s);
         }
         let closed =
             solve_cables_closed_form(geom, target, theta, &self.seed_cs, &mut self.cs, None);
         let ok = closed.is_some();
-        let residual = closed.unwrap_or(f64::INFINITY);
-        let in_box = !opts.enforce_limits || crate::kinematics::within_limits(robot, theta);
-        if ok && residual <= opts.tol && in_box {
-            return Status {
-                converged: true,
-                iterations: 0,
-                residual,
-            };
+        let in_box = !self.opts.enforce_limits || within_limits(self.robot, theta);
+        let st = closed_form_status(closed, self.opts.tol);
+        if st.converged && in_box {
+            return st;
         }
         if self.method == CableMethod::ClosedForm {
             if !ok {
                 theta.copy_from_slice(&self.seed);
                 self.refresh(theta);
             }
+            let reason = if ok && !in_box {
+                Reason::OutsideLimits
+            } else {
+                st.reason
+            };
             return Status {
                 converged: false,
-                iterations: 0,
-                residual,
+                reason,
+                ..st
             };
         }
         if !ok || !in_box {
             theta.copy_from_slice(&self.seed);
         }
-        let st = solve_cables_lm(robot, geom, target, theta, opts);
-        self.refresh(theta);
-        st
+        self.newton(geom, target, theta)
     }
 
     fn refresh(&mut self, theta: &[f64]) {
         for (c, t) in self.cs.iter_mut().zip(theta) {
-            *c = (t.cos(), t.sin());
+            let (s, co) = t.sin_cos();
+            *c = (co, s);
         }
     }
 
     /// End pose at the angles of the last solve (uses the cached cos/sin).
     pub fn pose(&self, theta: &[f64]) -> [f64; 3] {
-        crate::kinematics::fk_cs(self.robot, &self.cs, theta.iter().sum())
+        self.robot.fk_cs(&self.cs, theta.iter().sum())
     }
 }
 
@@ -420,28 +313,6 @@ pub fn solve_cables(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn ik_reaches_a_forward_pose() {
-        let r = Robot::paper();
-        let want = [0.2, -0.3, 0.45];
-        let pose = fk(&r, &want);
-        let mut th = want.map(|t| t + 0.05);
-        let st = ik(&r, &pose, &mut th, &SolveOptions::default());
-        assert!(st.converged, "{st:?}");
-        for k in 0..3 {
-            assert!((th[k] - want[k]).abs() < 1e-10);
-        }
-    }
-
-    #[test]
-    fn ik_flags_an_unreachable_pose() {
-        let r = Robot::paper();
-        let mut th = [0.0; 3];
-        let st = ik(&r, &[0.3, 0.0, 0.0], &mut th, &SolveOptions::default());
-        assert!(!st.converged);
-        assert!(st.residual > 0.07 - 1e-9, "{st:?}");
-    }
 
     #[test]
     fn cable_methods_agree() {
@@ -479,5 +350,21 @@ mod tests {
         assert!(res < 1e-15, "{res}");
         assert_eq!(br, [2, 2, 2]);
         assert!(th.iter().all(|t| t.abs() < 1e-7), "{th:?}");
+    }
+
+    #[test]
+    fn too_long_a_cable_is_unreachable() {
+        let r = Robot::paper();
+        let g = CableGeometry::new(&r, None);
+        let mut th = [0.0; 3];
+        let st = solve_cables(
+            &r,
+            &g,
+            &[0.2, 0.152, 0.228],
+            &mut th,
+            CableMethod::ClosedForm,
+            &SolveOptions::default(),
+        );
+        assert!(!st.converged && st.reason == Reason::Unreachable, "{st:?}");
     }
 }

@@ -41,9 +41,11 @@
 use crate::batch::{rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
 use crate::error::{check_finite, CdsmError, Result};
-use crate::kinematics::within_limits;
+use crate::geometry::{pair, ArmGeometry};
+use crate::lm::{self, Lm, Problem, Step, Workspace};
+use crate::real::{Dual, Real};
 use crate::robot::Robot;
-use crate::solve::{self, levenberg_marquardt, CableMethod, SolveOptions, Status};
+use crate::solve::{self, CableMethod, SolveOptions, Status};
 
 /// External loads and force-controlled tensions for one configuration.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -56,19 +58,20 @@ pub struct Loads<'a> {
     pub gravity: [f64; 2],
 }
 
+impl<'a> Loads<'a> {
+    /// The robot file's loads: its lower tensions and gravity, no tip wrench.
+    pub fn of(robot: &'a Robot) -> Loads<'a> {
+        Loads {
+            lower: &robot.lower_tension,
+            tip_wrench: [0.0; 3],
+            gravity: robot.gravity,
+        }
+    }
+}
+
 #[inline]
-fn cross(a: [f64; 2], b: [f64; 2]) -> f64 {
+fn cross<S: Real>(a: [S; 2], b: [S; 2]) -> S {
     a[0] * b[1] - a[1] * b[0]
-}
-
-#[inline]
-fn rot(c: f64, s: f64, v: [f64; 2]) -> [f64; 2] {
-    [c * v[0] - s * v[1], s * v[0] + c * v[1]]
-}
-
-#[inline]
-fn sub(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
-    [a[0] - b[0], a[1] - b[1]]
 }
 
 /// Axial stiffness `E A` (N) of the robot's cable.
@@ -77,99 +80,118 @@ pub fn axial_stiffness(robot: &Robot) -> f64 {
     robot.cable.youngs_modulus * std::f64::consts::PI * d * d / 4.0
 }
 
-/// Reusable buffers for the statics of one robot.
+/// Reusable buffers of the statics of an `n`-joint arm, in any scalar.
+#[derive(Debug, Clone)]
+pub struct TensionBuffers<S> {
+    cs: Vec<(S, S)>,
+    joint: Vec<[S; 2]>,
+    centre: Vec<[S; 2]>,
+    /// `m_{c,k}` at `c * n + k` (N·m per N of tension): minus the segment's
+    /// length derivative.
+    moment: Vec<S>,
+}
+
+impl<S: Real> TensionBuffers<S> {
+    pub fn new(n: usize) -> Self {
+        let z = S::cst(0.0);
+        TensionBuffers {
+            cs: vec![(z, z); n],
+            joint: vec![[z, z]; n],
+            centre: vec![[z, z]; n],
+            moment: vec![z; 2 * n * n],
+        }
+    }
+}
+
+/// Upper-cable tensions (N) of `arm` at `theta` into `out` (n): the moment
+/// balance about every joint of the part distal of it (`docs/model.md`),
+/// triangular, tip joint first. The moment arm of a unit tension in segment
+/// `k` of cable `c` is `-dL_c/dtheta_k` (the segment geometry's derivative).
+/// `mass` (kg) carries the gravity of `loads`. NaN where an upper cable has no
+/// moment arm about its own joint.
+pub fn upper_tensions<S: Real, A: ArmGeometry<S>>(
+    arm: &A,
+    theta: &[S],
+    loads: &Loads,
+    mass: &[f64],
+    buf: &mut TensionBuffers<S>,
+    out: &mut [S],
+) {
+    let n = arm.n();
+    let z = S::cst(0.0);
+    for (c, t) in buf.cs.iter_mut().zip(theta) {
+        let (s, co) = t.sin_cos();
+        *c = (co, s);
+    }
+    for c in 0..2 * n {
+        for k in 0..n {
+            buf.moment[c * n + k] = if k <= pair(c) {
+                -arm.segment(c, k, z).length_and_derivative(buf.cs[k]).1
+            } else {
+                z
+            };
+        }
+    }
+    let gravity = loads.gravity != [0.0, 0.0];
+    let [fx, fy, mz] = loads.tip_wrench;
+    let wrench = fx != 0.0 || fy != 0.0 || mz != 0.0;
+    let tip = if gravity || wrench {
+        arm.chain(theta, &mut buf.joint, &mut buf.centre)
+    } else {
+        [z, z]
+    };
+    for k in (0..n).rev() {
+        let mut rhs = z;
+        if wrench {
+            let d = [tip[0] - buf.joint[k][0], tip[1] - buf.joint[k][1]];
+            rhs += cross(d, [S::cst(fx), S::cst(fy)]) + mz;
+        }
+        if gravity {
+            for (c, m) in buf.centre[k..n].iter().zip(&mass[k..n]) {
+                let w = [S::cst(m * loads.gravity[0]), S::cst(m * loads.gravity[1])];
+                let d = [c[0] - buf.joint[k][0], c[1] - buf.joint[k][1]];
+                rhs += cross(d, w);
+            }
+        }
+        for p in k..n {
+            rhs += buf.moment[(2 * p + 1) * n + k] * loads.lower[p];
+        }
+        for (p, tp) in out.iter().enumerate().skip(k + 1) {
+            rhs += *tp * buf.moment[2 * p * n + k];
+        }
+        let a = buf.moment[2 * k * n + k];
+        out[k] = if a.val() != 0.0 {
+            -rhs / a
+        } else {
+            S::cst(f64::NAN)
+        };
+    }
+}
+
+/// The statics of one robot with its buffers (`f64`).
 pub struct Statics<'a> {
     robot: &'a Robot,
-    n: usize,
-    /// Joint positions `J_k` (base frame).
-    joint: Vec<[f64; 2]>,
-    /// Disk centres (base frame).
-    centre: Vec<[f64; 2]>,
-    /// `m_{c,k}` at `c * n + k` (N·m per N of tension).
-    moment: Vec<f64>,
-    tip: [f64; 2],
+    buf: TensionBuffers<f64>,
 }
 
 impl<'a> Statics<'a> {
     pub fn new(robot: &'a Robot) -> Self {
-        let n = robot.n();
         Statics {
             robot,
-            n,
-            joint: vec![[0.0; 2]; n],
-            centre: vec![[0.0; 2]; n],
-            moment: vec![0.0; 2 * n * n],
-            tip: [0.0; 2],
+            buf: TensionBuffers::new(robot.n()),
         }
     }
 
-    /// Walks the chain in the base frame: joints, disk centres, tip and the
-    /// moment arm of every cable segment about its joint.
-    fn geometry(&mut self, theta: &[f64]) {
-        let (r, n) = (self.robot, self.n);
-        let mut o = [0.0f64; 2]; // origin of O_{k-1,b}
-        let (mut c0, mut s0) = (1.0f64, 0.0f64); // its axis
-        for (k, tk) in theta.iter().enumerate().take(n) {
-            let j = [o[0] + r.link_before[k] * c0, o[1] + r.link_before[k] * s0];
-            let (st, ct) = tk.sin_cos();
-            let (c1, s1) = (c0 * ct - s0 * st, s0 * ct + c0 * st);
-            let a = [j[0] + r.link_after[k] * c1, j[1] + r.link_after[k] * s1];
-            self.joint[k] = j;
-            self.centre[k] = [
-                a[0] + 0.5 * r.thickness[k] * c1,
-                a[1] + 0.5 * r.thickness[k] * s1,
-            ];
-            for c in 0..2 * n {
-                self.moment[c * n + k] = if k <= c / 2 {
-                    let p = rot(c0, s0, r.hole(c, k, 1));
-                    let q = rot(c1, s1, r.hole(c, k + 1, 0));
-                    let b_prev = [o[0] + p[0], o[1] + p[1]];
-                    let a_k = [a[0] + q[0], a[1] + q[1]];
-                    let d = sub(b_prev, a_k);
-                    cross(sub(a_k, j), d) / d[0].hypot(d[1])
-                } else {
-                    0.0
-                };
-            }
-            o = [a[0] + r.thickness[k] * c1, a[1] + r.thickness[k] * s1];
-            (c0, s0) = (c1, s1);
-        }
-        self.tip = o;
-    }
-
-    /// Moment about joint `k` of the external loads on the part distal of it.
-    fn external_moment(&self, k: usize, loads: &Loads) -> f64 {
-        let [fx, fy, mz] = loads.tip_wrench;
-        let mut tau = cross(sub(self.tip, self.joint[k]), [fx, fy]) + mz;
-        if loads.gravity != [0.0, 0.0] {
-            for j in k..self.n {
-                let w = self.robot.mass[j];
-                tau += cross(
-                    sub(self.centre[j], self.joint[k]),
-                    [w * loads.gravity[0], w * loads.gravity[1]],
-                );
-            }
-        }
-        tau
-    }
-
-    /// Upper-cable tensions (N) at `theta` into `out` (n): triangular moment
-    /// balance, tip joint first. NaN where an upper cable has no moment arm
-    /// about its own joint (the balance cannot be met).
+    /// Upper-cable tensions (N) at `theta` into `out` (n); see [`upper_tensions`].
     pub fn tensions(&mut self, theta: &[f64], loads: &Loads, out: &mut [f64]) {
-        self.geometry(theta);
-        let n = self.n;
-        for k in (0..n).rev() {
-            let mut rhs = self.external_moment(k, loads);
-            for p in k..n {
-                rhs += loads.lower[p] * self.moment[(2 * p + 1) * n + k];
-            }
-            for (p, tp) in out.iter().enumerate().skip(k + 1) {
-                rhs += tp * self.moment[2 * p * n + k];
-            }
-            let arm = self.moment[2 * k * n + k];
-            out[k] = if arm != 0.0 { -rhs / arm } else { f64::NAN };
-        }
+        upper_tensions(
+            self.robot,
+            theta,
+            loads,
+            &self.robot.mass,
+            &mut self.buf,
+            out,
+        );
     }
 }
 
@@ -187,12 +209,110 @@ pub fn stretch(l_geom: f64, t: f64, ea: f64, routing: f64) -> f64 {
     (l_geom + routing) * eps / (1.0 + eps)
 }
 
+/// The elastic cable solve as a problem of the shared solver:
+/// `r = L_geom(theta) - (L_cmd + L_route) T(theta)/(E A) - L_cmd`, with the
+/// Jacobian `dL_geom/dtheta - diag((L_cmd + L_route)/(E A)) dT/dtheta`,
+/// `dT/dtheta` exact in dual numbers.
+struct ElasticProblem<'a> {
+    robot: &'a Robot,
+    geom: &'a CableGeometry,
+    upper: &'a [f64],
+    loads: &'a Loads<'a>,
+    ea: f64,
+    route: f64,
+    cs: Vec<(f64, f64)>,
+    lg: Vec<f64>,
+    jg: Vec<f64>,
+    t: Vec<f64>,
+    buf: TensionBuffers<f64>,
+    dbuf: TensionBuffers<Dual>,
+    dtheta: Vec<Dual>,
+    dt: Vec<Dual>,
+}
+
+impl<'a> ElasticProblem<'a> {
+    fn new(
+        robot: &'a Robot,
+        geom: &'a CableGeometry,
+        upper: &'a [f64],
+        loads: &'a Loads<'a>,
+    ) -> Self {
+        let n = robot.n();
+        ElasticProblem {
+            robot,
+            geom,
+            upper,
+            loads,
+            ea: axial_stiffness(robot),
+            route: robot.cable.routing_length,
+            cs: vec![(1.0, 0.0); n],
+            lg: vec![0.0; n],
+            jg: vec![0.0; n * n],
+            t: vec![0.0; n],
+            buf: TensionBuffers::new(n),
+            dbuf: TensionBuffers::new(n),
+            dtheta: vec![Dual::default(); n],
+            dt: vec![Dual::default(); n],
+        }
+    }
+
+    fn tensions(&mut self, theta: &[f64]) {
+        upper_tensions(
+            self.robot,
+            theta,
+            self.loads,
+            &self.robot.mass,
+            &mut self.buf,
+            &mut self.t,
+        );
+    }
+}
+
+impl Problem for ElasticProblem<'_> {
+    fn dims(&self) -> (usize, usize) {
+        (self.upper.len(), self.upper.len())
+    }
+
+    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+        let n = x.len();
+        for (c, t) in self.cs.iter_mut().zip(x) {
+            let (s, co) = t.sin_cos();
+            *c = (co, s);
+        }
+        self.geom
+            .upper_lengths_and_jacobian(&self.cs, &mut self.lg, &mut self.jg);
+        self.tensions(x);
+        for (((ri, lg), up), t) in r.iter_mut().zip(&self.lg).zip(self.upper).zip(&self.t) {
+            *ri = lg - (up + self.route) * t / self.ea - up;
+        }
+        if let Some(j) = jac {
+            j.copy_from_slice(&self.jg);
+            for k in 0..n {
+                for (l, d) in self.dtheta.iter_mut().enumerate() {
+                    *d = Dual::new(x[l], if l == k { 1.0 } else { 0.0 });
+                }
+                upper_tensions(
+                    self.robot,
+                    &self.dtheta,
+                    self.loads,
+                    &self.robot.mass,
+                    &mut self.dbuf,
+                    &mut self.dt,
+                );
+                for i in 0..n {
+                    j[i * n + k] -= (self.upper[i] + self.route) / self.ea * self.dt[i].d;
+                }
+            }
+        }
+        r.iter().all(|v| v.is_finite())
+    }
+}
+
 /// Coupled elastic cable solve for one configuration: commanded (unstretched)
-/// upper lengths `upper` (m) to `theta` (seed on entry, answer on exit).
-/// Residual `r = L_cmd − (L_geom(theta) − (L_cmd + L_route) T(theta)/(E A))`,
-/// LM with the Jacobian `dL_geom/dtheta − diag((L_cmd + L_route)/(E A)) dT/dtheta`
-/// (`dT/dtheta` by central differences, step 1e-7 rad). `tension` gets the
-/// upper tensions at the answer.
+/// upper lengths `upper` (m) to `theta` (seed on entry, answer on exit), by
+/// the shared solver (normal-equation step) on
+/// `r = L_geom(theta) - (L_cmd + L_route) T(theta)/(E A) - L_cmd`.
+/// `tension` gets the upper tensions at the answer.
 #[allow(clippy::too_many_arguments)]
 pub fn solve_cables_elastic(
     robot: &Robot,
@@ -202,67 +322,14 @@ pub fn solve_cables_elastic(
     theta: &mut [f64],
     tension: &mut [f64],
     opts: &SolveOptions,
+    ws: &mut Workspace,
 ) -> Status {
-    let n = robot.n();
-    let ea = axial_stiffness(robot);
-    let route = robot.cable.routing_length;
-    let mut st = Statics::new(robot);
-    let mut cs = vec![(1.0, 0.0); n];
-    let mut lg = vec![0.0; n];
-    let mut t = vec![0.0; n];
-    let mut tp = vec![0.0; n];
-    let mut tm = vec![0.0; n];
-    let mut th = vec![0.0; n];
-    let mut jac = vec![0.0; n * n];
-    let (mut a, mut g) = (vec![0.0; n * n], vec![0.0; n]);
-    let status = {
-        let model =
-            |th: &[f64], st: &mut Statics, cs: &mut [(f64, f64)], lg: &mut [f64], t: &mut [f64]| {
-                for (c, x) in cs.iter_mut().zip(th) {
-                    *c = (x.cos(), x.sin());
-                }
-                geom.upper_lengths(cs, lg);
-                st.tensions(th, loads, t);
-            };
-        let st_cell = std::cell::RefCell::new(&mut st);
-        levenberg_marquardt(
-            robot,
-            theta,
-            n,
-            opts,
-            |x, r| {
-                let mut s = st_cell.borrow_mut();
-                model(x, &mut s, &mut cs, &mut lg, &mut t);
-                for i in 0..n {
-                    r[i] = upper[i] - (lg[i] - (upper[i] + route) * t[i] / ea);
-                }
-            },
-            |x, r, lambda, delta| {
-                let mut s = st_cell.borrow_mut();
-                let h = 1e-7;
-                for (k, xk) in x.iter().enumerate() {
-                    let csk = (xk.cos(), xk.sin());
-                    for i in 0..n {
-                        jac[i * n + k] = geom.derivative(2 * i, k, csk);
-                    }
-                }
-                for k in 0..n {
-                    th.copy_from_slice(x);
-                    th[k] = x[k] + h;
-                    s.tensions(&th, loads, &mut tp);
-                    th[k] = x[k] - h;
-                    s.tensions(&th, loads, &mut tm);
-                    for i in 0..n {
-                        jac[i * n + k] -= (upper[i] + route) / ea * (tp[i] - tm[i]) / (2.0 * h);
-                    }
-                }
-                solve::normal_equations(n, &jac, r, lambda, &mut a, &mut g);
-                solve::solve_spd(n, &a, &g, delta) && delta.iter().all(|d| d.is_finite())
-            },
-        )
-    };
-    st.tensions(theta, loads, tension);
-    status
+    let mut p = ElasticProblem::new(robot, geom, upper, loads);
+    let lm = Lm::equations(Step::Normal, opts.tol, opts.max_iter);
+    let st = lm::solve(&mut p, theta, &lm, ws);
+    p.tensions(theta);
+    tension.copy_from_slice(&p.t);
+    st
 }
 
 // ---------------------------------------------------------------------------
@@ -276,7 +343,7 @@ pub struct BatchLoads<'a> {
     pub lower: Option<&'a [f64]>,
     /// `(3,)` shared or `(N, 3)` per row; `None`: no wrench.
     pub tip_wrench: Option<&'a [f64]>,
-    /// `(2,)`; `None`: no gravity.
+    /// `(2,)`; `None`: the robot file's gravity.
     pub gravity: Option<&'a [f64]>,
 }
 
@@ -327,7 +394,7 @@ impl<'a> LoadRows<'a> {
                 }
                 [g[0], g[1]]
             }
-            None => [0.0, 0.0],
+            None => robot.gravity,
         };
         Ok(LoadRows {
             lower,
@@ -467,23 +534,22 @@ pub fn solve_elastic(
         let mut th = vec![0.0; n];
         let mut t = vec![0.0; n];
         let mut rigid = solve::CableSolver::new(robot, CableMethod::Auto, *opts);
+        let mut ws = Workspace::default();
+        let mut start = vec![0.0; n];
         for i in r {
             match seed {
                 Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
                 None => th.fill(0.0),
             }
             let target = &upper[i * n..(i + 1) * n];
-            let start = th.clone();
+            start.copy_from_slice(&th);
             if !rigid.solve(&g, target, &mut th).converged {
                 th.copy_from_slice(&start);
             }
-            let st = solve_cables_elastic(robot, &g, target, &lr.at(i), &mut th, &mut t, opts);
-            let s = &mut out.solution;
-            s.theta.extend_from_slice(&th);
-            s.converged.push(st.converged);
-            s.iterations.push(st.iterations);
-            s.residual.push(st.residual);
-            s.within_limits.push(within_limits(robot, &th));
+            let loads = lr.at(i);
+            let st =
+                solve_cables_elastic(robot, &g, target, &loads, &mut th, &mut t, opts, &mut ws);
+            out.solution.push(robot, &th, st);
             out.tension.extend_from_slice(&t);
             out.feasible.push(feasible(&t, min_tension));
         }
@@ -491,11 +557,7 @@ pub fn solve_elastic(
     });
     let mut all = ElasticSolution::default();
     for p in parts {
-        all.solution.theta.extend(p.solution.theta);
-        all.solution.converged.extend(p.solution.converged);
-        all.solution.iterations.extend(p.solution.iterations);
-        all.solution.residual.extend(p.solution.residual);
-        all.solution.within_limits.extend(p.solution.within_limits);
+        all.solution.extend(p.solution);
         all.tension.extend(p.tension);
         all.feasible.extend(p.feasible);
     }
@@ -505,6 +567,7 @@ pub fn solve_elastic(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::ArmGeometry;
     use crate::kinematics::{fk, fk_jacobian};
 
     const G: f64 = 9.80665;
@@ -561,12 +624,12 @@ mod tests {
             let (mut a, mut b) = (th, th);
             a[k] += h;
             b[k] -= h;
-            let mut sa = Statics::new(&r);
-            sa.geometry(&a);
-            let mut sb = Statics::new(&r);
-            sb.geometry(&b);
+            let (mut ja, mut ca, mut jb, mut cb) =
+                ([[0.0; 2]; 3], [[0.0; 2]; 3], [[0.0; 2]; 3], [[0.0; 2]; 3]);
+            r.chain(&a, &mut ja, &mut ca);
+            r.chain(&b, &mut jb, &mut cb);
             for j in 0..3 {
-                let d = sub(sa.centre[j], sb.centre[j]);
+                let d = [ca[j][0] - cb[j][0], ca[j][1] - cb[j][1]];
                 tau += r.mass[j] * (d[0] * loads.gravity[0] + d[1] * loads.gravity[1]) / (2.0 * h);
             }
             assert!((work - tau).abs() < 1e-9, "{k}: {work} vs {tau}");
@@ -577,10 +640,10 @@ mod tests {
     fn tip_position_from_statics_walk_equals_fk() {
         let r = Robot::paper();
         let th = [0.1, 0.2, -0.3];
-        let mut s = Statics::new(&r);
-        s.geometry(&th);
+        let (mut j, mut c) = ([[0.0; 2]; 3], [[0.0; 2]; 3]);
+        let tip = r.chain(&th, &mut j, &mut c);
         let p = fk(&r, &th);
-        assert!((s.tip[0] - p[0]).abs() < 1e-15 && (s.tip[1] - p[1]).abs() < 1e-15);
+        assert!((tip[0] - p[0]).abs() < 1e-15 && (tip[1] - p[1]).abs() < 1e-15);
     }
 
     #[test]
@@ -608,6 +671,7 @@ mod tests {
             &mut th,
             &mut t,
             &SolveOptions::default(),
+            &mut Workspace::default(),
         );
         assert!(st.converged, "{st:?}");
         // The stretched cables let the arm move a little (steel: < 0.1 mrad).

@@ -34,8 +34,9 @@ def setting(cdsm):
 
 def test_table3_style_data_tie_actuation_scale_and_hole_height(setting):
     _, _, diag = setting
-    assert diag.best == "hole_height"          # the wrong one ranks first ...
-    assert "actuation_scale" in diag.ties      # ... and the truth is tied with it
+    assert diag.singles[0].name == "hole_height"   # the wrong one ranks first ...
+    assert "actuation_scale" in diag.ties          # ... and the truth is tied with it
+    assert diag.best == "none"                     # nine rows cannot name either
 
 
 def test_suggested_measurements_break_the_tie(setting, tmp_path):
@@ -54,8 +55,7 @@ def test_suggested_measurements_break_the_tie(setting, tmp_path):
     # measure the suggestions on the prototype (fresh noise) and diagnose again
     new = plant.VirtualPrototype(robot, TRUTH, noise=NOISE, seed=112).measure(sug.theta, sug.dL, "displacement")
     again = diagnose.diagnose(robot, design.combine(robot, data, new), noise=NOISE)
-    assert again.best == "actuation_scale"
-    assert "hole_height" not in again.ties
+    assert again.best == "actuation_scale" and again.verdict == "explained"
     # the CSV is a measurement table once the measured columns are added
     path = tmp_path / "suggest.csv"
     sug.to_csv(path)

@@ -2,18 +2,19 @@
 
 Batch arrays cross the boundary flat and C-contiguous (float64); the Python
 front (``cdsm.Robot`` and friends) checks shapes, converts dtypes and reshapes.
+Results come back as the named classes below.
 """
 
-from typing import List, Optional, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 F64 = NDArray[np.float64]
 Bool = NDArray[np.bool_]
+U8 = NDArray[np.uint8]
 U32 = NDArray[np.uint32]
 U64 = NDArray[np.uint64]
-SolutionArrays = Tuple[F64, Bool, U32, F64, Bool]  # theta, converged, iterations, residual, within_limits
 
 class CdsmInputError(ValueError):
     """Bad input: the message names the field and the problem."""
@@ -23,8 +24,70 @@ HIST_LO: float
 HIST_PER_DECADE: int
 HIST_BINS: int
 QUANTITIES: int
+REASONS: List[str]
+PLANT_EFFECTS: List[str]
+CLEARANCE_WIDTH: float
 
 def hist_edges() -> F64: ...
+def simd_instruction_set() -> str: ...
+
+class SolveResult:
+    theta: F64
+    converged: Bool
+    iterations: U32
+    residual: F64
+    within_limits: Bool
+    reason: U8
+
+class DeviationResult:
+    ds: F64
+    solution: SolveResult
+
+class MonteCarloStats:
+    count: U64
+    failed: U64
+    sum: F64
+    sum_sq: F64
+    min: F64
+    max: F64
+    hist: U64
+    slack: U64
+
+class SensitivityResult:
+    cable: F64
+    pair: F64
+    holes: Optional[F64]
+    ok: Bool
+
+class ElasticResult:
+    solution: SolveResult
+    tension: F64
+    feasible: Bool
+
+class PlantPrediction:
+    observation: F64
+    converged: Bool
+    theta: F64
+    jacobian: Optional[F64]
+
+class PlantFit:
+    p: F64
+    converged: bool
+    iterations: int
+    cost: float
+    m: int
+    jacobian: F64
+    reason: int
+    prediction: PlantPrediction
+
+class CompensationResult:
+    command: F64
+    nominal: F64
+    converged: Bool
+    residual: F64
+    theta: F64
+    seen: F64
+    seen_nominal: F64
 
 class CoreRobot:
     @staticmethod
@@ -53,35 +116,50 @@ class CoreRobot:
     def youngs_modulus(self) -> float: ...
     @property
     def cable_diameter(self) -> float: ...
+    @property
+    def routing_length(self) -> float: ...
+    @property
+    def gravity(self) -> Tuple[float, float]: ...
+    @property
+    def straight_length(self) -> float: ...
+    @property
+    def axial_stiffness(self) -> float: ...
     def with_holes(self, holes: F64) -> "CoreRobot": ...
+    def with_cable(self, youngs_modulus: float, diameter: float, routing_length: float) -> "CoreRobot": ...
+    def with_loads(self, lower_tension: F64, gravity: F64) -> "CoreRobot": ...
     def hole_height_error(self, dh: F64) -> F64: ...
     def fk(self, theta: F64, threads: int) -> F64: ...
     def fk_jacobian(self, theta: F64, threads: int) -> F64: ...
     def cable_lengths(self, theta: F64, threads: int) -> F64: ...
     def cable_jacobian(self, theta: F64, threads: int) -> F64: ...
-    def ik(self, pose: F64, seed: Optional[F64], tol: float, max_iter: int, enforce_limits: bool,
-           threads: int) -> SolutionArrays: ...
+    def ik(self, pose: F64, seed: Optional[F64], mask: Sequence[float], tol: float, max_iter: int,
+           enforce_limits: bool, threads: int) -> SolveResult: ...
     def solve_cables(self, upper: F64, seed: Optional[F64], method: str, tol: float, max_iter: int,
-                     enforce_limits: bool, threads: int) -> SolutionArrays: ...
+                     enforce_limits: bool, threads: int) -> SolveResult: ...
     def deviation(self, theta0: F64, dl: F64, holes: Optional[F64], method: str, tol: float,
-                  max_iter: int, threads: int) -> Tuple[F64, SolutionArrays]: ...
-    def plant_predict(self, params: F64, theta_cmd: F64, dl: F64, displacement: bool, tol: float,
-                      max_iter: int, threads: int) -> Tuple[F64, Bool, F64]: ...
-    def plant_effects(self) -> List[Tuple[str, int]]: ...
+                  max_iter: int, threads: int) -> DeviationResult: ...
     def monte_carlo(self, theta0: F64, dl: F64, dh: Optional[F64], dholes: Optional[F64], method: str,
-                    tol: float, max_iter: int, check_slack: bool, threads: int) -> dict: ...
-
-def statics_tensions(robot: CoreRobot, theta: F64, lower: Optional[F64], tip_wrench: Optional[F64],
-                     gravity: Optional[F64], threads: int) -> F64: ...
-def statics_feasible(robot: CoreRobot, theta: F64, lower: Optional[F64], tip_wrench: Optional[F64],
-                     gravity: Optional[F64], min_tension: float, threads: int) -> Bool: ...
-def statics_stretch(robot: CoreRobot, theta: F64, lower: Optional[F64], tip_wrench: Optional[F64],
-                    gravity: Optional[F64], threads: int) -> F64: ...
-def statics_solve_elastic(robot: CoreRobot, upper: F64, seed: Optional[F64], lower: Optional[F64],
-                          tip_wrench: Optional[F64], gravity: Optional[F64], min_tension: float, tol: float,
-                          max_iter: int, threads: int) -> Tuple[SolutionArrays, F64, Bool]: ...
-def statics_routing_length(robot: CoreRobot) -> float: ...
-def statics_with_cable(robot: CoreRobot, youngs_modulus: float, diameter: float,
-                       routing_length: float) -> CoreRobot: ...
-def sensitivity_tip(robot: CoreRobot, theta: F64, holes: bool,
-                    threads: int) -> Tuple[F64, F64, Optional[F64], Bool]: ...
+                    tol: float, max_iter: int, check_slack: bool, threads: int) -> MonteCarloStats: ...
+    def sensitivity(self, theta: F64, holes: bool, threads: int) -> SensitivityResult: ...
+    def rms_amplification(self, theta: F64, tol: F64, h: float, threads: int) -> Tuple[F64, F64]: ...
+    def tensions(self, theta: F64, lower: Optional[F64], tip_wrench: Optional[F64], gravity: Optional[F64],
+                 threads: int) -> F64: ...
+    def feasible(self, theta: F64, lower: Optional[F64], tip_wrench: Optional[F64], gravity: Optional[F64],
+                 min_tension: float, threads: int) -> Bool: ...
+    def stretch(self, theta: F64, lower: Optional[F64], tip_wrench: Optional[F64], gravity: Optional[F64],
+                threads: int) -> F64: ...
+    def solve_elastic(self, upper: F64, seed: Optional[F64], lower: Optional[F64], tip_wrench: Optional[F64],
+                      gravity: Optional[F64], min_tension: float, tol: float, max_iter: int,
+                      threads: int) -> ElasticResult: ...
+    def plant_effects(self) -> List[Tuple[str, int]]: ...
+    def plant_bounds(self) -> Tuple[F64, F64]: ...
+    def plant_predict(self, params: F64, theta_cmd: F64, dl: F64, kind: Sequence[int], tol: float,
+                      max_iter: int, threads: int) -> PlantPrediction: ...
+    def plant_linearise(self, params: F64, free: Sequence[int], theta_cmd: F64, dl: F64, kind: Sequence[int],
+                        tol: float, max_iter: int, threads: int) -> PlantPrediction: ...
+    def plant_fit(self, theta_cmd: F64, dl: F64, kind: Sequence[int], measured: F64, scored: Sequence[bool],
+                  free: Sequence[int], scale: Sequence[float], start: F64, tol: float, max_iter: int,
+                  fit_iter: int, threads: int) -> List[PlantFit]: ...
+    def compensate(self, params: F64, theta_cmd: F64, targets: F64, weights: Sequence[float],
+                   start: Optional[F64], tol: float, settle_tol: float, max_iter: int,
+                   threads: int) -> CompensationResult: ...

@@ -20,7 +20,14 @@ from . import _cdsm
 from .files import read_text
 from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
 
-__all__ = ["Robot", "Solution", "CdsmInputError"]
+__all__ = ["Robot", "Solution", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS"]
+
+
+#: Why a solve ended, by code (``Solution.reason`` holds the names).
+REASONS = tuple(_cdsm.REASONS)
+
+#: Named task masks of the pose IK over the planar task coordinates (x, y, phi).
+TASK_MASKS = {"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}
 
 
 @dataclass(frozen=True)
@@ -31,10 +38,14 @@ class Solution:
     keeps its last iterate and must not be used as an answer. iterations: (N,)
     trial steps (0 = closed form). residual: (N,) max |residual| (m, or rad for
     the attitude). within_limits: (N,) all angles within the joint limits.
+    reason: (N,) why each solve ended: ``"converged"``, ``"iteration limit"``,
+    ``"singular"`` (the step could not be computed), ``"unreachable"`` (the
+    residual cannot be lowered: the target is out of reach) or ``"outside
+    limits"`` (stuck on the joint-limit box while limits are enforced).
     feasible: (N,) every upper cable taut (tension > 0 N) at theta under the
-    robot's lower tensions and no external load — False flags a configuration
-    the hybrid-controlled arm cannot hold (computed on first access; None
-    where no robot is attached).
+    robot's lower tensions and gravity — False flags a configuration the
+    hybrid-controlled arm cannot hold (computed on first access; None where
+    no robot is attached).
     """
 
     theta: np.ndarray
@@ -42,6 +53,7 @@ class Solution:
     iterations: np.ndarray
     residual: np.ndarray
     within_limits: np.ndarray
+    reason: np.ndarray = None
     _feasible: Optional[np.ndarray] = field(default=None, repr=False, compare=False)
     _robot: Optional["Robot"] = field(default=None, repr=False, compare=False)
 
@@ -52,12 +64,17 @@ class Solution:
         return self._feasible
 
     @classmethod
-    def from_core(cls, parts, n: int, single: bool, robot: Optional["Robot"] = None) -> "Solution":
-        theta, conv, it, res, lim = parts
-        theta = theta.reshape(-1, n)
+    def from_core(cls, res: "_cdsm.SolveResult", n: int, single: bool,
+                  robot: Optional["Robot"] = None, **extra) -> "Solution":
+        """The solution of a batch from the core's :class:`cdsm._cdsm.SolveResult`
+        (``single``: one row given 1-D, returned 1-D)."""
+        theta = res.theta.reshape(-1, n)
+        reason = np.asarray(REASONS, dtype=object)[res.reason].astype(str)
+        parts = [theta, res.converged, res.iterations, res.residual, res.within_limits, reason]
         if single:
-            return cls(theta[0], conv[0], it[0], res[0], lim[0], _robot=robot)
-        return cls(theta, conv, it, res, lim, _robot=robot)
+            parts = [p[0] for p in parts]
+            extra = {k: v[0] for k, v in extra.items()}
+        return cls(*parts, _robot=robot, **extra)
 
 
 class Robot:
@@ -269,17 +286,30 @@ class Robot:
         return s
 
     def ik(self, pose, seed=None, tol: float = 1e-12, max_iter: int = 100,
-           enforce_limits: bool = False) -> Solution:
-        """Pose IK by Levenberg–Marquardt: pose [x (m), y (m), phi (rad)] (N, 3) -> Solution.
+           enforce_limits: bool = False, mask="pose") -> Solution:
+        """Pose IK by damped least squares (Levenberg–Marquardt, minimal-norm
+        steps): pose [x (m), y (m), phi (rad)] (N, 3) -> Solution.
 
-        ``seed`` (N, n) or (n,), rad; default theta = 0. For n > 3 the steps are
-        minimal-norm. Joint limits are flagged (``within_limits``) and enforced
-        only with ``enforce_limits``.
+        ``seed`` (N, n) or (n,), rad; default theta = 0. ``mask``: which task
+        coordinates to match — ``"pose"`` (x, y, phi), ``"position"`` (x, y;
+        the attitude is free, its column of ``pose`` ignored) or three
+        non-negative weights on the x, y, phi residuals (m, m, rad).
+        Convergence is judged on the weighted residual. Joint limits are
+        flagged (``within_limits``) and enforced only with ``enforce_limits``.
         """
         p, single = as_batch("pose", pose, 3)
-        parts = self.core.ik(p, self._seed(seed, p.shape[0]), float(tol), as_iterations("max_iter", max_iter),
-                              bool(enforce_limits), self.threads)
-        return Solution.from_core(parts, self.n, single, self)
+        res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), float(tol),
+                           as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
+        return Solution.from_core(res, self.n, single, self)
+
+    @staticmethod
+    def _mask(mask) -> list:
+        if isinstance(mask, str):
+            if mask not in TASK_MASKS:
+                raise CdsmInputError(f"`mask`: expected one of {', '.join(map(repr, TASK_MASKS))} "
+                                     f"or 3 weights, got {mask!r}")
+            return list(TASK_MASKS[mask])
+        return [float(v) for v in as_vector("mask", mask, 3)]
 
     def solve_cables(self, upper, seed=None, method: str = "auto", tol: float = 1e-12,
                      max_iter: int = 100, enforce_limits: bool = False) -> Solution:
@@ -291,9 +321,9 @@ class Robot:
         verified, LM if it fails).
         """
         u, single = as_batch("upper", upper, self.n)
-        parts = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
-                                        as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
-        return Solution.from_core(parts, self.n, single, self)
+        res = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
+                                     as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
+        return Solution.from_core(res, self.n, single, self)
 
 
     # ---- statics and cable elasticity (issue 4; model in rust/statics.rs) --
@@ -318,13 +348,14 @@ class Robot:
         lower: lower (force-controlled) tensions, N, (n,) or (N, n); default the
         robot file's (paper: 50, 10, 5 g on disks 1, 2, 3). tip_wrench:
         [Fx (N), Fy (N), Mz (N m)] at the tip, base frame, (3,) or (N, 3).
-        gravity: [gx, gy] (m/s^2) in the base frame; default none (horizontal
-        plane); linkage i's mass sits at the centre of disk i. NaN where an
-        upper cable has no moment arm about its own joint.
+        gravity: [gx, gy] (m/s^2) in the base frame; default the robot file's
+        (``gravity``; [0, 0]: horizontal plane); linkage i's mass sits at the
+        centre of disk i. NaN where an upper cable has no moment arm about its
+        own joint.
         """
         t, single = as_batch("theta", theta, self.n)
         lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
-        out = _cdsm.statics_tensions(self.core, t, lo, w, g, self.threads)
+        out = self.core.tensions(t, lo, w, g, self.threads)
         return self._out(out, (self.n,), single)
 
     def feasible(self, theta, min_tension: float = 0.0, lower=None, tip_wrench=None,
@@ -334,8 +365,7 @@ class Robot:
         (tension <= min_tension) or the balance is impossible (NaN)."""
         t, single = as_batch("theta", theta, self.n)
         lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
-        ok = _cdsm.statics_feasible(self.core, t, lo, w, g, as_finite("min_tension", min_tension),
-                                    self.threads)
+        ok = self.core.feasible(t, lo, w, g, as_finite("min_tension", min_tension), self.threads)
         return ok[0] if single else ok
 
     def stretch(self, theta, lower=None, tip_wrench=None, gravity=None) -> np.ndarray:
@@ -344,18 +374,37 @@ class Robot:
         ``A = pi d^2 / 4``. (N, n) -> (N, n)."""
         t, single = as_batch("theta", theta, self.n)
         lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
-        out = _cdsm.statics_stretch(self.core, t, lo, w, g, self.threads)
+        out = self.core.stretch(t, lo, w, g, self.threads)
         return self._out(out, (self.n,), single)
 
     @property
     def routing_length(self) -> float:
         """Cable path behind the base disk to the actuator, m (stretches with the cable)."""
-        return _cdsm.statics_routing_length(self.core)
+        return self.core.routing_length
 
     @property
     def axial_stiffness(self) -> float:
         """Cable axial stiffness E A, N (A = pi d^2 / 4)."""
-        return self.youngs_modulus * np.pi * self.cable_diameter ** 2 / 4.0
+        return self.core.axial_stiffness
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """(2,) in-plane gravity [gx, gy], m/s^2, base frame: the default of
+        every statics path (robot file ``gravity``; [0, 0]: horizontal plane)."""
+        return np.array(self.core.gravity)
+
+    @property
+    def straight_length(self) -> float:
+        """Length of the straight arm, m: the tip x at theta = 0."""
+        return self.core.straight_length
+
+    def with_loads(self, lower_tension=None, gravity=None) -> "Robot":
+        """The same robot with other lower-cable tensions (n,), N, and/or
+        gravity [gx, gy], m/s^2 (e.g. the paper's other readings)."""
+        lo = self.lower_tension if lower_tension is None else as_vector("lower_tension", lower_tension, self.n)
+        g = self.gravity if gravity is None else as_vector("gravity", gravity, 2)
+        return Robot(self.core.with_loads(np.ascontiguousarray(lo, float), np.ascontiguousarray(g, float)),
+                     self.threads)
 
     def with_cable(self, youngs_modulus: Optional[float] = None, diameter: Optional[float] = None,
                    routing_length: Optional[float] = None) -> "Robot":
@@ -363,7 +412,7 @@ class Robot:
         e = self.youngs_modulus if youngs_modulus is None else as_finite("youngs_modulus", youngs_modulus)
         d = self.cable_diameter if diameter is None else as_finite("diameter", diameter)
         r = self.routing_length if routing_length is None else as_finite("routing_length", routing_length)
-        return Robot(_cdsm.statics_with_cable(self.core, e, d, r), self.threads)
+        return Robot(self.core.with_cable(e, d, r), self.threads)
 
     def solve_cables_elastic(self, upper, seed=None, lower=None, tip_wrench=None, gravity=None,
                              min_tension: float = 0.0, tol: float = 1e-12,
@@ -379,14 +428,12 @@ class Robot:
         """
         u, single = as_batch("upper", upper, self.n)
         lo, w, g = self._loads(u.shape[0], lower, tip_wrench, gravity)
-        parts, tension, ok = _cdsm.statics_solve_elastic(
-            self.core, u, self._seed(seed, u.shape[0]), lo, w, g,
-            as_finite("min_tension", min_tension), float(tol), as_iterations("max_iter", max_iter), self.threads)
-        base = Solution.from_core(parts, self.n, single)
-        tension = tension.reshape(-1, self.n)
-        return ElasticSolution(base.theta, base.converged, base.iterations, base.residual,
-                               base.within_limits, _feasible=ok[0] if single else ok,
-                               tension=tension[0] if single else tension)
+        res = self.core.solve_elastic(u, self._seed(seed, u.shape[0]), lo, w, g,
+                                      as_finite("min_tension", min_tension), float(tol),
+                                      as_iterations("max_iter", max_iter), self.threads)
+        return ElasticSolution.from_core(res.solution, self.n, single, self, tension=res.tension.reshape(-1, self.n),
+                                         _feasible=res.feasible)
+
 
 @dataclass(frozen=True)
 class ElasticSolution(Solution):
@@ -395,3 +442,4 @@ class ElasticSolution(Solution):
     every upper tension above ``min_tension`` (False: some cable would go slack)."""
 
     tension: np.ndarray = None
+

@@ -12,7 +12,8 @@ i in x, y; ``t`` the tolerances, default the paper's ±1 mm per cable and
   several seeds (``(0, ∓1e-3, 0)``, ``(0, ±0.5, 0)``, 0) and the converged
   branch within the joint limits with the smaller RMS amplification wins.
 * n > 3: gradient projection in the null space of the pose Jacobian
-  (``P = I - J^+ J``, numerical gradient of the squared RMS amplification),
+  (``P = I - J^+ J``, gradient of the squared RMS amplification by central
+  differences in the Rust core),
   a step along ``-P grad`` followed by the pose IK back onto the target,
   accepted only if it lowers the objective and stays within the joint limits;
   started from the θ = 0 seeded IK (the default).
@@ -35,10 +36,10 @@ from ..inputs import CdsmInputError, as_batch
 from ..robot import Robot
 from .montecarlo import monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
-from .sensitivity import amplification, sensitivities
+from .sensitivity import tolerance_vector
 from .tolerance import pooled_percentile
 
-__all__ = ["rms_amplification", "ik_branches", "best_configurations", "null_space_optimize",
+__all__ = ["rms_amplification", "rms_and_gradient", "ik_branches", "best_configurations", "null_space_optimize",
            "path_configurations", "compare_with_default"]
 
 
@@ -46,9 +47,16 @@ def rms_amplification(robot: Robot, theta, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_
     """(N,) linear RMS of |d(x, y)| (m) at ``theta (N, n)`` rad for uniform
     errors within ±dl_tol per upper cable and ±dh_tol per disk (m); inf where
     the cable Jacobian is singular."""
+    return rms_and_gradient(robot, theta, dl_tol, dh_tol)[0]
+
+
+def rms_and_gradient(robot: Robot, theta, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL, h: float = 1e-6):
+    """:func:`rms_amplification` (N,) m and its gradient (N, n) m/rad in
+    ``theta (N, n)`` rad (central differences of ``h`` rad in the Rust core)."""
     t, _ = as_batch("theta", theta, robot.n)
-    v = amplification(sensitivities(robot, t), dl_tol, dh_tol)["rms_xy"]
-    return np.where(np.isfinite(v), v, np.inf)
+    tol = np.ascontiguousarray(tolerance_vector(robot, dl_tol, dh_tol))
+    v, g = robot.core.rms_amplification(t, tol, float(h), robot.threads)
+    return v, g.reshape(-1, robot.n)
 
 
 def _pose_ok(robot: Robot, theta: np.ndarray, poses: np.ndarray, sol) -> np.ndarray:
@@ -101,28 +109,24 @@ def null_space_optimize(robot: Robot, poses, theta_start, dl_tol=PAPER_DL_TOL, d
     prev = None if theta_prev is None else as_batch("theta_prev", theta_prev, n)[0]
 
     def objective(t, rows=None):
-        f = rms_amplification(robot, t, dl_tol, dh_tol) ** 2
+        """rms² + mu |θ - θ_prev|² and its gradient (analytic in the penalty)."""
+        v, g = rms_and_gradient(robot, t, dl_tol, dh_tol)
+        f, grad = v ** 2, 2.0 * v[:, None] * g
         if prev is not None and mu > 0:
             pr = prev if rows is None else prev[rows]
             f = f + mu * ((t - pr) ** 2).sum(axis=1)
-        return f
+            grad = grad + 2.0 * mu * (t - pr)
+        return f, grad
 
-    f = objective(th)
+    f = objective(th)[0]
     eta = np.full(N, float(step))
     active = np.isfinite(f)
-    h = 1e-6
     for _ in range(int(iters)):
         idx = np.flatnonzero(active)
         if len(idx) == 0:
             break
         t = th[idx]
-        pert = np.repeat(t, 2 * n, axis=0).reshape(len(idx), 2 * n, n)
-        for k in range(n):
-            pert[:, 2 * k, k] += h
-            pert[:, 2 * k + 1, k] -= h
-        rows = np.repeat(idx, 2 * n)
-        fp = objective(pert.reshape(-1, n), rows).reshape(len(idx), 2 * n)
-        grad = (fp[:, 0::2] - fp[:, 1::2]) / (2 * h)
+        grad = objective(t, idx)[1]
         J = robot.fk_jacobian(t)
         P = np.eye(n)[None] - np.linalg.pinv(J) @ J
         d = -(P @ grad[..., None])[..., 0]
@@ -133,7 +137,7 @@ def null_space_optimize(robot: Robot, poses, theta_start, dl_tol=PAPER_DL_TOL, d
         sol = robot.ik(p[idx], seed=trial, enforce_limits=True)
         tn = np.atleast_2d(sol.theta)
         ok = _pose_ok(robot, tn, p[idx], sol) & np.all((tn >= lo) & (tn <= hi), axis=1) & move
-        fn = np.where(ok, objective(np.where(ok[:, None], tn, t), idx), np.inf)
+        fn = np.where(ok, objective(np.where(ok[:, None], tn, t), idx)[0], np.inf)
         better = ok & (fn < f[idx] * (1 - 1e-9))
         th[idx[better]] = tn[better]
         f[idx[better]] = fn[better]

@@ -163,20 +163,13 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     not depend on it. This is the unit of work of local and cluster runs."""
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
     th = robot.threads if threads is None else int(threads)
-    raw = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
-    out = _stats(theta0, raw)
-    if check_slack:
-        out.slack = raw["slack"].astype(np.int64)
-    return out
-
-
-def _stats(theta0: np.ndarray, raw: dict) -> MonteCarlo:
+    st = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
     q = _cdsm.QUANTITIES
-    return MonteCarlo(theta0=theta0, count=raw["count"].astype(np.int64),
-                      failed=raw["failed"].astype(np.int64),
-                      sum=raw["sum"].reshape(-1, q), sum_sq=raw["sum_sq"].reshape(-1, q),
-                      min=raw["min"].reshape(-1, q), max=raw["max"].reshape(-1, q),
-                      hist=raw["hist"].reshape(-1, _cdsm.HIST_BINS).astype(np.int64))
+    return MonteCarlo(theta0=theta0, count=st.count.astype(np.int64), failed=st.failed.astype(np.int64),
+                      sum=st.sum.reshape(-1, q), sum_sq=st.sum_sq.reshape(-1, q),
+                      min=st.min.reshape(-1, q), max=st.max.reshape(-1, q),
+                      hist=st.hist.reshape(-1, _cdsm.HIST_BINS).astype(np.int64),
+                      slack=st.slack.astype(np.int64) if check_slack else None)
 
 
 # ---------------------------------------------------------------------------

@@ -86,7 +86,7 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
         holes = robot.holes + d
     if holes is not None:
         holes = np.ascontiguousarray(holes.reshape(-1))
-    ds, parts = robot.core.deviation(t0, dl, holes, method, float(tol), int(max_iter), robot.threads)
-    sol = Solution.from_core(parts, robot.n, False)
+    res = robot.core.deviation(t0, dl, holes, method, float(tol), int(max_iter), robot.threads)
+    sol = Solution.from_core(res.solution, robot.n, False)
     feasible = robot.feasible(t0) & robot.feasible(sol.theta)
-    return Deviation(ds.reshape(-1, 3), t0, sol, ik, feasible)
+    return Deviation(res.ds.reshape(-1, 3), t0, sol, ik, feasible)

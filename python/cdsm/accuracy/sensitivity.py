@@ -23,7 +23,6 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from .. import _cdsm
 from ..inputs import as_batch, as_tolerances
 from ..robot import Robot
 from .montecarlo import monte_carlo
@@ -55,9 +54,9 @@ def sensitivities(robot: Robot, theta, holes: bool = False) -> Sensitivities:
     """Analytic tip sensitivities (Rust core) over ``theta (N, n)`` rad (or (n,))."""
     t, _ = as_batch("theta", theta, robot.n)
     n = robot.n
-    c, p, h, ok = _cdsm.sensitivity_tip(robot.core, t, bool(holes), robot.threads)
-    hs = None if h is None else h.reshape((-1, 3) + robot.holes.shape)
-    return Sensitivities(t, c.reshape(-1, 3, n), p.reshape(-1, 3, n), hs, np.asarray(ok, bool))
+    res = robot.core.sensitivity(t, bool(holes), robot.threads)
+    hs = None if res.holes is None else res.holes.reshape((-1, 3) + robot.holes.shape)
+    return Sensitivities(t, res.cable.reshape(-1, 3, n), res.pair.reshape(-1, 3, n), hs, np.asarray(res.ok, bool))
 
 
 def sensitivity(robot: Robot, theta) -> np.ndarray:

@@ -14,9 +14,7 @@ import numpy as np
 
 from ..accuracy.workspace import paper_ik_seed
 from ..files import read_table, table_column, write_text
-from ..inputs import CdsmInputError
-from ..robot import Robot
-from . import plant
+from ..inputs import CdsmInputError, as_vector
 
 __all__ = ["Compensation", "compensate", "read_targets"]
 
@@ -126,27 +124,29 @@ class Compensation:
 
 
 
-def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, h: float = 1e-6,
-               min_tension: float = 0.0, enforce_limits: bool = False) -> Compensation:
+def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension: float = 0.0,
+               enforce_limits: bool = False, start=None) -> Compensation:
     """Upper-cable length commands that put the fitted plant's tip on ``poses``.
 
-    poses: (N, 3) [x, y, phi] (m, m, rad) or (N, 2) [x, y]. Each row: the
-    nominal configuration ``theta_cmd`` is the nominal pose IK of the target
-    from the paper's seed (:func:`cdsm.accuracy.workspace.paper_ik_seed`; without phi,
-    the IK of (x, y, 0) — for n = 3 the paper's branch — or of (x, y) alone
-    when that fails or leaves the joint limits). The commands are ``upper_lengths(theta_cmd) + dL`` and
-    dL (n,) m is found by damped Newton (Levenberg–Marquardt, minimal-norm
-    steps) on the plant's absolute observation, Jacobian by central
-    differences of ``h`` m — every row and perturbation in one Rust call
-    per iteration. Residual [x, y(, phi·L)] with L the straight arm length
-    (m/rad); converged when its largest component is <= ``tol`` (m).
+    poses: (N, 3) [x, y, phi] (m, m, rad) or (N, 2) [x, y], run in this order
+    (backlash has memory; ``start`` (n,) m: the lengths the screws hold before
+    the first target, default the straight pose). Each row: the nominal
+    configuration ``theta_cmd`` is the nominal pose IK of the target from the
+    paper's seed (:func:`cdsm.accuracy.workspace.paper_ik_seed`; without phi,
+    the IK of (x, y, 0) — for n = 3 the paper's branch — or of the position
+    alone (task mask ``"position"``) when that fails or leaves the joint
+    limits). The Rust core then finds, by the shared damped least squares
+    with the plant's exact Jacobian, the lengths the screws must deliver so
+    that the fitted plant's tip meets the target — residual [x, y(, phi·L)],
+    L the straight arm length (m/rad), converged when its largest component
+    is <= ``tol`` (m) — and commands them through the backlash in order. The
+    commands are ``upper_lengths(theta_cmd) + dL``.
 
     Flags: ``unreachable`` (nominal IK fails), ``outside the joint limits``
     (the nominal IK answer leaves them: flagged, and left out only with
-    ``enforce_limits``),
-    ``slack cable`` (an upper tension <= ``min_tension`` N at the predicted
-    configuration of the fitted arm), ``joint limits`` (that configuration
-    leaves the limits), ``not converged``.
+    ``enforce_limits``), ``slack cable`` (an upper tension <= ``min_tension``
+    N at the predicted configuration of the fitted arm), ``joint limits``
+    (that configuration leaves the limits), ``not converged``.
     """
     r = model.robot
     n = r.n
@@ -163,15 +163,19 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, h: float = 1
     flags: List[List[str]] = [[] for _ in range(N)]
     seed = paper_ik_seed(n)
     full = arr if has_phi else np.column_stack([arr, np.zeros(N)])
-    sol = r.ik(full, seed=seed) if N else None
-    theta = np.array(sol.theta, dtype=float).reshape(N, n) if N else np.zeros((0, n))
-    reach = np.asarray(sol.converged, bool).reshape(N) if N else np.zeros(0, bool)
+    theta = np.zeros((N, n))
+    reach = np.zeros(N, bool)
+    if N:
+        sol = r.ik(full, seed=seed)
+        theta = np.array(sol.theta, dtype=float).reshape(N, n)
+        reach = np.asarray(sol.converged, bool).reshape(N)
     if not has_phi and N:
         # (x, y, 0) unreachable or outside the limits: position-only IK
         idx = np.flatnonzero(~(reach & r.within_limits(theta)))
         if len(idx):
-            th2, ok2 = _ik_xy(r, arr[idx], seed)
-            ok2 &= r.within_limits(th2) | ~reach[idx]
+            s2 = r.ik(full[idx], seed=seed, mask="position")
+            th2 = np.atleast_2d(s2.theta)
+            ok2 = np.atleast_1d(s2.converged) & (r.within_limits(th2) | ~reach[idx])
             theta[idx[ok2]] = th2[ok2]
             reach[idx[ok2]] = True
     for i in np.flatnonzero(~reach):
@@ -182,140 +186,44 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, h: float = 1
                         + (" (not compensated: enforce_limits)" if enforce_limits else ""))
     if enforce_limits:
         reach &= lim
-    theta[~reach] = 0.0
-    scale = float(np.sum(r.link_before + r.link_after + r.thickness))
-    m = 3 if has_phi else 2
-    w = np.array([1.0, 1.0, scale])[:m]
-    dL = np.zeros((N, n))
-
-    def resid(rows, d):
-        obs, conv = plant.predict(r, model.p, theta[rows], d, "absolute")
-        res = (arr[rows, :m] - obs[:, :m]) * w
-        res[~conv] = np.nan
-        return res
-
-    res = np.full((N, m), np.nan)
-    conv = np.zeros(N, bool)
-    if reach.any():
-        res[reach] = resid(np.flatnonzero(reach), dL[reach])
-    res0 = res.copy()
-    bad0 = reach & ~np.isfinite(res).all(axis=1)
-    for i in np.flatnonzero(bad0):
-        flags[i].append("the fitted model cannot realise the nominal commands")
-    active = reach & ~bad0
-    lam = np.full(N, 1e-8)
-    conv[active] = np.abs(res[active]).max(axis=1) <= tol
-    active &= ~conv
-    it = 0
-    while active.any() and it < max_iter:
-        it += 1
-        rows = np.flatnonzero(active)
-        k = len(rows)
-        # Jacobian: rows x (+h, -h) per cable, one call
-        pert = np.repeat(dL[rows], 2 * n, axis=0).reshape(k, 2 * n, n)
-        for j in range(n):
-            pert[:, 2 * j, j] += h
-            pert[:, 2 * j + 1, j] -= h
-        rr = np.repeat(rows, 2 * n)
-        obs, cv = plant.predict(r, model.p, theta[rr], pert.reshape(-1, n), "absolute")
-        o = obs[:, :m].reshape(k, 2 * n, m) * w
-        J = np.transpose((o[:, 0::2] - o[:, 1::2]) / (2 * h), (0, 2, 1))  # (k, m, n)
-        good = np.isfinite(J).all(axis=(1, 2)) & cv.reshape(k, 2 * n).all(axis=1)
-        J = np.nan_to_num(J)
-        rk = res[rows]
-        cost = np.einsum("ij,ij->i", rk, rk)
-        # damped, minimal-norm steps; retry a row with more damping when a step fails
-        accepted = np.zeros(k, bool)
-        for _ in range(12):
-            todo = ~accepted & good & (lam[rows] < 1e10)
-            if not todo.any():
-                break
-            t = np.flatnonzero(todo)
-            Jt = J[t]
-            if m <= n:
-                A = Jt @ np.transpose(Jt, (0, 2, 1)) + lam[rows[t], None, None] * np.eye(m)
-                y = np.linalg.solve(A, rk[t][..., None])
-                step = (np.transpose(Jt, (0, 2, 1)) @ y)[..., 0]
-            else:
-                A = np.transpose(Jt, (0, 2, 1)) @ Jt + lam[rows[t], None, None] * np.eye(n)
-                step = np.linalg.solve(A, (np.transpose(Jt, (0, 2, 1)) @ rk[t][..., None]))[..., 0]
-            trial = dL[rows[t]] + step
-            rn = resid(rows[t], trial)
-            cn = np.einsum("ij,ij->i", rn, rn)
-            win = np.isfinite(cn) & (cn < cost[t])
-            wi = rows[t][win]
-            dL[wi] = trial[win]
-            res[wi] = rn[win]
-            lam[wi] = np.maximum(lam[wi] / 10.0, 1e-12)
-            lam[rows[t][~win]] *= 10.0
-            accepted[t[win]] = True
-        done = np.abs(res[rows]).max(axis=1) <= tol
-        conv[rows[done]] = True
-        stuck = ~accepted | ~good | (lam[rows] >= 1e10)
-        active[rows[done | stuck]] = False
+    L = r.straight_length
+    weights = [1.0, 1.0, L if has_phi else 0.0]
     commands = np.full((N, n), np.nan)
     nominal = np.full((N, n), np.nan)
-    if reach.any():
-        nominal[reach] = r.upper_lengths(theta[reach])
-        commands[reach] = nominal[reach] + dL[reach]
-    err = np.hypot(res[:, 0] / w[0], res[:, 1] / w[1])
-    err0 = np.hypot(res0[:, 0], res0[:, 1])
-    perr = np.abs(res[:, 2] / scale) if has_phi else np.full(N, np.nan)
-    for i in np.flatnonzero(reach & ~bad0 & ~conv):
-        flags[i].append(f"not converged (predicted residual {np.nanmax(np.abs(res[i])):.2e} m)")
     th_pred = np.full((N, n), np.nan)
-    if reach.any():
-        rows = np.flatnonzero(reach)
-        th_pred[rows] = plant.settle(r, model.p, theta[rows], dL[rows])[0]
-        fin = np.isfinite(th_pred[rows]).all(axis=1)
-        feas = np.zeros(len(rows), bool)
-        inlim = np.zeros(len(rows), bool)
-        if fin.any():
-            feas[fin] = r.feasible(th_pred[rows[fin]], min_tension=min_tension)
-            inlim[fin] = r.within_limits(th_pred[rows[fin]])
-        for i, f, li, fi in zip(rows, feas, inlim, fin):
-            if not fi:
-                flags[i].append("the fitted arm's configuration could not be solved (tension check skipped)")
-                continue
-            if not f:
+    conv = np.zeros(N, bool)
+    seen = np.full((N, 3), np.nan)
+    seen0 = np.full((N, 3), np.nan)
+    rows = np.flatnonzero(reach)
+    if len(rows):
+        st = None if start is None else np.ascontiguousarray(as_vector("start", start, n))
+        res = r.core.compensate(np.ascontiguousarray(model.p, float), np.ascontiguousarray(theta[rows]),
+                                np.ascontiguousarray(full[rows]), weights, st, float(tol), 1e-12,
+                                int(max_iter), r.threads)
+        commands[rows] = res.command.reshape(-1, n)
+        nominal[rows] = res.nominal.reshape(-1, n)
+        th_pred[rows] = res.theta.reshape(-1, n)
+        conv[rows] = res.converged
+        seen[rows] = res.seen.reshape(-1, 3)
+        seen0[rows] = res.seen_nominal.reshape(-1, 3)
+    err = np.hypot(seen[:, 0] - full[:, 0], seen[:, 1] - full[:, 1])
+    err0 = np.hypot(seen0[:, 0] - full[:, 0], seen0[:, 1] - full[:, 1])
+    perr = np.abs(seen[:, 2] - full[:, 2]) if has_phi else np.full(N, np.nan)
+    for i in rows[~conv[rows]]:
+        if not np.isfinite(seen[i]).all():
+            flags[i].append("the fitted model cannot realise the commands")
+        else:
+            flags[i].append(f"not converged (predicted tip error {err[i]:.2e} m)")
+    fin = rows[np.isfinite(th_pred[rows]).all(axis=1)]
+    if len(fin):
+        feas = r.feasible(th_pred[fin], min_tension=min_tension)
+        inlim = r.within_limits(th_pred[fin])
+        for i, f_, li in zip(fin, np.atleast_1d(feas), np.atleast_1d(inlim)):
+            if not f_:
                 flags[i].append("slack cable: an upper cable tension <= "
                                 f"{min_tension:g} N at the predicted configuration")
             if not li:
                 flags[i].append("joint limits: the predicted configuration leaves them")
-    dL[~reach] = np.nan
+    dL = commands - nominal
     return Compensation(arr.copy(), commands, theta, dL, nominal, conv, err, err0, perr, th_pred,
                         ["; ".join(f) for f in flags], model.name)
-
-
-def _ik_xy(robot: Robot, xy: np.ndarray, seed: np.ndarray, tol: float = 1e-12, max_iter: int = 100):
-    """Nominal IK of positions only: (N, 2) m -> theta (N, n) rad, converged
-    (N,). Levenberg–Marquardt with minimal-norm steps from ``seed``."""
-    n = robot.n
-    N = len(xy)
-    th = np.tile(np.asarray(seed, float), (N, 1))
-    lam = np.full(N, 1e-3)
-    r = xy - robot.fk(th)[:, :2]
-    cost = np.einsum("ij,ij->i", r, r)
-    conv = np.abs(r).max(axis=1) <= tol
-    for _ in range(max_iter):
-        act = ~conv & (lam < 1e12)
-        if not act.any():
-            break
-        J = robot.fk_jacobian(th[act])[:, :2, :]
-        Jt = np.transpose(J, (0, 2, 1))
-        if n >= 2:
-            A = J @ Jt + lam[act, None, None] * np.eye(2)
-            step = (Jt @ np.linalg.solve(A, r[act][..., None]))[..., 0]
-        else:
-            A = Jt @ J + lam[act, None, None] * np.eye(n)
-            step = np.linalg.solve(A, Jt @ r[act][..., None])[..., 0]
-        trial = th[act] + step
-        rn = xy[act] - robot.fk(trial)[:, :2]
-        cn = np.einsum("ij,ij->i", rn, rn)
-        win = cn < cost[act]
-        idx = np.flatnonzero(act)
-        th[idx[win]], r[idx[win]], cost[idx[win]] = trial[win], rn[win], cn[win]
-        lam[idx[win]] = np.maximum(lam[idx[win]] / 10, 1e-12)
-        lam[idx[~win]] *= 10
-        conv = np.abs(r).max(axis=1) <= tol
-    return th, conv

@@ -1,13 +1,47 @@
 """Sim-to-real gap diagnosis: which unmodelled effect explains the difference
-between the nominal model and measurements, where the gap lies, and how far it
-shrinks once the effect is added — judged on held-out rows. SI units (m, rad).
+between the nominal model and measurements, where the gap lies, how far it
+shrinks once the effect is added, and whether what is left is noise — judged
+on held-out rows. SI units (m, rad).
 
-Pipeline (FIGAROH-like): prepare the commands (nominal pose IK for x_cmd rows),
-fit each candidate effect of :mod:`cdsm.calibration.plant` by Levenberg–Marquardt (model
-evaluations batched in the Rust core), rank by k-fold cross-validated held-out
-RMS with AIC/BIC beside it, grow a combination by forward selection, and
-report parameter uncertainty, identifiability, and the configuration features
-that explain the residual size.
+Pipeline (FIGAROH-like):
+
+1. **Prepare** the rows: commands in execution order (file order or the
+   ``sequence`` column), the nominal pose IK for pose-commanded rows, rows the
+   nominal model cannot realise flagged (never dropped silently); data about
+   a thousand times off the robot's scale (mm given for m) are refused with a
+   message that says so. Absolute data are **registered**: the measuring
+   frame (rotation and translation) starts from a closed-form (Kabsch) fit of
+   the nominal predictions to the measurements and is fitted with every
+   candidate; ``frame="base"`` says the data are in the robot's base frame.
+2. **Candidates**: every effect of :mod:`cdsm.calibration.plant` is fitted in
+   the Rust core (exact Jacobians, the physical domain as bounds; a fit that
+   cannot stay physical fails for that candidate only) and scored by k-fold
+   cross-validation (leave-one-out with fewer rows than folds), all folds in
+   one call. A held-out row a candidate cannot predict counts with the
+   nominal model's error for that row (counted in ``failures``).
+3. **Selection**: the best single effect, then forward selection, each step
+   taken only when a one-sided Wilcoxon signed-rank test on the paired
+   held-out gains in squared error says it beats the previous model —
+   **Bonferroni-corrected for the number of candidates compared at that
+   step** (family ``alpha = 0.025``) — and BIC agrees. The held-out RMS of the chosen model
+   comes from the same folds; the correction of the test is what keeps the
+   choice honest. BIC weights sit beside every candidate.
+4. **Verdict**: the noise comes from repeated commands approached from the
+   same direction (pure error, with a 95 % interval), from the user
+   (``noise=``), or is assumed (10 µm per axis and reading). A model is
+   *adequate* when its held-out RMS is within 1.5x the noise floor and a
+   lack-of-fit test does not reject it at p = 0.01 (chi-square against the
+   given or assumed noise; F against pure error when the noise comes from
+   repeats). ``explained`` when a chosen model beats the nominal one and is
+   adequate, ``partly explained`` when it beats it but is not; otherwise
+   ``no gap`` when the nominal model is adequate and ``unexplained`` when it
+   is not. Rows whose residual stays beyond 5 sigma are flagged as outliers
+   and the verdict is given with and without them.
+
+A displacement row is the difference of two readings: its noise per axis is
+``sqrt(2)`` times a reading's. The noise floor (the held-out RMS |e_xy| a
+correct model reaches) is ``sqrt(2) * sigma`` for absolute rows and ``2 sigma``
+for displacement rows, ``sigma`` the noise of one reading per axis.
 """
 
 from __future__ import annotations
@@ -22,27 +56,45 @@ from ..accuracy.workspace import paper_ik_seed, singular_values
 from ..inputs import CdsmInputError
 from ..progress import Progress
 from ..robot import Robot
-from . import plant
-from .fit import Fit, fit, residual_matrix
-from .measurements import Measurements
+from . import plant, stats
+from .fit import Fit, fit_folds
+from .measurements import KIND_CODES, Measurements
 
-__all__ = ["prepare", "Prepared", "cross_validate", "diagnose", "Diagnosis", "Candidate", "better",
-           "features", "spearman", "residuals", "DEFAULT_NOISE"]
+__all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "features",
+           "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES"]
 
-# Measurement noise assumed when none is given: 10 µm per axis (laser tracker).
+#: Measurement noise assumed when none is given: 10 µm per axis and reading.
 DEFAULT_NOISE = 10e-6
+#: How absolute data relate to the robot's base frame.
+FRAMES = ("register", "base")
+#: Outlier threshold, in noise standard deviations.
+OUTLIER_SIGMA = 5.0
+#: Family-wise level of the one-sided selection test at each step.
+ALPHA = 0.025
 
 
 @dataclass
 class Prepared:
-    """Measurements with solved commands. theta_cmd (N, n) rad; usable (N,)
-    bool; flags: {row: reason} for rows left out of the fit (never silently)."""
+    """Measurements ready for the plant, in file order.
+
+    theta_cmd (N, n) rad: solved commands; dL (N, n) m; kinds (N,) plant row
+    kinds; measured (N, 3) m, m, rad (NaN where not measured or not usable);
+    usable (N,) rows scored; flags {row: reason} for rows left out (never
+    silently); order (N,) execution order; registered: the measuring frame is
+    fitted; start (P,) the parameters every fit starts from (the Kabsch
+    frame when registered)."""
 
     robot: Robot
     meas: Measurements
     theta_cmd: np.ndarray
+    dL: np.ndarray
+    kinds: np.ndarray
+    measured: np.ndarray
     usable: np.ndarray
     flags: Dict[int, str]
+    order: np.ndarray
+    registered: bool = False
+    start: Optional[np.ndarray] = None
 
     @property
     def kind(self) -> str:
@@ -50,18 +102,43 @@ class Prepared:
 
     @property
     def rows(self) -> np.ndarray:
+        """Indices of the usable rows (file order)."""
         return np.flatnonzero(self.usable)
 
+    @property
+    def readings(self) -> float:
+        """Noise of a row per axis over the noise of one reading: 1 (absolute)
+        or sqrt(2) (displacement: two readings)."""
+        return float(np.sqrt(2.0)) if self.kind == "displacement" else 1.0
 
-def prepare(robot: Robot, meas: Measurements) -> Prepared:
-    """Solve each row's commanded configuration: theta_i given, or the nominal
-    pose IK of (x_cmd, y_cmd, phi_cmd) from the paper's seed."""
+
+def kabsch_frame(predicted: np.ndarray, measured: np.ndarray) -> np.ndarray:
+    """The rigid planar frame (rotation alpha (rad), translation x, y (m)) that
+    best maps ``predicted`` (N, 2) onto ``measured`` (N, 2) in least squares
+    (Kabsch/Umeyama without scale): ``measured ≈ Rot(alpha) predicted + t``."""
+    p, q = np.asarray(predicted, float), np.asarray(measured, float)
+    pc, qc = p - p.mean(axis=0), q - q.mean(axis=0)
+    h = pc.T @ qc
+    alpha = float(np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1]))
+    c, s = np.cos(alpha), np.sin(alpha)
+    t = q.mean(axis=0) - np.array([[c, -s], [s, c]]) @ p.mean(axis=0)
+    return np.array([alpha, t[0], t[1]])
+
+
+def prepare(robot: Robot, meas: Measurements, frame: str = "register") -> Prepared:
+    """Solve each row's commanded configuration (theta_i given, or the nominal
+    pose IK of (x_cmd, y_cmd, phi_cmd) from the paper's seed), check the rows
+    against the nominal model and the data's scale, and set up the frame
+    registration of absolute data (``frame``: ``"register"`` or ``"base"``)."""
     if meas.n != robot.n:
         raise CdsmInputError(f"measurements are for n = {meas.n} joints, the robot has {robot.n}")
+    if frame not in FRAMES:
+        raise CdsmInputError(f"`frame`: expected one of {', '.join(FRAMES)}, got {frame!r}")
     flags: Dict[int, str] = {}
+    N = len(meas)
     if meas.theta is not None:
         theta = np.array(meas.theta, dtype=float)
-        ok = np.ones(len(meas), bool)
+        ok = np.ones(N, bool)
     else:
         sol = robot.ik(meas.pose_cmd, seed=paper_ik_seed(robot.n))
         theta = np.array(sol.theta, dtype=float)
@@ -69,12 +146,133 @@ def prepare(robot: Robot, meas: Measurements) -> Prepared:
         for i in np.flatnonzero(~ok):
             flags[int(i)] = f"commanded pose not reachable by the nominal model (IK residual {sol.residual[i]:.2e})"
         theta[~ok] = 0.0
-    # the nominal commands must settle on the nominal model too
-    obs, conv = plant.predict(robot, plant.params(robot), theta, meas.dL, meas.kind)
-    for i in np.flatnonzero(ok & ~conv):
+    kinds = meas.kind_codes()
+    order = meas.order
+    nominal = np.zeros(plant.size(robot))
+    obs, conv = plant.predict(robot, nominal, theta[order], meas.dL[order], kinds[order])
+    pred = np.empty_like(obs)
+    pred[order] = obs
+    settles = np.empty(N, bool)
+    settles[order] = conv
+    observed = meas.observed
+    for i in np.flatnonzero(ok & ~settles):
         flags[int(i)] = "the nominal model cannot realise the commanded cable lengths"
-    ok &= conv
-    return Prepared(robot, meas, theta, ok, flags)
+    usable = ok & settles & observed
+    measured = np.full((N, 3), np.nan)
+    measured[:, :2] = meas.measured
+    if meas.measured_phi is not None:
+        measured[:, 2] = meas.measured_phi
+    measured[~usable] = np.nan
+    if usable.sum() >= 2:
+        _check_scale(meas, pred[usable, :2], measured[usable, :2])
+    registered = meas.kind == "absolute" and frame == "register"
+    start = nominal.copy()
+    if registered and usable.sum() >= 2:
+        start[plant.effect_indices(robot, "frame_misalignment")] = kabsch_frame(pred[usable, :2],
+                                                                                measured[usable, :2])
+    return Prepared(robot, meas, theta, np.asarray(meas.dL, float), kinds, measured, usable, flags, order,
+                    registered, start)
+
+
+def _check_scale(meas: Measurements, predicted: np.ndarray, measured: np.ndarray) -> None:
+    """Refuse data whose spread is about a thousand times the model's (mm for m)."""
+    if meas.kind == "absolute":
+        sp = np.sqrt(((predicted - predicted.mean(axis=0)) ** 2).sum(axis=1).mean())
+        sm = np.sqrt(((measured - measured.mean(axis=0)) ** 2).sum(axis=1).mean())
+    else:
+        sp = np.sqrt((predicted ** 2).sum(axis=1).mean())
+        sm = np.sqrt((measured ** 2).sum(axis=1).mean())
+    if sp > 0 and sm > 30.0 * sp:
+        raise CdsmInputError(f"{meas.source or 'measurements'}: the measured positions spread {sm / sp:.0f} times "
+                             "wider than the robot's predictions for the same commands; are they in mm? cdsm "
+                             "reads SI units: metres (divide by 1000)")
+    if sm > 0 and sp > 30.0 * sm:
+        raise CdsmInputError(f"{meas.source or 'measurements'}: the measured positions spread {sp / sm:.0f} times "
+                             "narrower than the robot's predictions for the same commands; are they in km, or "
+                             "is the robot file in mm? cdsm reads SI units: metres")
+
+
+# ---------------------------------------------------------------------------
+# noise from repeats
+# ---------------------------------------------------------------------------
+def repeat_groups(prep: Prepared, decimals: int = 9) -> List[np.ndarray]:
+    """Groups (lists of usable rows, >= 2 each) that repeat the same command —
+    same commanded angles and dL to ``decimals`` (rad, m) — approached from
+    the same direction (the sign of each upper cable's last change of
+    command before the row), so backlash cannot tell them apart."""
+    robot = prep.robot
+    order = prep.order
+    cmd = robot.upper_lengths(prep.theta_cmd[order]) + prep.dL[order]
+    base = robot.upper_lengths(prep.theta_cmd[order])
+    n = robot.n
+    state = robot.upper_lengths(np.zeros(n))
+    direction = np.zeros(n)
+    keys: Dict[tuple, List[int]] = {}
+    for j, i in enumerate(order):
+        first = base[j] if prep.kinds[i] == KIND_CODES["displacement"] else cmd[j]
+        step = first - state
+        direction = np.where(np.abs(step) > 1e-12, np.sign(step), direction)
+        if prep.usable[i]:
+            key = (tuple(np.round(prep.theta_cmd[i], decimals)), tuple(np.round(prep.dL[i], decimals)),
+                   tuple(direction.astype(int)))
+            keys.setdefault(key, []).append(int(i))
+        state = cmd[j]
+    return [np.array(v) for v in keys.values() if len(v) >= 2]
+
+
+@dataclass
+class NoiseEstimate:
+    """The noise of one reading per axis (m), where it came from
+    (``"repeats"``, ``"given"``, ``"assumed"``), its 95 % interval (repeats),
+    and the pure error the repeats give (sum of squares m², degrees of
+    freedom)."""
+
+    sigma: float
+    source: str
+    ci: Optional[tuple] = None
+    ss_pure: float = 0.0
+    dof_pure: int = 0
+    groups: int = 0
+
+
+def _noise(prep: Prepared, given: Optional[float]) -> NoiseEstimate:
+    groups = repeat_groups(prep)
+    ss, dof = 0.0, 0
+    for g in groups:
+        y = prep.measured[g, :2]
+        ss += float(((y - y.mean(axis=0)) ** 2).sum())
+        dof += 2 * (len(g) - 1)
+    if given is not None:
+        return NoiseEstimate(float(given), "given", None, ss, dof, len(groups))
+    if dof >= 2 and ss > 0:
+        r2 = prep.readings ** 2
+        sigma = float(np.sqrt(ss / dof / r2))
+        ci = (float(np.sqrt(ss / stats.chi2_ppf(0.975, dof) / r2)),
+              float(np.sqrt(ss / stats.chi2_ppf(0.025, dof) / r2)))
+        return NoiseEstimate(sigma, "repeats", ci, ss, dof, len(groups))
+    return NoiseEstimate(DEFAULT_NOISE, "assumed", None, ss, dof, len(groups))
+
+
+# ---------------------------------------------------------------------------
+# candidates
+# ---------------------------------------------------------------------------
+@dataclass
+class Candidate:
+    """One effect or combination: its fit on all usable rows, its held-out
+    position errors |e_xy| (m, one per usable row; a row the candidate cannot
+    predict counts with the nominal model's error) and how many such
+    failures there were."""
+
+    name: str
+    effects: List[str]
+    fit: Fit
+    heldout: np.ndarray
+    failures: int = 0
+    weight: float = float("nan")
+
+    @property
+    def heldout_rms(self) -> float:
+        return float(np.sqrt(np.nanmean(self.heldout ** 2))) if len(self.heldout) else float("nan")
 
 
 def _folds(n_rows: int, k: int, seed: int = 0) -> List[np.ndarray]:
@@ -82,78 +280,107 @@ def _folds(n_rows: int, k: int, seed: int = 0) -> List[np.ndarray]:
     return [np.sort(order[i::k]) for i in range(k)]
 
 
-def cross_validate(prep: Prepared, effects: Sequence[str], folds: int = 10) -> np.ndarray:
-    """Held-out position error |e_xy| (m) of every usable row, by k-fold
-    cross-validation (leave-one-out when there are fewer rows than folds)."""
-    rows = prep.rows
-    k = min(folds, len(rows))
-    err = np.full(len(rows), np.nan)
-    for test in _folds(len(rows), k):
-        train = np.setdiff1d(np.arange(len(rows)), test)
-        f = fit(prep, effects, rows[train]) if effects else None
-        p = f.p if f is not None else np.zeros(plant.size(prep.robot))
-        r = residual_matrix(prep, p[None], rows[test])[0].reshape(-1, 2)
-        err[test] = np.hypot(r[:, 0], r[:, 1])
-    return err
+class _Scorer:
+    """Fits and cross-validates candidates on one set of rows."""
 
+    def __init__(self, prep: Prepared, rows: np.ndarray, folds: int, base_error: Optional[np.ndarray] = None):
+        self.prep = prep
+        self.rows = np.asarray(rows, int)
+        k = min(folds, len(self.rows))
+        self.tests = [self.rows[t] for t in _folds(len(self.rows), k)]
+        self.k = k
+        N = len(prep.theta_cmd)
+        self.scored = np.zeros((k + 1, N), bool)
+        self.scored[0, self.rows] = True
+        for f, t in enumerate(self.tests):
+            self.scored[f + 1, self.rows] = True
+            self.scored[f + 1, t] = False
+        self.base_error = base_error
 
-def _rms(e: np.ndarray) -> float:
-    return float(np.sqrt(np.nanmean(e ** 2)))
-
-
-def better(e_new: np.ndarray, e_old: np.ndarray, z: float = 2.0) -> bool:
-    """Whether held-out errors ``e_new`` beat ``e_old`` beyond noise: a paired
-    test on the per-row squared errors (mean gain > z standard errors)."""
-    d = e_old ** 2 - e_new ** 2
-    d = d[np.isfinite(d)]
-    if len(d) < 2:
-        return False
-    se = d.std(ddof=1) / np.sqrt(len(d))
-    return bool(d.mean() > z * se and d.mean() > 0)
+    def evaluate(self, name: str, effects: Sequence[str]) -> Candidate:
+        prep = self.prep
+        fitted = list(effects) + (["frame_misalignment"] if prep.registered
+                                  and "frame_misalignment" not in effects else [])
+        start = prep.start if prep.registered else np.zeros(plant.size(prep.robot))
+        fits = fit_folds(prep, fitted, self.scored, start)
+        held = np.full(len(prep.theta_cmd), np.nan)
+        for f, t in enumerate(self.tests):
+            pr = fits[f + 1].prediction
+            if pr is not None:
+                held[t] = np.hypot(pr[t, 0] - prep.measured[t, 0], pr[t, 1] - prep.measured[t, 1])
+        held = held[self.rows]
+        fail = ~np.isfinite(held)
+        if self.base_error is not None:
+            held[fail] = self.base_error[fail]
+        full = fits[0]
+        full.effects = list(effects)
+        return Candidate(name, list(effects), full, held, int(fail.sum()))
 
 
 @dataclass
-class Candidate:
-    """One effect or combination: its fit on all rows and its held-out errors."""
+class Verdict:
+    """The answer for one set of rows: the verdict, whether the nominal and
+    the final model are adequate, and the lack-of-fit test of the final model
+    (``test``: ``"chi2"`` or ``"F"``, statistic, degrees of freedom, p-value)."""
 
-    name: str
-    effects: List[str]
-    fit: Fit
-    heldout: np.ndarray
-
-    @property
-    def heldout_rms(self) -> float:
-        return _rms(self.heldout)
+    verdict: str
+    nominal_adequate: bool
+    final_adequate: bool
+    test: str
+    statistic: float
+    dof: tuple
+    p_value: float
+    noise_needed: float
 
 
 @dataclass
 class Diagnosis:
     """The answer: ``best`` (an effect, a '+'-joined combination, or 'none'),
-    the baseline, every candidate (best first), the chosen model, the noise
-    floor, per-row residuals and features, and identifiability notes."""
+    the ``verdict``, the baseline, every candidate (best first), the chosen
+    model, the noise, per-row residuals and features, and identifiability
+    notes. ``baseline`` is the nominal model (in the registered frame when
+    the data are registered); ``identity`` the nominal model in the
+    identity frame (registered data only)."""
 
     best: str
     baseline: Candidate
     singles: List[Candidate]
     chosen: Optional[Candidate]
     steps: List[Candidate]
-    noise: float
+    noise_estimate: NoiseEstimate
     prep: Prepared
+    verdict_detail: Optional[Verdict] = None
+    identity: Optional[Candidate] = None
+    registration_named: bool = False
+    outliers: List[int] = field(default_factory=list)
+    verdict_without_outliers: Optional[Verdict] = None
     features: Dict[str, np.ndarray] = field(default_factory=dict)
     feature_correlation: Dict[str, float] = field(default_factory=dict)
     ties: List[str] = field(default_factory=list)
     correlated: List[str] = field(default_factory=list)
+    unidentifiable: List[str] = field(default_factory=list)
     folds: int = 10
+    alphas: List[float] = field(default_factory=list)
+
+    @property
+    def noise(self) -> float:
+        """The noise of one reading per axis (m)."""
+        return self.noise_estimate.sigma
 
     @property
     def noise_floor(self) -> float:
-        """Expected held-out position RMS of a correct model: sqrt(2)·noise (m)."""
-        return float(np.sqrt(2.0) * self.noise)
+        """Expected held-out position RMS of a correct model (m):
+        ``sqrt(2) * sigma`` per row's reading count (see the module doc)."""
+        return float(np.sqrt(2.0) * self.prep.readings * self.noise)
+
+    @property
+    def verdict(self) -> str:
+        return self.verdict_detail.verdict if self.verdict_detail else "unexplained"
 
     @property
     def explained(self) -> bool:
-        final = self.chosen.heldout_rms if self.chosen else self.baseline.heldout_rms
-        return final <= 1.5 * self.noise_floor
+        """The verdict is ``"no gap"`` or ``"explained"``."""
+        return self.verdict in ("no gap", "explained")
 
     def final(self) -> Candidate:
         return self.chosen or self.baseline
@@ -164,24 +391,56 @@ class Diagnosis:
         def cand(c: Candidate) -> dict:
             return dict(name=c.name, params=c.fit.params_by_effect(robot),
                         std=c.fit.std_by_effect(robot), heldout_rms_m=c.heldout_rms,
-                        fit_rms_m=c.fit.rms, aic=c.fit.aic, bic=c.fit.bic,
-                        converged=bool(c.fit.converged))
+                        fit_rms_m=c.fit.rms, aic=c.fit.aic, bic=c.fit.bic, bic_weight=c.weight,
+                        failures=c.failures, converged=bool(c.fit.converged))
 
+        def verdict(v: Optional[Verdict]):
+            if v is None:
+                return None
+            return dict(verdict=v.verdict, nominal_adequate=v.nominal_adequate,
+                        final_adequate=v.final_adequate,
+                        lack_of_fit=dict(test=v.test, statistic=v.statistic, dof=list(v.dof), p_value=v.p_value),
+                        noise_needed_m=v.noise_needed)
+
+        ne = self.noise_estimate
+        reg = None
+        if self.prep.registered:
+            ind = plant.effect_indices(robot, "frame_misalignment")
+            reg = dict(fitted=True, named=self.registration_named,
+                       frame=self.final().fit.p[ind].tolist(), start=self.prep.start[ind].tolist(),
+                       identity_heldout_rms_m=self.identity.heldout_rms if self.identity else None,
+                       registered_heldout_rms_m=self.baseline.heldout_rms)
         return dict(
-            best=self.best,
+            best=self.best, verdict=self.verdict, explained=self.explained,
             baseline=dict(heldout_rms_m=self.baseline.heldout_rms, aic=self.baseline.fit.aic,
-                          bic=self.baseline.fit.bic),
+                          bic=self.baseline.fit.bic, bic_weight=self.baseline.weight),
             effects=[cand(c) for c in self.singles],
             selection=[cand(c) for c in self.steps],
             chosen=cand(self.chosen) if self.chosen else None,
-            noise_m=self.noise, noise_floor_m=self.noise_floor, explained=self.explained,
+            noise_m=self.noise, noise_source=ne.source,
+            noise_ci_m=list(ne.ci) if ne.ci else None,
+            repeat_groups=ne.groups, noise_floor_m=self.noise_floor,
+            lack_of_fit=verdict(self.verdict_detail)["lack_of_fit"] if self.verdict_detail else None,
+            verdict_detail=verdict(self.verdict_detail),
+            outliers=[int(i) + 1 for i in self.outliers],
+            verdict_without_outliers=verdict(self.verdict_without_outliers),
+            registration=reg,
             kind=self.prep.kind, rows=int(len(self.prep.meas)), rows_used=int(self.prep.usable.sum()),
-            flagged_rows={str(k): v for k, v in self.prep.flags.items()},
+            flagged_rows={str(k + 1): v for k, v in self.prep.flags.items()},
+            failures={c.name: c.failures for c in [self.baseline] + self.singles + self.steps if c.failures},
             ties=self.ties, correlated_parameters=self.correlated,
+            unidentifiable_parameters=self.unidentifiable,
             feature_correlation=self.feature_correlation, folds=self.folds,
+            selection_test=dict(kind="one-sided Wilcoxon signed-rank test on the paired held-out gains in "
+                                     "squared error, Bonferroni-corrected for the candidates compared at each "
+                                     "step (family alpha 0.025), and BIC",
+                                alpha=self.alphas),
         )
 
 
+# ---------------------------------------------------------------------------
+# features
+# ---------------------------------------------------------------------------
 def features(prep: Prepared) -> Dict[str, np.ndarray]:
     """Configuration features of every row (N,): closeness to a singular state
     (sigma_min/sigma_max of the pose Jacobian), the largest |joint angle| and
@@ -191,14 +450,14 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     sv = singular_values(robot, th)
     sens = sensitivity(robot, th)
     pose = robot.fk(th)
+    dl = np.abs(prep.dL)
     out = {
         "singularity (sigma_min/sigma_max)": sv[:, -1] / sv[:, 0],
         "max |joint angle| (rad)": np.abs(th).max(axis=1),
         "tip sensitivity to cables (m/m)": np.linalg.norm(sens[:, :2, :], axis=(1, 2)),
         "X (m)": pose[:, 0],
         "Y (m)": pose[:, 1],
-        "cable with dL (index)": np.where(np.abs(prep.meas.dL).max(axis=1) > 0,
-                                          np.abs(prep.meas.dL).argmax(axis=1) * 2 + 1, 0).astype(float),
+        "cable with dL (index)": np.where(dl.max(axis=1) > 0, dl.argmax(axis=1) * 2 + 1, 0).astype(float),
     }
     if robot.n >= 2:
         out["|theta_2| (rad)"] = np.abs(th[:, 1])
@@ -206,100 +465,164 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     return out
 
 
-def _ranks(v: np.ndarray) -> np.ndarray:
-    """Ranks of ``v`` (0-based), ties sharing their average rank."""
-    order = np.argsort(v, kind="stable")
-    r = np.empty(len(v))
-    r[order] = np.arange(len(v), dtype=float)
-    _, inv = np.unique(v, return_inverse=True)
-    sums = np.bincount(inv, weights=r)
-    return (sums / np.bincount(inv))[inv]
+# ---------------------------------------------------------------------------
+# the verdict
+# ---------------------------------------------------------------------------
+def _residual_xy(prep: Prepared, f: Fit, rows: np.ndarray) -> np.ndarray:
+    return f.prediction[rows, :2] - prep.measured[rows, :2]
 
 
-def spearman(a: np.ndarray, b: np.ndarray) -> float:
-    m = np.isfinite(a) & np.isfinite(b)
-    if m.sum() < 3:
-        return float("nan")
-    ra, rb = _ranks(a[m]), _ranks(b[m])
-    if ra.std() == 0 or rb.std() == 0:
-        return float("nan")
-    return float(np.corrcoef(ra, rb)[0, 1])
+def _verdict(prep: Prepared, noise: NoiseEstimate, base: Candidate, final: Candidate, beats: bool,
+             rows: np.ndarray, floor: float) -> Verdict:
+    """Adequacy of the nominal and the final model on ``rows`` and the verdict."""
+    r = prep.readings
+
+    def lack_of_fit(c: Candidate):
+        res = _residual_xy(prep, c.fit, rows)
+        ssr = float(np.nansum(res ** 2))
+        k = len(c.fit.names)
+        dof = int(np.isfinite(res).sum()) - k
+        if noise.source == "repeats" and noise.dof_pure >= 1 and dof - noise.dof_pure >= 1:
+            ss_lof, df_lof = ssr - noise.ss_pure, dof - noise.dof_pure
+            f = (max(ss_lof, 0.0) / df_lof) / (noise.ss_pure / noise.dof_pure)
+            return "F", f, (df_lof, noise.dof_pure), stats.f_sf(f, df_lof, noise.dof_pure), ssr, dof
+        chi = ssr / (r * noise.sigma) ** 2
+        return "chi2", chi, (max(dof, 1),), stats.chi2_sf(chi, max(dof, 1)), ssr, dof
+
+    def adequate(c: Candidate):
+        t = lack_of_fit(c)
+        return (c.heldout_rms <= 1.5 * floor and t[3] >= 0.01), t
+
+    nom_ok, _ = adequate(base)
+    fin_ok, t = adequate(final)
+    if beats:
+        verdict = "explained" if fin_ok else "partly explained"
+    else:
+        verdict = "no gap" if nom_ok else "unexplained"
+    # the noise (per reading and axis) at which the final model would be adequate
+    ssr, dof = t[4], t[5]
+    need = max(final.heldout_rms / (1.5 * np.sqrt(2.0) * r),
+               float(np.sqrt(ssr / (r ** 2 * stats.chi2_ppf(0.99, max(dof, 1))))) if dof > 0 else 0.0)
+    return Verdict(verdict, bool(nom_ok), bool(fin_ok), t[0], float(t[1]), tuple(int(v) for v in t[2]),
+                   float(t[3]), float(need))
 
 
 def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] = None,
-             folds: int = 10, noise: float = DEFAULT_NOISE, max_combination: int = 3,
-             progress: bool = False) -> Diagnosis:
+             folds: int = 10, noise: Optional[float] = None, max_combination: int = 3,
+             frame: str = "register", progress: bool = False) -> Diagnosis:
     """Diagnose the gap between ``robot`` and ``meas`` (see the module doc).
 
-    effects: the candidate library (default: every effect of :mod:`cdsm.calibration.plant`).
-    noise: measurement noise per axis (m) for the noise floor. max_combination:
-    the largest combination forward selection may build.
+    effects: the candidate library (default: every effect of
+    :mod:`cdsm.calibration.plant`; with registered absolute data the frame is
+    always fitted and named only when it beats the identity frame). noise:
+    measurement noise per axis and reading (m); default: estimated from
+    repeats, else assumed (:data:`DEFAULT_NOISE`). max_combination: the
+    largest combination forward selection may build. frame: ``"register"``
+    (absolute data are in an instrument frame) or ``"base"``.
     """
     library = list(plant.EFFECTS if effects is None else effects)
     for e in library:
         if e not in plant.EFFECTS:
             raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(plant.EFFECTS)}")
-    if not (np.isfinite(noise) and noise > 0):
+    if noise is not None and not (np.isfinite(noise) and noise > 0):
         raise CdsmInputError(f"`noise`: must be a positive number of m, got {noise}")
-    prep = prepare(robot, meas)
+    prep = prepare(robot, meas, frame)
     if prep.usable.sum() < 3:
         raise CdsmInputError(f"only {int(prep.usable.sum())} usable rows; the diagnosis needs at least 3")
-    bar = Progress(len(library) + 1, "diagnose", progress)
-    base = Candidate("none", [], fit(prep, []), cross_validate(prep, [], folds))
+    if prep.registered:
+        library = [e for e in library if e != "frame_misalignment"]
+    rows = prep.rows
+    bar = Progress(len(library) + 2, "diagnose", progress)
+    scorer = _Scorer(prep, rows, folds)
+    base = scorer.evaluate("none", [])
+    bar.update(1)
+    scorer.base_error = base.heldout
+    identity = None
+    named = False
+    if prep.registered:
+        saved, prep.registered = prep.registered, False
+        identity = _Scorer(prep, rows, folds).evaluate("identity frame", [])
+        prep.registered = saved
+        named = stats.better(base.heldout, identity.heldout, ALPHA) and base.fit.bic < identity.fit.bic
     bar.update(1)
     singles = []
     for e in library:
-        singles.append(Candidate(e, [e], fit(prep, [e]), cross_validate(prep, [e], folds)))
+        singles.append(scorer.evaluate(e, [e]))
         bar.update(1)
     singles.sort(key=lambda c: c.heldout_rms)
-    chosen, steps = None, []
+    chosen, steps, alphas = None, [], []
     top = singles[0] if singles else None
-    if top is not None and better(top.heldout, base.heldout) and top.fit.bic < base.fit.bic:
-        chosen = top
-        steps.append(top)
-        while len(chosen.effects) < max_combination:
-            rest = [c.name for c in singles if c.name not in chosen.effects]
-            trials = [Candidate("+".join(chosen.effects + [e]), chosen.effects + [e],
-                                fit(prep, chosen.effects + [e]),
-                                cross_validate(prep, chosen.effects + [e], folds)) for e in rest]
-            if not trials:
-                break
-            trials.sort(key=lambda c: c.heldout_rms)
-            nxt = trials[0]
-            if better(nxt.heldout, chosen.heldout) and nxt.fit.bic < chosen.fit.bic:
-                chosen = nxt
-                steps.append(nxt)
-            else:
-                break
-    d = Diagnosis(chosen.name if chosen else "none", base, singles, chosen, steps, float(noise), prep,
-                  folds=int(min(folds, len(prep.rows))))
-    # candidates the held-out errors cannot tell apart from the best single one
     if top is not None:
-        d.ties = [c.name for c in singles[1:] if not better(top.heldout, c.heldout)
+        a = ALPHA / len(singles)
+        alphas.append(a)
+        if stats.better(top.heldout, base.heldout, a) and top.fit.bic < base.fit.bic:
+            chosen = top
+            steps.append(top)
+    while chosen is not None and len(chosen.effects) < max_combination:
+        rest = [c.name for c in singles if c.name not in chosen.effects]
+        if not rest:
+            break
+        trials = sorted((scorer.evaluate("+".join(chosen.effects + [e]), chosen.effects + [e]) for e in rest),
+                        key=lambda c: c.heldout_rms)
+        nxt = trials[0]
+        a = ALPHA / len(trials)
+        alphas.append(a)
+        if stats.better(nxt.heldout, chosen.heldout, a) and nxt.fit.bic < chosen.fit.bic:
+            chosen = nxt
+            steps.append(nxt)
+        else:
+            break
+    names = list(chosen.effects) if chosen else []
+    if named:
+        names = ["frame_misalignment"] + names
+    ne = _noise(prep, noise)
+    d = Diagnosis("+".join(names) or "none", base, singles, chosen, steps, ne, prep, identity=identity,
+                  registration_named=named, folds=int(scorer.k), alphas=[float(a) for a in alphas])
+    pool = [base] + singles + [c for c in steps if len(c.effects) > 1]
+    for c, w in zip(pool, stats.model_weights([c.fit.bic for c in pool])):
+        c.weight = float(w)
+    if top is not None:
+        # candidates the held-out errors cannot tell from the best one (pairwise, alpha 0.025)
+        d.ties = [c.name for c in singles[1:] if not stats.better(top.heldout, c.heldout, ALPHA)
                   and c.heldout_rms < base.heldout_rms]
     final = d.final()
     if final.fit.corr.size:
         c = final.fit.corr
-        names = final.fit.names
-        for i in range(len(names)):
-            for j in range(i + 1, len(names)):
+        nm = final.fit.names
+        for i in range(len(nm)):
+            for j in range(i + 1, len(nm)):
                 if abs(c[i, j]) > 0.95:
-                    d.correlated.append(f"{names[i]} ~ {names[j]} (corr {c[i, j]:+.3f})")
+                    d.correlated.append(f"{nm[i]} ~ {nm[j]} (corr {c[i, j]:+.3f})")
+    d.unidentifiable = [n for n, s in zip(final.fit.names, final.fit.std) if not np.isfinite(s)]
+    d.verdict_detail = _verdict(prep, ne, base, final, chosen is not None, rows, d.noise_floor)
+    # outliers: rows whose residual stays beyond 5 sigma after the fit
+    res = _residual_xy(prep, final.fit, rows)
+    z = np.abs(res).max(axis=1) / (prep.readings * d.noise)
+    d.outliers = [int(i) for i in rows[z > OUTLIER_SIGMA]]
+    if d.outliers:
+        keep = np.setdiff1d(rows, d.outliers)
+        if len(keep) >= 3:
+            sc = _Scorer(prep, keep, folds)
+            b2 = sc.evaluate("none", [])
+            sc.base_error = b2.heldout
+            f2 = sc.evaluate(final.name, final.effects) if chosen else b2
+            beats2 = chosen is not None and stats.better(f2.heldout, b2.heldout, alphas[0]) \
+                and f2.fit.bic < b2.fit.bic
+            d.verdict_without_outliers = _verdict(prep, ne, b2, f2, beats2, keep, d.noise_floor)
     # where the gap lies: residual sizes against configuration features
     feats = features(prep)
     d.features = feats
-    rows = prep.rows
-    r_base = residual_matrix(prep, np.zeros(plant.size(robot))[None], rows)[0].reshape(-1, 2)
+    r_base = _residual_xy(prep, base.fit, rows)
     size = np.hypot(r_base[:, 0], r_base[:, 1])
-    d.feature_correlation = {k: spearman(v[rows], size) for k, v in feats.items()}
+    d.feature_correlation = {k: stats.spearman(v[rows], size) for k, v in feats.items()}
     return d
 
 
 def residuals(d: Diagnosis, which: str = "final") -> np.ndarray:
     """Per-row residuals (N, 2) m (prediction − measurement) of the baseline or
-    the final model, NaN for unusable rows."""
+    the final model fitted on all usable rows, NaN for unusable rows (file order)."""
     prep = d.prep
-    p = np.zeros(plant.size(prep.robot)) if which == "baseline" else d.final().fit.p
+    f = d.baseline.fit if which == "baseline" else d.final().fit
     out = np.full((len(prep.meas), 2), np.nan)
-    out[prep.rows] = residual_matrix(prep, p[None], prep.rows)[0].reshape(-1, 2)
+    out[prep.rows] = _residual_xy(prep, f, prep.rows)
     return out

@@ -185,10 +185,10 @@ def combine(robot: Robot, *tables: "Measurements | Prepared") -> Measurements:
             kind = prep.kind
         elif prep.kind != kind:
             raise CdsmInputError(f"combine: tables of different kinds ({kind}, {prep.kind})")
-        rows = prep.rows
+        rows = prep.order[prep.usable[prep.order]]  # usable rows, execution order
         th.append(prep.theta_cmd[rows])
-        dl.append(prep.meas.dL[rows])
-        ms.append(prep.meas.measured[rows])
+        dl.append(prep.dL[rows])
+        ms.append(prep.measured[rows, :2])
     if kind is None:
         raise CdsmInputError("combine: no tables")
     return Measurements(kind, robot.n, np.concatenate(dl), np.concatenate(ms), theta=np.concatenate(th),
@@ -214,24 +214,16 @@ def _model_set(diag: Diagnosis):
     return out
 
 
-def _pred_and_jac(robot: Robot, effects, p, theta, dl, kind, h: float = 1e-4):
-    """Predictions (R, 2) and Jacobian (R, 2, k) in scaled parameters; NaN rows
-    where the plant does not settle."""
-    idx, scale, _, nonneg = free_parameters(robot, effects)
-    z = p[idx] / scale
-    sets = [p]
-    lo = z - h
-    lo[nonneg] = np.maximum(lo[nonneg], 0.0)
-    for j in range(len(idx)):
-        for v in (lo[j] + 2 * h, lo[j]):
-            q = p.copy()
-            q[idx[j]] = v * scale[j]
-            sets.append(q)
-    obs, conv = plant.predict(robot, np.array(sets), theta, dl, kind)
-    obs = obs[..., :2]
-    obs[~conv] = np.nan
-    y = obs[0]
-    J = np.stack([(obs[1 + 2 * j] - obs[2 + 2 * j]) / (2 * h) for j in range(len(idx))], axis=-1)
+def _pred_and_jac(robot: Robot, effects, p, theta, dl, kind):
+    """Predictions (R, 2) and their exact Jacobian (R, 2, k) in scaled
+    parameters (the Rust core's linearised plant); NaN rows where the plant
+    does not settle."""
+    idx, scale, _ = free_parameters(robot, effects)
+    obs, conv, J = plant.linearise(robot, p, idx, theta, dl, kind)
+    y = obs[:, :2].copy()
+    J = J[:, :2, :] * scale
+    y[~conv] = np.nan
+    J[~conv] = np.nan
     return y, J
 
 
@@ -274,7 +266,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
         raise CdsmInputError(f"`k`: must be at least 1, got {k}")
     k = int(k)
     prep = diag.prep
-    robot, kind, noise = prep.robot, prep.kind, float(diag.noise)
+    robot, kind, noise = prep.robot, prep.kind, float(diag.noise * prep.readings)
     if candidates is None:
         cth, cdl = candidate_pool(robot, kind, pool, seed, dl)
     else:
@@ -285,9 +277,9 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
         cth, cdl = _feasible(robot, cth, cdl)
     if len(cth) == 0:
         raise CdsmInputError("no feasible candidate measurements (joint limits / slack cables)")
-    rows = prep.rows
+    rows = prep.order[prep.usable[prep.order]]  # usable rows, execution order
     th_all = np.concatenate([prep.theta_cmd[rows], cth])
-    dl_all = np.concatenate([prep.meas.dL[rows], cdl])
+    dl_all = np.concatenate([prep.dL[rows], cdl])
     nU = len(rows)
     models = _model_set(diag)
     criterion = "discrimination" if len(models) >= 2 else "d-optimal"

@@ -1,11 +1,14 @@
-"""Least-squares fit of plant effects to measurements: Levenberg–Marquardt in
-parameters scaled by their typical size, parameter uncertainty and the
-directions the data cannot see. SI units (m, rad).
+"""Least-squares fit of plant effects to measurements, in the Rust core: the
+shared Levenberg–Marquardt (QR step, Marquardt damping) in parameters scaled
+by their typical size, within the physical domain, with the exact Jacobian of
+the plant; cross-validation folds in one call. Here: what the fit means —
+parameter uncertainty, correlations and the directions the data cannot see.
+SI units (m, rad).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence
 
 import numpy as np
@@ -14,14 +17,20 @@ from ..inputs import CdsmInputError
 from ..robot import Robot
 from . import plant
 
-__all__ = ["Fit", "fit", "free_parameters", "residual_matrix"]
+__all__ = ["Fit", "fit", "fit_folds", "free_parameters", "FIT_ITERATIONS"]
+
+#: Trial steps of one fit.
+FIT_ITERATIONS = 30
 
 
 @dataclass
 class Fit:
     """A fitted model: effects, the full parameter vector p (P,), free
-    parameter names and values, standard deviations, correlation, and fit
-    statistics on the rows it saw."""
+    parameter names and values, standard deviations (NaN: not determined by
+    the data), correlation, singular values of the column-scaled Jacobian,
+    fit statistics on the rows it saw (``rms`` per axis, m; ``ssr`` m²;
+    ``n_obs`` residual components; AIC, BIC), and its predictions of every
+    row (``prediction`` (N, 3), ``predicted`` (N,) settled)."""
 
     effects: List[str]
     p: np.ndarray
@@ -37,119 +46,99 @@ class Fit:
     bic: float
     converged: bool
     iterations: int
+    prediction: np.ndarray = field(default=None, repr=False)
+    predicted: np.ndarray = field(default=None, repr=False)
 
     def params_by_effect(self, robot: Robot) -> Dict[str, List[float]]:
-        lay = plant.layout(robot)
-        return {e: self.p[lay[e]].tolist() for e in self.effects}
+        """{effect: fitted values} (SI)."""
+        return {e: self.p[plant.effect_indices(robot, e)].tolist() for e in self.effects}
 
     def std_by_effect(self, robot: Robot) -> Dict[str, List[float]]:
+        """{effect: 1-sigma of each value} (SI; NaN: not determined)."""
         out, k = {}, 0
-        lay = plant.layout(robot)
         for e in self.effects:
-            w = lay[e].stop - lay[e].start
+            w = len(plant.effect_indices(robot, e))
             out[e] = self.std[k:k + w].tolist()
             k += w
         return out
 
 
 def free_parameters(robot: Robot, effects: Sequence[str]):
-    """Indices (k,) into the flat plant vector of the parameters of ``effects``,
-    their typical sizes (k,) (the fit's scale), names, and non-negativity flags."""
+    """Indices (k,) into the flat plant vector of the parameters of
+    ``effects``, their typical sizes (k,) (the fit's unit) and names."""
     lay = plant.layout(robot)
-    idx, scale, names, nonneg = [], [], [], []
+    idx, scale, names = [], [], []
     for e in effects:
-        if e not in lay:
-            raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(plant.EFFECTS)}")
-        sl = lay[e]
-        w = sl.stop - sl.start
-        idx.extend(range(sl.start, sl.stop))
-        scale.extend([plant.TYPICAL[e]] * w)
-        names.extend([f"{e}[{j}]" if w > 1 else e for j in range(w)])
-        nonneg.extend([e in plant.NON_NEGATIVE] * w)
-    return np.array(idx, dtype=int), np.array(scale), names, np.array(nonneg, bool)
+        ind = plant.effect_indices(robot, e)
+        idx.extend(ind.tolist())
+        for i in ind:
+            block = next(b for b, sl in lay.items() if sl.start <= i < sl.stop)
+            scale.append(plant.TYPICAL[block])
+            w = lay[block].stop - lay[block].start
+            names.append(f"{block}[{i - lay[block].start}]" if w > 1 else block)
+    return np.array(idx, dtype=int), np.array(scale, dtype=float), names
 
 
-def residual_matrix(prep, P: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """(K, 2·len(rows)) prediction minus measurement for parameter sets P (K, P)."""
-    obs, conv = plant.predict(prep.robot, P, prep.theta_cmd[rows], prep.meas.dL[rows], prep.kind)
-    r = obs[:, :, :2] - prep.meas.measured[rows][None]
-    r[~conv] = np.nan
-    return r.reshape(len(P), -1)
-
-
-def fit(prep, effects: Sequence[str], rows: Optional[np.ndarray] = None,
-        max_iter: int = 30) -> Fit:
-    """Least-squares fit of ``effects`` on ``rows`` (default: all usable) by
-    Levenberg–Marquardt in parameters scaled by their typical size; the
-    Jacobian by central differences, all parameter sets in one Rust call."""
+def fit_folds(prep, effects: Sequence[str], scored: np.ndarray, start: Optional[np.ndarray] = None,
+              max_iter: int = FIT_ITERATIONS) -> List[Fit]:
+    """One fit of ``effects`` per row of ``scored`` ((F, N) bool over the
+    prepared rows, file order: the rows each fit trains on), from the flat
+    parameters ``start`` (default zeros), all in one call of the Rust core
+    (folds in parallel; the rows run in the prepared execution order)."""
     robot = prep.robot
-    rows = prep.rows if rows is None else np.asarray(rows)
-    idx, scale, names, nonneg = free_parameters(robot, effects)
-    P0 = np.zeros(plant.size(robot))
-    k = len(idx)
+    idx, scale, names = free_parameters(robot, effects)
+    sc = np.atleast_2d(np.asarray(scored, bool))
+    if sc.shape[1] != len(prep.theta_cmd):
+        raise CdsmInputError(f"`scored`: expected (F, {len(prep.theta_cmd)}) flags, got {sc.shape}")
+    p0 = np.zeros(plant.size(robot)) if start is None else np.asarray(start, float)
+    o = prep.order
+    raw = robot.core.plant_fit(np.ascontiguousarray(prep.theta_cmd[o]), np.ascontiguousarray(prep.dL[o]),
+                               prep.kinds[o].tolist(), np.ascontiguousarray(prep.measured[o]),
+                               sc[:, o].reshape(-1).tolist(), idx.tolist(), scale.tolist(),
+                               np.ascontiguousarray(p0, float), 1e-12, 100, int(max_iter), robot.threads)
+    return [_summary(list(effects), idx, scale, names, r, o) for r in raw]
 
-    def full(z):
-        p = P0.copy()
-        p[idx] = z * scale
-        return p
 
-    z = np.zeros(k)
-    r = residual_matrix(prep, full(z)[None], rows)[0]
-    if not np.isfinite(r).all():
-        raise CdsmInputError("the nominal model cannot realise some commanded rows")
-    cost = float(r @ r)
-    lam, it, conv = 1e-3, 0, k == 0
-    h = 1e-4
-    J = np.zeros((len(r), k))
-    while k and it < max_iter:
-        it += 1
-        sets = [full(z)]
-        lo = z - h
-        lo[nonneg] = np.maximum(lo[nonneg], 0.0)  # one-sided at the bound
-        for j in range(k):
-            for v in (lo[j] + 2 * h, lo[j]):
-                zz = z.copy()
-                zz[j] = v
-                sets.append(full(zz))
-        R = residual_matrix(prep, np.array(sets), rows)
-        J = (R[1::2] - R[2::2]).T / (2 * h)
-        if not np.isfinite(J).all():
-            J = np.nan_to_num(J)
-        g = J.T @ r
-        A = J.T @ J
-        improved = False
-        while lam < 1e12:
-            step = np.linalg.solve(A + lam * np.diag(np.maximum(np.diag(A), 1e-12)), -g)
-            zn = z + step
-            zn[nonneg] = np.maximum(zn[nonneg], 0.0)
-            rn = residual_matrix(prep, full(zn)[None], rows)[0]
-            cn = float(rn @ rn) if np.isfinite(rn).all() else np.inf
-            if cn < cost:
-                rel = (cost - cn) / max(cost, 1e-300)
-                z, r, cost = zn, rn, cn
-                lam = max(lam / 10, 1e-12)
-                improved = True
-                break
-            lam *= 10
-        if not improved or rel < 1e-10:
-            conv = True
-            break
-    m = len(r)
-    sigma2 = cost / max(m - k, 1)
-    if k:
+def fit(prep, effects: Sequence[str], rows: Optional[np.ndarray] = None, start: Optional[np.ndarray] = None,
+        max_iter: int = FIT_ITERATIONS) -> Fit:
+    """Fit ``effects`` on ``rows`` (file-order indices; default: all usable
+    rows) from ``start`` (flat, default the prepared start)."""
+    start = getattr(prep, "start", None) if start is None else start
+    scored = np.zeros(len(prep.theta_cmd), bool)
+    scored[prep.rows if rows is None else np.asarray(rows, int)] = True
+    return fit_folds(prep, effects, scored[None], start, max_iter)[0]
+
+
+def _summary(effects, idx, scale, names, r, order) -> Fit:
+    """Uncertainty and statistics of one fit from its Jacobian (m, k) in scaled
+    parameters: covariance ``sigma^2 (J^T J)^+`` with ``sigma^2 = ssr/(m - k)``;
+    a parameter with a share in a direction the data cannot see (a singular
+    value below 1e-8 of the largest, columns scaled to unit norm) has no
+    determined value: its standard deviation is NaN."""
+    k, m = len(idx), int(r.m)
+    cost = float(r.cost)
+    p = np.array(r.p)
+    z = p[idx] / scale if k else np.zeros(0)
+    if k and m:
+        J = np.asarray(r.jacobian).reshape(m, k)
+        sigma2 = cost / max(m - k, 1)
         col = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
         _, sv, vt = np.linalg.svd(J / col, full_matrices=False)
         cov_z = np.linalg.pinv(J.T @ J) * sigma2
         std = np.sqrt(np.maximum(np.diag(cov_z), 0.0)) * scale
-        # a parameter with a share in a direction the data cannot see is not
-        # determined: its standard deviation is infinite, reported as NaN
         null = vt[sv < 1e-8 * max(sv[0], 1e-300)] if len(sv) else np.zeros((0, k))
         blind = (np.linalg.norm(J, axis=0) == 0) | ((null ** 2).sum(axis=0) > 1e-2)
         std[blind] = np.nan
         d = np.sqrt(np.maximum(np.diag(cov_z), 1e-300))
         corr = cov_z / np.outer(d, d)
     else:
-        sv, std, corr = np.zeros(0), np.zeros(0), np.zeros((0, 0))
-    ll = m * np.log(max(cost / m, 1e-300))
-    return Fit(list(effects), full(z), names, z * scale, std, corr, sv,
-               float(np.sqrt(cost / (m / 2))), cost, m, ll + 2 * k, ll + k * np.log(m), conv, it)
+        sv, std, corr = np.zeros(0), np.zeros(k), np.zeros((k, k))
+    ll = m * np.log(max(cost / max(m, 1), 1e-300))
+    pe = np.asarray(r.prediction.observation).reshape(-1, 3)
+    oe = np.asarray(r.prediction.converged, bool)
+    pred, ok = np.empty_like(pe), np.empty_like(oe)
+    if len(pe):
+        pred[order], ok[order] = pe, oe
+    return Fit(effects, p, names, z * scale, std, corr, sv,
+               float(np.sqrt(cost / max(m / 2, 1))), cost, m, ll + 2 * k, ll + k * np.log(max(m, 1)),
+               bool(r.converged), int(r.iterations), pred if len(pred) else None, ok if len(ok) else None)

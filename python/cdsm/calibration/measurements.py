@@ -1,12 +1,17 @@
 """Measurement tables (CSV, SI units), shared by the paper pipeline and the
 sim-to-real diagnosis.
 
-A row is one measurement. Commanded configuration: ``theta_1..theta_n`` (rad)
-or ``x_cmd, y_cmd, phi_cmd`` (m, m, rad; solved by the nominal pose IK). Optional
-``dL_1..dL_n`` (m): extra length commanded on the upper cable of disk i.
-Measured: ``x, y`` (m, absolute tip position) or ``dx, dy`` (m, displacement
-caused by dL); optional ``phi`` / ``dphi`` (rad). Lines starting with ``#`` are
-comments; other columns (e.g. ``point``) are kept as labels.
+A row is one measurement (or one commanded move). Commanded configuration:
+``theta_1..theta_n`` (rad) or ``x_cmd, y_cmd[, phi_cmd]`` (m, m, rad; solved by
+the nominal pose IK). Optional ``dL_1..dL_n`` (m): extra length commanded on
+the upper cable of disk i. Measured: ``x, y`` (m, absolute tip position) or
+``dx, dy`` (m, displacement caused by dL against the same command without
+it); optional ``phi`` / ``dphi`` (rad). A row whose measured cells are empty is
+a move that was commanded but not measured: it runs (it matters for
+backlash) and is not scored. Rows run in file order, or in the order of an
+optional integer ``sequence`` column (gaps allowed; equal values are an
+error naming the rows). Lines starting with ``#`` are comments; other
+columns (e.g. ``point``) are kept as labels.
 """
 
 from __future__ import annotations
@@ -21,7 +26,10 @@ import numpy as np
 from ..files import parse_table, read_text, table_column
 from ..inputs import CdsmInputError
 
-__all__ = ["Measurements", "parse_csv", "read_csv", "packaged"]
+__all__ = ["Measurements", "parse_csv", "read_csv", "packaged", "KIND_CODES"]
+
+#: Row kinds of the plant's data sets, by code (see ``docs/model.md``).
+KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
 
 
 @dataclass
@@ -30,8 +38,9 @@ class Measurements:
 
     kind: ``"absolute"`` (x, y) or ``"displacement"`` (dx, dy). theta: (N, n)
     commanded angles or None; pose_cmd: (N, 3) commanded poses or None. dL:
-    (N, n) m. measured: (N, 2) m. measured_phi: (N,) rad or None. labels:
-    other columns as strings.
+    (N, n) m. measured: (N, 2) m, NaN on rows that were commanded but not
+    measured. measured_phi: (N,) rad or None. sequence: (N,) int execution
+    order keys, or None (file order). labels: other columns as strings.
     """
 
     kind: str
@@ -43,9 +52,41 @@ class Measurements:
     measured_phi: Optional[np.ndarray] = None
     labels: Dict[str, List[str]] = field(default_factory=dict)
     source: str = ""
+    sequence: Optional[np.ndarray] = None
 
     def __len__(self) -> int:
         return len(self.measured)
+
+    @property
+    def observed(self) -> np.ndarray:
+        """(N,) rows that carry a measurement (the others only run)."""
+        return np.isfinite(self.measured).all(axis=1)
+
+    @property
+    def order(self) -> np.ndarray:
+        """(N,) row indices in execution order."""
+        if self.sequence is None:
+            return np.arange(len(self))
+        return np.argsort(self.sequence, kind="stable")
+
+    def kind_codes(self) -> np.ndarray:
+        """(N,) uint8 plant row kinds: the data kind, unmeasured rows as such."""
+        return np.where(self.observed, KIND_CODES[self.kind], KIND_CODES["unmeasured"]).astype(np.uint8)
+
+
+def _sequence(rows, source: str) -> np.ndarray:
+    vals = table_column(rows, "sequence", source)
+    if not np.all(vals == np.round(vals)):
+        i = int(np.flatnonzero(vals != np.round(vals))[0])
+        raise CdsmInputError(f"{source}: row {i + 1}, column 'sequence': must be an integer, got {vals[i]!r}")
+    seq = vals.astype(np.int64)
+    uniq, inv, counts = np.unique(seq, return_inverse=True, return_counts=True)
+    if (counts > 1).any():
+        dup = uniq[counts > 1][0]
+        rows_dup = ", ".join(str(i + 1) for i in np.flatnonzero(seq == dup))
+        raise CdsmInputError(f"{source}: column 'sequence': rows {rows_dup} share the value {dup}; "
+                             "each row needs its own place in the execution order")
+    return seq
 
 
 def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
@@ -77,11 +118,19 @@ def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
     else:
         raise CdsmInputError(f"{source}: missing measured columns: need x, y (absolute) or dx, dy "
                              f"(displacement); found {', '.join(cols)}")
-    measured = np.stack([table_column(rows, c, source) for c in mcols], 1)
-    mphi = table_column(rows, pcol, source) if pcol in has else None
-    used = set(theta_cols + pose_cols + dl_cols + list(mcols) + [pcol])
+    measured = np.stack([table_column(rows, c, source, allow_empty=True) for c in mcols], 1)
+    half = np.isnan(measured).any(axis=1) & ~np.isnan(measured).all(axis=1)
+    if half.any():
+        i = int(np.flatnonzero(half)[0])
+        raise CdsmInputError(f"{source}: row {i + 1}: {mcols[0]} and {mcols[1]} must both be given "
+                             "(a measurement) or both be empty (a move that was not measured)")
+    if np.isnan(measured).all():
+        raise CdsmInputError(f"{source}: no row carries a measurement")
+    mphi = table_column(rows, pcol, source, allow_empty=True) if pcol in has else None
+    seq = _sequence(rows, source) if "sequence" in has else None
+    used = set(theta_cols + pose_cols + dl_cols + list(mcols) + [pcol, "sequence"])
     labels = {c: [r[c] for r in rows] for c in cols if c not in used}
-    return Measurements(kind, n, dL, measured, theta, pose, mphi, labels, source)
+    return Measurements(kind, n, dL, measured, theta, pose, mphi, labels, source, seq)
 
 
 def read_csv(path: "str | os.PathLike[str]", n: int) -> Measurements:

@@ -7,13 +7,13 @@ unmodelled effects of :mod:`cdsm.calibration.plant` with their fitted parameters
 :meth:`Model.compensate` finds the upper-cable length commands that put the
 tip of the *fitted* plant on target poses.
 
-Model file format ``cdsm-model/1`` (JSON, UTF-8)
+Model file format ``cdsm-model/2`` (JSON, UTF-8)
 ------------------------------------------------
 One JSON object; every number is a JSON float written by Python's ``repr``
 (shortest round-trip form), so a model loads back bit-exactly::
 
     {
-      "format": "cdsm-model/1",           # required; other versions are refused
+      "format": "cdsm-model/2",           # required; /1 files are read too (below)
       "cdsm_version": "0.1.0",            # the package that wrote it (informative)
       "name": "hole_height",              # the chosen model ('+'-joined, or 'none')
       "effects": ["hole_height"],         # fitted effects, in fit order
@@ -68,7 +68,9 @@ from .measurements import Measurements
 __all__ = ["Model", "FORMAT"]
 
 #: Version tag of the model file format (see the module docstring).
-FORMAT = "cdsm-model/1"
+FORMAT = "cdsm-model/2"
+#: Older formats this cdsm still reads (parameters remapped by block name).
+READS = ("cdsm-model/1", FORMAT)
 
 
 def _data_hash(meas: Measurements) -> str:
@@ -106,10 +108,8 @@ class Model:
         self.p = np.array(p, dtype=np.float64).reshape(-1)
         if self.p.size != plant.size(robot) or not np.isfinite(self.p).all():
             raise CdsmInputError(f"`p`: expected {plant.size(robot)} finite plant parameters, got {self.p.size}")
-        lay = plant.layout(robot)
         for e in effects:
-            if e not in lay:
-                raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(plant.EFFECTS)}")
+            plant.effect_indices(robot, e)  # names the unknown ones
         self.effects = list(effects)
         self.name = name if name is not None else ("+".join(self.effects) or "none")
         self.std = {k: [float(x) for x in v] for k, v in (std or {}).items()}
@@ -153,11 +153,10 @@ class Model:
     # ---- file -------------------------------------------------------------
     def params_by_effect(self) -> Dict[str, List[float]]:
         """{effect: values} of the fitted effects, SI."""
-        lay = plant.layout(self.robot)
-        return {e: self.p[lay[e]].tolist() for e in self.effects}
+        return {e: self.p[plant.effect_indices(self.robot, e)].tolist() for e in self.effects}
 
     def to_dict(self) -> dict:
-        """The file content as a dict (format ``cdsm-model/1``)."""
+        """The file content as a dict (format ``cdsm-model/2``)."""
         from .. import __version__
 
         lay = plant.layout(self.robot)
@@ -178,7 +177,7 @@ class Model:
         }
 
     def save(self, path: "str | os.PathLike[str]") -> None:
-        """Write the model file (JSON, format ``cdsm-model/1``)."""
+        """Write the model file (JSON, format ``cdsm-model/2``)."""
         write_text(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n", "model")
 
     @classmethod
@@ -188,9 +187,9 @@ class Model:
         if not isinstance(d, dict):
             raise CdsmInputError(f"model file {source!r}: not a JSON object")
         fmt = d.get("format")
-        if fmt != FORMAT:
+        if fmt not in READS:
             raise CdsmInputError(f"model file {source!r}: format {fmt!r} is not supported "
-                                 f"(this cdsm reads {FORMAT!r})")
+                                 f"(this cdsm reads {', '.join(map(repr, READS))})")
         try:
             rob = d["robot"]
             toml = rob["toml"]
@@ -203,17 +202,14 @@ class Model:
             robot = Robot.from_toml_str(toml)
         except CdsmInputError as exc:
             raise CdsmInputError(f"model file {source!r}: bad robot: {exc}") from None
-        lay = {k: [s.start, s.stop] for k, s in plant.layout(robot).items()}
-        if par.get("layout") is not None and par["layout"] != lay:
-            raise CdsmInputError(f"model file {source!r}: parameter layout {par['layout']} does not match "
-                                 f"this cdsm's {lay}")
+        lay = plant.layout(robot)
         try:
-            p = np.array(flat, dtype=np.float64)
+            flat = np.array(flat, dtype=np.float64)
         except (TypeError, ValueError):
             raise CdsmInputError(f"model file {source!r}: params.flat is not a list of numbers") from None
-        if p.ndim != 1 or p.size != plant.size(robot) or not np.isfinite(p).all():
-            raise CdsmInputError(f"model file {source!r}: params.flat needs {plant.size(robot)} finite "
-                                 f"numbers, got {p.size}")
+        p = _remap(flat, par.get("layout"), lay, source)
+        if not np.isfinite(p).all():
+            raise CdsmInputError(f"model file {source!r}: params.flat holds non-finite numbers")
         try:
             return cls(robot, p, effects, name=d.get("name"), std=par.get("std") or {},
                        data=d.get("data"), heldout=d.get("heldout"), robot_toml_text=toml)
@@ -247,10 +243,35 @@ class Model:
         d = np.zeros_like(t) if dL is None else dL
         return plant.predict(self.robot, self.p, t, d, kind)
 
-    def compensate(self, poses, tol: float = 1e-9, max_iter: int = 40, h: float = 1e-6,
-                   min_tension: float = 0.0, enforce_limits: bool = False) -> Compensation:
+    def compensate(self, poses, tol: float = 1e-9, max_iter: int = 40, min_tension: float = 0.0,
+                   enforce_limits: bool = False, start=None) -> Compensation:
         """Upper-cable length commands that put the fitted plant's tip on
-        ``poses``: :func:`cdsm.calibration.compensation.compensate` (the
-        options and flags are documented there)."""
-        return compensate(self, poses, tol=tol, max_iter=max_iter, h=h, min_tension=min_tension,
-                          enforce_limits=enforce_limits)
+        ``poses`` (run in order): :func:`cdsm.calibration.compensation.compensate`
+        (the options and flags are documented there)."""
+        return compensate(self, poses, tol=tol, max_iter=max_iter, min_tension=min_tension,
+                          enforce_limits=enforce_limits, start=start)
+
+
+def _remap(flat: np.ndarray, file_layout, lay, source: str) -> np.ndarray:
+    """The flat parameters of a model file in this cdsm's layout ``lay``,
+    block by block by name (a file of an older format lacks the newer blocks:
+    they are zero, the nominal value)."""
+    if file_layout is None:
+        if flat.ndim != 1 or flat.size != sum(sl.stop - sl.start for sl in lay.values()):
+            raise CdsmInputError(f"model file {source!r}: params.flat needs "
+                                 f"{sum(sl.stop - sl.start for sl in lay.values())} numbers, got {flat.size}")
+        return flat
+    p = np.zeros(sum(sl.stop - sl.start for sl in lay.values()))
+    for name, span in file_layout.items():
+        if name not in lay:
+            raise CdsmInputError(f"model file {source!r}: unknown parameter block {name!r}")
+        a, b = int(span[0]), int(span[1])
+        sl = lay[name]
+        if b - a != sl.stop - sl.start:
+            raise CdsmInputError(f"model file {source!r}: block {name!r} has {b - a} values, "
+                                 f"this robot needs {sl.stop - sl.start}")
+        if a < 0 or b > flat.size:
+            raise CdsmInputError(f"model file {source!r}: params.flat has {flat.size} numbers, but block "
+                                 f"{name!r} needs entries {a}..{b - 1}")
+        p[sl] = flat[a:b]
+    return p

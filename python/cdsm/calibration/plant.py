@@ -1,21 +1,27 @@
 """The real arm as the nominal model plus unmodelled effects, and a virtual
 prototype that makes measurement data from it. SI units (m, rad, N).
 
-Effects (all-zero parameters give the nominal model exactly; the equations are
-in ``docs/model.md``):
+The plant lives in the Rust core (``rust/plant.rs``); its equations are in
+``docs/model.md`` ("The plant"). All-zero parameters give the nominal model
+exactly. The flat parameter vector is made of blocks (:func:`layout`), and
+an *effect* of the diagnosis library is one or more blocks:
 
-=====================  =====  ====================================================
-name                   size   parameters
-=====================  =====  ====================================================
-actuation_scale        1      s: actuators realise L_ref + (1 + s)(L_cmd - L_ref)
-cable_offset           n      constant length offset of each upper cable, m
-hole_height            n      hole-height error of each cable pair, m
-link_length            n + 1  base->joint 1, then joint i -> disk i length errors, m
-cable_elasticity       1      compliance 1/(E A), 1/N (stretch T L / (E A))
-hole_clearance         1      c >= 0, m: holes shift c·tanh(theta/0.01) to the concave side
-frame_misalignment     3      instrument frame: rotation (rad), x, y (m)
-tip_offset             2      measured point offset in the end frame, x, y (m)
-=====================  =====  ====================================================
+=====================  ===========  ================================================
+effect                 parameters   meaning
+=====================  ===========  ================================================
+actuation_scale        1            s: actuators realise L_ref + (1 + s)(r - L_ref)
+cable_offset           n            constant length offset of each upper cable, m
+hole_height            n            hole-height error of each cable pair, m
+link_length            n + 1        base -> joint 1, then joint i -> disk i, m
+cable_elasticity       1            compliance 1/(E A), 1/N
+hole_clearance         1 + 1        c >= 0 (m): holes shift c·tanh(theta / w) to the
+                                    concave side; w = 0.01 rad + clearance_width
+frame_misalignment     3            instrument frame: rotation (rad), x, y (m)
+tip_offset             2            measured point offset in the end frame, x, y (m)
+backlash               n            dead-band half-width of each upper cable, m
+=====================  ===========  ================================================
+
+Rows run in sequence (backlash has memory): give them in execution order.
 """
 
 from __future__ import annotations
@@ -25,27 +31,35 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import _cdsm
 from ..inputs import CdsmInputError, as_batch
 from ..robot import Robot
-from .measurements import Measurements
+from .measurements import KIND_CODES, Measurements
 
-__all__ = ["EFFECTS", "TYPICAL", "NON_NEGATIVE", "EXAMPLES_N3", "layout", "size", "params", "predict",
-           "settle", "VirtualPrototype"]
+__all__ = ["EFFECTS", "BLOCKS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size", "params",
+           "effect_indices", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype"]
 
-EFFECTS: Tuple[str, ...] = (
-    "actuation_scale", "cable_offset", "hole_height", "link_length",
-    "cable_elasticity", "hole_clearance", "frame_misalignment", "tip_offset",
-)
+#: Parameter blocks of the flat vector, in order (defined by the Rust core).
+BLOCKS: Tuple[str, ...] = tuple(_cdsm.PLANT_EFFECTS)
 
-# A magnitude a real prototype could have, per effect (for scaling the fit and
-# for generating test data): 2 % actuation error, 0.2 mm offsets, 0.2 mm holes,
-# 0.3 mm links, a polymer-like compliance (E A ~ 50 N), 0.15 mm clearance,
-# 5 mrad / 1 mm frame, 1 mm tip offset.
+#: The blocks an effect of the library fits (default: the block of its name).
+EFFECT_BLOCKS: Dict[str, Tuple[str, ...]] = {"hole_clearance": ("hole_clearance", "clearance_width")}
+
+#: The effects of the diagnosis library.
+EFFECTS: Tuple[str, ...] = tuple(b for b in BLOCKS if not any(b in v[1:] for v in EFFECT_BLOCKS.values()))
+
+# A magnitude a real prototype could have, per block (the unit the fit works
+# in, and the size of generated test effects): 2 % actuation error, 0.2 mm
+# offsets and holes, 0.3 mm links, a polymer-like compliance (E A ~ 50 N),
+# 0.15 mm clearance and a 10 mrad transition, 5 mrad / 5 mm frame, 1 mm tip
+# offset, 30 µm of backlash.
 TYPICAL: Dict[str, float] = {
     "actuation_scale": 0.02, "cable_offset": 2e-4, "hole_height": 2e-4, "link_length": 3e-4,
-    "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "frame_misalignment": 5e-3,
-    "tip_offset": 1e-3,
+    "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "clearance_width": 0.01,
+    "frame_misalignment": 5e-3, "tip_offset": 1e-3, "backlash": 3e-5,
 }
+assert set(TYPICAL) == set(BLOCKS), "a typical size per parameter block"
+
 # Hidden effects for 3-joint robots, ~1-2x TYPICAL with mixed signs: every
 # effect of the library and a two-effect mixture (SI). The virtual-prototype
 # checks of compensation use them (tests and benches/bench_compensate.py).
@@ -58,18 +72,17 @@ EXAMPLES_N3: Dict[str, Dict[str, List[float]]] = {
     "hole_clearance": {"hole_clearance": [1.5e-4]},
     "frame_misalignment": {"frame_misalignment": [5e-3, 1e-3, -1e-3]},
     "tip_offset": {"tip_offset": [1e-3, -5e-4]},
+    "backlash": {"backlash": [6e-5, 4e-5, 3e-5]},
     "hole_height + actuation_scale": {"hole_height": [2e-4, -1e-4, 1.5e-4], "actuation_scale": [0.02]},
 }
-# Parameters that must stay >= 0.
-NON_NEGATIVE = ("cable_elasticity", "hole_clearance")
 
 
 def layout(robot: Robot) -> Dict[str, slice]:
-    """Slice of each effect in the flat parameter vector."""
+    """Slice of each parameter block in the flat parameter vector."""
     out, off = {}, 0
-    for name, size in robot.core.plant_effects():
-        out[name] = slice(off, off + size)
-        off += size
+    for name, sz in robot.core.plant_effects():
+        out[name] = slice(off, off + sz)
+        off += sz
     return out
 
 
@@ -78,73 +91,141 @@ def size(robot: Robot) -> int:
     return sum(s for _, s in robot.core.plant_effects())
 
 
+def bounds(robot: Robot) -> Tuple[np.ndarray, np.ndarray]:
+    """(P,) lower and upper bounds of the parameters: the physical domain."""
+    return robot.core.plant_bounds()
+
+
+def effect_indices(robot: Robot, effect: str) -> np.ndarray:
+    """Indices into the flat vector of the parameters an effect fits."""
+    lay = layout(robot)
+    if effect not in EFFECTS and effect not in lay:
+        raise CdsmInputError(f"`effects`: unknown effect {effect!r}; known: {', '.join(EFFECTS)}")
+    blocks = EFFECT_BLOCKS.get(effect, (effect,))
+    return np.concatenate([np.arange(lay[b].start, lay[b].stop) for b in blocks])
+
+
 def params(robot: Robot, effects: Optional[Mapping[str, Sequence[float]]] = None) -> np.ndarray:
-    """Flat parameter vector from ``{effect: values}`` (others zero); SI units."""
+    """Flat parameter vector from ``{effect or block: values}`` (others zero);
+    SI units. An effect of several blocks takes the values of its first block
+    or of all of them (``hole_clearance``: ``[c]`` or ``[c, clearance_width]``)."""
     lay = layout(robot)
     p = np.zeros(size(robot))
     for name, val in (effects or {}).items():
-        if name not in lay:
-            raise CdsmInputError(f"`effects`: unknown effect {name!r}; known: {', '.join(EFFECTS)}")
         v = np.atleast_1d(np.asarray(val, dtype=np.float64))
-        sl = lay[name]
-        if v.size != sl.stop - sl.start:
-            raise CdsmInputError(f"`effects[{name!r}]`: needs {sl.stop - sl.start} values, got {v.size}")
-        p[sl] = v
+        idx = effect_indices(robot, name)
+        first = lay[EFFECT_BLOCKS.get(name, (name,))[0]]
+        if v.size == first.stop - first.start:
+            p[first] = v
+        elif v.size == len(idx):
+            p[idx] = v
+        else:
+            raise CdsmInputError(f"`effects[{name!r}]`: needs {first.stop - first.start} or {len(idx)} values, "
+                                 f"got {v.size}")
+    if not np.isfinite(p).all():
+        raise CdsmInputError("`effects`: non-finite values")
     return p
 
 
-def _predict_all(robot: Robot, p, theta_cmd, dL, kind: str, tol: float, max_iter: int):
-    pp, single = as_batch("params", p, size(robot))
+def kind_codes(kind, rows: int) -> np.ndarray:
+    """(N,) uint8 row kinds from a kind name for every row or per-row codes/names."""
+    if isinstance(kind, str):
+        if kind not in KIND_CODES:
+            raise CdsmInputError(f"`kind`: expected one of {', '.join(KIND_CODES)}, got {kind!r}")
+        return np.full(rows, KIND_CODES[kind], np.uint8)
+    arr = np.asarray(kind)
+    if arr.dtype.kind in "US":
+        bad = [k for k in set(arr.tolist()) if k not in KIND_CODES]
+        if bad:
+            raise CdsmInputError(f"`kind`: unknown row kinds {bad}")
+        arr = np.array([KIND_CODES[k] for k in arr.tolist()])
+    if arr.shape != (rows,):
+        raise CdsmInputError(f"`kind`: expected {rows} row kinds, got shape {arr.shape}")
+    return arr.astype(np.uint8)
+
+
+def _inputs(robot: Robot, theta_cmd, dL, kind):
     t, _ = as_batch("theta_cmd", theta_cmd, robot.n)
-    d, _ = as_batch("dL", dL, robot.n)
-    if kind not in ("absolute", "displacement"):
-        raise CdsmInputError(f"`kind`: expected 'absolute' or 'displacement', got {kind!r}")
-    obs, conv, theta = robot.core.plant_predict(pp, t, d, kind == "displacement", float(tol),
-                                                 int(max_iter), robot.threads)
-    shape = (len(pp), len(t))
-    out = obs.reshape(shape + (3,)), conv.reshape(shape), theta.reshape(shape + (robot.n,))
-    return tuple(a[0] for a in out) if single else out
+    d = np.zeros_like(t) if dL is None else as_batch("dL", dL, robot.n)[0]
+    if len(d) != len(t):
+        raise CdsmInputError(f"`dL`: expected {len(t)} rows, got {len(d)}")
+    return t, d, kind_codes(kind, len(t)).tolist()
 
 
-def predict(robot: Robot, p, theta_cmd, dL, kind: str = "absolute",
-            tol: float = 1e-12, max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray]:
-    """Observations of the plant(s) ``p`` ((P,) or (K, P)) for the commands
-    ``theta_cmd`` (N, n) rad and ``dL`` (N, n) m: (N, 3) or (K, N, 3) —
-    [x, y, phi] (absolute, instrument frame) or [dx, dy, dphi] (displacement)
-    — and the converged flags (N,) or (K, N)."""
+def predict(robot: Robot, p, theta_cmd, dL=None, kind="absolute", tol: float = 1e-12,
+            max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray]:
+    """Observations of the plant(s) ``p`` ((P,) or (K, P)) for the rows of a
+    data set in execution order: commands ``theta_cmd`` (N, n) rad and ``dL``
+    (N, n) m, ``kind`` one name for every row (``"absolute"``,
+    ``"displacement"``) or one per row (``"unmeasured"`` rows only run).
+    Returns (N, 3) or (K, N, 3) — [x, y, phi] (absolute, instrument frame) or
+    [dx, dy, dphi] (displacement), NaN for unmeasured rows and rows that do
+    not settle — and the converged flags (N,) or (K, N). A parameter set
+    outside the physical domain (:func:`bounds`) predicts no row."""
     obs, conv, _ = _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter)
     return obs, conv
 
 
-def settle(robot: Robot, p, theta_cmd, dL, tol: float = 1e-12,
+def _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter):
+    pp, single = as_batch("params", p, size(robot))
+    t, d, k = _inputs(robot, theta_cmd, dL, kind)
+    res = robot.core.plant_predict(pp, t, d, k, float(tol), int(max_iter), robot.threads)
+    shape = (len(pp), len(t))
+    out = (res.observation.reshape(shape + (3,)), res.converged.reshape(shape),
+           res.theta.reshape(shape + (robot.n,)))
+    return tuple(a[0] for a in out) if single else out
+
+
+def linearise(robot: Robot, p, free, theta_cmd, dL=None, kind="absolute", tol: float = 1e-12,
+              max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Predictions (N, 3), converged (N,) and their exact Jacobian (N, 3, k)
+    with respect to the parameters ``free`` (indices into the flat vector) of
+    the plant ``p`` (P,) — implicit function theorem at the settled
+    configurations, dual numbers in the Rust core (no finite differences)."""
+    pp = np.ascontiguousarray(as_batch("params", p, size(robot))[0][0])
+    t, d, k = _inputs(robot, theta_cmd, dL, kind)
+    fr = [int(i) for i in np.atleast_1d(free)]
+    res = robot.core.plant_linearise(pp, fr, t, d, k, float(tol), int(max_iter), robot.threads)
+    return (res.observation.reshape(-1, 3), np.asarray(res.converged, bool),
+            res.jacobian.reshape(len(t), 3, len(fr)))
+
+
+def settle(robot: Robot, p, theta_cmd, dL=None, kind="absolute", tol: float = 1e-12,
            max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray]:
-    """Joint angles (N, n) rad the plant ``p`` (P,) settles at for the nominal
-    commands at ``theta_cmd`` (N, n) rad plus ``dL`` (N, n) m — every effect of
-    the plant included — and the converged flags (N,); NaN rows where not."""
-    _, conv, theta = _predict_all(robot, p, theta_cmd, dL, "absolute", tol, max_iter)
+    """Joint angles (N, n) rad the plant ``p`` (P,) settles at for each row's
+    (last) command — every effect of the plant included — and the converged
+    flags (N,); NaN rows where not."""
+    _, conv, theta = _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter)
     return theta, conv
 
 
 @dataclass
 class VirtualPrototype:
     """A simulated prototype: the nominal robot with hidden effects, measured
-    with Gaussian noise of ``noise`` m (per axis), seeded."""
+    with Gaussian noise of ``noise`` m (per axis and reading), seeded. A
+    displacement is the difference of two readings, so its noise is
+    ``sqrt(2) * noise`` per axis."""
 
     robot: Robot
     effects: Dict[str, Sequence[float]] = field(default_factory=dict)
     noise: float = 10e-6
     seed: int = 0
 
-    def measure(self, theta_cmd, dL=None, kind: str = "absolute") -> Measurements:
-        """Measure commands ``theta_cmd`` (N, n) rad with upper-cable extras ``dL``
-        (N, n) m: a :class:`Measurements` of the given kind (phi not measured)."""
-        t, _ = as_batch("theta_cmd", theta_cmd, self.robot.n)
-        d = np.zeros_like(t) if dL is None else as_batch("dL", dL, self.robot.n)[0]
-        obs, conv = predict(self.robot, params(self.robot, self.effects), t, d, kind)
-        if not conv.all():
-            raise CdsmInputError(f"virtual prototype: {int((~conv).sum())} commands do not settle")
+    def measure(self, theta_cmd, dL=None, kind="absolute", observe=None) -> Measurements:
+        """Measure commands ``theta_cmd`` (N, n) rad with upper-cable extras
+        ``dL`` (N, n) m, run in the given order: a :class:`Measurements` of
+        the given kind (phi not measured). ``observe`` (N,) bool: rows to
+        measure (the others run only and come out unmeasured)."""
+        t, d, _ = _inputs(self.robot, theta_cmd, dL, "absolute")
+        seen = np.ones(len(t), bool) if observe is None else np.asarray(observe, bool)
+        codes = np.where(seen, KIND_CODES[kind], KIND_CODES["unmeasured"])
+        obs, conv = predict(self.robot, params(self.robot, self.effects), t, d, codes)
+        if not conv[seen].all():
+            raise CdsmInputError(f"virtual prototype: {int((~conv[seen]).sum())} commands do not settle")
         rng = np.random.default_rng(self.seed)
-        meas = obs[:, :2] + rng.normal(0.0, self.noise, (len(t), 2))
+        sigma = self.noise * (np.sqrt(2.0) if kind == "displacement" else 1.0)
+        meas = obs[:, :2] + rng.normal(0.0, sigma, (len(t), 2))
+        meas[~seen] = np.nan
         return Measurements(kind, self.robot.n, d, meas, theta=t, source="virtual prototype")
 
     def random_commands(self, rows: int, seed: Optional[int] = None, limit: float = np.radians(30.0),

@@ -56,8 +56,12 @@ def _diagnose_args(p: argparse.ArgumentParser) -> None:
                    help="candidate effects (comma list; default: the whole library)")
     p.add_argument("--json", metavar="OUT", help="write the diagnosis as JSON (SI units)")
     p.add_argument("--report", metavar="DIR", help="write report.md, report.html, figures and CSV into DIR")
-    p.add_argument("--noise", metavar="SIGMA_M", type=_noise_m, default=DEFAULT_NOISE,
-                   help=f"measurement noise per axis, m (default: {DEFAULT_NOISE:g})")
+    p.add_argument("--noise", metavar="SIGMA_M", type=_noise_m, default=None,
+                   help="measurement noise per axis and reading, m (default: estimated from repeated "
+                        f"commands in the data, else assumed {DEFAULT_NOISE:g})")
+    p.add_argument("--frame", choices=("register", "base"), default="register",
+                   help="absolute data: 'register' fits the measuring frame with every candidate "
+                        "(default: a tracker's own frame); 'base' says the data are in the robot's base frame")
     p.add_argument("--folds", metavar="K", type=_folds, default=10,
                    help="cross-validation folds (default: 10; leave-one-out when fewer rows)")
     p.add_argument("--save-model", metavar="MODEL.json", help="save the diagnosed model (cdsm.calibration.model)")
@@ -82,6 +86,7 @@ def _diagnose_run(args) -> int:
     for opt, path in (("--json", args.json), ("--save-model", args.save_model)):
         check_out_file(path, opt)
     d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
+                          frame=args.frame,
                           progress=show)
     for line in diagnose_report.summary(d):
         print(line)

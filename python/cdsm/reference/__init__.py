@@ -3,9 +3,13 @@ written from the document alone; the tests check the Rust core against it.
 
 ``kinematics``: forward kinematics, cable lengths, Jacobians, solves, error
 scenarios, statics, elasticity and sensitivities of the planar arm.
+``plant``: the plant, nominal model plus unmodelled effects (backlash,
+actuation, hole clearance, elastic settling, observation).
 """
 
 from .kinematics import *  # noqa: F401,F403
 from .kinematics import __all__ as _kinematics_all
+from .plant import *  # noqa: F401,F403
+from .plant import __all__ as _plant_all
 
-__all__ = list(_kinematics_all)
+__all__ = list(_kinematics_all) + list(_plant_all)

@@ -111,6 +111,13 @@ class SimpleRobot:
     holes: np.ndarray
     joint_limits: np.ndarray
     n: int = field(init=False)
+    #: Optional loads and cable routing (statics, plant): masses ``(n,)`` kg,
+    #: lower-cable tensions ``(n,)`` N, in-plane gravity ``(2,)`` m/s^2 (None:
+    #: none) and the upper cables' routing length behind the base disk, m.
+    mass: np.ndarray | None = None
+    lower_tension: np.ndarray | None = None
+    gravity: np.ndarray | None = None
+    routing_length: float = 0.0
 
     def __post_init__(self) -> None:
         self.link_before = np.asarray(self.link_before, dtype=float).reshape(-1)
@@ -120,6 +127,13 @@ class SimpleRobot:
         self.thickness = np.asarray(self.thickness, dtype=float).reshape(n)
         self.holes = np.asarray(self.holes, dtype=float).reshape(2 * n, n + 1, 2, 2)
         self.joint_limits = np.asarray(self.joint_limits, dtype=float).reshape(n, 2)
+        if self.mass is not None:
+            self.mass = np.asarray(self.mass, dtype=float).reshape(n)
+        if self.lower_tension is not None:
+            self.lower_tension = np.asarray(self.lower_tension, dtype=float).reshape(n)
+        if self.gravity is not None:
+            self.gravity = np.asarray(self.gravity, dtype=float).reshape(2)
+        self.routing_length = float(self.routing_length)
 
     @classmethod
     def from_heights(
@@ -152,14 +166,25 @@ class SimpleRobot:
 
     @classmethod
     def like(cls, robot, holes=None) -> "SimpleRobot":
-        """Copy of any duck-typed ``robot``, optionally with other ``holes``."""
+        """Copy of any duck-typed ``robot``, optionally with other ``holes``
+        (``mass``, ``lower_tension``, ``gravity``, ``routing_length`` are carried
+        over when the robot has them)."""
         g = _geometry(robot)
+
+        def _opt(name):
+            v = getattr(robot, name, None)
+            return None if v is None else np.array(v, dtype=float)
+
         return cls(
             g.lb.copy(),
             g.la.copy(),
             g.t.copy(),
             g.holes.copy() if holes is None else holes,
             g.limits.copy(),
+            mass=_opt("mass"),
+            lower_tension=_opt("lower_tension"),
+            gravity=_opt("gravity"),
+            routing_length=float(getattr(robot, "routing_length", None) or 0.0),
         )
 
     def with_holes(self, holes) -> "SimpleRobot":
@@ -366,12 +391,13 @@ def upper_cable_jacobian(robot, theta) -> np.ndarray:
 # --------------------------------------------------------------------------
 # Levenberg-Marquardt (docs/model.md, "Solves")
 # --------------------------------------------------------------------------
-def _lm(residual, step, theta, tol, max_iter, project=None):
+def _lm(residual, step, theta, tol, max_iter, project=None, lambda0=_LAMBDA_0):
     """Vectorised LM loop shared by the pose IK and the cable solve.
 
     ``residual(theta, idx) -> r (k, m)`` for the batch rows ``idx``;
     ``step(theta, r, lam, idx) -> delta (k, n)``; ``project`` maps a trial onto
-    the joint box (or None).  Each batch element has its own lambda and stops
+    the joint box (or None).  Each batch element has its own lambda (starting
+    at ``lambda0``; a rejected step at lambda 0 goes on at 1e-3) and stops
     independently: converged when ``max|r| <= tol``, failed after ``max_iter``
     trials or when ``lambda > 1e12``.  Returns the solution dict.
     """
@@ -379,7 +405,7 @@ def _lm(residual, step, theta, tol, max_iter, project=None):
     all_idx = np.arange(N)
     r = residual(theta, all_idx)
     f = (r**2).sum(axis=1)
-    lam = np.full(N, _LAMBDA_0)
+    lam = np.full(N, float(lambda0))
     iterations = np.zeros(N, dtype=np.int64)
     converged = np.abs(r).max(axis=1, initial=0.0) <= tol
     active = ~converged & (iterations < max_iter)
@@ -397,7 +423,7 @@ def _lm(residual, step, theta, tol, max_iter, project=None):
         r[acc] = r_trial[accept]
         f[acc] = f_trial[accept]
         lam[acc] = np.maximum(lam[acc] / 10.0, _LAMBDA_MIN)
-        lam[rej] *= 10.0
+        lam[rej] = np.where(lam[rej] == 0.0, _LAMBDA_0, lam[rej] * 10.0)
         converged[idx] = np.abs(r[idx]).max(axis=1) <= tol
         active[idx] = ~converged[idx] & (iterations[idx] < max_iter) & (lam[idx] <= _LAMBDA_MAX)
     return dict(
@@ -475,12 +501,13 @@ def ik(robot, pose, seed=None, tol=1e-12, max_iter=100, enforce_limits=False) ->
 
 
 def solve_cables(robot, upper, seed=None, tol=1e-12, max_iter=100) -> dict:
-    """Upper cable lengths -> joint angles by LM (docs/model.md).
+    """Upper cable lengths -> joint angles by damped Newton (docs/model.md).
 
     ``upper``: target upper-cable lengths ``(N, n)`` m; ``seed``: ``(N, n)`` or
-    ``(n,)`` rad, default zeros.  ``r = L_target - L_upper(theta)``, step
-    ``delta = (J^T J + lambda I_n)^{-1} J^T r``.  Returns the same dict as
-    :func:`ik`.
+    ``(n,)`` rad, default zeros.  ``r = L_target - L_upper(theta)``, starting
+    undamped: the Newton step ``J delta = r`` while ``lambda <= 1e-12``,
+    otherwise ``delta = (J^T J + lambda I_n)^{-1} J^T r``.  Returns the same
+    dict as :func:`ik`.
     """
     g = _geometry(robot)
     upper = _batch(upper, g.n, "upper")
@@ -493,9 +520,11 @@ def solve_cables(robot, upper, seed=None, tol=1e-12, max_iter=100) -> dict:
         J = upper_cable_jacobian(robot, th)  # (k, n, n)
         Jt = np.swapaxes(J, 1, 2)
         A = Jt @ J + lam[:, None, None] * np.eye(g.n)
-        return _batched_solve(A, (Jt @ r[..., None])[..., 0])
+        damped = _batched_solve(A, (Jt @ r[..., None])[..., 0])
+        newton = _batched_solve(J, r)
+        return np.where((lam <= _LAMBDA_MIN)[:, None], newton, damped)
 
-    sol = _lm(residual, step, theta, tol, max_iter)
+    sol = _lm(residual, step, theta, tol, max_iter, lambda0=0.0)
     sol["within_limits"] = _within_limits(g, sol["theta"])
     return sol
 

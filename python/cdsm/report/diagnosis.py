@@ -23,7 +23,7 @@ import numpy as np
 from .. import __version__
 from ..calibration import diagnosis as diagnose
 from ..calibration import plant
-from ..calibration.fit import residual_matrix
+from ..calibration import stats
 from ..files import write_csv, write_json, write_text
 from .document import Document
 from .figures import BLUE, GREEN, RED, new_figure, save
@@ -166,7 +166,7 @@ def _ranked_features(d: diagnose.Diagnosis, size: np.ndarray) -> List[Tuple[str,
     rows = d.prep.rows
     out = []
     for k, v in d.features.items():
-        rho = diagnose.spearman(np.asarray(v, float)[rows], size[rows])
+        rho = stats.spearman(np.asarray(v, float)[rows], size[rows])
         out.append((k, rho))
     fin = sorted([x for x in out if np.isfinite(x[1])], key=lambda x: -abs(x[1]))
     return fin + [x for x in out if not np.isfinite(x[1])]
@@ -175,10 +175,10 @@ def _ranked_features(d: diagnose.Diagnosis, size: np.ndarray) -> List[Tuple[str,
 def _similarity(d: diagnose.Diagnosis, a: diagnose.Candidate, b: diagnose.Candidate) -> float:
     """Cosine similarity of the corrections (prediction − nominal prediction)
     that the fits of ``a`` and ``b`` make over the usable rows."""
-    prep = d.prep
-    P = np.stack([np.zeros(plant.size(prep.robot)), a.fit.p, b.fit.p])
-    r = residual_matrix(prep, P, prep.rows)
-    ca, cb = r[1] - r[0], r[2] - r[0]
+    rows = d.prep.rows
+    base = d.baseline.fit.prediction[rows, :2]
+    ca = (a.fit.prediction[rows, :2] - base).ravel()
+    cb = (b.fit.prediction[rows, :2] - base).ravel()
     den = float(np.linalg.norm(ca) * np.linalg.norm(cb))
     return float(ca @ cb / den) if den > 0 and np.isfinite(den) else float("nan")
 
@@ -204,29 +204,56 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     shrink = 100.0 * (1.0 - f_rms / b_rms) if b_rms > 0 else 0.0
 
     # -- the answer ------------------------------------------------------
-    if d.chosen is None:
-        if b_rms <= 1.5 * floor:
-            out["answer"].append(
-                f"**No gap beyond measurement noise.** The nominal model's held-out RMS position error is "
-                f"{_um(b_rms)}, within 1.5× the noise floor {_um(floor)} (√2 × {_um(d.noise)} per axis); no "
-                "effect of the library improves it beyond noise. Answer: **none**.")
-        else:
-            top = d.singles[0] if d.singles else None
-            extra = (f" The best single candidate, `{top.name}`, reaches {_um(top.heldout_rms)}, which the "
-                     "paired held-out test (and BIC) cannot tell apart from the nominal model on these rows."
-                     if top is not None else "")
-            out["answer"].append(
-                f"**The gap stays unexplained.** The nominal model misses the measurements by "
-                f"{_um(b_rms)} held-out RMS ({b_rms / floor:.1f}× the noise floor {_um(floor)}), and no "
-                f"effect of the library ({len(d.singles)} tried) reduces it significantly.{extra} "
-                "Answer: **none** — the cause lies outside the library (or the data are too few to tell).")
+    v = d.verdict_detail
+    ne = d.noise_estimate
+    if ne.source == "repeats":
+        ntxt = (f"{_um(d.noise)} per axis and reading, estimated from {ne.groups} groups of repeated commands "
+                f"approached from the same direction (95 % interval {_um(ne.ci[0])}–{_um(ne.ci[1])})")
+    elif ne.source == "given":
+        ntxt = f"{_um(d.noise)} per axis and reading, as given"
     else:
-        verdict = ("explains the gap down to the noise level" if d.explained else
-                   "explains part of the gap, but **the gap stays unexplained** beyond it")
+        ntxt = (f"{_um(d.noise)} per axis and reading, **assumed** (no repeated commands in the data and "
+                "none given)")
+    lof = (f"lack-of-fit test ({'F against pure error' if v.test == 'F' else 'chi-square against the noise'}): "
+           f"p = {v.p_value:.2g}")
+    if d.verdict == "no gap":
         out["answer"].append(
-            f"**`{d.best}` {verdict}.** Held-out RMS position error ({cv}): nominal model {_um(b_rms)} → "
-            f"with `{d.best}` {_um(f_rms)} ({shrink:.0f} % smaller; noise floor {_um(floor)}, "
-            f"final/floor = {f_rms / floor:.2f}).")
+            f"**No gap beyond measurement noise** (verdict: no gap). The nominal model's held-out RMS position "
+            f"error is {_um(b_rms)}, within 1.5× the noise floor {_um(floor)}, and the {lof}; no effect of the "
+            "library improves it significantly. Answer: **none**.")
+    elif d.verdict == "unexplained":
+        top = d.singles[0] if d.singles else None
+        extra = (f" The best single candidate, `{top.name}`, reaches {_um(top.heldout_rms)}, which the "
+                 "corrected paired held-out test (and BIC) cannot tell apart from the nominal model on these rows."
+                 if top is not None else "")
+        out["answer"].append(
+            f"**The gap stays unexplained** (verdict: unexplained). The nominal model misses the measurements "
+            f"by {_um(b_rms)} held-out RMS ({b_rms / floor:.1f}× the noise floor {_um(floor)}), and no "
+            f"effect of the library ({len(d.singles)} tried) reduces it significantly.{extra} "
+            "Answer: **none** — the cause lies outside the library (or the data are too few to tell).")
+    else:
+        what = ("explains the gap down to the noise level" if d.verdict == "explained" else
+                "explains part of the gap; what is left is more than noise")
+        out["answer"].append(
+            f"**`{d.best}` {what}** (verdict: {d.verdict}). Held-out RMS position error ({cv}): nominal model "
+            f"{_um(b_rms)} → with `{d.best}` {_um(f_rms)} ({shrink:.0f} % smaller; noise floor {_um(floor)}, "
+            f"final/floor = {f_rms / floor:.2f}; {lof}).")
+    out["answer"].append(f"Noise: {ntxt}; the floor is √2 × {'√2 × ' if prep.readings > 1 else ''}σ = "
+                         f"{_um(floor)}{' (displacements are differences of two readings)' if prep.readings > 1 else ''}."
+                         + (f" The final model would be adequate at a noise of {_um(v.noise_needed)} or more."
+                            if ne.source == "assumed" and not v.final_adequate else ""))
+    if prep.registered:
+        reg = (f"The data were registered: the measuring frame was fitted with every candidate (started from a "
+               f"Kabsch fit). Held-out RMS in the identity frame {_um(d.identity.heldout_rms)}, registered "
+               f"{_um(base.heldout_rms)}: the frame is "
+               + ("named (`frame_misalignment`): it beats the identity frame." if d.registration_named else
+                  "not named: it does not beat the identity frame significantly."))
+        out["answer"].append(reg)
+    if d.outliers:
+        w = d.verdict_without_outliers
+        out["answer"].append(
+            f"Outliers (residual beyond 5σ after the fit): {', '.join(names[i] for i in d.outliers)}. "
+            + (f"Without them the verdict is **{w.verdict}**." if w is not None else ""))
 
     # -- where the gap lies --------------------------------------------
     order = [i for i in np.argsort(-np.nan_to_num(size_b, nan=-1.0)) if np.isfinite(size_b[i])]
@@ -353,9 +380,10 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
 def summary(d: diagnose.Diagnosis) -> List[str]:
     """A few lines for the command line."""
     b, f = d.baseline.heldout_rms, d.final().heldout_rms
-    lines = [f"best: {d.best}" + ("" if d.explained else "  (gap unexplained)"),
+    lines = [f"best: {d.best}  (verdict: {d.verdict})",
              f"held-out RMS: nominal {b * 1e6:.1f} µm -> final {f * 1e6:.1f} µm "
-             f"({100 * (1 - f / b):.0f} % smaller); noise floor {d.noise_floor * 1e6:.1f} µm",
+             f"({100 * (1 - f / b):.0f} % smaller); noise floor {d.noise_floor * 1e6:.1f} µm "
+             f"(noise {d.noise * 1e6:.3g} µm per axis, {d.noise_estimate.source})",
              f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
              f"{d.folds}-fold cross-validation"]
     if d.prep.flags:

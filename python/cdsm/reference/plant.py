@@ -1,0 +1,470 @@
+"""The plant: nominal model plus unmodelled effects (``docs/model.md``, last section).
+
+Independent NumPy reference, written from the document alone.  The plant is
+the real arm as the nominal robot plus candidate effects with a flat parameter
+vector ``p`` (SI units); **all-zero parameters give the nominal model exactly**.
+
+Pipeline for one data set (:func:`plant_predict`)::
+
+    theta_cmd, dL, kind  --(commands, in execution order)-->  c^1, c^2, ...
+    c  --backlash_scan-->  r  --realised_lengths-->  L
+    L  --settle (elasticity, clearance)-->  theta  --observe-->  seen
+
+Robots are duck-typed as in :mod:`.kinematics` (``n``, ``link_before``,
+``link_after``, ``thickness``, ``holes``, ``joint_limits``) plus, where the
+statics are needed (``kappa > 0``), ``lower_tension (n,)`` N and ``mass (n,)``
+kg; optional ``gravity (2,)`` m/s^2 (absent or None: ``[0, 0]``) and optional
+``routing_length`` m (absent or None: 0).
+
+Parameter layout (:data:`PLANT_EFFECTS`, :func:`plant_layout`), ``n`` joints:
+
+=======================  ========  =====================================  ==========
+effect                   size      symbols                                unit
+=======================  ========  =====================================  ==========
+``actuation_scale``      1         ``s``                                  1
+``cable_offset``         n         ``o_1..o_n``                           m
+``hole_height``          n         ``dh_1..dh_n``                         m
+``link_length``          n+1       ``dl_0`` (base->joint 1), ``dl_1..n``  m
+``cable_elasticity``     1         ``kappa >= 0`` (``1/(E A)``)           1/N
+``hole_clearance``       1         ``cl >= 0``                            m
+``frame_misalignment``   3         ``alpha, fx, fy``                      rad, m, m
+``tip_offset``           2         ``tx, ty``                             m
+``backlash``             n         ``b_1..b_n >= 0`` (half-widths)        m
+``clearance_width``      1         ``dw`` (``w = 0.01 + dw > 0``)         rad
+=======================  ========  =====================================  ==========
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .kinematics import (
+    SimpleRobot,
+    _batch,
+    _batched_solve,
+    _geometry,
+    _lm,
+    fk,
+    hole_height_error,
+    solve_cables_closed_form,
+    tensions,
+    upper_cable_lengths,
+)
+
+__all__ = [
+    "PLANT_EFFECTS",
+    "CLEARANCE_WIDTH_0",
+    "plant_size",
+    "plant_layout",
+    "plant_params",
+    "plant_arm",
+    "clearance_shifts",
+    "arm_upper_lengths",
+    "reference_lengths",
+    "backlash_scan",
+    "realised_lengths",
+    "plant_tensions",
+    "settling_residual",
+    "settle",
+    "observe",
+    "plant_commands",
+    "plant_predict",
+]
+
+#: Base transition width of the hole clearance, rad (``w = 0.01 + dw``).
+CLEARANCE_WIDTH_0 = 0.01
+
+#: The effects of the flat parameter vector, in order: ``(name, size(n))``
+#: with ``size`` a function of the number of joints ``n``.
+PLANT_EFFECTS = [
+    ("actuation_scale", lambda n: 1),
+    ("cable_offset", lambda n: n),
+    ("hole_height", lambda n: n),
+    ("link_length", lambda n: n + 1),
+    ("cable_elasticity", lambda n: 1),
+    ("hole_clearance", lambda n: 1),
+    ("frame_misalignment", lambda n: 3),
+    ("tip_offset", lambda n: 2),
+    ("backlash", lambda n: n),
+    ("clearance_width", lambda n: 1),
+]
+
+
+def plant_size(n: int) -> int:
+    """Length of the flat parameter vector for ``n`` joints (``4 n + 10``)."""
+    return sum(size(n) for _, size in PLANT_EFFECTS)
+
+
+def plant_layout(n: int) -> dict:
+    """``{effect name: slice}`` into the flat parameter vector, in table order."""
+    out, start = {}, 0
+    for name, size in PLANT_EFFECTS:
+        k = size(n)
+        out[name] = slice(start, start + k)
+        start += k
+    return out
+
+
+def plant_params(p, n: int) -> dict:
+    """Split and check the flat vector ``p`` (``(4n+10,)``, SI) into named arrays.
+
+    Keys: ``s`` (float), ``o (n,)`` m, ``dh (n,)`` m, ``dl (n+1,)`` m, ``kappa``
+    1/N, ``cl`` m, ``alpha`` rad, ``f (2,)`` m, ``t (2,)`` m, ``b (n,)`` m,
+    ``w`` rad (``0.01 + dw``).  Raises ``ValueError`` on a wrong size or when
+    ``kappa < 0``, ``cl < 0``, some ``b_i < 0`` or ``w <= 0``.
+    """
+    p = np.asarray(p, dtype=float).reshape(-1)
+    if p.size != plant_size(n):
+        raise ValueError(f"plant parameters must have {plant_size(n)} entries for n = {n}, got {p.size}")
+    lay = plant_layout(n)
+    fm = p[lay["frame_misalignment"]]
+    q = dict(
+        s=float(p[lay["actuation_scale"]][0]),
+        o=p[lay["cable_offset"]].copy(),
+        dh=p[lay["hole_height"]].copy(),
+        dl=p[lay["link_length"]].copy(),
+        kappa=float(p[lay["cable_elasticity"]][0]),
+        cl=float(p[lay["hole_clearance"]][0]),
+        alpha=float(fm[0]),
+        f=fm[1:3].copy(),
+        t=p[lay["tip_offset"]].copy(),
+        b=p[lay["backlash"]].copy(),
+        w=CLEARANCE_WIDTH_0 + float(p[lay["clearance_width"]][0]),
+    )
+    if not q["kappa"] >= 0.0:
+        raise ValueError(f"cable_elasticity kappa must be >= 0, got {q['kappa']}")
+    if not q["cl"] >= 0.0:
+        raise ValueError(f"hole_clearance cl must be >= 0, got {q['cl']}")
+    if not np.all(q["b"] >= 0.0):
+        raise ValueError(f"backlash half-widths must be >= 0, got {q['b']}")
+    if not q["w"] > 0.0:
+        raise ValueError(f"clearance width w = 0.01 + dw must be > 0, got {q['w']}")
+    return q
+
+
+# --------------------------------------------------------------------------
+# The arm
+# --------------------------------------------------------------------------
+def _robot_gravity(robot) -> np.ndarray:
+    g = getattr(robot, "gravity", None)
+    return np.zeros(2) if g is None else np.asarray(g, dtype=float).reshape(2)
+
+
+def _robot_routing(robot) -> float:
+    r = getattr(robot, "routing_length", None)
+    return 0.0 if r is None else float(r)
+
+
+def plant_arm(robot, p) -> SimpleRobot:
+    """The plant's arm: ``robot`` with the hole-height and link-length errors.
+
+    Every hole of pair ``i`` moves by ``dh_i`` (upper ``y += dh_i``, lower
+    ``y -= dh_i``, on every face the pair crosses, the base disk's face ``b``
+    included); ``link_before[1] += dl_0`` and ``link_after[i] += dl_i``.
+    ``mass``, ``lower_tension``, ``gravity`` (default ``[0, 0]``) and
+    ``routing_length`` (default 0) are carried over.  Returns a
+    :class:`SimpleRobot`.
+    """
+    g = _geometry(robot)
+    q = plant_params(p, g.n)
+    lb = g.lb.copy()
+    lb[0] += q["dl"][0]
+    la = g.la + q["dl"][1:]
+    holes = hole_height_error(robot, q["dh"])
+    arm = SimpleRobot.like(robot, holes)
+    arm.link_before = lb
+    arm.link_after = la
+    arm.gravity = _robot_gravity(robot)
+    arm.routing_length = _robot_routing(robot)
+    return arm
+
+
+def clearance_shifts(theta, cl: float, w: float) -> np.ndarray:
+    """Hole shifts ``d_k = cl tanh(theta_k / w)`` (m), ``(N, n)``; ``theta`` rad."""
+    return cl * np.tanh(np.asarray(theta, dtype=float) / w)
+
+
+def _arm_upper_lengths(arm, theta: np.ndarray, cl: float, w: float) -> np.ndarray:
+    """Upper-cable lengths of ``arm`` (already perturbed) with hole clearance."""
+    g = _geometry(arm)
+    n, N = g.n, theta.shape[0]
+    H = g.holes[0::2]  # (n cables, n+1 disks, 2 faces, 2) upper holes
+    d = clearance_shifts(theta, cl, w)  # (N, n): shift at joint k
+    # index grid: cable ci (pair ci+1), segment kk (joint kk+1)
+    ci = np.arange(n)[:, None]
+    kk = np.arange(n)[None, :]
+    mask = kk <= ci  # (n, n)
+    # d_{k+1} of the cable, if it crosses joint k+1 (kk < ci), else 0
+    d_pad = np.concatenate([d, np.zeros((N, 1))], axis=1)  # (N, n+1)
+    d_k = np.broadcast_to(d[:, None, :], (N, n, n))
+    d_next = np.where((kk < ci)[None], d_pad[:, None, 1:], 0.0)  # (N, n, n)
+
+    p = H[:, :n, 1, :]  # (n, n, 2) face b of disk k-1
+    q = H[:, 1:, 0, :]  # face a of disk k
+    b = H[:, 1:, 1, :]  # face b of disk k
+    px, py = p[None, ..., 0], p[None, ..., 1] + d_k
+    qx, qy = q[None, ..., 0], q[None, ..., 1] + d_k
+    bx, by = b[None, ..., 0], b[None, ..., 1] + d_next
+    # A_k = (lb_k, 0) + Rot(theta_k) (q' + (la_k, 0)), frame O_{k-1,b}
+    ux = qx + g.la[None, None, :]
+    uy = qy
+    c, s = np.cos(theta)[:, None, :], np.sin(theta)[:, None, :]
+    ax = g.lb[None, None, :] + c * ux - s * uy
+    ay = s * ux + c * uy
+    seg = np.hypot(ax - px, ay - py)
+    # traversal of disk k, frame O_{k,a}
+    tr = np.hypot(g.t[None, None, :] + bx - qx, by - qy)
+    return np.where(mask[None], seg + tr, 0.0).sum(axis=2)
+
+
+def arm_upper_lengths(robot, p, theta) -> np.ndarray:
+    """Geometric upper-cable lengths of the plant's arm with hole clearance, m, ``(N, n)``.
+
+    ``theta``: rad, ``(N, n)``.  Joint ``k`` shifts both holes beside it (face
+    ``b`` of disk ``k-1``, face ``a`` of disk ``k``) by
+    ``d_k = cl tanh(theta_k / w)`` along their local ``y``;
+    ``L_arm,i = sum_{k<=i} |A_k - p'| + |t_k|`` with the traversal of disk ``k``
+    ``t_k = (thickness_k + b_x - q'_x, b_y + d_{k+1} - q'_y)``, ``d_{k+1} = 0``
+    for ``k = i`` (the anchor hole does not move).  With ``cl = 0`` these are
+    the nominal (Eq. 4-5) upper lengths of :func:`plant_arm`.
+    """
+    arm = plant_arm(robot, p)
+    q = plant_params(p, arm.n)
+    theta = _batch(theta, arm.n, "theta")
+    return _arm_upper_lengths(arm, theta, q["cl"], q["w"])
+
+
+# --------------------------------------------------------------------------
+# Commands, backlash, actuation
+# --------------------------------------------------------------------------
+def reference_lengths(robot) -> np.ndarray:
+    """``L_ref (n,)`` m: straight-pose upper lengths of the *nominal* robot."""
+    return upper_cable_lengths(robot, np.zeros((1, int(robot.n))))[0]
+
+
+def backlash_scan(robot, p, commands, start=None) -> np.ndarray:
+    """Lost motion per upper cable over a command sequence.
+
+    ``commands``: ``(R, n)`` m, in execution order.  The state ``r`` starts at
+    ``start`` (default ``L_ref``, the nominal straight pose).  For each command
+    ``c``, per cable: ``c - r > b`` -> ``r = c - b``; ``c - r < -b`` ->
+    ``r = c + b``; otherwise unchanged.  Returns the delivered lengths
+    ``r (R, n)`` m, one row per command (``b = 0``: ``r = c``).
+    """
+    n = int(robot.n)
+    b = plant_params(p, n)["b"]
+    commands = _batch(commands, n, "commands")
+    r = reference_lengths(robot).copy() if start is None else np.array(start, dtype=float).reshape(n)
+    out = np.empty_like(commands)
+    for j in range(commands.shape[0]):
+        c = commands[j]
+        r = np.where(c - r > b, c - b, np.where(c - r < -b, c + b, r))
+        out[j] = r
+    return out
+
+
+def realised_lengths(robot, p, r) -> np.ndarray:
+    """Realised (rest) upper lengths ``L = L_ref + (1 + s)(r - L_ref) + o``, m, ``(R, n)``.
+
+    ``r``: delivered lengths ``(R, n)`` m (:func:`backlash_scan`).
+    """
+    n = int(robot.n)
+    q = plant_params(p, n)
+    r = _batch(r, n, "r")
+    L_ref = reference_lengths(robot)
+    return L_ref + (1.0 + q["s"]) * (r - L_ref) + q["o"]
+
+
+# --------------------------------------------------------------------------
+# Settling
+# --------------------------------------------------------------------------
+def plant_tensions(robot, p, theta) -> np.ndarray:
+    """Upper tensions ``(N, n)`` N of the statics of the plant's arm at ``theta``.
+
+    Lower tensions ``robot.lower_tension``, gravity ``robot.gravity`` (default
+    ``[0, 0]``) on ``robot.mass``, no tip wrench; the arm is
+    :func:`plant_arm` *without* the clearance shifts.
+    """
+    arm = plant_arm(robot, p)
+    theta = _batch(theta, arm.n, "theta")
+    gravity = arm.gravity
+    if np.any(gravity != 0.0):
+        return tensions(arm, theta, lower=robot.lower_tension, gravity=gravity, mass=robot.mass)
+    return tensions(arm, theta, lower=robot.lower_tension)
+
+
+def _settling_F(robot, arm, q, L, theta, lower):
+    """``F = L_arm(theta) - (L + L_route)(1 + kappa T(theta)) + L_route`` (m)."""
+    La = _arm_upper_lengths(arm, theta, q["cl"], q["w"])
+    if q["kappa"] == 0.0:
+        return La - L
+    Lr = arm.routing_length
+    g = arm.gravity
+    if np.any(g != 0.0):
+        T = tensions(arm, theta, lower=lower, gravity=g, mass=robot.mass)
+    else:
+        T = tensions(arm, theta, lower=lower)
+    return La - (L + Lr) * (1.0 + q["kappa"] * T) + Lr
+
+
+def settling_residual(robot, p, realised, theta) -> np.ndarray:
+    """``F(theta) = L_arm(theta) - (L + L_route)(1 + kappa T(theta)) + L_route``, m, ``(N, n)``.
+
+    ``realised``: ``L (N, n)`` m; ``theta (N, n)`` rad.  Zero at the settled
+    configuration.  With ``kappa = 0`` it is ``L_arm(theta) - L`` (the
+    tensions are not evaluated).
+    """
+    arm = plant_arm(robot, p)
+    q = plant_params(p, arm.n)
+    L = _batch(realised, arm.n, "realised")
+    theta = _batch(theta, arm.n, "theta")
+    lower = None if q["kappa"] == 0.0 else np.broadcast_to(
+        np.asarray(robot.lower_tension, dtype=float), L.shape)
+    return _settling_F(robot, arm, q, L, theta, lower)
+
+
+def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6):
+    """Joint angles at which the plant's arm settles, per row.
+
+    Solves ``L_arm,i(theta) = (L_i + L_route)(1 + kappa T_i(theta)) - L_route``
+    (``realised`` = ``L (N, n)`` m, ``theta_seed (N, n)`` rad = ``theta_cmd``).
+    First the rigid closed-form cable solve of the plant's arm (``L_arm = L``
+    without clearance), branch nearest the seed; with ``kappa = 0`` and
+    ``cl = 0`` that is the answer.  Otherwise damped Newton (the shared LM,
+    ``delta = (J^T J + lambda I)^-1 J^T r``, ``r = -F``, tolerance ``tol`` m)
+    from the rigid answer (from the seed where the rigid solve has no real
+    branch), ``J = dF/dtheta`` by central differences of step ``fd_step`` rad.
+
+    Returns ``(theta (N, n) rad, converged (N,) bool)``.
+    """
+    arm = plant_arm(robot, p)
+    n = arm.n
+    q = plant_params(p, n)
+    L = _batch(realised, n, "realised")
+    seed = np.array(_batch(theta_seed, n, "theta_seed"), dtype=float)
+    if seed.shape != L.shape:
+        raise ValueError(f"theta_seed must have shape {L.shape}, got {seed.shape}")
+
+    rigid = solve_cables_closed_form(arm, L, seed=seed)
+    if q["kappa"] == 0.0 and q["cl"] == 0.0:
+        return rigid["theta"], rigid["converged"]
+
+    theta = np.where(rigid["converged"][:, None], rigid["theta"], seed)
+    lower = None if q["kappa"] == 0.0 else np.broadcast_to(
+        np.asarray(robot.lower_tension, dtype=float), L.shape)
+
+    def F(th, idx):
+        return _settling_F(robot, arm, q, L[idx], th, None if lower is None else lower[idx])
+
+    def residual(th, idx):
+        return -F(th, idx)
+
+    def step(th, r, lam, idx):
+        J = np.empty((th.shape[0], n, n))
+        for k in range(n):
+            e = np.zeros(n)
+            e[k] = fd_step
+            J[:, :, k] = (F(th + e, idx) - F(th - e, idx)) / (2.0 * fd_step)
+        Jt = np.swapaxes(J, 1, 2)
+        A = Jt @ J + lam[:, None, None] * np.eye(n)
+        return _batched_solve(A, (Jt @ r[..., None])[..., 0])
+
+    with np.errstate(all="ignore"):
+        sol = _lm(residual, step, theta, tol, max_iter)
+    return sol["theta"], sol["converged"]
+
+
+# --------------------------------------------------------------------------
+# Observation
+# --------------------------------------------------------------------------
+def observe(robot, p, theta) -> np.ndarray:
+    """What the instrument sees at the settled ``theta (N, n)`` rad: ``(N, 3)``.
+
+    ``(x, y, phi)`` = Eq. 1-3 on the plant's arm; ``tip = (x, y) + Rot(phi)(tx, ty)``;
+    ``seen = Rot(alpha) tip + (fx, fy)`` (m) and ``phi_seen = phi + alpha`` (rad).
+    """
+    arm = plant_arm(robot, p)
+    q = plant_params(p, arm.n)
+    S = fk(arm, _batch(theta, arm.n, "theta"))
+    phi = S[:, 2]
+    tx, ty = q["t"]
+    tip_x = S[:, 0] + np.cos(phi) * tx - np.sin(phi) * ty
+    tip_y = S[:, 1] + np.sin(phi) * tx + np.cos(phi) * ty
+    ca, sa = np.cos(q["alpha"]), np.sin(q["alpha"])
+    seen_x = ca * tip_x - sa * tip_y + q["f"][0]
+    seen_y = sa * tip_x + ca * tip_y + q["f"][1]
+    return np.stack([seen_x, seen_y, phi + q["alpha"]], axis=1)
+
+
+# --------------------------------------------------------------------------
+# Whole pipeline
+# --------------------------------------------------------------------------
+_KINDS = ("absolute", "displacement", "unmeasured")
+
+
+def plant_commands(robot, theta_cmd, dL, kind):
+    """The command sequence of a data set (rows already in execution order).
+
+    ``C = L_upper,nom(theta_cmd)``; absolute and unmeasured rows give one
+    command ``C + dL``, displacement rows two, ``C`` then ``C + dL``.  Returns
+    ``commands (R, n)`` m, ``row (R,)`` (the data row of each command) and
+    ``seeds (R, n)`` rad (that row's ``theta_cmd``).
+    """
+    n = int(robot.n)
+    theta_cmd = _batch(theta_cmd, n, "theta_cmd")
+    dL = _batch(dL, n, "dL")
+    kind = list(kind)
+    N = theta_cmd.shape[0]
+    if dL.shape[0] != N or len(kind) != N:
+        raise ValueError(f"theta_cmd, dL and kind must have the same number of rows, "
+                         f"got {N}, {dL.shape[0]}, {len(kind)}")
+    bad = [k for k in kind if k not in _KINDS]
+    if bad:
+        raise ValueError(f"kind must be one of {_KINDS}, got {bad[0]!r}")
+    C = upper_cable_lengths(robot, theta_cmd)
+    commands, rows = [], []
+    for i, k in enumerate(kind):
+        if k == "displacement":
+            commands.append(C[i])
+            rows.append(i)
+        commands.append(C[i] + dL[i])
+        rows.append(i)
+    commands = np.array(commands).reshape(-1, n)
+    rows = np.array(rows, dtype=np.int64)
+    return commands, rows, theta_cmd[rows]
+
+
+def plant_predict(robot, p, theta_cmd, dL, kind):
+    """Observations of a data set under the plant ``p``.
+
+    ``theta_cmd (N, n)`` rad, ``dL (N, n)`` m, ``kind``: length-``N`` sequence
+    of ``"absolute" | "displacement" | "unmeasured"``, rows in execution order.
+    All commands form one sequence (:func:`plant_commands`); backlash runs over
+    the whole of it from the straight pose; each command settles from its
+    row's ``theta_cmd``.  Returns ``(obs (N, 3), converged (N,))``: ``obs`` is
+    ``seen`` (absolute), ``seen(C + dL) - seen(C)`` (displacement, both
+    components and ``phi``), NaN (unmeasured, and rows that did not settle); ``converged`` is True when every
+    command of the row settled (also for unmeasured rows).
+    """
+    commands, rows, seeds = plant_commands(robot, theta_cmd, dL, kind)
+    kind = list(kind)
+    N = len(kind)
+    r = backlash_scan(robot, p, commands)
+    L = realised_lengths(robot, p, r)
+    theta, ok = settle(robot, p, L, seeds)
+    seen = observe(robot, p, theta)
+
+    obs = np.full((N, 3), np.nan)
+    converged = np.ones(N, dtype=bool)
+    np.logical_and.at(converged, rows, ok)
+    j = 0
+    for i, k in enumerate(kind):
+        if k == "displacement":
+            obs[i] = seen[j + 1] - seen[j]
+            j += 2
+        else:
+            if k == "absolute":
+                obs[i] = seen[j]
+            j += 1
+    obs[~converged] = np.nan
+    return obs, converged

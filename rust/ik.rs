@@ -1,0 +1,173 @@
+//! Pose IK: the joint angles that put the end frame on a target, by the
+//! shared damped least squares ([`crate::lm`], minimal-norm step), with a
+//! task mask over the robot kind's task-space coordinates (planar: `x`, `y`,
+//! `phi`): the full pose, the position only, or any weights.
+
+use crate::kinematics::fk_jacobian;
+use crate::lm::{self, Lm, Problem, Step, Workspace};
+use crate::robot::Robot;
+use crate::solve::{at_limit, clamp_to_limits, SolveOptions, Status};
+
+/// Task-space coordinates of a planar arm: `x`, `y` (m), `phi` (rad).
+pub const PLANAR_TASK: usize = 3;
+
+/// Which task-space coordinates the IK matches, as weights on their residuals
+/// (`0` leaves a coordinate free). Convergence is judged on the weighted residual.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TaskMask {
+    pub weights: [f64; PLANAR_TASK],
+}
+
+impl TaskMask {
+    /// Position and attitude.
+    pub const POSE: TaskMask = TaskMask {
+        weights: [1.0, 1.0, 1.0],
+    };
+    /// Position only; the attitude is free.
+    pub const POSITION: TaskMask = TaskMask {
+        weights: [1.0, 1.0, 0.0],
+    };
+
+    /// Indices of the matched coordinates.
+    fn active(&self) -> ([usize; PLANAR_TASK], usize) {
+        let mut idx = [0; PLANAR_TASK];
+        let mut m = 0;
+        for (i, w) in self.weights.iter().enumerate() {
+            if *w != 0.0 {
+                idx[m] = i;
+                m += 1;
+            }
+        }
+        (idx, m)
+    }
+}
+
+/// The pose-IK problem: `r_i = w_i (fk_i(theta) - target_i)` over the active coordinates.
+struct PoseProblem<'a> {
+    robot: &'a Robot,
+    target: [f64; 3],
+    mask: TaskMask,
+    active: [usize; PLANAR_TASK],
+    m: usize,
+    jac: &'a mut [[f64; 3]],
+    enforce_limits: bool,
+}
+
+impl Problem for PoseProblem<'_> {
+    fn dims(&self) -> (usize, usize) {
+        (self.m, self.robot.n())
+    }
+
+    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+        let n = x.len();
+        let p = fk_jacobian(self.robot, x, self.jac);
+        for (row, &i) in self.active[..self.m].iter().enumerate() {
+            r[row] = self.mask.weights[i] * (p[i] - self.target[i]);
+        }
+        if let Some(j) = jac {
+            for (row, &i) in self.active[..self.m].iter().enumerate() {
+                for k in 0..n {
+                    j[row * n + k] = self.mask.weights[i] * self.jac[k][i];
+                }
+            }
+        }
+        true
+    }
+
+    fn project(&self, x: &mut [f64]) {
+        if self.enforce_limits {
+            clamp_to_limits(self.robot, x);
+        }
+    }
+
+    fn on_bound(&self, x: &[f64]) -> bool {
+        self.enforce_limits && at_limit(self.robot, x)
+    }
+}
+
+/// A pose-IK solver with its buffers, reused across many solves.
+pub struct IkSolver<'a> {
+    robot: &'a Robot,
+    pub opts: SolveOptions,
+    pub mask: TaskMask,
+    lm: Lm,
+    ws: Workspace,
+    jac: Vec<[f64; 3]>,
+}
+
+impl<'a> IkSolver<'a> {
+    pub fn new(robot: &'a Robot, mask: TaskMask, opts: SolveOptions) -> Self {
+        IkSolver {
+            robot,
+            opts,
+            mask,
+            lm: Lm::equations(Step::MinNorm, opts.tol, opts.max_iter),
+            ws: Workspace::default(),
+            jac: vec![[0.0; 3]; robot.n()],
+        }
+    }
+
+    /// `theta` holds the seed on entry and the answer on exit.
+    pub fn solve(&mut self, target: &[f64; 3], theta: &mut [f64]) -> Status {
+        let (active, m) = self.mask.active();
+        let mut p = PoseProblem {
+            robot: self.robot,
+            target: *target,
+            mask: self.mask,
+            active,
+            m,
+            jac: &mut self.jac,
+            enforce_limits: self.opts.enforce_limits,
+        };
+        lm::solve(&mut p, theta, &self.lm, &mut self.ws)
+    }
+}
+
+/// Pose IK of one target (full pose): `theta` holds the seed on entry and the
+/// answer on exit.
+pub fn ik(robot: &Robot, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions) -> Status {
+    IkSolver::new(robot, TaskMask::POSE, *opts).solve(pose, theta)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::ArmGeometry;
+    use crate::lm::Reason;
+
+    #[test]
+    fn ik_reaches_a_forward_pose() {
+        let r = Robot::paper();
+        let want = [0.2, -0.3, 0.45];
+        let pose = r.fk(&want);
+        let mut th = want.map(|t| t + 0.05);
+        let st = ik(&r, &pose, &mut th, &SolveOptions::default());
+        assert!(st.converged, "{st:?}");
+        for k in 0..3 {
+            assert!((th[k] - want[k]).abs() < 1e-10);
+        }
+    }
+
+    #[test]
+    fn ik_flags_an_unreachable_pose() {
+        let r = Robot::paper();
+        let mut th = [0.0; 3];
+        let st = ik(&r, &[0.3, 0.0, 0.0], &mut th, &SolveOptions::default());
+        assert!(!st.converged);
+        assert!(st.residual > 0.07 - 1e-9, "{st:?}");
+        assert_ne!(st.reason, Reason::Converged);
+    }
+
+    #[test]
+    fn position_mask_leaves_the_attitude_free() {
+        let r = Robot::paper();
+        let want = [0.3, -0.2, 0.4];
+        let p = r.fk(&want);
+        let mut th = [0.0, -1e-3, 0.0];
+        let mut s = IkSolver::new(&r, TaskMask::POSITION, SolveOptions::default());
+        let st = s.solve(&[p[0], p[1], 123.0], &mut th);
+        assert!(st.converged, "{st:?}");
+        let q = r.fk(&th);
+        assert!((q[0] - p[0]).abs() < 1e-12 && (q[1] - p[1]).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,641 @@
+//! The one damped least-squares solver of cdsm (Levenberg–Marquardt), with a
+//! pluggable step. The pose IK, the cable solves, the elastic and plant
+//! settles, the diagnosis fit and compensation all run it.
+//!
+//! Residual `r(x)` (m), Jacobian `J = dr/dx`. A trial `x + delta` is accepted
+//! when it lowers `|r|^2`; then `lambda <- max(lambda / 10, 1e-12)`;
+//! otherwise `lambda <- 10 lambda` (from an undamped start: `1e-3`)
+//! and the step is retried. Equations stop converged when `max |r| <= tol`;
+//! least-squares problems (`min_decrease > 0`) also stop converged when an
+//! accepted step lowers the cost by less than that fraction, or when no step
+//! lowers it at all (the damping passes 1e12). The step:
+//!
+//! * [`Step::Triangular`]: square lower-triangular `J` (the cable solves):
+//!   forward substitution `J delta = -r` (Gauss–Newton) while `lambda <= 1e-12`
+//!   (it may start at 0), the damped normal equations otherwise;
+//! * [`Step::Normal`]: `(J^T J + lambda D) delta = -J^T r` by Cholesky;
+//! * [`Step::MinNorm`]: `delta = -J^T (J J^T + lambda I)^-1 r` (more unknowns
+//!   than residuals: the pose IK of redundant arms);
+//! * [`Step::Qr`]: the damped least squares `[J; sqrt(lambda D)] delta = -[r; 0]`
+//!   by Householder QR (ill-conditioned fits).
+//!
+//! `D` is the identity ([`Damping::Levenberg`]) or `diag(J^T J)`
+//! ([`Damping::Marquardt`]). The solver allocates nothing per solve once its
+//! [`Workspace`] has seen the problem's size (Cholesky and LU of more than 6
+//! unknowns and the QR step allocate in faer).
+
+use faer::linalg::solvers::{Solve, SolveLstsq};
+use faer::Mat;
+
+/// The damped step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Step {
+    Triangular,
+    Normal,
+    MinNorm,
+    Qr,
+}
+
+/// The damping matrix `D` of the normal-equation and QR steps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Damping {
+    Levenberg,
+    Marquardt,
+}
+
+/// Why a solve ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Reason {
+    Converged = 0,
+    /// `max_iter` trial steps without converging.
+    IterationLimit = 1,
+    /// The step could not be computed (singular Jacobian) or went nowhere.
+    Singular = 2,
+    /// A stationary point with a non-zero residual: the target is out of reach.
+    Unreachable = 3,
+    /// Stuck on the joint-limit box while limits are enforced.
+    OutsideLimits = 4,
+}
+
+impl Reason {
+    /// The names, in code order (`Reason as u8` indexes them).
+    pub const NAMES: [&'static str; 5] = [
+        "converged",
+        "iteration limit",
+        "singular",
+        "unreachable",
+        "outside limits",
+    ];
+}
+
+/// The solver's settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lm {
+    pub step: Step,
+    pub damping: Damping,
+    /// Converged when `max |r| <= tol`.
+    pub tol: f64,
+    /// Maximum number of trial steps.
+    pub max_iter: u32,
+    /// Initial damping (0: start undamped).
+    pub lambda0: f64,
+    /// Least squares: converged when an accepted step lowers the cost by less
+    /// than this fraction (0: equations, converged only at `tol`).
+    pub min_decrease: f64,
+}
+
+/// The smallest damping after an accepted step; the triangular step treats
+/// it as none (Gauss–Newton).
+pub const LAMBDA_MIN: f64 = 1e-12;
+/// Damping after a rejected undamped step.
+pub const LAMBDA_RESTART: f64 = 1e-3;
+/// Damping beyond which the solve gives up.
+pub const LAMBDA_MAX: f64 = 1e12;
+
+impl Lm {
+    /// Equations `r(x) = 0` with the given step; `lambda0 = 1e-3`.
+    pub fn equations(step: Step, tol: f64, max_iter: u32) -> Lm {
+        Lm {
+            step,
+            damping: Damping::Levenberg,
+            tol,
+            max_iter,
+            lambda0: LAMBDA_RESTART,
+            min_decrease: 0.0,
+        }
+    }
+}
+
+/// A problem the solver can run: `r(x)` and `J(x)` (row-major `m x n`).
+pub trait Problem {
+    /// `(m, n)`: residuals and unknowns.
+    fn dims(&self) -> (usize, usize);
+    /// Writes `r(x)` and, when asked, `J(x)`; false when the model cannot be
+    /// evaluated at `x` (the trial is then rejected).
+    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool;
+    /// Whether a trial's Jacobian comes with its residual (cheap Jacobians:
+    /// the default). Otherwise the solver evaluates trials without it and
+    /// asks [`Problem::jacobian`] at accepted points only.
+    fn jacobian_with_residual(&self) -> bool {
+        true
+    }
+    /// `J` at `x`, the point of the last successful [`Problem::eval`].
+    fn jacobian(&mut self, x: &[f64], jac: &mut [f64]) -> bool {
+        let (m, _) = self.dims();
+        let mut r = vec![0.0; m];
+        self.eval(x, &mut r, Some(jac))
+    }
+    /// Moves a trial into the feasible set (bounds); by default none.
+    fn project(&self, _x: &mut [f64]) {}
+    /// Whether `x` sits on the boundary of the feasible set.
+    fn on_bound(&self, _x: &[f64]) -> bool {
+        false
+    }
+}
+
+/// Outcome of one solve (the answer is in the caller's `x`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Status {
+    pub converged: bool,
+    /// Trial steps taken.
+    pub iterations: u32,
+    /// `max |r|` at the answer.
+    pub residual: f64,
+    /// `|r|^2` at the answer.
+    pub cost: f64,
+    pub reason: Reason,
+}
+
+/// Reusable buffers of the solver.
+#[derive(Debug, Default, Clone)]
+pub struct Workspace {
+    r: Vec<f64>,
+    r_trial: Vec<f64>,
+    jac: Vec<f64>,
+    jac_trial: Vec<f64>,
+    x_trial: Vec<f64>,
+    delta: Vec<f64>,
+    a: Vec<f64>,
+    g: Vec<f64>,
+}
+
+impl Workspace {
+    fn fit(&mut self, m: usize, n: usize) {
+        for (v, len) in [
+            (&mut self.r, m),
+            (&mut self.r_trial, m),
+            (&mut self.jac, m * n),
+            (&mut self.jac_trial, m * n),
+            (&mut self.x_trial, n),
+            (&mut self.delta, n),
+            (&mut self.a, m.max(n) * m.max(n)),
+            (&mut self.g, m.max(n)),
+        ] {
+            if v.len() != len {
+                v.resize(len, 0.0);
+            }
+        }
+    }
+
+    /// The residual at the answer of the last solve.
+    pub fn residual(&self) -> &[f64] {
+        &self.r
+    }
+
+    /// The Jacobian at the answer of the last solve (row-major `m x n`).
+    pub fn jacobian(&self) -> &[f64] {
+        &self.jac
+    }
+}
+
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+fn sum_sq(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum()
+}
+
+/// Runs the solver on `problem` from `x` (the answer on exit).
+pub fn solve<P: Problem + ?Sized>(
+    problem: &mut P,
+    x: &mut [f64],
+    lm: &Lm,
+    ws: &mut Workspace,
+) -> Status {
+    let (m, n) = problem.dims();
+    ws.fit(m, n);
+    let done = |converged: bool, iterations: u32, r: &[f64], reason: Reason| Status {
+        converged,
+        iterations,
+        residual: max_abs(r),
+        cost: sum_sq(r),
+        reason,
+    };
+    if !problem.eval(x, &mut ws.r, Some(&mut ws.jac)) {
+        ws.r.fill(f64::NAN);
+        return done(false, 0, &ws.r, Reason::Singular);
+    }
+    let mut cost = sum_sq(&ws.r);
+    let mut lambda = lm.lambda0;
+    let mut iterations = 0;
+    loop {
+        let res = max_abs(&ws.r);
+        if res <= lm.tol {
+            return done(true, iterations, &ws.r, Reason::Converged);
+        }
+        if !res.is_finite() {
+            return done(false, iterations, &ws.r, Reason::Singular);
+        }
+        if iterations >= lm.max_iter {
+            let reason = if stationary(&ws.jac, &ws.r, m, n) {
+                Reason::Unreachable
+            } else {
+                Reason::IterationLimit
+            };
+            return done(false, iterations, &ws.r, reason);
+        }
+        if lambda > LAMBDA_MAX {
+            if lm.min_decrease > 0.0 {
+                // least squares: no step lowers the cost any more, a minimum
+                return done(true, iterations, &ws.r, Reason::Converged);
+            }
+            let reason = if problem.on_bound(x) {
+                Reason::OutsideLimits
+            } else if stationary(&ws.jac, &ws.r, m, n) {
+                Reason::Unreachable
+            } else {
+                Reason::Singular
+            };
+            return done(false, iterations, &ws.r, reason);
+        }
+        iterations += 1;
+        let ok = step(
+            lm,
+            &ws.jac,
+            &ws.r,
+            m,
+            n,
+            lambda,
+            &mut ws.a,
+            &mut ws.g,
+            &mut ws.delta,
+        );
+        if !ok || !ws.delta.iter().all(|d| d.is_finite()) {
+            lambda = raise(lambda);
+            continue;
+        }
+        for ((t, xk), d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.delta) {
+            *t = xk + d;
+        }
+        problem.project(&mut ws.x_trial);
+        let joint = problem.jacobian_with_residual();
+        let evaluated = if joint {
+            problem.eval(&ws.x_trial, &mut ws.r_trial, Some(&mut ws.jac_trial))
+        } else {
+            problem.eval(&ws.x_trial, &mut ws.r_trial, None)
+        };
+        let c = if evaluated {
+            sum_sq(&ws.r_trial)
+        } else {
+            f64::INFINITY
+        };
+        let accept = c < cost && (joint || problem.jacobian(&ws.x_trial, &mut ws.jac_trial));
+        if accept {
+            x.copy_from_slice(&ws.x_trial);
+            std::mem::swap(&mut ws.r, &mut ws.r_trial);
+            std::mem::swap(&mut ws.jac, &mut ws.jac_trial);
+            let small = lm.min_decrease > 0.0 && cost - c <= lm.min_decrease * cost;
+            cost = c;
+            if small {
+                return done(true, iterations, &ws.r, Reason::Converged);
+            }
+            lambda = (lambda / 10.0).max(LAMBDA_MIN);
+        } else {
+            lambda = raise(lambda);
+        }
+    }
+}
+
+#[inline]
+fn raise(lambda: f64) -> f64 {
+    if lambda == 0.0 {
+        LAMBDA_RESTART
+    } else {
+        lambda * 10.0
+    }
+}
+
+/// Whether `J^T r` vanishes relative to `|J| |r|` (a stationary point).
+fn stationary(jac: &[f64], r: &[f64], m: usize, n: usize) -> bool {
+    let jn = jac.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let rn = sum_sq(r).sqrt();
+    let mut g2 = 0.0;
+    for k in 0..n {
+        let gk: f64 = (0..m).map(|i| jac[i * n + k] * r[i]).sum();
+        g2 += gk * gk;
+    }
+    g2.sqrt() <= 1e-6 * jn * rn
+}
+
+/// The damped step into `delta`; false when it cannot be computed.
+#[allow(clippy::too_many_arguments)]
+fn step(
+    lm: &Lm,
+    jac: &[f64],
+    r: &[f64],
+    m: usize,
+    n: usize,
+    lambda: f64,
+    a: &mut [f64],
+    g: &mut [f64],
+    delta: &mut [f64],
+) -> bool {
+    match lm.step {
+        Step::Triangular if lambda <= LAMBDA_MIN && m == n => {
+            // forward substitution: J delta = -r, J lower triangular
+            for i in 0..n {
+                let mut acc = -r[i];
+                for k in 0..i {
+                    acc -= jac[i * n + k] * delta[k];
+                }
+                let d = jac[i * n + i];
+                if d == 0.0 || !d.is_finite() {
+                    return false;
+                }
+                delta[i] = acc / d;
+            }
+            true
+        }
+        Step::Triangular | Step::Normal => {
+            normal_equations(jac, r, m, n, lambda, lm.damping, a, g);
+            solve_spd(n, &a[..n * n], &g[..n], delta)
+        }
+        Step::MinNorm => {
+            // (lambda I + J J^T) y = -r, delta = J^T y; the damping goes in
+            // first and the columns' outer products are added in order
+            for i in 0..m {
+                for l in 0..m {
+                    let mut v = if i == l { lambda } else { 0.0 };
+                    for k in 0..n {
+                        v += jac[i * n + k] * jac[l * n + k];
+                    }
+                    a[i * m + l] = v;
+                }
+                g[i] = -r[i];
+            }
+            let mut y = [0.0; 8];
+            let mut yv;
+            let ys: &mut [f64] = if m <= 8 {
+                &mut y[..m]
+            } else {
+                yv = vec![0.0; m];
+                &mut yv
+            };
+            if !solve_general(m, &a[..m * m], &g[..m], ys) {
+                return false;
+            }
+            for (k, d) in delta.iter_mut().enumerate() {
+                *d = (0..m).map(|i| jac[i * n + k] * ys[i]).sum();
+            }
+            true
+        }
+        Step::Qr => qr_step(jac, r, m, n, lambda, lm.damping, delta),
+    }
+}
+
+/// `a = J^T J + lambda D` (n x n) and `g = -J^T r`.
+#[allow(clippy::too_many_arguments)]
+fn normal_equations(
+    jac: &[f64],
+    r: &[f64],
+    m: usize,
+    n: usize,
+    lambda: f64,
+    damping: Damping,
+    a: &mut [f64],
+    g: &mut [f64],
+) {
+    for k in 0..n {
+        for l in 0..=k {
+            let v: f64 = (0..m).map(|i| jac[i * n + k] * jac[i * n + l]).sum();
+            a[k * n + l] = v;
+            a[l * n + k] = v;
+        }
+        g[k] = -(0..m).map(|i| jac[i * n + k] * r[i]).sum::<f64>();
+    }
+    for k in 0..n {
+        let d = match damping {
+            Damping::Levenberg => 1.0,
+            Damping::Marquardt => a[k * n + k].max(1e-300),
+        };
+        a[k * n + k] += lambda * d;
+    }
+}
+
+/// The damped least-squares step by Householder QR (faer).
+fn qr_step(
+    jac: &[f64],
+    r: &[f64],
+    m: usize,
+    n: usize,
+    lambda: f64,
+    damping: Damping,
+    delta: &mut [f64],
+) -> bool {
+    let rows = m + n;
+    let diag = |k: usize| -> f64 {
+        match damping {
+            Damping::Levenberg => 1.0,
+            Damping::Marquardt => (0..m)
+                .map(|i| jac[i * n + k] * jac[i * n + k])
+                .sum::<f64>()
+                .max(1e-300),
+        }
+    };
+    let sq: Vec<f64> = (0..n).map(|k| (lambda * diag(k)).sqrt()).collect();
+    let a = Mat::<f64>::from_fn(rows, n, |i, k| {
+        if i < m {
+            jac[i * n + k]
+        } else if i - m == k {
+            sq[k]
+        } else {
+            0.0
+        }
+    });
+    let b = Mat::<f64>::from_fn(rows, 1, |i, _| if i < m { -r[i] } else { 0.0 });
+    let qr = a.qr();
+    let x = qr.solve_lstsq(&b);
+    for (k, d) in delta.iter_mut().enumerate() {
+        *d = x[(k, 0)];
+    }
+    delta.iter().all(|d| d.is_finite())
+}
+
+/// Solves the symmetric positive-definite `n x n` system `a x = b` (`a`
+/// row-major): nalgebra fixed-size Cholesky for n <= 6, faer beyond.
+/// Returns `false` if `a` is not positive definite.
+pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+    fn fixed<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+        let m = nalgebra::SMatrix::<f64, N, N>::from_row_slice(a);
+        let v = nalgebra::SVector::<f64, N>::from_column_slice(b);
+        match m.cholesky() {
+            Some(ch) => {
+                x.copy_from_slice(ch.solve(&v).as_slice());
+                true
+            }
+            None => false,
+        }
+    }
+    match n {
+        1 => fixed::<1>(a, b, x),
+        2 => fixed::<2>(a, b, x),
+        3 => fixed::<3>(a, b, x),
+        4 => fixed::<4>(a, b, x),
+        5 => fixed::<5>(a, b, x),
+        6 => fixed::<6>(a, b, x),
+        _ => {
+            let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
+            let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
+            match m.llt(faer::Side::Lower) {
+                Ok(ch) => {
+                    let sol = ch.solve(&rhs);
+                    for (i, xi) in x.iter_mut().enumerate() {
+                        *xi = sol[(i, 0)];
+                    }
+                    true
+                }
+                Err(_) => false,
+            }
+        }
+    }
+}
+
+/// Solves the general `n x n` system `a x = b` by LU (nalgebra for n <= 6,
+/// faer beyond); false when `a` is singular.
+pub fn solve_general(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+    macro_rules! fixed {
+        ($n:literal) => {{
+            let m = nalgebra::SMatrix::<f64, $n, $n>::from_row_slice(a);
+            let v = nalgebra::SVector::<f64, $n>::from_column_slice(b);
+            match m.lu().solve(&v) {
+                Some(s) => {
+                    x.copy_from_slice(s.as_slice());
+                    true
+                }
+                None => false,
+            }
+        }};
+    }
+    let ok = match n {
+        1 => fixed!(1),
+        2 => fixed!(2),
+        3 => fixed!(3),
+        4 => fixed!(4),
+        5 => fixed!(5),
+        6 => fixed!(6),
+        _ => {
+            let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
+            let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
+            let sol = m.partial_piv_lu().solve(&rhs);
+            for (i, xi) in x.iter_mut().enumerate() {
+                *xi = sol[(i, 0)];
+            }
+            true
+        }
+    };
+    ok && x.iter().all(|v| v.is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// r(x) = [x0^2 - 2, x0 x1 - 1]: lower triangular Jacobian.
+    struct Tri;
+    impl Problem for Tri {
+        fn dims(&self) -> (usize, usize) {
+            (2, 2)
+        }
+        fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+            r[0] = x[0] * x[0] - 2.0;
+            r[1] = x[0] * x[1] - 1.0;
+            if let Some(j) = jac {
+                j.copy_from_slice(&[2.0 * x[0], 0.0, x[1], x[0]]);
+            }
+            true
+        }
+    }
+
+    /// Fit y = a exp(b t) to exact data: a least-squares problem with zero residual.
+    struct Exp {
+        t: Vec<f64>,
+        y: Vec<f64>,
+    }
+    impl Problem for Exp {
+        fn dims(&self) -> (usize, usize) {
+            (self.t.len(), 2)
+        }
+        fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+            for (i, (t, y)) in self.t.iter().zip(&self.y).enumerate() {
+                r[i] = x[0] * (x[1] * t).exp() - y;
+            }
+            if let Some(j) = jac {
+                for (i, t) in self.t.iter().enumerate() {
+                    let e = (x[1] * t).exp();
+                    j[2 * i] = e;
+                    j[2 * i + 1] = x[0] * t * e;
+                }
+            }
+            true
+        }
+    }
+
+    #[test]
+    fn every_step_finds_the_root_or_minimum() {
+        let sqrt2 = 2f64.sqrt();
+        for (step, lambda0) in [(Step::Triangular, 0.0), (Step::Triangular, 1e-3)] {
+            let mut x = [1.0, 1.0];
+            let lm = Lm {
+                lambda0,
+                ..Lm::equations(step, 1e-14, 100)
+            };
+            let st = solve(&mut Tri, &mut x, &lm, &mut Workspace::default());
+            assert!(st.converged, "{step:?} {st:?}");
+            assert!((x[0] - sqrt2).abs() < 1e-13 && (x[1] - 1.0 / sqrt2).abs() < 1e-13);
+        }
+        let t: Vec<f64> = (0..20).map(|i| i as f64 * 0.1).collect();
+        let y: Vec<f64> = t.iter().map(|t| 1.5 * (-0.7 * t).exp()).collect();
+        for step in [Step::Normal, Step::Qr] {
+            for damping in [Damping::Levenberg, Damping::Marquardt] {
+                let mut x = [1.0, 0.0];
+                let lm = Lm {
+                    step,
+                    damping,
+                    tol: 1e-13,
+                    max_iter: 200,
+                    lambda0: 1e-3,
+                    min_decrease: 0.0,
+                };
+                let mut p = Exp {
+                    t: t.clone(),
+                    y: y.clone(),
+                };
+                let st = solve(&mut p, &mut x, &lm, &mut Workspace::default());
+                assert!(st.converged, "{step:?} {damping:?} {st:?}");
+                assert!((x[0] - 1.5).abs() < 1e-10 && (x[1] + 0.7).abs() < 1e-10);
+            }
+        }
+    }
+
+    /// x = 1 and x = -1 at once: no root; the best is x = 0 with |r| = 1.
+    struct NoRoot;
+    impl Problem for NoRoot {
+        fn dims(&self) -> (usize, usize) {
+            (2, 1)
+        }
+        fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+            r[0] = x[0] - 1.0;
+            r[1] = x[0] + 1.0;
+            if let Some(j) = jac {
+                j.copy_from_slice(&[1.0, 1.0]);
+            }
+            true
+        }
+    }
+
+    #[test]
+    fn an_unreachable_target_is_reported_as_such() {
+        let mut x = [0.3];
+        let lm = Lm::equations(Step::Normal, 1e-12, 100);
+        let st = solve(&mut NoRoot, &mut x, &lm, &mut Workspace::default());
+        assert!(!st.converged);
+        assert_eq!(st.reason, Reason::Unreachable, "{st:?}");
+        // the cost 2 + 2 x^2 stops falling in floating point once x^2 < 1e-16
+        assert!(
+            (st.residual - 1.0).abs() < 1e-7 && x[0].abs() < 1e-7,
+            "{x:?}"
+        );
+    }
+}

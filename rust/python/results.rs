@@ -1,0 +1,218 @@
+//! The named results that cross the boundary: one class per kind of result,
+//! its fields NumPy arrays (flat, row-major; the Python front reshapes them)
+//! or numbers. Built once from the core's result structs.
+
+use super::convert::vec1;
+use crate::accuracy::McStats;
+use crate::batch::BatchSolution;
+use crate::compensate::Compensation;
+use crate::fit::FitResult;
+use crate::plant::Predictions;
+use crate::sensitivity::Sensitivities;
+use crate::statics::ElasticSolution;
+use numpy::PyArray1;
+use pyo3::prelude::*;
+
+type A<T> = Py<PyArray1<T>>;
+
+fn arr<T: numpy::Element>(py: Python<'_>, v: Vec<T>) -> A<T> {
+    vec1(py, v).unbind()
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<SolveResult>()?;
+    m.add_class::<DeviationResult>()?;
+    m.add_class::<MonteCarloStats>()?;
+    m.add_class::<SensitivityResult>()?;
+    m.add_class::<ElasticResult>()?;
+    m.add_class::<PlantPrediction>()?;
+    m.add_class::<PlantFit>()?;
+    m.add_class::<CompensationResult>()?;
+    Ok(())
+}
+
+/// Solves of a batch: `theta (N*n)` rad, `converged`, `iterations`,
+/// `residual` (m or rad), `within_limits`, `reason` (codes of `REASONS`).
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct SolveResult {
+    pub theta: A<f64>,
+    pub converged: A<bool>,
+    pub iterations: A<u32>,
+    pub residual: A<f64>,
+    pub within_limits: A<bool>,
+    pub reason: A<u8>,
+}
+
+impl SolveResult {
+    pub fn new(py: Python<'_>, s: BatchSolution) -> SolveResult {
+        SolveResult {
+            theta: arr(py, s.theta),
+            converged: arr(py, s.converged),
+            iterations: arr(py, s.iterations),
+            residual: arr(py, s.residual),
+            within_limits: arr(py, s.within_limits),
+            reason: arr(py, s.reason),
+        }
+    }
+}
+
+/// Tip deviations `ds (N*3)` (m, m, rad) and the perturbed solves.
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct DeviationResult {
+    pub ds: A<f64>,
+    pub solution: Py<SolveResult>,
+}
+
+impl DeviationResult {
+    pub fn new(py: Python<'_>, ds: Vec<f64>, s: BatchSolution) -> PyResult<DeviationResult> {
+        Ok(DeviationResult {
+            ds: arr(py, ds),
+            solution: Py::new(py, SolveResult::new(py, s))?,
+        })
+    }
+}
+
+/// Per-configuration Monte-Carlo statistics (see `accuracy.rs`).
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct MonteCarloStats {
+    pub count: A<u64>,
+    pub failed: A<u64>,
+    pub sum: A<f64>,
+    pub sum_sq: A<f64>,
+    pub min: A<f64>,
+    pub max: A<f64>,
+    pub hist: A<u64>,
+    pub slack: A<u64>,
+}
+
+impl MonteCarloStats {
+    pub fn new(py: Python<'_>, s: McStats) -> MonteCarloStats {
+        MonteCarloStats {
+            count: arr(py, s.count),
+            failed: arr(py, s.failed),
+            sum: arr(py, s.sum),
+            sum_sq: arr(py, s.sum_sq),
+            min: arr(py, s.min),
+            max: arr(py, s.max),
+            hist: arr(py, s.hist),
+            slack: arr(py, s.slack),
+        }
+    }
+}
+
+/// Tip sensitivities: `cable (N*3*n)`, `pair (N*3*n)`, `holes (N*3*H)` or
+/// None, `ok (N)`.
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct SensitivityResult {
+    pub cable: A<f64>,
+    pub pair: A<f64>,
+    pub holes: Option<A<f64>>,
+    pub ok: A<bool>,
+}
+
+impl SensitivityResult {
+    pub fn new(py: Python<'_>, s: Sensitivities, holes: bool) -> SensitivityResult {
+        SensitivityResult {
+            cable: arr(py, s.cable),
+            pair: arr(py, s.pair),
+            holes: holes.then(|| arr(py, s.holes)),
+            ok: arr(py, s.ok),
+        }
+    }
+}
+
+/// Elastic solves: the solves, upper tensions `(N*n)` N, taut flags `(N)`.
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct ElasticResult {
+    pub solution: Py<SolveResult>,
+    pub tension: A<f64>,
+    pub feasible: A<bool>,
+}
+
+impl ElasticResult {
+    pub fn new(py: Python<'_>, e: ElasticSolution) -> PyResult<ElasticResult> {
+        Ok(ElasticResult {
+            solution: Py::new(py, SolveResult::new(py, e.solution))?,
+            tension: arr(py, e.tension),
+            feasible: arr(py, e.feasible),
+        })
+    }
+}
+
+/// Plant predictions: `observation (K*N*3)`, `converged (K*N)`, `theta
+/// (K*N*n)` rad, and `jacobian (N*3*k)` when linearised (else None).
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct PlantPrediction {
+    pub observation: A<f64>,
+    pub converged: A<bool>,
+    pub theta: A<f64>,
+    pub jacobian: Option<A<f64>>,
+}
+
+impl PlantPrediction {
+    pub fn new(py: Python<'_>, p: Predictions, jacobian: Option<Vec<f64>>) -> PlantPrediction {
+        PlantPrediction {
+            observation: arr(py, p.observation),
+            converged: arr(py, p.converged),
+            theta: arr(py, p.theta),
+            jacobian: jacobian.map(|j| arr(py, j)),
+        }
+    }
+}
+
+/// One fitted plant: `p (P)`, `converged`, `iterations`, `cost` (m²), `m`
+/// residual components, `jacobian (m*k)` in scaled parameters, `reason`, and
+/// its `prediction` of every row.
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct PlantFit {
+    pub p: A<f64>,
+    pub converged: bool,
+    pub iterations: u32,
+    pub cost: f64,
+    pub m: usize,
+    pub jacobian: A<f64>,
+    pub reason: u8,
+    pub prediction: Py<PlantPrediction>,
+}
+
+impl PlantFit {
+    pub fn new(py: Python<'_>, f: FitResult) -> PyResult<PlantFit> {
+        Ok(PlantFit {
+            p: arr(py, f.p),
+            converged: f.converged,
+            iterations: f.iterations,
+            cost: f.cost,
+            m: f.m,
+            jacobian: arr(py, f.jacobian),
+            reason: f.reason,
+            prediction: Py::new(py, PlantPrediction::new(py, f.predictions, None))?,
+        })
+    }
+}
+
+/// Compensated commands (see `compensate.rs`): `command`, `nominal`, `theta`
+/// `(N*n)`, `converged`, `residual` `(N)`, `seen`, `seen_nominal` `(N*3)`.
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct CompensationResult {
+    pub command: A<f64>,
+    pub nominal: A<f64>,
+    pub converged: A<bool>,
+    pub residual: A<f64>,
+    pub theta: A<f64>,
+    pub seen: A<f64>,
+    pub seen_nominal: A<f64>,
+}
+
+impl CompensationResult {
+    pub fn new(py: Python<'_>, c: Compensation) -> CompensationResult {
+        CompensationResult {
+            command: arr(py, c.command),
+            nominal: arr(py, c.nominal),
+            converged: arr(py, c.converged),
+            residual: arr(py, c.residual),
+            theta: arr(py, c.theta),
+            seen: arr(py, c.seen),
+            seen_nominal: arr(py, c.seen_nominal),
+        }
+    }
+}
