@@ -54,7 +54,8 @@ def main() -> None:
     print("|---|---|---|---|---|")
     for name, eff in SCENARIOS.items():
         r = run_one(robot, eff)
-        rms = lambda e: float(np.sqrt(np.mean(e ** 2))) * 1e6
+        def rms(e):
+            return float(np.sqrt(np.mean(e ** 2))) * 1e6
         print(f"| {name} | {r['best']} | {rms(r['before']):.1f} / {r['before'].max() * 1e6:.1f} | "
               f"{rms(r['after']):.1f} / {r['after'].max() * 1e6:.1f} | "
               f"{int(r['comp'].converged.sum())}/{len(r['comp'])} |")

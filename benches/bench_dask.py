@@ -113,7 +113,8 @@ def main():
           f"{n_cfg} configurations that is >= {need:,.0f} samples per chunk (about {need * n_cfg / r1:.1f} s per "
           f"chunk);\nthe per-chunk result (N x ~550 x 8 B) is independent of the chunk, so bigger chunks cost "
           f"no memory beyond their\nerror samples (chunk x n x 16 B). The reorder window (2 x threads) then holds "
-          f"at most ~{2 * w * wire_bytes / 1e9:.1f} GB at the client;\nkeep N x window modest or pass a smaller montecarlo.run(window=...).")
+          f"at most ~{2 * w * wire_bytes / 1e9:.1f} GB at the client;\n"
+          "keep N x window modest or pass a smaller distributed.run(window=...).")
 
 
 if __name__ == "__main__":

@@ -159,6 +159,17 @@ pub fn fk(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
     }))
 }
 
+/// Batched joint-limit check: `(N, n)` -> `(N,)`.
+pub fn within_limits(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<bool>> {
+    let n = robot.n();
+    let rows = rows_of("theta", theta, n)?;
+    Ok(split_rows(rows, threads, |r| {
+        r.map(|i| kinematics::within_limits(robot, &theta[i * n..(i + 1) * n]))
+            .collect::<Vec<bool>>()
+    })
+    .concat())
+}
+
 /// Batched pose Jacobian: `(N, n)` -> `(N, 3, n)`.
 pub fn fk_jacobian(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
     let n = robot.n();

@@ -228,7 +228,7 @@ def test_redundant_robots_get_a_coarser_grid_and_no_jump_search():
     phi = 0 workspace is sampled instead of gridded (bounded memory)."""
     import cdsm
     from cdsm.accuracy import workspace
-    from cdsm.report import figures, paper_figures
+    from cdsm.report import paper_figures
 
     r8 = cdsm.Robot.from_toml(Path(cdsm.__file__).parent / "robots" / "serpentine8.toml")
     assert np.degrees(workspace.default_step(3)) == pytest.approx(5.0)

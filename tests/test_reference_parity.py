@@ -334,7 +334,8 @@ def test_ik_iteration_counts_match(pair, ref):
     expected = ref.ik(pair.ref, pose)
     it, it_ref = np.asarray(sol.iterations), expected["iterations"]
     agree = np.mean(it == it_ref)
-    assert agree >= 0.99, f"iterations agree on {agree:.1%}; first diffs {it[it != it_ref][:5]} vs {it_ref[it != it_ref][:5]}"
+    assert agree >= 0.99, (f"iterations agree on {agree:.1%}; first diffs {it[it != it_ref][:5]} "
+                           f"vs {it_ref[it != it_ref][:5]}")
 
 
 def test_ik_enforce_limits_parity(pair, ref):

@@ -6,6 +6,7 @@ with errors that name the file and what it is for (:class:`CdsmInputError`).
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import math
@@ -16,8 +17,8 @@ import numpy as np
 
 from ._cdsm import CdsmInputError
 
-__all__ = ["read_text", "write_text", "parse_table", "read_table", "table_column", "write_csv",
-           "write_json", "json_safe", "csv_cell"]
+__all__ = ["read_text", "write_text", "read_bytes", "sha256_of", "parse_table", "read_table", "table_column",
+           "write_csv", "write_json", "json_safe", "csv_cell", "write_npz", "read_npz"]
 
 
 def read_text(path: "str | os.PathLike[str]", what: str) -> str:
@@ -46,6 +47,47 @@ def write_text(path: "str | os.PathLike[str]", text: str, what: str) -> str:
     except OSError as exc:
         raise CdsmInputError(f"{what} file {str(path)!r}: {exc.strerror}") from None
     return str(path)
+
+
+def read_bytes(path: "str | os.PathLike[str]", what: str) -> bytes:
+    """The bytes of ``path`` (figures, hashes); an error naming the file."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read()
+    except FileNotFoundError:
+        raise CdsmInputError(f"{what} file {str(path)!r}: does not exist") from None
+    except OSError as exc:
+        raise CdsmInputError(f"{what} file {str(path)!r}: {exc.strerror}") from None
+
+
+def sha256_of(path: "str | os.PathLike[str]") -> Optional[str]:
+    """SHA-256 of a file's bytes, or None when it cannot be read."""
+    try:
+        return hashlib.sha256(read_bytes(path, "data")).hexdigest()
+    except CdsmInputError:
+        return None
+
+
+def write_npz(path: "str | os.PathLike[str]", arrays: Dict[str, np.ndarray], what: str) -> str:
+    """Write arrays to a compressed ``.npz`` (NumPy adds the suffix when
+    missing); returns the path written."""
+    try:
+        np.savez_compressed(path, **arrays)
+    except OSError as exc:
+        raise CdsmInputError(f"{what} file {str(path)!r}: {exc.strerror}") from None
+    p = os.fspath(path)
+    return p if p.endswith(".npz") else p + ".npz"
+
+
+def read_npz(path: "str | os.PathLike[str]", what: str) -> Dict[str, np.ndarray]:
+    """The arrays of a ``.npz`` file (no pickles)."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except FileNotFoundError:
+        raise CdsmInputError(f"{what} file {str(path)!r}: does not exist") from None
+    except (OSError, ValueError) as exc:
+        raise CdsmInputError(f"{what} file {str(path)!r}: not a readable .npz ({exc})") from None
 
 
 def _numeric(cells: Sequence[str]) -> bool:

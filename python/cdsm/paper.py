@@ -136,9 +136,12 @@ def table3(robot: Robot) -> dict:
 
 # Table 2 of the paper: poses and the conditions drawn before/after the error.
 TABLE2 = [
-    ((0.19, 0.025, 0.0), "At jump point", [("cable", 0, 1e-3), ("cable", 1, -1e-3), ("hole", 0, 0.35e-3), ("hole", 1, 0.35e-3)]),
-    ((0.19, 0.025, 0.0), "Avoid jump point", [("cable", 0, -1e-3), ("cable", 1, 1e-3), ("hole", 0, -0.35e-3), ("hole", 1, -0.35e-3)]),
-    ((0.19, 0.025, 0.0), "Reduce error value", [("cable", 0, 0.1e-3), ("cable", 1, -0.1e-3), ("hole", 0, 0.1e-3), ("hole", 1, 0.1e-3)]),
+    ((0.19, 0.025, 0.0), "At jump point",
+     [("cable", 0, 1e-3), ("cable", 1, -1e-3), ("hole", 0, 0.35e-3), ("hole", 1, 0.35e-3)]),
+    ((0.19, 0.025, 0.0), "Avoid jump point",
+     [("cable", 0, -1e-3), ("cable", 1, 1e-3), ("hole", 0, -0.35e-3), ("hole", 1, -0.35e-3)]),
+    ((0.19, 0.025, 0.0), "Reduce error value",
+     [("cable", 0, 0.1e-3), ("cable", 1, -0.1e-3), ("hole", 0, 0.1e-3), ("hole", 1, 0.1e-3)]),
     ((0.135, 0.14, 0.0), "At boundary point", [("cable", 2, 1e-3), ("hole", 2, 0.35e-3)]),
     ((0.2, 0.05, 0.0), "Avoid boundary point", [("cable", 2, 1e-3), ("hole", 2, 0.35e-3)]),
     ((0.135, 0.14, 0.0), "Reduce error value", [("cable", 2, 0.1e-3), ("hole", 2, 0.1e-3)]),

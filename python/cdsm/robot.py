@@ -270,8 +270,7 @@ class Robot:
     def within_limits(self, theta) -> np.ndarray:
         """Whether every angle lies within the joint limits: (N, n) -> (N,) bool."""
         t, single = as_batch("theta", theta, self.n)
-        lim = self.joint_limits
-        ok = np.all((t >= lim[:, 0]) & (t <= lim[:, 1]), axis=1)
+        ok = self.core.within_limits(t, self.threads)
         return ok[0] if single else ok
 
     # ---- solves -------------------------------------------------------

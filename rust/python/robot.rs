@@ -228,6 +228,19 @@ impl CoreRobot {
         self.theta_map(py, theta, threads, batch::cable_jacobian)
     }
 
+    fn within_limits<'py>(
+        &self,
+        py: Python<'py>,
+        theta: Arr<'_>,
+        threads: usize,
+    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+        let t = slice("theta", &theta)?;
+        let out = py
+            .detach(|| batch::within_limits(&self.inner, t, threads))
+            .map_err(err)?;
+        Ok(vec1(py, out))
+    }
+
     // ---- solves --------------------------------------------------------
     #[pyo3(signature = (pose, seed, mask, tol, max_iter, enforce_limits, threads))]
     #[allow(clippy::too_many_arguments)]

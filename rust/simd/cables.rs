@@ -735,3 +735,108 @@ mod tests {
         );
     }
 }
+
+/// Rows per [`ClosedFormBlock`]: 16 (four AVX2 vectors, eight NEON ones,
+/// two AVX-512 ones, sixteen scalar lanes).
+pub const BLOCK_ROWS: usize = 16;
+
+/// Buffers of [`closed_form_block`]: up to [`BLOCK_ROWS`] rows sharing one
+/// geometry, joint-major (`x[j * BLOCK_ROWS + r]` is joint `j` of row `r`).
+/// Inputs `target` (m) and the seed's `seed_cos`/`seed_sin`; outputs the
+/// answer's `cos`/`sin`, `residual` (m, +inf without a solution) and `ok`.
+#[derive(Debug, Clone)]
+pub struct ClosedFormBlock {
+    pub target: Vec<f64>,
+    pub seed_cos: Vec<f64>,
+    pub seed_sin: Vec<f64>,
+    pub cos: Vec<f64>,
+    pub sin: Vec<f64>,
+    pub residual: [f64; BLOCK_ROWS],
+    pub ok: [bool; BLOCK_ROWS],
+}
+
+impl ClosedFormBlock {
+    /// Buffers for `n` joints (the seed starts at angle 0).
+    pub fn new(n: usize) -> Self {
+        ClosedFormBlock {
+            target: vec![0.0; n * BLOCK_ROWS],
+            seed_cos: vec![1.0; n * BLOCK_ROWS],
+            seed_sin: vec![0.0; n * BLOCK_ROWS],
+            cos: vec![1.0; n * BLOCK_ROWS],
+            sin: vec![0.0; n * BLOCK_ROWS],
+            residual: [0.0; BLOCK_ROWS],
+            ok: [false; BLOCK_ROWS],
+        }
+    }
+}
+
+struct BlockOp<'a> {
+    geom: &'a CableGeometry,
+    block: &'a mut ClosedFormBlock,
+}
+
+impl WithSimd for BlockOp<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, simd: S) {
+        match S::F64_LANES {
+            1 => block::<S, 16>(simd, self),
+            2 => block::<S, 8>(simd, self),
+            4 => block::<S, 4>(simd, self),
+            8 => block::<S, 2>(simd, self),
+            _ => block::<S, 1>(simd, self),
+        }
+    }
+}
+
+#[inline(always)]
+fn block<S: Simd, const U: usize>(simd: S, op: BlockOp<'_>) {
+    let BlockOp { geom, block } = op;
+    let n = geom.n;
+    let w = U * S::F64_LANES;
+    debug_assert!(w <= BLOCK_ROWS);
+    let load = |x: &[f64]| -> Vec<[S::f64s; U]> {
+        (0..n)
+            .map(|j| {
+                let mut v = [simd.splat_f64s(0.0); U];
+                let flat = pulp::bytemuck::cast_slice_mut::<S::f64s, f64>(&mut v);
+                flat.copy_from_slice(&x[j * BLOCK_ROWS..j * BLOCK_ROWS + w]);
+                v
+            })
+            .collect()
+    };
+    let (tv, sc, ss) = (
+        load(&block.target),
+        load(&block.seed_cos),
+        load(&block.seed_sin),
+    );
+    let mut cv = vec![[simd.splat_f64s(0.0); U]; n];
+    let mut sv = cv.clone();
+    let (res, good) = closed_form_lanes_x(simd, geom, &tv, &sc, &ss, &mut cv, &mut sv);
+    for j in 0..n {
+        let c = pulp::bytemuck::cast_slice::<S::f64s, f64>(&cv[j]);
+        let s = pulp::bytemuck::cast_slice::<S::f64s, f64>(&sv[j]);
+        block.cos[j * BLOCK_ROWS..j * BLOCK_ROWS + w].copy_from_slice(c);
+        block.sin[j * BLOCK_ROWS..j * BLOCK_ROWS + w].copy_from_slice(s);
+    }
+    block.residual[..w].copy_from_slice(pulp::bytemuck::cast_slice::<S::f64s, f64>(&res));
+    let flags = Mask::<S, U> { simd, v: good }
+        .select(Lanes::splat(simd, 1.0), Lanes::splat(simd, 0.0))
+        .v;
+    for (o, f) in block
+        .ok
+        .iter_mut()
+        .zip(pulp::bytemuck::cast_slice::<S::f64s, f64>(&flags))
+    {
+        *o = *f != 0.0;
+    }
+}
+
+/// The closed form of the [`BLOCK_ROWS`] rows of `block` (SIMD across rows,
+/// instruction set of `arch`): on rows with a solution, `cos`, `sin` and
+/// `residual` are bit-identical to [`crate::solve::closed_form_cs`] from the
+/// same seed `(cos, sin)`.
+pub fn closed_form_block(arch: pulp::Arch, geom: &CableGeometry, block: &mut ClosedFormBlock) {
+    arch.dispatch(BlockOp { geom, block });
+}

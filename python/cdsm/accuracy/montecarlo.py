@@ -16,6 +16,7 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import _cdsm
+from ..files import json_safe, read_npz, write_npz
 from ..inputs import CdsmInputError, as_batch, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
@@ -209,25 +210,20 @@ def save_npz(path: str, mc: MonteCarlo, poses: Optional[np.ndarray] = None,
         arrays["poses"] = np.asarray(poses, dtype=np.float64)
     p = dict(mc.params)
     p.update(params or {})
-    arrays["params"] = np.array(json.dumps(p, sort_keys=True, default=_json_default))
-    np.savez_compressed(path, **arrays)
+    arrays["params"] = np.array(json.dumps(json_safe(p), sort_keys=True))
+    write_npz(path, arrays, "Monte-Carlo")
     return arrays
-
-
-def _json_default(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 def load_npz(path: str) -> Tuple[MonteCarlo, dict]:
     """A study written by :func:`save_npz`: the :class:`MonteCarlo` (exact
     sums and histogram, mergeable with another run's) and its params."""
-    with np.load(path, allow_pickle=False) as z:
+    z = read_npz(path, "Monte-Carlo")
+    try:
         params = json.loads(str(z["params"]))
         mc = MonteCarlo(theta0=z["theta0"], count=z["count"], failed=z["failed"], sum=z["sum"],
                         sum_sq=z["sum_sq"], min=z["min"], max=z["max"], hist=z["hist"],
                         params=params)
+    except KeyError as exc:
+        raise CdsmInputError(f"Monte-Carlo file {str(path)!r}: missing array {exc}") from None
     return mc, params

@@ -130,7 +130,8 @@ class Suggestion:
                              f"{self.pairs_after.get(k, float('nan')):.3g}")
         else:
             lines.append(f"{len(self)} suggested {self.kind} measurements (D-optimal for the parameters of "
-                         f"{', '.join(self.models) or 'the model'}); log det gain {self.gain[-1] - self.score_before:.3g}")
+                         f"{', '.join(self.models) or 'the model'}); "
+                         f"log det gain {self.gain[-1] - self.score_before:.3g}")
         lines.append(f"picked from {self.pool_size} feasible candidates (taut cables, within joint limits)")
         for i in range(len(self)):
             th = ", ".join(f"{np.degrees(v):+.1f}" for v in self.theta[i])
@@ -317,7 +318,8 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
                                     Y[a][Cr] - Y[b][Cr]], axis=1)                      # (M, s+2)
                 S = 2 * noise ** 2 * np.eye(s + 2)[None].repeat(M, 0)
                 for m in (a, b):
-                    Jm = np.concatenate([np.broadcast_to(JJ[m][idx].reshape(s, JJ[m].shape[-1]), (M, s, JJ[m].shape[-1])),
+                    kk = JJ[m].shape[-1]
+                    Jm = np.concatenate([np.broadcast_to(JJ[m][idx].reshape(s, kk), (M, s, kk)),
                                          JJ[m][Cr]], axis=1)                         # (M, s+2, k)
                     S = S + Jm @ Cov[m] @ np.transpose(Jm, (0, 2, 1))
                 tot += np.einsum("mi,mi->m", d, np.linalg.solve(S, d[..., None])[..., 0])

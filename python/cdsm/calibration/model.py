@@ -58,7 +58,7 @@ from typing import Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
-from ..files import read_text, write_text
+from ..files import read_text, sha256_of, write_text
 from ..inputs import CdsmInputError, as_batch
 from ..robot import Robot
 from . import plant
@@ -132,12 +132,7 @@ class Model:
         fin = diag.final()
         meas = diag.prep.meas
         src = meas.source or ""
-        file_hash = None
-        if src and os.path.isfile(src):
-            try:
-                file_hash = hashlib.sha256(open(src, "rb").read()).hexdigest()
-            except OSError:
-                file_hash = None
+        file_hash = sha256_of(src) if src and os.path.isfile(src) else None
         data = dict(source=src, kind=meas.kind, rows=int(len(meas)),
                     rows_used=int(diag.prep.usable.sum()), sha256=_data_hash(meas),
                     file_sha256=file_hash)

@@ -49,7 +49,8 @@ def _effect_list(text: str) -> List[str]:
 def _diagnose_args(p: argparse.ArgumentParser) -> None:
     from ..calibration.diagnosis import DEFAULT_NOISE
 
-    p.add_argument("data", metavar="DATA.csv", help="measurement table (CSV, SI units; see cdsm.calibration.measurements)")
+    p.add_argument("data", metavar="DATA.csv",
+                   help="measurement table (CSV, SI units; see cdsm.calibration.measurements)")
     p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units); "
                    "default: the paper's 3-joint prototype")
     p.add_argument("--effects", metavar="a,b,...", type=_effect_list, default=None,

@@ -109,11 +109,7 @@ def _montecarlo_run(args) -> int:
                   tolerances=args.tolerances or "paper", protocol=args.protocol, grid_step_deg=args.step,
                   grid_range_deg=args.grid_range, configurations=int(ok.sum()),
                   unreachable=ws.n_unreachable, cdsm_version=__version__)
-    try:
-        arrays = montecarlo.save_npz(out, mc, poses=ws.poses[ok], params=params,
-                                     percentiles=args.percentiles)
-    except OSError as exc:
-        raise UserError(f"--out {out!r}: {exc.strerror}") from None
+    arrays = montecarlo.save_npz(out, mc, poses=ws.poses[ok], params=params, percentiles=args.percentiles)
     written = out if out.endswith(".npz") else out + ".npz"
     worst = np.nanmax(arrays["max_abs"][:, 3]) if (mc.count > 0).any() else float("nan")
     pmax = np.nanmax(arrays["dxy_percentiles"], axis=0) if (mc.count > 0).any() else []

@@ -48,7 +48,8 @@ def _float_list(name: str, text: str) -> List[float]:
         raise UserError(f"{name} {text!r}: expected comma-separated numbers") from None
 
 
-@subcommand("tolerance", help="largest cable-length and hole-height tolerances keeping a tip-error percentile within a target")
+@subcommand("tolerance", help="largest cable-length and hole-height tolerances keeping a tip-error "
+                              "percentile within a target")
 @options(_tolerance_args)
 def _tolerance_run(args) -> int:
     from ..accuracy import tolerance

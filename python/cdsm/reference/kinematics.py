@@ -169,7 +169,7 @@ class SimpleRobot:
         """Copy of any duck-typed ``robot``, optionally with other ``holes``
         (``mass``, ``lower_tension``, ``gravity``, ``routing_length`` are carried
         over when the robot has them)."""
-        g = _geometry(robot)
+        g = read_geometry(robot)
 
         def _opt(name):
             v = getattr(robot, name, None)
@@ -202,7 +202,7 @@ class _Geometry:
     limits: np.ndarray
 
 
-def _geometry(robot) -> _Geometry:
+def read_geometry(robot) -> _Geometry:
     """Read the duck-typed robot attributes once, as float arrays."""
     n = int(robot.n)
     if n < 1:
@@ -217,7 +217,7 @@ def _geometry(robot) -> _Geometry:
     )
 
 
-def _batch(a, width: int, name: str) -> np.ndarray:
+def batch_array(a, width: int, name: str) -> np.ndarray:
     """``a`` as a float64 ``(N, width)`` array (no 1-D convenience here)."""
     arr = np.asarray(a, dtype=float)
     if arr.ndim != 2 or arr.shape[1] != width:
@@ -254,8 +254,8 @@ def fk(robot, theta) -> np.ndarray:
 
     ``theta``: joint angles, rad, shape ``(N, n)``.
     """
-    g = _geometry(robot)
-    theta = _batch(theta, g.n, "theta")
+    g = read_geometry(robot)
+    theta = batch_array(theta, g.n, "theta")
     inc_b, inc_a = _chain(g, theta)
     pos = (inc_b + inc_a).sum(axis=1)
     return np.concatenate([pos, theta.sum(axis=1, keepdims=True)], axis=1)
@@ -267,8 +267,8 @@ def fk_jacobian(robot, theta) -> np.ndarray:
     Column ``j`` is ``[-(Y - Jy_j), X - Jx_j, 1]`` with ``J_j`` the position of
     joint ``j``; ``P - J_j`` is accumulated distally (no cancellation).
     """
-    g = _geometry(robot)
-    theta = _batch(theta, g.n, "theta")
+    g = read_geometry(robot)
+    theta = batch_array(theta, g.n, "theta")
     inc_b, inc_a = _chain(g, theta)
     inc = inc_b + inc_a
     # rev[:, j] = sum_{k >= j} inc[:, k]; tail_j = inc_a_j + rev_{j+1} = P - J_j.
@@ -345,14 +345,14 @@ def segment_coefficients(robot):
     """``P, Q, R`` ``(2n, n)`` (m^2) with ``s^2 = P + Q cos(theta_k) + R sin(theta_k)``
     for segment ``k`` of cable ``c``, and the mask ``(2n, n)`` of the segments a
     cable has."""
-    return _segment_pqr(_geometry(robot))
+    return _segment_pqr(read_geometry(robot))
 
 
 def segment_lengths(robot, theta):
     """Segment lengths ``s`` (m) and ``ds/dtheta_k`` (m/rad), both ``(N, 2n, n)``,
     zero where a cable has no segment; ``theta (N, n)`` rad."""
-    g = _geometry(robot)
-    return _segments(g, _batch(theta, g.n, "theta"))
+    g = read_geometry(robot)
+    return _segments(g, batch_array(theta, g.n, "theta"))
 
 
 def cable_lengths(robot, theta) -> np.ndarray:
@@ -360,8 +360,8 @@ def cable_lengths(robot, theta) -> np.ndarray:
 
     ``theta``: rad, ``(N, n)``.
     """
-    g = _geometry(robot)
-    theta = _batch(theta, g.n, "theta")
+    g = read_geometry(robot)
+    theta = batch_array(theta, g.n, "theta")
     s, _ = _segments(g, theta)
     return s.sum(axis=2) + _traversals(g)[None, :]
 
@@ -372,8 +372,8 @@ def cable_jacobian(robot, theta) -> np.ndarray:
     ``d s_k / d theta_k = (A - p) x d(Rot u)/d theta / s_k``; cable ``c`` of
     pair ``i`` depends on ``theta_1..theta_i`` only.
     """
-    g = _geometry(robot)
-    theta = _batch(theta, g.n, "theta")
+    g = read_geometry(robot)
+    theta = batch_array(theta, g.n, "theta")
     _, ds = _segments(g, theta)
     return ds
 
@@ -391,7 +391,7 @@ def upper_cable_jacobian(robot, theta) -> np.ndarray:
 # --------------------------------------------------------------------------
 # Levenberg-Marquardt (docs/model.md, "Solves")
 # --------------------------------------------------------------------------
-def _lm(residual, step, theta, tol, max_iter, project=None, lambda0=_LAMBDA_0):
+def levenberg_marquardt(residual, step, theta, tol, max_iter, project=None, lambda0=_LAMBDA_0):
     """Vectorised LM loop shared by the pose IK and the cable solve.
 
     ``residual(theta, idx) -> r (k, m)`` for the batch rows ``idx``;
@@ -434,7 +434,7 @@ def _lm(residual, step, theta, tol, max_iter, project=None, lambda0=_LAMBDA_0):
     )
 
 
-def _batched_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+def batched_solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Solve ``A x = b`` for a stack ``A (k, m, m)``, ``b (k, m)``.
 
     A singular matrix gives a NaN row (the trial is then rejected and lambda
@@ -458,7 +458,7 @@ def _seed(seed, N: int, n: int) -> np.ndarray:
     seed = np.array(seed, dtype=float)  # copy: the solver updates it in place
     if seed.ndim == 1:
         seed = np.tile(seed, (N, 1))
-    seed = _batch(seed, n, "seed")
+    seed = batch_array(seed, n, "seed")
     if seed.shape[0] != N:
         raise ValueError(f"seed must have shape ({N}, {n}), got {seed.shape}")
     return seed.copy()
@@ -479,8 +479,8 @@ def ik(robot, pose, seed=None, tol=1e-12, max_iter=100, enforce_limits=False) ->
     (number of trials), ``residual (N,)`` = ``max|r|`` of the final iterate,
     ``within_limits (N,)`` bool.
     """
-    g = _geometry(robot)
-    pose = _batch(pose, 3, "pose")
+    g = read_geometry(robot)
+    pose = batch_array(pose, 3, "pose")
     theta = _seed(seed, pose.shape[0], g.n)
 
     def residual(th, idx):
@@ -489,13 +489,13 @@ def ik(robot, pose, seed=None, tol=1e-12, max_iter=100, enforce_limits=False) ->
     def step(th, r, lam, idx):
         J = fk_jacobian(robot, th)  # (k, 3, n)
         A = J @ np.swapaxes(J, 1, 2) + lam[:, None, None] * np.eye(3)
-        y = _batched_solve(A, r)
+        y = batched_solve(A, r)
         return (np.swapaxes(J, 1, 2) @ y[..., None])[..., 0]
 
     lo, hi = g.limits[:, 0], g.limits[:, 1]
     project = (lambda th: np.clip(th, lo, hi)) if enforce_limits else None
 
-    sol = _lm(residual, step, theta, tol, max_iter, project)
+    sol = levenberg_marquardt(residual, step, theta, tol, max_iter, project)
     sol["within_limits"] = _within_limits(g, sol["theta"])
     return sol
 
@@ -509,8 +509,8 @@ def solve_cables(robot, upper, seed=None, tol=1e-12, max_iter=100) -> dict:
     otherwise ``delta = (J^T J + lambda I_n)^{-1} J^T r``.  Returns the same
     dict as :func:`ik`.
     """
-    g = _geometry(robot)
-    upper = _batch(upper, g.n, "upper")
+    g = read_geometry(robot)
+    upper = batch_array(upper, g.n, "upper")
     theta = _seed(seed, upper.shape[0], g.n)
 
     def residual(th, idx):
@@ -520,11 +520,11 @@ def solve_cables(robot, upper, seed=None, tol=1e-12, max_iter=100) -> dict:
         J = upper_cable_jacobian(robot, th)  # (k, n, n)
         Jt = np.swapaxes(J, 1, 2)
         A = Jt @ J + lam[:, None, None] * np.eye(g.n)
-        damped = _batched_solve(A, (Jt @ r[..., None])[..., 0])
-        newton = _batched_solve(J, r)
+        damped = batched_solve(A, (Jt @ r[..., None])[..., 0])
+        newton = batched_solve(J, r)
         return np.where((lam <= _LAMBDA_MIN)[:, None], newton, damped)
 
-    sol = _lm(residual, step, theta, tol, max_iter, lambda0=0.0)
+    sol = levenberg_marquardt(residual, step, theta, tol, max_iter, lambda0=0.0)
     sol["within_limits"] = _within_limits(g, sol["theta"])
     return sol
 
@@ -545,8 +545,8 @@ def solve_cables_closed_form(robot, upper, seed=None) -> dict:
     converged), ``n_branches (N, n)`` int (0, 1 or 2 distinct real branches;
     0 for joints after a failed one).
     """
-    g = _geometry(robot)
-    upper = _batch(upper, g.n, "upper")
+    g = read_geometry(robot)
+    upper = batch_array(upper, g.n, "upper")
     N = upper.shape[0]
     seed = _seed(seed, N, g.n)
     P, Q, R, _ = _segment_pqr(g)
@@ -601,8 +601,8 @@ def deviation(robot, theta0, dL, holes_perturbed=None, tol=1e-12, max_iter=100) 
     Returns ``dS = fk(theta) - fk(theta0)`` ``(N, 3)`` (m, m, rad),
     ``theta (N, n)`` rad and ``converged (N,)``.
     """
-    g = _geometry(robot)
-    theta0 = _batch(theta0, g.n, "theta0")
+    g = read_geometry(robot)
+    theta0 = batch_array(theta0, g.n, "theta0")
     target = upper_cable_lengths(robot, theta0) + np.asarray(dL, dtype=float)
     perturbed = robot if holes_perturbed is None else SimpleRobot.like(robot, holes_perturbed)
     sol = solve_cables(perturbed, target, seed=theta0, tol=tol, max_iter=max_iter)
@@ -616,7 +616,7 @@ def hole_height_error(robot, dh) -> np.ndarray:
     The hole height of pair ``i`` is increased by ``dh[i]`` m (``(n,)``): upper
     ``y += dh[i]``, lower ``y -= dh[i]``, on every face that pair crosses.
     """
-    g = _geometry(robot)
+    g = read_geometry(robot)
     dh = np.asarray(dh, dtype=float).reshape(g.n)
     holes = g.holes.copy()
     mask = used_hole_mask(g.n)
@@ -723,8 +723,8 @@ def tensions(robot, theta, lower=None, tip_wrench=None, gravity=None, mass=None)
     base frame (default none); ``mass``: ``(n,)`` kg (default ``robot.mass``).
     Positive = taut.  NaN where an upper cable has no moment about its joint.
     """
-    g = _geometry(robot)
-    theta = _batch(theta, g.n, "theta")
+    g = read_geometry(robot)
+    theta = batch_array(theta, g.n, "theta")
     N = theta.shape[0]
     if lower is None:
         lower = robot.lower_tension
@@ -739,7 +739,7 @@ def tensions(robot, theta, lower=None, tip_wrench=None, gravity=None, mass=None)
     rhs = -(tau + np.einsum("npk,np->nk", Ml, lower))
     A = np.swapaxes(Mu, 1, 2)  # (N, joint, pair), upper triangular
     with np.errstate(all="ignore"):
-        return _batched_solve(A, rhs)
+        return batched_solve(A, rhs)
 
 
 def elastic_upper_lengths(robot, theta, T, E, diameter, routing_length=0.0) -> np.ndarray:
@@ -758,7 +758,7 @@ def elastic_upper_lengths(robot, theta, T, E, diameter, routing_length=0.0) -> n
 
 def cable_stretch(robot, theta, T, E, diameter, routing_length=0.0) -> np.ndarray:
     """Elongation (m) of every upper cable at ``theta`` under tensions ``T``."""
-    Lg = upper_cable_lengths(robot, _batch(theta, robot.n, "theta"))
+    Lg = upper_cable_lengths(robot, batch_array(theta, robot.n, "theta"))
     return Lg - elastic_upper_lengths(robot, theta, T, E, diameter, routing_length)
 
 
@@ -774,8 +774,8 @@ def solve_cables_elastic(robot, upper, E, diameter, routing_length=0.0, lower=No
     Jacobian by central differences.  Returns the dict of :func:`solve_cables`
     plus ``tension (N, n)`` N.
     """
-    g = _geometry(robot)
-    upper = _batch(upper, g.n, "upper")
+    g = read_geometry(robot)
+    upper = batch_array(upper, g.n, "upper")
     rigid = solve_cables(robot, upper, seed=seed, tol=tol, max_iter=max_iter)
     theta = rigid["theta"].copy()
 
@@ -802,9 +802,9 @@ def solve_cables_elastic(robot, upper, E, diameter, routing_length=0.0, lower=No
             J[:, :, k] = (model(th + d, idx) - model(th - d, idx)) / (2 * h)
         Jt = np.swapaxes(J, 1, 2)
         A = Jt @ J + lam[:, None, None] * np.eye(g.n)
-        return _batched_solve(A, (Jt @ r[..., None])[..., 0])
+        return batched_solve(A, (Jt @ r[..., None])[..., 0])
 
-    sol = _lm(residual, step, theta, tol, max_iter)
+    sol = levenberg_marquardt(residual, step, theta, tol, max_iter)
     sol["within_limits"] = _within_limits(g, sol["theta"])
     sol["tension"] = _T(sol["theta"], np.arange(upper.shape[0]))
     return sol
@@ -833,8 +833,8 @@ def cable_hole_gradient(robot, theta) -> np.ndarray:
     of disk ``k+1``: ``t = (thickness[k] + b_x - a_x, b_y - a_y)``;
     ``d|t|/db = t/|t|``, ``d|t|/da = -t/|t|``.  Entries a cable does not use are 0.
     """
-    g = _geometry(robot)
-    theta = _batch(theta, g.n, "theta")
+    g = read_geometry(robot)
+    theta = batch_array(theta, g.n, "theta")
     n, N = g.n, theta.shape[0]
     u, w, mask = _segment_vectors(g)  # (2n, n, 2), (2n, n, 2), (2n, n)
     c = np.cos(theta)[:, None, :]
@@ -868,8 +868,8 @@ def tip_sensitivity(robot, theta) -> dict:
     lower (force-controlled) cables and unused entries; ``pair (N, 3, n)``:
     dS/d(hole height of disk i), the paper's dh (upper holes +dh, lower -dh).
     """
-    g = _geometry(robot)
-    theta = _batch(theta, g.n, "theta")
+    g = read_geometry(robot)
+    theta = batch_array(theta, g.n, "theta")
     n = g.n
     jp = fk_jacobian(robot, theta)  # (N, 3, n)
     jc = upper_cable_jacobian(robot, theta)  # (N, n, n)

@@ -40,10 +40,10 @@ import numpy as np
 
 from .kinematics import (
     SimpleRobot,
-    _batch,
-    _batched_solve,
-    _geometry,
-    _lm,
+    batch_array,
+    batched_solve,
+    read_geometry,
+    levenberg_marquardt,
     fk,
     hole_height_error,
     solve_cables_closed_form,
@@ -165,7 +165,7 @@ def plant_arm(robot, p) -> SimpleRobot:
     ``routing_length`` (default 0) are carried over.  Returns a
     :class:`SimpleRobot`.
     """
-    g = _geometry(robot)
+    g = read_geometry(robot)
     q = plant_params(p, g.n)
     lb = g.lb.copy()
     lb[0] += q["dl"][0]
@@ -186,7 +186,7 @@ def clearance_shifts(theta, cl: float, w: float) -> np.ndarray:
 
 def _arm_upper_lengths(arm, theta: np.ndarray, cl: float, w: float) -> np.ndarray:
     """Upper-cable lengths of ``arm`` (already perturbed) with hole clearance."""
-    g = _geometry(arm)
+    g = read_geometry(arm)
     n, N = g.n, theta.shape[0]
     H = g.holes[0::2]  # (n cables, n+1 disks, 2 faces, 2) upper holes
     d = clearance_shifts(theta, cl, w)  # (N, n): shift at joint k
@@ -230,7 +230,7 @@ def arm_upper_lengths(robot, p, theta) -> np.ndarray:
     """
     arm = plant_arm(robot, p)
     q = plant_params(p, arm.n)
-    theta = _batch(theta, arm.n, "theta")
+    theta = batch_array(theta, arm.n, "theta")
     return _arm_upper_lengths(arm, theta, q["cl"], q["w"])
 
 
@@ -253,7 +253,7 @@ def backlash_scan(robot, p, commands, start=None) -> np.ndarray:
     """
     n = int(robot.n)
     b = plant_params(p, n)["b"]
-    commands = _batch(commands, n, "commands")
+    commands = batch_array(commands, n, "commands")
     r = reference_lengths(robot).copy() if start is None else np.array(start, dtype=float).reshape(n)
     out = np.empty_like(commands)
     for j in range(commands.shape[0]):
@@ -270,7 +270,7 @@ def realised_lengths(robot, p, r) -> np.ndarray:
     """
     n = int(robot.n)
     q = plant_params(p, n)
-    r = _batch(r, n, "r")
+    r = batch_array(r, n, "r")
     L_ref = reference_lengths(robot)
     return L_ref + (1.0 + q["s"]) * (r - L_ref) + q["o"]
 
@@ -286,7 +286,7 @@ def plant_tensions(robot, p, theta) -> np.ndarray:
     :func:`plant_arm` *without* the clearance shifts.
     """
     arm = plant_arm(robot, p)
-    theta = _batch(theta, arm.n, "theta")
+    theta = batch_array(theta, arm.n, "theta")
     gravity = arm.gravity
     if np.any(gravity != 0.0):
         return tensions(arm, theta, lower=robot.lower_tension, gravity=gravity, mass=robot.mass)
@@ -316,8 +316,8 @@ def settling_residual(robot, p, realised, theta) -> np.ndarray:
     """
     arm = plant_arm(robot, p)
     q = plant_params(p, arm.n)
-    L = _batch(realised, arm.n, "realised")
-    theta = _batch(theta, arm.n, "theta")
+    L = batch_array(realised, arm.n, "realised")
+    theta = batch_array(theta, arm.n, "theta")
     lower = None if q["kappa"] == 0.0 else np.broadcast_to(
         np.asarray(robot.lower_tension, dtype=float), L.shape)
     return _settling_F(robot, arm, q, L, theta, lower)
@@ -340,8 +340,8 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6
     arm = plant_arm(robot, p)
     n = arm.n
     q = plant_params(p, n)
-    L = _batch(realised, n, "realised")
-    seed = np.array(_batch(theta_seed, n, "theta_seed"), dtype=float)
+    L = batch_array(realised, n, "realised")
+    seed = np.array(batch_array(theta_seed, n, "theta_seed"), dtype=float)
     if seed.shape != L.shape:
         raise ValueError(f"theta_seed must have shape {L.shape}, got {seed.shape}")
 
@@ -367,10 +367,10 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6
             J[:, :, k] = (F(th + e, idx) - F(th - e, idx)) / (2.0 * fd_step)
         Jt = np.swapaxes(J, 1, 2)
         A = Jt @ J + lam[:, None, None] * np.eye(n)
-        return _batched_solve(A, (Jt @ r[..., None])[..., 0])
+        return batched_solve(A, (Jt @ r[..., None])[..., 0])
 
     with np.errstate(all="ignore"):
-        sol = _lm(residual, step, theta, tol, max_iter)
+        sol = levenberg_marquardt(residual, step, theta, tol, max_iter)
     return sol["theta"], sol["converged"]
 
 
@@ -385,7 +385,7 @@ def observe(robot, p, theta) -> np.ndarray:
     """
     arm = plant_arm(robot, p)
     q = plant_params(p, arm.n)
-    S = fk(arm, _batch(theta, arm.n, "theta"))
+    S = fk(arm, batch_array(theta, arm.n, "theta"))
     phi = S[:, 2]
     tx, ty = q["t"]
     tip_x = S[:, 0] + np.cos(phi) * tx - np.sin(phi) * ty
@@ -411,8 +411,8 @@ def plant_commands(robot, theta_cmd, dL, kind):
     ``seeds (R, n)`` rad (that row's ``theta_cmd``).
     """
     n = int(robot.n)
-    theta_cmd = _batch(theta_cmd, n, "theta_cmd")
-    dL = _batch(dL, n, "dL")
+    theta_cmd = batch_array(theta_cmd, n, "theta_cmd")
+    dL = batch_array(dL, n, "dL")
     kind = list(kind)
     N = theta_cmd.shape[0]
     if dL.shape[0] != N or len(kind) != N:

@@ -22,7 +22,6 @@ import numpy as np
 
 from .. import __version__
 from ..calibration import diagnosis as diagnose
-from ..calibration import plant
 from ..calibration import stats
 from ..files import write_csv, write_json, write_text
 from .document import Document
@@ -239,7 +238,8 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
             f"{_um(b_rms)} → with `{d.best}` {_um(f_rms)} ({shrink:.0f} % smaller; noise floor {_um(floor)}, "
             f"final/floor = {f_rms / floor:.2f}; {lof}).")
     out["answer"].append(f"Noise: {ntxt}; the floor is √2 × {'√2 × ' if prep.readings > 1 else ''}σ = "
-                         f"{_um(floor)}{' (displacements are differences of two readings)' if prep.readings > 1 else ''}."
+                         + _um(floor) + (" (displacements are differences of two readings)"
+                                         if prep.readings > 1 else "") + "."
                          + (f" The final model would be adequate at a noise of {_um(v.noise_needed)} or more."
                             if ne.source == "assumed" and not v.final_adequate else ""))
     if prep.registered:

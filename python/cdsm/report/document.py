@@ -7,6 +7,8 @@ import base64
 import html
 from typing import Dict, List
 
+from ..files import read_bytes
+
 __all__ = ["Document"]
 
 
@@ -76,8 +78,7 @@ class Document:
                 path = pngs.get(b[1])
                 if path is None:
                     continue
-                with open(path, "rb") as fh:
-                    data = base64.b64encode(fh.read()).decode("ascii")
+                data = base64.b64encode(read_bytes(path, "figure")).decode("ascii")
                 body.append(f"<figure><img alt='{html.escape(b[2], quote=True)}' "
                             f"src='data:image/png;base64,{data}'><figcaption>{inline(b[2])}</figcaption></figure>")
         css = """

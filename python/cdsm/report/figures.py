@@ -42,9 +42,18 @@ def report_style():
 
 
 def save(fig: Figure, path: "str | os.PathLike[str]", dpi: int = DPI) -> str:
-    """Write ``fig`` as PNG at ``path`` (directories created); returns the path."""
+    """Write ``fig`` as PNG at ``path`` (directories created), with an
+    adaptive palette of 256 colours: plots lose nothing visible and the files
+    (and the self-contained HTML reports that embed them) shrink about four
+    times. Returns the path."""
+    from PIL import Image  # matplotlib's own dependency
+
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
-    fig.savefig(path, dpi=dpi, format="png")
+    fig.set_dpi(dpi)
+    fig.canvas.draw()
+    w, h = fig.canvas.get_width_height(physical=True)
+    img = Image.frombuffer("RGBA", (w, h), fig.canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB")
+    img.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE).save(path, format="PNG")
     return str(path)
 
 

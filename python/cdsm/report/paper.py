@@ -392,7 +392,8 @@ def _build(study, pngs: Dict[str, str]) -> Document:
             ws = study.workspaces[p]
             slack = ws.reachable & ~fm.feasible
             doc.p(f"{PROTO_NAMES.get(p, p)}: with lower weights {w} g on disks 1..{n}, {int(slack.sum())} of "
-                  f"{int(ws.reachable.sum())} initial configurations ({100 * slack.mean() / max(ws.reachable.mean(), 1e-12):.1f} %) "
+                  f"{int(ws.reachable.sum())} initial configurations "
+                  f"({100 * slack.mean() / max(ws.reachable.mean(), 1e-12):.1f} %) "
                   f"need a slack upper cable; with the weights in the opposite order "
                   f"{100 * study.slack_reversed[p]:.1f} % do. The paper had to 'guarantee that cable tensions were "
                   "all positive': the order of its experimental conditions is the one that does.")
@@ -457,7 +458,8 @@ def _captions(study) -> Dict[str, str]:
     for p in study.workspaces:
         pn = PROTO_NAMES.get(p, p)
         caps[f"overview_{p}"] = (f"All single-error scenarios, |d(X, Y)| over the workspace — {pn}. "
-                                 "Rows: pair 1..n; columns: cable −, cable +, disk −, disk +. Black rings: jump points.")
+                                 "Rows: pair 1..n; columns: cable −, cable +, disk −, disk +. "
+                                 "Black rings: jump points.")
         caps[f"montecarlo_{p}"] = (f"Monte Carlo (Fig. 7) — {pn}: mean, 95th percentile and max of |d(X, Y)|; "
                                    "mean dX (red), dY (blue), dphi (green).")
         for r in study.scenarios:
@@ -486,7 +488,8 @@ def _order(pngs: Dict[str, str]) -> Dict[str, str]:
     keys = list(pngs)
     pri = ["overview", "montecarlo", "workspace", "singular", "amplification", "feasibility", "fig12", "table3",
            "table2", "scenario"]
-    rank = lambda k: next((i for i, p in enumerate(pri) if k.startswith(p)), len(pri))
+    def rank(k):
+        return next((i for i, p in enumerate(pri) if k.startswith(p)), len(pri))
     return {k: pngs[k] for k in sorted(keys, key=lambda k: (rank(k), keys.index(k)))}
 
 

@@ -467,8 +467,8 @@ def table3_figure(study) -> Figure:
                          f"{np.abs(t['measured'][:, j] - t['ours'][:, j]).max() * 1e3:.3f} mm")
             ax.legend(loc="upper right", fontsize=8.5)
         axs[1].set_xticks(x)
-        axs[1].set_xticklabels([f"{l}\n({p[0] * 1e3:.0f}, {p[1] * 1e3:.0f})"
-                                for l, p in zip(labels, t["pose"])])
+        axs[1].set_xticklabels([f"{lab}\n({p[0] * 1e3:.0f}, {p[1] * 1e3:.0f})"
+                                for lab, p in zip(labels, t["pose"])])
         axs[1].set_xlabel("experiment point (commanded tip X, Y in mm, phi = 0)")
         fig.suptitle("Table 3 — tip displacement for −1 mm on cable 1: measured vs ours vs paper "
                      "(attitude-0 pose IK)", fontsize=11.5)
