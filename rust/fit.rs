@@ -47,8 +47,9 @@ pub struct FitResult {
     pub cost: f64,
     /// Number of residual components scored.
     pub m: usize,
-    /// `(m, k)` Jacobian of the residual in scaled parameters at the answer.
-    pub jacobian: Vec<f64>,
+    /// `(min(m, k), k)` triangular factor `R` of the residual's Jacobian in
+    /// scaled parameters at the answer (`J^T J = R^T R`).
+    pub r_factor: Vec<f64>,
     /// The plant's predictions of every row at the answer.
     pub predictions: Predictions,
     /// Why the solve ended ([`crate::lm::Reason`] as u8).
@@ -169,6 +170,14 @@ impl Problem for FitProblem<'_> {
             *v = v.clamp(*l, *h);
         }
     }
+
+    fn bounded(&self) -> bool {
+        true
+    }
+
+    fn blocked(&self, z: &[f64], k: usize, toward: f64) -> bool {
+        (toward < 0.0 && z[k] <= self.lo[k]) || (toward > 0.0 && z[k] >= self.hi[k])
+    }
 }
 
 /// The solver settings of the fit.
@@ -179,7 +188,7 @@ fn fit_lm(max_iter: u32) -> Lm {
         tol: 0.0,
         max_iter,
         lambda0: 1e-3,
-        min_decrease: 1e-10,
+        min_decrease: 1e-7,
     }
 }
 
@@ -253,7 +262,7 @@ fn fit_one(spec: &FitSpec, scored: &[bool]) -> FitResult {
                 f64::NAN
             },
             m: r.len(),
-            jacobian: Vec::new(),
+            r_factor: Vec::new(),
             predictions,
             reason: if ok {
                 lm::Reason::Converged
@@ -283,7 +292,7 @@ fn fit_one(spec: &FitSpec, scored: &[bool]) -> FitResult {
         iterations: st.iterations,
         cost: st.cost,
         m: prob.index.len(),
-        jacobian: ws.jacobian().to_vec(),
+        r_factor: lm::r_factor(ws.jacobian(), prob.index.len(), spec.free.len()),
         predictions,
         reason: st.reason as u8,
     }

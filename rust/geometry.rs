@@ -331,7 +331,7 @@ mod tests {
             let (s, c) = Dual::var(t).sin_cos();
             let seg = arm.segment(4, 1, Dual::cst(0.0));
             let (l, d) = seg.length_and_derivative((c, s));
-            assert!((l.d - d.v).abs() < 1e-15, "{t}: {} vs {}", l.d, d.v);
+            assert!((l.der() - d.v).abs() < 1e-15, "{t}: {} vs {}", l.der(), d.v);
         }
     }
 }

@@ -132,6 +132,16 @@ pub trait Problem {
     fn on_bound(&self, _x: &[f64]) -> bool {
         false
     }
+    /// Whether the problem holds components on bounds ([`Problem::blocked`]).
+    fn bounded(&self) -> bool {
+        false
+    }
+    /// Whether a bound blocks moving `x[k]` in the direction of the sign of
+    /// `toward` (box-constrained least squares: such a component is held
+    /// out of the step, an active set).
+    fn blocked(&self, _x: &[f64], _k: usize, _toward: f64) -> bool {
+        false
+    }
 }
 
 /// Outcome of one solve (the answer is in the caller's `x`).
@@ -158,6 +168,9 @@ pub struct Workspace {
     delta: Vec<f64>,
     a: Vec<f64>,
     g: Vec<f64>,
+    /// The Jacobian with the columns of blocked components zeroed.
+    jac_free: Vec<f64>,
+    active: Vec<bool>,
 }
 
 impl Workspace {
@@ -175,6 +188,9 @@ impl Workspace {
             if v.len() != len {
                 v.resize(len, 0.0);
             }
+        }
+        if self.active.len() != n {
+            self.active.resize(n, false);
         }
     }
 
@@ -251,9 +267,32 @@ pub fn solve<P: Problem + ?Sized>(
             return done(false, iterations, &ws.r, reason);
         }
         iterations += 1;
+        // components a bound stops from going downhill are held out of the step
+        let mut any = false;
+        if problem.bounded() {
+            for k in 0..n {
+                let gk: f64 = (0..m).map(|i| ws.jac[i * n + k] * ws.r[i]).sum();
+                ws.active[k] = problem.blocked(x, k, -gk);
+                any |= ws.active[k];
+            }
+        }
+        let jac: &[f64] = if any {
+            ws.jac_free.clear();
+            ws.jac_free.extend_from_slice(&ws.jac);
+            for row in ws.jac_free.chunks_exact_mut(n) {
+                for (v, a) in row.iter_mut().zip(&ws.active) {
+                    if *a {
+                        *v = 0.0;
+                    }
+                }
+            }
+            &ws.jac_free
+        } else {
+            &ws.jac
+        };
         let ok = step(
             lm,
-            &ws.jac,
+            jac,
             &ws.r,
             m,
             n,
@@ -262,6 +301,17 @@ pub fn solve<P: Problem + ?Sized>(
             &mut ws.g,
             &mut ws.delta,
         );
+        if any {
+            for (d, a) in ws.delta.iter_mut().zip(&ws.active) {
+                if *a {
+                    *d = 0.0;
+                }
+            }
+            if lm.min_decrease > 0.0 && ws.active.iter().all(|a| *a) {
+                // every component held by a bound: a constrained minimum
+                return done(true, iterations, &ws.r, Reason::Converged);
+            }
+        }
         if !ok || !ws.delta.iter().all(|d| d.is_finite()) {
             lambda = raise(lambda);
             continue;
@@ -451,6 +501,26 @@ fn qr_step(
         *d = x[(k, 0)];
     }
     delta.iter().all(|d| d.is_finite())
+}
+
+/// The triangular factor `R` (`(min(m, n), n)`, row-major) of the
+/// Householder QR of the `(m, n)` row-major `jac`: `J^T J = R^T R`, and `R`
+/// has the singular values of `J` (faer).
+pub fn r_factor(jac: &[f64], m: usize, n: usize) -> Vec<f64> {
+    if m == 0 || n == 0 {
+        return Vec::new();
+    }
+    let a = Mat::<f64>::from_fn(m, n, |i, k| jac[i * n + k]);
+    let qr = a.qr();
+    let r = qr.thin_R();
+    let rows = m.min(n);
+    let mut out = vec![0.0; rows * n];
+    for i in 0..rows {
+        for k in i..n {
+            out[i * n + k] = r[(i, k)];
+        }
+    }
+    out
 }
 
 /// Solves the symmetric positive-definite `n x n` system `a x = b` (`a`

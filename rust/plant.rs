@@ -6,17 +6,18 @@
 //! nominal model exactly. SI units (m, rad, N).
 //!
 //! The residual of the settling equation and the observation are written
-//! once over [`Real`]: in `f64` they settle and predict, in [`Dual`] numbers
-//! they give exact derivatives, so the Jacobian of the predictions with
-//! respect to the parameters follows from the implicit function theorem at
-//! the settled configuration (no finite differences, no extra settles).
+//! once over [`Real`]: in `f64` they settle and predict, in [`Jet`]s they give
+//! exact derivatives along [`JET`] directions per evaluation, so the Jacobian
+//! of the predictions with respect to the parameters follows from the
+//! implicit function theorem at the settled configuration (no finite
+//! differences, no extra settles).
 
 use crate::batch::{rows_of, split_rows};
 use crate::cables::CableGeometry;
 use crate::error::{CdsmError, Result};
 use crate::geometry::{pair, Arm, ArmGeometry};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
-use crate::real::{Dual, Real};
+use crate::real::{Jet, Real};
 use crate::robot::Robot;
 use crate::solve::{CableMethod, CableSolver, SolveOptions};
 use crate::statics::{upper_tensions, Loads, TensionBuffers};
@@ -311,10 +312,15 @@ fn residual<S: Real>(
 ) {
     let n = robot.n();
     let z = S::cst(0.0);
+    let clear = prm.clearance.val() != 0.0 || prm.clearance.is_variable();
     for ((cs, shift), t) in buf.cs.iter_mut().zip(buf.shift.iter_mut()).zip(theta) {
         let (s, c) = t.sin_cos();
         *cs = (c, s);
-        *shift = prm.clearance * (*t / prm.width).tanh();
+        *shift = if clear {
+            prm.clearance * (*t / prm.width).tanh()
+        } else {
+            z
+        };
     }
     for i in 0..n {
         let c = 2 * i;
@@ -363,54 +369,159 @@ fn observe<S: Real>(arm: &Arm<S>, prm: &Params<S>, theta: &[S]) -> [S; 3] {
     ]
 }
 
+/// Directions carried by one forward-mode evaluation of the plant.
+pub const JET: usize = 8;
+type J = Jet<JET>;
+
 /// The settle of one command as a problem of the shared solver: `F(theta) = 0`
-/// with the Jacobian `dF/dtheta` in dual numbers.
-struct SettleProblem<'a> {
-    robot: &'a Robot,
-    arm: &'a Arm<f64>,
-    darm: &'a Arm<Dual>,
-    prm: &'a Params<f64>,
-    dprm: &'a Params<Dual>,
+/// with the Jacobian `dF/dtheta` in jets.
+struct SettleProblem<'a, 'b> {
+    plant: &'a Plant<'a>,
     real: &'a [f64],
-    buf: &'a mut Buffers<f64>,
-    dbuf: &'a mut Buffers<Dual>,
-    dtheta: &'a mut [Dual],
-    dreal: &'a mut [Dual],
-    dout: &'a mut [Dual],
+    work: &'b mut JetWork,
 }
 
-impl Problem for SettleProblem<'_> {
+impl Problem for SettleProblem<'_, '_> {
     fn dims(&self) -> (usize, usize) {
         (self.real.len(), self.real.len())
     }
 
     fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
-        residual(self.robot, self.arm, self.prm, self.real, x, self.buf, r);
+        let p = self.plant;
+        residual(
+            p.robot,
+            &p.arm,
+            &p.prm,
+            self.real,
+            x,
+            &mut self.work.fbuf,
+            r,
+        );
         if let Some(j) = jac {
             let n = x.len();
-            for (d, v) in self.dreal.iter_mut().zip(self.real) {
-                *d = Dual::new(*v, 0.0);
+            for (d, v) in self.work.real.iter_mut().zip(self.real) {
+                *d = J::cst(*v);
             }
-            for k in 0..n {
-                for (l, d) in self.dtheta.iter_mut().enumerate() {
-                    *d = Dual::new(x[l], if l == k { 1.0 } else { 0.0 });
+            for c in 0..n.div_ceil(JET) {
+                for (l, d) in self.work.theta.iter_mut().enumerate() {
+                    *d = J::seeded(x[l], l.wrapping_sub(c * JET));
                 }
+                let w = &mut *self.work;
                 residual(
-                    self.robot,
-                    self.darm,
-                    self.dprm,
-                    self.dreal,
-                    self.dtheta,
-                    self.dbuf,
-                    self.dout,
+                    p.robot, &p.carm, &p.cprm, &w.real, &w.theta, &mut w.buf, &mut w.f,
                 );
-                for i in 0..n {
-                    j[i * n + k] = self.dout[i].d;
+                for s in 0..JET.min(n - c * JET) {
+                    for i in 0..n {
+                        j[i * n + c * JET + s] = w.f[i].d[s];
+                    }
                 }
             }
         }
         r.iter().all(|v| v.is_finite())
     }
+}
+
+/// Buffers of the forward-mode evaluations at one command.
+pub struct JetWork {
+    fbuf: Buffers<f64>,
+    buf: Buffers<J>,
+    theta: Vec<J>,
+    real: Vec<J>,
+    f: Vec<J>,
+    /// `(n, dirs)` residual and `(3, dirs)` observation derivatives.
+    df: Vec<f64>,
+    dobs: Vec<f64>,
+    /// `(3, n)`: `O_theta F_theta^-1`.
+    y: Vec<f64>,
+    ft: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+impl JetWork {
+    fn new(n: usize) -> JetWork {
+        JetWork {
+            fbuf: Buffers::new(n),
+            buf: Buffers::new(n),
+            theta: vec![J::default(); n],
+            real: vec![J::default(); n],
+            f: vec![J::default(); n],
+            df: Vec::new(),
+            dobs: Vec::new(),
+            y: vec![0.0; 3 * n],
+            ft: vec![0.0; n * n],
+            rhs: vec![0.0; n],
+        }
+    }
+}
+
+/// The inputs of one chunk of [`JET`] directions at one command: the
+/// parameters and arm (seeded along the chunk's parameter directions) and the
+/// realised lengths (seeded along the chunk's length directions).
+struct Chunk<'a> {
+    prm: &'a Params<J>,
+    arm: &'a Arm<J>,
+    real: &'a [J],
+}
+
+/// The derivatives of one settled command's observation along `dirs` input
+/// directions by the implicit function theorem,
+/// `dO/dx = O_x - O_theta F_theta^-1 F_x` (`out`: `(3, dirs)` row-major).
+/// Direction `g` of the combined list `theta_0..theta_{n-1}, x_0..` sits in
+/// slot `g % JET` of chunk `g / JET`. False where `F_theta` is singular.
+fn implicit_derivatives<'c>(
+    robot: &Robot,
+    theta: &[f64],
+    dirs: usize,
+    chunk: impl Fn(usize) -> Chunk<'c>,
+    w: &mut JetWork,
+    out: &mut [f64],
+) -> bool {
+    let n = theta.len();
+    let total = n + dirs;
+    w.df.resize(n * total, 0.0);
+    w.dobs.resize(3 * total, 0.0);
+    for c in 0..total.div_ceil(JET) {
+        let ch = chunk(c);
+        for (l, d) in w.theta.iter_mut().enumerate() {
+            *d = J::seeded(theta[l], l.wrapping_sub(c * JET));
+        }
+        residual(
+            robot, ch.arm, ch.prm, ch.real, &w.theta, &mut w.buf, &mut w.f,
+        );
+        let o = observe(ch.arm, ch.prm, &w.theta);
+        for s in 0..JET.min(total - c * JET) {
+            let g = c * JET + s;
+            for i in 0..n {
+                w.df[i * total + g] = w.f[i].d[s];
+            }
+            for (k, ok) in o.iter().enumerate() {
+                w.dobs[k * total + g] = ok.d[s];
+            }
+        }
+    }
+    // y_k solves F_theta^T y_k = O_theta[k]^T
+    for i in 0..n {
+        for l in 0..n {
+            w.ft[l * n + i] = w.df[i * total + l];
+        }
+    }
+    for k in 0..3 {
+        w.rhs.copy_from_slice(&w.dobs[k * total..k * total + n]);
+        let (rhs, y) = (&w.rhs, &mut w.y[k * n..(k + 1) * n]);
+        if !solve_general(n, &w.ft, rhs, y) {
+            return false;
+        }
+    }
+    for k in 0..3 {
+        for q in 0..dirs {
+            let mut v = w.dobs[k * total + n + q];
+            for i in 0..n {
+                v -= w.y[k * n + i] * w.df[i * total + n + q];
+            }
+            out[k * dirs + q] = v;
+        }
+    }
+    true
 }
 
 /// One plant (parameters `p`, flat), ready to settle and observe commands.
@@ -419,9 +530,9 @@ pub struct Plant<'a> {
     p: Vec<f64>,
     prm: Params<f64>,
     arm: Arm<f64>,
-    /// The same parameters and arm as constants in dual numbers (for `dF/dtheta`).
-    cprm: Params<Dual>,
-    carm: Arm<Dual>,
+    /// The same parameters and arm as constants in jets (for `dF/dtheta`).
+    cprm: Params<J>,
+    carm: Arm<J>,
     /// The arm as a robot description (for the rigid closed form).
     arm_robot: Robot,
     geom: CableGeometry,
@@ -464,7 +575,7 @@ impl<'a> Plant<'a> {
         let mut l_ref = vec![0.0; n];
         CableGeometry::new(robot, None).upper_lengths(&vec![(1.0, 0.0); n], &mut l_ref);
         let rigid = prm.kappa == 0.0 && prm.clearance == 0.0;
-        let cprm = Params::<Dual>::unpack(n, p, |_, v| Dual::cst(v));
+        let cprm = Params::<J>::unpack(n, p, |_, v| J::cst(v));
         let carm = cprm.arm(robot);
         Ok(Plant {
             robot,
@@ -539,17 +650,9 @@ impl<'a> Plant<'a> {
             theta.copy_from_slice(&work.start);
         }
         let mut prob = SettleProblem {
-            robot: self.robot,
-            arm: &self.arm,
-            darm: &self.carm,
-            prm: &self.prm,
-            dprm: &self.cprm,
+            plant: self,
             real,
-            buf: &mut work.buf,
-            dbuf: &mut work.dbuf,
-            dtheta: &mut work.dtheta,
-            dreal: &mut work.dreal,
-            dout: &mut work.dout,
+            work: &mut work.jet,
         };
         let lm = Lm::equations(Step::Normal, work.opts.tol, work.opts.max_iter);
         lm::solve(&mut prob, theta, &lm, &mut work.ws).converged
@@ -567,66 +670,26 @@ impl<'a> Plant<'a> {
         work: &mut SettleWork,
     ) -> bool {
         let n = theta.len();
-        let mut ft = vec![0.0; n * n];
-        let mut fr = vec![0.0; n * n];
-        for (d, v) in work.dreal.iter_mut().zip(real) {
-            *d = Dual::cst(*v);
-        }
-        for k in 0..n {
-            for (l, d) in work.dtheta.iter_mut().enumerate() {
-                *d = Dual::new(theta[l], if l == k { 1.0 } else { 0.0 });
-            }
-            residual(
-                self.robot,
-                &self.carm,
-                &self.cprm,
-                &work.dreal,
-                &work.dtheta,
-                &mut work.dbuf,
-                &mut work.dout,
-            );
-            for i in 0..n {
-                ft[i * n + k] = work.dout[i].d;
-            }
-        }
-        for (l, d) in work.dtheta.iter_mut().enumerate() {
-            *d = Dual::cst(theta[l]);
-        }
-        for k in 0..n {
-            for (l, d) in work.dreal.iter_mut().enumerate() {
-                *d = Dual::new(real[l], if l == k { 1.0 } else { 0.0 });
-            }
-            residual(
-                self.robot,
-                &self.carm,
-                &self.cprm,
-                &work.dreal,
-                &work.dtheta,
-                &mut work.dbuf,
-                &mut work.dout,
-            );
-            for i in 0..n {
-                fr[i * n + k] = work.dout[i].d;
-            }
-        }
-        let mut rhs = vec![0.0; n];
-        let mut dth = vec![0.0; n];
-        for k in 0..n {
-            for i in 0..n {
-                rhs[i] = -fr[i * n + k];
-            }
-            if !solve_general(n, &ft, &rhs, &mut dth) {
-                return false;
-            }
-            for (l, d) in work.dtheta.iter_mut().enumerate() {
-                *d = Dual::new(theta[l], dth[l]);
-            }
-            let o = observe(&self.carm, &self.cprm, &work.dtheta);
-            for c in 0..3 {
-                jac[c * n + k] = o[c].d;
-            }
-        }
-        true
+        // directions: theta (n), then each realised length (n)
+        let reals: Vec<Vec<J>> = (0..(2 * n).div_ceil(JET))
+            .map(|c| {
+                (0..n)
+                    .map(|i| J::seeded(real[i], (n + i).wrapping_sub(c * JET)))
+                    .collect()
+            })
+            .collect();
+        implicit_derivatives(
+            self.robot,
+            theta,
+            n,
+            |c| Chunk {
+                prm: &self.cprm,
+                arm: &self.carm,
+                real: &reals[c],
+            },
+            &mut work.jet,
+            jac,
+        )
     }
 
     /// The actuators' gain `1 + s` (realised length per delivered length).
@@ -650,11 +713,7 @@ pub struct SettleWork<'a> {
     opts: SolveOptions,
     rigid: CableSolver<'a>,
     start: Vec<f64>,
-    buf: Buffers<f64>,
-    dbuf: Buffers<Dual>,
-    dtheta: Vec<Dual>,
-    dreal: Vec<Dual>,
-    dout: Vec<Dual>,
+    jet: JetWork,
     ws: Workspace,
 }
 
@@ -665,11 +724,7 @@ impl<'a> SettleWork<'a> {
             opts,
             rigid: CableSolver::new(&plant.arm_robot, CableMethod::Auto, opts),
             start: vec![0.0; n],
-            buf: Buffers::new(n),
-            dbuf: Buffers::new(n),
-            dtheta: vec![Dual::default(); n],
-            dreal: vec![Dual::default(); n],
-            dout: vec![Dual::default(); n],
+            jet: JetWork::new(n),
             ws: Workspace::default(),
         }
     }
@@ -803,9 +858,9 @@ pub struct Linearised {
     pub jacobian: Vec<f64>,
 }
 
-/// The derivatives of every command's observation with respect to the
-/// parameter `dir`, by the implicit function theorem at the settled `theta`.
-#[allow(clippy::too_many_arguments)]
+/// The derivatives `(commands, 3, k)` of every command's observation with
+/// respect to the parameters `free`, by the implicit function theorem at the
+/// settled `theta` (NaN where a command did not settle).
 fn command_derivatives(
     plant: &Plant,
     seq: &Sequence,
@@ -817,76 +872,47 @@ fn command_derivatives(
     let n = seq.n;
     let robot = plant.robot;
     let kf = free.len();
-    let cmds = seq.len();
-    // realised lengths and their derivatives along every free direction
-    let dreal: Vec<Vec<Dual>> = free
-        .iter()
-        .map(|&f| {
-            let prm = Params::<Dual>::unpack(n, &plant.p, |i, v| {
-                Dual::new(v, if i == f { 1.0 } else { 0.0 })
+    // chunk c carries directions c*JET.. of theta_0..theta_{n-1}, free_0..free_{k-1}
+    let chunks: Vec<(Params<J>, Arm<J>, Vec<J>)> = (0..(n + kf).div_ceil(JET))
+        .map(|c| {
+            let prm = Params::<J>::unpack(n, &plant.p, |i, v| {
+                let mut d = [0.0; JET];
+                for (s, x) in d.iter_mut().enumerate() {
+                    let g = c * JET + s;
+                    if g >= n && g < n + kf && free[g - n] == i {
+                        *x = 1.0;
+                    }
+                }
+                J::with(v, d)
             });
-            realised(seq, &prm, &plant.l_ref)
+            let arm = prm.arm(robot);
+            let real = realised(seq, &prm, &plant.l_ref);
+            (prm, arm, real)
         })
         .collect();
-    let real = plant.realised(seq);
-    let parts = split_rows(cmds, threads, |range| {
+    let parts = split_rows(seq.len(), threads, |range| {
         let mut out = vec![f64::NAN; range.len() * 3 * kf];
-        let mut dbuf = Buffers::<Dual>::new(n);
-        let (cst, carm) = (&plant.cprm, &plant.carm);
-        let dirs: Vec<(Params<Dual>, Arm<Dual>)> = free
-            .iter()
-            .map(|&f| {
-                let prm = Params::<Dual>::unpack(n, &plant.p, |i, v| {
-                    Dual::new(v, if i == f { 1.0 } else { 0.0 })
-                });
-                let arm = prm.arm(robot);
-                (prm, arm)
-            })
-            .collect();
-        let mut ftheta = vec![0.0; n * n];
-        let mut rhs = vec![0.0; n];
-        let mut dth = vec![0.0; n];
-        let mut th = vec![Dual::default(); n];
-        let mut dr = vec![Dual::default(); n];
-        let mut f = vec![Dual::default(); n];
+        let mut w = JetWork::new(n);
         for (local, j) in range.enumerate() {
             if !ok[j] {
                 continue;
             }
             let t0 = &theta[j * n..(j + 1) * n];
-            let rj = &real[j * n..(j + 1) * n];
-            // F_theta by dual numbers along each joint
-            for (d, v) in dr.iter_mut().zip(rj) {
-                *d = Dual::cst(*v);
-            }
-            for k in 0..n {
-                for (l, d) in th.iter_mut().enumerate() {
-                    *d = Dual::new(t0[l], if l == k { 1.0 } else { 0.0 });
-                }
-                residual(robot, carm, cst, &dr, &th, &mut dbuf, &mut f);
-                for i in 0..n {
-                    ftheta[i * n + k] = f[i].d;
-                }
-            }
-            for (q, (prm, arm)) in dirs.iter().enumerate() {
-                for (l, d) in th.iter_mut().enumerate() {
-                    *d = Dual::cst(t0[l]);
-                }
-                let drq = &dreal[q][j * n..(j + 1) * n];
-                residual(robot, arm, prm, drq, &th, &mut dbuf, &mut f);
-                for i in 0..n {
-                    rhs[i] = -f[i].d;
-                }
-                if !solve_general(n, &ftheta, &rhs, &mut dth) {
-                    continue;
-                }
-                for (l, d) in th.iter_mut().enumerate() {
-                    *d = Dual::new(t0[l], dth[l]);
-                }
-                let o = observe(arm, prm, &th);
-                for c in 0..3 {
-                    out[(local * 3 + c) * kf + q] = o[c].d;
-                }
+            let dst = &mut out[local * 3 * kf..(local + 1) * 3 * kf];
+            let done = implicit_derivatives(
+                robot,
+                t0,
+                kf,
+                |c| Chunk {
+                    prm: &chunks[c].0,
+                    arm: &chunks[c].1,
+                    real: &chunks[c].2[j * n..(j + 1) * n],
+                },
+                &mut w,
+                dst,
+            );
+            if !done {
+                dst.fill(f64::NAN);
             }
         }
         out

@@ -1,5 +1,5 @@
-//! Scalars the models are written over: `f64`, and [`Dual`] numbers that
-//! carry one directional derivative (forward mode). The plant, the statics
+//! Scalars the models are written over: `f64`, and [`Jet`]s that carry
+//! derivatives along `K` directions (forward mode; [`Dual`] is `Jet<1>`). The plant, the statics
 //! and the cable geometry are generic over [`Real`], so one code path gives
 //! values and exact derivatives (no finite differences).
 
@@ -77,148 +77,220 @@ impl Real for f64 {
     }
 }
 
-/// A value and its derivative along one direction.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Dual {
+/// A value and its derivatives along `K` directions at once (forward mode):
+/// one evaluation of a model in `Jet<K>` gives `K` columns of its Jacobian.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Jet<const K: usize> {
     pub v: f64,
-    pub d: f64,
+    pub d: [f64; K],
+}
+
+/// A value and its derivative along one direction.
+pub type Dual = Jet<1>;
+
+impl<const K: usize> Default for Jet<K> {
+    #[inline]
+    fn default() -> Self {
+        Jet {
+            v: 0.0,
+            d: [0.0; K],
+        }
+    }
+}
+
+impl<const K: usize> Jet<K> {
+    /// `v` with derivative 1 along direction `k` (0 along the others; none
+    /// when `k >= K`).
+    #[inline]
+    pub fn seeded(v: f64, k: usize) -> Self {
+        let mut d = [0.0; K];
+        if k < K {
+            d[k] = 1.0;
+        }
+        Jet { v, d }
+    }
+    /// `v` with the derivatives `d`.
+    #[inline]
+    pub fn with(v: f64, d: [f64; K]) -> Self {
+        Jet { v, d }
+    }
+    /// The value `v` of a function whose derivative with respect to `self`
+    /// is `dv` (chain rule).
+    #[inline]
+    fn chain(self, v: f64, dv: f64) -> Self {
+        let mut d = self.d;
+        for x in d.iter_mut() {
+            *x *= dv;
+        }
+        Jet { v, d }
+    }
 }
 
 impl Dual {
     /// The variable itself: derivative 1.
     #[inline]
     pub fn var(v: f64) -> Dual {
-        Dual { v, d: 1.0 }
+        Jet { v, d: [1.0] }
     }
     /// `v` with derivative `d`.
     #[inline]
     pub fn new(v: f64, d: f64) -> Dual {
-        Dual { v, d }
+        Jet { v, d: [d] }
+    }
+    /// The derivative.
+    #[inline]
+    pub fn der(self) -> f64 {
+        self.d[0]
     }
 }
 
-impl Add for Dual {
-    type Output = Dual;
+impl<const K: usize> Add for Jet<K> {
+    type Output = Self;
     #[inline]
-    fn add(self, o: Dual) -> Dual {
-        Dual::new(self.v + o.v, self.d + o.d)
+    fn add(mut self, o: Self) -> Self {
+        self.v += o.v;
+        for (a, b) in self.d.iter_mut().zip(o.d) {
+            *a += b;
+        }
+        self
     }
 }
-impl Sub for Dual {
-    type Output = Dual;
+impl<const K: usize> Sub for Jet<K> {
+    type Output = Self;
     #[inline]
-    fn sub(self, o: Dual) -> Dual {
-        Dual::new(self.v - o.v, self.d - o.d)
+    fn sub(mut self, o: Self) -> Self {
+        self.v -= o.v;
+        for (a, b) in self.d.iter_mut().zip(o.d) {
+            *a -= b;
+        }
+        self
     }
 }
-impl Mul for Dual {
-    type Output = Dual;
+impl<const K: usize> Mul for Jet<K> {
+    type Output = Self;
     #[inline]
-    fn mul(self, o: Dual) -> Dual {
-        Dual::new(self.v * o.v, self.d * o.v + self.v * o.d)
+    fn mul(self, o: Self) -> Self {
+        let mut d = [0.0; K];
+        for ((x, a), b) in d.iter_mut().zip(self.d).zip(o.d) {
+            *x = a * o.v + self.v * b;
+        }
+        Jet { v: self.v * o.v, d }
     }
 }
-impl Div for Dual {
-    type Output = Dual;
+impl<const K: usize> Div for Jet<K> {
+    type Output = Self;
     #[inline]
-    fn div(self, o: Dual) -> Dual {
+    fn div(self, o: Self) -> Self {
         let q = self.v / o.v;
-        Dual::new(q, (self.d - q * o.d) / o.v)
+        let inv = 1.0 / o.v;
+        let mut d = [0.0; K];
+        for ((x, a), b) in d.iter_mut().zip(self.d).zip(o.d) {
+            *x = (a - q * b) * inv;
+        }
+        Jet { v: q, d }
     }
 }
-impl Neg for Dual {
-    type Output = Dual;
+impl<const K: usize> Neg for Jet<K> {
+    type Output = Self;
     #[inline]
-    fn neg(self) -> Dual {
-        Dual::new(-self.v, -self.d)
+    fn neg(self) -> Self {
+        self.chain(-self.v, -1.0)
     }
 }
-impl AddAssign for Dual {
+impl<const K: usize> AddAssign for Jet<K> {
     #[inline]
-    fn add_assign(&mut self, o: Dual) {
+    fn add_assign(&mut self, o: Self) {
         *self = *self + o;
     }
 }
-impl SubAssign for Dual {
+impl<const K: usize> SubAssign for Jet<K> {
     #[inline]
-    fn sub_assign(&mut self, o: Dual) {
+    fn sub_assign(&mut self, o: Self) {
         *self = *self - o;
     }
 }
-impl MulAssign for Dual {
+impl<const K: usize> MulAssign for Jet<K> {
     #[inline]
-    fn mul_assign(&mut self, o: Dual) {
+    fn mul_assign(&mut self, o: Self) {
         *self = *self * o;
     }
 }
-impl Add<f64> for Dual {
-    type Output = Dual;
+impl<const K: usize> Add<f64> for Jet<K> {
+    type Output = Self;
     #[inline]
-    fn add(self, o: f64) -> Dual {
-        Dual::new(self.v + o, self.d)
+    fn add(mut self, o: f64) -> Self {
+        self.v += o;
+        self
     }
 }
-impl Sub<f64> for Dual {
-    type Output = Dual;
+impl<const K: usize> Sub<f64> for Jet<K> {
+    type Output = Self;
     #[inline]
-    fn sub(self, o: f64) -> Dual {
-        Dual::new(self.v - o, self.d)
+    fn sub(mut self, o: f64) -> Self {
+        self.v -= o;
+        self
     }
 }
-impl Mul<f64> for Dual {
-    type Output = Dual;
+impl<const K: usize> Mul<f64> for Jet<K> {
+    type Output = Self;
     #[inline]
-    fn mul(self, o: f64) -> Dual {
-        Dual::new(self.v * o, self.d * o)
+    fn mul(self, o: f64) -> Self {
+        self.chain(self.v * o, o)
     }
 }
-impl Div<f64> for Dual {
-    type Output = Dual;
+impl<const K: usize> Div<f64> for Jet<K> {
+    type Output = Self;
     #[inline]
-    fn div(self, o: f64) -> Dual {
-        Dual::new(self.v / o, self.d / o)
+    fn div(self, o: f64) -> Self {
+        self.chain(self.v / o, 1.0 / o)
     }
 }
 
-impl Real for Dual {
+impl<const K: usize> Real for Jet<K> {
     #[inline]
-    fn cst(v: f64) -> Dual {
-        Dual::new(v, 0.0)
+    fn cst(v: f64) -> Self {
+        Jet { v, d: [0.0; K] }
     }
     #[inline]
     fn is_variable(self) -> bool {
-        self.d != 0.0
+        self.d.iter().any(|x| *x != 0.0)
     }
     #[inline]
     fn val(self) -> f64 {
         self.v
     }
     #[inline]
-    fn sqrt(self) -> Dual {
+    fn sqrt(self) -> Self {
         let r = self.v.sqrt();
         // d sqrt(0) is infinite; a zero derivative keeps a zero-length segment finite
-        let d = if r > 0.0 { self.d / (2.0 * r) } else { 0.0 };
-        Dual::new(r, d)
+        self.chain(r, if r > 0.0 { 0.5 / r } else { 0.0 })
     }
     #[inline]
-    fn sin_cos(self) -> (Dual, Dual) {
+    fn sin_cos(self) -> (Self, Self) {
         let (s, c) = self.v.sin_cos();
-        (Dual::new(s, c * self.d), Dual::new(c, -s * self.d))
+        (self.chain(s, c), self.chain(c, -s))
     }
     #[inline]
-    fn tanh(self) -> Dual {
+    fn tanh(self) -> Self {
         let t = self.v.tanh();
-        Dual::new(t, (1.0 - t * t) * self.d)
+        self.chain(t, 1.0 - t * t)
     }
     #[inline]
-    fn atan2(self, x: Dual) -> Dual {
+    fn atan2(self, x: Self) -> Self {
         let r2 = self.v * self.v + x.v * x.v;
-        let d = if r2 > 0.0 {
-            (x.v * self.d - self.v * x.d) / r2
+        let (a, b) = if r2 > 0.0 {
+            (x.v / r2, -self.v / r2)
         } else {
-            0.0
+            (0.0, 0.0)
         };
-        Dual::new(self.v.atan2(x.v), d)
+        let mut d = [0.0; K];
+        for ((o, dy), dx) in d.iter_mut().zip(self.d).zip(x.d) {
+            *o = a * dy + b * dx;
+        }
+        Jet {
+            v: self.v.atan2(x.v),
+            d,
+        }
     }
 }
 
@@ -232,9 +304,9 @@ mod tests {
         let ad = f(Dual::var(x));
         assert!((ad.v - g(x)).abs() < 1e-15, "value at {x}");
         assert!(
-            (ad.d - fd).abs() < 1e-7 * (1.0 + fd.abs()),
+            (ad.der() - fd).abs() < 1e-7 * (1.0 + fd.abs()),
             "{} vs {fd} at {x}",
-            ad.d
+            ad.der()
         );
     }
 
@@ -263,5 +335,27 @@ mod tests {
                 x,
             );
         }
+    }
+
+    #[test]
+    fn a_jet_carries_the_partials_of_every_direction_at_once() {
+        // f(x, y, z) = atan2(x y + 0.3, z) sqrt(1 + z^2) tanh(x) / (2 + sin y)
+        fn f<S: Real>(x: S, y: S, z: S) -> S {
+            let (s, _) = y.sin_cos();
+            Real::atan2(x * y + 0.3, z) * Real::sqrt(z * z + 1.0) * x.tanh() / (s + 2.0)
+        }
+        let p = [0.7, -1.1, 0.4];
+        let j: Jet<3> = f(
+            Jet::seeded(p[0], 0),
+            Jet::seeded(p[1], 1),
+            Jet::seeded(p[2], 2),
+        );
+        for k in 0..3 {
+            let d = |i: usize| Dual::new(p[i], if i == k { 1.0 } else { 0.0 });
+            let one = f(d(0), d(1), d(2));
+            assert_eq!(j.v, one.v);
+            assert!((j.d[k] - one.der()).abs() <= 1e-15 * one.der().abs().max(1.0));
+        }
+        assert!(!Jet::<3>::cst(1.0).is_variable() && j.is_variable());
     }
 }

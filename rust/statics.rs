@@ -300,7 +300,7 @@ impl Problem for ElasticProblem<'_> {
                     &mut self.dt,
                 );
                 for i in 0..n {
-                    j[i * n + k] -= (self.upper[i] + self.route) / self.ea * self.dt[i].d;
+                    j[i * n + k] -= (self.upper[i] + self.route) / self.ea * self.dt[i].der();
                 }
             }
         }

@@ -76,7 +76,7 @@ class PlantFit:
     iterations: int
     cost: float
     m: int
-    jacobian: F64
+    r_factor: F64
     reason: int
     prediction: PlantPrediction
 

@@ -161,7 +161,8 @@ impl PlantPrediction {
 }
 
 /// One fitted plant: `p (P)`, `converged`, `iterations`, `cost` (m²), `m`
-/// residual components, `jacobian (m*k)` in scaled parameters, `reason`, and
+/// residual components, `r_factor (min(m, k)*k)`: the triangular factor of the
+/// residual's Jacobian in scaled parameters (`J^T J = R^T R`), `reason`, and
 /// its `prediction` of every row.
 #[pyclass(frozen, get_all, module = "cdsm._cdsm")]
 pub struct PlantFit {
@@ -170,7 +171,7 @@ pub struct PlantFit {
     pub iterations: u32,
     pub cost: f64,
     pub m: usize,
-    pub jacobian: A<f64>,
+    pub r_factor: A<f64>,
     pub reason: u8,
     pub prediction: Py<PlantPrediction>,
 }
@@ -183,7 +184,7 @@ impl PlantFit {
             iterations: f.iterations,
             cost: f.cost,
             m: f.m,
-            jacobian: arr(py, f.jacobian),
+            r_factor: arr(py, f.r_factor),
             reason: f.reason,
             prediction: Py::new(py, PlantPrediction::new(py, f.predictions, None))?,
         })

@@ -111,7 +111,8 @@ def fit(prep, effects: Sequence[str], rows: Optional[np.ndarray] = None, start: 
 
 def _summary(effects, idx, scale, names, r, order) -> Fit:
     """Uncertainty and statistics of one fit from its Jacobian (m, k) in scaled
-    parameters: covariance ``sigma^2 (J^T J)^+`` with ``sigma^2 = ssr/(m - k)``;
+    parameters (given as the triangular factor R of its QR, which has the same
+    ``J^T J`` and singular values): covariance ``sigma^2 (J^T J)^+`` with ``sigma^2 = ssr/(m - k)``;
     a parameter with a share in a direction the data cannot see (a singular
     value below 1e-8 of the largest, columns scaled to unit norm) has no
     determined value: its standard deviation is NaN."""
@@ -120,7 +121,7 @@ def _summary(effects, idx, scale, names, r, order) -> Fit:
     p = np.array(r.p)
     z = p[idx] / scale if k else np.zeros(0)
     if k and m:
-        J = np.asarray(r.jacobian).reshape(m, k)
+        J = np.asarray(r.r_factor).reshape(-1, k)  # R of J = QR: same J^T J, same singular values
         sigma2 = cost / max(m - k, 1)
         col = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
         _, sv, vt = np.linalg.svd(J / col, full_matrices=False)
