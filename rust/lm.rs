@@ -174,7 +174,9 @@ pub struct Workspace {
 }
 
 impl Workspace {
-    fn fit(&mut self, m: usize, n: usize) {
+    fn fit(&mut self, m: usize, n: usize, step: Step) {
+        // the system of the step: (m, m) for the minimal-norm step, (n, n) otherwise
+        let s = if step == Step::MinNorm { m } else { n };
         for (v, len) in [
             (&mut self.r, m),
             (&mut self.r_trial, m),
@@ -182,8 +184,8 @@ impl Workspace {
             (&mut self.jac_trial, m * n),
             (&mut self.x_trial, n),
             (&mut self.delta, n),
-            (&mut self.a, m.max(n) * m.max(n)),
-            (&mut self.g, m.max(n)),
+            (&mut self.a, s * s),
+            (&mut self.g, s),
         ] {
             if v.len() != len {
                 v.resize(len, 0.0);
@@ -221,7 +223,7 @@ pub fn solve<P: Problem + ?Sized>(
     ws: &mut Workspace,
 ) -> Status {
     let (m, n) = problem.dims();
-    ws.fit(m, n);
+    ws.fit(m, n, lm.step);
     let done = |converged: bool, iterations: u32, r: &[f64], reason: Reason| Status {
         converged,
         iterations,

@@ -654,7 +654,17 @@ impl<'a> Plant<'a> {
             real,
             work: &mut work.jet,
         };
-        let lm = Lm::equations(Step::Normal, work.opts.tol, work.opts.max_iter);
+        // cable i crosses joints 1..i: without stretch (whose tensions couple
+        // every joint) dF/dtheta is lower triangular; Newton first, damped on failure
+        let step = if self.prm.kappa == 0.0 {
+            Step::Triangular
+        } else {
+            Step::Normal
+        };
+        let lm = Lm {
+            lambda0: 0.0,
+            ..Lm::equations(step, work.opts.tol, work.opts.max_iter)
+        };
         lm::solve(&mut prob, theta, &lm, &mut work.ws).converged
     }
 
