@@ -88,3 +88,43 @@ def test_bad_k(setting, cdsm):
 
     with pytest.raises(cdsm.CdsmInputError, match="k"):
         design.suggest(setting[2], 0)
+
+
+def test_backlash_tied_with_actuation_scale_gets_moves_in_both_directions(cdsm, tmp_path):
+    """Issue 12: Table-3-style displacements, every move right after a reversal
+    (it loses the whole dead band), 30 µm backlash on cable 1, 30 µm noise:
+    backlash and a -6 % actuation scale tie. The suggestions approach their
+    rows from both sides and move the cables both ways, where the two models
+    predict differently; measured, they rank backlash first."""
+    from cdsm.calibration import diagnosis, experiment, measurements, plant
+
+    robot = cdsm.Robot.paper()
+    t3 = measurements.packaged("table3")
+    truth = {"backlash": [3e-5, 0.0, 0.0]}
+    effects = ["backlash", "actuation_scale"]
+    prep = diagnosis.prepare(robot, measurements.after_reversals(t3))
+    vp = plant.VirtualPrototype(robot, truth, noise=30e-6, seed=9)
+    data = vp.measure(prep.theta_cmd, prep.dL, "displacement", observe=prep.meas.observed)
+    diag = diagnosis.diagnose(robot, data, noise=30e-6, effects=effects)
+    assert diag.singles[0].name == "backlash" and diag.ties == ["actuation_scale"]  # nine rows cannot tell
+    sug = experiment.suggest(diag, 6)
+    assert sug.approach is not None and sorted(sug.models) == sorted(effects)
+    side = np.sign(sug.approach.mean(axis=1))           # displacement rows: approach relative to the base
+    move = np.sign(sug.dL.sum(axis=1))
+    assert set(side) == {-1.0, 1.0}                      # approached from above and from below
+    assert set(move) == {-1.0, 1.0}                      # moves in both directions
+    # the approach commands every cable beyond the base by 1 mm, more than any dead band
+    assert np.allclose(np.abs(sug.approach), 1e-3)
+    th, dl, seen = sug.commands()
+    assert np.array_equal(seen, np.tile([False, True], 6)) and np.array_equal(dl[1::2], sug.dL)
+    pb, pa = sug.predictions["backlash"], sug.predictions["actuation_scale"]
+    assert np.abs(pb - pa).max() > 2 * 30e-6
+    new = plant.VirtualPrototype(robot, truth, noise=30e-6, seed=109).measure(th, dl, "displacement", observe=seen)
+    again = diagnosis.diagnose(robot, experiment.combine(robot, data, new), noise=30e-6, effects=effects)
+    assert again.singles[0].name == "backlash"
+    assert again.singles[1].heldout_rms > 1.5 * again.singles[0].heldout_rms
+    # the CSV keeps the approach rows, to run and not to measure
+    path = tmp_path / "s.csv"
+    sug.to_csv(path)
+    rows = [ln for ln in path.read_text().splitlines() if not ln.startswith("#")][1:]
+    assert [r.split(",")[0] for r in rows[:2]] == ["s1 approach", "s1"] and len(rows) == 12

@@ -41,8 +41,7 @@ def test_cli_writes_everything(paper_run):
     names = {p.stem for p in pngs}
     assert {"overview_attitude0", "overview_joint", "montecarlo_attitude0", "montecarlo_joint",
             "singular", "workspace", "fig12_singular_state", "table3"} <= names
-    assert sum(n.startswith("scenario_attitude0_") for n in names) == 12
-    assert sum(n.startswith("scenario_joint_") for n in names) == 12
+    assert sum(n.startswith("scenario_") for n in names) == 12  # both protocols in each
     assert any(n.startswith("table2_") for n in names)
     for p in pngs:
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

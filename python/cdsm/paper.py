@@ -1,7 +1,9 @@
 """The seed paper's accuracy study end to end (sections 2.3 and 3): error
 scenarios over the workspace (Fig. 5, 6), Monte Carlo (Fig. 7), jump points and
 singular states (Fig. 12), configuration diagrams (Table 2) and the
-experimental comparison (Table 3), with the paper's claims checked.
+experimental comparison (Table 3), with the paper's claims checked; the four
+readings of the paper's loads (weight order x plane) and the Table 3 gap
+diagnosed under each, with backlash under the two execution-order bounds.
 
 All arrays are SI (m, rad); the report converts to mm and degrees for reading.
 """
@@ -14,12 +16,16 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from .accuracy import montecarlo, scenarios, sensitivity, statics, workspace
-from .calibration import diagnosis, measurements
+from .calibration import diagnosis, experiment, measurements
 from .progress import Progress
 from .robot import Robot
 
 __all__ = ["Scenario", "ScenarioResult", "PaperStudy", "paper_scenarios", "run",
-           "table3", "table2", "finite_rms"]
+           "table3", "table2", "table3_readings", "finite_rms", "ORDERS"]
+
+#: The execution orders Table 3 is diagnosed under (its real order is unknown).
+ORDERS = {"file order": "rows run in file order, each base approached from the previous row's end",
+          "after reversals": "every measured move starts right after a reversal (loses the whole dead band)"}
 
 
 @dataclass(frozen=True)
@@ -95,6 +101,12 @@ class PaperStudy:
     amplification: Dict[str, dict] = field(default_factory=dict)
     #: the sim-to-real diagnosis of Table 3 (3-joint robots), or None
     diagnosis: Optional["diagnosis.Diagnosis"] = None
+    #: the four load readings over the +-30 deg joint grid (statics.reading_maps)
+    readings: Dict[str, statics.Reading] = field(default_factory=dict)
+    #: per reading: Table 3 under each of ORDERS (table3_readings)
+    table3_readings: Dict[str, dict] = field(default_factory=dict)
+    #: the next measurements for Table 3 (experiment.suggest), or None
+    table3_suggestion: Optional["experiment.Suggestion"] = None
 
     def result(self, key: str, protocol: str = "attitude0") -> ScenarioResult:
         for r in self.scenarios:
@@ -132,6 +144,22 @@ def table3(robot: Robot) -> dict:
                 pose=meas.pose_cmd, ours=ours, ours_plain_seed=plain, paper=theory.measured,
                 measured=meas.measured, ok=np.array(ik_ok), within_limits=np.array(limits),
                 theta0=np.array(theta0))
+
+
+def table3_readings(readings: Dict[str, Robot]) -> Dict[str, dict]:
+    """Table 3 under each load reading ({name: robot}, 3 joints): which points
+    keep every upper cable taut at the command and after dL (9,) bool, and
+    the diagnosis under each execution order of :data:`ORDERS`."""
+    meas = measurements.packaged("table3", 3)
+    orders = {"file order": meas, "after reversals": measurements.after_reversals(meas)}
+    out = {}
+    for name, robot in readings.items():
+        prep = diagnosis.prepare(robot, meas)
+        th = prep.theta_cmd
+        after = robot.solve_cables(robot.upper_lengths(th) + meas.dL, seed=th)
+        out[name] = dict(robot=robot, taut=robot.feasible(th), taut_after=robot.feasible(after.theta),
+                         diagnoses={o: diagnosis.diagnose(robot, m) for o, m in orders.items()})
+    return out
 
 
 # Table 2 of the paper: poses and the conditions drawn before/after the error.
@@ -273,7 +301,10 @@ def run(robot: Optional[Robot] = None, samples: int = 1000, seed: int = 0,
         rev = robot.feasible(th, lower=robot.lower_tension[::-1].copy())
         study.slack_reversed[p] = float(1.0 - rev[ws.reachable].mean())
         study.amplification[p] = sensitivity.amplification_maps(robot, p, ws)
+    study.readings = statics.reading_maps(robot)
     if robot.n == 3:
-        study.diagnosis = diagnosis.diagnose(robot, measurements.packaged("table3", robot.n))
+        study.table3_readings = table3_readings({k: r.robot for k, r in study.readings.items()})
+        study.diagnosis = study.table3_readings["as given"]["diagnoses"]["file order"]
+        study.table3_suggestion = experiment.suggest(study.diagnosis, 6)
     study.claims = check_claims(study)
     return study

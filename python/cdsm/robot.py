@@ -12,6 +12,7 @@ import json
 import math
 import os
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Optional, Tuple
 
 import numpy as np
@@ -20,7 +21,15 @@ from . import _cdsm
 from .files import read_text
 from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
 
-__all__ = ["Robot", "Solution", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS"]
+__all__ = ["Robot", "Solution", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS", "packaged_robots"]
+
+_ROBOTS = Path(__file__).parent / "robots"
+
+
+def packaged_robots() -> Tuple[str, ...]:
+    """Names of the robot descriptions shipped with cdsm (``cdsm/robots/*.toml``),
+    for :meth:`Robot.packaged`."""
+    return tuple(sorted(p.stem for p in _ROBOTS.glob("*.toml")))
 
 
 #: Why a solve ended, by code (``Solution.reason`` holds the names).
@@ -109,6 +118,15 @@ class Robot:
     def paper(cls) -> "Robot":
         """The paper's 3-DOF prototype: Table 1, lower cables 50/10/5 g, limits ±35°."""
         return cls(_cdsm.CoreRobot.paper())
+
+    @classmethod
+    def packaged(cls, name: str) -> "Robot":
+        """A robot description shipped with cdsm (``cdsm/robots/<name>.toml``):
+        see :func:`packaged_robots`."""
+        names = packaged_robots()
+        if name not in names:
+            raise CdsmInputError(f"`name`: no packaged robot {name!r}; packaged: {', '.join(names)}")
+        return cls.from_toml(_ROBOTS / f"{name}.toml")
 
     @classmethod
     def from_toml(cls, path: "str | os.PathLike[str]") -> "Robot":

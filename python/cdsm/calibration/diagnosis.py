@@ -150,6 +150,7 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "register") -> Prepar
     order = meas.order
     nominal = np.zeros(plant.size(robot))
     obs, conv = plant.predict(robot, nominal, theta[order], meas.dL[order], kinds[order])
+    settled, _ = plant.settle(robot, nominal, theta[order], meas.dL[order], kinds[order])
     pred = np.empty_like(obs)
     pred[order] = obs
     settles = np.empty(N, bool)
@@ -157,7 +158,15 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "register") -> Prepar
     observed = meas.observed
     for i in np.flatnonzero(ok & ~settles):
         flags[int(i)] = "the nominal model cannot realise the commanded cable lengths"
-    usable = ok & settles & observed
+    # the taut-cable model holds only where every upper cable stays taut under
+    # the robot's loads (lower tensions, gravity), at the command and after dL
+    reached = np.zeros_like(theta)
+    reached[order] = np.where(np.isfinite(settled), settled, 0.0)
+    taut = robot.feasible(theta) & robot.feasible(reached)
+    for i in np.flatnonzero(ok & settles & observed & ~taut):
+        flags[int(i)] = ("the nominal model needs a slack upper cable here under the robot's loads (lower "
+                         "tensions, gravity): a taut-cable model cannot predict this row")
+    usable = ok & settles & observed & taut
     measured = np.full((N, 3), np.nan)
     measured[:, :2] = meas.measured
     if meas.measured_phi is not None:
@@ -339,8 +348,8 @@ class Diagnosis:
     the ``verdict``, the baseline, every candidate (best first), the chosen
     model, the noise, per-row residuals and features, and identifiability
     notes. ``baseline`` is the nominal model (in the registered frame when
-    the data are registered); ``identity`` the nominal model in the
-    identity frame (registered data only)."""
+    the data are registered); ``identity`` the chosen model (or the nominal
+    one) in the identity frame (registered data only)."""
 
     best: str
     baseline: Candidate
@@ -409,7 +418,7 @@ class Diagnosis:
             reg = dict(fitted=True, named=self.registration_named,
                        frame=self.final().fit.p[ind].tolist(), start=self.prep.start[ind].tolist(),
                        identity_heldout_rms_m=self.identity.heldout_rms if self.identity else None,
-                       registered_heldout_rms_m=self.baseline.heldout_rms)
+                       registered_heldout_rms_m=self.final().heldout_rms)
         return dict(
             best=self.best, verdict=self.verdict, explained=self.explained,
             baseline=dict(heldout_rms_m=self.baseline.heldout_rms, aic=self.baseline.fit.aic,
@@ -537,13 +546,6 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     base = scorer.evaluate("none", [])
     bar.update(1)
     scorer.base_error = base.heldout
-    identity = None
-    named = False
-    if prep.registered:
-        saved, prep.registered = prep.registered, False
-        identity = _Scorer(prep, rows, folds).evaluate("identity frame", [])
-        prep.registered = saved
-        named = stats.better(base.heldout, identity.heldout, ALPHA) and base.fit.bic < identity.fit.bic
     bar.update(1)
     singles = []
     for e in library:
@@ -572,6 +574,18 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
             steps.append(nxt)
         else:
             break
+    # the registration is named only when it beats the identity frame for the
+    # chosen model, on held-out rows and by BIC, like any effect
+    identity = None
+    named = False
+    if prep.registered:
+        saved, prep.registered = prep.registered, False
+        fin = chosen or base
+        identity = _Scorer(prep, rows, folds).evaluate("identity frame" + (f" ({fin.name})" if chosen else ""),
+                                                      list(fin.effects))
+        prep.registered = saved
+        named = stats.better(fin.heldout, identity.heldout, ALPHA) and fin.fit.bic < identity.fit.bic
+    bar.update(1)
     names = list(chosen.effects) if chosen else []
     if named:
         names = ["frame_misalignment"] + names

@@ -29,12 +29,27 @@ kept only when every upper cable stays taut (:meth:`Robot.feasible`) at the
 commanded configuration and at the nominal one with dL, and when every
 candidate model predicts the row.
 
+Backlash. When a candidate model has backlash (memory), what a row shows
+depends on the direction each cable last moved. Each candidate then comes
+as two *units*, one per approach side: an unmeasured approach row that
+commands every upper cable ``approach`` (m, default ``dl``) beyond the row's
+command — above (+) or below (−) — then the measured row. The approach
+leaves every cable on a known side of its dead band whatever ran before, so
+a unit's prediction does not depend on the order of the suggestions; moves
+in both directions (with and against the approach) are then on offer, and
+the criterion picks the ones that separate backlash from the effects it
+ties with (a dead band costs a fixed length per reversal, an actuation
+scale error a fixed fraction of every move).
+
 Suggestion CSV (:meth:`Suggestion.to_csv`): a measurement table
-(:mod:`cdsm.calibration.measurements`) without measured columns: ``point`` (s1, s2, ...),
-``theta_1..theta_n`` (rad), ``dL_1..dL_n`` (m), and for orientation the nominal
-tip pose ``x_nom, y_nom`` (m), ``phi_nom`` (rad) (read back as labels). Measure
-each row, add ``x, y`` (absolute) or ``dx, dy`` (displacement, the tip motion
-caused by dL) in m, and feed it to ``cdsm diagnose`` with the earlier data.
+(:mod:`cdsm.calibration.measurements`) without measured columns: ``point``
+(s1, s2, ...; ``s1 approach`` for an approach row), ``theta_1..theta_n``
+(rad), ``dL_1..dL_n`` (m), and for orientation the nominal tip pose
+``x_nom, y_nom`` (m), ``phi_nom`` (rad) (read back as labels). Run the rows
+in file order, measure each row that is not an approach row, add
+``x, y`` (absolute) or ``dx, dy`` (displacement, the tip motion caused by dL)
+in m — empty on approach rows — and feed it to ``cdsm diagnose`` after the
+earlier data.
 """
 
 from __future__ import annotations
@@ -53,7 +68,7 @@ from ..robot import Robot
 from . import plant
 from .diagnosis import Diagnosis, Prepared, prepare
 from .fit import free_parameters
-from .measurements import Measurements
+from .measurements import KIND_CODES, Measurements
 
 __all__ = ["suggest", "Suggestion", "candidate_pool", "combine", "discrimination"]
 
@@ -70,6 +85,8 @@ class Suggestion:
     d-optimal). score_before: the score of the data already taken.
     pairs_before / pairs_after: {"a vs b": D_ab + D_ba} (chi-square).
     noise: per-axis noise, m. pose: (K, 3) nominal tip poses (m, m, rad).
+    approach: (K, n) dL (m) of the unmeasured approach row run before each
+    measured row (backlash candidates; see the module doc), or None.
     """
 
     theta: np.ndarray
@@ -88,9 +105,21 @@ class Suggestion:
     #: held-out RMS of the best model over the noise floor (sqrt(2)·noise);
     #: far above 1 the chi-square figures overstate the separation
     misfit: float = float("nan")
+    approach: Optional[np.ndarray] = None
 
     def __len__(self) -> int:
         return len(self.theta)
+
+    def commands(self) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The rows to run, in order: theta (R, n) rad, dL (R, n) m, and
+        which to measure (R,) bool (approach rows are run, not measured)."""
+        if self.approach is None:
+            return self.theta, self.dL, np.ones(len(self), bool)
+        k, n = self.theta.shape
+        th = np.repeat(self.theta, 2, axis=0)
+        dl = np.empty((2 * k, n))
+        dl[0::2], dl[1::2] = self.approach, self.dL
+        return th, dl, np.tile([False, True], k)
 
     def to_csv(self, path: "str | os.PathLike[str]") -> None:
         """Write the proposed commands as a measurement CSV without measured
@@ -102,15 +131,18 @@ class Suggestion:
                   f"models: {', '.join(self.models)})\n")
         buf.write("# SI units: theta_i, phi_nom in rad; dL_i, x_nom, y_nom in m. x_nom, y_nom, phi_nom: "
                   "nominal tip pose (labels only)\n")
-        buf.write(f"# measurement kind: {self.kind}; after measuring add columns {mcols} (m) and run "
-                  "cdsm diagnose on it together with the earlier data\n")
+        buf.write(f"# measurement kind: {self.kind}; run the rows in this order; after measuring add columns "
+                  f"{mcols} (m), empty on 'approach' rows (run, not measured), and run cdsm diagnose on it "
+                  "after the earlier data\n")
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(["point"] + [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in range(1, n + 1)]
                    + ["x_nom", "y_nom", "phi_nom"])
         pose = self.pose if self.pose is not None else np.full((len(self), 3), np.nan)
-        for i in range(len(self)):
-            w.writerow([f"s{i + 1}"] + [repr(float(v)) for v in self.theta[i]]
-                       + [repr(float(v)) for v in self.dL[i]] + [repr(float(v)) for v in pose[i]])
+        th, dl, seen = self.commands()
+        for j in range(len(th)):
+            i = j // 2 if self.approach is not None else j
+            w.writerow([f"s{i + 1}" if seen[j] else f"s{i + 1} approach"] + [repr(float(v)) for v in th[j]]
+                       + [repr(float(v)) for v in dl[j]] + [repr(float(v)) for v in pose[i]])
         write_text(path, buf.getvalue(), "suggestion")
 
     def summary(self) -> str:
@@ -133,12 +165,19 @@ class Suggestion:
                          f"{', '.join(self.models) or 'the model'}); "
                          f"log det gain {self.gain[-1] - self.score_before:.3g}")
         lines.append(f"picked from {self.pool_size} feasible candidates (taut cables, within joint limits)")
+        if self.approach is not None:
+            lines.append("each row is approached from the side given (an unmeasured move of every upper cable "
+                         "beyond the command, run first): with backlash the direction of a move matters")
         for i in range(len(self)):
             th = ", ".join(f"{np.degrees(v):+.1f}" for v in self.theta[i])
             dl = ", ".join(f"{v * 1e3:+.2f}" for v in self.dL[i])
+            side = ""
+            if self.approach is not None:
+                first = self.dL[i] if self.kind == "absolute" else 0.0
+                side = ", approached from " + ("above" if (self.approach[i] - first).mean() > 0 else "below")
             pr = "; ".join(f"{m}: ({p[i, 0] * 1e3:+.3f}, {p[i, 1] * 1e3:+.3f})"
                            for m, p in self.predictions.items())
-            lines.append(f"  s{i + 1}: theta = ({th}) deg, dL = ({dl}) mm; predicted [mm] {pr}")
+            lines.append(f"  s{i + 1}: theta = ({th}) deg, dL = ({dl}) mm{side}; predicted [mm] {pr}")
         return "\n".join(lines)
 
 
@@ -164,6 +203,13 @@ def candidate_pool(robot: Robot, kind: str, size: int = 400, seed: int = 0, dl: 
 
 
 def _feasible(robot: Robot, theta: np.ndarray, d: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
+    ok = _feasible_mask(robot, theta, d)
+    return theta[ok], d[ok]
+
+
+def _feasible_mask(robot: Robot, theta: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """(C,) commands within the joint limits with taut upper cables at theta
+    and at the nominal configuration that theta's lengths + d reach."""
     ok = robot.within_limits(theta) & robot.feasible(theta)
     sol = robot.solve_cables(robot.upper_lengths(theta) + d, seed=theta)
     th2 = np.array(sol.theta, dtype=float)
@@ -171,14 +217,15 @@ def _feasible(robot: Robot, theta: np.ndarray, d: np.ndarray) -> Tuple[np.ndarra
     ok &= conv
     if conv.any():
         ok[conv] &= robot.within_limits(th2[conv]) & robot.feasible(th2[conv])
-    return theta[ok], d[ok]
+    return ok
 
 
 def combine(robot: Robot, *tables: "Measurements | Prepared") -> Measurements:
     """One measurement table (commands as theta) from several of the same
-    kind, e.g. Table 3 (x_cmd rows) plus measured suggestions (theta rows).
-    Pose-commanded rows are solved by the nominal IK (paper seed); unusable
-    rows are dropped."""
+    kind run one after the other, e.g. Table 3 (x_cmd rows) plus measured
+    suggestions (theta rows). Pose-commanded rows are solved by the nominal
+    IK (paper seed); rows that were run but not measured stay (backlash);
+    flagged rows are dropped."""
     th, dl, ms, kind = [], [], [], None
     for t in tables:
         prep = t if isinstance(t, Prepared) else prepare(robot, t)
@@ -186,7 +233,10 @@ def combine(robot: Robot, *tables: "Measurements | Prepared") -> Measurements:
             kind = prep.kind
         elif prep.kind != kind:
             raise CdsmInputError(f"combine: tables of different kinds ({kind}, {prep.kind})")
-        rows = prep.order[prep.usable[prep.order]]  # usable rows, execution order
+        flagged = np.zeros(len(prep.theta_cmd), bool)
+        flagged[list(prep.flags)] = True
+        runs = prep.usable | (~prep.meas.observed & ~flagged)
+        rows = prep.order[runs[prep.order]]  # execution order
         th.append(prep.theta_cmd[rows])
         dl.append(prep.dL[rows])
         ms.append(prep.measured[rows, :2])
@@ -254,14 +304,16 @@ def discrimination(y: Dict[str, np.ndarray], J: Dict[str, np.ndarray], C: Dict[s
 
 
 def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.ndarray]] = None,
-            seed: int = 0, pool: int = 400, dl: float = 1e-3, prior: float = 10.0) -> Suggestion:
+            seed: int = 0, pool: int = 400, dl: float = 1e-3, prior: float = 10.0,
+            approach: Optional[float] = None) -> Suggestion:
     """The ``k`` next measurements that best separate the diagnosis' tied
     candidates (or, with one candidate, D-optimal ones for its parameters).
 
     candidates: optional pool (theta (C, n) rad, dL (C, n) m), filtered for
     joint limits and taut cables; default a random pool of ``pool`` commands
     (seed ``seed``) with dL as in the data (±``dl`` m). The measurement kind is
-    the data's. See the module docstring for the criterion.
+    the data's. approach: the approach move (m, default ``dl``) when a
+    candidate has backlash. See the module docstring for the criterion.
     """
     if int(k) < 1:
         raise CdsmInputError(f"`k`: must be at least 1, got {k}")
@@ -276,40 +328,69 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
         if cth.shape != cdl.shape or cth.shape[1] != robot.n:
             raise CdsmInputError(f"`candidates`: need theta and dL of shape (C, {robot.n})")
         cth, cdl = _feasible(robot, cth, cdl)
-    if len(cth) == 0:
-        raise CdsmInputError("no feasible candidate measurements (joint limits / slack cables)")
-    rows = prep.order[prep.usable[prep.order]]  # usable rows, execution order
-    th_all = np.concatenate([prep.theta_cmd[rows], cth])
-    dl_all = np.concatenate([prep.dL[rows], cdl])
-    nU = len(rows)
     models = _model_set(diag)
-    criterion = "discrimination" if len(models) >= 2 else "d-optimal"
     if not models:
         c = diag.singles[0] if diag.singles else None
         if c is None:
             raise CdsmInputError("the diagnosis has no candidate effects to design for")
         models = [(c.name, list(c.effects), np.array(c.fit.p))]
+    criterion = "discrimination" if len(models) >= 2 else "d-optimal"
+    app = None
+    if any("backlash" in eff for _, eff, _ in models):
+        # one unit per approach side: (approach row, measured row)
+        a = float(dl if approach is None else approach)
+        if not (np.isfinite(a) and a > 0):
+            raise CdsmInputError(f"`approach`: must be a positive length in m, got {approach}")
+        first = cdl if kind == "absolute" else np.zeros_like(cdl)
+        units = [(cth, cdl, first + side * a) for side in (1.0, -1.0)]
+        keep = [_feasible_mask(robot, t, d) for t, _, d in units]
+        cth = np.concatenate([u[0][m] for u, m in zip(units, keep)])
+        cdl = np.concatenate([u[1][m] for u, m in zip(units, keep)])
+        app = np.concatenate([u[2][m] for u, m in zip(units, keep)])
+    if len(cth) == 0:
+        raise CdsmInputError("no feasible candidate measurements (joint limits / slack cables)")
+    # the data as run (usable and unmeasured rows, execution order), then the candidates
+    flagged = np.zeros(len(prep.theta_cmd), bool)
+    flagged[list(prep.flags)] = True
+    run = prep.order[(prep.usable | (~prep.meas.observed & ~flagged))[prep.order]]
+    codes = [prep.kinds[run]]
+    th_all, dl_all = [prep.theta_cmd[run]], [prep.dL[run]]
+    data_rows = np.flatnonzero(prep.usable[run])
+    nD = len(run)
+    if app is None:
+        th_all.append(cth)
+        dl_all.append(cdl)
+        codes.append(np.full(len(cth), KIND_CODES[kind], np.uint8))
+        cand_rows = nD + np.arange(len(cth))
+    else:
+        th_all.append(np.repeat(cth, 2, axis=0))
+        d = np.empty((2 * len(cth), robot.n))
+        d[0::2], d[1::2] = app, cdl
+        dl_all.append(d)
+        codes.append(np.tile(np.array([KIND_CODES["unmeasured"], KIND_CODES[kind]], np.uint8), len(cth)))
+        cand_rows = nD + 1 + 2 * np.arange(len(cth))
+    th_all, dl_all, codes = np.concatenate(th_all), np.concatenate(dl_all), np.concatenate(codes)
     Y, JJ = {}, {}
     for name, eff, p in models:
-        Y[name], JJ[name] = _pred_and_jac(robot, eff, p, th_all, dl_all, kind)
+        Y[name], JJ[name] = _pred_and_jac(robot, eff, p, th_all, dl_all, codes)
     okc = np.ones(len(cth), bool)
+    keepU = np.ones(len(data_rows), bool)
     for name in Y:
-        okc &= np.isfinite(Y[name][nU:]).all(axis=1) & np.isfinite(JJ[name][nU:]).all(axis=(1, 2))
-    keepU = np.ones(nU, bool)
-    for name in Y:
-        keepU &= np.isfinite(Y[name][:nU]).all(axis=1) & np.isfinite(JJ[name][:nU]).all(axis=(1, 2))
+        good = np.isfinite(Y[name]).all(axis=1) & np.isfinite(JJ[name]).all(axis=(1, 2))
+        okc &= good[cand_rows]
+        keepU &= good[data_rows]
     cand = np.flatnonzero(okc)
     if len(cand) < k:
         raise CdsmInputError(f"only {len(cand)} feasible candidate measurements for k = {k}")
-    base = list(np.flatnonzero(keepU))
+    base = list(data_rows[keepU])
     names = list(Y)
     chosen: List[int] = []
     gains = []
+    Cr = cand_rows[cand]
 
     def pair_terms(sel):
         """Separation of the new rows sel (indices into all rows) plus each candidate."""
         idx = np.array(sel, dtype=int)
-        Cr = nU + cand
         M, s = len(Cr), 2 * len(idx)
         tot = np.zeros(M)
         for i, a in enumerate(names):
@@ -332,7 +413,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
         kk = J0.shape[1]
         G0 = J0.T @ J0
         G0 = G0 + np.eye(kk) / prior ** 2  # Gaussian prior of `prior` typical sizes
-        Jc = JJ[name][nU + cand] / noise
+        Jc = JJ[name][Cr] / noise
         G = G0[None] + np.einsum("mik,mil->mkl", Jc, Jc)
         return np.linalg.slogdet(G)[1], float(np.linalg.slogdet(G0)[1])
 
@@ -348,7 +429,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
         before = {}
     avail = np.ones(len(cand), bool)
     for _ in range(k):
-        newrows = [nU + c for c in (cand[chosen] if chosen else [])]
+        newrows = list(Cr[chosen]) if chosen else []
         sc = pair_terms(newrows) if criterion == "discrimination" else logdet_terms(base + newrows)[0]
         sc = np.where(avail, sc, -np.inf)
         j = int(np.argmax(sc))
@@ -356,7 +437,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
         avail[j] = False
         gains.append(float(sc[j]))
     pick = cand[np.array(chosen)]
-    new = list(nU + pick)
+    new = list(cand_rows[pick])
     after = discrimination({m: Y[m][new] for m in names}, {m: JJ[m][new] for m in names}, Cov, noise) \
         if criterion == "discrimination" else {}
 
@@ -366,6 +447,6 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
     theta, dL = cth[pick], cdl[pick]
     best = diag.final()
     misfit = best.heldout_rms / diag.noise_floor if diag.noise_floor > 0 else float("nan")
-    return Suggestion(theta, dL, kind, criterion, names, {m: Y[m][nU + pick] for m in names},
+    return Suggestion(theta, dL, kind, criterion, names, {m: Y[m][new] for m in names},
                       np.array(gains), score0, sym(before), sym(after), noise, robot.fk(theta), len(cand),
-                      float(misfit))
+                      float(misfit), None if app is None else app[pick])

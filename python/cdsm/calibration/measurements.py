@@ -26,7 +26,7 @@ import numpy as np
 from ..files import parse_table, read_text, table_column
 from ..inputs import CdsmInputError
 
-__all__ = ["Measurements", "parse_csv", "read_csv", "packaged", "KIND_CODES"]
+__all__ = ["Measurements", "parse_csv", "read_csv", "packaged", "after_reversals", "KIND_CODES"]
 
 #: Row kinds of the plant's data sets, by code (see ``docs/model.md``).
 KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
@@ -143,3 +143,31 @@ def packaged(name: str, n: int = 3) -> Measurements:
     ``"table3_theory"`` (the paper's simulated column)."""
     text = resources.files("cdsm").joinpath("data", f"{name}.csv").read_text(encoding="utf-8")
     return parse_csv(text, n, f"cdsm/data/{name}.csv")
+
+
+def after_reversals(meas: Measurements) -> Measurements:
+    """The same displacement measurements executed so that every measured
+    move starts right after a reversal: before each measured row (execution
+    order) an unmeasured row commands its base + dL, so the arm comes back to
+    the base from the far side and the measured move loses the whole dead
+    band of any backlash. With file order this bounds what an unknown
+    execution order can do (SI units as the input)."""
+    if meas.kind != "displacement":
+        raise CdsmInputError("after_reversals: only displacement rows have a move to reverse "
+                             f"(got {meas.kind} rows)")
+    order = meas.order
+    rows = np.repeat(order, 2)
+    measured = meas.measured[rows].copy()
+    measured[0::2] = np.nan
+
+    def pick(a):
+        return None if a is None else a[rows]
+
+    phi = pick(meas.measured_phi)
+    if phi is not None:
+        phi = phi.copy()
+        phi[0::2] = np.nan
+    labels = {k: [f"{v[i]} (approach)" if j % 2 == 0 else v[i] for j, i in enumerate(rows)]
+              for k, v in meas.labels.items()}
+    return Measurements(meas.kind, meas.n, meas.dL[rows].copy(), measured, pick(meas.theta), pick(meas.pose_cmd),
+                        phi, labels, f"{meas.source} (after reversals)", None)

@@ -244,8 +244,8 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
                             if ne.source == "assumed" and not v.final_adequate else ""))
     if prep.registered:
         reg = (f"The data were registered: the measuring frame was fitted with every candidate (started from a "
-               f"Kabsch fit). Held-out RMS in the identity frame {_um(d.identity.heldout_rms)}, registered "
-               f"{_um(base.heldout_rms)}: the frame is "
+               f"Kabsch fit). Held-out RMS of the {'chosen' if d.chosen else 'nominal'} model in the identity "
+               f"frame {_um(d.identity.heldout_rms)}, registered {_um(d.final().heldout_rms)}: the frame is "
                + ("named (`frame_misalignment`): it beats the identity frame." if d.registration_named else
                   "not named: it does not beat the identity frame significantly."))
         out["answer"].append(reg)

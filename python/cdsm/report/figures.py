@@ -17,7 +17,7 @@ from ..inputs import CdsmInputError
 from ..robot import Robot
 
 __all__ = ["DPI", "RED", "BLUE", "GREEN", "HUES", "new_figure", "report_style", "save", "hue_cmap",
-           "sym_norm", "chain_points", "draw_arm", "file_key"]
+           "sym_norm", "chain_points", "draw_arm", "file_key", "tight", "few_ticks"]
 
 DPI = 110
 RED, BLUE, GREEN = "#d62728", "#1f5fbf", "#2ca02c"
@@ -32,6 +32,39 @@ def new_figure(w: float, h: float) -> Figure:
         fig = Figure(figsize=(w, h), dpi=DPI)
     FigureCanvasAgg(fig)
     return fig
+
+
+# subplot parameters of tight layouts, per family of figures that share a structure
+_LAYOUTS: dict = {}
+
+
+def tight(fig: Figure, family: Optional[str] = None) -> None:
+    """``fig.tight_layout()``; with ``family``, computed for the first figure
+    of a family (same size, same number of axes and colour bars: e.g. the 24
+    scenario maps) and reused for the others — measuring every tick label is
+    the costliest step of a report figure."""
+    if family is None:
+        fig.tight_layout()
+        return
+    key = (family, tuple(np.round(fig.get_size_inches(), 3)), len(fig.axes))
+    pars = _LAYOUTS.get(key)
+    if pars is None:
+        fig.tight_layout()
+        sp = fig.subplotpars
+        _LAYOUTS[key] = dict(left=sp.left, right=sp.right, bottom=sp.bottom, top=sp.top, wspace=sp.wspace,
+                             hspace=sp.hspace)
+    else:
+        fig.subplots_adjust(**pars)
+
+
+def few_ticks(ax, n: int = 5) -> None:
+    """At most about ``n`` major ticks per axis (a tick is one of the costliest
+    artists to draw; the maps need no more)."""
+    from matplotlib.ticker import MaxNLocator
+
+    for axis in (ax.xaxis, ax.yaxis):
+        if axis.get_scale() == "linear":
+            axis.set_major_locator(MaxNLocator(n))
 
 
 def report_style():

@@ -10,11 +10,15 @@ configuration diagrams the arm before the error is blue, after it red.
 
 from __future__ import annotations
 
+import multiprocessing
 import os
-from typing import Dict, List, Tuple
+import sys
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 from matplotlib.colors import LogNorm, Normalize
+from matplotlib.ticker import MaxNLocator
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
@@ -22,14 +26,15 @@ from ..accuracy.scenarios import deviation
 from ..progress import Progress
 from ..robot import Robot
 from .figures import (BLUE, GREEN, HUES, RED, draw_arm, file_key, hue_cmap, new_figure, report_style, save,
-                      sym_norm)
+                      few_ticks, sym_norm, tight)
 
 __all__ = [
     "PROTOCOL_TITLES", "scenario_figure", "overview_figure",
     "monte_carlo_figure", "singular_figure", "workspace_figure", "table2_figures",
-    "singular_state_figure", "table3_figure", "all_figures", "phi0_tips",
+    "singular_state_figure", "table3_figure", "all_figures", "figure_jobs", "phi0_tips", "readings_figure",
 ]
 
+PROTOCOL_SHORT = {"attitude0": "attitude-0", "joint": "joint-space"}
 PROTOCOL_TITLES = {
     "attitude0": "attitude-0 protocol (grid tip, phi = 0, pose IK)",
     "joint": "joint-space protocol (error at the grid angles)",
@@ -38,22 +43,27 @@ def _xy_mm(study, protocol: str) -> np.ndarray:
     return study.workspaces[protocol].poses[:, :2] * 1e3
 
 
-def _scatter_map(fig, ax, xy, val, cmap, norm, label, size=9, order=True):
-    """Scatter of ``val`` at ``xy`` (mm), largest |val| drawn last; colour bar."""
+def _scatter_map(fig, ax, xy, val, cmap, norm, label, size=9, order=True, bar=True):
+    """Scatter of ``val`` at ``xy`` (mm), largest |val| drawn last; colour bar
+    (unless ``bar`` is False: a neighbour's on the same scale)."""
     ok = np.isfinite(val)
     idx = np.where(ok)[0]
     if order:
         idx = idx[np.argsort(np.abs(val[idx]))]
     sc = ax.scatter(xy[idx, 0], xy[idx, 1], c=val[idx], cmap=cmap, norm=norm, s=size,
                     linewidths=0, rasterized=True)
-    cb = fig.colorbar(sc, ax=ax, shrink=0.92, pad=0.02)
-    cb.set_label(label)
+    if bar:
+        cb = fig.colorbar(sc, ax=ax, shrink=0.92, pad=0.02)
+        cb.set_label(label)
+        cb.locator = MaxNLocator(6)
+        cb.update_ticks()
     return sc
 
 
 def _axes_mm(ax, equal=False):
     ax.set_xlabel("tip X (mm)")
     ax.set_ylabel("tip Y (mm)")
+    few_ticks(ax)
     if equal:
         ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, lw=0.3, alpha=0.5)
@@ -70,37 +80,45 @@ def _unreachable(ax, study, protocol):
 # ---------------------------------------------------------------------------
 # Fig. 5 / Fig. 6: one scenario
 # ---------------------------------------------------------------------------
-def scenario_figure(study, key: str, protocol: str) -> Figure:
+def scenario_figure(study, key: str) -> Figure:
     """Deviation dX (red), dY (blue) and dphi (green) of scenario ``key`` over
-    the workspace tip positions (mm), under ``protocol``; jump points ringed
-    black; unreachable grid tips (attitude-0) light grey."""
-    r = study.result(key, protocol)
-    xy = _xy_mm(study, protocol)
-    vals = [r.dS[:, 0] * 1e3, r.dS[:, 1] * 1e3, np.degrees(r.dS[:, 2])]
+    the workspace tip positions (mm), one row per protocol; jump points
+    ringed black; unreachable grid tips (attitude-0) light grey."""
+    protos = [p for p in study.workspaces if any(r.protocol == p and r.scenario.key == key
+                                                 for r in study.scenarios)]
     names = ["dX (mm)", "dY (mm)", "dphi (deg)"]
     with report_style():
-        fig = new_figure(15, 5.6)
-        axs = fig.subplots(1, 3)
-        for ax, v, nm, hue in zip(axs, vals, names, HUES):
-            _unreachable(ax, study, protocol)
-            _scatter_map(fig, ax, xy, v, hue_cmap(hue), sym_norm(v), nm)
-            jp = r.jumps.point
-            if jp.any():
-                ax.scatter(xy[jp, 0], xy[jp, 1], s=40, facecolors="none", edgecolors="k",
-                           linewidths=0.9, label=f"jump points ({int(jp.sum())})")
-                ax.legend(loc="lower left", framealpha=0.85)
-            ax.set_title(f"{nm.split()[0]}: max |{nm.split()[0]}| = {np.nanmax(np.abs(v)):.3g} "
-                         f"{nm.split()[1].strip('()')}", color=hue)
-            _axes_mm(ax)
-        ws = study.workspaces[protocol]
-        reach = (f"{ws.n_unreachable} grid tips unreachable at phi = 0 (grey dots)" if protocol == "attitude0"
-                 else "overlapping tips: largest |value| drawn on top")
-        fig.suptitle(f"{r.scenario.label}  ({r.scenario.figure or r.scenario.key}) — "
-                     f"{PROTOCOL_TITLES.get(protocol, protocol)}\n"
-                     f"{int(r.ok.sum())} of {len(r.ok)} grid configurations solved; {reach}; "
-                     f"{int((ws.reachable & ~r.ok).sum())} without a solution after the error",
-                     fontsize=11)
-        fig.tight_layout()
+        fig = new_figure(15, 5.0 * len(protos) + 0.6)
+        axs = np.atleast_2d(fig.subplots(len(protos), 3, sharex=True, sharey=True))
+        res = {protocol: study.result(key, protocol) for protocol in protos}
+        vals = {protocol: [r.dS[:, 0] * 1e3, r.dS[:, 1] * 1e3, np.degrees(r.dS[:, 2])] for protocol, r in res.items()}
+        # one colour scale per column, shared by the protocols
+        norms = [sym_norm(np.concatenate([vals[p][j] for p in protos])) for j in range(3)]
+        lines = []
+        for row, protocol in zip(axs, protos):
+            r = res[protocol]
+            xy = _xy_mm(study, protocol)
+            ws = study.workspaces[protocol]
+            for ax, v, nm, hue, norm in zip(row, vals[protocol], names, HUES, norms):
+                _unreachable(ax, study, protocol)
+                _scatter_map(fig, ax, xy, v, hue_cmap(hue), norm, nm)
+                jp = r.jumps.point
+                if jp.any():
+                    ax.scatter(xy[jp, 0], xy[jp, 1], s=40, facecolors="none", edgecolors="k",
+                               linewidths=0.9, label=f"jump points ({int(jp.sum())})")
+                    ax.legend(loc="lower left", framealpha=0.85)
+                ax.set_title(f"{PROTOCOL_SHORT.get(protocol, protocol)} — {nm.split()[0]}: max "
+                             f"|{nm.split()[0]}| = {np.nanmax(np.abs(v)):.3g} {nm.split()[1].strip('()')}", color=hue)
+                _axes_mm(ax)
+            reach = (f"{ws.n_unreachable} tips unreachable at phi = 0 (grey)" if protocol == "attitude0"
+                     else "largest |value| drawn on top")
+            lines.append(f"{PROTOCOL_TITLES.get(protocol, protocol)}: {int(r.ok.sum())} of {len(r.ok)} solved; "
+                         f"{reach}; {int((ws.reachable & ~r.ok).sum())} without a solution after the error")
+        for ax in axs.ravel():
+            ax.label_outer()
+        sc = study.result(key, protos[0]).scenario
+        fig.suptitle(f"{sc.label}  ({sc.figure or sc.key})\n" + "\n".join(lines), fontsize=11)
+        tight(fig, "scenario")
     return fig
 
 
@@ -110,7 +128,7 @@ def overview_figure(study, protocol: str) -> Figure:
     n = study.robot.n
     with report_style():
         fig = new_figure(16, 3.3 * n + 0.8)
-        axs = np.atleast_2d(fig.subplots(n, 4))
+        axs = np.atleast_2d(fig.subplots(n, 4, sharex=True, sharey=True))
         xy = _xy_mm(study, protocol)
         for i in range(n):
             keys = [f"cable{2 * i + 1}-", f"cable{2 * i + 1}+", f"disk{i + 1}-", f"disk{i + 1}+"]
@@ -119,7 +137,7 @@ def overview_figure(study, protocol: str) -> Figure:
                 v = r.position_mm
                 _unreachable(ax, study, protocol)
                 vmax = float(np.nanmax(v)) if np.isfinite(v).any() else 1.0
-                _scatter_map(fig, ax, xy, v, "viridis", Normalize(0, vmax), "|dXY| (mm)", size=6)
+                sc = _scatter_map(fig, ax, xy, v / vmax, "viridis", Normalize(0, 1), "", size=6, bar=False)
                 jp = r.jumps.point
                 if jp.any():
                     ax.scatter(xy[jp, 0], xy[jp, 1], s=16, facecolors="none", edgecolors="k",
@@ -131,9 +149,13 @@ def overview_figure(study, protocol: str) -> Figure:
                     ax.set_xlabel("tip X (mm)")
                 if ax is axs[i][0]:
                     ax.set_ylabel("tip Y (mm)")
+        cb = fig.colorbar(sc, ax=axs, shrink=0.6, pad=0.015, aspect=40)
+        cb.set_label("|dXY| / the panel's max (in its title)")
         fig.suptitle(f"All single-error scenarios, |d(X, Y)| — {PROTOCOL_TITLES.get(protocol, protocol)}"
                      " (black rings: jump points)", fontsize=12)
-        fig.tight_layout()
+        for ax in np.ravel(axs):
+            ax.label_outer()
+        tight(fig, "overview")
     return fig
 
 
@@ -153,7 +175,7 @@ def monte_carlo_figure(study, protocol: str) -> Figure:
               (np.degrees(mean[:, 2]), "mean dphi (deg)")]
     with report_style():
         fig = new_figure(15, 9.5)
-        axs = fig.subplots(2, 3)
+        axs = fig.subplots(2, 3, sharex=True, sharey=True)
         vmax = float(np.nanmax(top[2][0]))
         for ax, (v, nm) in zip(axs[0], top):
             _scatter_map(fig, ax, xy, v, "magma_r", Normalize(0, vmax), nm, size=7)
@@ -169,7 +191,9 @@ def monte_carlo_figure(study, protocol: str) -> Figure:
                      f"per disk's holes, seed {p.get('seed')} — {PROTOCOL_TITLES.get(protocol, protocol)}\n"
                      f"{len(xy)} configurations (all reachable ones); failed solves: {int(mc.failed.sum())}; "
                      "percentile to the histogram bin (≤ 3.9 % high)", fontsize=11)
-        fig.tight_layout()
+        for ax in np.ravel(axs):
+            ax.label_outer()
+        tight(fig, "montecarlo")
     return fig
 
 
@@ -203,7 +227,7 @@ def singular_figure(study) -> Figure:
         fig.suptitle("Singular states: conditioning of the pose Jacobian d[X, Y, L·phi]/dtheta "
                      "(all joints zero loses X, Fig. 12; for 3 joints every theta_2 = 0 is singular)",
                      fontsize=11)
-        fig.tight_layout()
+        tight(fig)
     return fig
 
 
@@ -230,9 +254,50 @@ def feasibility_figure(study) -> Figure:
             ax.set_title(PROTOCOL_TITLES.get(p, p))
             _axes_mm(ax)
         w = ", ".join(f"{t / 9.80665 * 1e3:.0f}" for t in study.robot.lower_tension)
+        g = study.robot.gravity
+        plane = "no gravity" if not np.any(g) else f"gravity ({g[0]:g}, {g[1]:g}) m/s²"
         fig.suptitle(f"Feasibility of hybrid control: upper-cable tensions with lower weights {w} g "
-                     "(no gravity, no tip load)", fontsize=11)
-        fig.tight_layout()
+                     f"({plane}, no tip load)", fontsize=11)
+        tight(fig)
+    return fig
+
+
+def readings_figure(study) -> Figure:
+    """The load readings (weight order x plane) over the ±30° joint grid: top,
+    the smallest upper tension (N; black rings need a slack cable); bottom,
+    the tip deviation |d(X, Y)| (µm) the elastic cables cause when the rigid
+    model's lengths are commanded (grey: slack)."""
+    names = list(study.readings)
+    with report_style():
+        fig = new_figure(5.2 * len(names), 9.4)
+        axs = np.atleast_2d(fig.subplots(2, len(names), sharex=True, sharey=True))
+        tmins = [np.nanmin(r.feasibility.tension, axis=1) for r in study.readings.values()]
+        lim = max(float(np.nanmax(np.abs(t))) for t in tmins)
+        el = [np.hypot(r.elastic[:, 0], r.elastic[:, 1]) * 1e6 for r in study.readings.values()]
+        emax = max((float(np.nanmax(e)) for e in el if np.isfinite(e).any()), default=1.0)
+        for j, (name, r) in enumerate(study.readings.items()):
+            fm = r.feasibility
+            xy = fm.pose[:, :2] * 1e3
+            ax = axs[0, j]
+            _scatter_map(fig, ax, xy, tmins[j], "RdBu", Normalize(-lim, lim), "smallest upper tension (N)",
+                         size=7, order=False, bar=j == len(names) - 1)
+            slack = ~fm.feasible
+            ax.scatter(xy[slack, 0], xy[slack, 1], s=22, facecolors="none", edgecolors="k", linewidths=0.5)
+            w = "/".join(f"{v:.0f}" for v in r.weights_g)
+            ax.set_title(f"{name}: {r.plane}, {w} g\nslack cable needed: {100 * fm.slack_fraction:.1f} %")
+            _axes_mm(ax)
+            ax = axs[1, j]
+            ax.scatter(xy[slack, 0], xy[slack, 1], s=3, c="0.82", marker=".", linewidths=0)
+            _scatter_map(fig, ax, xy, el[j], "viridis", Normalize(0, emax), "elastic |d(X, Y)| (µm)", size=7,
+                         bar=j == len(names) - 1)
+            mx = float(np.nanmax(el[j])) if np.isfinite(el[j]).any() else float("nan")
+            ax.set_title(f"elastic cables: max {mx:.0f} µm (taut configurations)")
+            _axes_mm(ax)
+        for ax in np.ravel(axs):
+            ax.label_outer()
+        fig.suptitle("The paper's loads, four readings, over the ±30° joint grid (E A of the robot file's cable)",
+                     fontsize=11.5)
+        tight(fig)
     return fig
 
 
@@ -251,7 +316,7 @@ def amplification_figure(study, protocol: str) -> Figure:
     xy = maps["xy"] * 1e3
     with report_style():
         fig = new_figure(12.5, 9.4)
-        axs = fig.subplots(2, 2)
+        axs = fig.subplots(2, 2, sharex=True, sharey=True)
         for ax, (key, title) in zip(axs.ravel(), AMPLIFICATION_TITLES.items()):
             v = maps[key]
             pos = v[np.isfinite(v) & (v > 0)]
@@ -263,7 +328,9 @@ def amplification_figure(study, protocol: str) -> Figure:
             _axes_mm(ax)
         fig.suptitle(f"First-order tip-error amplification — {PROTOCOL_TITLES.get(protocol, protocol)}",
                      fontsize=11)
-        fig.tight_layout()
+        for ax in np.ravel(axs):
+            ax.label_outer()
+        tight(fig, "amplification")
     return fig
 
 
@@ -329,7 +396,7 @@ def workspace_figure(study) -> Figure:
         ax.legend(loc="upper left", fontsize=8.5, markerscale=2, framealpha=0.9)
         grid = next(iter(study.workspaces.values())).describe_grid()
         ax.set_title(f"Workspace (Fig. 9): joint grid {grid} and the phi = 0 reach")
-        fig.tight_layout()
+        tight(fig)
     return fig
 
 
@@ -366,15 +433,22 @@ def _diagram(ax, robot, theta0, theta, ok, title, target=None, dS=None):
     ax.grid(True, lw=0.3, alpha=0.5)
 
 
-def table2_figures(study) -> List[Tuple[str, Figure]]:
-    """Table 2 configuration diagrams: one figure per (pose, condition), one
-    panel per error; blue before, red after, red dashed after with the joint
-    angle change exaggerated ×10. Returns [(name, Figure)]."""
-    out = []
+def _table2_groups(study) -> Dict[Tuple, List[dict]]:
     groups: Dict[Tuple, List[dict]] = {}
     for e in study.table2:
         groups.setdefault((tuple(np.round(e["pose"], 6)), e["condition"]), []).append(e)
-    for gi, ((pose, cond), items) in enumerate(groups.items()):
+    return groups
+
+
+def table2_figures(study, which: Optional[List[int]] = None) -> List[Tuple[str, Figure]]:
+    """Table 2 configuration diagrams: one figure per (pose, condition) (all,
+    or the groups ``which``), one panel per error; blue before, red after, red
+    dashed after with the joint angle change exaggerated ×10. Returns
+    [(name, Figure)]."""
+    out = []
+    for gi, ((pose, cond), items) in enumerate(_table2_groups(study).items()):
+        if which is not None and gi not in which:
+            continue
         with report_style():
             cols = min(len(items), 2)
             rows = -(-len(items) // cols)
@@ -391,7 +465,7 @@ def table2_figures(study) -> List[Tuple[str, Figure]]:
             fig.suptitle(f"Table 2 — pose [{pose[0]:g} m, {pose[1]:g} m, {pose[2]:g} rad], {cond}\n"
                          f"initial theta = ({th})° (pose IK, theta_2 ≤ 0 branch); + marks the commanded tip; "
                          "blue before, red after the error", fontsize=11)
-            fig.tight_layout()
+            tight(fig, "table2")
         out.append((f"table2_{gi + 1}", fig))
     return out
 
@@ -431,7 +505,7 @@ def singular_state_figure(study, dL: float = -1e-3) -> Figure:
                       + " mm/rad (X lost)", fontsize=9.5)
         fig.suptitle("Fig. 12 — singular state: all joints zero; dX/dtheta = 0 (the pose Jacobian loses X), "
                      "so dX is second order", fontsize=11)
-        fig.tight_layout()
+        tight(fig)
     return fig
 
 
@@ -472,45 +546,82 @@ def table3_figure(study) -> Figure:
         axs[1].set_xlabel("experiment point (commanded tip X, Y in mm, phi = 0)")
         fig.suptitle("Table 3 — tip displacement for −1 mm on cable 1: measured vs ours vs paper "
                      "(attitude-0 pose IK)", fontsize=11.5)
-        fig.tight_layout()
+        tight(fig)
     return fig
 
 
 # ---------------------------------------------------------------------------
 # everything
 # ---------------------------------------------------------------------------
-def all_figures(study, outdir: "str | os.PathLike[str]", progress: bool = False) -> Dict[str, str]:
-    """Write every figure of the study as ``outdir/<name>.png``; returns
-    {name: path} in report order. Shows a progress line when ``progress``."""
-    jobs = []
+def figure_jobs(study) -> List[Tuple[str, Callable[[], List[Tuple[str, Figure]]]]]:
+    """The figures of the study as jobs ``(name, make)``, costliest first;
+    ``make()`` returns ``[(file name, Figure)]``."""
+    jobs: List[Tuple[str, Callable[[], List[Tuple[str, Figure]]]]] = []
+
+    def one(name, make):
+        jobs.append((name, lambda: [(name, make())]))
+
     for p in study.workspaces:
-        jobs.append((f"overview_{p}", lambda p=p: overview_figure(study, p)))
-    for p in study.workspaces:
-        for r in study.scenarios:
-            if r.protocol == p:
-                k = r.scenario.key
-                jobs.append((f"scenario_{p}_{file_key(k)}", lambda k=k, p=p: scenario_figure(study, k, p)))
+        one(f"overview_{p}", lambda p=p: overview_figure(study, p))
+    if study.readings:
+        one("readings", lambda: readings_figure(study))
     for p in study.monte_carlo:
-        jobs.append((f"montecarlo_{p}", lambda p=p: monte_carlo_figure(study, p)))
-    jobs.append(("singular", lambda: singular_figure(study)))
-    if study.feasibility:
-        jobs.append(("feasibility", lambda: feasibility_figure(study)))
+        one(f"montecarlo_{p}", lambda p=p: monte_carlo_figure(study, p))
+    for g in range(len(_table2_groups(study))):
+        jobs.append((f"table2_{g + 1}", lambda g=g: table2_figures(study, [g])))
     for p in study.amplification:
-        jobs.append((f"amplification_{p}", lambda p=p: amplification_figure(study, p)))
-    jobs.append(("workspace", lambda: workspace_figure(study)))
-    jobs.append(("fig12_singular_state", lambda: singular_state_figure(study)))
+        one(f"amplification_{p}", lambda p=p: amplification_figure(study, p))
+    one("singular", lambda: singular_figure(study))
+    if study.feasibility:
+        one("feasibility", lambda: feasibility_figure(study))
+    one("workspace", lambda: workspace_figure(study))
+    one("fig12_singular_state", lambda: singular_state_figure(study))
     if study.table3 is not None:
-        jobs.append(("table3", lambda: table3_figure(study)))
-    out: Dict[str, str] = {}
-    n_t2 = len({(tuple(np.round(e["pose"], 6)), e["condition"]) for e in study.table2})
-    bar = Progress(len(jobs) + n_t2, "figures", progress)
-    for name, make in jobs:
-        fig = make()
-        out[name] = save(fig, os.path.join(outdir, f"{name}.png"))
-        bar.update(1)
-    if study.table2:
-        figs = table2_figures(study)
-        for name, fig in figs:
-            out[name] = save(fig, os.path.join(outdir, f"{name}.png"))
-        bar.update(len(figs))
-    return out
+        one("table3", lambda: table3_figure(study))
+    for k in dict.fromkeys(r.scenario.key for r in study.scenarios):
+        one(f"scenario_{file_key(k)}", lambda k=k: scenario_figure(study, k))
+    return jobs
+
+
+# what forked figure workers inherit: (study, outdir)
+_FORKED: Optional[tuple] = None
+
+
+def _render(study, outdir: str, make) -> Dict[str, str]:
+    return {name: save(fig, os.path.join(outdir, f"{name}.png")) for name, fig in make()}
+
+
+def _render_forked(i: int) -> Dict[str, str]:
+    study, outdir = _FORKED
+    return _render(study, outdir, figure_jobs(study)[i][1])
+
+
+def all_figures(study, outdir: "str | os.PathLike[str]", progress: bool = False,
+                workers: Optional[int] = None) -> Dict[str, str]:
+    """Write every figure of the study as ``outdir/<name>.png``; returns
+    {name: path}. ``workers`` processes render them (default: one per core;
+    forked, so only where the platform forks — elsewhere one). Shows a
+    progress line when ``progress``."""
+    global _FORKED
+    outdir = os.fspath(outdir)
+    jobs = figure_jobs(study)
+    n = (os.cpu_count() or 1) if workers is None else int(workers)
+    fork = "fork" in multiprocessing.get_all_start_methods() and sys.platform.startswith("linux")
+    bar = Progress(len(jobs), "figures", progress)
+    out: Dict[str, Dict[str, str]] = {}
+    if n > 1 and fork and len(jobs) > 1:
+        _FORKED = (study, outdir)
+        try:
+            ctx = multiprocessing.get_context("fork")
+            with ProcessPoolExecutor(min(n, len(jobs)), mp_context=ctx) as ex:
+                futs = {ex.submit(_render_forked, i): name for i, (name, _) in enumerate(jobs)}
+                for f in as_completed(futs):
+                    out[futs[f]] = f.result()
+                    bar.update(1)
+        finally:
+            _FORKED = None
+    else:
+        for name, make in jobs:
+            out[name] = _render(study, outdir, make)
+            bar.update(1)
+    return {k: v for name, _ in jobs for k, v in out[name].items()}
