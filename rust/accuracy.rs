@@ -8,7 +8,8 @@ use crate::error::{CdsmError, Result};
 use crate::geometry::ArmGeometry;
 use crate::kinematics::fk;
 use crate::robot::Robot;
-use crate::solve::{closed_form_cs, cs_difference, CableMethod, CableSolver, SolveOptions};
+use crate::simd::cables::{closed_form_block, ClosedFormBlock, BLOCK_ROWS};
+use crate::solve::{cs_difference, CableMethod, CableSolver, SolveOptions};
 use crate::statics::{feasible, Loads, Statics};
 
 /// Hole-location errors of the samples of a Monte-Carlo study.
@@ -255,10 +256,11 @@ pub fn monte_carlo(
     // configurations outermost: each one's statistics stay in cache while its
     // samples are added (in sample order, as any chunking of the samples would)
     let loads = Loads::of(robot);
+    let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
         let mut stats = McStats::new(r.len());
-        let (mut cs, mut seed_cs) = (vec![(1.0, 0.0); n], vec![(1.0, 0.0); n]);
-        let (mut l0, mut target, mut th) = (vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+        let mut cs = vec![(1.0, 0.0); n];
+        let (mut target, mut th) = (vec![0.0; n], vec![0.0; n]);
         let mut solver = CableSolver::new(robot, method, *opts);
         let mut statics = Statics::new(robot);
         let mut tension = vec![0.0; n];
@@ -266,45 +268,76 @@ pub fn monte_carlo(
             statics.tensions(theta, &loads, &mut tension);
             !feasible(&tension, 0.0)
         };
-        for (j, i) in r.enumerate() {
-            let t0 = &theta0[i * n..(i + 1) * n];
-            for (c, t) in seed_cs.iter_mut().zip(t0) {
-                *c = (t.cos(), t.sin());
+        // blocks of configurations, one per SIMD lane: the closed form of a
+        // block for one sample shares that sample's geometry; each
+        // configuration still gets its samples in sample order
+        let mut block = ClosedFormBlock::new(n);
+        let mut seed_cs = vec![(1.0, 0.0); n * BLOCK_ROWS];
+        let mut l0 = vec![0.0; n * BLOCK_ROWS];
+        let mut p0 = [[0.0; 3]; BLOCK_ROWS];
+        let first = r.start;
+        for start in r.clone().step_by(BLOCK_ROWS) {
+            let lanes = BLOCK_ROWS.min(r.end - start);
+            for b in 0..lanes {
+                let t0 = &theta0[(start + b) * n..(start + b + 1) * n];
+                let sc = &mut seed_cs[b * n..(b + 1) * n];
+                for (c, t) in sc.iter_mut().zip(t0) {
+                    *c = (t.cos(), t.sin());
+                }
+                nominal.upper_lengths(sc, &mut l0[b * n..(b + 1) * n]);
+                p0[b] = fk(robot, t0);
+                for (k, (c, s)) in sc.iter().enumerate() {
+                    block.seed_cos[k * BLOCK_ROWS + b] = *c;
+                    block.seed_sin[k * BLOCK_ROWS + b] = *s;
+                }
             }
-            nominal.upper_lengths(&seed_cs, &mut l0);
-            let p0 = fk(robot, t0);
             for s in 0..samples {
                 let geom = geom_of(s);
-                for (k, tk) in target.iter_mut().enumerate() {
-                    *tk = l0[k] + dl[s * n + k];
-                }
-                if let Some(ds) = fast_deviation(
-                    robot, geom, &target, &seed_cs, &mut cs, p0, small, method, opts,
-                ) {
-                    stats.add(j, ds);
-                    if check_slack {
-                        // the answer's angles from its cos/sin, relative to the seed
-                        for ((t, c), (s0, t0k)) in
-                            th.iter_mut().zip(&cs).zip(seed_cs.iter().zip(t0))
-                        {
-                            let d = cs_difference(*c, *s0);
-                            *t = t0k + d.1.atan2(d.0);
+                let simd = method != CableMethod::Newton;
+                if simd {
+                    for b in 0..lanes {
+                        for k in 0..n {
+                            block.target[k * BLOCK_ROWS + b] = l0[b * n + k] + dl[s * n + k];
                         }
-                        stats.slack[j] += u64::from(slack_at(&th));
                     }
-                    continue;
+                    closed_form_block(arch, geom, &mut block);
                 }
-                // the general path (LM fallback, or the closed form's failure)
-                th.copy_from_slice(t0);
-                let st = solver.solve(geom, &target, &mut th);
-                if st.converged {
-                    let p = solver.pose(&th);
-                    stats.add(j, [p[0] - p0[0], p[1] - p0[1], p[2] - p0[2]]);
-                    if check_slack {
-                        stats.slack[j] += u64::from(slack_at(&th));
+                for b in 0..lanes {
+                    let (i, j) = (start + b, start + b - first);
+                    let sc = &seed_cs[b * n..(b + 1) * n];
+                    if simd && block.ok[b] && block.residual[b] <= opts.tol {
+                        for (k, c) in cs.iter_mut().enumerate() {
+                            *c = (block.cos[k * BLOCK_ROWS + b], block.sin[k * BLOCK_ROWS + b]);
+                        }
+                        stats.add(j, deviation_from_cs(robot, &cs, sc, p0[b], small));
+                        if check_slack {
+                            // the answer's angles from its cos/sin, relative to the seed
+                            let t0 = &theta0[i * n..(i + 1) * n];
+                            for ((t, c), (s0, t0k)) in th.iter_mut().zip(&cs).zip(sc.iter().zip(t0))
+                            {
+                                let d = cs_difference(*c, *s0);
+                                *t = t0k + d.1.atan2(d.0);
+                            }
+                            stats.slack[j] += u64::from(slack_at(&th));
+                        }
+                        continue;
                     }
-                } else {
-                    stats.failed[j] += 1;
+                    // the general path (Newton asked for, or the closed form's failure)
+                    for (k, tk) in target.iter_mut().enumerate() {
+                        *tk = l0[b * n + k] + dl[s * n + k];
+                    }
+                    th.copy_from_slice(&theta0[i * n..(i + 1) * n]);
+                    let st = solver.solve(geom, &target, &mut th);
+                    if st.converged {
+                        let p = solver.pose(&th);
+                        let q = p0[b];
+                        stats.add(j, [p[0] - q[0], p[1] - q[1], p[2] - q[2]]);
+                        if check_slack {
+                            stats.slack[j] += u64::from(slack_at(&th));
+                        }
+                    } else {
+                        stats.failed[j] += 1;
+                    }
                 }
             }
         }
@@ -317,30 +350,19 @@ pub fn monte_carlo(
     Ok(out)
 }
 
-/// The closed form's tip deviation without inverse trigonometry: the pose from
-/// the answer's cos/sin, dphi from the product of the joint rotations (one
-/// atan2; per joint when a rotation is large). `None` when the general path
-/// must decide (Newton requested, no real solution, residual above tol).
-#[allow(clippy::too_many_arguments)]
+/// The tip deviation of a closed-form answer without inverse trigonometry:
+/// the pose from the answer's cos/sin `cs`, dphi from the product of the
+/// joint rotations relative to the seed `seed_cs` (one atan2; per joint when
+/// a rotation is large, `small`: the cosine below which it is). `p0`: the
+/// seed's pose.
 #[inline]
-fn fast_deviation(
+fn deviation_from_cs(
     robot: &Robot,
-    geom: &CableGeometry,
-    target: &[f64],
+    cs: &[(f64, f64)],
     seed_cs: &[(f64, f64)],
-    cs: &mut [(f64, f64)],
     p0: [f64; 3],
     small: f64,
-    method: CableMethod,
-    opts: &SolveOptions,
-) -> Option<[f64; 3]> {
-    if method == CableMethod::Newton {
-        return None;
-    }
-    let res = closed_form_cs(geom, target, seed_cs, cs, None)?;
-    if res > opts.tol {
-        return None;
-    }
+) -> [f64; 3] {
     let p = robot.fk_cs(cs, 0.0);
     let (mut prod, mut large) = ((1.0f64, 0.0f64), false);
     for (c, s0) in cs.iter().zip(seed_cs) {
@@ -359,7 +381,7 @@ fn fast_deviation(
     } else {
         prod.1.atan2(prod.0)
     };
-    Some([p[0] - p0[0], p[1] - p0[1], dphi])
+    [p[0] - p0[0], p[1] - p0[1], dphi]
 }
 
 #[cfg(test)]

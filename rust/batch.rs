@@ -6,6 +6,7 @@ use crate::error::{check_finite, check_rows, CdsmError, Result};
 use crate::ik::{IkSolver, TaskMask};
 use crate::kinematics;
 use crate::robot::Robot;
+use crate::simd::cables::solve_cables_closed_form_batch_in;
 use crate::solve::{self, CableMethod, SolveOptions, Status};
 use std::ops::Range;
 
@@ -261,17 +262,47 @@ pub fn solve_cables(
     let seed = seeds(seed, rows, n)?;
     check_options(opts)?;
     let g = CableGeometry::new(robot, None);
+    let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
-        let mut out = BatchSolution::with_capacity(r.len(), n);
-        let mut th = vec![0.0; n];
+        let m = r.len();
+        let mut out = BatchSolution::with_capacity(m, n);
         let mut solver = solve::CableSolver::new(robot, method, *opts);
-        for i in r {
-            match seed {
-                Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
-                None => th.fill(0.0),
+        let zeros;
+        let seed = match seed {
+            Some(s) => &s[r.start * n..r.end * n],
+            None => {
+                zeros = vec![0.0; m * n];
+                &zeros
             }
-            let st = solver.solve(&g, &upper[i * n..(i + 1) * n], &mut th);
-            out.push(robot, &th, st);
+        };
+        let upper = &upper[r.start * n..r.end * n];
+        if method == CableMethod::Newton {
+            let mut th = vec![0.0; n];
+            for i in 0..m {
+                th.copy_from_slice(&seed[i * n..(i + 1) * n]);
+                let st = solver.solve(&g, &upper[i * n..(i + 1) * n], &mut th);
+                out.push(robot, &th, st);
+            }
+            return out;
+        }
+        // the closed form SIMD across rows, then each row decided as the scalar solver does
+        let mut theta = vec![0.0; m * n];
+        let (mut residual, mut ok) = (vec![0.0; m], vec![false; m]);
+        solve_cables_closed_form_batch_in(
+            arch,
+            &g,
+            upper,
+            seed,
+            &mut theta,
+            &mut residual,
+            &mut ok,
+        );
+        for i in 0..m {
+            let rows_i = i * n..(i + 1) * n;
+            let th = &mut theta[rows_i.clone()];
+            let closed = ok[i].then_some(residual[i]);
+            let st = solver.finish_from(&g, &upper[rows_i.clone()], &seed[rows_i], th, closed);
+            out.push(robot, th, st);
         }
         out
     });

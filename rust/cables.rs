@@ -120,8 +120,16 @@ impl CableGeometry {
             for (k, &(ck, sk)) in cs.iter().enumerate().take(i + 1) {
                 let [p, q, r] = self.seg[c * n + k];
                 let s2 = p + q * ck + r * sk;
-                l += s2.max(0.0).sqrt();
-                jac[i * n + k] = (r * ck - q * sk) / (2.0 * s2.max(f64::MIN_POSITIVE).sqrt());
+                // one square root: the length, and the derivative's denominator
+                // (kept finite at a zero-length segment)
+                let root = s2.max(0.0).sqrt();
+                l += root;
+                let den = if root > 0.0 {
+                    root
+                } else {
+                    f64::MIN_POSITIVE.sqrt()
+                };
+                jac[i * n + k] = (r * ck - q * sk) / (2.0 * den);
             }
             for v in jac[i * n + i + 1..(i + 1) * n].iter_mut() {
                 *v = 0.0;

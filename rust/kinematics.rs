@@ -14,13 +14,14 @@ pub fn fk(robot: &Robot, theta: &[f64]) -> [f64; 3] {
 /// End pose and its Jacobian: `jac[k] = d[x, y, phi]/d theta_k` (column k).
 pub fn fk_jacobian(robot: &Robot, theta: &[f64], jac: &mut [[f64; 3]]) -> [f64; 3] {
     let (mut x, mut y, mut phi) = (0.0f64, 0.0f64, 0.0f64);
+    // (sin, cos) of the attitude before joint k: the one after joint k - 1
+    let (mut s, mut c) = (0.0f64, 1.0f64);
     for (k, &t) in theta.iter().enumerate() {
-        let (s, c) = phi.sin_cos();
         x += robot.link_before[k] * c;
         y += robot.link_before[k] * s;
         jac[k] = [x, y, 1.0]; // joint k position, finished below
         phi += t;
-        let (s, c) = phi.sin_cos();
+        (s, c) = phi.sin_cos();
         let l = robot.link_after[k] + robot.thickness[k];
         x += l * c;
         y += l * s;

@@ -271,10 +271,13 @@ pub fn solve<P: Problem + ?Sized>(
         iterations += 1;
         // components a bound stops from going downhill are held out of the step
         let mut any = false;
-        if problem.bounded() {
+        if problem.bounded() || lm.min_decrease > 0.0 {
             for k in 0..n {
                 let gk: f64 = (0..m).map(|i| ws.jac[i * n + k] * ws.r[i]).sum();
-                ws.active[k] = problem.blocked(x, k, -gk);
+                // least squares: a column the residual does not depend on
+                // carries no information, its component stays put
+                let blind = lm.min_decrease > 0.0 && (0..m).all(|i| ws.jac[i * n + k] == 0.0);
+                ws.active[k] = blind || problem.blocked(x, k, -gk);
                 any |= ws.active[k];
             }
         }
@@ -310,7 +313,7 @@ pub fn solve<P: Problem + ?Sized>(
                 }
             }
             if lm.min_decrease > 0.0 && ws.active.iter().all(|a| *a) {
-                // every component held by a bound: a constrained minimum
+                // every component held (bounds, no information): a minimum
                 return done(true, iterations, &ws.r, Reason::Converged);
             }
         }
@@ -425,7 +428,11 @@ fn step(
                 yv = vec![0.0; m];
                 &mut yv
             };
-            if !solve_general(m, &a[..m * m], &g[..m], ys) {
+            // symmetric positive definite when lambda > 0 or J has full row
+            // rank: Cholesky, else the pivoted LU
+            if !solve_spd(m, &a[..m * m], &g[..m], ys)
+                && !solve_general(m, &a[..m * m], &g[..m], ys)
+            {
                 return false;
             }
             for (k, d) in delta.iter_mut().enumerate() {

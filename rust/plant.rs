@@ -58,13 +58,25 @@ pub fn effect_offsets(n: usize) -> ([usize; 10], usize) {
 }
 
 /// The physical domain of each parameter as `[lower, upper]` bounds (SI):
-/// non-negative compliance, clearance and backlash, a positive clearance
-/// width, links and actuator gain kept above a tenth of their nominal value.
+/// non-negative compliance, clearance and backlash, a clearance below the
+/// smallest hole height (a hole cannot be wider than its distance from the
+/// axis), a transition width in (1e-4, 1] rad, links and actuator gain kept
+/// above a tenth of their nominal value.
 pub fn bounds(robot: &Robot) -> (Vec<f64>, Vec<f64>) {
     let n = robot.n();
     let (off, total) = effect_offsets(n);
     let mut lo = vec![f64::NEG_INFINITY; total];
-    let hi = vec![f64::INFINITY; total];
+    let mut hi = vec![f64::INFINITY; total];
+    let min_hole = robot
+        .holes
+        .chunks_exact(2)
+        .map(|p| p[1].abs())
+        .filter(|h| *h > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    if min_hole.is_finite() {
+        hi[off[5]] = min_hole;
+    }
+    hi[off[9]] = 1.0 - CLEARANCE_WIDTH;
     lo[off[0]] = -0.9;
     lo[off[3]] = -0.9 * robot.link_before[0];
     for i in 0..n {

@@ -214,7 +214,9 @@ pub struct CableSolver<'a> {
     ws: Workspace,
     seed: Vec<f64>,
     seed_cs: Vec<(f64, f64)>,
+    /// cos/sin of the last answer when `cs_fresh` (else of some trial)
     cs: Vec<(f64, f64)>,
+    cs_fresh: bool,
 }
 
 impl<'a> CableSolver<'a> {
@@ -229,6 +231,7 @@ impl<'a> CableSolver<'a> {
             seed: vec![0.0; n],
             seed_cs: vec![(1.0, 0.0); n],
             cs: vec![(1.0, 0.0); n],
+            cs_fresh: false,
         }
     }
 
@@ -240,8 +243,9 @@ impl<'a> CableSolver<'a> {
             cs: &mut self.cs,
             enforce_limits: self.opts.enforce_limits,
         };
+        // the last evaluation was at the answer unless the last trial was rejected
         let st = lm::solve(&mut p, theta, &self.lm, &mut self.ws);
-        self.refresh(theta);
+        self.cs_fresh = false;
         st
     }
 
@@ -257,6 +261,23 @@ impl<'a> CableSolver<'a> {
         }
         let closed =
             solve_cables_closed_form(geom, target, theta, &self.seed_cs, &mut self.cs, None);
+        self.cs_fresh = closed.is_some();
+        self.finish(geom, target, theta, closed)
+    }
+
+    /// The rest of [`CableSolver::solve`] once the closed form has run from
+    /// the seed: `closed` its residual (`None`: no real solution, `theta`
+    /// still the seed), `theta` its answer. Accepts it (within tol, and the
+    /// limits when enforced), or reports why not (`ClosedForm`), or runs
+    /// damped Newton (`Auto`) from the closed form's answer when it had one
+    /// within the limits, else from the seed.
+    pub fn finish(
+        &mut self,
+        geom: &CableGeometry,
+        target: &[f64],
+        theta: &mut [f64],
+        closed: Option<f64>,
+    ) -> Status {
         let ok = closed.is_some();
         let in_box = !self.opts.enforce_limits || within_limits(self.robot, theta);
         let st = closed_form_status(closed, self.opts.tol);
@@ -285,15 +306,35 @@ impl<'a> CableSolver<'a> {
         self.newton(geom, target, theta)
     }
 
+    /// [`CableSolver::finish`] for a closed form computed elsewhere (SIMD
+    /// across rows): `seed` the seed angles it started from.
+    pub fn finish_from(
+        &mut self,
+        geom: &CableGeometry,
+        target: &[f64],
+        seed: &[f64],
+        theta: &mut [f64],
+        closed: Option<f64>,
+    ) -> Status {
+        self.seed.copy_from_slice(seed);
+        self.cs_fresh = false;
+        self.finish(geom, target, theta, closed)
+    }
+
     fn refresh(&mut self, theta: &[f64]) {
         for (c, t) in self.cs.iter_mut().zip(theta) {
             let (s, co) = t.sin_cos();
             *c = (co, s);
         }
+        self.cs_fresh = true;
     }
 
-    /// End pose at the angles of the last solve (uses the cached cos/sin).
-    pub fn pose(&self, theta: &[f64]) -> [f64; 3] {
+    /// End pose at the angles `theta` of the last solve (from the closed
+    /// form's cos/sin when it gave the answer).
+    pub fn pose(&mut self, theta: &[f64]) -> [f64; 3] {
+        if !self.cs_fresh {
+            self.refresh(theta);
+        }
         self.robot.fk_cs(&self.cs, theta.iter().sum())
     }
 }

@@ -35,6 +35,8 @@ def packaged_robots() -> Tuple[str, ...]:
 #: Why a solve ended, by code (``Solution.reason`` holds the names).
 REASONS = tuple(_cdsm.REASONS)
 
+_REASON_NAMES = np.array(REASONS)
+
 #: Named task masks of the pose IK over the planar task coordinates (x, y, phi).
 TASK_MASKS = {"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}
 
@@ -78,7 +80,7 @@ class Solution:
         """The solution of a batch from the core's :class:`cdsm._cdsm.SolveResult`
         (``single``: one row given 1-D, returned 1-D)."""
         theta = res.theta.reshape(-1, n)
-        reason = np.asarray(REASONS, dtype=object)[res.reason].astype(str)
+        reason = _REASON_NAMES[res.reason]
         parts = [theta, res.converged, res.iterations, res.residual, res.within_limits, reason]
         if single:
             parts = [p[0] for p in parts]

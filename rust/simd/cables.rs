@@ -790,35 +790,54 @@ impl WithSimd for BlockOp<'_> {
     }
 }
 
+/// Joints handled with stack buffers in [`closed_form_block`] (more: heap).
+const STACK_JOINTS: usize = 8;
+
 #[inline(always)]
 fn block<S: Simd, const U: usize>(simd: S, op: BlockOp<'_>) {
+    let n = op.geom.n;
+    let z = [simd.splat_f64s(0.0); U];
+    if n <= STACK_JOINTS {
+        let mut buf = [[z; STACK_JOINTS]; 5];
+        block_in::<S, U, _>(simd, op, &mut buf);
+    } else {
+        let mut buf: [Vec<[S::f64s; U]>; 5] = std::array::from_fn(|_| vec![z; n]);
+        block_in::<S, U, _>(simd, op, &mut buf);
+    }
+}
+
+#[inline(always)]
+fn block_in<S: Simd, const U: usize, B: AsMut<[[S::f64s; U]]>>(
+    simd: S,
+    op: BlockOp<'_>,
+    buf: &mut [B; 5],
+) {
     let BlockOp { geom, block } = op;
     let n = geom.n;
     let w = U * S::F64_LANES;
     debug_assert!(w <= BLOCK_ROWS);
-    let load = |x: &[f64]| -> Vec<[S::f64s; U]> {
-        (0..n)
-            .map(|j| {
-                let mut v = [simd.splat_f64s(0.0); U];
-                let flat = pulp::bytemuck::cast_slice_mut::<S::f64s, f64>(&mut v);
-                flat.copy_from_slice(&x[j * BLOCK_ROWS..j * BLOCK_ROWS + w]);
-                v
-            })
-            .collect()
-    };
-    let (tv, sc, ss) = (
-        load(&block.target),
-        load(&block.seed_cos),
-        load(&block.seed_sin),
+    let [tv, sc, ss, cv, sv] = buf;
+    let (tv, sc, ss, cv, sv) = (
+        &mut tv.as_mut()[..n],
+        &mut sc.as_mut()[..n],
+        &mut ss.as_mut()[..n],
+        &mut cv.as_mut()[..n],
+        &mut sv.as_mut()[..n],
     );
-    let mut cv = vec![[simd.splat_f64s(0.0); U]; n];
-    let mut sv = cv.clone();
-    let (res, good) = closed_form_lanes_x(simd, geom, &tv, &sc, &ss, &mut cv, &mut sv);
     for j in 0..n {
-        let c = pulp::bytemuck::cast_slice::<S::f64s, f64>(&cv[j]);
-        let s = pulp::bytemuck::cast_slice::<S::f64s, f64>(&sv[j]);
-        block.cos[j * BLOCK_ROWS..j * BLOCK_ROWS + w].copy_from_slice(c);
-        block.sin[j * BLOCK_ROWS..j * BLOCK_ROWS + w].copy_from_slice(s);
+        let r = j * BLOCK_ROWS..j * BLOCK_ROWS + w;
+        pulp::bytemuck::cast_slice_mut::<S::f64s, f64>(&mut tv[j])
+            .copy_from_slice(&block.target[r.clone()]);
+        pulp::bytemuck::cast_slice_mut::<S::f64s, f64>(&mut sc[j])
+            .copy_from_slice(&block.seed_cos[r.clone()]);
+        pulp::bytemuck::cast_slice_mut::<S::f64s, f64>(&mut ss[j])
+            .copy_from_slice(&block.seed_sin[r]);
+    }
+    let (res, good) = closed_form_lanes_x(simd, geom, tv, sc, ss, cv, sv);
+    for j in 0..n {
+        let r = j * BLOCK_ROWS..j * BLOCK_ROWS + w;
+        block.cos[r.clone()].copy_from_slice(pulp::bytemuck::cast_slice::<S::f64s, f64>(&cv[j]));
+        block.sin[r].copy_from_slice(pulp::bytemuck::cast_slice::<S::f64s, f64>(&sv[j]));
     }
     block.residual[..w].copy_from_slice(pulp::bytemuck::cast_slice::<S::f64s, f64>(&res));
     let flags = Mask::<S, U> { simd, v: good }

@@ -1,0 +1,124 @@
+"""Per-core speed of the solves against the plain scalar C yardsticks, in one run.
+
+    python benches/bench_speed.py [--groups 200] [--anchors ../shared/anchors] [--repeat 3]
+
+Workload (the speed issue's): the ±30° grid in 5° steps (13^3 = 2197
+configurations) x G groups of uniform ±1 mm errors on the upper cables, each
+solve seeded at its grid angles, through the public API with one worker
+thread (``robot.threads = 1``): ``Robot.solve_cables`` with ``method="newton"``
+and ``"auto"``, and the Monte-Carlo kernel (``accuracy.monte_carlo``, cable
+errors only, then the paper's cable + hole errors). The C yardsticks
+(``c_newton.c``, ``c_closed.c`` from ``--anchors``) are built with
+``gcc -O3`` (portable, as a wheel) and run on the same workload in the same
+run; the ratios are what to read (these machines are noisy).
+
+Pose IK: the peer's poses — 2000 random theta in ±30° (seed 0), their tip
+poses (phi = sum theta), repeated to G x 2000 / 2 solves — from
+``workspace.paper_ik_seed``, with the damped least squares (LM, the default)
+and the closed form (``method="closed_form"``, n = 3), one thread.
+
+Every figure is the best of ``--repeat`` runs, in millions of solves per
+second per core.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import cdsm
+from cdsm.accuracy import montecarlo, workspace
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def best_rate(fn, count: int, repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t)
+    return count / best / 1e6
+
+
+def c_rate(src: Path, groups: int, workdir: Path, repeat: int):
+    """Build ``src`` with gcc -O3 and return its best M solves/s, or None."""
+    if shutil.which("gcc") is None or not src.is_file():
+        return None
+    exe = workdir / src.stem
+    subprocess.run(["gcc", "-O3", "-o", str(exe), str(src), "-lm"], check=True)
+    best = 0.0
+    for _ in range(repeat):
+        out = subprocess.run([str(exe), str(groups)], check=True, capture_output=True, text=True).stdout
+        best = max(best, float(re.search(r"([0-9.]+) M/s", out).group(1)))
+    return best
+
+
+def workload(robot, groups: int, seed: int = 0):
+    """(targets (N, 3) m, seeds (N, 3) rad) of the Monte-Carlo workload."""
+    grid = workspace.joint_grid(robot.n)
+    rng = np.random.default_rng(seed)
+    err = rng.uniform(-1e-3, 1e-3, (groups, robot.n))
+    l0 = robot.upper_lengths(grid)
+    targets = (l0[None, :, :] + err[:, None, :]).reshape(-1, robot.n)
+    return targets, np.tile(grid, (groups, 1)), grid, err
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--groups", type=int, default=200)
+    ap.add_argument("--anchors", default=str(ROOT.parent / "shared" / "anchors"))
+    ap.add_argument("--repeat", type=int, default=3)
+    args = ap.parse_args()
+    robot = cdsm.Robot.paper()
+    robot.threads = 1
+    targets, seeds, grid, err = workload(robot, args.groups)
+    N = len(targets)
+    print(f"workload: {args.groups} groups x {len(grid)} configurations = {N:,} solves; one thread; "
+          f"SIMD: {cdsm._cdsm.simd_instruction_set()}")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        anchors = Path(args.anchors)
+        c_newton = c_rate(anchors / "c_newton.c", args.groups, Path(tmp), args.repeat)
+        c_closed = c_rate(anchors / "c_closed.c", args.groups, Path(tmp), args.repeat)
+    for method in ("newton", "auto"):
+        sol = robot.solve_cables(targets, seed=seeds, method=method)
+        assert sol.converged.all(), f"{method}: {np.sum(~sol.converged)} failed"
+        rate = best_rate(lambda m=method: robot.solve_cables(targets, seed=seeds, method=m), N, args.repeat)
+        rows.append((f"solve_cables(method={method!r})", rate, c_newton if method == "newton" else c_closed,
+                     "C Newton" if method == "newton" else "C closed form"))
+    for label, dh in (("cable errors only", 0.0), ("paper's errors (cables ±1 mm, holes ±0.35 mm)", 0.35e-3)):
+        kw = dict(samples=args.groups, seed=1, chunk=args.groups, progress=False, dl_tol=1e-3, dh_tol=dh)
+        rate = best_rate(lambda kw=kw: montecarlo.monte_carlo(robot, grid, **kw), N, args.repeat)
+        rows.append((f"Monte-Carlo kernel, {label}", rate, c_closed, "C closed form"))
+    # pose IK on the peer's poses
+    th = np.random.default_rng(0).uniform(-np.radians(30), np.radians(30), (2000, robot.n))
+    poses = np.tile(robot.fk(th), (max(args.groups // 2, 1), 1))
+    seed = workspace.paper_ik_seed(robot.n)
+    methods = ["lm"] + (["closed_form"] if "closed_form" in getattr(cdsm.robot, "IK_METHODS", ()) else [])
+    for m in methods:
+        kw = {} if m == "lm" else {"method": m}
+        sol = robot.ik(poses[:2000], seed=seed, **kw)
+        assert sol.converged.all()
+        rate = best_rate(lambda kw=kw: robot.ik(poses, seed=seed, **kw), len(poses), args.repeat)
+        rows.append((f"pose IK, method={m!r}, from paper_ik_seed", rate, None, "roboticstoolbox ik_LM ≈ 0.045"))
+    print(f"{'path':<58} {'M/s/core':>9} {'yardstick':>10}  ratio")
+    for name, rate, ref, what in rows:
+        ratio = f"{rate / ref:5.2f}x {what}" if ref else f"   ({what})"
+        print(f"{name:<58} {rate:9.2f} {ref if ref else float('nan'):10.2f}  {ratio}")
+    if c_newton is None:
+        print(f"(no C yardsticks: gcc or {args.anchors} missing)", file=sys.stderr)
+    print(f"cores visible: {os.cpu_count()}")
+
+
+if __name__ == "__main__":
+    main()

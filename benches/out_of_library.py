@@ -1,0 +1,221 @@
+"""Effects OUTSIDE the diagnosis library, for benchmarking its false-"explained"
+rate (``benches/bench_error_rates.py``). SI units (m, rad).
+
+None of these is (or should become) an effect of
+:mod:`cdsm.calibration.plant`: a diagnosis that calls data made with one of
+them "explained" has wrongly claimed that its library accounts for the gap.
+
+Actuator-side effects map the *commanded* upper-cable lengths ``c`` (N, n) of
+the rows, run in order, to the lengths the screws *realise*; the nominal plant
+is then fed ``dL' = realised - L_upper,nom(theta_cmd)`` while the data keep
+the commanded ``dL`` (all the diagnosis sees). ``d = c - L_ref`` is the
+commanded change from the straight-pose length ``L_ref`` (per cable). The
+instrument-side effect (tracker drift) acts on the measured positions.
+
+=====================  ======================================================
+effect                 realised length / measurement
+=====================  ======================================================
+quadratic_actuator     L_ref + d + k2_i d²            (k2 ~ 0.3-0.6 1/m)
+cubic_actuator         L_ref + d + k3_i d³            (k3 ~ 4-8 1/m²)
+lead_screw             c + a_i sin(2π d / pitch)      (pitch 1 mm, a 20-40 µm)
+hole_friction          c - g_i W_i(θ) s_i             capstan-like loss: W_i = Σ_{k≤i} |θ_k|
+                                                      (the wrap angle of upper cable i, rad),
+                                                      g_i 50-100 µm/rad, s_i the sign of the
+                                                      cable's last move (memory per cable)
+tracker_drift          measured xy + (row index) v    v ~ 5 µm/row in x and y
+=====================  ======================================================
+
+The friction loss differs from the library's ``backlash`` (a constant dead
+band ``b_i``): it grows with the angle the cable wraps over the holes, so a
+constant dead band absorbs only its mean. The quadratic and cubic actuators
+differ from ``actuation_scale`` (linear) and ``cable_offset`` (constant); the
+lead screw's error is periodic in the commanded length; the drift is in time
+(row order), not in the configuration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional, Sequence
+
+import numpy as np
+
+from cdsm import Robot
+from cdsm.calibration import measurements, plant
+
+__all__ = ["OutOfLibrary", "QuadraticActuator", "CubicActuator", "LeadScrew", "HoleFriction", "TrackerDrift",
+           "EFFECTS", "to_frame", "measure"]
+
+
+def _signs(rng: np.random.Generator, n: int) -> np.ndarray:
+    return rng.choice([-1.0, 1.0], n)
+
+
+class OutOfLibrary:
+    """An effect outside the library. ``realise`` maps commanded upper-cable
+    lengths (N, n) m, rows in execution order, to realised ones; ``observe``
+    maps measured positions (N, 2) m (instrument frame) to what is read."""
+
+    name = "out_of_library"
+
+    @classmethod
+    def sample(cls, rng: np.random.Generator, n: int) -> "OutOfLibrary":  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def realise(self, robot: Robot, theta: np.ndarray, commanded: np.ndarray) -> np.ndarray:
+        return commanded
+
+    def observe(self, xy: np.ndarray) -> np.ndarray:
+        return xy
+
+    def describe(self) -> str:
+        return self.name
+
+
+@dataclass
+class QuadraticActuator(OutOfLibrary):
+    """Realised change ``d + k2 d²`` per cable (k2 (n,) 1/m)."""
+
+    k2: np.ndarray
+    name = "quadratic_actuator"
+
+    @classmethod
+    def sample(cls, rng, n):
+        return cls(_signs(rng, n) * rng.uniform(0.3, 0.6, n))
+
+    def realise(self, robot, theta, commanded):
+        ref = robot.upper_lengths(np.zeros(robot.n))
+        d = commanded - ref
+        return ref + d + self.k2 * d ** 2
+
+    def describe(self):
+        return f"d + k2·d², k2 = {np.array2string(self.k2, precision=2)} 1/m"
+
+
+@dataclass
+class CubicActuator(OutOfLibrary):
+    """Realised change ``d + k3 d³`` per cable (k3 (n,) 1/m²)."""
+
+    k3: np.ndarray
+    name = "cubic_actuator"
+
+    @classmethod
+    def sample(cls, rng, n):
+        return cls(_signs(rng, n) * rng.uniform(4.0, 8.0, n))
+
+    def realise(self, robot, theta, commanded):
+        ref = robot.upper_lengths(np.zeros(robot.n))
+        d = commanded - ref
+        return ref + d + self.k3 * d ** 3
+
+    def describe(self):
+        return f"d + k3·d³, k3 = {np.array2string(self.k3, precision=1)} 1/m²"
+
+
+@dataclass
+class LeadScrew(OutOfLibrary):
+    """Periodic lead-screw error: ``c + a sin(2π (c - L_ref) / pitch)``
+    (a (n,) m, pitch m)."""
+
+    a: np.ndarray
+    pitch: float = 1e-3
+    name = "lead_screw"
+
+    @classmethod
+    def sample(cls, rng, n):
+        return cls(rng.uniform(20e-6, 40e-6, n), 1e-3)
+
+    def realise(self, robot, theta, commanded):
+        ref = robot.upper_lengths(np.zeros(robot.n))
+        return commanded + self.a * np.sin(2.0 * np.pi * (commanded - ref) / self.pitch)
+
+    def describe(self):
+        return f"a sin(2π d / {self.pitch * 1e3:g} mm), a = {np.array2string(self.a * 1e6, precision=0)} µm"
+
+
+@dataclass
+class HoleFriction(OutOfLibrary):
+    """Capstan-like friction in the holes: cable ``i`` loses
+    ``g_i · W_i(theta_cmd)`` of length in the direction of its last move,
+    ``W_i`` the summed |joint angle| over the joints it crosses (1..i), ``g``
+    (n,) m/rad. The direction is remembered per cable while its command does
+    not change (from the straight pose, no direction yet)."""
+
+    g: np.ndarray
+    name = "hole_friction"
+
+    @classmethod
+    def sample(cls, rng, n):
+        return cls(rng.uniform(50e-6, 100e-6, n))
+
+    def realise(self, robot, theta, commanded):
+        wrap = np.cumsum(np.abs(theta), axis=1)  # cable i crosses joints 1..i
+        prev = robot.upper_lengths(np.zeros(robot.n))
+        direction = np.zeros(robot.n)
+        out = np.empty_like(commanded)
+        for j, c in enumerate(commanded):
+            step = c - prev
+            direction = np.where(np.abs(step) > 1e-12, np.sign(step), direction)
+            out[j] = c - self.g * wrap[j] * direction
+            prev = c
+        return out
+
+    def describe(self):
+        return f"g·W·sign(last move), g = {np.array2string(self.g * 1e6, precision=0)} µm/rad"
+
+
+@dataclass
+class TrackerDrift(OutOfLibrary):
+    """The instrument's reading drifts linearly in time: row ``j`` (execution
+    order) is read ``j · v`` off (v (2,) m per row, instrument frame)."""
+
+    v: np.ndarray = field(default_factory=lambda: np.array([5e-6, 5e-6]))
+    name = "tracker_drift"
+
+    @classmethod
+    def sample(cls, rng, n):
+        return cls(_signs(rng, 2) * rng.uniform(4e-6, 6e-6, 2))
+
+    def observe(self, xy):
+        return xy + np.arange(len(xy))[:, None] * self.v
+
+    def describe(self):
+        return f"drift {np.array2string(self.v * 1e6, precision=1)} µm/row"
+
+
+#: The out-of-library effects, by name.
+EFFECTS = {c.name: c for c in (QuadraticActuator, CubicActuator, LeadScrew, HoleFriction, TrackerDrift)}
+
+
+def to_frame(xy: np.ndarray, frame: Optional[Sequence[float]]) -> np.ndarray:
+    """Positions (N, 2) m seen in an instrument frame ``(alpha, tx, ty)``
+    (rad, m, m): ``Rot(alpha) p + t``; ``None``: unchanged."""
+    if frame is None:
+        return xy
+    a, tx, ty = frame
+    c, s = np.cos(a), np.sin(a)
+    return xy @ np.array([[c, s], [-s, c]]) + np.array([tx, ty])
+
+
+def measure(robot: Robot, effect: Optional[OutOfLibrary], theta: np.ndarray, dL: np.ndarray,
+            noise: float = 10e-6, seed: int = 0, frame: Optional[Sequence[float]] = None
+            ) -> measurements.Measurements:
+    """Absolute measurements (SI) of the rows ``theta`` (N, n) rad, ``dL``
+    (N, n) m, run in order, on the nominal plant with ``effect`` (None:
+    nominal), Gaussian noise ``noise`` m per axis and reading (seeded), read
+    in the instrument frame ``frame`` (see :func:`to_frame`; None: the base
+    frame). The table carries the *commanded* dL."""
+    theta = np.asarray(theta, float)
+    dL = np.asarray(dL, float)
+    nominal = robot.upper_lengths(theta)
+    commanded = nominal + dL
+    realised = commanded if effect is None else effect.realise(robot, theta, commanded)
+    obs, ok = plant.predict(robot, np.zeros(plant.size(robot)), theta, realised - nominal)
+    if not np.all(ok):
+        raise RuntimeError(f"{int((~ok).sum())} rows of {effect.name if effect else 'nominal'} do not settle")
+    rng = np.random.default_rng(seed)
+    xy = to_frame(obs[:, :2] + rng.normal(0.0, noise, (len(theta), 2)), frame)
+    if effect is not None:
+        xy = effect.observe(xy)
+    return measurements.Measurements("absolute", robot.n, dL, xy, theta=theta,
+                                     source=f"out-of-library: {effect.name if effect else 'nominal'}")
