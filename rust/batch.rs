@@ -3,10 +3,12 @@
 
 use crate::cables::CableGeometry;
 use crate::error::{check_finite, check_rows, CdsmError, Result};
-use crate::ik::{IkSolver, TaskMask};
+use crate::ik::{check_closed_form, ik_closed_form, IkMethod, IkSolver, TaskMask};
 use crate::kinematics;
+use crate::lm::Reason;
 use crate::robot::Robot;
 use crate::simd::cables::solve_cables_closed_form_batch_in;
+use crate::simd::ik::ik_closed_form_batch;
 use crate::solve::{self, CableMethod, SolveOptions, Status};
 use std::ops::Range;
 
@@ -213,6 +215,7 @@ pub fn ik(
     pose: &[f64],
     seed: Option<&[f64]>,
     mask: TaskMask,
+    method: IkMethod,
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<BatchSolution> {
@@ -230,6 +233,12 @@ pub fn ik(
             ),
         });
     }
+    if method == IkMethod::ClosedForm {
+        check_closed_form(robot, mask)?;
+        if !opts.enforce_limits {
+            return Ok(ik_closed_form_rows(robot, pose, seed, opts, threads));
+        }
+    }
     let parts = split_rows(rows, threads, |r| {
         let mut out = BatchSolution::with_capacity(r.len(), n);
         let mut th = vec![0.0; n];
@@ -240,12 +249,77 @@ pub fn ik(
                 None => th.fill(0.0),
             }
             let p = [pose[3 * i], pose[3 * i + 1], pose[3 * i + 2]];
-            let st = solver.solve(&p, &mut th);
+            let st = match method {
+                IkMethod::Lm => solver.solve(&p, &mut th),
+                IkMethod::ClosedForm => ik_closed_form(robot, &p, &mut th, opts),
+            };
             out.push(robot, &th, st);
         }
         out
     });
     Ok(BatchSolution::concat(parts))
+}
+
+/// The closed-form pose IK of a 3-joint arm over a batch: SIMD across rows,
+/// the rows the lanes leave (out of reach, whole turns from the seed) by the
+/// scalar function.
+fn ik_closed_form_rows(
+    robot: &Robot,
+    pose: &[f64],
+    seed: Option<&[f64]>,
+    opts: &SolveOptions,
+    threads: usize,
+) -> BatchSolution {
+    let arch = pulp::Arch::new();
+    let rows = pose.len() / 3;
+    let parts = split_rows(rows, threads, |r| {
+        let m = r.len();
+        let zeros;
+        let seed = match seed {
+            Some(s) => &s[r.start * 3..r.end * 3],
+            None => {
+                zeros = vec![0.0; m * 3];
+                &zeros
+            }
+        };
+        let pose = &pose[r.start * 3..r.end * 3];
+        let mut theta = vec![0.0; m * 3];
+        let (mut residual, mut done) = (vec![0.0; m], vec![false; m]);
+        ik_closed_form_batch(
+            arch,
+            robot,
+            pose,
+            seed,
+            &mut theta,
+            &mut residual,
+            &mut done,
+        );
+        let mut out = BatchSolution::with_capacity(m, 3);
+        for i in 0..m {
+            let th = &mut theta[i * 3..(i + 1) * 3];
+            let st = if done[i] {
+                let converged = residual[i] <= opts.tol;
+                Status {
+                    converged,
+                    iterations: 0,
+                    residual: residual[i],
+                    cost: residual[i] * residual[i],
+                    reason: if converged {
+                        Reason::Converged
+                    } else {
+                        Reason::Singular
+                    },
+                }
+            } else {
+                th.copy_from_slice(&seed[i * 3..(i + 1) * 3]);
+                let p = [pose[3 * i], pose[3 * i + 1], pose[3 * i + 2]];
+                ik_closed_form(robot, &p, th, opts)
+            };
+            out.push(robot, th, st);
+        }
+        out
+    });
+    BatchSolution::concat(parts)
 }
 
 /// Batched cable solve: upper-cable lengths `(N, n)`, `seed (N, n)` or zeros.

@@ -1,12 +1,16 @@
 //! Pose IK: the joint angles that put the end frame on a target, by the
 //! shared damped least squares ([`crate::lm`], minimal-norm step), with a
 //! task mask over the robot kind's task-space coordinates (planar: `x`, `y`,
-//! `phi`): the full pose, the position only, or any weights.
+//! `phi`): the full pose, the position only, or any weights; and the closed
+//! form of 3-joint arms (both branches, the one nearest the seed).
 
-use crate::kinematics::fk_jacobian;
-use crate::lm::{self, Lm, Problem, Step, Workspace};
+use crate::error::{CdsmError, Result};
+use crate::geometry::ArmGeometry;
+use crate::kinematics::{fk_jacobian, within_limits};
+use crate::lm::{self, Lm, Problem, Reason, Step, Workspace};
 use crate::robot::Robot;
 use crate::solve::{at_limit, clamp_to_limits, SolveOptions, Status};
+use std::f64::consts::{PI, TAU};
 
 /// Task-space coordinates of a planar arm: `x`, `y` (m), `phi` (rad).
 pub const PLANAR_TASK: usize = 3;
@@ -120,6 +124,128 @@ impl<'a> IkSolver<'a> {
             enforce_limits: self.opts.enforce_limits,
         };
         lm::solve(&mut p, theta, &self.lm, &mut self.ws)
+    }
+}
+
+/// How the pose IK is solved.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum IkMethod {
+    /// Damped least squares from the seed (any arm, any task mask).
+    Lm,
+    /// The closed form of a 3-joint arm, full pose (`docs/model.md`).
+    ClosedForm,
+}
+
+/// Whether [`IkMethod::ClosedForm`] applies to `robot` with `mask`; an
+/// error naming the field otherwise.
+pub fn check_closed_form(robot: &Robot, mask: TaskMask) -> Result<()> {
+    if robot.n() != 3 {
+        return Err(CdsmError::Option {
+            name: "method".into(),
+            problem: format!(
+                "'closed_form' needs a 3-joint arm, this one has {}",
+                robot.n()
+            ),
+        });
+    }
+    if mask.weights.contains(&0.0) {
+        return Err(CdsmError::Option {
+            name: "mask".into(),
+            problem: "method 'closed_form' solves the full pose (x, y, phi): use mask 'pose'"
+                .into(),
+        });
+    }
+    Ok(())
+}
+
+/// `t` moved by whole turns to lie within pi of `seed` (`t - seed` in `(-pi, pi]`).
+#[inline]
+fn near(t: f64, seed: f64) -> f64 {
+    let d = t - seed;
+    if d > -PI && d <= PI {
+        return t;
+    }
+    let mut d = d.rem_euclid(TAU);
+    if d > PI {
+        d -= TAU;
+    }
+    seed + d
+}
+
+/// Closed-form pose IK of a 3-joint arm (`docs/model.md`, "Closed-form pose
+/// IK"): `theta` holds the seed on entry and the answer on exit (unchanged
+/// when the pose is out of reach). The caller checks [`check_closed_form`].
+pub fn ik_closed_form(
+    robot: &Robot,
+    pose: &[f64; 3],
+    theta: &mut [f64],
+    opts: &SolveOptions,
+) -> Status {
+    let (lb, la, th) = (&robot.link_before, &robot.link_after, &robot.thickness);
+    let r1 = la[0] + th[0] + lb[1];
+    let r2 = la[1] + th[1] + lb[2];
+    let a3 = la[2] + th[2];
+    let [x, y, phi] = *pose;
+    let (sp, cp) = phi.sin_cos();
+    let (dx, dy) = (x - a3 * cp - lb[0], y - a3 * sp);
+    let c2 = (dx * dx + dy * dy - r1 * r1 - r2 * r2) / (2.0 * r1 * r2);
+    let residual_at = |t: &[f64]| {
+        let p = robot.fk(t);
+        (0..3).map(|k| (p[k] - pose[k]).abs()).fold(0.0, f64::max)
+    };
+    if c2.is_nan() || c2.abs() > 1.0 {
+        // out of reach: theta stays the seed, the residual is the seed's
+        let residual = residual_at(theta);
+        return Status {
+            converged: false,
+            iterations: 0,
+            residual,
+            cost: residual * residual,
+            reason: Reason::Unreachable,
+        };
+    }
+    let seed = [theta[0], theta[1], theta[2]];
+    // theta_2 = s acos(c2), sin(theta_2) = s sqrt(1 - c2^2): theta_1 = base - s gamma
+    let a = c2.acos();
+    let base = dy.atan2(dx);
+    let gamma = (r2 * (1.0 - c2 * c2).max(0.0).sqrt()).atan2(r1 + r2 * c2);
+    // branches s = +1 and s = -1 (sin theta_2 <= 0: the paper's)
+    let branch = |s: f64| -> ([f64; 3], f64) {
+        let t1 = near(base - s * gamma, seed[0]);
+        let t2 = near(s * a, seed[1]);
+        let t = [t1, t2, phi - t1 - t2];
+        let d = t.iter().zip(&seed).map(|(a, b)| (a - b) * (a - b)).sum();
+        (t, d)
+    };
+    let (plus, minus) = (branch(1.0), branch(-1.0));
+    let tie = 1e-12 * (1.0 + seed.iter().map(|v| v * v).sum::<f64>());
+    let nearest = if plus.1 < minus.1 - tie {
+        plus.0
+    } else {
+        minus.0
+    };
+    let other = if nearest == plus.0 { minus.0 } else { plus.0 };
+    let mut reason = Reason::Converged;
+    let pick = if !opts.enforce_limits || within_limits(robot, &nearest) {
+        nearest
+    } else if within_limits(robot, &other) {
+        other
+    } else {
+        reason = Reason::OutsideLimits;
+        nearest
+    };
+    theta.copy_from_slice(&pick);
+    let residual = residual_at(theta);
+    let converged = reason == Reason::Converged && residual <= opts.tol;
+    if reason == Reason::Converged && !converged {
+        reason = Reason::Singular;
+    }
+    Status {
+        converged,
+        iterations: 0,
+        residual,
+        cost: residual * residual,
+        reason,
     }
 }
 

@@ -21,7 +21,8 @@ from . import _cdsm
 from .files import read_text
 from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
 
-__all__ = ["Robot", "Solution", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS", "packaged_robots"]
+__all__ = ["Robot", "Solution", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS", "IK_METHODS",
+           "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 
@@ -36,6 +37,9 @@ def packaged_robots() -> Tuple[str, ...]:
 REASONS = tuple(_cdsm.REASONS)
 
 _REASON_NAMES = np.array(REASONS)
+
+#: Pose-IK methods (:meth:`Robot.ik`).
+IK_METHODS = ("lm", "closed_form")
 
 #: Named task masks of the pose IK over the planar task coordinates (x, y, phi).
 TASK_MASKS = {"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}
@@ -305,19 +309,25 @@ class Robot:
         return s
 
     def ik(self, pose, seed=None, tol: float = 1e-12, max_iter: int = 100,
-           enforce_limits: bool = False, mask="pose") -> Solution:
-        """Pose IK by damped least squares (Levenberg–Marquardt, minimal-norm
-        steps): pose [x (m), y (m), phi (rad)] (N, 3) -> Solution.
+           enforce_limits: bool = False, mask="pose", method: str = "lm") -> Solution:
+        """Pose IK: pose [x (m), y (m), phi (rad)] (N, 3) -> Solution.
 
-        ``seed`` (N, n) or (n,), rad; default theta = 0. ``mask``: which task
-        coordinates to match — ``"pose"`` (x, y, phi), ``"position"`` (x, y;
-        the attitude is free, its column of ``pose`` ignored) or three
-        non-negative weights on the x, y, phi residuals (m, m, rad).
-        Convergence is judged on the weighted residual. Joint limits are
-        flagged (``within_limits``) and enforced only with ``enforce_limits``.
+        ``method``: ``"lm"`` (default) — damped least squares
+        (Levenberg–Marquardt, minimal-norm steps) from the seed, any arm and
+        mask; ``"closed_form"`` — 3-joint arms, full pose: both branches, the
+        one nearest the seed (ties: theta_2 <= 0, the paper's), 0 iterations
+        (``docs/model.md``). ``seed`` (N, n) or (n,), rad; default theta = 0.
+        ``mask``: which task coordinates to match — ``"pose"`` (x, y, phi),
+        ``"position"`` (x, y; the attitude is free, its column of ``pose``
+        ignored) or three non-negative weights on the x, y, phi residuals
+        (m, m, rad). Convergence is judged on the weighted residual. Joint
+        limits are flagged (``within_limits``) and enforced only with
+        ``enforce_limits``.
         """
         p, single = as_batch("pose", pose, 3)
-        res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), float(tol),
+        if method not in IK_METHODS:
+            raise CdsmInputError(f"`method`: expected one of {', '.join(map(repr, IK_METHODS))}, got {method!r}")
+        res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), method, float(tol),
                            as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
         return Solution.from_core(res, self.n, single, self)
 

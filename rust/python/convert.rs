@@ -3,7 +3,7 @@
 //! core's enums, and the core's errors to `CdsmInputError`.
 
 use crate::error::CdsmError;
-use crate::ik::TaskMask;
+use crate::ik::{IkMethod, TaskMask};
 use crate::plant::RowKind;
 use crate::solve::{CableMethod, SolveOptions};
 use numpy::{PyArray1, PyReadonlyArrayDyn};
@@ -58,6 +58,17 @@ pub fn method(name: &str) -> PyResult<CableMethod> {
         "closed_form" => Ok(CableMethod::ClosedForm),
         other => Err(CdsmInputError::new_err(format!(
             "`method`: expected 'auto', 'newton' or 'closed_form', got {other:?}"
+        ))),
+    }
+}
+
+/// The pose-IK method from its name.
+pub fn ik_method(name: &str) -> PyResult<IkMethod> {
+    match name {
+        "lm" => Ok(IkMethod::Lm),
+        "closed_form" => Ok(IkMethod::ClosedForm),
+        other => Err(CdsmInputError::new_err(format!(
+            "`method`: expected 'lm' or 'closed_form', got {other:?}"
         ))),
     }
 }

@@ -2,7 +2,9 @@
 //! with the GIL released around the work. The documented API is
 //! `cdsm.Robot` and the Python modules that call these methods.
 
-use super::convert::{err, kinds, mask, method, opt_slice, options, slice, vec1, Arr, Array};
+use super::convert::{
+    err, ik_method, kinds, mask, method, opt_slice, options, slice, vec1, Arr, Array,
+};
 use super::results::{
     CompensationResult, DeviationResult, ElasticResult, MonteCarloStats, PlantFit, PlantPrediction,
     SensitivityResult, SolveResult,
@@ -242,7 +244,7 @@ impl CoreRobot {
     }
 
     // ---- solves --------------------------------------------------------
-    #[pyo3(signature = (pose, seed, mask, tol, max_iter, enforce_limits, threads))]
+    #[pyo3(signature = (pose, seed, mask, method, tol, max_iter, enforce_limits, threads))]
     #[allow(clippy::too_many_arguments)]
     fn ik(
         &self,
@@ -250,6 +252,7 @@ impl CoreRobot {
         pose: Arr<'_>,
         seed: Option<Arr<'_>>,
         mask: Vec<f64>,
+        method: &str,
         tol: f64,
         max_iter: u32,
         enforce_limits: bool,
@@ -258,9 +261,10 @@ impl CoreRobot {
         let p = slice("pose", &pose)?;
         let s = opt_slice("seed", &seed)?;
         let m = self::mask(&mask)?;
+        let how = ik_method(method)?;
         let o = options(tol, max_iter, enforce_limits);
         let out = py
-            .detach(|| batch::ik(&self.inner, p, s, m, &o, threads))
+            .detach(|| batch::ik(&self.inner, p, s, m, how, &o, threads))
             .map_err(err)?;
         Ok(SolveResult::new(py, out))
     }

@@ -10,6 +10,7 @@
 //! * [`cables`]: the closed-form cable solve of [`crate::solve`] across
 //!   rows, with the scalar code's semantics, as a lane kernel and a
 //!   row-major batch function.
+//! * [`ik`]: the closed-form pose IK of 3-joint arms across rows.
 //! * [`lanes`]: `K` vectors in lockstep with arithmetic operators, the
 //!   building block of both.
 //!
@@ -17,6 +18,7 @@
 //! scalar fallback) gives the same bits.
 
 pub mod cables;
+pub mod ik;
 pub mod lanes;
 pub mod math;
 

@@ -48,6 +48,7 @@ __all__ = [
     "segment_coefficients",
     "segment_lengths",
     "ik",
+    "ik_closed_form",
     "solve_cables",
     "solve_cables_closed_form",
     "deviation",
@@ -498,6 +499,103 @@ def ik(robot, pose, seed=None, tol=1e-12, max_iter=100, enforce_limits=False) ->
     sol = levenberg_marquardt(residual, step, theta, tol, max_iter, project)
     sol["within_limits"] = _within_limits(g, sol["theta"])
     return sol
+
+
+def _whole_turns_near(angle: np.ndarray, seed: np.ndarray) -> np.ndarray:
+    """``angle`` moved by whole turns (rad) so that ``angle - seed`` lies in ``(-pi, pi]``.
+
+    The shift is ``2 pi k`` with an integer ``k`` (the smallest ``k`` with
+    ``angle - seed - 2 pi k <= pi``), applied to ``angle`` itself.
+    """
+    d = angle - seed
+    k = np.ceil((d - np.pi) / (2.0 * np.pi))
+    out = angle - 2.0 * np.pi * k
+    # Guard the rounding at the interval ends (keeps (-pi, pi] exact in float).
+    out = np.where(out - seed > np.pi, out - 2.0 * np.pi, out)
+    out = np.where(out - seed <= -np.pi, out + 2.0 * np.pi, out)
+    return out
+
+
+def ik_closed_form(robot, pose, seed=None, tol=1e-12, enforce_limits=False) -> dict:
+    """Closed-form full-pose IK of a 3-joint arm (docs/model.md, "Closed-form pose IK").
+
+    ``pose``: ``(N, 3)`` ``[X m, Y m, phi rad]``; ``seed``: ``(N, 3)`` or
+    ``(3,)`` rad, default zeros.  With ``r1 = link_after[1] + thickness[1] +
+    link_before[2]``, ``r2 = link_after[2] + thickness[2] + link_before[3]``,
+    ``a3 = link_after[3] + thickness[3]`` (m), the wrist (joint 3) is
+    ``W = (X - a3 cos phi, Y - a3 sin phi)`` and, from joint 1 at
+    ``(link_before[1], 0)``, ``c2 = (|W - J1|^2 - r1^2 - r2^2) / (2 r1 r2)``.
+    Branches ``s = +1, -1``: ``theta_2 = s acos(c2)``, ``theta_1 =
+    atan2(dy, dx) - atan2(r2 sin theta_2, r1 + r2 cos theta_2)``, both moved by
+    whole turns to within pi of the seed, then ``theta_3 = phi - theta_1 -
+    theta_2``.  The branch nearest the seed (sum of squared differences) wins;
+    a tie (within ``1e-12 (1 + |seed|^2)``) goes to the ``s = -1`` branch
+    (``theta_2 = -acos(c2) <= 0`` before the turn shift).  With
+    ``enforce_limits`` a branch outside the joint box is dropped first; if
+    both are, the nearest is returned with reason ``"outside limits"``.
+    ``|c2| > 1``: reason ``"unreachable"``, ``theta`` = seed.
+
+    Returns a dict with ``theta (N, 3)`` rad, ``converged (N,)`` bool,
+    ``iterations (N,)`` int (all 0), ``residual (N,)`` = ``max|fk(theta) -
+    pose|`` over X, Y (m) and phi (rad), ``within_limits (N,)`` bool and
+    ``reason (N,)`` str (``"converged"``, ``"unreachable"``, ``"outside
+    limits"``, and ``"singular"`` for a reachable answer whose residual
+    exceeds ``tol``).
+    """
+    g = read_geometry(robot)
+    if g.n != 3:
+        raise ValueError(f"ik_closed_form needs a 3-joint robot, got n = {g.n}")
+    pose = batch_array(pose, 3, "pose")
+    N = pose.shape[0]
+    seed = _seed(seed, N, 3)
+    x, y, phi = pose[:, 0], pose[:, 1], pose[:, 2]
+
+    r1 = g.la[0] + g.t[0] + g.lb[1]
+    r2 = g.la[1] + g.t[1] + g.lb[2]
+    a3 = g.la[2] + g.t[2]
+    dx = x - a3 * np.cos(phi) - g.lb[0]
+    dy = y - a3 * np.sin(phi)
+    c2 = (dx**2 + dy**2 - r1**2 - r2**2) / (2.0 * r1 * r2)
+    reachable = np.abs(c2) <= 1.0  # NaN: not reachable
+
+    acos = np.arccos(np.where(reachable, c2, 0.0))
+    # Branch axis: index 0 is s = -1 (theta_2 <= 0, the paper's), index 1 is s = +1.
+    s = np.array([-1.0, 1.0])
+    th2 = s[None, :] * acos[:, None]  # (N, 2)
+    th1 = np.arctan2(dy, dx)[:, None] - np.arctan2(r2 * np.sin(th2), r1 + r2 * np.cos(th2))
+    th1 = _whole_turns_near(th1, seed[:, :1])
+    th2 = _whole_turns_near(th2, seed[:, 1:2])
+    th3 = phi[:, None] - th1 - th2
+    branches = np.stack([th1, th2, th3], axis=-1)  # (N, 2, 3)
+
+    dist = ((branches - seed[:, None, :]) ** 2).sum(axis=-1)  # (N, 2) rad^2
+    inside = np.stack([_within_limits(g, branches[:, b]) for b in range(2)], axis=1)
+    allowed = inside if enforce_limits else np.ones_like(inside)
+    none_allowed = ~allowed.any(axis=1)
+    allowed = np.where(none_allowed[:, None], True, allowed)  # both dropped: nearest of both
+    band = 1e-12 * (1.0 + (seed**2).sum(axis=1))
+    tie = np.abs(dist[:, 0] - dist[:, 1]) <= band
+    plus_nearer = dist[:, 1] < dist[:, 0]
+    pick_plus = np.where(
+        allowed[:, 0] & allowed[:, 1], plus_nearer & ~tie, allowed[:, 1]
+    )  # one allowed: that one
+    chosen = branches[np.arange(N), pick_plus.astype(int)]
+
+    theta = np.where(reachable[:, None], chosen, seed)
+    residual = np.abs(fk(robot, theta) - pose).max(axis=1)
+    outside = reachable & enforce_limits & none_allowed
+    converged = reachable & ~outside & (residual <= tol)
+    reason = np.where(converged, "converged",
+                      np.where(outside, "outside limits",
+                               np.where(reachable, "singular", "unreachable"))).astype(object)
+    return dict(
+        theta=theta,
+        converged=converged,
+        iterations=np.zeros(N, dtype=np.int64),
+        residual=residual,
+        within_limits=_within_limits(g, theta),
+        reason=reason,
+    )
 
 
 def solve_cables(robot, upper, seed=None, tol=1e-12, max_iter=100) -> dict:
