@@ -97,12 +97,21 @@ impl BatchSolution {
 
     /// Appends one row: the angles and the status of their solve.
     pub(crate) fn push(&mut self, robot: &Robot, theta: &[f64], st: Status) {
+        self.push_row(theta, st, kinematics::within_limits(robot, theta));
+    }
+
+    /// Appends one row whose joint-limit flag is known.
+    pub(crate) fn push_row(&mut self, theta: &[f64], st: Status, within_limits: bool) {
         self.theta.extend_from_slice(theta);
+        self.push_status(st, within_limits);
+    }
+
+    /// Appends the status of a row whose angles are already in `theta`.
+    pub(crate) fn push_status(&mut self, st: Status, within_limits: bool) {
         self.converged.push(st.converged);
         self.iterations.push(st.iterations);
         self.residual.push(st.residual);
-        self.within_limits
-            .push(kinematics::within_limits(robot, theta));
+        self.within_limits.push(within_limits);
         self.reason.push(st.reason as u8);
     }
 
@@ -339,7 +348,6 @@ pub fn solve_cables(
     let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
         let m = r.len();
-        let mut out = BatchSolution::with_capacity(m, n);
         let mut solver = solve::CableSolver::new(robot, method, *opts);
         let zeros;
         let seed = match seed {
@@ -351,6 +359,7 @@ pub fn solve_cables(
         };
         let upper = &upper[r.start * n..r.end * n];
         if method == CableMethod::Newton {
+            let mut out = BatchSolution::with_capacity(m, n);
             let mut th = vec![0.0; n];
             for i in 0..m {
                 th.copy_from_slice(&seed[i * n..(i + 1) * n]);
@@ -359,24 +368,27 @@ pub fn solve_cables(
             }
             return out;
         }
-        // the closed form SIMD across rows, then each row decided as the scalar solver does
-        let mut theta = vec![0.0; m * n];
+        // the closed form SIMD across rows (straight into the answer), then
+        // each row decided as the scalar solver does
+        let mut out = BatchSolution::with_capacity(m, n);
+        out.theta.resize(m * n, 0.0);
         let (mut residual, mut ok) = (vec![0.0; m], vec![false; m]);
         solve_cables_closed_form_batch_in(
             arch,
             &g,
             upper,
             seed,
-            &mut theta,
+            &mut out.theta,
             &mut residual,
             &mut ok,
         );
         for i in 0..m {
             let rows_i = i * n..(i + 1) * n;
-            let th = &mut theta[rows_i.clone()];
+            let th = &mut out.theta[rows_i.clone()];
             let closed = ok[i].then_some(residual[i]);
             let st = solver.finish_from(&g, &upper[rows_i.clone()], &seed[rows_i], th, closed);
-            out.push(robot, th, st);
+            let within = kinematics::within_limits(robot, th);
+            out.push_status(st, within);
         }
         out
     });

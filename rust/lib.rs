@@ -1,5 +1,5 @@
-//! cdsm — kinematics and tip-positioning accuracy of planar cable-driven
-//! serpentine manipulators (CDSMs). SI units throughout (m, rad, N, kg).
+//! cdsm — kinematics and tip-positioning accuracy of cable-driven serpentine
+//! manipulators (CDSMs), planar and spatial. SI units throughout (m, rad, N, kg).
 //!
 //! The model and the solver specifications are in `docs/model.md`. This crate
 //! knows nothing of Python; `python/` (feature `python`) converts types.
@@ -20,6 +20,7 @@ pub mod robot;
 pub mod sensitivity;
 pub mod simd;
 pub mod solve;
+pub mod spatial;
 pub mod statics;
 
 #[cfg(feature = "python")]

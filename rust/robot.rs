@@ -47,6 +47,7 @@ pub struct Robot {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RobotFile {
+    kind: Option<String>,
     name: Option<String>,
     n: Option<usize>,
     gravity: Option<[f64; 2]>,
@@ -133,6 +134,14 @@ impl Robot {
                 .unwrap_or_else(|| "<file>".to_string());
             bad(field, e.to_string().trim().replace('\n', " "))
         })?;
+        if let Some(k) = file.kind.as_deref() {
+            if k != "planar" {
+                return Err(bad(
+                    "kind".into(),
+                    format!("a planar description has kind \"planar\" (or none), got {k:?}; spatial arms are read as such"),
+                ));
+            }
+        }
         let n = file.linkage.len();
         if n == 0 {
             return Err(bad(

@@ -60,7 +60,12 @@ pub fn closed_form_status(residual: Option<f64>, tol: f64) -> Status {
 
 /// The joint-limit box of a robot as the solver's bounds.
 pub(crate) fn clamp_to_limits(robot: &Robot, theta: &mut [f64]) {
-    for (t, l) in theta.iter_mut().zip(&robot.joint_limits) {
+    clamp_to_limits_box(&robot.joint_limits, theta);
+}
+
+/// `theta` clamped into the box `limits` (`[lo, hi]` per joint, rad).
+pub(crate) fn clamp_to_limits_box(limits: &[[f64; 2]], theta: &mut [f64]) {
+    for (t, l) in theta.iter_mut().zip(limits) {
         *t = t.clamp(l[0], l[1]);
     }
 }

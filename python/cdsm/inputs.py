@@ -29,9 +29,8 @@ def as_batch(name: str, value, width: int) -> Tuple[np.ndarray, bool]:
         raise CdsmInputError(
             f"`{name}`: expected shape (N, {width}) or ({width},), got {np.shape(value)}"
         )
-    bad = ~np.isfinite(arr)
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
+    if not np.isfinite(arr).all():
+        row, col = np.argwhere(~np.isfinite(arr))[0]
         raise CdsmInputError(f"`{name}`: non-finite value {arr[row, col]} at row {row}, column {col}")
     return np.ascontiguousarray(arr), single
 

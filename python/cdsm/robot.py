@@ -21,7 +21,7 @@ from . import _cdsm
 from .files import read_text
 from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
 
-__all__ = ["Robot", "Solution", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS", "IK_METHODS",
+__all__ = ["Arm", "Robot", "Solution", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS", "IK_METHODS",
            "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
@@ -68,9 +68,15 @@ class Solution:
     iterations: np.ndarray
     residual: np.ndarray
     within_limits: np.ndarray
-    reason: np.ndarray = None
+    #: (N,) uint8 codes of :data:`REASONS` (``reason`` gives the names)
+    reason_code: np.ndarray = None
     _feasible: Optional[np.ndarray] = field(default=None, repr=False, compare=False)
     _robot: Optional["Robot"] = field(default=None, repr=False, compare=False)
+
+    @property
+    def reason(self) -> np.ndarray:
+        """(N,) why each solve ended, by name (see the class doc)."""
+        return _REASON_NAMES[self.reason_code]
 
     @property
     def feasible(self) -> Optional[np.ndarray]:
@@ -84,23 +90,23 @@ class Solution:
         """The solution of a batch from the core's :class:`cdsm._cdsm.SolveResult`
         (``single``: one row given 1-D, returned 1-D)."""
         theta = res.theta.reshape(-1, n)
-        reason = _REASON_NAMES[res.reason]
-        parts = [theta, res.converged, res.iterations, res.residual, res.within_limits, reason]
+        parts = [theta, res.converged, res.iterations, res.residual, res.within_limits, res.reason]
         if single:
             parts = [p[0] for p in parts]
             extra = {k: v[0] for k, v in extra.items()}
         return cls(*parts, _robot=robot, **extra)
 
 
-class Robot:
-    """A planar cable-driven serpentine manipulator with ``n`` joints and ``2n`` cables.
+class Arm:
+    """What every robot kind shares: the core it wraps, the worker threads of
+    its batch calls, and batch handling of inputs and seeds. See
+    :class:`Robot` (planar) and :class:`cdsm.spatial.SpatialRobot`."""
 
-    Build with :meth:`paper` (the seed paper's prototype, Table 1) or
-    :meth:`from_toml`. The model and solver conventions are in ``docs/model.md``.
-    """
+    #: ``"planar"`` or ``"spatial"``
+    kind = ""
 
-    def __init__(self, core: "_cdsm.CoreRobot", threads: int = 0):
-        #: the Rust core robot (:class:`cdsm._cdsm.CoreRobot`), used by the other modules
+    def __init__(self, core, threads: int = 0):
+        #: the Rust core robot, used by the other modules
         self.core = core
         self.threads = threads
 
@@ -119,30 +125,72 @@ class Robot:
             raise CdsmInputError(f"`threads`: expected a non-negative integer, got {value!r}")
         self._threads = v
 
+    @property
+    def n(self) -> int:
+        """Number of joints."""
+        return self.core.n
+
+    @property
+    def name(self) -> str:
+        return self.core.name
+
+    def _out(self, flat: np.ndarray, shape: Tuple[int, ...], single: bool) -> np.ndarray:
+        out = flat.reshape((-1,) + shape)
+        return out[0] if single else out
+
+    def _seed(self, seed, rows: int) -> Optional[np.ndarray]:
+        if seed is None:
+            return None
+        s, single = as_batch("seed", seed, self.n)
+        if single and rows > 1:
+            s = np.ascontiguousarray(np.broadcast_to(s, (rows, self.n)))
+        if s.shape[0] != rows:
+            raise CdsmInputError(f"`seed`: expected shape ({rows}, {self.n}) or ({self.n},), got {s.shape}")
+        return s
+
+    @classmethod
+    def packaged(cls, name: str) -> "Arm":
+        """A robot description shipped with cdsm (``cdsm/robots/<name>.toml``),
+        planar or spatial: see :func:`packaged_robots`."""
+        names = packaged_robots()
+        if name not in names:
+            raise CdsmInputError(f"`name`: no packaged robot {name!r}; packaged: {', '.join(names)}")
+        return Robot.from_toml(_ROBOTS / f"{name}.toml")
+
+    @classmethod
+    def from_toml(cls, path: "str | os.PathLike[str]") -> "Arm":
+        """Read a robot description (TOML, SI units): a :class:`Robot`, or a
+        :class:`cdsm.spatial.SpatialRobot` when it says ``kind = "spatial"``."""
+        return Robot.from_toml_str(read_text(path, "robot"))
+
+
+class Robot(Arm):
+    """A planar cable-driven serpentine manipulator with ``n`` joints and ``2n`` cables.
+
+    Build with :meth:`paper` (the seed paper's prototype, Table 1) or
+    :meth:`from_toml`. The model and solver conventions are in ``docs/model.md``.
+    """
+
+    kind = "planar"
+
+    def __init__(self, core: "_cdsm.CoreRobot", threads: int = 0):
+        super().__init__(core, threads)
+
     # ---- construction -------------------------------------------------
     @classmethod
     def paper(cls) -> "Robot":
         """The paper's 3-DOF prototype: Table 1, lower cables 50/10/5 g, limits ±35°."""
         return cls(_cdsm.CoreRobot.paper())
 
-    @classmethod
-    def packaged(cls, name: str) -> "Robot":
-        """A robot description shipped with cdsm (``cdsm/robots/<name>.toml``):
-        see :func:`packaged_robots`."""
-        names = packaged_robots()
-        if name not in names:
-            raise CdsmInputError(f"`name`: no packaged robot {name!r}; packaged: {', '.join(names)}")
-        return cls.from_toml(_ROBOTS / f"{name}.toml")
+    @staticmethod
+    def from_toml_str(text: str) -> "Arm":
+        """Parse a robot description given as TOML text (planar, or spatial
+        when it says ``kind = "spatial"``)."""
+        if _cdsm.robot_kind(text) == "spatial":
+            from .spatial import SpatialRobot
 
-    @classmethod
-    def from_toml(cls, path: "str | os.PathLike[str]") -> "Robot":
-        """Read a robot description (TOML, SI units; format in the README)."""
-        return cls.from_toml_str(read_text(path, "robot"))
-
-    @classmethod
-    def from_toml_str(cls, text: str) -> "Robot":
-        """Parse a robot description given as TOML text."""
-        return cls(_cdsm.CoreRobot.from_toml(text))
+            return SpatialRobot(_cdsm.CoreSpatialRobot.from_toml(text))
+        return Robot(_cdsm.CoreRobot.from_toml(text))
 
     def with_holes(self, holes) -> "Robot":
         """The same robot with hole positions ``holes`` (2n, n+1, 2, 2), m."""
@@ -158,15 +206,6 @@ class Robot:
         return self.core.hole_height_error(d).reshape(self.holes.shape)
 
     # ---- description --------------------------------------------------
-    @property
-    def n(self) -> int:
-        """Number of joints (the robot has 2n cables)."""
-        return self.core.n
-
-    @property
-    def name(self) -> str:
-        return self.core.name
-
     @property
     def link_before(self) -> np.ndarray:
         """(n,) link before each joint, m (the paper's link_{i-1,J_i})."""
@@ -263,10 +302,6 @@ class Robot:
         return f"Robot({self.name!r}, n={self.n})"
 
     # ---- kinematics ---------------------------------------------------
-    def _out(self, flat: np.ndarray, shape: Tuple[int, ...], single: bool) -> np.ndarray:
-        out = flat.reshape((-1,) + shape)
-        return out[0] if single else out
-
     def fk(self, theta) -> np.ndarray:
         """End pose [x (m), y (m), phi (rad)]: (N, n) -> (N, 3); (n,) -> (3,)."""
         t, single = as_batch("theta", theta, self.n)
@@ -298,16 +333,6 @@ class Robot:
         return ok[0] if single else ok
 
     # ---- solves -------------------------------------------------------
-    def _seed(self, seed, rows: int) -> Optional[np.ndarray]:
-        if seed is None:
-            return None
-        s, single = as_batch("seed", seed, self.n)
-        if single and rows > 1:
-            s = np.ascontiguousarray(np.broadcast_to(s, (rows, self.n)))
-        if s.shape[0] != rows:
-            raise CdsmInputError(f"`seed`: expected shape ({rows}, {self.n}) or ({self.n},), got {s.shape}")
-        return s
-
     def ik(self, pose, seed=None, tol: float = 1e-12, max_iter: int = 100,
            enforce_limits: bool = False, mask="pose", method: str = "lm") -> Solution:
         """Pose IK: pose [x (m), y (m), phi (rad)] (N, 3) -> Solution.

@@ -7,12 +7,15 @@
 mod convert;
 mod results;
 mod robot;
+mod spatial;
 
 use pyo3::prelude::*;
 
 #[pymodule]
 fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robot::CoreRobot>()?;
+    m.add_class::<spatial::CoreSpatialRobot>()?;
+    m.add_function(wrap_pyfunction!(spatial::robot_kind, m)?)?;
     results::register(m)?;
     m.add(
         "CdsmInputError",

@@ -28,6 +28,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PlantPrediction>()?;
     m.add_class::<PlantFit>()?;
     m.add_class::<CompensationResult>()?;
+    m.add_class::<TensionResult>()?;
     Ok(())
 }
 
@@ -214,6 +215,23 @@ impl CompensationResult {
             theta: arr(py, c.theta),
             seen: arr(py, c.seen),
             seen_nominal: arr(py, c.seen_nominal),
+        }
+    }
+}
+
+/// Statics of a spatial arm: `tension (N*m_pos)` N (NaN where no tension set
+/// above the floor exists) and `feasible (N)`.
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct TensionResult {
+    pub tension: A<f64>,
+    pub feasible: A<bool>,
+}
+
+impl TensionResult {
+    pub fn new(py: Python<'_>, tension: Vec<f64>, feasible: Vec<bool>) -> TensionResult {
+        TensionResult {
+            tension: arr(py, tension),
+            feasible: arr(py, feasible),
         }
     }
 }

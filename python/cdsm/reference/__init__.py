@@ -5,11 +5,15 @@ written from the document alone; the tests check the Rust core against it.
 scenarios, statics, elasticity and sensitivities of the planar arm.
 ``plant``: the plant, nominal model plus unmodelled effects (backlash,
 actuation, hole clearance, elastic settling, observation).
+``spatial``: the spatial arms of ``docs/spatial.md`` (robot files, kinematics,
+cables, solves, statics); a submodule only (``reference.spatial.fk``), as its
+names would shadow the planar ones.
 """
 
 from .kinematics import *  # noqa: F401,F403
 from .kinematics import __all__ as _kinematics_all
 from .plant import *  # noqa: F401,F403
 from .plant import __all__ as _plant_all
+from . import spatial  # noqa: F401
 
 __all__ = list(_kinematics_all) + list(_plant_all)

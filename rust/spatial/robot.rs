@@ -1,0 +1,425 @@
+//! The spatial robot description (`kind = "spatial"`, `docs/spatial.md`):
+//! revolute axes in 3-D, disks with holes anywhere within their radius, and
+//! per cable the disk it ends at and its control mode. SI units.
+
+use crate::error::{CdsmError, Result};
+use crate::robot::CableMaterial;
+use serde::Deserialize;
+
+/// One revolute joint: a unit `axis` and the `offset` from the previous frame
+/// to the joint (m), both in the previous frame; `limits` (rad).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Joint {
+    pub axis: [f64; 3],
+    pub offset: [f64; 3],
+    pub limits: [f64; 2],
+}
+
+/// One disk and the joints before it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Disk {
+    /// Indices of its joints (consecutive).
+    pub joints: std::ops::Range<usize>,
+    /// Last joint -> proximal face (m, in the last joint's frame).
+    pub link_after: [f64; 3],
+    /// Thickness along the local x axis (m).
+    pub thickness: f64,
+    /// Radius (m).
+    pub radius: f64,
+    /// Mass (kg) and centre of mass (m, proximal-face frame).
+    pub mass: f64,
+    pub com: [f64; 3],
+}
+
+/// How a cable is driven.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mode {
+    /// Its length is commanded.
+    Position,
+    /// Its tension is held (N).
+    Force,
+}
+
+/// One cable: the disk it ends at (1-based), its mode, its tension (force
+/// cables, N) and its holes in face frames (`2 end + 1` points: base face b,
+/// then faces a and b of disks `1..=end`, m).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Cable {
+    pub end: usize,
+    pub mode: Mode,
+    pub tension: f64,
+    pub holes: Vec<[f64; 3]>,
+}
+
+/// A spatial cable-driven serpentine arm.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpatialRobot {
+    pub name: String,
+    pub joints: Vec<Joint>,
+    pub disks: Vec<Disk>,
+    pub base_radius: f64,
+    /// Gravity (m/s², base frame).
+    pub gravity: [f64; 3],
+    pub cables: Vec<Cable>,
+    pub cable: CableMaterial,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct File {
+    kind: String,
+    name: Option<String>,
+    gravity: Option<[f64; 3]>,
+    cable: Option<MaterialFile>,
+    base: BaseFile,
+    linkage: Vec<LinkageFile>,
+    cables: Vec<CableFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialFile {
+    youngs_modulus: f64,
+    diameter: f64,
+    #[serde(default)]
+    routing_length: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BaseFile {
+    radius: f64,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct JointFile {
+    axis: [f64; 3],
+    offset: [f64; 3],
+    limits: Option<[f64; 2]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LinkageFile {
+    joints: Vec<JointFile>,
+    link_after: [f64; 3],
+    thickness: f64,
+    radius: f64,
+    #[serde(default)]
+    mass: f64,
+    com: Option<[f64; 3]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CableFile {
+    end: usize,
+    mode: String,
+    tension: Option<f64>,
+    radius: Option<f64>,
+    angle: Option<f64>,
+    holes: Option<Vec<[f64; 3]>>,
+}
+
+fn bad(field: String, problem: impl Into<String>) -> CdsmError {
+    CdsmError::Robot {
+        field,
+        problem: problem.into(),
+    }
+}
+
+fn finite3(field: &str, v: [f64; 3]) -> Result<[f64; 3]> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(v)
+    } else {
+        Err(bad(field.into(), format!("non-finite value in {v:?}")))
+    }
+}
+
+fn positive(field: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(bad(
+            field.into(),
+            format!("must be positive and finite, got {v}"),
+        ))
+    }
+}
+
+/// The `kind` of a robot description: `"planar"` (the default) or `"spatial"`.
+pub fn kind_of(text: &str) -> Result<String> {
+    let table = toml::from_str::<toml::Table>(text)
+        .map_err(|e| bad("<file>".into(), e.to_string().trim().replace('\n', " ")))?;
+    let kind = match table.get("kind") {
+        None => "planar".to_string(),
+        Some(v) => v
+            .as_str()
+            .ok_or_else(|| bad("kind".into(), format!("must be a string, got {v:?}")))?
+            .to_string(),
+    };
+    if kind != "planar" && kind != "spatial" {
+        return Err(bad(
+            "kind".into(),
+            format!("must be \"planar\" or \"spatial\", got {kind:?}"),
+        ));
+    }
+    Ok(kind)
+}
+
+impl SpatialRobot {
+    /// Parses and validates a spatial robot description (`docs/spatial.md`).
+    pub fn from_toml(text: &str) -> Result<SpatialRobot> {
+        let f: File = toml::from_str(text).map_err(|e| {
+            let msg = e.message().to_string();
+            let field = msg
+                .split('`')
+                .nth(1)
+                .map(str::to_string)
+                .unwrap_or_else(|| "<file>".into());
+            bad(field, e.to_string().trim().replace('\n', " "))
+        })?;
+        if f.kind != "spatial" {
+            return Err(bad(
+                "kind".into(),
+                format!("expected \"spatial\", got {:?}", f.kind),
+            ));
+        }
+        if f.linkage.is_empty() {
+            return Err(bad(
+                "linkage".into(),
+                "at least one [[linkage]] is required",
+            ));
+        }
+        let cable = match f.cable {
+            Some(c) => CableMaterial {
+                youngs_modulus: positive("cable.youngs_modulus", c.youngs_modulus)?,
+                diameter: positive("cable.diameter", c.diameter)?,
+                routing_length: if c.routing_length.is_finite() && c.routing_length >= 0.0 {
+                    c.routing_length
+                } else {
+                    return Err(bad(
+                        "cable.routing_length".into(),
+                        "must be finite and >= 0",
+                    ));
+                },
+            },
+            None => CableMaterial {
+                youngs_modulus: 1.8e11,
+                diameter: 0.18e-3,
+                routing_length: 0.0,
+            },
+        };
+        let gravity = finite3("gravity", f.gravity.unwrap_or([0.0; 3]))?;
+        let base_radius = positive("base.radius", f.base.radius)?;
+        let (mut joints, mut disks) = (Vec::new(), Vec::new());
+        for (k, l) in f.linkage.iter().enumerate() {
+            let field = |name: &str| format!("linkage[{k}].{name}");
+            if l.joints.is_empty() {
+                return Err(bad(field("joints"), "at least one joint is required"));
+            }
+            let first = joints.len();
+            for (j, jf) in l.joints.iter().enumerate() {
+                let jfield = |name: &str| format!("linkage[{k}].joints[{j}].{name}");
+                let a = finite3(&jfield("axis"), jf.axis)?;
+                let norm = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                if norm.is_nan() || norm <= 1e-12 {
+                    return Err(bad(
+                        jfield("axis"),
+                        format!("must be a non-zero vector, got {a:?}"),
+                    ));
+                }
+                let lim = jf
+                    .limits
+                    .unwrap_or([-std::f64::consts::PI, std::f64::consts::PI]);
+                if !(lim[0].is_finite() && lim[1].is_finite() && lim[0] < lim[1]) {
+                    return Err(bad(
+                        jfield("limits"),
+                        format!("must be finite [lo, hi] with lo < hi (rad), got {lim:?}"),
+                    ));
+                }
+                joints.push(Joint {
+                    axis: [a[0] / norm, a[1] / norm, a[2] / norm],
+                    offset: finite3(&jfield("offset"), jf.offset)?,
+                    limits: lim,
+                });
+            }
+            let thickness = positive(&field("thickness"), l.thickness)?;
+            if !(l.mass.is_finite() && l.mass >= 0.0) {
+                return Err(bad(
+                    field("mass"),
+                    format!("must be finite and >= 0 (kg), got {}", l.mass),
+                ));
+            }
+            disks.push(Disk {
+                joints: first..joints.len(),
+                link_after: finite3(&field("link_after"), l.link_after)?,
+                thickness,
+                radius: positive(&field("radius"), l.radius)?,
+                mass: l.mass,
+                com: finite3(&field("com"), l.com.unwrap_or([thickness / 2.0, 0.0, 0.0]))?,
+            });
+        }
+        if f.cables.is_empty() {
+            return Err(bad("cables".into(), "at least one [[cables]] is required"));
+        }
+        let mut cables = Vec::new();
+        for (c, cf) in f.cables.iter().enumerate() {
+            let field = |name: &str| format!("cables[{c}].{name}");
+            if cf.end < 1 || cf.end > disks.len() {
+                return Err(bad(
+                    field("end"),
+                    format!("must be a disk 1..{}, got {}", disks.len(), cf.end),
+                ));
+            }
+            let (mode, tension) = match (cf.mode.as_str(), cf.tension) {
+                ("position", None) => (Mode::Position, 0.0),
+                ("position", Some(_)) => {
+                    return Err(bad(
+                        field("tension"),
+                        "a position-controlled cable has no set tension",
+                    ))
+                }
+                ("force", Some(t)) if t.is_finite() && t > 0.0 => (Mode::Force, t),
+                ("force", t) => {
+                    return Err(bad(
+                        field("tension"),
+                        format!("a force-controlled cable needs a positive tension (N), got {t:?}"),
+                    ))
+                }
+                (m, _) => {
+                    return Err(bad(
+                        field("mode"),
+                        format!("must be \"position\" or \"force\", got {m:?}"),
+                    ))
+                }
+            };
+            let count = 2 * cf.end + 1;
+            let holes = match (cf.radius, cf.angle, &cf.holes) {
+                (Some(r), Some(a), None) => {
+                    if !(r.is_finite() && r >= 0.0 && a.is_finite()) {
+                        return Err(bad(
+                            field("radius"),
+                            format!("needs finite radius >= 0 and angle, got {r}, {a}"),
+                        ));
+                    }
+                    vec![[0.0, r * a.cos(), r * a.sin()]; count]
+                }
+                (None, None, Some(h)) => h.clone(),
+                _ => {
+                    return Err(bad(
+                        field("holes"),
+                        "give either radius and angle, or holes ([x, y, z] per face)",
+                    ))
+                }
+            };
+            if holes.len() != count {
+                return Err(bad(
+                    field("holes"),
+                    format!(
+                        "needs {count} [x, y, z] points (base face b, then faces a and b of disks 1..{}), got {}",
+                        cf.end,
+                        holes.len()
+                    ),
+                ));
+            }
+            for (i, h) in holes.iter().enumerate() {
+                finite3(&field("holes"), *h)?;
+                let disk = i.div_ceil(2); // 0: base; 2d-1, 2d: disk d
+                let radius = if disk == 0 {
+                    base_radius
+                } else {
+                    disks[disk - 1].radius
+                };
+                let rr = (h[1] * h[1] + h[2] * h[2]).sqrt();
+                if rr > radius * (1.0 + 1e-12) {
+                    return Err(bad(
+                        field("holes"),
+                        format!(
+                            "hole {i} lies {rr} m from the axis, outside the radius {radius} m of disk {disk}"
+                        ),
+                    ));
+                }
+            }
+            cables.push(Cable {
+                end: cf.end,
+                mode,
+                tension,
+                holes,
+            });
+        }
+        let robot = SpatialRobot {
+            name: f.name.unwrap_or_else(|| "unnamed".into()),
+            joints,
+            disks,
+            base_radius,
+            gravity,
+            cables,
+            cable,
+        };
+        let m = robot.position_cables().len();
+        if m < robot.n() {
+            return Err(bad(
+                "cables".into(),
+                format!(
+                    "{m} position-controlled cables cannot determine {} joints (at least as many are needed)",
+                    robot.n()
+                ),
+            ));
+        }
+        Ok(robot)
+    }
+
+    /// Number of joints.
+    pub fn n(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// Indices of the position-controlled cables (file order).
+    pub fn position_cables(&self) -> Vec<usize> {
+        (0..self.cables.len())
+            .filter(|c| self.cables[*c].mode == Mode::Position)
+            .collect()
+    }
+
+    /// Disk (1-based) each joint belongs to.
+    pub fn joint_disk(&self, j: usize) -> usize {
+        self.disks
+            .iter()
+            .position(|d| d.joints.contains(&j))
+            .map(|k| k + 1)
+            .unwrap_or(0)
+    }
+
+    /// Every hole as one flat vector (cable by cable, `[x, y, z]` per face), m.
+    pub fn flat_holes(&self) -> Vec<f64> {
+        self.cables
+            .iter()
+            .flat_map(|c| c.holes.iter().flatten().copied())
+            .collect()
+    }
+
+    /// The same robot with holes `flat` (as [`Self::flat_holes`]); no radius check
+    /// (errors of a few tenths of a mm may leave the disk in a study).
+    pub fn with_flat_holes(&self, flat: &[f64]) -> Result<SpatialRobot> {
+        let want: usize = self.cables.iter().map(|c| 3 * c.holes.len()).sum();
+        if flat.len() != want {
+            return Err(CdsmError::Shape {
+                name: "holes".into(),
+                expected: format!("({want},)"),
+                got: format!("({},)", flat.len()),
+            });
+        }
+        crate::error::check_finite("holes", flat)?;
+        let mut r = self.clone();
+        let mut k = 0;
+        for c in r.cables.iter_mut() {
+            for h in c.holes.iter_mut() {
+                *h = [flat[k], flat[k + 1], flat[k + 2]];
+                k += 3;
+            }
+        }
+        Ok(r)
+    }
+}
