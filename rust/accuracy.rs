@@ -139,56 +139,74 @@ pub fn hist_bin(v: f64) -> usize {
     b
 }
 
-/// Per-configuration statistics of a Monte-Carlo study, mergeable across chunks.
+/// Per-configuration statistics of a Monte-Carlo study, mergeable across
+/// chunks: `quantities` values per sample (planar: dX, dY, dphi, |dXY|;
+/// spatial: dX, dY, dZ, |dXYZ|, rotation angle), the histogram over the
+/// position-error norm (quantity [`NORM`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct McStats {
     pub configs: usize,
+    pub quantities: usize,
     /// Samples whose solve converged, per configuration.
     pub count: Vec<u64>,
     /// Samples whose solve failed (not included in the moments), per configuration.
     pub failed: Vec<u64>,
-    /// `(N, 4)` sums, sums of squares, minima and maxima of dX, dY, dphi, |dXY|.
+    /// `(N, quantities)` sums, sums of squares, minima and maxima.
     pub sum: Vec<f64>,
     pub sum_sq: Vec<f64>,
     pub min: Vec<f64>,
     pub max: Vec<f64>,
-    /// `(N, HIST_BINS)` counts of |dXY| per log-spaced bin.
+    /// `(N, HIST_BINS)` counts of the position-error norm per log-spaced bin.
     pub hist: Vec<u64>,
     /// Converged samples whose perturbed configuration needs a slack upper
     /// cable (counted only when asked), per configuration.
     pub slack: Vec<u64>,
 }
 
+/// Index of the position-error norm among the quantities of both kinds.
+pub const NORM: usize = 3;
+
 impl McStats {
+    /// Planar statistics ([`QUANTITIES`] per sample).
     pub fn new(configs: usize) -> Self {
+        McStats::with_quantities(configs, QUANTITIES)
+    }
+
+    pub fn with_quantities(configs: usize, quantities: usize) -> Self {
         McStats {
             configs,
+            quantities,
             count: vec![0; configs],
             failed: vec![0; configs],
             slack: vec![0; configs],
-            sum: vec![0.0; configs * QUANTITIES],
-            sum_sq: vec![0.0; configs * QUANTITIES],
-            min: vec![f64::INFINITY; configs * QUANTITIES],
-            max: vec![f64::NEG_INFINITY; configs * QUANTITIES],
+            sum: vec![0.0; configs * quantities],
+            sum_sq: vec![0.0; configs * quantities],
+            min: vec![f64::INFINITY; configs * quantities],
+            max: vec![f64::NEG_INFINITY; configs * quantities],
             hist: vec![0; configs * HIST_BINS],
         }
     }
 
+    /// One planar sample: `ds = [dX, dY, dphi]`.
     fn add(&mut self, j: usize, ds: [f64; 3]) {
-        let v = [ds[0], ds[1], ds[2], (ds[0] * ds[0] + ds[1] * ds[1]).sqrt()];
+        self.add_values(j, &[ds[0], ds[1], ds[2], (ds[0] * ds[0] + ds[1] * ds[1]).sqrt()]);
+    }
+
+    /// One sample's quantities (the norm at [`NORM`]).
+    pub fn add_values(&mut self, j: usize, v: &[f64]) {
         self.count[j] += 1;
         for (q, vq) in v.iter().enumerate() {
-            let k = j * QUANTITIES + q;
+            let k = j * self.quantities + q;
             self.sum[k] += vq;
             self.sum_sq[k] += vq * vq;
             self.min[k] = self.min[k].min(*vq);
             self.max[k] = self.max[k].max(*vq);
         }
-        self.hist[j * HIST_BINS + hist_bin(v[3])] += 1;
+        self.hist[j * HIST_BINS + hist_bin(v[NORM])] += 1;
     }
 
     /// Appends the configurations of `other` after those of `self`.
-    fn extend(&mut self, other: McStats) {
+    pub fn extend(&mut self, other: McStats) {
         self.configs += other.configs;
         self.count.extend(other.count);
         self.failed.extend(other.failed);

@@ -4,7 +4,8 @@ manipulators, with a Rust core. SI units everywhere (m, rad, N, kg).
 =====================  ==========================================================
 module                 holds
 =====================  ==========================================================
-``robot``              :class:`Robot` (kinematics, solves, statics) and :class:`Solution`
+``robot``              :class:`Robot` (planar: kinematics, solves, statics) and :class:`Solution`
+``spatial``            :class:`SpatialRobot` (3-D joints and holes, ``kind = "spatial"``)
 ``accuracy``           error studies of the nominal model (scenarios, Monte Carlo, tolerances)
 ``calibration``        the gap to a real arm (measurements, plant, diagnosis, compensation)
 ``paper``              the seed paper's study end to end
@@ -20,8 +21,9 @@ from . import deprecated as _deprecated
 from ._cdsm import CdsmInputError
 from .calibration.model import Model
 from .robot import Robot, Solution
+from .spatial import SpatialRobot
 
-__all__ = ["Robot", "Solution", "CdsmInputError", "Model", "accuracy", "calibration", "report"]
+__all__ = ["Robot", "SpatialRobot", "Solution", "CdsmInputError", "Model", "accuracy", "calibration", "report"]
 __version__ = "0.1.0"
 
 _deprecated.install()

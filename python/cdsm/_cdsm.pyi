@@ -44,6 +44,7 @@ class DeviationResult:
     solution: SolveResult
 
 class MonteCarloStats:
+    quantities: int
     count: U64
     failed: U64
     sum: F64
@@ -195,5 +196,7 @@ class CoreSpatialRobot:
     def ik(self, target: F64, seed: Optional[F64], mask: str, tol: float, max_iter: int, enforce_limits: bool,
            threads: int) -> SolveResult: ...
     def tensions(self, theta: F64, tip_wrench: Sequence[float], min_tension: float, threads: int) -> TensionResult: ...
+    def monte_carlo(self, theta0: F64, dl: F64, dholes: Optional[F64], tol: float, max_iter: int,
+                    threads: int) -> MonteCarloStats: ...
 
 def robot_kind(text: str) -> str: ...

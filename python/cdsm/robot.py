@@ -13,7 +13,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple
 
 import numpy as np
 
@@ -21,10 +21,15 @@ from . import _cdsm
 from .files import read_text
 from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
 
-__all__ = ["Arm", "Robot", "Solution", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS", "IK_METHODS",
+__all__ = ["Arm", "Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS", "IK_METHODS",
            "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
+
+#: Robot kinds by name: a function building the robot from its TOML text.
+#: Each kind's module registers itself (``planar`` here, ``spatial`` in
+#: :mod:`cdsm.spatial`, imported by ``cdsm``).
+KINDS: Dict[str, Callable[[str], "Arm"]] = {}
 
 
 def packaged_robots() -> Tuple[str, ...]:
@@ -186,11 +191,10 @@ class Robot(Arm):
     def from_toml_str(text: str) -> "Arm":
         """Parse a robot description given as TOML text (planar, or spatial
         when it says ``kind = "spatial"``)."""
-        if _cdsm.robot_kind(text) == "spatial":
-            from .spatial import SpatialRobot
-
-            return SpatialRobot(_cdsm.CoreSpatialRobot.from_toml(text))
-        return Robot(_cdsm.CoreRobot.from_toml(text))
+        kind = _cdsm.robot_kind(text)
+        if kind not in KINDS:
+            raise CdsmInputError(f"`kind`: robots of kind {kind!r} are not available (import cdsm first)")
+        return KINDS[kind](text)
 
     def with_holes(self, holes) -> "Robot":
         """The same robot with hole positions ``holes`` (2n, n+1, 2, 2), m."""
@@ -497,3 +501,6 @@ class ElasticSolution(Solution):
 
     tension: np.ndarray = None
 
+
+
+KINDS["planar"] = lambda text: Robot(_cdsm.CoreRobot.from_toml(text))

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import _cdsm
 from .inputs import CdsmInputError, as_batch, as_finite, as_iterations
-from .robot import Arm, Solution
+from .robot import KINDS, Arm, Solution
 
 __all__ = ["SpatialRobot", "SPATIAL_MASKS", "TASK"]
 
@@ -33,8 +33,14 @@ class SpatialRobot(Arm):
 
     kind = "spatial"
 
-    def __init__(self, core: "_cdsm.CoreSpatialRobot", threads: int = 0):
+    def __init__(self, core: "_cdsm.CoreSpatialRobot", threads: int = 0, toml: str = ""):
         super().__init__(core, threads)
+        self._toml = toml
+
+    def to_toml(self) -> str:
+        """The robot file this robot was read from (TOML, SI units); holes
+        changed since (:meth:`with_holes`) are not in it."""
+        return self._toml
 
     def __repr__(self) -> str:
         return f"SpatialRobot({self.name!r}, n={self.n}, cables={self.cables})"
@@ -97,7 +103,7 @@ class SpatialRobot(Arm):
             flat = np.concatenate([np.asarray(h, dtype=float).reshape(-1) for h in holes])
         else:
             flat = np.asarray(holes, dtype=float).reshape(-1)
-        return SpatialRobot(self.core.with_holes(np.ascontiguousarray(flat)), self.threads)
+        return SpatialRobot(self.core.with_holes(np.ascontiguousarray(flat)), self.threads, self._toml)
 
     # ---- kinematics ---------------------------------------------------
     def _map(self, theta, method, shape):
@@ -184,3 +190,6 @@ class SpatialRobot(Arm):
         res, single = self._statics(theta, tip_wrench, min_tension)
         ok = np.asarray(res.feasible, bool)
         return ok[0] if single else ok
+
+
+KINDS["spatial"] = lambda text: SpatialRobot(_cdsm.CoreSpatialRobot.from_toml(text), toml=text)

@@ -76,6 +76,7 @@ impl DeviationResult {
 /// Per-configuration Monte-Carlo statistics (see `accuracy.rs`).
 #[pyclass(frozen, get_all, module = "cdsm._cdsm")]
 pub struct MonteCarloStats {
+    pub quantities: usize,
     pub count: A<u64>,
     pub failed: A<u64>,
     pub sum: A<f64>,
@@ -89,6 +90,7 @@ pub struct MonteCarloStats {
 impl MonteCarloStats {
     pub fn new(py: Python<'_>, s: McStats) -> MonteCarloStats {
         MonteCarloStats {
+            quantities: s.quantities,
             count: arr(py, s.count),
             failed: arr(py, s.failed),
             sum: arr(py, s.sum),

@@ -3,7 +3,7 @@
 //! documented API is `cdsm.SpatialRobot`.
 
 use super::convert::{err, opt_slice, options, slice, vec1, Arr, Array, CdsmInputError};
-use super::results::{SolveResult, TensionResult};
+use super::results::{MonteCarloStats, SolveResult, TensionResult};
 use crate::spatial::{self, solve::SpatialMask, SpatialRobot};
 use pyo3::prelude::*;
 
@@ -206,6 +206,28 @@ impl CoreSpatialRobot {
             .detach(|| spatial::ik(&self.inner, t, s, m, &o, threads))
             .map_err(err)?;
         Ok(SolveResult::new(py, out))
+    }
+
+    #[pyo3(signature = (theta0, dl, dholes, tol, max_iter, threads))]
+    #[allow(clippy::too_many_arguments)]
+    fn monte_carlo(
+        &self,
+        py: Python<'_>,
+        theta0: Arr<'_>,
+        dl: Arr<'_>,
+        dholes: Option<Arr<'_>>,
+        tol: f64,
+        max_iter: u32,
+        threads: usize,
+    ) -> PyResult<MonteCarloStats> {
+        let t = slice("theta0", &theta0)?;
+        let d = slice("dl", &dl)?;
+        let h = opt_slice("dholes", &dholes)?;
+        let o = options(tol, max_iter, false);
+        let st = py
+            .detach(|| spatial::monte_carlo(&self.inner, t, d, h, &o, threads))
+            .map_err(err)?;
+        Ok(MonteCarloStats::new(py, st))
     }
 
     fn tensions(

@@ -9,6 +9,7 @@ pub mod robot;
 pub mod solve;
 pub mod statics;
 
+use crate::accuracy::McStats;
 use crate::batch::{rows_of, seeds, split_rows, BatchSolution};
 use crate::error::{CdsmError, Result};
 use crate::solve::SolveOptions;
@@ -18,6 +19,9 @@ use solve::{within_limits, SpatialCableSolver, SpatialIkSolver, SpatialMask};
 
 /// Task-space width of a spatial pose: x, y, z (m), rotation vector (rad).
 pub const SPATIAL_TASK: usize = 6;
+/// Quantities of a spatial Monte-Carlo sample: dX, dY, dZ, |dXYZ| (m),
+/// rotation angle (rad).
+pub const SPATIAL_QUANTITIES: usize = 5;
 
 /// A row-wise map over `theta (N, n)` producing `width` values per row.
 fn map_rows(
@@ -107,12 +111,84 @@ pub fn solve_cables(
                 Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
                 None => th.fill(0.0),
             }
-            let st = solver.solve(&lengths[i * m..(i + 1) * m], &mut th);
+            let st = solver.solve(robot, &lengths[i * m..(i + 1) * m], &mut th);
             out.push_row(&th, st, within_limits(robot, &th));
         }
         out
     });
     Ok(BatchSolution::concat(parts))
+}
+
+/// Monte-Carlo study of a spatial arm: for every sample `s` (errors `dl[s]`
+/// (m_pos) on the position-controlled cables, m, and `dholes[s]` (every hole
+/// coordinate, as [`SpatialRobot::flat_holes`], m) when given) and every
+/// configuration `theta0[j]`, the cable solve seeded at `theta0[j]` and the
+/// tip deviation, reduced to [`McStats`] with five quantities: dX, dY, dZ,
+/// |dXYZ| (m) and the rotation angle of the end frame (rad).
+pub fn monte_carlo(
+    robot: &SpatialRobot,
+    theta0: &[f64],
+    dl: &[f64],
+    dholes: Option<&[f64]>,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<McStats> {
+    let n = robot.n();
+    let m = robot.position_cables().len();
+    let rows = rows_of("theta0", theta0, n)?;
+    let samples = rows_of("dl", dl, m)?;
+    crate::batch::check_options(opts)?;
+    let nominal_holes = robot.flat_holes();
+    let h = nominal_holes.len();
+    let robots: Vec<SpatialRobot> = match dholes {
+        None => Vec::new(),
+        Some(d) => {
+            crate::batch::rows_exactly("dholes", d, h, samples)?;
+            (0..samples)
+                .map(|s| {
+                    let flat: Vec<f64> = nominal_holes.iter().zip(&d[s * h..(s + 1) * h]).map(|(a, b)| a + b).collect();
+                    robot.with_flat_holes(&flat)
+                })
+                .collect::<Result<_>>()?
+        }
+    };
+    let robot_of = |s: usize| robots.get(s).unwrap_or(robot);
+    let pos = robot.position_cables();
+    let parts = split_rows(rows, threads, |r| {
+        let mut stats = McStats::with_quantities(r.len(), SPATIAL_QUANTITIES);
+        let mut solver = SpatialCableSolver::new(robot, *opts);
+        let mut chain = Chain::new(robot);
+        let (mut pts, mut l0, mut target, mut th) = (Vec::new(), vec![0.0; m], vec![0.0; m], vec![0.0; n]);
+        for (j, i) in r.enumerate() {
+            let t0 = &theta0[i * n..(i + 1) * n];
+            chain.at(robot, t0);
+            for (k, &c) in pos.iter().enumerate() {
+                l0[k] = cable_length(robot, &chain, c, &mut pts, None);
+            }
+            let end0 = *chain.end();
+            for s in 0..samples {
+                for k in 0..m {
+                    target[k] = l0[k] + dl[s * m + k];
+                }
+                th.copy_from_slice(t0);
+                let st = solver.solve(robot_of(s), &target, &mut th);
+                if !st.converged {
+                    stats.failed[j] += 1;
+                    continue;
+                }
+                let end = solver.chain.end();
+                let d = end.p - end0.p;
+                let angle = kinematics::log_of(&(end0.r.transpose() * end.r)).norm();
+                stats.add_values(j, &[d[0], d[1], d[2], d.norm(), angle]);
+            }
+        }
+        stats
+    });
+    let mut out = McStats::with_quantities(0, SPATIAL_QUANTITIES);
+    for p in parts {
+        out.extend(p);
+    }
+    Ok(out)
 }
 
 /// Masked pose IK of a batch: targets `(N, 6)` (m, rotation vector rad),

@@ -47,9 +47,9 @@ struct CableProblem<'a> {
     robot: &'a SpatialRobot,
     cables: &'a [usize],
     target: &'a [f64],
-    chain: Chain,
-    pts: Vec<V3>,
-    limits: Option<Vec<[f64; 2]>>,
+    chain: &'a mut Chain,
+    pts: &'a mut Vec<V3>,
+    limits: Option<&'a [[f64; 2]]>,
 }
 
 impl Problem for CableProblem<'_> {
@@ -62,60 +62,67 @@ impl Problem for CableProblem<'_> {
         self.chain.at(self.robot, x);
         for (i, &c) in self.cables.iter().enumerate() {
             let row = jac.as_deref_mut().map(|j| &mut j[i * n..(i + 1) * n]);
-            r[i] = cable_length(self.robot, &self.chain, c, &mut self.pts, row) - self.target[i];
+            r[i] = cable_length(self.robot, self.chain, c, self.pts, row) - self.target[i];
         }
         r.iter().all(|v| v.is_finite())
     }
 
     fn project(&self, x: &mut [f64]) {
-        if let Some(l) = &self.limits {
+        if let Some(l) = self.limits {
             clamp_to_limits_box(l, x);
         }
     }
 
     fn on_bound(&self, x: &[f64]) -> bool {
         self.limits
-            .as_ref()
             .is_some_and(|l| x.iter().zip(l).any(|(t, b)| *t <= b[0] || *t >= b[1]))
     }
 }
 
-/// A spatial cable solver with its buffers (reused across solves).
-pub struct SpatialCableSolver<'a> {
-    robot: &'a SpatialRobot,
+/// A spatial cable solver with its buffers (reused across solves, and
+/// across robots of the same structure, e.g. with perturbed holes).
+pub struct SpatialCableSolver {
     cables: Vec<usize>,
     opts: SolveOptions,
+    limits: Vec<[f64; 2]>,
     ws: Workspace,
+    /// The chain of the last solve (at the answer when it converged).
+    pub chain: Chain,
+    pts: Vec<V3>,
 }
 
-impl<'a> SpatialCableSolver<'a> {
-    pub fn new(robot: &'a SpatialRobot, opts: SolveOptions) -> Self {
+impl SpatialCableSolver {
+    pub fn new(robot: &SpatialRobot, opts: SolveOptions) -> Self {
         SpatialCableSolver {
-            robot,
             cables: robot.position_cables(),
             opts,
+            limits: limits(robot),
             ws: Workspace::default(),
+            chain: Chain::new(robot),
+            pts: Vec::new(),
         }
     }
 
-    /// Lengths `target` (m) of the position-controlled cables (file order) to
-    /// `theta` (seed on entry, answer on exit).
-    pub fn solve(&mut self, target: &[f64], theta: &mut [f64]) -> Status {
-        let (m, n) = (self.cables.len(), self.robot.n());
+    /// Lengths `target` (m) of the position-controlled cables (file order) of
+    /// `robot` to `theta` (seed on entry, answer on exit).
+    pub fn solve(&mut self, robot: &SpatialRobot, target: &[f64], theta: &mut [f64]) -> Status {
+        let (m, n) = (self.cables.len(), robot.n());
         let mut p = CableProblem {
-            robot: self.robot,
+            robot,
             cables: &self.cables,
             target,
-            chain: Chain::new(self.robot),
-            pts: Vec::new(),
-            limits: self.opts.enforce_limits.then(|| limits(self.robot)),
+            chain: &mut self.chain,
+            pts: &mut self.pts,
+            limits: self.opts.enforce_limits.then_some(&self.limits[..]),
         };
         let lm = Lm {
             lambda0: 0.0,
             min_decrease: if m > n { 1e-12 } else { 0.0 },
             ..Lm::equations(Step::Normal, self.opts.tol, self.opts.max_iter)
         };
-        lm::solve(&mut p, theta, &lm, &mut self.ws)
+        let st = lm::solve(&mut p, theta, &lm, &mut self.ws);
+        self.chain.at(robot, theta);
+        st
     }
 }
 

@@ -59,7 +59,7 @@ from .. import _cdsm
 from ..inputs import CdsmInputError, as_batch, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
-from .montecarlo import MonteCarlo, monte_carlo, monte_carlo_chunk
+from .montecarlo import MonteCarlo, error_widths, monte_carlo, monte_carlo_chunk
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 
 __all__ = ["run", "ClusterError", "OrderedMerge", "robot_spec", "robot_from_spec", "pack", "unpack",
@@ -78,12 +78,13 @@ class ClusterError(RuntimeError):
 # ---------------------------------------------------------------------------
 def robot_spec(robot: Robot) -> dict:
     """The robot as plain data for another process: ``{"toml": str, "holes":
-    (2n, n+1, 2, 2) m}``. The TOML is :meth:`cdsm.Robot.to_toml` (every
-    parameter, explicit holes, floats by ``repr``: parsed back to the same
-    bits); the full hole array is then set exactly (also the entries the TOML
-    leaves out), so robots built in code (``with_holes``, ``with_cable``)
-    travel too."""
-    return {"toml": robot.to_toml(), "holes": np.array(robot.holes, dtype=np.float64)}
+    m}``. The TOML is :meth:`cdsm.Robot.to_toml` (every parameter, explicit
+    holes, floats by ``repr``: parsed back to the same bits; a spatial robot's
+    own file text); the full hole array (planar (2n, n+1, 2, 2), spatial
+    flat) is then set exactly, so robots built in code (``with_holes``,
+    ``with_cable``) travel too."""
+    holes = robot.core.holes if robot.kind == "spatial" else robot.holes
+    return {"toml": robot.to_toml(), "holes": np.array(holes, dtype=np.float64)}
 
 
 def robot_from_spec(spec: dict, threads: int = 0) -> Robot:
@@ -96,8 +97,9 @@ def robot_from_spec(spec: dict, threads: int = 0) -> Robot:
 
 def _check_spec(robot: Robot, spec: dict) -> None:
     back = robot_from_spec(spec)
-    for name in ("link_before", "link_after", "thickness", "mass", "lower_tension",
-                 "joint_limits", "holes"):
+    names = (("joint_limits", "axes", "gravity", "cable_tensions") if robot.kind == "spatial" else
+             ("link_before", "link_after", "thickness", "mass", "lower_tension", "joint_limits", "holes"))
+    for name in names:
         if not np.array_equal(getattr(back, name), getattr(robot, name)):  # pragma: no cover
             raise CdsmInputError(f"robot {robot.name!r}: cannot be sent to the workers "
                                  f"(`{name}` does not survive the round trip)")
@@ -292,7 +294,8 @@ def run(robot: Robot, theta0, samples: int = 1000, seed: int = 0, chunk: int = 1
     t0, _ = as_batch("theta0", theta0, robot.n)
     if int(samples) < 1 or int(chunk) < 1:
         raise CdsmInputError(f"`samples`, `chunk`: must be >= 1, got {samples}, {chunk}")
-    dlt, dht = as_tolerances("dl_tol", dl_tol, robot.n), as_tolerances("dh_tol", dh_tol, robot.n)
+    wl, wh = error_widths(robot)
+    dlt, dht = as_tolerances("dl_tol", dl_tol, wl), as_tolerances("dh_tol", dh_tol, wh)
     samples, chunk, seed = int(samples), int(chunk), int(seed)
     if seed < 0:
         raise CdsmInputError(f"`seed`: must be >= 0, got {seed}")

@@ -1,5 +1,6 @@
 """Monte-Carlo error studies (the paper's Fig. 7) in the Rust core: random
-composite errors on the upper-cable lengths and hole heights, streamed in
+composite errors on the upper-cable lengths and hole heights (spatial arms:
+on the position-controlled cables and every hole coordinate), streamed in
 chunks with bounded memory and reduced to per-configuration statistics, and
 those statistics as arrays (``.npz``). SI units: m, rad.
 
@@ -23,7 +24,8 @@ from ..robot import Robot
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 
 __all__ = ["MonteCarlo", "monte_carlo", "monte_carlo_chunk", "chunk_sizes", "sample_errors",
-           "QUANTITY_NAMES", "QUANTITY_UNITS", "DEFAULT_PERCENTILES",
+           "QUANTITY_NAMES", "QUANTITY_UNITS", "SPATIAL_QUANTITY_NAMES", "SPATIAL_QUANTITY_UNITS",
+           "DEFAULT_PERCENTILES", "error_widths",
            "summary", "save_npz", "load_npz"]
 
 DEFAULT_PERCENTILES = (50.0, 95.0, 99.0)
@@ -31,14 +33,19 @@ QUANTITY_UNITS = ("m", "m", "rad", "m")
 
 
 QUANTITY_NAMES = ("dX", "dY", "dphi", "dXY")
+#: The quantities of a spatial arm's study: dX, dY, dZ, |d(X, Y, Z)| (m), rotation angle (rad).
+SPATIAL_QUANTITY_NAMES = ("dX", "dY", "dZ", "dXYZ", "rot")
+SPATIAL_QUANTITY_UNITS = ("m", "m", "m", "m", "rad")
 
 
 @dataclass
 class MonteCarlo:
     """Per-configuration statistics of a Monte-Carlo error study.
 
-    Columns of the (N, 4) arrays: dX (m), dY (m), dphi (rad), |d(X, Y)| (m).
-    ``hist`` (N, bins) counts |d(X, Y)| in log-spaced bins (:attr:`hist_edges`).
+    Columns of the (N, Q) arrays (``quantities``): planar dX (m), dY (m),
+    dphi (rad), |d(X, Y)| (m); spatial dX, dY, dZ, |d(X, Y, Z)| (m) and the
+    rotation angle of the end frame (rad). ``hist`` (N, bins) counts the
+    position-error norm in log-spaced bins (:attr:`hist_edges`).
     ``feasible0`` (N,): every upper cable taut at the initial configuration.
     ``slack`` (N,): converged samples whose configuration needs a slack upper
     cable (only with ``check_slack``, else None).
@@ -55,6 +62,7 @@ class MonteCarlo:
     params: dict = field(default_factory=dict)
     feasible0: Optional[np.ndarray] = None
     slack: Optional[np.ndarray] = None
+    quantities: Tuple[str, ...] = QUANTITY_NAMES
 
     @property
     def mean(self) -> np.ndarray:
@@ -109,10 +117,12 @@ class MonteCarlo:
 
 def sample_errors(n: int, samples: int, seed: int, chunk_index: int, dl_tol, dh_tol):
     """Uniform errors of one chunk, from the stream (seed, chunk_index):
-    dl (samples, n) within ±dl_tol, dh (samples, n) within ±dh_tol, m."""
+    dl (samples, k) within ±dl_tol, dh (samples, h) within ±dh_tol, m — ``k``,
+    ``h`` the lengths of the tolerance arrays (scalars: ``n``)."""
     rng = np.random.default_rng([int(seed), int(chunk_index)])
-    dl = rng.uniform(-1.0, 1.0, (samples, n)) * dl_tol
-    dh = rng.uniform(-1.0, 1.0, (samples, n)) * dh_tol
+    wl, wh = (np.size(t) if np.ndim(t) else n for t in (dl_tol, dh_tol))
+    dl = rng.uniform(-1.0, 1.0, (samples, wl)) * dl_tol
+    dh = rng.uniform(-1.0, 1.0, (samples, wh)) * dh_tol
     return np.ascontiguousarray(dl), np.ascontiguousarray(dh)
 
 
@@ -130,7 +140,10 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     t0, _ = as_batch("theta0", theta0, robot.n)
     if int(samples) < 1 or int(chunk) < 1:
         raise CdsmInputError(f"`samples`, `chunk`: must be >= 1, got {samples}, {chunk}")
-    dlt, dht = as_tolerances("dl_tol", dl_tol, robot.n), as_tolerances("dh_tol", dh_tol, robot.n)
+    wl, wh = error_widths(robot)
+    dlt, dht = as_tolerances("dl_tol", dl_tol, wl), as_tolerances("dh_tol", dh_tol, wh)
+    if check_slack and robot.kind != "planar":
+        raise CdsmInputError("`check_slack`: counted for planar arms only (spatial statics: SpatialRobot.feasible)")
     total, out = int(samples), None
     bar = Progress(total, "monte carlo", progress)
     for c, m in enumerate(chunk_sizes(total, chunk)):
@@ -144,6 +157,15 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     out.params = dict(samples=total, seed=int(seed), chunk=int(chunk), dl_tol_m=dlt.tolist(),
                       dh_tol_m=dht.tolist(), method=method, check_slack=bool(check_slack))
     return out
+
+
+def error_widths(robot) -> Tuple[int, int]:
+    """How many cable-length and hole errors a sample draws: planar (n, n)
+    (upper cables, disks' hole heights); spatial (position-controlled cables,
+    every hole coordinate)."""
+    if robot.kind == "spatial":
+        return len(robot.position_cables), len(robot.core.holes)
+    return robot.n, robot.n
 
 
 def chunk_sizes(samples: int, chunk: int):
@@ -164,13 +186,18 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     not depend on it. This is the unit of work of local and cluster runs."""
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
     th = robot.threads if threads is None else int(threads)
-    st = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
-    q = _cdsm.QUANTITIES
+    if robot.kind == "spatial":
+        st = robot.core.monte_carlo(theta0, dl, dh if np.any(dh_tol) else None, 1e-12, 100, th)
+        names = SPATIAL_QUANTITY_NAMES
+    else:
+        st = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
+        names = QUANTITY_NAMES
+    q = st.quantities
     return MonteCarlo(theta0=theta0, count=st.count.astype(np.int64), failed=st.failed.astype(np.int64),
                       sum=st.sum.reshape(-1, q), sum_sq=st.sum_sq.reshape(-1, q),
                       min=st.min.reshape(-1, q), max=st.max.reshape(-1, q),
                       hist=st.hist.reshape(-1, _cdsm.HIST_BINS).astype(np.int64),
-                      slack=st.slack.astype(np.int64) if check_slack else None)
+                      slack=st.slack.astype(np.int64) if check_slack else None, quantities=names)
 
 
 # ---------------------------------------------------------------------------
@@ -191,7 +218,8 @@ def summary(mc: MonteCarlo, percentiles: Sequence[float] = DEFAULT_PERCENTILES) 
     out = dict(theta0=mc.theta0, count=mc.count, failed=mc.failed, mean=mc.mean, std=mc.std,
                min=mc.min, max=mc.max, max_abs=mc.max_abs, sum=mc.sum, sum_sq=mc.sum_sq,
                hist=mc.hist, hist_edges=mc.hist_edges(), percentiles=pct,
-               quantities=np.array(QUANTITY_NAMES), units=np.array(QUANTITY_UNITS))
+               quantities=np.array(mc.quantities),
+               units=np.array(SPATIAL_QUANTITY_UNITS if mc.quantities == SPATIAL_QUANTITY_NAMES else QUANTITY_UNITS))
     cols = [mc.percentile(p) for p in pct]
     out["dxy_percentiles"] = np.stack(cols, axis=1) if cols else np.zeros((len(mc.count), 0))
     for p, col in zip(pct, cols):
@@ -223,7 +251,8 @@ def load_npz(path: str) -> Tuple[MonteCarlo, dict]:
         params = json.loads(str(z["params"]))
         mc = MonteCarlo(theta0=z["theta0"], count=z["count"], failed=z["failed"], sum=z["sum"],
                         sum_sq=z["sum_sq"], min=z["min"], max=z["max"], hist=z["hist"],
-                        params=params)
+                        params=params,
+                        quantities=tuple(str(q) for q in z["quantities"]) if "quantities" in z else QUANTITY_NAMES)
     except KeyError as exc:
         raise CdsmInputError(f"Monte-Carlo file {str(path)!r}: missing array {exc}") from None
     return mc, params

@@ -1,7 +1,8 @@
 """Single error scenarios (the paper's Fig. 3): the tip deviation caused by a
 cable-length error ``dL`` on the upper cables, a hole-location error (``dh``
 per disk, or ``dholes`` per hole coordinate), or both, solved in the Rust
-core. SI units: m, rad."""
+core; for spatial arms on the position-controlled cables and any hole
+coordinate (x, y, z). SI units: m, rad."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import numpy as np
 from ..inputs import CdsmInputError, as_batch, as_vector
 from ..robot import Robot, Solution
 
-__all__ = ["deviation", "Deviation", "PAPER_DL_TOL", "PAPER_DH_TOL"]
+__all__ = ["deviation", "Deviation", "rotation_vectors", "PAPER_DL_TOL", "PAPER_DH_TOL"]
 
 #: The paper's error magnitudes (its Monte-Carlo bounds and single-error
 #: scenarios): 1 mm on an upper cable's length, 0.35 mm on a disk's hole height.
@@ -26,7 +27,8 @@ class Deviation:
     """Result of :func:`deviation`.
 
     dS: (N, 3) tip deviation [dX (m), dY (m), dphi (rad)], NaN where the solve
-    failed. theta0: (N, n) initial angles, rad. solution: the perturbed cable
+    failed (spatial arms: (N, 6) [dX, dY, dZ (m), rotation vector of the end
+    frame's change (rad, base frame)]). theta0: (N, n) initial angles, rad. solution: the perturbed cable
     solves. ik: the pose IK that produced theta0, when poses were given.
     feasible: (N,) every upper cable taut (tension > 0 N, the robot's lower
     tensions, no external load) both before and after the error; False flags
@@ -54,7 +56,7 @@ def _theta0(robot: Robot, theta0, poses, ik_seed):
     if theta0 is not None:
         t, _ = as_batch("theta0", theta0, robot.n)
         return t, None
-    p, _ = as_batch("poses", poses, 3)
+    p, _ = as_batch("poses", poses, 6 if robot.kind == "spatial" else 3)
     sol = robot.ik(p, seed=ik_seed)
     return np.ascontiguousarray(np.atleast_2d(sol.theta)), sol
 
@@ -71,6 +73,10 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
     an error on every hole coordinate, m. Holes and lengths may be combined.
     """
     t0, ik = _theta0(robot, theta0, poses, ik_seed)
+    if robot.kind == "spatial":
+        if dh is not None:
+            raise CdsmInputError("`dh`: the per-disk hole-height error is planar; give `dholes` for a spatial arm")
+        return _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter)
     dl = np.zeros(robot.n) if dL is None else as_vector("dL", dL, robot.n)
     if dh is not None and dholes is not None:
         raise CdsmInputError("`dh`, `dholes`: give at most one of them")
@@ -90,3 +96,38 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
     sol = Solution.from_core(res.solution, robot.n, False)
     feasible = robot.feasible(t0) & robot.feasible(sol.theta)
     return Deviation(res.ds.reshape(-1, 3), t0, sol, ik, feasible)
+
+
+def rotation_vectors(r: np.ndarray) -> np.ndarray:
+    """Rotation vectors (..., 3) rad of rotation matrices (..., 3, 3): angle
+    times unit axis, accurate for the small rotations of error studies (and
+    any angle below pi)."""
+    v = 0.5 * np.stack([r[..., 2, 1] - r[..., 1, 2], r[..., 0, 2] - r[..., 2, 0],
+                        r[..., 1, 0] - r[..., 0, 1]], axis=-1)
+    s = np.linalg.norm(v, axis=-1)
+    c = 0.5 * (np.trace(r, axis1=-2, axis2=-1) - 1.0)
+    angle = np.arctan2(s, c)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        k = np.where(s > 1e-300, angle / s, 1.0)
+    return v * k[..., None]
+
+
+def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter) -> Deviation:
+    m = len(robot.position_cables)
+    dl = np.zeros(m) if dL is None else as_vector("dL", dL, m)
+    moved = robot
+    if dholes is not None:
+        flat = robot.core.holes
+        d = np.asarray(dholes, dtype=np.float64).reshape(-1)
+        if d.shape != flat.shape or not np.isfinite(d).all():
+            raise CdsmInputError(f"`dholes`: expected {flat.size} finite values (every hole's x, y, z, m)")
+        moved = robot.with_holes(flat + d)
+    sol = moved.solve_cables(robot.position_lengths(t0) + dl, seed=t0, tol=tol, max_iter=max_iter)
+    f0, f1 = robot.fk_matrix(t0), moved.fk_matrix(sol.theta)
+    ds = np.concatenate([f1[:, :3, 3] - f0[:, :3, 3],
+                         np.einsum("nij,nj->ni", f0[:, :3, :3],
+                                   rotation_vectors(np.einsum("nji,njk->nik", f0[:, :3, :3], f1[:, :3, :3])))],
+                        axis=1)
+    ds[~np.asarray(sol.converged)] = np.nan
+    feasible = robot.feasible(t0) & moved.feasible(sol.theta)
+    return Deviation(ds, t0, sol, ik, feasible)
