@@ -189,7 +189,10 @@ impl McStats {
 
     /// One planar sample: `ds = [dX, dY, dphi]`.
     fn add(&mut self, j: usize, ds: [f64; 3]) {
-        self.add_values(j, &[ds[0], ds[1], ds[2], (ds[0] * ds[0] + ds[1] * ds[1]).sqrt()]);
+        self.add_values(
+            j,
+            &[ds[0], ds[1], ds[2], (ds[0] * ds[0] + ds[1] * ds[1]).sqrt()],
+        );
     }
 
     /// One sample's quantities (the norm at [`NORM`]).

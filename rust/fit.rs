@@ -1,14 +1,17 @@
-//! The diagnosis fit: the parameters of chosen plant effects that make the
+//! The diagnosis fit: the parameters of chosen plant effects that make a
 //! plant's predictions meet the measurements, by the shared solver
 //! ([`crate::lm`], QR step, Marquardt damping) in parameters scaled by their
-//! typical size, within the physical domain ([`crate::plant::bounds`]). The
-//! Jacobian is exact ([`crate::plant::Settled::jacobian`]). Cross-validation
-//! folds are fitted in one call, in parallel.
+//! typical size, within the plant's physical domain, with an active set on
+//! its bounds. Any plant kind that implements [`FitModel`] is fitted the same
+//! way (planar: [`PlanarFit`], exact Jacobians; spatial:
+//! [`crate::spatial::plant::SpatialFit`]). Cross-validation folds are fitted in
+//! one call, in parallel.
 //!
 //! Residual: for every scored row and every measured component,
-//! `w_c (prediction - measurement)`, with `w = [1, 1, L]` (`L`: the straight
-//! arm length, m/rad) so an attitude error counts as the tip displacement it
-//! causes; components not measured are NaN in `measured` and left out.
+//! `w_c (prediction - measurement)` with the model's weights (an attitude
+//! error counts as the tip displacement it causes: the straight arm length
+//! times the angle); components not measured are NaN in `measured` and left
+//! out.
 
 use crate::batch::split_rows;
 use crate::error::{CdsmError, Result};
@@ -17,12 +20,82 @@ use crate::plant::{bounds, effect_offsets, Plant, Predictions, Sequence, Settled
 use crate::robot::Robot;
 use crate::solve::SolveOptions;
 
-/// What to fit and where.
-#[derive(Debug, Clone)]
-pub struct FitSpec<'a> {
+/// A plant the diagnosis can fit: predictions of a data set's rows for a
+/// flat parameter vector, and their derivatives with respect to some of the
+/// parameters.
+pub trait FitModel: Sync {
+    /// What a settle leaves for the Jacobian at the same parameters.
+    type State;
+    /// Rows of the data set.
+    fn rows(&self) -> usize;
+    /// Observed components per row.
+    fn width(&self) -> usize;
+    /// Residual weight of each component (m per unit of the component).
+    fn weights(&self) -> Vec<f64>;
+    /// Length of the flat parameter vector.
+    fn params(&self) -> usize;
+    /// The physical domain: `[lower, upper]` per parameter.
+    fn bounds(&self) -> (Vec<f64>, Vec<f64>);
+    /// Every row settled with parameters `p`; `None` outside the domain.
+    fn settle(&self, p: &[f64]) -> Option<Self::State>;
+    /// The rows' predictions (`observation (rows, width)`, NaN where a row
+    /// did not settle, and the flags).
+    fn predictions(&self, state: &Self::State) -> Predictions;
+    /// `(rows, width, k)` derivatives of the predictions with respect to the
+    /// parameters `free` at `p` (the state of [`FitModel::settle`] at `p`).
+    fn jacobian(&self, p: &[f64], state: &Self::State, free: &[usize]) -> Option<Vec<f64>>;
+}
+
+/// The planar plant ([`crate::plant`]) on one data set.
+pub struct PlanarFit<'a> {
     pub robot: &'a Robot,
     pub seq: &'a Sequence,
-    /// `(N, 3)` measured `[x, y, phi]` (m, m, rad) or displacements; NaN: not measured.
+    /// Settle options.
+    pub opts: SolveOptions,
+}
+
+impl FitModel for PlanarFit<'_> {
+    type State = Settled;
+
+    fn rows(&self) -> usize {
+        self.seq.rows()
+    }
+
+    fn width(&self) -> usize {
+        3
+    }
+
+    fn weights(&self) -> Vec<f64> {
+        vec![1.0, 1.0, self.robot.straight_length()]
+    }
+
+    fn params(&self) -> usize {
+        effect_offsets(self.robot.n()).1
+    }
+
+    fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
+        bounds(self.robot)
+    }
+
+    fn settle(&self, p: &[f64]) -> Option<Settled> {
+        let plant = Plant::new(self.robot, p).ok()?;
+        Some(Settled::new(&plant, self.seq, &self.opts, 1))
+    }
+
+    fn predictions(&self, state: &Settled) -> Predictions {
+        state.predictions(self.seq)
+    }
+
+    fn jacobian(&self, p: &[f64], state: &Settled, free: &[usize]) -> Option<Vec<f64>> {
+        let plant = Plant::new(self.robot, p).ok()?;
+        state.jacobian(&plant, self.seq, free, 1).ok()
+    }
+}
+
+/// What to fit and where.
+pub struct FitSpec<'a, M: FitModel> {
+    pub model: &'a M,
+    /// `(N, width)` measured components; NaN: not measured.
     pub measured: &'a [f64],
     /// Indices of the fitted parameters in the flat vector.
     pub free: &'a [usize],
@@ -30,8 +103,6 @@ pub struct FitSpec<'a> {
     pub scale: &'a [f64],
     /// The flat parameter vector the fitted ones start from (the others stay).
     pub start: &'a [f64],
-    /// Settle options.
-    pub opts: SolveOptions,
     /// Maximum number of trial steps of the fit.
     pub max_iter: u32,
 }
@@ -57,30 +128,31 @@ pub struct FitResult {
 }
 
 /// The fit as a problem of the shared solver.
-struct FitProblem<'a> {
-    spec: &'a FitSpec<'a>,
+struct FitProblem<'a, M: FitModel> {
+    spec: &'a FitSpec<'a, M>,
     /// (row, component) of every residual.
     index: Vec<(usize, usize)>,
-    weight: [f64; 3],
+    weight: Vec<f64>,
     lo: Vec<f64>,
     hi: Vec<f64>,
     p: Vec<f64>,
-    last: Option<(Vec<f64>, Settled)>,
+    last: Option<(Vec<f64>, M::State)>,
 }
 
-impl<'a> FitProblem<'a> {
-    fn new(spec: &'a FitSpec<'a>, scored: &[bool]) -> FitProblem<'a> {
+impl<'a, M: FitModel> FitProblem<'a, M> {
+    fn new(spec: &'a FitSpec<'a, M>, scored: &[bool]) -> FitProblem<'a, M> {
+        let w = spec.model.width();
         let mut index = Vec::new();
         for (i, s) in scored.iter().enumerate() {
             if *s {
-                for c in 0..3 {
-                    if spec.measured[i * 3 + c].is_finite() {
+                for c in 0..w {
+                    if spec.measured[i * w + c].is_finite() {
                         index.push((i, c));
                     }
                 }
             }
         }
-        let (blo, bhi) = bounds(spec.robot);
+        let (blo, bhi) = spec.model.bounds();
         let lo = spec
             .free
             .iter()
@@ -96,7 +168,7 @@ impl<'a> FitProblem<'a> {
         FitProblem {
             spec,
             index,
-            weight: [1.0, 1.0, spec.robot.straight_length()],
+            weight: spec.model.weights(),
             lo,
             hi,
             p: spec.start.to_vec(),
@@ -111,7 +183,7 @@ impl<'a> FitProblem<'a> {
     }
 }
 
-impl Problem for FitProblem<'_> {
+impl<M: FitModel> Problem for FitProblem<'_, M> {
     fn dims(&self) -> (usize, usize) {
         (self.index.len(), self.spec.free.len())
     }
@@ -122,19 +194,19 @@ impl Problem for FitProblem<'_> {
 
     fn eval(&mut self, z: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
         self.params(z);
-        let spec = self.spec;
-        let Ok(plant) = Plant::new(spec.robot, &self.p) else {
+        let model = self.spec.model;
+        let w = model.width();
+        let Some(state) = model.settle(&self.p) else {
             return false;
         };
-        let settled = Settled::new(&plant, spec.seq, &spec.opts, 1);
-        let pred = settled.predictions(spec.seq);
+        let pred = model.predictions(&state);
         for (k, &(i, c)) in self.index.iter().enumerate() {
             if !pred.converged[i] {
                 return false;
             }
-            r[k] = self.weight[c] * (pred.observation[i * 3 + c] - spec.measured[i * 3 + c]);
+            r[k] = self.weight[c] * (pred.observation[i * w + c] - self.spec.measured[i * w + c]);
         }
-        self.last = Some((self.p.clone(), settled));
+        self.last = Some((self.p.clone(), state));
         match jac {
             Some(j) => self.jacobian(z, j),
             None => true,
@@ -144,22 +216,20 @@ impl Problem for FitProblem<'_> {
     fn jacobian(&mut self, z: &[f64], jac: &mut [f64]) -> bool {
         self.params(z);
         let spec = self.spec;
-        let Some((p, settled)) = self.last.as_ref() else {
+        let w = spec.model.width();
+        let Some((p, state)) = self.last.as_ref() else {
             return false;
         };
         if *p != self.p {
             return false;
         }
-        let Ok(plant) = Plant::new(spec.robot, p) else {
-            return false;
-        };
-        let Ok(dj) = settled.jacobian(&plant, spec.seq, spec.free, 1) else {
+        let Some(dj) = spec.model.jacobian(p, state, spec.free) else {
             return false;
         };
         let k = spec.free.len();
         for (row, &(i, c)) in self.index.iter().enumerate() {
             for q in 0..k {
-                jac[row * k + q] = self.weight[c] * dj[(i * 3 + c) * k + q] * spec.scale[q];
+                jac[row * k + q] = self.weight[c] * dj[(i * w + c) * k + q] * spec.scale[q];
             }
         }
         jac.iter().all(|v| v.is_finite())
@@ -193,24 +263,25 @@ fn fit_lm(max_iter: u32) -> Lm {
 }
 
 /// Fits the free parameters on the rows `scored` (N,).
-pub fn fit(spec: &FitSpec, scored: &[bool]) -> Result<FitResult> {
+pub fn fit<M: FitModel>(spec: &FitSpec<M>, scored: &[bool]) -> Result<FitResult> {
     check(spec, scored)?;
     Ok(fit_one(spec, scored))
 }
 
-fn check(spec: &FitSpec, scored: &[bool]) -> Result<()> {
-    let n_rows = spec.seq.rows();
-    let (_, total) = effect_offsets(spec.robot.n());
+fn check<M: FitModel>(spec: &FitSpec<M>, scored: &[bool]) -> Result<()> {
+    let n_rows = spec.model.rows();
+    let w = spec.model.width();
+    let total = spec.model.params();
     let bad = |name: &str, problem: String| {
         Err(CdsmError::Option {
             name: name.into(),
             problem,
         })
     };
-    if spec.measured.len() != 3 * n_rows {
+    if spec.measured.len() != w * n_rows {
         return bad(
             "measured",
-            format!("needs ({n_rows}, 3) values, got {}", spec.measured.len()),
+            format!("needs ({n_rows}, {w}) values, got {}", spec.measured.len()),
         );
     }
     if scored.len() != n_rows {
@@ -242,7 +313,7 @@ fn check(spec: &FitSpec, scored: &[bool]) -> Result<()> {
     Ok(())
 }
 
-fn fit_one(spec: &FitSpec, scored: &[bool]) -> FitResult {
+fn fit_one<M: FitModel>(spec: &FitSpec<M>, scored: &[bool]) -> FitResult {
     let mut prob = FitProblem::new(spec, scored);
     if spec.free.is_empty() {
         let mut r = vec![0.0; prob.index.len()];
@@ -250,7 +321,7 @@ fn fit_one(spec: &FitSpec, scored: &[bool]) -> FitResult {
         let predictions = prob
             .last
             .as_ref()
-            .map(|(_, s)| s.predictions(spec.seq))
+            .map(|(_, s)| spec.model.predictions(s))
             .unwrap_or_default();
         return FitResult {
             p: spec.start.to_vec(),
@@ -282,9 +353,9 @@ fn fit_one(spec: &FitSpec, scored: &[bool]) -> FitResult {
     let st = lm::solve(&mut prob, &mut z, &fit_lm(spec.max_iter), &mut ws);
     prob.params(&z);
     let p = prob.p.clone();
-    let predictions = match Plant::new(spec.robot, &p) {
-        Ok(plant) => Settled::new(&plant, spec.seq, &spec.opts, 1).predictions(spec.seq),
-        Err(_) => Predictions::default(),
+    let predictions = match spec.model.settle(&p) {
+        Some(state) => spec.model.predictions(&state),
+        None => Predictions::default(),
     };
     FitResult {
         p,
@@ -300,8 +371,12 @@ fn fit_one(spec: &FitSpec, scored: &[bool]) -> FitResult {
 
 /// Fits the free parameters once per fold (`scored`: `(F, N)` flags, the
 /// rows each fold trains on), folds in parallel over `threads`.
-pub fn fit_folds(spec: &FitSpec, scored: &[bool], threads: usize) -> Result<Vec<FitResult>> {
-    let n_rows = spec.seq.rows();
+pub fn fit_folds<M: FitModel>(
+    spec: &FitSpec<M>,
+    scored: &[bool],
+    threads: usize,
+) -> Result<Vec<FitResult>> {
+    let n_rows = spec.model.rows();
     if n_rows == 0 || !scored.len().is_multiple_of(n_rows) {
         return Err(CdsmError::Shape {
             name: "scored".into(),
@@ -355,14 +430,17 @@ mod tests {
         let meas = predict(&r, &truth, &rows, &o, 1).unwrap().observation;
         let seq = Sequence::new(&r, &rows).unwrap();
         let free = [off[0], off[2], off[2] + 1, off[2] + 2];
-        let spec = FitSpec {
+        let model = PlanarFit {
             robot: &r,
             seq: &seq,
+            opts: o,
+        };
+        let spec = FitSpec {
+            model: &model,
             measured: &meas,
             free: &free,
             scale: &[0.02, 2e-4, 2e-4, 2e-4],
             start: &vec![0.0; total],
-            opts: o,
             max_iter: 50,
         };
         let folds = [

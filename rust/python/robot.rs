@@ -12,7 +12,7 @@ use super::results::{
 use crate::accuracy::{self, HoleErrors};
 use crate::batch;
 use crate::error::CdsmError;
-use crate::fit::{self, FitSpec};
+use crate::fit::{self, FitSpec, PlanarFit};
 use crate::plant::{self, Rows, Sequence};
 use crate::robot::{CableMaterial, Robot};
 use crate::statics::{self, BatchLoads};
@@ -568,14 +568,17 @@ impl CoreRobot {
         let fits = py
             .detach(|| {
                 let seq = Sequence::new(&self.inner, &Self::rows(t, d, &k))?;
-                let spec = FitSpec {
+                let model = PlanarFit {
                     robot: &self.inner,
                     seq: &seq,
+                    opts: o,
+                };
+                let spec = FitSpec {
+                    model: &model,
                     measured: m,
                     free: &free,
                     scale: &scale,
                     start: s0,
-                    opts: o,
                     max_iter: fit_iter,
                 };
                 fit::fit_folds(&spec, &scored, threads)

@@ -2,8 +2,10 @@
 //! batch calls of the core on it, with the GIL released around the work. The
 //! documented API is `cdsm.SpatialRobot`.
 
-use super::convert::{err, opt_slice, options, slice, vec1, Arr, Array, CdsmInputError};
-use super::results::{MonteCarloStats, SolveResult, TensionResult};
+use super::convert::{err, kinds, opt_slice, options, slice, vec1, Arr, Array, CdsmInputError};
+use super::results::{MonteCarloStats, PlantFit, PlantPrediction, SolveResult, TensionResult};
+use crate::fit::{self, FitSpec};
+use crate::spatial::plant::{self as splant, SpatialFit, SpatialSequence};
 use crate::spatial::{self, solve::SpatialMask, SpatialRobot};
 use pyo3::prelude::*;
 
@@ -228,6 +230,103 @@ impl CoreSpatialRobot {
             .detach(|| spatial::monte_carlo(&self.inner, t, d, h, &o, threads))
             .map_err(err)?;
         Ok(MonteCarloStats::new(py, st))
+    }
+
+    /// The plant's parameter blocks: `[(effect, size)]` in vector order.
+    fn plant_effects(&self) -> Vec<(String, usize)> {
+        splant::EFFECTS
+            .iter()
+            .zip(splant::effect_sizes(&self.inner))
+            .map(|(a, b)| (a.to_string(), b))
+            .collect()
+    }
+
+    /// Lower and upper bounds of the plant's parameters (the physical domain).
+    fn plant_bounds<'py>(&self, py: Python<'py>) -> (Array<'py>, Array<'py>) {
+        let (lo, hi) = splant::bounds(&self.inner);
+        (vec1(py, lo), vec1(py, hi))
+    }
+
+    #[pyo3(signature = (params, theta_cmd, dl, kind, tol, max_iter, threads))]
+    #[allow(clippy::too_many_arguments)]
+    fn plant_predict(
+        &self,
+        py: Python<'_>,
+        params: Arr<'_>,
+        theta_cmd: Arr<'_>,
+        dl: Arr<'_>,
+        kind: Vec<u8>,
+        tol: f64,
+        max_iter: u32,
+        threads: usize,
+    ) -> PyResult<PlantPrediction> {
+        let p = slice("params", &params)?;
+        let t = slice("theta_cmd", &theta_cmd)?;
+        let d = slice("dl", &dl)?;
+        let k = kinds(&kind)?;
+        let o = options(tol, max_iter, false);
+        let out = py
+            .detach(|| {
+                let seq = SpatialSequence::new(&self.inner, t, d, &k)?;
+                splant::predict(&self.inner, p, &seq, &o, threads)
+            })
+            .map_err(err)?;
+        Ok(PlantPrediction::new(py, out, None))
+    }
+
+    #[pyo3(signature = (theta_cmd, dl, kind, measured, scored, free, scale, start, tol, max_iter, fit_iter, threads))]
+    #[allow(clippy::too_many_arguments)]
+    fn plant_fit(
+        &self,
+        py: Python<'_>,
+        theta_cmd: Arr<'_>,
+        dl: Arr<'_>,
+        kind: Vec<u8>,
+        measured: Arr<'_>,
+        scored: Vec<bool>,
+        free: Vec<usize>,
+        scale: Vec<f64>,
+        start: Arr<'_>,
+        tol: f64,
+        max_iter: u32,
+        fit_iter: u32,
+        threads: usize,
+    ) -> PyResult<Vec<PlantFit>> {
+        let t = slice("theta_cmd", &theta_cmd)?;
+        let d = slice("dl", &dl)?;
+        let k = kinds(&kind)?;
+        let m = slice("measured", &measured)?;
+        let s0 = slice("start", &start)?;
+        let o = options(tol, max_iter, false);
+        let fits = py
+            .detach(|| {
+                let seq = SpatialSequence::new(&self.inner, t, d, &k)?;
+                let total = splant::effect_offsets(&self.inner).1;
+                // central-difference steps: 1e-4 of each fitted parameter's typical size
+                let mut steps = vec![1e-7; total];
+                for (f, s) in free.iter().zip(&scale) {
+                    if *f < total {
+                        steps[*f] = 1e-4 * s;
+                    }
+                }
+                let model = SpatialFit {
+                    robot: &self.inner,
+                    seq: &seq,
+                    opts: o,
+                    steps,
+                };
+                let spec = FitSpec {
+                    model: &model,
+                    measured: m,
+                    free: &free,
+                    scale: &scale,
+                    start: s0,
+                    max_iter: fit_iter,
+                };
+                fit::fit_folds(&spec, &scored, threads)
+            })
+            .map_err(err)?;
+        fits.into_iter().map(|f| PlantFit::new(py, f)).collect()
     }
 
     fn tensions(

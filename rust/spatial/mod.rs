@@ -5,6 +5,7 @@
 //! that run over threads like the planar ones.
 
 pub mod kinematics;
+pub mod plant;
 pub mod robot;
 pub mod solve;
 pub mod statics;
@@ -146,7 +147,11 @@ pub fn monte_carlo(
             crate::batch::rows_exactly("dholes", d, h, samples)?;
             (0..samples)
                 .map(|s| {
-                    let flat: Vec<f64> = nominal_holes.iter().zip(&d[s * h..(s + 1) * h]).map(|(a, b)| a + b).collect();
+                    let flat: Vec<f64> = nominal_holes
+                        .iter()
+                        .zip(&d[s * h..(s + 1) * h])
+                        .map(|(a, b)| a + b)
+                        .collect();
                     robot.with_flat_holes(&flat)
                 })
                 .collect::<Result<_>>()?
@@ -158,7 +163,8 @@ pub fn monte_carlo(
         let mut stats = McStats::with_quantities(r.len(), SPATIAL_QUANTITIES);
         let mut solver = SpatialCableSolver::new(robot, *opts);
         let mut chain = Chain::new(robot);
-        let (mut pts, mut l0, mut target, mut th) = (Vec::new(), vec![0.0; m], vec![0.0; m], vec![0.0; n]);
+        let (mut pts, mut l0, mut target, mut th) =
+            (Vec::new(), vec![0.0; m], vec![0.0; m], vec![0.0; n]);
         for (j, i) in r.enumerate() {
             let t0 = &theta0[i * n..(i + 1) * n];
             chain.at(robot, t0);

@@ -51,6 +51,7 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from ..accuracy.scenarios import rotation_vectors
 from ..accuracy.sensitivity import sensitivity
 from ..accuracy.workspace import paper_ik_seed, singular_values
 from ..inputs import CdsmInputError
@@ -113,16 +114,23 @@ class Prepared:
 
 
 def kabsch_frame(predicted: np.ndarray, measured: np.ndarray) -> np.ndarray:
-    """The rigid planar frame (rotation alpha (rad), translation x, y (m)) that
-    best maps ``predicted`` (N, 2) onto ``measured`` (N, 2) in least squares
-    (Kabsch/Umeyama without scale): ``measured ≈ Rot(alpha) predicted + t``."""
+    """The rigid frame that best maps ``predicted`` onto ``measured`` in
+    least squares (Kabsch/Umeyama without scale): ``measured ≈ R predicted +
+    t``. Planar (N, 2): ``[alpha (rad), tx, ty (m)]``; spatial (N, 3):
+    ``[rotation vector (rad, 3), t (m, 3)]`` (the plants' frame blocks)."""
     p, q = np.asarray(predicted, float), np.asarray(measured, float)
     pc, qc = p - p.mean(axis=0), q - q.mean(axis=0)
     h = pc.T @ qc
-    alpha = float(np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1]))
-    c, s = np.cos(alpha), np.sin(alpha)
-    t = q.mean(axis=0) - np.array([[c, -s], [s, c]]) @ p.mean(axis=0)
-    return np.array([alpha, t[0], t[1]])
+    if p.shape[1] == 2:
+        alpha = float(np.arctan2(h[0, 1] - h[1, 0], h[0, 0] + h[1, 1]))
+        c, s = np.cos(alpha), np.sin(alpha)
+        t = q.mean(axis=0) - np.array([[c, -s], [s, c]]) @ p.mean(axis=0)
+        return np.array([alpha, t[0], t[1]])
+    u, _, vt = np.linalg.svd(h)
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    r = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    t = q.mean(axis=0) - r @ p.mean(axis=0)
+    return np.concatenate([rotation_vectors(r), t])
 
 
 def prepare(robot: Robot, meas: Measurements, frame: str = "register") -> Prepared:
@@ -136,6 +144,7 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "register") -> Prepar
         raise CdsmInputError(f"`frame`: expected one of {', '.join(FRAMES)}, got {frame!r}")
     flags: Dict[int, str] = {}
     N = len(meas)
+    w, k = plant.width(robot), plant.dims(robot)
     if meas.theta is not None:
         theta = np.array(meas.theta, dtype=float)
         ok = np.ones(N, bool)
@@ -167,18 +176,20 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "register") -> Prepar
         flags[int(i)] = ("the nominal model needs a slack upper cable here under the robot's loads (lower "
                          "tensions, gravity): a taut-cable model cannot predict this row")
     usable = ok & settles & observed & taut
-    measured = np.full((N, 3), np.nan)
-    measured[:, :2] = meas.measured
+    measured = np.full((N, w), np.nan)
+    measured[:, :k] = meas.measured
     if meas.measured_phi is not None:
         measured[:, 2] = meas.measured_phi
+    if meas.measured_rot is not None:
+        measured[:, 3:6] = meas.measured_rot
     measured[~usable] = np.nan
     if usable.sum() >= 2:
-        _check_scale(meas, pred[usable, :2], measured[usable, :2])
+        _check_scale(meas, pred[usable, :k], measured[usable, :k])
     registered = meas.kind == "absolute" and frame == "register"
     start = nominal.copy()
     if registered and usable.sum() >= 2:
-        start[plant.effect_indices(robot, "frame_misalignment")] = kabsch_frame(pred[usable, :2],
-                                                                                measured[usable, :2])
+        start[plant.effect_indices(robot, "frame_misalignment")] = kabsch_frame(pred[usable, :k],
+                                                                                measured[usable, :k])
     return Prepared(robot, meas, theta, np.asarray(meas.dL, float), kinds, measured, usable, flags, order,
                     registered, start)
 
@@ -211,11 +222,10 @@ def repeat_groups(prep: Prepared, decimals: int = 9) -> List[np.ndarray]:
     command before the row), so backlash cannot tell them apart."""
     robot = prep.robot
     order = prep.order
-    cmd = robot.upper_lengths(prep.theta_cmd[order]) + prep.dL[order]
-    base = robot.upper_lengths(prep.theta_cmd[order])
-    n = robot.n
-    state = robot.upper_lengths(np.zeros(n))
-    direction = np.zeros(n)
+    base = plant.command_lengths(robot, prep.theta_cmd[order])
+    cmd = base + prep.dL[order]
+    state = plant.command_lengths(robot, np.zeros(robot.n))
+    direction = np.zeros(state.shape[-1])
     keys: Dict[tuple, List[int]] = {}
     for j, i in enumerate(order):
         first = base[j] if prep.kinds[i] == KIND_CODES["displacement"] else cmd[j]
@@ -247,10 +257,11 @@ class NoiseEstimate:
 def _noise(prep: Prepared, given: Optional[float]) -> NoiseEstimate:
     groups = repeat_groups(prep)
     ss, dof = 0.0, 0
+    k = plant.dims(prep.robot)
     for g in groups:
-        y = prep.measured[g, :2]
+        y = prep.measured[g, :k]
         ss += float(((y - y.mean(axis=0)) ** 2).sum())
-        dof += 2 * (len(g) - 1)
+        dof += k * (len(g) - 1)
     if given is not None:
         return NoiseEstimate(float(given), "given", None, ss, dof, len(groups))
     if dof >= 2 and ss > 0:
@@ -313,10 +324,11 @@ class _Scorer:
         start = prep.start if prep.registered else np.zeros(plant.size(prep.robot))
         fits = fit_folds(prep, fitted, self.scored, start)
         held = np.full(len(prep.theta_cmd), np.nan)
+        k = plant.dims(prep.robot)
         for f, t in enumerate(self.tests):
             pr = fits[f + 1].prediction
             if pr is not None:
-                held[t] = np.hypot(pr[t, 0] - prep.measured[t, 0], pr[t, 1] - prep.measured[t, 1])
+                held[t] = np.linalg.norm(pr[t, :k] - prep.measured[t, :k], axis=1)
         held = held[self.rows]
         fail = ~np.isfinite(held)
         if self.base_error is not None:
@@ -379,8 +391,9 @@ class Diagnosis:
     @property
     def noise_floor(self) -> float:
         """Expected held-out position RMS of a correct model (m):
-        ``sqrt(2) * sigma`` per row's reading count (see the module doc)."""
-        return float(np.sqrt(2.0) * self.prep.readings * self.noise)
+        ``sqrt(2) * sigma`` per row's reading count (see the module doc;
+        spatial arms: ``sqrt(3)``, three position components)."""
+        return float(np.sqrt(plant.dims(self.prep.robot)) * self.prep.readings * self.noise)
 
     @property
     def verdict(self) -> str:
@@ -456,6 +469,8 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     |theta_2| (rad), the smallest upper tension (N), the tip sensitivity to the
     upper cables (m/m), the cable that carries dL, and X, Y (m)."""
     robot, th = prep.robot, prep.theta_cmd
+    if robot.kind == "spatial":
+        return _spatial_features(robot, th, prep.dL)
     sv = singular_values(robot, th)
     sens = sensitivity(robot, th)
     pose = robot.fk(th)
@@ -474,11 +489,27 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     return out
 
 
+def _spatial_features(robot, th: np.ndarray, dl: np.ndarray) -> Dict[str, np.ndarray]:
+    sv = np.linalg.svd(robot.fk_jacobian(th)[:, :3, :], compute_uv=False)
+    pose = robot.fk(th)
+    a = np.abs(dl)
+    return {
+        "singularity (sigma_min/sigma_max)": sv[:, -1] / sv[:, 0],
+        "max |joint angle| (rad)": np.abs(th).max(axis=1),
+        "X (m)": pose[:, 0],
+        "Y (m)": pose[:, 1],
+        "Z (m)": pose[:, 2],
+        "cable with dL (index)": np.where(a.max(axis=1) > 0, a.argmax(axis=1) + 1, 0).astype(float),
+        "min position-cable tension (N)": np.nanmin(robot.tensions(th), axis=1),
+    }
+
+
 # ---------------------------------------------------------------------------
 # the verdict
 # ---------------------------------------------------------------------------
 def _residual_xy(prep: Prepared, f: Fit, rows: np.ndarray) -> np.ndarray:
-    return f.prediction[rows, :2] - prep.measured[rows, :2]
+    k = plant.dims(prep.robot)
+    return f.prediction[rows, :k] - prep.measured[rows, :k]
 
 
 def _verdict(prep: Prepared, noise: NoiseEstimate, base: Candidate, final: Candidate, beats: bool,
@@ -510,7 +541,7 @@ def _verdict(prep: Prepared, noise: NoiseEstimate, base: Candidate, final: Candi
         verdict = "no gap" if nom_ok else "unexplained"
     # the noise (per reading and axis) at which the final model would be adequate
     ssr, dof = t[4], t[5]
-    need = max(final.heldout_rms / (1.5 * np.sqrt(2.0) * r),
+    need = max(final.heldout_rms / (1.5 * np.sqrt(plant.dims(prep.robot)) * r),
                float(np.sqrt(ssr / (r ** 2 * stats.chi2_ppf(0.99, max(dof, 1))))) if dof > 0 else 0.0)
     return Verdict(verdict, bool(nom_ok), bool(fin_ok), t[0], float(t[1]), tuple(int(v) for v in t[2]),
                    float(t[3]), float(need))
@@ -529,10 +560,11 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     largest combination forward selection may build. frame: ``"register"``
     (absolute data are in an instrument frame) or ``"base"``.
     """
-    library = list(plant.EFFECTS if effects is None else effects)
+    known = plant.effects_of(robot)
+    library = list(known if effects is None else effects)
     for e in library:
-        if e not in plant.EFFECTS:
-            raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(plant.EFFECTS)}")
+        if e not in known:
+            raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(known)}")
     if noise is not None and not (np.isfinite(noise) and noise > 0):
         raise CdsmInputError(f"`noise`: must be a positive number of m, got {noise}")
     prep = prepare(robot, meas, frame)
@@ -627,16 +659,17 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     feats = features(prep)
     d.features = feats
     r_base = _residual_xy(prep, base.fit, rows)
-    size = np.hypot(r_base[:, 0], r_base[:, 1])
+    size = np.linalg.norm(r_base, axis=1)
     d.feature_correlation = {k: stats.spearman(v[rows], size) for k, v in feats.items()}
     return d
 
 
 def residuals(d: Diagnosis, which: str = "final") -> np.ndarray:
-    """Per-row residuals (N, 2) m (prediction − measurement) of the baseline or
-    the final model fitted on all usable rows, NaN for unusable rows (file order)."""
+    """Per-row residuals (N, 2) m (prediction − measurement; spatial arms
+    (N, 3)) of the baseline or the final model fitted on all usable rows, NaN
+    for unusable rows (file order)."""
     prep = d.prep
     f = d.baseline.fit if which == "baseline" else d.final().fit
-    out = np.full((len(prep.meas), 2), np.nan)
+    out = np.full((len(prep.meas), plant.dims(prep.robot)), np.nan)
     out[prep.rows] = _residual_xy(prep, f, prep.rows)
     return out

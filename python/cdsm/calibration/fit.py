@@ -96,7 +96,7 @@ def fit_folds(prep, effects: Sequence[str], scored: np.ndarray, start: Optional[
                                prep.kinds[o].tolist(), np.ascontiguousarray(prep.measured[o]),
                                sc[:, o].reshape(-1).tolist(), idx.tolist(), scale.tolist(),
                                np.ascontiguousarray(p0, float), 1e-12, 100, int(max_iter), robot.threads)
-    return [_summary(list(effects), idx, scale, names, r, o) for r in raw]
+    return [_summary(list(effects), idx, scale, names, r, o, plant.width(robot)) for r in raw]
 
 
 def fit(prep, effects: Sequence[str], rows: Optional[np.ndarray] = None, start: Optional[np.ndarray] = None,
@@ -109,7 +109,7 @@ def fit(prep, effects: Sequence[str], rows: Optional[np.ndarray] = None, start: 
     return fit_folds(prep, effects, scored[None], start, max_iter)[0]
 
 
-def _summary(effects, idx, scale, names, r, order) -> Fit:
+def _summary(effects, idx, scale, names, r, order, width: int) -> Fit:
     """Uncertainty and statistics of one fit from its Jacobian (m, k) in scaled
     parameters (given as the triangular factor R of its QR, which has the same
     ``J^T J`` and singular values): covariance ``sigma^2 (J^T J)^+`` with ``sigma^2 = ssr/(m - k)``;
@@ -135,7 +135,7 @@ def _summary(effects, idx, scale, names, r, order) -> Fit:
     else:
         sv, std, corr = np.zeros(0), np.zeros(k), np.zeros((k, k))
     ll = m * np.log(max(cost / max(m, 1), 1e-300))
-    pe = np.asarray(r.prediction.observation).reshape(-1, 3)
+    pe = np.asarray(r.prediction.observation).reshape(-1, width)
     oe = np.asarray(r.prediction.converged, bool)
     pred, ok = np.empty_like(pe), np.empty_like(oe)
     if len(pe):

@@ -12,6 +12,11 @@ backlash) and is not scored. Rows run in file order, or in the order of an
 optional integer ``sequence`` column (gaps allowed; equal values are an
 error naming the rows). Lines starting with ``#`` are comments; other
 columns (e.g. ``point``) are kept as labels.
+
+Spatial arms (:func:`parse_csv` with ``cables``): ``theta_1..theta_n``,
+``dL_1..dL_m`` on the m position-controlled cables (file order), measured
+``x, y, z`` or ``dx, dy, dz`` (m) and optionally the rotation vector
+``rx, ry, rz`` / ``drx, dry, drz`` (rad).
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ import numpy as np
 from ..files import parse_table, read_text, table_column
 from ..inputs import CdsmInputError
 
-__all__ = ["Measurements", "parse_csv", "read_csv", "packaged", "after_reversals", "KIND_CODES"]
+__all__ = ["Measurements", "parse_csv", "read_csv", "read_for", "packaged", "after_reversals", "KIND_CODES"]
 
 #: Row kinds of the plant's data sets, by code (see ``docs/model.md``).
 KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
@@ -38,9 +43,11 @@ class Measurements:
 
     kind: ``"absolute"`` (x, y) or ``"displacement"`` (dx, dy). theta: (N, n)
     commanded angles or None; pose_cmd: (N, 3) commanded poses or None. dL:
-    (N, n) m. measured: (N, 2) m, NaN on rows that were commanded but not
-    measured. measured_phi: (N,) rad or None. sequence: (N,) int execution
-    order keys, or None (file order). labels: other columns as strings.
+    (N, n) m (spatial: (N, m) on the position-controlled cables). measured:
+    (N, 2) m (spatial: (N, 3)), NaN on rows that were commanded but not
+    measured. measured_phi: (N,) rad or None (spatial: measured_rot (N, 3)
+    rad or None). sequence: (N,) int execution order keys, or None (file
+    order). labels: other columns as strings.
     """
 
     kind: str
@@ -53,6 +60,7 @@ class Measurements:
     labels: Dict[str, List[str]] = field(default_factory=dict)
     source: str = ""
     sequence: Optional[np.ndarray] = None
+    measured_rot: Optional[np.ndarray] = None
 
     def __len__(self) -> int:
         return len(self.measured)
@@ -89,12 +97,16 @@ def _sequence(rows, source: str) -> np.ndarray:
     return seq
 
 
-def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
-    """Parse a measurement table for a robot with ``n`` joints (format above)."""
+def parse_csv(text: str, n: int, source: str = "<csv>", cables: Optional[int] = None) -> Measurements:
+    """Parse a measurement table for a robot with ``n`` joints (format above);
+    ``cables``: the position-controlled cables of a spatial arm (spatial
+    columns), None for a planar arm."""
     cols, rows = parse_table(text, source)
     has = set(cols)
     theta_cols = [f"theta_{i}" for i in range(1, n + 1)]
     pose_cols = ["x_cmd", "y_cmd", "phi_cmd"]
+    if cables is not None:
+        return _parse_spatial(cols, rows, n, cables, source)
     if set(theta_cols) <= has:
         theta, pose = np.stack([table_column(rows, c, source) for c in theta_cols], 1), None
     elif set(pose_cols[:2]) <= has:
@@ -133,9 +145,52 @@ def parse_csv(text: str, n: int, source: str = "<csv>") -> Measurements:
     return Measurements(kind, n, dL, measured, theta, pose, mphi, labels, source, seq)
 
 
-def read_csv(path: "str | os.PathLike[str]", n: int) -> Measurements:
+def _parse_spatial(cols, rows, n: int, m: int, source: str) -> Measurements:
+    has = set(cols)
+    theta_cols = [f"theta_{i}" for i in range(1, n + 1)]
+    if not set(theta_cols) <= has:
+        raise CdsmInputError(f"{source}: missing command columns: a spatial arm needs {', '.join(theta_cols)}; "
+                             f"found {', '.join(cols)}")
+    theta = np.stack([table_column(rows, c, source) for c in theta_cols], 1)
+    dl_cols = [f"dL_{i}" for i in range(1, m + 1)]
+    extra = sorted(c for c in has if c.startswith("dL_") and c not in dl_cols)
+    if extra:
+        raise CdsmInputError(f"{source}: columns {extra} do not fit a robot with {m} position-controlled cables")
+    dL = np.stack([table_column(rows, c, source) if c in has else np.zeros(len(rows)) for c in dl_cols], 1)
+    if {"x", "y", "z"} <= has:
+        kind, mcols, rcols = "absolute", ("x", "y", "z"), ("rx", "ry", "rz")
+    elif {"dx", "dy", "dz"} <= has:
+        kind, mcols, rcols = "displacement", ("dx", "dy", "dz"), ("drx", "dry", "drz")
+    else:
+        raise CdsmInputError(f"{source}: missing measured columns: need x, y, z (absolute) or dx, dy, dz "
+                             f"(displacement); found {', '.join(cols)}")
+    measured = np.stack([table_column(rows, c, source, allow_empty=True) for c in mcols], 1)
+    half = np.isnan(measured).any(axis=1) & ~np.isnan(measured).all(axis=1)
+    if half.any():
+        i = int(np.flatnonzero(half)[0])
+        raise CdsmInputError(f"{source}: row {i + 1}: {', '.join(mcols)} must all be given or all be empty")
+    if np.isnan(measured).all():
+        raise CdsmInputError(f"{source}: no row carries a measurement")
+    rot = None
+    if set(rcols) & has:
+        if not set(rcols) <= has:
+            raise CdsmInputError(f"{source}: give all of {', '.join(rcols)} (a rotation vector, rad) or none")
+        rot = np.stack([table_column(rows, c, source, allow_empty=True) for c in rcols], 1)
+    seq = _sequence(rows, source) if "sequence" in has else None
+    used = set(theta_cols + dl_cols + list(mcols) + list(rcols) + ["sequence"])
+    labels = {c: [r[c] for r in rows] for c in cols if c not in used}
+    return Measurements(kind, n, dL, measured, theta, None, None, labels, source, seq, rot)
+
+
+def read_csv(path: "str | os.PathLike[str]", n: int, cables: Optional[int] = None) -> Measurements:
     """Read a measurement CSV file (format in the module docstring)."""
-    return parse_csv(read_text(path, "measurement"), n, str(path))
+    return parse_csv(read_text(path, "measurement"), n, str(path), cables)
+
+
+def read_for(robot, path: "str | os.PathLike[str]") -> Measurements:
+    """Read a measurement CSV file for ``robot`` (planar or spatial columns)."""
+    cables = len(robot.position_cables) if robot.kind == "spatial" else None
+    return read_csv(path, robot.n, cables)
 
 
 def packaged(name: str, n: int = 3) -> Measurements:
@@ -169,5 +224,9 @@ def after_reversals(meas: Measurements) -> Measurements:
         phi[0::2] = np.nan
     labels = {k: [f"{v[i]} (approach)" if j % 2 == 0 else v[i] for j, i in enumerate(rows)]
               for k, v in meas.labels.items()}
+    rot = pick(meas.measured_rot)
+    if rot is not None:
+        rot = rot.copy()
+        rot[0::2] = np.nan
     return Measurements(meas.kind, meas.n, meas.dL[rows].copy(), measured, pick(meas.theta), pick(meas.pose_cmd),
-                        phi, labels, f"{meas.source} (after reversals)", None)
+                        phi, labels, f"{meas.source} (after reversals)", None, rot)

@@ -22,6 +22,15 @@ backlash               n            dead-band half-width of each upper cable, m
 =====================  ===========  ================================================
 
 Rows run in sequence (backlash has memory): give them in execution order.
+
+Spatial arms (``robot.kind == "spatial"``, ``docs/spatial.md``) have their own
+plant in the Rust core with the effects that carry over (:data:`SPATIAL_EFFECTS`:
+``actuation_scale``, ``cable_offset`` and ``backlash`` on the
+position-controlled cables, ``hole_position`` (3-D per hole of those
+cables), ``link_length`` (3-D per joint offset and per disk), ``cable_elasticity``,
+``frame_misalignment`` (rotation vector and translation) and ``tip_offset``
+(3-D)); its observations are ``[x, y, z, rx, ry, rz]``. Every function below
+takes either kind (:func:`effects_of`, :func:`width`).
 """
 
 from __future__ import annotations
@@ -37,7 +46,8 @@ from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
 
 __all__ = ["EFFECTS", "BLOCKS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size", "params",
-           "effect_indices", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype"]
+           "effect_indices", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
+           "SPATIAL_EFFECTS", "effects_of", "width", "dims", "commands", "command_lengths"]
 
 #: Parameter blocks of the flat vector, in order (defined by the Rust core).
 BLOCKS: Tuple[str, ...] = tuple(_cdsm.PLANT_EFFECTS)
@@ -59,6 +69,37 @@ TYPICAL: Dict[str, float] = {
     "frame_misalignment": 5e-3, "tip_offset": 1e-3, "backlash": 3e-5,
 }
 assert set(TYPICAL) == set(BLOCKS), "a typical size per parameter block"
+
+#: The effects of a spatial arm's plant (its parameter blocks, in vector order).
+SPATIAL_EFFECTS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_position", "link_length",
+                                    "cable_elasticity", "frame_misalignment", "tip_offset", "backlash")
+TYPICAL["hole_position"] = 2e-4
+
+
+def effects_of(robot) -> Tuple[str, ...]:
+    """The diagnosis library of a robot's kind."""
+    return SPATIAL_EFFECTS if robot.kind == "spatial" else EFFECTS
+
+
+def width(robot) -> int:
+    """Observed components per row: 3 ([x, y, phi]) planar, 6 ([x, y, z, rx, ry, rz]) spatial."""
+    return 6 if robot.kind == "spatial" else 3
+
+
+def dims(robot) -> int:
+    """Position components per row: 2 planar, 3 spatial."""
+    return 3 if robot.kind == "spatial" else 2
+
+
+def command_lengths(robot, theta) -> np.ndarray:
+    """The nominal lengths (m) of the commanded cables at ``theta`` (N, n) rad:
+    the upper cables (planar) or the position-controlled ones (spatial)."""
+    return robot.position_lengths(theta) if robot.kind == "spatial" else robot.upper_lengths(theta)
+
+
+def commands(robot) -> int:
+    """Commanded cables per row (the width of ``dL``): n planar, the position-controlled cables spatial."""
+    return len(robot.position_cables) if robot.kind == "spatial" else robot.n
 
 # Hidden effects for 3-joint robots, ~1-2x TYPICAL with mixed signs: every
 # effect of the library and a two-effect mixture (SI). The virtual-prototype
@@ -99,8 +140,8 @@ def bounds(robot: Robot) -> Tuple[np.ndarray, np.ndarray]:
 def effect_indices(robot: Robot, effect: str) -> np.ndarray:
     """Indices into the flat vector of the parameters an effect fits."""
     lay = layout(robot)
-    if effect not in EFFECTS and effect not in lay:
-        raise CdsmInputError(f"`effects`: unknown effect {effect!r}; known: {', '.join(EFFECTS)}")
+    if effect not in effects_of(robot) and effect not in lay:
+        raise CdsmInputError(f"`effects`: unknown effect {effect!r}; known: {', '.join(effects_of(robot))}")
     blocks = EFFECT_BLOCKS.get(effect, (effect,))
     return np.concatenate([np.arange(lay[b].start, lay[b].stop) for b in blocks])
 
@@ -146,7 +187,8 @@ def kind_codes(kind, rows: int) -> np.ndarray:
 
 def _inputs(robot: Robot, theta_cmd, dL, kind):
     t, _ = as_batch("theta_cmd", theta_cmd, robot.n)
-    d = np.zeros_like(t) if dL is None else as_batch("dL", dL, robot.n)[0]
+    w = commands(robot)
+    d = np.zeros((len(t), w)) if dL is None else as_batch("dL", dL, w)[0]
     if len(d) != len(t):
         raise CdsmInputError(f"`dL`: expected {len(t)} rows, got {len(d)}")
     return t, d, kind_codes(kind, len(t)).tolist()
@@ -171,7 +213,7 @@ def _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter):
     t, d, k = _inputs(robot, theta_cmd, dL, kind)
     res = robot.core.plant_predict(pp, t, d, k, float(tol), int(max_iter), robot.threads)
     shape = (len(pp), len(t))
-    out = (res.observation.reshape(shape + (3,)), res.converged.reshape(shape),
+    out = (res.observation.reshape(shape + (width(robot),)), res.converged.reshape(shape),
            res.theta.reshape(shape + (robot.n,)))
     return tuple(a[0] for a in out) if single else out
 
@@ -181,7 +223,10 @@ def linearise(robot: Robot, p, free, theta_cmd, dL=None, kind="absolute", tol: f
     """Predictions (N, 3), converged (N,) and their exact Jacobian (N, 3, k)
     with respect to the parameters ``free`` (indices into the flat vector) of
     the plant ``p`` (P,) — implicit function theorem at the settled
-    configurations, dual numbers in the Rust core (no finite differences)."""
+    configurations, dual numbers in the Rust core (no finite differences).
+    Planar arms."""
+    if robot.kind != "planar":
+        raise CdsmInputError("linearise: planar arms only (the spatial plant's Jacobian is in the fit)")
     pp = np.ascontiguousarray(as_batch("params", p, size(robot))[0][0])
     t, d, k = _inputs(robot, theta_cmd, dL, kind)
     fr = [int(i) for i in np.atleast_1d(free)]
@@ -213,8 +258,9 @@ class VirtualPrototype:
 
     def measure(self, theta_cmd, dL=None, kind="absolute", observe=None) -> Measurements:
         """Measure commands ``theta_cmd`` (N, n) rad with upper-cable extras
-        ``dL`` (N, n) m, run in the given order: a :class:`Measurements` of
-        the given kind (phi not measured). ``observe`` (N,) bool: rows to
+        ``dL`` (N, n) m (spatial: (N, m) on the position-controlled cables),
+        run in the given order: a :class:`Measurements` of the given kind
+        (x, y — spatial x, y, z —; the attitude not measured). ``observe`` (N,) bool: rows to
         measure (the others run only and come out unmeasured)."""
         t, d, _ = _inputs(self.robot, theta_cmd, dL, "absolute")
         seen = np.ones(len(t), bool) if observe is None else np.asarray(observe, bool)
@@ -224,7 +270,8 @@ class VirtualPrototype:
             raise CdsmInputError(f"virtual prototype: {int((~conv[seen]).sum())} commands do not settle")
         rng = np.random.default_rng(self.seed)
         sigma = self.noise * (np.sqrt(2.0) if kind == "displacement" else 1.0)
-        meas = obs[:, :2] + rng.normal(0.0, sigma, (len(t), 2))
+        k = dims(self.robot)
+        meas = obs[:, :k] + rng.normal(0.0, sigma, (len(t), k))
         meas[~seen] = np.nan
         return Measurements(kind, self.robot.n, d, meas, theta=t, source="virtual prototype")
 
@@ -233,11 +280,11 @@ class VirtualPrototype:
         """Random commands within ±limit (rad) with upper-cable extras within ±dl
         (m; for displacement data one cable per row gets ±dl exactly)."""
         rng = np.random.default_rng(self.seed + 1 if seed is None else seed)
-        n = self.robot.n
+        n, w = self.robot.n, commands(self.robot)
         theta = rng.uniform(-limit, limit, (rows, n))
-        d = np.zeros((rows, n))
+        d = np.zeros((rows, w))
         if kind == "displacement":
-            d[np.arange(rows), rng.integers(0, n, rows)] = rng.choice([-dl, dl], rows)
+            d[np.arange(rows), rng.integers(0, w, rows)] = rng.choice([-dl, dl], rows)
         else:
-            d = rng.uniform(-dl, dl, (rows, n))
+            d = rng.uniform(-dl, dl, (rows, w))
         return theta, d

@@ -7,7 +7,7 @@ import os
 import sys
 import time
 
-from .registry import (check_out_file, load_robot, options, positive_int, prepare_dir, subcommand)
+from .registry import (UserError, check_out_file, load_robot, options, positive_int, prepare_dir, subcommand)
 from typing import List
 
 
@@ -75,14 +75,14 @@ def _diagnose_args(p: argparse.ArgumentParser) -> None:
 @options(_diagnose_args)
 def _diagnose_run(args) -> int:
     from ..calibration import diagnosis as diagnose
-    from ..calibration.measurements import read_csv
+    from ..calibration.measurements import read_for
     from ..files import write_json
     from ..report import diagnosis as diagnose_report
 
     t0 = time.perf_counter()
     show = not args.quiet
     robot = load_robot(args.robot)
-    meas = read_csv(args.data, robot.n)
+    meas = read_for(robot, args.data)
     report_dir = None if args.report is None else prepare_dir(args.report, "--report")
     for opt, path in (("--json", args.json), ("--save-model", args.save_model)):
         check_out_file(path, opt)
@@ -103,6 +103,8 @@ def _diagnose_run(args) -> int:
 
         Model.from_diagnosis(d).save(args.save_model)
         print(f"model: {args.save_model}")
+    if args.suggest is not None and robot.kind != "planar":
+        raise UserError("--suggest: experiment design is available for planar arms only (not yet spatial)")
     if args.suggest is not None:
         from ..calibration.experiment import suggest
 

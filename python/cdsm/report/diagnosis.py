@@ -195,8 +195,8 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     base, final = d.baseline, d.final()
     b_rms, f_rms, floor = base.heldout_rms, final.heldout_rms, d.noise_floor
     g_base, g_final = _gaps(d)
-    size_b = np.hypot(g_base[:, 0], g_base[:, 1])
-    size_f = np.hypot(g_final[:, 0], g_final[:, 1])
+    size_b = np.linalg.norm(g_base, axis=1)
+    size_f = np.linalg.norm(g_final, axis=1)
     out: Dict[str, List[str]] = {k: [] for k in ("answer", "where", "which", "shrink", "identifiability",
                                                  "flagged")}
     cv = ("leave-one-out" if d.folds >= nu else f"{d.folds}-fold") + " cross-validation"
@@ -401,7 +401,7 @@ def _quiver_figure(d: diagnose.Diagnosis):
     xy = _commanded_xy(d) * 1e3
     g_b, g_f = _gaps(d)
     names = _row_names(d)
-    mag = np.hypot(g_b[:, 0], g_b[:, 1])
+    mag = np.linalg.norm(g_b, axis=1)
     gmax = float(np.nanmax(mag)) if np.isfinite(mag).any() else 1.0
     span = float(np.nanmax(np.ptp(xy[np.isfinite(xy).all(1)], axis=0))) if np.isfinite(xy).all(1).sum() > 1 else 1.0
     span = span if span > 0 else 1.0
@@ -491,7 +491,7 @@ def _candidates_figure(d: diagnose.Diagnosis):
 
 def _features_figure(d: diagnose.Diagnosis, k: int = 4):
     g_b, g_f = _gaps(d)
-    sb, sf = np.hypot(g_b[:, 0], g_b[:, 1]), np.hypot(g_f[:, 0], g_f[:, 1])
+    sb, sf = np.linalg.norm(g_b, axis=1), np.linalg.norm(g_f, axis=1)
     feats = [(n, r) for n, r in _ranked_features(d, sb) if np.isfinite(r)][:k]
     if not feats:
         return None
@@ -558,7 +558,7 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, str]) -> Document:
     g_b, g_f = _gaps(d)
     hb, hf = _heldout_full(d, d.baseline), _heldout_full(d, d.final())
     xy = _commanded_xy(d)
-    order = np.argsort(-np.nan_to_num(np.hypot(g_b[:, 0], g_b[:, 1]), nan=np.inf))
+    order = np.argsort(-np.nan_to_num(np.linalg.norm(g_b, axis=1), nan=np.inf))
     rows = []
     for i in order[:min(len(order), 12)]:
         rows.append([names[i], f"{xy[i, 0] * 1e3:.1f}, {xy[i, 1] * 1e3:.1f}",
@@ -570,8 +570,8 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, str]) -> Document:
     doc.table(["feature", "Spearman ρ with |gap| (nominal)", "with |gap| (final)"],
               [[k, f"{rho:+.2f}" if np.isfinite(rho) else "constant",
                 (lambda r: f"{r:+.2f}" if np.isfinite(r) else "constant")(
-                    dict(_ranked_features(d, np.hypot(g_f[:, 0], g_f[:, 1]))).get(k, float("nan")))]
-               for k, rho in _ranked_features(d, np.hypot(g_b[:, 0], g_b[:, 1]))])
+                    dict(_ranked_features(d, np.linalg.norm(g_f, axis=1))).get(k, float("nan")))]
+               for k, rho in _ranked_features(d, np.linalg.norm(g_b, axis=1))])
     doc.h(2, "Which effect explains it")
     for t in f["which"]:
         doc.p(t)

@@ -5,8 +5,11 @@ drawn in mm. Colours follow the paper: X red, Y blue, phi green.
 
 from __future__ import annotations
 
+import multiprocessing
 import os
-from typing import Optional
+import sys
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -14,10 +17,11 @@ from matplotlib.colors import LinearSegmentedColormap, Normalize
 from matplotlib.figure import Figure
 
 from ..inputs import CdsmInputError
+from ..progress import Progress
 from ..robot import Robot
 
 __all__ = ["DPI", "RED", "BLUE", "GREEN", "HUES", "new_figure", "report_style", "save", "hue_cmap",
-           "sym_norm", "chain_points", "draw_arm", "file_key", "tight", "few_ticks"]
+           "sym_norm", "chain_points", "draw_arm", "file_key", "tight", "few_ticks", "render_jobs", "FigureJob"]
 
 DPI = 110
 RED, BLUE, GREEN = "#d62728", "#1f5fbf", "#2ca02c"
@@ -157,3 +161,55 @@ def draw_arm(ax, robot: Robot, theta, color: str, ls: str = "-", lw: float = 2.0
 def file_key(key: str) -> str:
     """A scenario key as a file-name part: ``+`` -> ``plus``, ``-`` -> ``minus``."""
     return key.replace("+", "plus").replace("-", "minus")
+
+
+# ---------------------------------------------------------------------------
+# rendering a report's figures, in forked processes
+# ---------------------------------------------------------------------------
+#: One figure job: ``(name, make)``; ``make()`` returns ``[(file name, Figure)]``.
+FigureJob = Tuple[str, Callable[[], List[Tuple[str, Figure]]]]
+
+# what forked figure workers inherit: (jobs_of, study, outdir)
+_FORKED: Optional[tuple] = None
+
+
+def _render(outdir: str, make) -> Dict[str, str]:
+    return {name: save(fig, os.path.join(outdir, f"{name}.png")) for name, fig in make()}
+
+
+def _render_forked(i: int) -> Dict[str, str]:
+    jobs_of, study, outdir = _FORKED
+    return _render(outdir, jobs_of(study)[i][1])
+
+
+def render_jobs(jobs_of: Callable[[object], List[FigureJob]], study, outdir: "str | os.PathLike[str]",
+                progress: bool = False, workers: Optional[int] = None) -> Dict[str, str]:
+    """Write the figures ``jobs_of(study)`` (a list of :data:`FigureJob`,
+    costliest first) as ``outdir/<name>.png``; returns {name: path} in job
+    order. ``workers`` processes render them (default: one per core; forked,
+    so only where the platform forks — elsewhere one; each worker rebuilds
+    the job list from the inherited study). Shows a progress line when
+    ``progress``."""
+    global _FORKED
+    outdir = os.fspath(outdir)
+    jobs = jobs_of(study)
+    n = (os.cpu_count() or 1) if workers is None else int(workers)
+    fork = "fork" in multiprocessing.get_all_start_methods() and sys.platform.startswith("linux")
+    bar = Progress(len(jobs), "figures", progress)
+    out: Dict[str, Dict[str, str]] = {}
+    if n > 1 and fork and len(jobs) > 1:
+        _FORKED = (jobs_of, study, outdir)
+        try:
+            ctx = multiprocessing.get_context("fork")
+            with ProcessPoolExecutor(min(n, len(jobs)), mp_context=ctx) as ex:
+                futs = {ex.submit(_render_forked, i): name for i, (name, _) in enumerate(jobs)}
+                for f in as_completed(futs):
+                    out[futs[f]] = f.result()
+                    bar.update(1)
+        finally:
+            _FORKED = None
+    else:
+        for name, make in jobs:
+            out[name] = _render(outdir, make)
+            bar.update(1)
+    return {k: v for name, _ in jobs for k, v in out[name].items()}

@@ -10,10 +10,7 @@ configuration diagrams the arm before the error is blue, after it red.
 
 from __future__ import annotations
 
-import multiprocessing
 import os
-import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
@@ -23,9 +20,8 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
 from ..accuracy.scenarios import deviation
-from ..progress import Progress
 from ..robot import Robot
-from .figures import (BLUE, GREEN, HUES, RED, draw_arm, file_key, hue_cmap, new_figure, report_style, save,
+from .figures import (BLUE, GREEN, HUES, RED, draw_arm, file_key, hue_cmap, new_figure, render_jobs, report_style,
                       few_ticks, sym_norm, tight)
 
 __all__ = [
@@ -583,45 +579,10 @@ def figure_jobs(study) -> List[Tuple[str, Callable[[], List[Tuple[str, Figure]]]
     return jobs
 
 
-# what forked figure workers inherit: (study, outdir)
-_FORKED: Optional[tuple] = None
-
-
-def _render(study, outdir: str, make) -> Dict[str, str]:
-    return {name: save(fig, os.path.join(outdir, f"{name}.png")) for name, fig in make()}
-
-
-def _render_forked(i: int) -> Dict[str, str]:
-    study, outdir = _FORKED
-    return _render(study, outdir, figure_jobs(study)[i][1])
-
-
 def all_figures(study, outdir: "str | os.PathLike[str]", progress: bool = False,
                 workers: Optional[int] = None) -> Dict[str, str]:
     """Write every figure of the study as ``outdir/<name>.png``; returns
     {name: path}. ``workers`` processes render them (default: one per core;
     forked, so only where the platform forks — elsewhere one). Shows a
-    progress line when ``progress``."""
-    global _FORKED
-    outdir = os.fspath(outdir)
-    jobs = figure_jobs(study)
-    n = (os.cpu_count() or 1) if workers is None else int(workers)
-    fork = "fork" in multiprocessing.get_all_start_methods() and sys.platform.startswith("linux")
-    bar = Progress(len(jobs), "figures", progress)
-    out: Dict[str, Dict[str, str]] = {}
-    if n > 1 and fork and len(jobs) > 1:
-        _FORKED = (study, outdir)
-        try:
-            ctx = multiprocessing.get_context("fork")
-            with ProcessPoolExecutor(min(n, len(jobs)), mp_context=ctx) as ex:
-                futs = {ex.submit(_render_forked, i): name for i, (name, _) in enumerate(jobs)}
-                for f in as_completed(futs):
-                    out[futs[f]] = f.result()
-                    bar.update(1)
-        finally:
-            _FORKED = None
-    else:
-        for name, make in jobs:
-            out[name] = _render(study, outdir, make)
-            bar.update(1)
-    return {k: v for name, _ in jobs for k, v in out[name].items()}
+    progress line when ``progress`` (:func:`cdsm.report.figures.render_jobs`)."""
+    return render_jobs(figure_jobs, study, outdir, progress=progress, workers=workers)
