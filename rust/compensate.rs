@@ -18,12 +18,35 @@ use crate::plant::{Plant, SettleWork};
 use crate::robot::Robot;
 use crate::solve::SolveOptions;
 
+/// Appends the command that makes the screws deliver `delivered` (m) from
+/// the delivered lengths `state` (updated) through dead bands of half-width
+/// `b`: a cable whose delivered length must grow is commanded `r + b`, one
+/// that must shrink `r - b`, one that stays is not moved.
+pub fn command_through_backlash(
+    delivered: &[f64],
+    b: &[f64],
+    state: &mut [f64],
+    out: &mut Vec<f64>,
+) {
+    for i in 0..delivered.len() {
+        let r = delivered[i];
+        out.push(if r > state[i] {
+            r + b[i]
+        } else if r < state[i] {
+            r - b[i]
+        } else {
+            state[i]
+        });
+        state[i] = r;
+    }
+}
+
 /// The compensated commands of `N` targets.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Compensation {
-    /// `(N, n)` upper-cable length commands (m), in the targets' order.
+    /// `(N, m)` length commands of the commanded cables (m), in the targets' order.
     pub command: Vec<f64>,
-    /// `(N, n)` the nominal commands `L_upper(theta_cmd)` (m).
+    /// `(N, m)` the nominal commands at `theta_cmd` (m).
     pub nominal: Vec<f64>,
     /// `(N,)` the solve met the target within `tol`.
     pub converged: Vec<bool>,
@@ -31,9 +54,10 @@ pub struct Compensation {
     pub residual: Vec<f64>,
     /// `(N, n)` the configuration the plant settles at (rad).
     pub theta: Vec<f64>,
-    /// `(N, 3)` what the instrument is predicted to see with the commands.
+    /// `(N, width)` what the instrument is predicted to see with the commands
+    /// (planar `[x, y, phi]`, spatial `[x, y, z, rx, ry, rz]`).
     pub seen: Vec<f64>,
-    /// `(N, 3)` the same with the nominal commands (run through the backlash too).
+    /// `(N, width)` the same with the nominal commands (run through the backlash too).
     pub seen_nominal: Vec<f64>,
 }
 
@@ -185,20 +209,9 @@ pub fn compensate(
         ..Compensation::default()
     };
     // in order through the backlash
-    let b = plant.backlash().to_vec();
     let mut state = start.map_or_else(|| plant.reference_lengths().to_vec(), |s| s.to_vec());
     for (r, st, settled, theta, seen) in parts.into_iter().flatten() {
-        for i in 0..n {
-            let c = if r[i] > state[i] {
-                r[i] + b[i]
-            } else if r[i] < state[i] {
-                r[i] - b[i]
-            } else {
-                state[i]
-            };
-            res.command.push(c);
-            state[i] = r[i];
-        }
+        command_through_backlash(&r, plant.backlash(), &mut state, &mut res.command);
         res.converged.push(st.converged && settled);
         res.residual.push(st.residual);
         res.theta.extend_from_slice(&theta);

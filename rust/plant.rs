@@ -265,6 +265,22 @@ impl Sequence {
     }
 }
 
+/// The delivered length of one cable after the command `cmd` (m) from the
+/// delivered length `state`, through a dead band of half-width `b`
+/// (`docs/model.md`, "Backlash"): it follows the command at `b` behind,
+/// and stays while the command is within the band.
+#[inline]
+pub fn dead_band<S: Real>(cmd: f64, state: S, b: S) -> S {
+    let gap = cmd - state.val();
+    if gap > b.val() {
+        S::cst(cmd) - b
+    } else if gap < -b.val() {
+        S::cst(cmd) + b
+    } else {
+        state
+    }
+}
+
 /// The realised rest lengths of every command (`(commands, n)`, m): the
 /// backlash scan from the straight pose, then the actuators.
 fn realised<S: Real>(seq: &Sequence, prm: &Params<S>, l_ref: &[f64]) -> Vec<S> {
@@ -273,14 +289,7 @@ fn realised<S: Real>(seq: &Sequence, prm: &Params<S>, l_ref: &[f64]) -> Vec<S> {
     let mut out = Vec::with_capacity(seq.command.len());
     for cmd in seq.command.chunks_exact(n) {
         for i in 0..n {
-            let c = S::cst(cmd[i]);
-            let b = prm.backlash[i];
-            let gap = cmd[i] - state[i].val();
-            if gap > b.val() {
-                state[i] = c - b;
-            } else if gap < -b.val() {
-                state[i] = c + b;
-            }
+            state[i] = dead_band(cmd[i], state[i], prm.backlash[i]);
             let r = state[i];
             out.push((r - l_ref[i]) * (prm.scale + 1.0) + l_ref[i] + prm.offset[i]);
         }
@@ -617,13 +626,7 @@ impl<'a> Plant<'a> {
     /// one command `cmd` from the backlash state `state` (updated), m.
     pub fn realise_one(&self, cmd: &[f64], state: &mut [f64], out: &mut [f64]) {
         for i in 0..cmd.len() {
-            let b = self.prm.backlash[i];
-            let gap = cmd[i] - state[i];
-            if gap > b {
-                state[i] = cmd[i] - b;
-            } else if gap < -b {
-                state[i] = cmd[i] + b;
-            }
+            state[i] = dead_band(cmd[i], state[i], self.prm.backlash[i]);
         }
         self.actuate(state, out);
     }

@@ -178,3 +178,52 @@ def test_a_tracker_frame_is_registered_in_3d(cdsm, arm):
     # the translation (metres away) to a few tens of µm
     np.testing.assert_allclose(got[:3], frame[:3], atol=1e-3)
     np.testing.assert_allclose(got[3:], frame[3:], atol=5e-5)
+
+
+def test_compensated_commands_put_the_reference_arm_on_target(cdsm, ref, arm, tmp_path):
+    """Commands from a fitted spatial model, played on the NumPy reference arm
+    with the same actuator gain and offsets computed independently, land on
+    the targets; the nominal commands miss by about the offsets' effect."""
+    from cdsm.calibration.model import Model
+
+    robot, mirror = arm
+    pos = ref.spatial.position_cables(mirror)
+    off = np.array([1e-4, -2e-4, 5e-5, 0.0])
+    model = Model.from_effects(robot, {"actuation_scale": [0.03], "cable_offset": off})
+    path = tmp_path / "m.json"
+    model.save(path)
+    model = Model.load(path)
+    th = np.random.default_rng(1).uniform(-0.3, 0.3, (6, robot.n))
+    targets = robot.fk(th)[:, :3]
+    c = model.compensate(targets)
+    assert c.converged.all() and c.commands.shape == (6, len(pos)) and not any(c.flags)
+    l_ref = ref.spatial.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
+
+    def played(cmd):
+        return _ref_tips(mirror, l_ref + 1.03 * (cmd - l_ref) + off, seed=c.theta_cmd)
+
+    np.testing.assert_allclose(played(c.commands), targets, rtol=0, atol=1e-9)
+    miss = np.linalg.norm(played(c.nominal_commands) - targets, axis=1)
+    assert (miss > 1e-4).all()
+    np.testing.assert_allclose(c.predicted_error_nominal, miss, rtol=1e-6)
+
+
+def test_cli_compensate_spatial_targets(cdsm, arm, tmp_path, capsys):
+    from cdsm.calibration.model import Model
+    from cdsm.cli import main
+
+    robot, _ = arm
+    Model.from_effects(robot, {"actuation_scale": [0.03]}).save(tmp_path / "m.json")
+    tips = robot.fk(np.random.default_rng(2).uniform(-0.3, 0.3, (3, robot.n)))
+    t = tmp_path / "t.csv"
+    t.write_text("x,y,z,rx,ry,rz\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in tips))
+    out = tmp_path / "o.csv"
+    assert main(["compensate", str(t), "--model", str(tmp_path / "m.json"), "--out", str(out)]) == 0
+    lines = [ln for ln in out.read_text().splitlines() if not ln.startswith("#")]
+    head = lines[0].split(",")
+    cab = [f"L_{i + 1}" for i in robot.position_cables]
+    assert head[:6 + len(cab)] == ["x", "y", "z", "rx", "ry", "rz"] + cab and "predicted_rotation_error" in head
+    assert all(r.split(",")[head.index("converged")] == "1" for r in lines[1:])
+    t.write_text("x,y,z,rx\n0,0,0.3,0\n")
+    assert main(["compensate", str(t), "--model", str(tmp_path / "m.json"), "--out", str(out)]) == 2
+    assert "rx" in capsys.readouterr().err

@@ -21,8 +21,8 @@ from . import _cdsm
 from .files import read_text
 from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
 
-__all__ = ["Arm", "Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS", "IK_METHODS",
-           "packaged_robots"]
+__all__ = ["Arm", "Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
+           "IK_METHODS", "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 

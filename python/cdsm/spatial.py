@@ -62,6 +62,11 @@ class SpatialRobot(Arm):
         return self.core.gravity
 
     @property
+    def straight_length(self) -> float:
+        """Distance of the straight arm's tip (theta = 0) from the base, m."""
+        return self.core.straight_length
+
+    @property
     def cables(self) -> int:
         """Number of cables."""
         return self.core.cables

@@ -3,7 +3,9 @@
 //! documented API is `cdsm.SpatialRobot`.
 
 use super::convert::{err, kinds, opt_slice, options, slice, vec1, Arr, Array, CdsmInputError};
-use super::results::{MonteCarloStats, PlantFit, PlantPrediction, SolveResult, TensionResult};
+use super::results::{
+    CompensationResult, MonteCarloStats, PlantFit, PlantPrediction, SolveResult, TensionResult,
+};
 use crate::fit::{self, FitSpec};
 use crate::spatial::plant::{self as splant, SpatialFit, SpatialSequence};
 use crate::spatial::{self, solve::SpatialMask, SpatialRobot};
@@ -79,6 +81,12 @@ impl CoreSpatialRobot {
     #[getter]
     fn gravity<'py>(&self, py: Python<'py>) -> Array<'py> {
         vec1(py, self.inner.gravity.to_vec())
+    }
+
+    /// Distance of the straight arm's tip from the base (m).
+    #[getter]
+    fn straight_length(&self) -> f64 {
+        self.inner.straight_length()
     }
 
     /// Number of cables.
@@ -327,6 +335,35 @@ impl CoreSpatialRobot {
             })
             .map_err(err)?;
         fits.into_iter().map(|f| PlantFit::new(py, f)).collect()
+    }
+
+    #[pyo3(signature = (params, theta_cmd, targets, weights, start, tol, settle_tol, max_iter, threads))]
+    #[allow(clippy::too_many_arguments)]
+    fn compensate(
+        &self,
+        py: Python<'_>,
+        params: Arr<'_>,
+        theta_cmd: Arr<'_>,
+        targets: Arr<'_>,
+        weights: Vec<f64>,
+        start: Option<Arr<'_>>,
+        tol: f64,
+        settle_tol: f64,
+        max_iter: u32,
+        threads: usize,
+    ) -> PyResult<CompensationResult> {
+        let p = slice("params", &params)?;
+        let t = slice("theta_cmd", &theta_cmd)?;
+        let g = slice("targets", &targets)?;
+        let s = opt_slice("start", &start)?;
+        let w: [f64; 6] = weights.try_into().map_err(|_| {
+            CdsmInputError::new_err("`weights`: expected 6 values (x, y, z, rx, ry, rz)")
+        })?;
+        let o = options(settle_tol, 100, false);
+        let out = py
+            .detach(|| splant::compensate(&self.inner, p, t, g, w, s, &o, tol, max_iter, threads))
+            .map_err(err)?;
+        Ok(CompensationResult::new(py, out))
     }
 
     fn tensions(

@@ -13,7 +13,7 @@ use crate::batch::{rows_exactly, rows_of, split_rows};
 use crate::error::{CdsmError, Result};
 use crate::fit::FitModel;
 use crate::lm::{self, Lm, Problem, Step, Workspace};
-use crate::plant::{Predictions, RowKind};
+use crate::plant::{dead_band, Predictions, RowKind};
 use crate::solve::SolveOptions;
 use nalgebra::Vector3;
 
@@ -227,25 +227,37 @@ impl<'a> SpatialPlant<'a> {
     /// the backlash scan from the straight pose, then the actuators.
     pub fn realised(&self, seq: &SpatialSequence) -> Vec<f64> {
         let m = self.pos.len();
-        let (s, o, b) = (
-            self.p[self.off[0]],
-            &self.p[self.off[1]..self.off[1] + m],
-            &self.p[self.off[7]..self.off[7] + m],
-        );
+        let b = self.backlash();
         let mut state = self.l_ref.clone();
         let mut out = Vec::with_capacity(seq.command.len());
         for cmd in seq.command.chunks_exact(m) {
             for i in 0..m {
-                let gap = cmd[i] - state[i];
-                if gap > b[i] {
-                    state[i] = cmd[i] - b[i];
-                } else if gap < -b[i] {
-                    state[i] = cmd[i] + b[i];
-                }
-                out.push(self.l_ref[i] + (1.0 + s) * (state[i] - self.l_ref[i]) + o[i]);
+                state[i] = dead_band(cmd[i], state[i], b[i]);
             }
+            self.actuate(&state, &mut out);
         }
         out
+    }
+
+    /// Appends the realised rest lengths of the delivered lengths
+    /// `delivered` (m): `L_ref + (1 + s)(delivered - L_ref) + o`.
+    pub fn actuate(&self, delivered: &[f64], out: &mut Vec<f64>) {
+        let m = self.pos.len();
+        let (s, o) = (self.p[self.off[0]], &self.p[self.off[1]..self.off[1] + m]);
+        for i in 0..m {
+            out.push(self.l_ref[i] + (1.0 + s) * (delivered[i] - self.l_ref[i]) + o[i]);
+        }
+    }
+
+    /// The backlash half-widths of the position cables (m).
+    pub fn backlash(&self) -> &[f64] {
+        let m = self.pos.len();
+        &self.p[self.off[7]..self.off[7] + m]
+    }
+
+    /// The straight-pose lengths (the backlash state at the start), m.
+    pub fn reference_lengths(&self) -> &[f64] {
+        &self.l_ref
     }
 
     /// Settles the arm for realised lengths `real` (m); `theta` holds the seed
@@ -528,4 +540,187 @@ impl SpatialRobot {
         chain.at(self, &vec![0.0; self.n()]);
         chain.end().p.norm()
     }
+}
+
+/// One compensation target: the delivered lengths that put the plant's
+/// observation on the target (weighted components), Jacobian by central
+/// differences of warm-started settles.
+struct Target<'a> {
+    plant: &'a SpatialPlant<'a>,
+    work: SettleWork,
+    chain: Chain,
+    target: [f64; 6],
+    weights: [f64; 6],
+    active: Vec<usize>,
+    seed: &'a [f64],
+    theta: Vec<f64>,
+    real: Vec<f64>,
+}
+
+impl Target<'_> {
+    fn seen(&mut self, r: &[f64]) -> Option<[f64; 6]> {
+        self.real.clear();
+        self.plant.actuate(r, &mut self.real);
+        self.theta.copy_from_slice(self.seed);
+        let real = std::mem::take(&mut self.real);
+        let ok = self.plant.settle(&real, &mut self.theta, &mut self.work);
+        self.real = real;
+        ok.then(|| self.plant.observe(&self.theta, &mut self.chain))
+    }
+}
+
+impl Problem for Target<'_> {
+    fn dims(&self) -> (usize, usize) {
+        (self.active.len(), self.plant.pos.len())
+    }
+
+    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+        let Some(o) = self.seen(x) else {
+            return false;
+        };
+        for (k, &c) in self.active.iter().enumerate() {
+            r[k] = self.weights[c] * (o[c] - self.target[c]);
+        }
+        if let Some(j) = jac {
+            let m = x.len();
+            let h = 1e-7;
+            let mut xp = x.to_vec();
+            for q in 0..m {
+                xp[q] = x[q] + h;
+                let Some(a) = self.seen(&xp) else {
+                    return false;
+                };
+                xp[q] = x[q] - h;
+                let Some(b) = self.seen(&xp) else {
+                    return false;
+                };
+                xp[q] = x[q];
+                for (k, &c) in self.active.iter().enumerate() {
+                    j[k * m + q] = self.weights[c] * (a[c] - b[c]) / (2.0 * h);
+                }
+            }
+        }
+        r.iter().all(|v| v.is_finite())
+    }
+}
+
+/// Compensation of a spatial plant `p`: for every target `[x, y, z, rx, ry,
+/// rz]` (m, rad; weights per component, 0: free) the position-cable lengths
+/// the screws must deliver so that the plant's observation meets it, seeded
+/// at `theta_cmd` (the nominal configuration), then commanded in order through
+/// the backlash from `start` (delivered lengths, m; `None`: the straight pose).
+#[allow(clippy::too_many_arguments)]
+pub fn compensate(
+    robot: &SpatialRobot,
+    p: &[f64],
+    theta_cmd: &[f64],
+    targets: &[f64],
+    weights: [f64; 6],
+    start: Option<&[f64]>,
+    opts: &SolveOptions,
+    tol: f64,
+    max_iter: u32,
+    threads: usize,
+) -> Result<crate::compensate::Compensation> {
+    let n = robot.n();
+    let rows = rows_of("targets", targets, WIDTH)?;
+    rows_exactly("theta_cmd", theta_cmd, n, rows)?;
+    crate::error::check_finite("weights", &weights)?;
+    let active: Vec<usize> = (0..WIDTH).filter(|c| weights[*c] != 0.0).collect();
+    if active.is_empty() || weights.iter().any(|w| *w < 0.0) {
+        return Err(CdsmError::Option {
+            name: "weights".into(),
+            problem: format!("need weights >= 0 with at least one > 0, got {weights:?}"),
+        });
+    }
+    if !(tol > 0.0 && tol.is_finite()) {
+        return Err(CdsmError::Option {
+            name: "tol".into(),
+            problem: format!("must be positive and finite, got {tol}"),
+        });
+    }
+    let plant = SpatialPlant::new(robot, p)?;
+    let m = plant.pos.len();
+    if let Some(s) = start {
+        rows_exactly("start", s, m, 1)?;
+    }
+    let mut chain = Chain::new(robot);
+    let mut pts = Vec::new();
+    let mut nominal = Vec::with_capacity(rows * m);
+    for i in 0..rows {
+        chain.at(robot, &theta_cmd[i * n..(i + 1) * n]);
+        nominal.extend(
+            plant
+                .pos
+                .iter()
+                .map(|c| cable_length(robot, &chain, *c, &mut pts, None)),
+        );
+    }
+    let lm = Lm::equations(
+        if active.len() <= m {
+            Step::MinNorm
+        } else {
+            Step::Normal
+        },
+        tol,
+        max_iter,
+    );
+    let parts = split_rows(rows, threads, |range| {
+        let mut ws = Workspace::default();
+        let mut out = Vec::with_capacity(range.len());
+        for i in range {
+            let mut prob = Target {
+                plant: &plant,
+                work: SettleWork::new(robot, *opts),
+                chain: Chain::new(robot),
+                target: std::array::from_fn(|c| targets[WIDTH * i + c]),
+                weights,
+                active: active.clone(),
+                seed: &theta_cmd[i * n..(i + 1) * n],
+                theta: vec![0.0; n],
+                real: Vec::with_capacity(m),
+            };
+            let mut r = nominal[i * m..(i + 1) * m].to_vec();
+            let st = lm::solve(&mut prob, &mut r, &lm, &mut ws);
+            let seen = prob.seen(&r);
+            out.push((r, st, seen, prob.theta.clone()));
+        }
+        out
+    });
+    let mut res = crate::compensate::Compensation {
+        nominal: nominal.clone(),
+        ..Default::default()
+    };
+    let mut state = start.map_or_else(|| plant.l_ref.clone(), |s| s.to_vec());
+    for (r, st, seen, theta) in parts.into_iter().flatten() {
+        crate::compensate::command_through_backlash(
+            &r,
+            plant.backlash(),
+            &mut state,
+            &mut res.command,
+        );
+        res.converged.push(st.converged && seen.is_some());
+        res.residual.push(st.residual);
+        res.theta.extend_from_slice(&theta);
+        res.seen.extend_from_slice(&seen.unwrap_or([f64::NAN; 6]));
+    }
+    // the nominal commands through the same plant, in order
+    let mut state = start.map_or_else(|| plant.l_ref.clone(), |s| s.to_vec());
+    let mut work = SettleWork::new(robot, *opts);
+    let (mut real, mut th) = (Vec::with_capacity(m), vec![0.0; n]);
+    for i in 0..rows {
+        for (k, s) in state.iter_mut().enumerate() {
+            *s = dead_band(nominal[i * m + k], *s, plant.backlash()[k]);
+        }
+        real.clear();
+        plant.actuate(&state, &mut real);
+        th.copy_from_slice(&theta_cmd[i * n..(i + 1) * n]);
+        let seen = if plant.settle(&real, &mut th, &mut work) {
+            plant.observe(&th, &mut chain)
+        } else {
+            [f64::NAN; 6]
+        };
+        res.seen_nominal.extend_from_slice(&seen);
+    }
+    Ok(res)
 }

@@ -13,6 +13,16 @@ instead sets ``shape_j = w_j / rms_region |d(x, y)/de_j|`` (every error
 contributes equally to the linear tip variance). The linear picture that
 starts the search is :mod:`cdsm.accuracy.sensitivity`.
 
+Spatial arms (:func:`allocate` dispatches on ``robot.kind``): the errors are
+uniform in ``±tc_j`` on every position-controlled cable's length and in
+``±th_c`` on every coordinate (x, y, z) of every hole of cable ``c`` (one
+tolerance per cable's holes); ``shape = w * [base_cable ... ; base_hole ...]``.
+The core has no linear sensitivities of spatial arms, so there is no linear
+first guess: the search starts at ``alpha = 1`` (the weighted reference
+tolerances) and brackets and bisects ``alpha`` with the Monte Carlo alone
+(:class:`SpatialAllocation`). Regions are cut over the two axes along which
+the tips spread most.
+
 The pooled percentile over a region merges the per-configuration histograms
 of the Monte-Carlo study (:attr:`cdsm.accuracy.MonteCarlo.hist`; 60 log bins
 per decade, the percentile is the upper edge of its bin: conservative, at
@@ -22,6 +32,7 @@ most 3.9 % high). Failed solves count as errors above every bin.
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
 
@@ -34,10 +45,12 @@ from ..robot import Robot
 from .montecarlo import MonteCarlo, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 from .sensitivity import error_matrix, linear_percentile, sensitivities, tolerance_vector
+from .sampling import sample_configurations
 from .workspace import joint_grid, paper_ik_seed
 
 __all__ = ["HIST_RESOLUTION", "pooled_percentile", "Allocation", "allocate", "distribution",
-           "region_cells", "load_tolerances", "parse_region"]
+           "region_cells", "load_tolerances", "parse_region", "SpatialAllocation", "hole_tolerances",
+           "spatial_tolerances", "load_spatial_tolerances", "SPATIAL_REGION_DEFAULT"]
 
 #: Relative width of a histogram bin of the Monte-Carlo study (10**(1/60) - 1).
 HIST_RESOLUTION = 10.0 ** (1.0 / _cdsm.HIST_PER_DECADE) - 1.0
@@ -151,6 +164,56 @@ def _shape(robot: Robot, m: np.ndarray, weights, base, shape: str) -> np.ndarray
     raise CdsmInputError(f"`shape`: expected 'ratio' or 'equal-effect', got {shape!r}")
 
 
+def _scale_search(simulate, shp: np.ndarray, target: float, percentile: float, a0: float, up: Tuple[float, float],
+                  down: Tuple[float, float], rel_tol: float, max_evals: int, progress: bool, overshoot: float = 1.0):
+    """The largest common scale ``alpha`` of the tolerance shape ``shp`` whose
+    Monte Carlo ``simulate(alpha * shp)`` keeps the pooled ``percentile`` of
+    the tip error within ``target`` (m): bracket from ``a0`` by steps
+    ``target / achieved`` (× ``overshoot``, clipped to ``up`` when the target
+    holds and to ``down`` when not), then bisect geometrically until ``hi /
+    lo <= 1 + rel_tol``. Returns ``(lo, run, history)``: ``run(alpha)`` the
+    cached Monte Carlo, ``history`` the (alpha, achieved) of every evaluation."""
+    cache: Dict[float, MonteCarlo] = {}
+    history: List[tuple] = []
+
+    def run(alpha: float) -> MonteCarlo:
+        if alpha not in cache:
+            cache[alpha] = simulate(alpha * shp)
+        return cache[alpha]
+
+    def achieved(alpha: float) -> float:
+        v = pooled_percentile(run(alpha), percentile)
+        history.append((float(alpha), v))
+        if progress:
+            print(f"  alpha {alpha:.6g}: P{percentile:g} = {v * 1e3:.4f} mm", file=sys.stderr)
+        return v
+
+    lo, hi, a = None, None, a0
+    for _ in range(max_evals):
+        v = achieved(a)
+        if v <= target:
+            lo = a
+            if hi is not None:
+                break
+            a = a * float(np.clip(target / v * overshoot, *up)) if v > 0 else a * up[1]
+        else:
+            hi = a
+            if lo is not None:
+                break
+            a = a * float(np.clip(target / v * (2.0 - overshoot), *down))
+    if lo is None or hi is None:
+        raise CdsmInputError(f"tolerance allocation: could not bracket the target (history {history})")
+    evals = len(history)
+    while hi / lo > 1.0 + rel_tol and evals < max_evals:
+        mid = float(np.sqrt(lo * hi))
+        if achieved(mid) <= target:
+            lo = mid
+        else:
+            hi = mid
+        evals += 1
+    return lo, run, history
+
+
 def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0,
              weights=None, base=(PAPER_DL_TOL, PAPER_DH_TOL), shape: str = "ratio",
              samples: int = 1000, seed: int = 0, rel_tol: float = 0.01,
@@ -166,7 +229,14 @@ def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0
        random numbers: the same seed at every alpha) brackets and bisects
        alpha until ``hi / lo <= 1 + rel_tol``; the answer is ``lo``, verified
        ``achieved(lo) <= T``, and ``achieved(1.25 lo) > T`` is evaluated.
+
+    Spatial arms return a :class:`SpatialAllocation` (module doc: no linear
+    first guess; ``theta`` defaults to 1000 Sobol samples of the joint box;
+    ``weights``: 2 or ``m_pos + cables`` numbers; ``shape="ratio"`` only).
     """
+    if robot.kind == "spatial":
+        return _allocate_spatial(robot, target_m, theta, percentile, weights, base, shape, samples, seed,
+                                 rel_tol, max_evals, progress)
     t = joint_grid(robot.n) if theta is None else theta
     t, _ = as_batch("theta", t, robot.n)
     target = float(target_m)
@@ -182,51 +252,12 @@ def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0
     if not (np.isfinite(p_lin1) and p_lin1 > 0):
         raise CdsmInputError("the linear model gives no tip error over this region (no sensitivity)")
     a_lin = target / p_lin1
-    cache: Dict[float, MonteCarlo] = {}
-    history: List[tuple] = []
-
-    def run(alpha: float) -> MonteCarlo:
-        if alpha not in cache:
-            tol = alpha * shp
-            cache[alpha] = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:n],
-                                       dh_tol=tol[n:], progress=False)
-        return cache[alpha]
-
-    def achieved(alpha: float) -> float:
-        v = pooled_percentile(run(alpha), percentile)
-        history.append((float(alpha), v))
-        if progress:
-            import sys
-            print(f"  alpha {alpha:.6g}: P{percentile:g} = {v * 1e3:.4f} mm", file=sys.stderr)
-        return v
-
-    lo, hi = None, None
-    a = a_lin
-    for _ in range(max_evals):
-        v = achieved(a)
-        if v <= target:
-            lo = a
-            if hi is not None:
-                break
-            a = a * float(np.clip(target / v, 1.02, 1.3))
-        else:
-            hi = a
-            if lo is not None:
-                break
-            a = a * float(np.clip(target / v, 0.5, 0.98))
-    if lo is None or hi is None:
-        raise CdsmInputError("tolerance allocation: could not bracket the target "
-                             f"(history {history})")
-    evals = len(history)
-    while hi / lo > 1.0 + rel_tol and evals < max_evals:
-        mid = float(np.sqrt(lo * hi))
-        if achieved(mid) <= target:
-            lo = mid
-        else:
-            hi = mid
-        evals += 1
-    ach = pooled_percentile(run(lo), percentile)
+    lo, run, history = _scale_search(
+        lambda tol: monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:n], dh_tol=tol[n:],
+                                progress=False),
+        shp, target, percentile, a_lin, (1.02, 1.3), (0.5, 0.98), rel_tol, max_evals, progress)
     mc = run(lo)
+    ach = pooled_percentile(mc, percentile)
     ach_i = pooled_percentile(mc, percentile, interpolate=True)
     a125 = pooled_percentile(run(1.25 * lo), percentile)
     tol = lo * shp
@@ -262,7 +293,12 @@ def distribution(robot: Robot, dl_tol, dh_tol, theta=None, percentiles: Sequence
     region, ``per_config`` (N, len(percentiles)) m, and ``regions``: one row
     per non-empty cell of a ``cells``×``cells`` grid over the nominal tip
     (X, Y) with its bounds (m), configuration count and pooled percentiles (m).
+    Spatial arms: ``dl_tol`` per position-controlled cable, ``dh_tol`` as
+    :func:`spatial_tolerances` takes it; cells over the two axes along which
+    the tips spread most (``axes``; row keys named after them).
     """
+    if robot.kind == "spatial":
+        return _distribution_spatial(robot, dl_tol, dh_tol, theta, percentiles, samples, seed, cells, mc)
     t = joint_grid(robot.n) if theta is None else theta
     t, _ = as_batch("theta", t, robot.n)
     tol = tolerance_vector(robot, dl_tol, dh_tol)
@@ -351,7 +387,9 @@ def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, st
     20000 points, or N given, is subsampled to N (default 2000) with ``seed``),
     ``joints:FILE.csv`` (columns ``theta_1..theta_n``, rad, or no header) or
     ``poses:FILE.csv`` (columns ``x, y, phi``, m, m, rad, or no header; pose IK
-    from the paper's seed)."""
+    from the paper's seed; planar robots) or ``sobol:N`` (N configurations
+    sampled in the joint box, scrambled Sobol with ``seed``: the default
+    region of spatial robots, :data:`SPATIAL_REGION_DEFAULT`)."""
     kind, _, rest = spec.partition(":")
     if kind == "grid":
         try:
@@ -379,6 +417,18 @@ def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, st
     if kind == "joints":
         t = _region_file(spec, rest, [f"theta_{i}" for i in range(1, robot.n + 1)], "joints")
         return t, f"{len(t)} configurations from {rest}"
+    if kind == "sobol":
+        try:
+            count = int(rest)
+        except ValueError:
+            count = 0
+        if count < 1:
+            raise CdsmInputError(f"--region {spec!r}: expected sobol:N with N >= 1 configurations")
+        theta = sample_configurations(robot, count, "sobol", seed=seed)
+        return theta, f"{count} configurations sampled in the joint box (scrambled Sobol, seed {seed})"
+    if kind == "poses" and robot.kind == "spatial":
+        raise CdsmInputError(f"--region {spec!r}: poses are planar (x, y, phi); for a spatial robot give "
+                             "joints:FILE.csv or sobol:N")
     if kind == "poses":
         p = _region_file(spec, rest, ["x", "y", "phi"], "poses")
         sol = robot.ik(p, seed=paper_ik_seed(robot.n))
@@ -386,4 +436,201 @@ def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, st
         if len(bad):
             raise CdsmInputError(f"--region {spec!r}: pose IK failed for row(s) {bad[:5].tolist()} (unreachable?)")
         return np.atleast_2d(sol.theta), f"{len(p)} poses from {rest} (pose IK, paper seed)"
-    raise CdsmInputError(f"--region {spec!r}: expected grid:LO:HI:STEP[:N], joints:FILE.csv or poses:FILE.csv")
+    raise CdsmInputError(f"--region {spec!r}: expected grid:LO:HI:STEP[:N], joints:FILE.csv, poses:FILE.csv "
+                         "or sobol:N")
+
+
+# ---------------------------------------------------------------------------
+# spatial arms
+# ---------------------------------------------------------------------------
+#: The default region of a spatial robot's allocation (``--region``).
+SPATIAL_REGION_DEFAULT = "sobol:1000"
+
+
+def hole_tolerances(robot, per_cable) -> np.ndarray:
+    """(3 H,) tolerance of every hole coordinate of a spatial arm, in the
+    order of ``robot.core.holes``, from one tolerance per cable's holes
+    (cables,) m."""
+    sizes = [3 * (2 * e + 1) for e in robot.cable_ends]
+    return np.repeat(np.asarray(per_cable, dtype=np.float64), sizes)
+
+
+def spatial_tolerances(robot, dl_tol, dh_tol, source: str = "") -> Tuple[np.ndarray, np.ndarray]:
+    """(m_pos,) and (3 H,) tolerances, m, of a spatial arm: ``dl_tol`` a
+    scalar or one per position-controlled cable; ``dh_tol`` a scalar, one per
+    cable (every coordinate of its holes) or one per hole coordinate."""
+    pre = f"{source}: " if source else ""
+    m, cables, flat = len(robot.position_cables), robot.cables, len(robot.core.holes)
+    out = []
+    for key, value, sizes in (("cable_length_tol_m", dl_tol, (m,)), ("hole_tol_m", dh_tol, (cables, flat))):
+        try:
+            arr = np.asarray(value, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise CdsmInputError(f"{pre}`{key}` is not a number or a list of numbers") from None
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in sizes):
+            want = (f"{m} values (one per position-controlled cable)" if key[0] == "c" else
+                    f"{cables} values (one per cable's holes) or {flat} (one per hole coordinate)")
+            raise CdsmInputError(f"{pre}`{key}` needs a number or {want}, got shape {arr.shape}")
+        if key == "hole_tol_m" and arr.ndim == 1 and arr.shape[0] == cables and cables != flat:
+            arr = hole_tolerances(robot, arr)
+        try:
+            out.append(as_tolerances(key, arr, sizes[-1]))
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"{pre}{exc}") from None
+    return out[0], out[1]
+
+
+def load_spatial_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
+    """Tolerances of a spatial arm from a JSON file (as ``cdsm tolerance
+    --json`` writes it for one): ``cable_length_tol_m`` — a number or one
+    per position-controlled cable, m — and ``hole_tol_m`` — a number, one per
+    cable (every coordinate of its holes) or one per hole coordinate, m
+    (other keys are ignored). Returns (dl_tol (m_pos,), dh_tol (3 H,)), m."""
+    text = read_text(path, "tolerance")
+    try:
+        data = json.loads(text)
+    except ValueError as exc:
+        raise CdsmInputError(f"tolerance file {path!r}: not valid JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise CdsmInputError(f"tolerance file {path!r}: expected a JSON object")
+    for key in ("cable_length_tol_m", "hole_tol_m"):
+        if key not in data:
+            extra = (" (`hole_height_tol_m` is the planar per-disk tolerance; a spatial robot takes `hole_tol_m` "
+                     "per cable's holes or per hole coordinate)" if key == "hole_tol_m"
+                     and "hole_height_tol_m" in data else "")
+            raise CdsmInputError(f"tolerance file {path!r}: missing key {key!r}{extra}")
+    return spatial_tolerances(robot, data["cable_length_tol_m"], data["hole_tol_m"], f"tolerance file {path!r}")
+
+
+@dataclass
+class SpatialAllocation:
+    """Answer of :func:`allocate` for a spatial arm (lengths in m).
+
+    cable_length_tol_m: (m_pos,) ± tolerance per position-controlled cable.
+    hole_tol_m: (cables,) ± tolerance on every coordinate of each cable's
+    holes. achieved_m: the pooled percentile of |d(x, y, z)| verified by
+    Monte Carlo (<= target). achieved_1p25_m: the same with every tolerance
+    × 1.25. alpha: common scale of ``shape`` ((m_pos + cables,) m; alpha = 1
+    is the weighted reference). history: (alpha, achieved) of every
+    evaluation. No linear estimate (module doc).
+    """
+
+    cable_length_tol_m: np.ndarray
+    hole_tol_m: np.ndarray
+    achieved_m: float
+    achieved_1p25_m: float
+    target_m: float
+    percentile: float
+    alpha: float
+    shape: np.ndarray
+    failed: int
+    history: List[tuple] = field(default_factory=list)
+    params: dict = field(default_factory=dict)
+
+    @property
+    def holds(self) -> bool:
+        return bool(self.achieved_m <= self.target_m)
+
+    @property
+    def not_loose(self) -> bool:
+        return bool(self.achieved_1p25_m > self.target_m)
+
+    def to_json(self) -> dict:
+        """``cable_length_tol_m``, ``hole_tol_m`` (what ``cdsm montecarlo
+        --tolerances`` reads for a spatial robot), ``achieved_mm`` and extras."""
+        return dict(
+            kind="spatial",
+            cable_length_tol_m=[float(v) for v in self.cable_length_tol_m],
+            hole_tol_m=[float(v) for v in self.hole_tol_m],
+            achieved_mm=self.achieved_m * 1e3,
+            achieved_interpolated_mm=self.params.get("achieved_interpolated_m", float("nan")) * 1e3,
+            target_mm=self.target_m * 1e3,
+            percentile=self.percentile,
+            holds=self.holds,
+            achieved_at_1p25_tol_mm=self.achieved_1p25_m * 1e3,
+            not_loose=self.not_loose,
+            linear_estimate_mm=None,
+            linear_estimate_note="no linear first guess: the core has no linear sensitivities of spatial arms; "
+                                 "alpha is bracketed from 1 and bisected with the Monte Carlo alone",
+            alpha=self.alpha,
+            histogram_resolution=HIST_RESOLUTION,
+            failed_solves=self.failed,
+            monte_carlo_evaluations=[dict(alpha=a, achieved_mm=v * 1e3) for a, v in self.history],
+            **self.params,
+        )
+
+
+def _spatial_shape(robot, weights, base, shape: str) -> np.ndarray:
+    m, cables = len(robot.position_cables), robot.cables
+    if shape != "ratio":
+        raise CdsmInputError(f"`shape`: {shape!r} needs linear sensitivities, which the core has for planar arms "
+                             "only; a spatial arm takes shape='ratio'")
+    w = np.ones(m + cables) if weights is None else np.asarray(weights, dtype=np.float64).reshape(-1)
+    if w.size == 2:
+        w = np.repeat(w, [m, cables])
+    if w.size != m + cables or not np.isfinite(w).all() or (w <= 0).any():
+        raise CdsmInputError(f"`weights`: need 2 or {m + cables} positive numbers ({m} position-controlled "
+                             f"cables then {cables} cables' holes), got {weights}")
+    b = np.asarray(base, dtype=np.float64).reshape(-1)
+    if b.size != 2 or not np.isfinite(b).all() or (b <= 0).any():
+        raise CdsmInputError(f"`base`: need two positive lengths (cable, hole), m, got {base}")
+    return w * np.repeat(b, [m, cables])
+
+
+def _allocate_spatial(robot, target_m, theta, percentile, weights, base, shape, samples, seed, rel_tol,
+                      max_evals, progress) -> SpatialAllocation:
+    t = sample_configurations(robot, 1000) if theta is None else theta
+    t, _ = as_batch("theta", t, robot.n)
+    target = float(target_m)
+    if not (np.isfinite(target) and target > 0):
+        raise CdsmInputError(f"`target_m`: must be positive and finite, got {target_m}")
+    if not 0.0 < float(percentile) < 100.0:
+        raise CdsmInputError(f"`percentile`: must be within (0, 100), got {percentile}")
+    m = len(robot.position_cables)
+    shp = _spatial_shape(robot, weights, base, shape)
+    # no linear first guess: bracket from alpha = 1 by target / achieved (a little beyond)
+    lo, run, history = _scale_search(
+        lambda tol: monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:m],
+                                dh_tol=hole_tolerances(robot, tol[m:]), progress=False),
+        shp, target, percentile, 1.0, (1.02, 20.0), (0.05, 0.98), rel_tol, max_evals, progress, 1.02)
+    mc = run(lo)
+    ach = pooled_percentile(mc, percentile)
+    a125 = pooled_percentile(run(1.25 * lo), percentile)
+    tol = lo * shp
+    return SpatialAllocation(
+        cable_length_tol_m=tol[:m], hole_tol_m=tol[m:], achieved_m=ach, achieved_1p25_m=a125, target_m=target,
+        percentile=float(percentile), alpha=float(lo), shape=shp, failed=int(mc.failed.sum()), history=history,
+        params=dict(achieved_interpolated_m=pooled_percentile(mc, percentile, interpolate=True),
+                    samples=int(samples), seed=int(seed), configurations=int(len(t)), shape=shape,
+                    weights=None if weights is None else np.asarray(weights, float).ravel().tolist(),
+                    base_m=[float(v) for v in np.asarray(base, float).ravel()], robot=robot.name, n=robot.n,
+                    position_cables=[c + 1 for c in robot.position_cables]))
+
+
+def _distribution_spatial(robot, dl_tol, dh_tol, theta, percentiles, samples, seed, cells, mc) -> dict:
+    t = sample_configurations(robot, 1000) if theta is None else theta
+    t, _ = as_batch("theta", t, robot.n)
+    dl, dh = spatial_tolerances(robot, dl_tol, dh_tol)
+    if mc is None:
+        mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=dl, dh_tol=dh, progress=False)
+    tips = robot.fk(t)[:, :3]
+    axes = sorted(np.argsort(-np.ptp(tips, axis=0), kind="stable")[:2])
+    names = ["xyz"[k] for k in axes]
+    uv = tips[:, axes]
+    cell = region_cells(uv, cells)
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
+    w = (hi - lo) / cells
+    rows = []
+    for c in range(cells * cells):
+        sel = np.flatnonzero(cell == c)
+        if len(sel) == 0:
+            continue
+        iu, iv = c % cells, c // cells
+        rows.append({"cell": int(c),
+                     f"{names[0]}_lo_m": float(lo[0] + iu * w[0]), f"{names[0]}_hi_m": float(lo[0] + (iu + 1) * w[0]),
+                     f"{names[1]}_lo_m": float(lo[1] + iv * w[1]), f"{names[1]}_hi_m": float(lo[1] + (iv + 1) * w[1]),
+                     "configurations": int(len(sel)),
+                     **{f"p{p:g}_m": pooled_percentile(mc, p, sel) for p in percentiles}})
+    per = np.stack([mc.percentile(p) for p in percentiles], axis=1)
+    return dict(pooled={float(p): pooled_percentile(mc, p) for p in percentiles}, per_config=per, regions=rows,
+                cell=cell, mc=mc, dl_tol_m=dl, dh_tol_m=dh, axes=names)

@@ -16,25 +16,42 @@ from ..accuracy.workspace import paper_ik_seed
 from ..files import read_table, table_column, write_text
 from ..inputs import CdsmInputError, as_vector
 
-__all__ = ["Compensation", "compensate", "read_targets"]
+__all__ = ["Compensation", "compensate", "read_targets", "TARGET_COLUMNS"]
 
 
 # ---------------------------------------------------------------------------
 # targets
 # ---------------------------------------------------------------------------
-def read_targets(path: "str | os.PathLike[str]") -> np.ndarray:
-    """Target poses from a CSV file: columns ``x, y`` (m) and optional ``phi``
-    (rad); lines starting with ``#`` are comments, other columns are ignored.
-    Returns (N, 3) or (N, 2). Raises :class:`CdsmInputError` on a missing
-    column, a non-number or a non-finite value."""
+def read_targets(path: "str | os.PathLike[str]", kind: str = "planar") -> np.ndarray:
+    """Target poses from a CSV file; lines starting with ``#`` are comments,
+    other columns are ignored. Planar arms (``kind="planar"``): columns ``x,
+    y`` (m) and optional ``phi`` (rad), returns (N, 2) or (N, 3). Spatial arms
+    (``kind="spatial"``): ``x, y, z`` (m) and optional ``rx, ry, rz`` (the
+    rotation vector of the tip frame, rad), returns (N, 3) or (N, 6). Raises
+    :class:`CdsmInputError` on a missing column, a non-number or a non-finite
+    value."""
     src = str(path)
+    if kind not in TARGET_COLUMNS:
+        raise CdsmInputError(f"`kind`: expected one of {', '.join(TARGET_COLUMNS)}, got {kind!r}")
+    need, extra = TARGET_COLUMNS[kind]
     cols, rows = read_table(path, "targets")
-    missing = [c for c in ("x", "y") if c not in cols]
+    missing = [c for c in need if c not in cols]
     if missing:
-        raise CdsmInputError(f"{src}: missing target columns {', '.join(missing)} (need x, y [m] "
-                             f"and optional phi [rad]); found {', '.join(cols)}")
-    use = ["x", "y"] + (["phi"] if "phi" in cols else [])
+        raise CdsmInputError(f"{src}: missing target columns {', '.join(missing)} (need {', '.join(need)} [m] "
+                             f"and optional {', '.join(extra)} [rad]); found {', '.join(cols)}")
+    partial = [c for c in extra if c in cols]
+    if partial and len(partial) != len(extra):
+        raise CdsmInputError(f"{src}: orientation columns {', '.join(partial)} given without "
+                             f"{', '.join(c for c in extra if c not in cols)}: give all of {', '.join(extra)} or none")
+    use = list(need) + (list(extra) if partial else [])
     return np.stack([table_column(rows, c, src) for c in use], axis=1)
+
+
+#: Target columns per robot kind: (required position columns, optional
+#: orientation columns).
+TARGET_COLUMNS = {"planar": (("x", "y"), ("phi",)), "spatial": (("x", "y", "z"), ("rx", "ry", "rz"))}
+#: Header of the orientation error column of a commands table, per kind.
+ROTATION_ERROR = {"planar": "predicted_phi_error", "spatial": "predicted_rotation_error"}
 
 
 # ---------------------------------------------------------------------------
@@ -57,6 +74,10 @@ class Compensation:
     (N, n) rad, the configuration the fitted arm is predicted to settle at.
     flags: one str per row, "" when fine, else '; '-joined reasons
     (``unreachable: ...``, ``slack cable``, ``joint limits``, ``not converged``).
+    kind: the robot kind. For a spatial arm (m position cables) targets are
+    (N, 3) [x, y, z] m or (N, 6) with the rotation vector (rad), commands,
+    dL and nominal_commands are (N, m), predicted_error is the 3-D distance
+    and predicted_phi_error the norm of the rotation-vector difference (rad).
     """
 
     targets: np.ndarray
@@ -71,6 +92,8 @@ class Compensation:
     theta_pred: np.ndarray
     flags: List[str]
     model_name: str = ""
+    kind: str = "planar"
+    cable_ids: "List[int] | None" = None
 
     def __len__(self) -> int:
         return len(self.targets)
@@ -86,15 +109,18 @@ class Compensation:
         predicted_phi_error (rad, empty without phi), theta_1..theta_n (rad,
         the nominal configuration) and dL_1..dL_n (m, the correction), flags.
         Undefined numbers are written as ``nan``; floats by ``repr`` (exact)."""
-        n = self.commands.shape[1]
-        has_phi = self.targets.shape[1] == 3
-        head = ["x", "y"] + (["phi"] if has_phi else []) + [f"L_{i}" for i in range(1, n + 1)] + \
+        n = self.theta_cmd.shape[1]
+        pos, rot = TARGET_COLUMNS[self.kind]
+        has_phi = self.targets.shape[1] > len(pos)
+        cab = [i + 1 for i in self.cable_indices]
+        head = list(pos) + (list(rot) if has_phi else []) + [f"L_{i}" for i in cab] + \
             ["converged", "predicted_error", "predicted_error_nominal"] + \
-            (["predicted_phi_error"] if has_phi else []) + \
-            [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in range(1, n + 1)] + ["flags"]
+            ([ROTATION_ERROR[self.kind]] if has_phi else []) + \
+            [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in cab] + ["flags"]
         buf = io.StringIO()
         buf.write(f"# cdsm compensate: upper-cable length commands from model {self.model_name!r}\n")
-        buf.write("# SI units: x, y, L_i, dL_i, predicted_error* in m; phi, theta_i, predicted_phi_error in rad\n")
+        buf.write(f"# SI units: {', '.join(pos)}, L_i, dL_i, predicted_error* in m; {', '.join(rot)}, theta_i, "
+                  f"{ROTATION_ERROR[self.kind]} in rad\n")
         buf.write("# L_i = nominal upper length at theta_cmd + dL_i; converged 1/0; flags empty when fine\n")
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(head)
@@ -109,6 +135,12 @@ class Compensation:
             row.append(self.flags[i])
             w.writerow(row)
         write_text(path, buf.getvalue(), "commands")
+
+    @property
+    def cable_indices(self) -> List[int]:
+        """0-based indices of the commanded cables (planar: the n upper
+        cables; spatial: the position-controlled cables)."""
+        return list(self.cable_ids) if self.cable_ids is not None else list(range(self.commands.shape[1]))
 
     def summary(self) -> str:
         """A few lines: counts and the predicted errors before/after (µm)."""
@@ -149,6 +181,8 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension:
     (that configuration leaves the limits), ``not converged``.
     """
     r = model.robot
+    if r.kind == "spatial":
+        return _compensate_spatial(model, poses, tol, max_iter, min_tension, enforce_limits, start)
     n = r.n
     arr = np.asarray(poses, dtype=np.float64)
     if arr.ndim == 1:
@@ -227,3 +261,63 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension:
     dL = commands - nominal
     return Compensation(arr.copy(), commands, theta, dL, nominal, conv, err, err0, perr, th_pred,
                         ["; ".join(f) for f in flags], model.name)
+
+
+def _compensate_spatial(model, poses, tol, max_iter, min_tension, enforce_limits, start) -> Compensation:
+    """:func:`compensate` for a spatial arm: ``poses`` (N, 3) [x, y, z] (m) or
+    (N, 6) with the rotation vector (rad); the nominal configuration is the
+    spatial IK of the target from theta = 0 (mask ``"position"`` or
+    ``"pose"``); commands on the position-controlled cables; residual [x, y,
+    z(, rotation · L)]."""
+    r = model.robot
+    n, m = r.n, len(r.position_cables)
+    arr = np.atleast_2d(np.asarray(poses, dtype=np.float64))
+    if arr.ndim != 2 or arr.shape[1] not in (3, 6):
+        raise CdsmInputError(f"`poses`: expected shape (N, 3) or (N, 6) for a spatial arm, got {np.shape(poses)}")
+    if not np.isfinite(arr).all():
+        i, j = np.argwhere(~np.isfinite(arr))[0]
+        raise CdsmInputError(f"`poses`: non-finite value {arr[i, j]} at row {i}, column {j}")
+    N = len(arr)
+    has_rot = arr.shape[1] == 6
+    full = arr if has_rot else np.column_stack([arr, np.zeros((N, 3))])
+    flags: List[List[str]] = [[] for _ in range(N)]
+    sol = r.ik(full, seed=np.zeros(n), mask="pose" if has_rot else "position")
+    theta = np.atleast_2d(sol.theta)
+    reach = np.atleast_1d(sol.converged)
+    for i in np.flatnonzero(~reach):
+        flags[i].append("unreachable: the nominal IK finds no configuration")
+    lim = r.within_limits(theta)
+    for i in np.flatnonzero(reach & ~lim):
+        flags[i].append("outside the joint limits: the nominal IK answer leaves them"
+                        + (" (not compensated: enforce_limits)" if enforce_limits else ""))
+    if enforce_limits:
+        reach &= lim
+    L = r.straight_length
+    weights = [1.0, 1.0, 1.0] + ([L] * 3 if has_rot else [0.0] * 3)
+    commands, nominal = np.full((N, m), np.nan), np.full((N, m), np.nan)
+    th_pred, conv = np.full((N, n), np.nan), np.zeros(N, bool)
+    seen, seen0 = np.full((N, 6), np.nan), np.full((N, 6), np.nan)
+    rows = np.flatnonzero(reach)
+    if len(rows):
+        st = None if start is None else np.ascontiguousarray(as_vector("start", start, m))
+        res = r.core.compensate(np.ascontiguousarray(model.p, float), np.ascontiguousarray(theta[rows]),
+                                np.ascontiguousarray(full[rows]), weights, st, float(tol), 1e-12,
+                                int(max_iter), r.threads)
+        commands[rows] = res.command.reshape(-1, m)
+        nominal[rows] = res.nominal.reshape(-1, m)
+        th_pred[rows] = res.theta.reshape(-1, n)
+        conv[rows] = res.converged
+        seen[rows] = res.seen.reshape(-1, 6)
+        seen0[rows] = res.seen_nominal.reshape(-1, 6)
+    err = np.linalg.norm(seen[:, :3] - full[:, :3], axis=1)
+    err0 = np.linalg.norm(seen0[:, :3] - full[:, :3], axis=1)
+    rerr = np.linalg.norm(seen[:, 3:] - full[:, 3:], axis=1) if has_rot else np.full(N, np.nan)
+    for i in rows[~conv[rows]]:
+        flags[i].append(f"not converged (predicted tip error {err[i]:.2e} m)")
+    fin = rows[np.isfinite(th_pred[rows]).all(axis=1)]
+    if len(fin):
+        for i, f_ in zip(fin, np.atleast_1d(r.feasible(th_pred[fin], min_tension=min_tension))):
+            if not f_:
+                flags[i].append(f"slack cable: no tension set >= {min_tension:g} N holds the predicted configuration")
+    return Compensation(arr.copy(), commands, theta, commands - nominal, nominal, conv, err, err0, rerr, th_pred,
+                        ["; ".join(f) for f in flags], model.name, "spatial", list(r.position_cables))

@@ -11,11 +11,13 @@ from .registry import (UserError, check_out_file, options, subcommand)
 # ---------------------------------------------------------------------------
 def _compensate_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("targets", metavar="TARGETS.csv", help="target poses: columns x, y (m) and optional "
-                   "phi (rad); '#' comment lines")
+                   "phi (rad); spatial arms x, y, z (m) and optional rx, ry, rz (rotation vector, rad); "
+                   "'#' comment lines")
     p.add_argument("--model", metavar="MODEL.json", required=True,
                    help="fitted model (cdsm diagnose --save-model; format cdsm-model/1)")
     p.add_argument("--out", metavar="COMMANDS.csv", required=True,
-                   help="output: upper-cable length commands L_1..L_n (m) per target, converged, "
+                   help="output: cable length commands L_i (m) per target (planar: the upper cables; spatial: the "
+                        "position-controlled ones), converged, "
                         "predicted tip error (m), flags")
     p.add_argument("--tol", metavar="M", type=float, default=1e-9,
                    help="tip residual tolerance of the compensation solve, m (default 1e-9)")
@@ -34,7 +36,7 @@ def _compensate_run(args) -> int:
         raise UserError(f"--tol: expected a positive length in m, got {args.tol}")
     check_out_file(args.out, "--out")
     model = Model.load(args.model)
-    poses = read_targets(args.targets)
+    poses = read_targets(args.targets, model.robot.kind)
     res = model.compensate(poses, tol=args.tol, enforce_limits=args.enforce_limits)
     res.to_csv(args.out)
     print(f"model {model.name!r} ({model.robot.name}, {model.robot.n} joints)")

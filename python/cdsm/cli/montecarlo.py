@@ -45,17 +45,23 @@ def _montecarlo_args(p: argparse.ArgumentParser) -> None:
                         "only, not on where they run. On a cluster pick C so a chunk runs >= 1 s")
     p.add_argument("--tolerances", metavar="TOL.json",
                    help="error bounds from JSON (cable_length_tol_m per upper cable, "
-                        "hole_height_tol_m per disk; as `cdsm tolerance --json` writes); "
-                        "default: the paper's +-1 mm and +-0.35 mm")
-    p.add_argument("--protocol", choices=("attitude0", "joint"), default="attitude0",
+                        "hole_height_tol_m per disk; spatial robots: cable_length_tol_m per position-controlled "
+                        "cable and hole_tol_m per cable's holes or per hole coordinate; as `cdsm tolerance "
+                        "--json` writes); default: the paper's +-1 mm and +-0.35 mm (spatial: on every hole "
+                        "coordinate)")
+    p.add_argument("--protocol", choices=("attitude0", "joint"), default=None,
                    help="initial configurations: the grid's tip positions at attitude 0 "
-                        "(default, the paper) or the grid angles themselves")
-    p.add_argument("--step", metavar="DEG", type=_angle_deg, default=5.0,
-                   help="joint grid step, degrees (default: 5)")
-    p.add_argument("--range", metavar="DEG", type=_angle_deg, default=30.0, dest="grid_range",
-                   help="joint grid from -DEG to +DEG (default: 30)")
+                        "(default, the paper) or the grid angles themselves (spatial robots: joint only)")
+    p.add_argument("--step", metavar="DEG", type=_angle_deg, default=None,
+                   help="joint grid step, degrees (default: 5; planar robots)")
+    p.add_argument("--range", metavar="DEG", type=_angle_deg, default=None, dest="grid_range",
+                   help="joint grid from -DEG to +DEG (default: 30; spatial robots: samples within the joint "
+                        "limits and, if given, within +-DEG)")
+    p.add_argument("--configurations", metavar="N", type=positive_int, default=None,
+                   help="spatial robots: configurations sampled in the joint box (scrambled Sobol, seed 0 "
+                        "whatever --seed, so runs with other seeds can be merged; default 2197 = 13^3)")
     p.add_argument("--percentiles", metavar="P,...", type=_percentile_list, default=[50.0, 95.0, 99.0],
-                   help="percentiles of |d(X, Y)| to store (default: 50,95,99)")
+                   help="percentiles of |d(X, Y)| (spatial: |d(X, Y, Z)|) to store (default: 50,95,99)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="run the chunks on this dask.distributed scheduler (e.g. tcp://host:8786; "
                         "needs pip install 'cdsm[dask]'); default: locally, threads in the Rust core")
@@ -75,7 +81,7 @@ def _montecarlo_run(args) -> int:
     from .. import __version__
     from ..accuracy import distributed, montecarlo, workspace
     from ..accuracy.scenarios import PAPER_DH_TOL, PAPER_DL_TOL
-    from ..accuracy.tolerance import load_tolerances
+    from ..accuracy.tolerance import load_spatial_tolerances, load_tolerances
 
     t0 = time.perf_counter()
     show = not args.quiet
@@ -84,37 +90,51 @@ def _montecarlo_run(args) -> int:
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise UserError(f"--timeout: expected a positive number of seconds, got {args.timeout}")
     robot = load_robot(args.robot)
-    if args.tolerances is not None:
-        dl_tol, dh_tol = load_tolerances(args.tolerances, robot.n)
+    spatial = robot.kind == "spatial"
+    if spatial:
+        theta0, poses, params = _spatial_configurations(args, robot)
+        dl_tol, dh_tol = (load_spatial_tolerances(args.tolerances, robot) if args.tolerances is not None
+                          else (PAPER_DL_TOL, PAPER_DH_TOL))
+        desc = f"{len(theta0)} configurations (sampled, {params['sampling']})"
     else:
-        dl_tol, dh_tol = PAPER_DL_TOL, PAPER_DH_TOL
-    r = math.radians(args.grid_range)
-    grid = workspace.joint_grid(robot.n, -r, r, math.radians(args.step))
-    ws = workspace.sweep(robot, args.protocol, grid=grid)
-    ok = ws.reachable
-    if not ok.any():
-        raise UserError("no configuration of the grid is reachable")
+        if args.configurations is not None:
+            raise UserError("--configurations: for spatial robots only (planar robots: --range and --step)")
+        protocol = args.protocol or "attitude0"
+        step = 5.0 if args.step is None else args.step
+        grid_range = 30.0 if args.grid_range is None else args.grid_range
+        if args.tolerances is not None:
+            dl_tol, dh_tol = load_tolerances(args.tolerances, robot.n)
+        else:
+            dl_tol, dh_tol = PAPER_DL_TOL, PAPER_DH_TOL
+        r = math.radians(grid_range)
+        grid = workspace.joint_grid(robot.n, -r, r, math.radians(step))
+        ws = workspace.sweep(robot, protocol, grid=grid)
+        ok = ws.reachable
+        if not ok.any():
+            raise UserError("no configuration of the grid is reachable")
+        theta0, poses = ws.theta0[ok], ws.poses[ok]
+        params = dict(protocol=protocol, grid_step_deg=step, grid_range_deg=grid_range,
+                      configurations=int(ok.sum()), unreachable=ws.n_unreachable)
+        desc = f"{int(ok.sum())} configurations ({protocol}, {ws.n_unreachable} unreachable)"
     if show:
         where = args.scheduler or "local threads"
-        print(f"cdsm montecarlo: robot {robot.name!r}, {int(ok.sum())} configurations "
-              f"({args.protocol}, {ws.n_unreachable} unreachable), {args.samples} samples in chunks of "
+        print(f"cdsm montecarlo: robot {robot.name!r}, {desc}, {args.samples} samples in chunks of "
               f"{args.chunk}, seed {args.seed}, on {where}", file=sys.stderr, flush=True)
     try:
-        mc = distributed.run(robot, ws.theta0[ok], samples=args.samples, seed=args.seed,
+        mc = distributed.run(robot, theta0, samples=args.samples, seed=args.seed,
                             chunk=args.chunk, dl_tol=dl_tol, dh_tol=dh_tol,
                             scheduler=args.scheduler, progress=show, timeout=args.timeout)
     except distributed.ClusterError as exc:
         raise UserError(str(exc)) from None
     params = dict(robot=robot.name, robot_file=args.robot, robot_toml=robot.to_toml(),
-                  tolerances=args.tolerances or "paper", protocol=args.protocol, grid_step_deg=args.step,
-                  grid_range_deg=args.grid_range, configurations=int(ok.sum()),
-                  unreachable=ws.n_unreachable, cdsm_version=__version__)
-    arrays = montecarlo.save_npz(out, mc, poses=ws.poses[ok], params=params, percentiles=args.percentiles)
+                  tolerances=args.tolerances or "paper", **params, cdsm_version=__version__)
+    arrays = montecarlo.save_npz(out, mc, poses=poses, params=params, percentiles=args.percentiles)
     written = out if out.endswith(".npz") else out + ".npz"
     worst = np.nanmax(arrays["max_abs"][:, 3]) if (mc.count > 0).any() else float("nan")
     pmax = np.nanmax(arrays["dxy_percentiles"], axis=0) if (mc.count > 0).any() else []
+    norm = "|dXYZ|" if spatial else "|dXY|"
     print(f"{written}: {len(mc.count)} configurations x {args.samples} samples, "
-          f"{int(mc.failed.sum())} failed solves; max |dXY| {worst * 1e3:.3f} mm; "
+          f"{int(mc.failed.sum())} failed solves; max {norm} {worst * 1e3:.3f} mm; "
           + ", ".join(f"worst p{p:g} {v * 1e3:.3f} mm" for p, v in zip(args.percentiles, pmax))
           + f"; done in {time.perf_counter() - t0:.1f} s")
     return 0
@@ -122,3 +142,35 @@ def _montecarlo_run(args) -> int:
 
 # ---------------------------------------------------------------------------
 # cdsm tolerance (issue 7)
+
+
+#: Configurations of ``cdsm montecarlo`` on a spatial robot by default (13^3, the planar grid's size).
+SPATIAL_CONFIGURATIONS = 2197
+
+
+def _spatial_configurations(args, robot):
+    """Joint angles (N, n) rad, end poses (N, 6) and run parameters of a
+    spatial robot's study: a scrambled Sobol sample (seed 0) of the joint
+    box, within +-``--range`` degrees when given."""
+    import math
+
+    import numpy as np
+
+    from ..accuracy.sampling import sample_configurations
+
+    if args.step is not None:
+        raise UserError("--step: spatial robots are sampled, not gridded; use --configurations (and --range)")
+    if args.protocol == "attitude0":
+        raise UserError("--protocol attitude0: planar robots only; a spatial study applies the errors at the "
+                        "sampled joint angles (--protocol joint)")
+    count = SPATIAL_CONFIGURATIONS if args.configurations is None else args.configurations
+    limits = robot.joint_limits
+    if args.grid_range is not None:
+        r = math.radians(args.grid_range)
+        limits = np.stack([np.maximum(limits[:, 0], -r), np.minimum(limits[:, 1], r)], axis=1)
+        if (limits[:, 1] < limits[:, 0]).any():
+            raise UserError(f"--range {args.grid_range:g}: outside the joint limits of some joint")
+    theta = sample_configurations(robot, count, method="sobol", seed=0, limits=limits)
+    params = dict(protocol="joint", sampling="scrambled Sobol, seed 0", grid_range_deg=args.grid_range,
+                  configurations=int(count), unreachable=0)
+    return theta, robot.fk(theta), params

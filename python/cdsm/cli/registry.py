@@ -101,12 +101,15 @@ def seed_int(text: str) -> int:
 
 
 def load_robot(path: Optional[str]):
-    """The robot of ``--robot`` (TOML file), or the paper's prototype."""
+    """The robot of ``--robot`` (a TOML file, or the name of a packaged robot
+    file such as ``two_universal``), or the paper's prototype."""
     from ..inputs import CdsmInputError
-    from ..robot import Robot
+    from ..robot import Robot, packaged_robots
 
     if path is None:
         return Robot.paper()
+    if not os.path.exists(path) and path in packaged_robots():
+        return Robot.packaged(path)
     if os.path.isdir(path):
         raise UserError(f"robot file {path!r}: is a directory")
     try:

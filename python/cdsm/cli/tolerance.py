@@ -19,19 +19,21 @@ def _tolerance_args(p: argparse.ArgumentParser) -> None:
                    help="percentile of |d(x, y)| pooled over the region (default: 95)")
     p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units); "
                    "default: the paper's 3-joint prototype")
-    p.add_argument("--region", metavar="SPEC", default="grid:-30:30:5",
+    p.add_argument("--region", metavar="SPEC", default=None,
                    help="configurations where the errors are applied: grid:LO_DEG:HI_DEG:STEP_DEG[:N] "
                         "(every joint; a grid of more than 20000 points, or N given, is "
                         "subsampled to N (default 2000) with --seed), joints:FILE.csv (joint "
-                        "angles, rad, one configuration per row) or poses:FILE.csv (x m, y m, "
-                        "phi rad; pose IK with the paper seed). Default grid:-30:30:5")
+                        "angles, rad, one configuration per row), poses:FILE.csv (x m, y m, "
+                        "phi rad; pose IK with the paper seed; planar) or sobol:N (N configurations sampled "
+                        "in the joint box with --seed). Default grid:-30:30:5 (spatial robots: sobol:1000)")
     p.add_argument("--weights", metavar="W", default=None,
                    help="relative tolerance weights: 'WC,WH' (cables, holes) or 2n numbers "
-                        "(n cables then n disks); default equal")
+                        "(n cables then n disks; spatial robots: m position-controlled cables then every "
+                        "cable's holes); default equal")
     p.add_argument("--base-mm", metavar="C,H", default="1,0.35",
                    help="reference tolerances of the equal-relative-cost shape, mm (default 1,0.35)")
     p.add_argument("--shape", choices=("ratio", "equal-effect"), default="ratio",
-                   help="tolerance shape: weighted reference ratio (default) or equal linear effect")
+                   help="tolerance shape: weighted reference ratio (default) or equal linear effect (planar)")
     p.add_argument("--samples", metavar="N", type=positive_int, default=1000,
                    help="Monte-Carlo samples per configuration (default: 1000)")
     p.add_argument("--seed", metavar="S", type=seed_int, default=0, help="random seed (default: 0)")
@@ -61,7 +63,10 @@ def _tolerance_run(args) -> int:
     if not 0.0 < args.percentile < 100.0:
         raise UserError(f"--percentile: must be within (0, 100), got {args.percentile}")
     robot = load_robot(args.robot)
-    theta, desc = tolerance.parse_region(args.region, robot, args.seed)
+    if robot.kind == "spatial":
+        return _spatial_run(args, robot, t0)
+    region = args.region or "grid:-30:30:5"
+    theta, desc = tolerance.parse_region(region, robot, args.seed)
     weights = None if args.weights is None else _float_list("--weights", args.weights)
     if weights is not None and (len(weights) not in (2, 2 * robot.n) or min(weights) <= 0
                                 or not all(w < float("inf") for w in weights)):
@@ -82,7 +87,7 @@ def _tolerance_run(args) -> int:
                                   percentiles=(50.0, args.percentile), samples=args.samples,
                                   seed=args.seed, cells=args.cells)
     out = a.to_json()
-    out["region"] = args.region
+    out["region"] = region
     out["region_description"] = desc
     out["regions"] = dist["regions"]
     print("cable length tolerance (mm, per upper cable): "
@@ -95,6 +100,60 @@ def _tolerance_run(args) -> int:
           f"with every tolerance x1.25: {a.achieved_1p25_m * 1e3:.4f} mm")
     print(f"linear estimate {a.linear_m * 1e3:.4f} mm; failed solves {a.failed}; "
           f"done in {time.perf_counter() - t0:.1f} s")
+    if args.json:
+        write_json(args.json, out, "--json", indent=2)
+        print(f"json: {args.json}")
+    return 0
+
+
+def _spatial_run(args, robot, t0: float) -> int:
+    """``cdsm tolerance`` on a spatial robot: ± tolerances on the
+    position-controlled cables' lengths and on every coordinate of each
+    cable's holes, by bisection on a common scale with the Monte Carlo alone
+    (the core has no linear sensitivities of spatial arms: no linear first
+    guess)."""
+    from ..accuracy import tolerance
+    from ..files import write_json
+
+    region = args.region or tolerance.SPATIAL_REGION_DEFAULT
+    theta, desc = tolerance.parse_region(region, robot, args.seed)
+    m, cables = len(robot.position_cables), robot.cables
+    weights = None if args.weights is None else _float_list("--weights", args.weights)
+    if weights is not None and (len(weights) not in (2, m + cables) or min(weights) <= 0
+                                or not all(w < float("inf") for w in weights)):
+        raise UserError(f"--weights {args.weights!r}: need 2 (cables, holes) or {m + cables} positive finite "
+                        f"numbers ({m} position-controlled cables then {cables} cables' holes)")
+    if args.shape != "ratio":
+        raise UserError(f"--shape {args.shape}: needs linear sensitivities, which the core has for planar robots "
+                        "only; spatial robots take --shape ratio")
+    base = _float_list("--base-mm", args.base_mm)
+    if len(base) != 2 or min(base) <= 0:
+        raise UserError(f"--base-mm {args.base_mm!r}: expected two positive numbers C,H (mm)")
+    check_out_file(args.json, "--json")
+    show = not args.quiet
+    if show:
+        print(f"cdsm tolerance: spatial robot {robot.name!r} ({robot.n} joints), region {desc}, "
+              f"P{args.percentile:g} <= {args.target_mm:g} mm, {args.samples} samples; no linear first guess "
+              "for spatial arms: bisection with the Monte Carlo alone", file=sys.stderr)
+    a = tolerance.allocate(robot, args.target_mm * 1e-3, theta, percentile=args.percentile, weights=weights,
+                           base=[b * 1e-3 for b in base], shape="ratio", samples=args.samples, seed=args.seed,
+                           progress=show)
+    dist = tolerance.distribution(robot, a.cable_length_tol_m, a.hole_tol_m, theta,
+                                  percentiles=(50.0, args.percentile), samples=args.samples, seed=args.seed,
+                                  cells=args.cells)
+    out = a.to_json()
+    out.update(region=region, region_description=desc, regions=dist["regions"], region_axes=dist["axes"])
+    pos = robot.position_cables
+    print(f"cable length tolerance (mm, per position-controlled cable {', '.join(str(c + 1) for c in pos)}): "
+          + ", ".join(f"±{v * 1e3:.4f}" for v in a.cable_length_tol_m))
+    print(f"hole tolerance (mm, every coordinate of each cable's holes, cables 1..{cables}): "
+          + ", ".join(f"±{v * 1e3:.4f}" for v in a.hole_tol_m))
+    print(f"achieved P{args.percentile:g} |d(x, y, z)| = {a.achieved_m * 1e3:.4f} mm "
+          f"(target {args.target_mm:g} mm; bin-edge bound, +{tolerance.HIST_RESOLUTION * 100:.1f} % "
+          f"resolution; interpolated {out['achieved_interpolated_mm']:.4f} mm); "
+          f"with every tolerance x1.25: {a.achieved_1p25_m * 1e3:.4f} mm")
+    print(f"no linear estimate (spatial: Monte Carlo bisection, {len(a.history)} evaluations); failed solves "
+          f"{a.failed}; done in {time.perf_counter() - t0:.1f} s")
     if args.json:
         write_json(args.json, out, "--json", indent=2)
         print(f"json: {args.json}")

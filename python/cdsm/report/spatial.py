@@ -166,9 +166,7 @@ def _findings(study) -> List[str]:
     rn = [normal[c] / radial[c] for c in radial if radial[c] > 0]
     if rn:
         out.append(f"**Holes along the disk normal** move the tip less than the same error along the radius: RMS "
-                   f"ratio normal / radial per cable {min(rn):.2f} to {max(rn):.2f}. A normal error changes the "
-                   "cable's segments only through their inclination to the disk, a radial one through their "
-                   "lever arm about the joints.")
+                   f"ratio normal / radial per cable {min(rn):.2f} to {max(rn):.2f}.")
     rot = [(r.scenario.key, _nanmax(r.rotation) / max(r.scenario.size, 1e-300)) for r in study.scenarios]
     k, v = max(rot, key=lambda t: t[1] if np.isfinite(t[1]) else -1.0)
     out.append(f"**Rotation.** The largest end-frame rotation per mm of error is {np.degrees(v) * 1e-3:.3f}°/mm "
@@ -218,9 +216,9 @@ def _build(study, pngs: Dict[str, str]) -> Document:
     doc.ul([
         f"**Robot**: {robot.n} joints, {robot.cables} cables — position-controlled "
         + ", ".join(str(c + 1) for c in pos)
-        + (f"; force-controlled " + ", ".join(f"{c + 1} ({robot.cable_tensions[c]:g} N)" for c in force)
+        + ("; force-controlled " + ", ".join(f"{c + 1} ({robot.cable_tensions[c]:g} N)" for c in force)
            if force else "")
-        + f"; joint limits " + ", ".join(f"[{np.degrees(a):.0f}°, {np.degrees(b):.0f}°]" for a, b in lim) + ".",
+        + "; joint limits " + ", ".join(f"[{np.degrees(a):.0f}°, {np.degrees(b):.0f}°]" for a, b in lim) + ".",
         f"**Configurations**: {p['configurations']} joint-angle sets sampled in the joint box "
         f"({'scrambled Sobol sequence' if p['method'] == 'sobol' else p['method']}, seed {p['seed']}; limits "
         f"wider than ±180° clipped to ±180°). A full grid is impossible past a few joints.",
