@@ -221,7 +221,7 @@ def test_cli_compensate_spatial_targets(cdsm, arm, tmp_path, capsys):
     assert main(["compensate", str(t), "--model", str(tmp_path / "m.json"), "--out", str(out)]) == 0
     lines = [ln for ln in out.read_text().splitlines() if not ln.startswith("#")]
     head = lines[0].split(",")
-    cab = [f"L_{i + 1}" for i in robot.position_cables]
+    cab = [f"L_{i + 1}" for i in range(len(robot.position_cables))]  # numbered as dL_i of measurement files
     assert head[:6 + len(cab)] == ["x", "y", "z", "rx", "ry", "rz"] + cab and "predicted_rotation_error" in head
     assert all(r.split(",")[head.index("converged")] == "1" for r in lines[1:])
     t.write_text("x,y,z,rx\n0,0,0.3,0\n")

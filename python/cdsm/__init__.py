@@ -24,7 +24,7 @@ from .robot import Robot, Solution
 from .spatial import SpatialRobot
 
 __all__ = ["Robot", "SpatialRobot", "Solution", "CdsmInputError", "Model", "accuracy", "calibration", "report"]
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 _deprecated.install()
 

@@ -86,8 +86,27 @@ def pooled_percentile(mc: MonteCarlo, p: float, rows=None, interpolate: bool = F
 # ---------------------------------------------------------------------------
 # allocation
 # ---------------------------------------------------------------------------
+class Verdicts:
+    """What an allocation answer says of itself (``achieved_m``,
+    ``achieved_1p25_m`` and ``target_m`` in m)."""
+
+    achieved_m: float
+    achieved_1p25_m: float
+    target_m: float
+
+    @property
+    def holds(self) -> bool:
+        """The verified percentile is within the target."""
+        return bool(self.achieved_m <= self.target_m)
+
+    @property
+    def not_loose(self) -> bool:
+        """Every tolerance × 1.25 breaks the target: the answer is not loose."""
+        return bool(self.achieved_1p25_m > self.target_m)
+
+
 @dataclass
-class Allocation:
+class Allocation(Verdicts):
     """Answer of :func:`allocate` (all lengths in m unless the key says mm).
 
     cable_length_tol_m: (n,) ± tolerance per upper cable. hole_height_tol_m:
@@ -112,14 +131,6 @@ class Allocation:
     failed: int
     history: List[tuple] = field(default_factory=list)
     params: dict = field(default_factory=dict)
-
-    @property
-    def holds(self) -> bool:
-        return bool(self.achieved_m <= self.target_m)
-
-    @property
-    def not_loose(self) -> bool:
-        return bool(self.achieved_1p25_m > self.target_m)
 
     def to_json(self) -> dict:
         """The fixed keys (``cable_length_tol_m``, ``hole_height_tol_m``,
@@ -503,7 +514,7 @@ def load_spatial_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
 
 
 @dataclass
-class SpatialAllocation:
+class SpatialAllocation(Verdicts):
     """Answer of :func:`allocate` for a spatial arm (lengths in m).
 
     cable_length_tol_m: (m_pos,) ± tolerance per position-controlled cable.
@@ -526,14 +537,6 @@ class SpatialAllocation:
     failed: int
     history: List[tuple] = field(default_factory=list)
     params: dict = field(default_factory=dict)
-
-    @property
-    def holds(self) -> bool:
-        return bool(self.achieved_m <= self.target_m)
-
-    @property
-    def not_loose(self) -> bool:
-        return bool(self.achieved_1p25_m > self.target_m)
 
     def to_json(self) -> dict:
         """``cable_length_tol_m``, ``hole_tol_m`` (what ``cdsm montecarlo

@@ -112,7 +112,7 @@ class Compensation:
         n = self.theta_cmd.shape[1]
         pos, rot = TARGET_COLUMNS[self.kind]
         has_phi = self.targets.shape[1] > len(pos)
-        cab = [i + 1 for i in self.cable_indices]
+        cab = list(range(1, self.commands.shape[1] + 1))
         head = list(pos) + (list(rot) if has_phi else []) + [f"L_{i}" for i in cab] + \
             ["converged", "predicted_error", "predicted_error_nominal"] + \
             ([ROTATION_ERROR[self.kind]] if has_phi else []) + \
@@ -121,7 +121,11 @@ class Compensation:
         buf.write(f"# cdsm compensate: upper-cable length commands from model {self.model_name!r}\n")
         buf.write(f"# SI units: {', '.join(pos)}, L_i, dL_i, predicted_error* in m; {', '.join(rot)}, theta_i, "
                   f"{ROTATION_ERROR[self.kind]} in rad\n")
-        buf.write("# L_i = nominal upper length at theta_cmd + dL_i; converged 1/0; flags empty when fine\n")
+        buf.write("# L_i = nominal upper length at theta_cmd + dL_i; converged 1/0; flags empty when fine\n"
+                  if self.kind == "planar" else
+                  "# L_i, dL_i: the i-th position-controlled cable (as dL_i in measurement files; robot-file cables "
+                  + ", ".join(str(c + 1) for c in self.cable_indices) + "); L_i = nominal length at theta_cmd "
+                  "+ dL_i; converged 1/0; flags empty when fine\n")
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(head)
         for i in range(len(self)):
@@ -222,42 +226,14 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension:
         reach &= lim
     L = r.straight_length
     weights = [1.0, 1.0, L if has_phi else 0.0]
-    commands = np.full((N, n), np.nan)
-    nominal = np.full((N, n), np.nan)
-    th_pred = np.full((N, n), np.nan)
-    conv = np.zeros(N, bool)
-    seen = np.full((N, 3), np.nan)
-    seen0 = np.full((N, 3), np.nan)
+    commands, nominal, th_pred, conv, seen, seen0 = _solve_rows(model, theta, full, reach, weights, n, start,
+                                                                tol, max_iter)
     rows = np.flatnonzero(reach)
-    if len(rows):
-        st = None if start is None else np.ascontiguousarray(as_vector("start", start, n))
-        res = r.core.compensate(np.ascontiguousarray(model.p, float), np.ascontiguousarray(theta[rows]),
-                                np.ascontiguousarray(full[rows]), weights, st, float(tol), 1e-12,
-                                int(max_iter), r.threads)
-        commands[rows] = res.command.reshape(-1, n)
-        nominal[rows] = res.nominal.reshape(-1, n)
-        th_pred[rows] = res.theta.reshape(-1, n)
-        conv[rows] = res.converged
-        seen[rows] = res.seen.reshape(-1, 3)
-        seen0[rows] = res.seen_nominal.reshape(-1, 3)
     err = np.hypot(seen[:, 0] - full[:, 0], seen[:, 1] - full[:, 1])
     err0 = np.hypot(seen0[:, 0] - full[:, 0], seen0[:, 1] - full[:, 1])
     perr = np.abs(seen[:, 2] - full[:, 2]) if has_phi else np.full(N, np.nan)
-    for i in rows[~conv[rows]]:
-        if not np.isfinite(seen[i]).all():
-            flags[i].append("the fitted model cannot realise the commands")
-        else:
-            flags[i].append(f"not converged (predicted tip error {err[i]:.2e} m)")
-    fin = rows[np.isfinite(th_pred[rows]).all(axis=1)]
-    if len(fin):
-        feas = r.feasible(th_pred[fin], min_tension=min_tension)
-        inlim = r.within_limits(th_pred[fin])
-        for i, f_, li in zip(fin, np.atleast_1d(feas), np.atleast_1d(inlim)):
-            if not f_:
-                flags[i].append("slack cable: an upper cable tension <= "
-                                f"{min_tension:g} N at the predicted configuration")
-            if not li:
-                flags[i].append("joint limits: the predicted configuration leaves them")
+    _flag_outcome(r, flags, rows, conv, seen, th_pred, err, min_tension,
+                  f"slack cable: an upper cable tension <= {min_tension:g} N at the predicted configuration")
     dL = commands - nominal
     return Compensation(arr.copy(), commands, theta, dL, nominal, conv, err, err0, perr, th_pred,
                         ["; ".join(f) for f in flags], model.name)
@@ -294,9 +270,28 @@ def _compensate_spatial(model, poses, tol, max_iter, min_tension, enforce_limits
         reach &= lim
     L = r.straight_length
     weights = [1.0, 1.0, 1.0] + ([L] * 3 if has_rot else [0.0] * 3)
+    commands, nominal, th_pred, conv, seen, seen0 = _solve_rows(model, theta, full, reach, weights, m, start,
+                                                                tol, max_iter)
+    rows = np.flatnonzero(reach)
+    err = np.linalg.norm(seen[:, :3] - full[:, :3], axis=1)
+    err0 = np.linalg.norm(seen0[:, :3] - full[:, :3], axis=1)
+    rerr = np.linalg.norm(seen[:, 3:] - full[:, 3:], axis=1) if has_rot else np.full(N, np.nan)
+    _flag_outcome(r, flags, rows, conv, seen, th_pred, err, min_tension,
+                  f"slack cable: no tension set >= {min_tension:g} N holds the predicted configuration")
+    return Compensation(arr.copy(), commands, theta, commands - nominal, nominal, conv, err, err0, rerr, th_pred,
+                        ["; ".join(f) for f in flags], model.name, "spatial", list(r.position_cables))
+
+
+def _solve_rows(model, theta, full, reach, weights, m: int, start, tol, max_iter):
+    """The core's compensation of the rows ``reach`` (the others stay NaN):
+    commands, nominal commands (N, m) m, predicted configurations (N, n) rad,
+    converged (N,), observations with the commands and with the nominal ones
+    (N, width)."""
+    r = model.robot
+    N, n, width = len(full), r.n, full.shape[1]
     commands, nominal = np.full((N, m), np.nan), np.full((N, m), np.nan)
     th_pred, conv = np.full((N, n), np.nan), np.zeros(N, bool)
-    seen, seen0 = np.full((N, 6), np.nan), np.full((N, 6), np.nan)
+    seen, seen0 = np.full((N, width), np.nan), np.full((N, width), np.nan)
     rows = np.flatnonzero(reach)
     if len(rows):
         st = None if start is None else np.ascontiguousarray(as_vector("start", start, m))
@@ -307,17 +302,25 @@ def _compensate_spatial(model, poses, tol, max_iter, min_tension, enforce_limits
         nominal[rows] = res.nominal.reshape(-1, m)
         th_pred[rows] = res.theta.reshape(-1, n)
         conv[rows] = res.converged
-        seen[rows] = res.seen.reshape(-1, 6)
-        seen0[rows] = res.seen_nominal.reshape(-1, 6)
-    err = np.linalg.norm(seen[:, :3] - full[:, :3], axis=1)
-    err0 = np.linalg.norm(seen0[:, :3] - full[:, :3], axis=1)
-    rerr = np.linalg.norm(seen[:, 3:] - full[:, 3:], axis=1) if has_rot else np.full(N, np.nan)
+        seen[rows] = res.seen.reshape(-1, width)
+        seen0[rows] = res.seen_nominal.reshape(-1, width)
+    return commands, nominal, th_pred, conv, seen, seen0
+
+
+def _flag_outcome(r, flags, rows, conv, seen, th_pred, err, min_tension, slack_text: str) -> None:
+    """Flags of the compensated rows: not converged (or not realisable), a
+    slack cable or the joint limits at the predicted configuration."""
     for i in rows[~conv[rows]]:
-        flags[i].append(f"not converged (predicted tip error {err[i]:.2e} m)")
+        if not np.isfinite(seen[i]).all():
+            flags[i].append("the fitted model cannot realise the commands")
+        else:
+            flags[i].append(f"not converged (predicted tip error {err[i]:.2e} m)")
     fin = rows[np.isfinite(th_pred[rows]).all(axis=1)]
     if len(fin):
-        for i, f_ in zip(fin, np.atleast_1d(r.feasible(th_pred[fin], min_tension=min_tension))):
+        feas = r.feasible(th_pred[fin], min_tension=min_tension)
+        inlim = r.within_limits(th_pred[fin])
+        for i, f_, li in zip(fin, np.atleast_1d(feas), np.atleast_1d(inlim)):
             if not f_:
-                flags[i].append(f"slack cable: no tension set >= {min_tension:g} N holds the predicted configuration")
-    return Compensation(arr.copy(), commands, theta, commands - nominal, nominal, conv, err, err0, rerr, th_pred,
-                        ["; ".join(f) for f in flags], model.name, "spatial", list(r.position_cables))
+                flags[i].append(slack_text)
+            if not li:
+                flags[i].append("joint limits: the predicted configuration leaves them")

@@ -145,13 +145,15 @@ def overview_figure(study, protocol: str) -> Figure:
                     ax.set_xlabel("tip X (mm)")
                 if ax is axs[i][0]:
                     ax.set_ylabel("tip Y (mm)")
-        cb = fig.colorbar(sc, ax=axs, shrink=0.6, pad=0.015, aspect=40)
-        cb.set_label("|dXY| / the panel's max (in its title)")
         fig.suptitle(f"All single-error scenarios, |d(X, Y)| — {PROTOCOL_TITLES.get(protocol, protocol)}"
                      " (black rings: jump points)", fontsize=12)
         for ax in np.ravel(axs):
             ax.label_outer()
+        # lay the panels out first: the colour bar then takes its room from them
+        # (tight_layout cannot place a bar that spans several axes)
         tight(fig, "overview")
+        cb = fig.colorbar(sc, ax=axs, shrink=0.6, pad=0.015, aspect=40)
+        cb.set_label("|dXY| / the panel's max (in its title)")
     return fig
 
 
