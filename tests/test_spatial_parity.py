@@ -136,3 +136,14 @@ def test_tensions(pair):
     np.testing.assert_array_equal(np.asarray(rust.feasible(th)), feasible)
     np.testing.assert_array_equal(np.isnan(T_rust), np.isnan(T))
     np.testing.assert_allclose(T_rust[feasible], T[feasible], rtol=1e-9, atol=1e-12)
+
+
+def test_planar_end_frame_equals_the_paper_arm_built_in_3d(cdsm):
+    """Robot.fk_matrix of the planar prototype is the frame the spatial core
+    computes for paper_spatial (all axes along z): equal to 1e-12 m, z = 0."""
+    planar, spatial = cdsm.Robot.paper(), cdsm.Robot.packaged("paper_spatial")
+    th = np.random.default_rng(5).uniform(-0.6, 0.6, (50, 3))
+    f = planar.fk_matrix(th)
+    np.testing.assert_allclose(f, spatial.fk_matrix(th), rtol=0, atol=1e-12)
+    assert f.shape == (50, 4, 4) and planar.fk_matrix(th[0]).shape == (4, 4)
+    np.testing.assert_allclose(f[:, 2, 3], 0.0, atol=0)

@@ -311,6 +311,19 @@ class Robot(Arm):
         t, single = as_batch("theta", theta, self.n)
         return self._out(self.core.fk(t, self.threads), (3,), single)
 
+    def fk_matrix(self, theta) -> np.ndarray:
+        """End frame as a homogeneous transform in 3-D (the plane is z = 0,
+        joints turn about z), as spatial arms give it: (N, n) -> (N, 4, 4);
+        (n,) -> (4, 4). Rotation Rz(phi), translation (x, y, 0) m."""
+        t, single = as_batch("theta", theta, self.n)
+        pose = self.core.fk(t, self.threads).reshape(-1, 3)
+        c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
+        f = np.zeros((len(pose), 4, 4))
+        f[:, 0, 0], f[:, 0, 1], f[:, 1, 0], f[:, 1, 1] = c, -s, s, c
+        f[:, 2, 2] = f[:, 3, 3] = 1.0
+        f[:, 0, 3], f[:, 1, 3] = pose[:, 0], pose[:, 1]
+        return f[0] if single else f
+
     def fk_jacobian(self, theta) -> np.ndarray:
         """d[x, y, phi]/d theta: (N, n) -> (N, 3, n)."""
         t, single = as_batch("theta", theta, self.n)
