@@ -80,11 +80,26 @@ struct LinkageFile {
     joint_limits: Option<[f64; 2]>,
 }
 
-fn bad(field: String, problem: impl Into<String>) -> CdsmError {
+/// A robot-file error on `field`.
+pub(crate) fn bad(field: String, problem: impl Into<String>) -> CdsmError {
     CdsmError::Robot {
         field,
         problem: problem.into(),
     }
+}
+
+/// Parses a robot file's TOML into `T`; a syntax or type error names the
+/// field the parser names (`<file>` when none).
+pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T> {
+    toml::from_str(text).map_err(|e| {
+        let msg = e.message().to_string();
+        let field = msg
+            .split('`')
+            .nth(1)
+            .map(str::to_string)
+            .unwrap_or_else(|| "<file>".to_string());
+        bad(field, e.to_string().trim().replace('\n', " "))
+    })
 }
 
 fn positive(field: String, v: f64) -> Result<f64> {
@@ -125,15 +140,7 @@ impl Robot {
 
     /// Parses and validates a TOML robot description (format in README).
     pub fn from_toml(text: &str) -> Result<Robot> {
-        let file: RobotFile = toml::from_str(text).map_err(|e| {
-            let msg = e.message().to_string();
-            let field = msg
-                .split('`')
-                .nth(1)
-                .map(str::to_string)
-                .unwrap_or_else(|| "<file>".to_string());
-            bad(field, e.to_string().trim().replace('\n', " "))
-        })?;
+        let file: RobotFile = parse_toml(text)?;
         if let Some(k) = file.kind.as_deref() {
             if k != "planar" {
                 return Err(bad(

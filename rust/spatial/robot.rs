@@ -3,7 +3,7 @@
 //! per cable the disk it ends at and its control mode. SI units.
 
 use crate::error::{CdsmError, Result};
-use crate::robot::CableMaterial;
+use crate::robot::{bad, parse_toml, CableMaterial};
 use serde::Deserialize;
 
 /// One revolute joint: a unit `axis` and the `offset` from the previous frame
@@ -122,13 +122,6 @@ struct CableFile {
     holes: Option<Vec<[f64; 3]>>,
 }
 
-fn bad(field: String, problem: impl Into<String>) -> CdsmError {
-    CdsmError::Robot {
-        field,
-        problem: problem.into(),
-    }
-}
-
 fn finite3(field: &str, v: [f64; 3]) -> Result<[f64; 3]> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(v)
@@ -171,15 +164,7 @@ pub fn kind_of(text: &str) -> Result<String> {
 impl SpatialRobot {
     /// Parses and validates a spatial robot description (`docs/spatial.md`).
     pub fn from_toml(text: &str) -> Result<SpatialRobot> {
-        let f: File = toml::from_str(text).map_err(|e| {
-            let msg = e.message().to_string();
-            let field = msg
-                .split('`')
-                .nth(1)
-                .map(str::to_string)
-                .unwrap_or_else(|| "<file>".into());
-            bad(field, e.to_string().trim().replace('\n', " "))
-        })?;
+        let f: File = parse_toml(text)?;
         if f.kind != "spatial" {
             return Err(bad(
                 "kind".into(),

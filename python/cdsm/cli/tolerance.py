@@ -64,18 +64,14 @@ def _tolerance_run(args) -> int:
         raise UserError(f"--percentile: must be within (0, 100), got {args.percentile}")
     robot = load_robot(args.robot)
     if robot.kind == "spatial":
-        return _spatial_run(args, robot, t0)
-    region = args.region or "grid:-30:30:5"
-    theta, desc = tolerance.parse_region(region, robot, args.seed)
-    weights = None if args.weights is None else _float_list("--weights", args.weights)
-    if weights is not None and (len(weights) not in (2, 2 * robot.n) or min(weights) <= 0
-                                or not all(w < float("inf") for w in weights)):
-        raise UserError(f"--weights {args.weights!r}: need 2 (cables, holes) or 2n = {2 * robot.n} "
-                        "positive finite numbers (n cables then n disks)")
-    base = _float_list("--base-mm", args.base_mm)
-    if len(base) != 2 or min(base) <= 0:
-        raise UserError(f"--base-mm {args.base_mm!r}: expected two positive numbers C,H (mm)")
-    check_out_file(args.json, "--json")
+        m, cables = len(robot.position_cables), robot.cables
+        inputs = _inputs(args, robot, tolerance.SPATIAL_REGION_DEFAULT, m + cables,
+                         f"{m + cables} positive finite numbers ({m} position-controlled cables then {cables} "
+                         "cables' holes)")
+        return _spatial_run(args, robot, t0, *inputs)
+    region, theta, desc, weights, base = _inputs(args, robot, "grid:-30:30:5", 2 * robot.n,
+                                                 f"2n = {2 * robot.n} positive finite numbers (n cables then "
+                                                 "n disks)")
     show = not args.quiet
     if show:
         print(f"cdsm tolerance: robot {robot.name!r} ({robot.n} joints), region {desc}, "
@@ -106,7 +102,27 @@ def _tolerance_run(args) -> int:
     return 0
 
 
-def _spatial_run(args, robot, t0: float) -> int:
+def _inputs(args, robot, default_region: str, width: int, what: str):
+    """The options both kinds check alike: the region (``default_region``
+    when not given), ``--weights`` (2 or ``width`` numbers, ``what`` says
+    which), ``--base-mm`` and the ``--json`` path. Returns region, theta,
+    its description, weights (or None) and base (mm)."""
+    from ..accuracy import tolerance
+
+    region = args.region or default_region
+    theta, desc = tolerance.parse_region(region, robot, args.seed)
+    weights = None if args.weights is None else _float_list("--weights", args.weights)
+    if weights is not None and (len(weights) not in (2, width) or min(weights) <= 0
+                                or not all(w < float("inf") for w in weights)):
+        raise UserError(f"--weights {args.weights!r}: need 2 (cables, holes) or {what}")
+    base = _float_list("--base-mm", args.base_mm)
+    if len(base) != 2 or min(base) <= 0:
+        raise UserError(f"--base-mm {args.base_mm!r}: expected two positive numbers C,H (mm)")
+    check_out_file(args.json, "--json")
+    return region, theta, desc, weights, base
+
+
+def _spatial_run(args, robot, t0: float, region: str, theta, desc: str, weights, base) -> int:
     """``cdsm tolerance`` on a spatial robot: ± tolerances on the
     position-controlled cables' lengths and on every coordinate of each
     cable's holes, by bisection on a common scale with the Monte Carlo alone
@@ -115,21 +131,10 @@ def _spatial_run(args, robot, t0: float) -> int:
     from ..accuracy import tolerance
     from ..files import write_json
 
-    region = args.region or tolerance.SPATIAL_REGION_DEFAULT
-    theta, desc = tolerance.parse_region(region, robot, args.seed)
-    m, cables = len(robot.position_cables), robot.cables
-    weights = None if args.weights is None else _float_list("--weights", args.weights)
-    if weights is not None and (len(weights) not in (2, m + cables) or min(weights) <= 0
-                                or not all(w < float("inf") for w in weights)):
-        raise UserError(f"--weights {args.weights!r}: need 2 (cables, holes) or {m + cables} positive finite "
-                        f"numbers ({m} position-controlled cables then {cables} cables' holes)")
+    cables = robot.cables
     if args.shape != "ratio":
         raise UserError(f"--shape {args.shape}: needs linear sensitivities, which the core has for planar robots "
                         "only; spatial robots take --shape ratio")
-    base = _float_list("--base-mm", args.base_mm)
-    if len(base) != 2 or min(base) <= 0:
-        raise UserError(f"--base-mm {args.base_mm!r}: expected two positive numbers C,H (mm)")
-    check_out_file(args.json, "--json")
     show = not args.quiet
     if show:
         print(f"cdsm tolerance: spatial robot {robot.name!r} ({robot.n} joints), region {desc}, "
