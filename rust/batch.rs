@@ -125,8 +125,10 @@ impl BatchSolution {
         self.reason.extend(other.reason);
     }
 
+    /// The parts' rows in order (one part is moved, not copied).
     pub(crate) fn concat(parts: Vec<BatchSolution>) -> Self {
-        let mut out = BatchSolution::default();
+        let mut parts = parts.into_iter();
+        let mut out = parts.next().unwrap_or_default();
         for p in parts {
             out.extend(p);
         }
@@ -359,12 +361,14 @@ pub fn solve_cables(
         };
         let upper = &upper[r.start * n..r.end * n];
         if method == CableMethod::Newton {
+            // the seeds copied once, each row solved in place
             let mut out = BatchSolution::with_capacity(m, n);
-            let mut th = vec![0.0; n];
+            out.theta.extend_from_slice(seed);
             for i in 0..m {
-                th.copy_from_slice(&seed[i * n..(i + 1) * n]);
-                let st = solver.solve(&g, &upper[i * n..(i + 1) * n], &mut th);
-                out.push(robot, &th, st);
+                let th = &mut out.theta[i * n..(i + 1) * n];
+                let st = solver.solve(&g, &upper[i * n..(i + 1) * n], th);
+                let within = kinematics::within_limits(robot, th);
+                out.push_status(st, within);
             }
             return out;
         }

@@ -114,27 +114,25 @@ impl CableGeometry {
     #[inline]
     pub fn upper_lengths_and_jacobian(&self, cs: &[(f64, f64)], len: &mut [f64], jac: &mut [f64]) {
         let n = self.n;
-        for i in 0..n {
+        // the derivative's denominator is kept finite at a zero-length segment
+        let tiny = f64::MIN_POSITIVE.sqrt();
+        for (i, (out, row)) in len.iter_mut().zip(jac.chunks_exact_mut(n)).enumerate() {
             let c = 2 * i;
+            let segs = &self.seg[c * n..(c + 1) * n];
             let mut l = self.traverse[c];
-            for (k, &(ck, sk)) in cs.iter().enumerate().take(i + 1) {
-                let [p, q, r] = self.seg[c * n + k];
-                let s2 = p + q * ck + r * sk;
+            // one loop over the whole row (zeros past the diagonal written in
+            // it: no memset call per row)
+            for (k, ((d, &(ck, sk)), &[p, q, r])) in row.iter_mut().zip(cs).zip(segs).enumerate() {
+                if k > i {
+                    *d = 0.0;
+                    continue;
+                }
                 // one square root: the length, and the derivative's denominator
-                // (kept finite at a zero-length segment)
-                let root = s2.max(0.0).sqrt();
+                let root = (p + q * ck + r * sk).max(0.0).sqrt();
                 l += root;
-                let den = if root > 0.0 {
-                    root
-                } else {
-                    f64::MIN_POSITIVE.sqrt()
-                };
-                jac[i * n + k] = (r * ck - q * sk) / (2.0 * den);
+                *d = (r * ck - q * sk) / (2.0 * root.max(tiny));
             }
-            for v in jac[i * n + i + 1..(i + 1) * n].iter_mut() {
-                *v = 0.0;
-            }
-            len[i] = l;
+            *out = l;
         }
     }
 

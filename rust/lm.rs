@@ -11,8 +11,9 @@
 //! lowers it at all (the damping passes 1e12). The step:
 //!
 //! * [`Step::Triangular`]: square lower-triangular `J` (the cable solves):
-//!   forward substitution `J delta = -r` (Gauss–Newton) while `lambda <= 1e-12`
-//!   (it may start at 0), the damped normal equations otherwise;
+//!   forward substitution `J delta = -r` (Gauss–Newton; the diagonal's
+//!   reciprocals formed first) while `lambda <= 1e-12` (it may start at 0),
+//!   the damped normal equations otherwise;
 //! * [`Step::Normal`]: `(J^T J + lambda D) delta = -J^T r` by Cholesky;
 //! * [`Step::MinNorm`]: `delta = -J^T (J J^T + lambda I)^-1 r` (more unknowns
 //!   than residuals: the pose IK of redundant arms);
@@ -160,6 +161,10 @@ pub struct Status {
 /// Reusable buffers of the solver.
 #[derive(Debug, Default, Clone)]
 pub struct Workspace {
+    /// `(m, n, step)` the buffers are sized for.
+    sized: Option<(usize, usize, Step)>,
+    /// The current point (the accepted trial; copied to the caller's `x` at the end).
+    x: Vec<f64>,
     r: Vec<f64>,
     r_trial: Vec<f64>,
     jac: Vec<f64>,
@@ -174,10 +179,19 @@ pub struct Workspace {
 }
 
 impl Workspace {
+    #[inline]
     fn fit(&mut self, m: usize, n: usize, step: Step) {
+        if self.sized != Some((m, n, step)) {
+            self.resize(m, n, step);
+        }
+    }
+
+    fn resize(&mut self, m: usize, n: usize, step: Step) {
+        self.sized = Some((m, n, step));
         // the system of the step: (m, m) for the minimal-norm step, (n, n) otherwise
         let s = if step == Step::MinNorm { m } else { n };
         for (v, len) in [
+            (&mut self.x, n),
             (&mut self.r, m),
             (&mut self.r_trial, m),
             (&mut self.jac, m * n),
@@ -224,6 +238,45 @@ pub fn solve<P: Problem + ?Sized>(
 ) -> Status {
     let (m, n) = problem.dims();
     ws.fit(m, n, lm.step);
+    copy_short(&mut ws.x, x);
+    let st = iterate(problem, lm, ws, m, n);
+    copy_short(x, &ws.x);
+    st
+}
+
+/// `dst = src`, inline for the few unknowns of the small solves (no call
+/// to `memcpy` per solve). Panics if the lengths differ.
+#[inline]
+fn copy_short(dst: &mut [f64], src: &[f64]) {
+    fn fixed<const N: usize>(dst: &mut [f64], src: &[f64]) -> bool {
+        match (<&mut [f64; N]>::try_from(dst), <&[f64; N]>::try_from(src)) {
+            (Ok(d), Ok(s)) => {
+                *d = *s;
+                true
+            }
+            _ => false,
+        }
+    }
+    let done = match dst.len() {
+        1 => fixed::<1>(dst, src),
+        2 => fixed::<2>(dst, src),
+        3 => fixed::<3>(dst, src),
+        4 => fixed::<4>(dst, src),
+        _ => false,
+    };
+    if !done {
+        dst.copy_from_slice(src);
+    }
+}
+
+/// The iterations of [`solve`] from `ws.x` (the answer left there).
+fn iterate<P: Problem + ?Sized>(
+    problem: &mut P,
+    lm: &Lm,
+    ws: &mut Workspace,
+    m: usize,
+    n: usize,
+) -> Status {
     let done = |converged: bool, iterations: u32, r: &[f64], reason: Reason| Status {
         converged,
         iterations,
@@ -231,7 +284,7 @@ pub fn solve<P: Problem + ?Sized>(
         cost: sum_sq(r),
         reason,
     };
-    if !problem.eval(x, &mut ws.r, Some(&mut ws.jac)) {
+    if !problem.eval(&ws.x, &mut ws.r, Some(&mut ws.jac)) {
         ws.r.fill(f64::NAN);
         return done(false, 0, &ws.r, Reason::Singular);
     }
@@ -259,7 +312,7 @@ pub fn solve<P: Problem + ?Sized>(
                 // least squares: no step lowers the cost any more, a minimum
                 return done(true, iterations, &ws.r, Reason::Converged);
             }
-            let reason = if problem.on_bound(x) {
+            let reason = if problem.on_bound(&ws.x) {
                 Reason::OutsideLimits
             } else if stationary(&ws.jac, &ws.r, m, n) {
                 Reason::Unreachable
@@ -277,7 +330,7 @@ pub fn solve<P: Problem + ?Sized>(
                 // least squares: a column the residual does not depend on
                 // carries no information, its component stays put
                 let blind = lm.min_decrease > 0.0 && (0..m).all(|i| ws.jac[i * n + k] == 0.0);
-                ws.active[k] = blind || problem.blocked(x, k, -gk);
+                ws.active[k] = blind || problem.blocked(&ws.x, k, -gk);
                 any |= ws.active[k];
             }
         }
@@ -295,17 +348,21 @@ pub fn solve<P: Problem + ?Sized>(
         } else {
             &ws.jac
         };
-        let ok = step(
-            lm,
-            jac,
-            &ws.r,
-            m,
-            n,
-            lambda,
-            &mut ws.a,
-            &mut ws.g,
-            &mut ws.delta,
-        );
+        let ok = if lm.step == Step::Triangular && lambda <= LAMBDA_MIN && m == n {
+            forward_substitution(jac, &ws.r, n, &mut ws.g, &mut ws.delta)
+        } else {
+            step(
+                lm,
+                jac,
+                &ws.r,
+                m,
+                n,
+                lambda,
+                &mut ws.a,
+                &mut ws.g,
+                &mut ws.delta,
+            )
+        };
         if any {
             for (d, a) in ws.delta.iter_mut().zip(&ws.active) {
                 if *a {
@@ -321,7 +378,7 @@ pub fn solve<P: Problem + ?Sized>(
             lambda = raise(lambda);
             continue;
         }
-        for ((t, xk), d) in ws.x_trial.iter_mut().zip(x.iter()).zip(&ws.delta) {
+        for ((t, xk), d) in ws.x_trial.iter_mut().zip(&ws.x).zip(&ws.delta) {
             *t = xk + d;
         }
         problem.project(&mut ws.x_trial);
@@ -338,7 +395,7 @@ pub fn solve<P: Problem + ?Sized>(
         };
         let accept = c < cost && (joint || problem.jacobian(&ws.x_trial, &mut ws.jac_trial));
         if accept {
-            x.copy_from_slice(&ws.x_trial);
+            std::mem::swap(&mut ws.x, &mut ws.x_trial);
             std::mem::swap(&mut ws.r, &mut ws.r_trial);
             std::mem::swap(&mut ws.jac, &mut ws.jac_trial);
             let small = lm.min_decrease > 0.0 && cost - c <= lm.min_decrease * cost;
@@ -351,6 +408,38 @@ pub fn solve<P: Problem + ?Sized>(
             lambda = raise(lambda);
         }
     }
+}
+
+/// The undamped triangular step: forward substitution `J delta = -r`, `J`
+/// lower triangular (`n x n`), with the diagonal's reciprocals (into `inv`)
+/// formed first, off the substitution's dependency chain. False when a
+/// diagonal entry is zero or not finite.
+#[inline]
+fn forward_substitution(
+    jac: &[f64],
+    r: &[f64],
+    n: usize,
+    inv: &mut [f64],
+    delta: &mut [f64],
+) -> bool {
+    let inv = &mut inv[..n];
+    let mut finite = true;
+    for (i, v) in inv.iter_mut().enumerate() {
+        let d = jac[i * n + i];
+        *v = 1.0 / d;
+        finite &= d.is_finite() && v.is_finite();
+    }
+    if !finite {
+        return false;
+    }
+    for (i, (row, v)) in jac.chunks_exact(n).zip(inv.iter()).enumerate() {
+        let mut acc = -r[i];
+        for (j, d) in row[..i].iter().zip(delta.iter()) {
+            acc -= j * d;
+        }
+        delta[i] = acc * v;
+    }
+    true
 }
 
 #[inline]
@@ -389,19 +478,7 @@ fn step(
 ) -> bool {
     match lm.step {
         Step::Triangular if lambda <= LAMBDA_MIN && m == n => {
-            // forward substitution: J delta = -r, J lower triangular
-            for i in 0..n {
-                let mut acc = -r[i];
-                for k in 0..i {
-                    acc -= jac[i * n + k] * delta[k];
-                }
-                let d = jac[i * n + i];
-                if d == 0.0 || !d.is_finite() {
-                    return false;
-                }
-                delta[i] = acc / d;
-            }
-            true
+            forward_substitution(jac, r, n, g, delta)
         }
         Step::Triangular | Step::Normal => {
             normal_equations(jac, r, m, n, lambda, lm.damping, a, g);

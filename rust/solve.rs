@@ -9,6 +9,7 @@ use crate::geometry::ArmGeometry;
 use crate::kinematics::within_limits;
 use crate::lm::{self, Lm, Problem, Reason, Step, Workspace};
 use crate::robot::Robot;
+use crate::simd::math::cos_sin_short;
 
 /// Options shared by the solves.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -175,10 +176,7 @@ impl Problem for CableProblem<'_> {
 
     #[inline]
     fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
-        for (c, t) in self.cs.iter_mut().zip(x) {
-            let (s, co) = t.sin_cos();
-            *c = (co, s);
-        }
+        cos_sin_short(x, self.cs);
         match jac {
             Some(j) => self.geom.upper_lengths_and_jacobian(self.cs, r, j),
             None => self.geom.upper_lengths(self.cs, r),
@@ -321,6 +319,12 @@ impl<'a> CableSolver<'a> {
         theta: &mut [f64],
         closed: Option<f64>,
     ) -> Status {
+        let st = closed_form_status(closed, self.opts.tol);
+        if st.converged && (!self.opts.enforce_limits || within_limits(self.robot, theta)) {
+            // accepted as [`CableSolver::finish`] would, without its copies
+            self.cs_fresh = false;
+            return st;
+        }
         self.seed.copy_from_slice(seed);
         self.cs_fresh = false;
         self.finish(geom, target, theta, closed)

@@ -469,6 +469,34 @@ pub fn sin_cos_slice(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
     run(pulp::Arch::new(), [x], [sin, cos], SinCosFn);
 }
 
+/// `(cos, sin)` of every element of `x` into `cs`, without SIMD dispatch:
+/// the [`sin_cos`] kernel on plain `f64`s, four elements in lockstep (four
+/// independent dependency chains), so a short vector of joint angles costs
+/// about one call's latency. Same bits as [`sin_cos`] lane by lane (same
+/// error bound). Panics if the lengths differ.
+#[inline]
+pub fn cos_sin_short(x: &[f64], cs: &mut [(f64, f64)]) {
+    assert_eq!(x.len(), cs.len(), "cos_sin_short: lengths differ");
+    let simd = pulp::Scalar::new();
+    for (xc, cc) in x.chunks(4).zip(cs.chunks_mut(4)) {
+        let mut v = [0.0; 4];
+        v[..xc.len()].copy_from_slice(xc);
+        let x = L::<pulp::Scalar, 4>::new(simd, v);
+        let (s, c) = if v.iter().all(|t| t.abs() < core::f64::consts::FRAC_PI_4) {
+            // quadrant 0 needs no reduction (the reduction gives y0 = x,
+            // y1 = 0 there): the same bits as `sin_cos_lanes`
+            let zero = L::splat(simd, 0.0);
+            let s = kernel_sin(x, zero);
+            (x.eq_c(0.0).select(x, s), kernel_cos(x, zero))
+        } else {
+            sin_cos_lanes(x)
+        };
+        for (k, o) in cc.iter_mut().enumerate() {
+            *o = (c.v[k], s.v[k]);
+        }
+    }
+}
+
 /// `atan2(y, x)` of every pair (see [`atan2`]), with run-time dispatch.
 pub fn atan2_slice(y: &[f64], x: &[f64], out: &mut [f64]) {
     run(pulp::Arch::new(), [y, x], [out], Atan2Fn);
@@ -566,6 +594,42 @@ mod tests {
             103993.0,
         ]);
         x
+    }
+
+    #[test]
+    fn short_cos_sin_has_the_bits_of_the_vector_kernel() {
+        // short vectors (the joint angles of a solve) mixing the unreduced
+        // quadrant-0 path with the reduced one, edges at pi/4 and signed zeros
+        let q = std::f64::consts::FRAC_PI_4;
+        let mut x = sin_cos_points();
+        x.extend(uniform(7, 40_000, -0.8, 0.8));
+        x.extend([
+            0.0,
+            -0.0,
+            q,
+            -q,
+            q.next_down(),
+            (-q).next_up(),
+            q.next_up(),
+            1e-300,
+            -5e-324,
+        ]);
+        let (mut s, mut c) = (vec![0.0; x.len()], vec![0.0; x.len()]);
+        sin_cos_slice(&x, &mut s, &mut c);
+        let mut start = 0;
+        let mut len = 1;
+        while start < x.len() {
+            let end = (start + len).min(x.len());
+            let mut cs = vec![(0.0, 0.0); end - start];
+            cos_sin_short(&x[start..end], &mut cs);
+            for (k, (co, si)) in cs.iter().enumerate() {
+                let i = start + k;
+                assert_eq!(si.to_bits(), s[i].to_bits(), "sin({:e})", x[i]);
+                assert_eq!(co.to_bits(), c[i].to_bits(), "cos({:e})", x[i]);
+            }
+            start = end;
+            len = len % 9 + 1;
+        }
     }
 
     #[test]
