@@ -238,35 +238,10 @@ pub fn solve<P: Problem + ?Sized>(
 ) -> Status {
     let (m, n) = problem.dims();
     ws.fit(m, n, lm.step);
-    copy_short(&mut ws.x, x);
+    ws.x.copy_from_slice(x);
     let st = iterate(problem, lm, ws, m, n);
-    copy_short(x, &ws.x);
+    x.copy_from_slice(&ws.x);
     st
-}
-
-/// `dst = src`, inline for the few unknowns of the small solves (no call
-/// to `memcpy` per solve). Panics if the lengths differ.
-#[inline]
-fn copy_short(dst: &mut [f64], src: &[f64]) {
-    fn fixed<const N: usize>(dst: &mut [f64], src: &[f64]) -> bool {
-        match (<&mut [f64; N]>::try_from(dst), <&[f64; N]>::try_from(src)) {
-            (Ok(d), Ok(s)) => {
-                *d = *s;
-                true
-            }
-            _ => false,
-        }
-    }
-    let done = match dst.len() {
-        1 => fixed::<1>(dst, src),
-        2 => fixed::<2>(dst, src),
-        3 => fixed::<3>(dst, src),
-        4 => fixed::<4>(dst, src),
-        _ => false,
-    };
-    if !done {
-        dst.copy_from_slice(src);
-    }
 }
 
 /// The iterations of [`solve`] from `ws.x` (the answer left there).
@@ -348,6 +323,8 @@ fn iterate<P: Problem + ?Sized>(
         } else {
             &ws.jac
         };
+        // the undamped triangular step inline (the cable solves' hot path),
+        // every other step in `step`
         let ok = if lm.step == Step::Triangular && lambda <= LAMBDA_MIN && m == n {
             forward_substitution(jac, &ws.r, n, &mut ws.g, &mut ws.delta)
         } else {
@@ -463,7 +440,9 @@ fn stationary(jac: &[f64], r: &[f64], m: usize, n: usize) -> bool {
     g2.sqrt() <= 1e-6 * jn * rn
 }
 
-/// The damped step into `delta`; false when it cannot be computed.
+/// The damped step into `delta` (the undamped triangular one is
+/// [`forward_substitution`], taken by the caller); false when it cannot be
+/// computed.
 #[allow(clippy::too_many_arguments)]
 fn step(
     lm: &Lm,
@@ -477,9 +456,6 @@ fn step(
     delta: &mut [f64],
 ) -> bool {
     match lm.step {
-        Step::Triangular if lambda <= LAMBDA_MIN && m == n => {
-            forward_substitution(jac, r, n, g, delta)
-        }
         Step::Triangular | Step::Normal => {
             normal_equations(jac, r, m, n, lambda, lm.damping, a, g);
             solve_spd(n, &a[..n * n], &g[..n], delta)

@@ -265,7 +265,7 @@ impl<'a> CableSolver<'a> {
         let closed =
             solve_cables_closed_form(geom, target, theta, &self.seed_cs, &mut self.cs, None);
         self.cs_fresh = closed.is_some();
-        self.finish(geom, target, theta, closed)
+        self.finish(geom, target, None, theta, closed)
     }
 
     /// The rest of [`CableSolver::solve`] once the closed form has run from
@@ -273,11 +273,14 @@ impl<'a> CableSolver<'a> {
     /// still the seed), `theta` its answer. Accepts it (within tol, and the
     /// limits when enforced), or reports why not (`ClosedForm`), or runs
     /// damped Newton (`Auto`) from the closed form's answer when it had one
-    /// within the limits, else from the seed.
-    pub fn finish(
+    /// within the limits, else from the seed. `seed`: the seed angles when
+    /// they are not already the solver's (copied only when a row is not
+    /// accepted).
+    fn finish(
         &mut self,
         geom: &CableGeometry,
         target: &[f64],
+        seed: Option<&[f64]>,
         theta: &mut [f64],
         closed: Option<f64>,
     ) -> Status {
@@ -286,6 +289,9 @@ impl<'a> CableSolver<'a> {
         let st = closed_form_status(closed, self.opts.tol);
         if st.converged && in_box {
             return st;
+        }
+        if let Some(s) = seed {
+            self.seed.copy_from_slice(s);
         }
         if self.method == CableMethod::ClosedForm {
             if !ok {
@@ -319,15 +325,8 @@ impl<'a> CableSolver<'a> {
         theta: &mut [f64],
         closed: Option<f64>,
     ) -> Status {
-        let st = closed_form_status(closed, self.opts.tol);
-        if st.converged && (!self.opts.enforce_limits || within_limits(self.robot, theta)) {
-            // accepted as [`CableSolver::finish`] would, without its copies
-            self.cs_fresh = false;
-            return st;
-        }
-        self.seed.copy_from_slice(seed);
         self.cs_fresh = false;
-        self.finish(geom, target, theta, closed)
+        self.finish(geom, target, Some(seed), theta, closed)
     }
 
     fn refresh(&mut self, theta: &[f64]) {
