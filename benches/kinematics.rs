@@ -1,4 +1,4 @@
-//! Criterion benches of the core: FK, cable lengths, cable solve and pose IK
+//! Benches of the core: FK, cable lengths, cable solve and pose IK
 //! for n = 3 (the paper's prototype) and n = 20; statics: upper tensions and
 //! the coupled elastic cable solve.
 
@@ -9,8 +9,9 @@ use cdsm::lm::Workspace;
 use cdsm::solve::{CableMethod, CableSolver, SolveOptions};
 use cdsm::statics::{self, Loads, Statics};
 use cdsm::Robot;
-use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
+
+mod timing;
 
 fn robot(n: usize) -> Robot {
     if n == 3 {
@@ -30,7 +31,8 @@ fn theta(n: usize) -> Vec<f64> {
     (0..n).map(|k| 0.3 * ((k as f64) * 1.7).sin()).collect()
 }
 
-fn benches(c: &mut Criterion) {
+fn main() {
+    let c = timing::Bench::from_args();
     let opts = SolveOptions::default();
     for n in [3usize, 20] {
         let r = robot(n);
@@ -40,20 +42,18 @@ fn benches(c: &mut Criterion) {
         g.lengths(&th, &mut l);
         let upper: Vec<f64> = (0..n).map(|i| l[2 * i]).collect();
         let pose = fk(&r, &th);
-        c.bench_function(&format!("fk/n={n}"), |b| b.iter(|| fk(&r, black_box(&th))));
-        c.bench_function(&format!("cable_lengths/n={n}"), |b| {
-            b.iter(|| g.lengths(black_box(&th), &mut l))
+        c.run(&format!("fk/n={n}"), 1, || fk(&r, black_box(&th)));
+        c.run(&format!("cable_lengths/n={n}"), 1, || {
+            g.lengths(black_box(&th), &mut l)
         });
         for (name, m) in [("auto", CableMethod::Auto), ("newton", CableMethod::Newton)] {
             let mut solver = CableSolver::new(&r, m, opts);
             let mut t = th.clone();
-            c.bench_function(&format!("cable_solve_{name}/n={n}"), |b| {
-                b.iter(|| {
-                    for (x, y) in t.iter_mut().zip(&th) {
-                        *x = y + 0.02;
-                    }
-                    solver.solve(&g, black_box(&upper), &mut t)
-                })
+            c.run(&format!("cable_solve_{name}/n={n}"), 1, || {
+                for (x, y) in t.iter_mut().zip(&th) {
+                    *x = y + 0.02;
+                }
+                solver.solve(&g, black_box(&upper), &mut t)
             });
         }
         // the n = 20 robot file has no weights: hang 0.5 N on every lower cable
@@ -69,37 +69,30 @@ fn benches(c: &mut Criterion) {
         };
         let mut st = Statics::new(&r);
         let mut t = vec![0.0; n];
-        c.bench_function(&format!("tensions/n={n}"), |b| {
-            b.iter(|| st.tensions(black_box(&th), &loads, &mut t))
+        c.run(&format!("tensions/n={n}"), 1, || {
+            st.tensions(black_box(&th), &loads, &mut t)
         });
         let mut ws = Workspace::default();
-        c.bench_function(&format!("cable_solve_elastic/n={n}"), |b| {
-            b.iter(|| {
-                let mut x = th.clone();
-                statics::solve_cables_elastic(
-                    &r,
-                    &g,
-                    black_box(&upper),
-                    &loads,
-                    &mut x,
-                    &mut t,
-                    &opts,
-                    &mut ws,
-                )
-            })
+        c.run(&format!("cable_solve_elastic/n={n}"), 1, || {
+            let mut x = th.clone();
+            statics::solve_cables_elastic(
+                &r,
+                &g,
+                black_box(&upper),
+                &loads,
+                &mut x,
+                &mut t,
+                &opts,
+                &mut ws,
+            )
         });
         let mut ik = IkSolver::new(&r, TaskMask::POSE, opts);
         let mut t = th.clone();
-        c.bench_function(&format!("pose_ik/n={n}"), |b| {
-            b.iter(|| {
-                for (x, y) in t.iter_mut().zip(&th) {
-                    *x = y + 0.02;
-                }
-                ik.solve(black_box(&pose), &mut t)
-            })
+        c.run(&format!("pose_ik/n={n}"), 1, || {
+            for (x, y) in t.iter_mut().zip(&th) {
+                *x = y + 0.02;
+            }
+            ik.solve(black_box(&pose), &mut t)
         });
     }
 }
-
-criterion_group!(kinematics, benches);
-criterion_main!(kinematics);

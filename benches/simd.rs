@@ -8,8 +8,9 @@ use cdsm::cables::CableGeometry;
 use cdsm::simd;
 use cdsm::solve::solve_cables_closed_form;
 use cdsm::Robot;
-use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use std::hint::black_box;
+
+mod timing;
 
 const SAMPLES: usize = 200;
 
@@ -87,7 +88,8 @@ fn scalar_loop(
     }
 }
 
-fn benches(c: &mut Criterion) {
+fn main() {
+    let c = timing::Bench::from_args();
     let robot = Robot::paper();
     let geom = CableGeometry::new(&robot, None);
     let n = geom.n;
@@ -117,11 +119,10 @@ fn benches(c: &mut Criterion) {
         ok.iter().filter(|x| **x).count()
     );
 
-    let mut g = c.benchmark_group("closed_form_anchor_workload");
-    g.throughput(Throughput::Elements(rows as u64));
-    g.sample_size(20);
-    g.bench_function("scalar_loop", |b| {
-        b.iter(|| {
+    c.run(
+        "closed_form_anchor_workload/scalar_loop",
+        rows as u64,
+        || {
             scalar_loop(
                 &geom,
                 black_box(&target),
@@ -130,10 +131,12 @@ fn benches(c: &mut Criterion) {
                 &mut residual,
                 &mut ok,
             )
-        })
-    });
-    g.bench_function("simd_batch", |b| {
-        b.iter(|| {
+        },
+    );
+    c.run(
+        "closed_form_anchor_workload/simd_batch",
+        rows as u64,
+        || {
             simd::solve_cables_closed_form_batch(
                 &geom,
                 black_box(&target),
@@ -142,10 +145,12 @@ fn benches(c: &mut Criterion) {
                 &mut residual,
                 &mut ok,
             )
-        })
-    });
-    g.bench_function("simd_batch_forced_scalar_fallback", |b| {
-        b.iter(|| {
+        },
+    );
+    c.run(
+        "closed_form_anchor_workload/simd_batch_forced_scalar_fallback",
+        rows as u64,
+        || {
             simd::solve_cables_closed_form_batch_in(
                 pulp::Arch::Scalar,
                 &geom,
@@ -155,10 +160,6 @@ fn benches(c: &mut Criterion) {
                 &mut residual,
                 &mut ok,
             )
-        })
-    });
-    g.finish();
+        },
+    );
 }
-
-criterion_group!(simd_benches, benches);
-criterion_main!(simd_benches);
