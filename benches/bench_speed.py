@@ -17,8 +17,9 @@ poses (phi = sum theta), repeated to G x 2000 / 2 solves — from
 ``workspace.paper_ik_seed``, with the damped least squares (LM, the default)
 and the closed form (``method="closed_form"``, n = 3), one thread.
 
-Every figure is the best of ``--repeat`` runs, in millions of solves per
-second per core.
+Every figure is the best of ``--repeat`` rounds (each round runs the C
+yardsticks and every case once, so drift in the machine's speed slows both
+sides alike), in millions of solves per second per core.
 """
 
 from __future__ import annotations
@@ -41,26 +42,25 @@ from cdsm.accuracy import montecarlo, workspace
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def best_rate(fn, count: int, repeat: int) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t)
-    return count / best / 1e6
+def seconds(fn) -> float:
+    t = time.perf_counter()
+    fn()
+    return time.perf_counter() - t
 
 
-def c_rate(src: Path, groups: int, workdir: Path, repeat: int):
-    """Build ``src`` with gcc -O3 and return its best M solves/s, or None."""
+def c_build(src: Path, workdir: Path):
+    """Build ``src`` with gcc -O3; the executable, or None without gcc."""
     if shutil.which("gcc") is None or not src.is_file():
         return None
     exe = workdir / src.stem
     subprocess.run(["gcc", "-O3", "-o", str(exe), str(src), "-lm"], check=True)
-    best = 0.0
-    for _ in range(repeat):
-        out = subprocess.run([str(exe), str(groups)], check=True, capture_output=True, text=True).stdout
-        best = max(best, float(re.search(r"([0-9.]+) M/s", out).group(1)))
-    return best
+    return exe
+
+
+def c_run(exe: Path, groups: int) -> float:
+    """One run of a C yardstick: its M solves/s."""
+    out = subprocess.run([str(exe), str(groups)], check=True, capture_output=True, text=True).stdout
+    return float(re.search(r"([0-9.]+) M/s", out).group(1))
 
 
 def workload(robot, groups: int, seed: int = 0):
@@ -85,21 +85,18 @@ def main() -> None:
     N = len(targets)
     print(f"workload: {args.groups} groups x {len(grid)} configurations = {N:,} solves; one thread; "
           f"SIMD: {cdsm._cdsm.simd_instruction_set()}")
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        anchors = Path(args.anchors)
-        c_newton = c_rate(anchors / "c_newton.c", args.groups, Path(tmp), args.repeat)
-        c_closed = c_rate(anchors / "c_closed.c", args.groups, Path(tmp), args.repeat)
+    # the cases, each a (label, C yardstick, what, one timed run giving M/s)
+    cases = []
     for method in ("newton", "auto"):
         sol = robot.solve_cables(targets, seed=seeds, method=method)
         assert sol.converged.all(), f"{method}: {np.sum(~sol.converged)} failed"
-        rate = best_rate(lambda m=method: robot.solve_cables(targets, seed=seeds, method=m), N, args.repeat)
-        rows.append((f"solve_cables(method={method!r})", rate, c_newton if method == "newton" else c_closed,
-                     "C Newton" if method == "newton" else "C closed form"))
+        cases.append((f"solve_cables(method={method!r})", "c_newton" if method == "newton" else "c_closed",
+                      "C Newton" if method == "newton" else "C closed form",
+                      lambda m=method: N / seconds(lambda: robot.solve_cables(targets, seed=seeds, method=m)) / 1e6))
     for label, dh in (("cable errors only", 0.0), ("paper's errors (cables ±1 mm, holes ±0.35 mm)", 0.35e-3)):
         kw = dict(samples=args.groups, seed=1, chunk=args.groups, progress=False, dl_tol=1e-3, dh_tol=dh)
-        rate = best_rate(lambda kw=kw: montecarlo.monte_carlo(robot, grid, **kw), N, args.repeat)
-        rows.append((f"Monte-Carlo kernel, {label}", rate, c_closed, "C closed form"))
+        cases.append((f"Monte-Carlo kernel, {label}", "c_closed", "C closed form",
+                      lambda kw=kw: N / seconds(lambda: montecarlo.monte_carlo(robot, grid, **kw)) / 1e6))
     # pose IK on the peer's poses
     th = np.random.default_rng(0).uniform(-np.radians(30), np.radians(30), (2000, robot.n))
     poses = np.tile(robot.fk(th), (max(args.groups // 2, 1), 1))
@@ -109,8 +106,22 @@ def main() -> None:
         kw = {} if m == "lm" else {"method": m}
         sol = robot.ik(poses[:2000], seed=seed, **kw)
         assert sol.converged.all()
-        rate = best_rate(lambda kw=kw: robot.ik(poses, seed=seed, **kw), len(poses), args.repeat)
-        rows.append((f"pose IK, method={m!r}, from paper_ik_seed", rate, None, "roboticstoolbox ik_LM ≈ 0.045"))
+        cases.append((f"pose IK, method={m!r}, from paper_ik_seed", None, "roboticstoolbox ik_LM ≈ 0.045",
+                      lambda kw=kw: len(poses) / seconds(lambda: robot.ik(poses, seed=seed, **kw)) / 1e6))
+    # rounds: every C yardstick and every case once per round, best of the
+    # rounds each, so a machine whose speed drifts slows both sides alike
+    best = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        anchors = Path(args.anchors)
+        exes = {k: c_build(anchors / f"{k}.c", Path(tmp)) for k in ("c_newton", "c_closed")}
+        for _ in range(args.repeat):
+            for k, exe in exes.items():
+                if exe is not None:
+                    best[k] = max(best.get(k, 0.0), c_run(exe, args.groups))
+            for label, _, _, run in cases:
+                best[label] = max(best.get(label, 0.0), run())
+    c_newton = best.get("c_newton")
+    rows = [(label, best[label], best.get(ref) if ref else None, what) for label, ref, what, _ in cases]
     print(f"{'path':<58} {'M/s/core':>9} {'yardstick':>10}  ratio")
     for name, rate, ref, what in rows:
         ratio = f"{rate / ref:5.2f}x {what}" if ref else f"   ({what})"

@@ -5,10 +5,10 @@
 use crate::batch::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
 use crate::error::{CdsmError, Result};
-use crate::geometry::ArmGeometry;
 use crate::kinematics::fk;
 use crate::robot::Robot;
 use crate::simd::cables::{closed_form_block, ClosedFormBlock, BLOCK_ROWS};
+use crate::simd::math::atan2_slice;
 use crate::solve::{cs_difference, CableMethod, CableSolver, SolveOptions};
 use crate::statics::{feasible, Loads, Statics};
 
@@ -128,7 +128,8 @@ pub fn hist_bin(v: f64) -> usize {
     let m = f64::from_bits((bits & ((1u64 << 52) - 1)) | (1023u64 << 52)) - 1.0;
     let log2 = e + m * (1.3465 - 0.3465 * m); // |error| < 0.01
     let per_log2 = HIST_PER_DECADE as f64 * std::f64::consts::LOG10_2;
-    let est = ((log2 - HIST_LO.log2()) * per_log2).floor() as isize + 1;
+    // truncation, not floor (a libm call): the walks below correct the guess
+    let est = ((log2 - HIST_LO.log2()) * per_log2) as isize + 1;
     let mut b = est.clamp(1, last as isize - 1) as usize;
     while b > 1 && v < edges[b - 1] {
         b -= 1;
@@ -185,14 +186,6 @@ impl McStats {
             max: vec![f64::NEG_INFINITY; configs * quantities],
             hist: vec![0; configs * HIST_BINS],
         }
-    }
-
-    /// One planar sample: `ds = [dX, dY, dphi]`.
-    fn add(&mut self, j: usize, ds: [f64; 3]) {
-        self.add_values(
-            j,
-            &[ds[0], ds[1], ds[2], (ds[0] * ds[0] + ds[1] * ds[1]).sqrt()],
-        );
     }
 
     /// One sample's quantities (the norm at [`NORM`]).
@@ -280,7 +273,6 @@ pub fn monte_carlo(
     let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
         let mut stats = McStats::new(r.len());
-        let mut cs = vec![(1.0, 0.0); n];
         let (mut target, mut th) = (vec![0.0; n], vec![0.0; n]);
         let mut solver = CableSolver::new(robot, method, *opts);
         let mut statics = Statics::new(robot);
@@ -297,6 +289,9 @@ pub fn monte_carlo(
         let mut l0 = vec![0.0; n * BLOCK_ROWS];
         let mut p0 = [[0.0; 3]; BLOCK_ROWS];
         let first = r.start;
+        let mut acc = BlockStats::default();
+        let mut v = [[0.0; BLOCK_ROWS]; QUANTITIES];
+        let simd = method != CableMethod::Newton;
         for start in r.clone().step_by(BLOCK_ROWS) {
             let lanes = BLOCK_ROWS.min(r.end - start);
             for b in 0..lanes {
@@ -312,97 +307,233 @@ pub fn monte_carlo(
                     block.seed_sin[k * BLOCK_ROWS + b] = *s;
                 }
             }
-            for s in 0..samples {
-                let geom = geom_of(s);
-                let simd = method != CableMethod::Newton;
-                if simd {
-                    for b in 0..lanes {
-                        for k in 0..n {
-                            block.target[k * BLOCK_ROWS + b] = l0[b * n + k] + dl[s * n + k];
-                        }
-                    }
-                    closed_form_block(arch, geom, &mut block);
-                }
-                for b in 0..lanes {
-                    let (i, j) = (start + b, start + b - first);
-                    let sc = &seed_cs[b * n..(b + 1) * n];
-                    if simd && block.ok[b] && block.residual[b] <= opts.tol {
-                        for (k, c) in cs.iter_mut().enumerate() {
-                            *c = (block.cos[k * BLOCK_ROWS + b], block.sin[k * BLOCK_ROWS + b]);
-                        }
-                        stats.add(j, deviation_from_cs(robot, &cs, sc, p0[b], small));
-                        if check_slack {
-                            // the answer's angles from its cos/sin, relative to the seed
-                            let t0 = &theta0[i * n..(i + 1) * n];
-                            for ((t, c), (s0, t0k)) in th.iter_mut().zip(&cs).zip(sc.iter().zip(t0))
-                            {
-                                let d = cs_difference(*c, *s0);
-                                *t = t0k + d.1.atan2(d.0);
+            acc.clear();
+            // the samples of the block compiled for the instruction set of
+            // `arch` (the loops across lanes vectorise)
+            arch.dispatch(|| {
+                for s in 0..samples {
+                    let geom = geom_of(s);
+                    let mut taken = [false; BLOCK_ROWS];
+                    if simd {
+                        for b in 0..lanes {
+                            for k in 0..n {
+                                block.target[k * BLOCK_ROWS + b] = l0[b * n + k] + dl[s * n + k];
                             }
-                            stats.slack[j] += u64::from(slack_at(&th));
                         }
-                        continue;
-                    }
-                    // the general path (Newton asked for, or the closed form's failure)
-                    for (k, tk) in target.iter_mut().enumerate() {
-                        *tk = l0[b * n + k] + dl[s * n + k];
-                    }
-                    th.copy_from_slice(&theta0[i * n..(i + 1) * n]);
-                    let st = solver.solve(geom, &target, &mut th);
-                    if st.converged {
-                        let p = solver.pose(&th);
-                        let q = p0[b];
-                        stats.add(j, [p[0] - q[0], p[1] - q[1], p[2] - q[2]]);
-                        if check_slack {
-                            stats.slack[j] += u64::from(slack_at(&th));
+                        closed_form_block(arch, geom, &mut block);
+                        for (b, t) in taken.iter_mut().enumerate().take(lanes) {
+                            *t = block.ok[b] && block.residual[b] <= opts.tol;
                         }
-                    } else {
-                        stats.failed[j] += 1;
+                        // every lane's deviation at once (SIMD across lanes);
+                        // a lane not taken goes the general path below
+                        block_deviation(robot, &block, &p0, small, &mut v);
+                        acc.add_lanes(&taken, &v);
+                        for b in (0..lanes).filter(|b| taken[*b]) {
+                            let j = start + b - first;
+                            stats.hist[j * HIST_BINS + hist_bin(v[NORM][b])] += 1;
+                            if check_slack {
+                                // the answer's angles from its cos/sin, relative to the seed
+                                let t0 = &theta0[(start + b) * n..(start + b + 1) * n];
+                                let sc = &seed_cs[b * n..(b + 1) * n];
+                                for (k, (t, (s0, t0k))) in
+                                    th.iter_mut().zip(sc.iter().zip(t0)).enumerate()
+                                {
+                                    let c = (
+                                        block.cos[k * BLOCK_ROWS + b],
+                                        block.sin[k * BLOCK_ROWS + b],
+                                    );
+                                    let d = cs_difference(c, *s0);
+                                    *t = t0k + d.1.atan2(d.0);
+                                }
+                                acc.slack[b] += u64::from(slack_at(&th));
+                            }
+                        }
+                    }
+                    for b in (0..lanes).filter(|b| !taken[*b]) {
+                        // the general path (Newton asked for, or the closed form's failure)
+                        let (i, j) = (start + b, start + b - first);
+                        for (k, tk) in target.iter_mut().enumerate() {
+                            *tk = l0[b * n + k] + dl[s * n + k];
+                        }
+                        th.copy_from_slice(&theta0[i * n..(i + 1) * n]);
+                        let st = solver.solve(geom, &target, &mut th);
+                        if st.converged {
+                            let p = solver.pose(&th);
+                            let q = p0[b];
+                            let ds = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+                            let norm = (ds[0] * ds[0] + ds[1] * ds[1]).sqrt();
+                            acc.add(b, [ds[0], ds[1], ds[2], norm]);
+                            stats.hist[j * HIST_BINS + hist_bin(norm)] += 1;
+                            if check_slack {
+                                acc.slack[b] += u64::from(slack_at(&th));
+                            }
+                        } else {
+                            acc.failed[b] += 1;
+                        }
                     }
                 }
-            }
+            });
+            acc.store(&mut stats, start - first, lanes);
         }
         stats
     });
-    let mut out = McStats::new(0);
+    let mut parts = parts.into_iter();
+    let mut out = parts.next().unwrap_or_else(|| McStats::new(0));
     for p in parts {
         out.extend(p);
     }
     Ok(out)
 }
 
-/// The tip deviation of a closed-form answer without inverse trigonometry:
-/// the pose from the answer's cos/sin `cs`, dphi from the product of the
-/// joint rotations relative to the seed `seed_cs` (one atan2; per joint when
-/// a rotation is large, `small`: the cosine below which it is). `p0`: the
-/// seed's pose.
-#[inline]
-fn deviation_from_cs(
+/// The tip deviations `[dX, dY, dphi, |dXY|]` (m, m, rad, m; into `v`,
+/// lane-major) of the closed-form answers of a block (`cos`/`sin` of
+/// `block`), without inverse trigonometry per joint: the pose from the
+/// answers' cos/sin (the chain of [`crate::geometry::ArmGeometry::fk_cs`],
+/// the same operations lane by lane), dphi from the product of the joint
+/// rotations relative to the seed (one atan2, the SIMD one, within 1 ulp of
+/// libm's; per joint when a rotation is large, `small`: the cosine below
+/// which it is). `p0`: the seeds' poses. Lanes without an answer hold
+/// garbage. The loops run across lanes (vectorised where the caller is).
+#[inline(always)]
+fn block_deviation(
     robot: &Robot,
-    cs: &[(f64, f64)],
-    seed_cs: &[(f64, f64)],
-    p0: [f64; 3],
+    block: &ClosedFormBlock,
+    p0: &[[f64; 3]; BLOCK_ROWS],
     small: f64,
-) -> [f64; 3] {
-    let p = robot.fk_cs(cs, 0.0);
-    let (mut prod, mut large) = ((1.0f64, 0.0f64), false);
-    for (c, s0) in cs.iter().zip(seed_cs) {
-        let d = cs_difference(*c, *s0);
-        large |= d.0 < small;
-        prod = (prod.0 * d.0 - prod.1 * d.1, prod.0 * d.1 + prod.1 * d.0);
+    v: &mut [[f64; BLOCK_ROWS]; QUANTITIES],
+) {
+    {
+        const W: usize = BLOCK_ROWS;
+        let (mut x, mut y) = ([0.0f64; W], [0.0f64; W]);
+        let (mut c, mut s) = ([1.0f64; W], [0.0f64; W]);
+        let (mut pc, mut ps) = ([1.0f64; W], [0.0f64; W]);
+        let mut large = [false; W];
+        for k in 0..robot.n() {
+            let (lb, la) = (
+                robot.link_before[k],
+                robot.link_after[k] + robot.thickness[k],
+            );
+            let ck = &block.cos[k * W..(k + 1) * W];
+            let sk = &block.sin[k * W..(k + 1) * W];
+            let c0 = &block.seed_cos[k * W..(k + 1) * W];
+            let s0 = &block.seed_sin[k * W..(k + 1) * W];
+            for b in 0..W {
+                x[b] += lb * c[b];
+                y[b] += lb * s[b];
+                (c[b], s[b]) = (c[b] * ck[b] - s[b] * sk[b], s[b] * ck[b] + c[b] * sk[b]);
+                x[b] += la * c[b];
+                y[b] += la * s[b];
+                // the joint's rotation relative to the seed, multiplied in
+                let (dc, ds) = cs_difference((ck[b], sk[b]), (c0[b], s0[b]));
+                large[b] |= dc < small;
+                (pc[b], ps[b]) = (pc[b] * dc - ps[b] * ds, pc[b] * ds + ps[b] * dc);
+            }
+        }
+        for b in 0..W {
+            let (dx, dy) = (x[b] - p0[b][0], y[b] - p0[b][1]);
+            v[0][b] = dx;
+            v[1][b] = dy;
+            v[3][b] = (dx * dx + dy * dy).sqrt();
+        }
+        // one atan2 of the product per lane (SIMD, within 1 ulp of libm's)
+        atan2_slice(&ps, &pc, &mut v[2]);
+        for b in (0..W).filter(|b| large[*b]) {
+            v[2][b] = (0..robot.n())
+                .map(|k| {
+                    let d = cs_difference(
+                        (block.cos[k * W + b], block.sin[k * W + b]),
+                        (block.seed_cos[k * W + b], block.seed_sin[k * W + b]),
+                    );
+                    d.1.atan2(d.0)
+                })
+                .sum();
+        }
     }
-    let dphi = if large {
-        cs.iter()
-            .zip(seed_cs)
-            .map(|(c, s0)| {
-                let d = cs_difference(*c, *s0);
-                d.1.atan2(d.0)
-            })
-            .sum()
-    } else {
-        prod.1.atan2(prod.0)
-    };
-    [p[0] - p0[0], p[1] - p0[1], dphi]
+}
+
+/// The statistics of the configurations of one block while its samples
+/// are added (lane-major per quantity, so the lanes update at once), stored
+/// into [`McStats`] when the block is done: the same sums in the same order
+/// as [`McStats::add_values`].
+#[derive(Debug, Clone)]
+struct BlockStats {
+    count: [u64; BLOCK_ROWS],
+    failed: [u64; BLOCK_ROWS],
+    slack: [u64; BLOCK_ROWS],
+    sum: [[f64; BLOCK_ROWS]; QUANTITIES],
+    sum_sq: [[f64; BLOCK_ROWS]; QUANTITIES],
+    min: [[f64; BLOCK_ROWS]; QUANTITIES],
+    max: [[f64; BLOCK_ROWS]; QUANTITIES],
+}
+
+impl Default for BlockStats {
+    fn default() -> Self {
+        let z = [[0.0; BLOCK_ROWS]; QUANTITIES];
+        BlockStats {
+            count: [0; BLOCK_ROWS],
+            failed: [0; BLOCK_ROWS],
+            slack: [0; BLOCK_ROWS],
+            sum: z,
+            sum_sq: z,
+            min: [[f64::INFINITY; BLOCK_ROWS]; QUANTITIES],
+            max: [[f64::NEG_INFINITY; BLOCK_ROWS]; QUANTITIES],
+        }
+    }
+}
+
+impl BlockStats {
+    fn clear(&mut self) {
+        *self = BlockStats::default();
+    }
+
+    /// One sample's quantities `v` on the lanes `take`.
+    #[inline]
+    // lane loops over parallel arrays (they vectorise as written)
+    #[allow(clippy::needless_range_loop)]
+    fn add_lanes(&mut self, take: &[bool; BLOCK_ROWS], v: &[[f64; BLOCK_ROWS]; QUANTITIES]) {
+        for b in 0..BLOCK_ROWS {
+            self.count[b] += u64::from(take[b]);
+        }
+        for q in 0..QUANTITIES {
+            for b in 0..BLOCK_ROWS {
+                // a lane not taken adds +0 (the sums never hold -0: exact)
+                let x = if take[b] { v[q][b] } else { 0.0 };
+                self.sum[q][b] += x;
+                self.sum_sq[q][b] += x * x;
+                let (lo, hi) = (self.min[q][b].min(x), self.max[q][b].max(x));
+                self.min[q][b] = if take[b] { lo } else { self.min[q][b] };
+                self.max[q][b] = if take[b] { hi } else { self.max[q][b] };
+            }
+        }
+    }
+
+    /// One sample's quantities on lane `b`.
+    fn add(&mut self, b: usize, v: [f64; QUANTITIES]) {
+        self.count[b] += 1;
+        for (q, x) in v.iter().enumerate() {
+            self.sum[q][b] += x;
+            self.sum_sq[q][b] += x * x;
+            self.min[q][b] = self.min[q][b].min(*x);
+            self.max[q][b] = self.max[q][b].max(*x);
+        }
+    }
+
+    /// Stores the first `lanes` lanes as the configurations `j0..` of `stats`.
+    fn store(&self, stats: &mut McStats, j0: usize, lanes: usize) {
+        for b in 0..lanes {
+            let j = j0 + b;
+            stats.count[j] = self.count[b];
+            stats.failed[j] = self.failed[b];
+            stats.slack[j] = self.slack[b];
+            for q in 0..QUANTITIES {
+                let k = j * stats.quantities + q;
+                stats.sum[k] = self.sum[q][b];
+                stats.sum_sq[k] = self.sum_sq[q][b];
+                stats.min[k] = self.min[q][b];
+                stats.max[k] = self.max[q][b];
+            }
+        }
+    }
 }
 
 #[cfg(test)]

@@ -463,11 +463,13 @@ fn step(
         Step::MinNorm => {
             // (lambda I + J J^T) y = -r, delta = J^T y; the damping goes in
             // first and the columns' outer products are added in order
+            // (the lower triangle: the LDL^T reads no more; mirrored for LU)
             for i in 0..m {
-                for l in 0..m {
+                let ji = &jac[i * n..(i + 1) * n];
+                for l in 0..=i {
                     let mut v = if i == l { lambda } else { 0.0 };
-                    for k in 0..n {
-                        v += jac[i * n + k] * jac[l * n + k];
+                    for (x, y) in ji.iter().zip(&jac[l * n..(l + 1) * n]) {
+                        v += x * y;
                     }
                     a[i * m + l] = v;
                 }
@@ -483,10 +485,15 @@ fn step(
             };
             // symmetric positive definite when lambda > 0 or J has full row
             // rank: Cholesky, else the pivoted LU
-            if !solve_spd(m, &a[..m * m], &g[..m], ys)
-                && !solve_general(m, &a[..m * m], &g[..m], ys)
-            {
-                return false;
+            if !solve_spd(m, &a[..m * m], &g[..m], ys) {
+                for i in 0..m {
+                    for l in i + 1..m {
+                        a[i * m + l] = a[l * m + i];
+                    }
+                }
+                if !solve_general(m, &a[..m * m], &g[..m], ys) {
+                    return false;
+                }
             }
             for (k, d) in delta.iter_mut().enumerate() {
                 *d = (0..m).map(|i| jac[i * n + k] * ys[i]).sum();
@@ -586,27 +593,18 @@ pub fn r_factor(jac: &[f64], m: usize, n: usize) -> Vec<f64> {
 }
 
 /// Solves the symmetric positive-definite `n x n` system `a x = b` (`a`
-/// row-major): nalgebra fixed-size Cholesky for n <= 6, faer beyond.
-/// Returns `false` if `a` is not positive definite.
+/// row-major): a square-root-free `L D L^T` on the stack for n <= 6 (the
+/// pivots' reciprocals formed once, so the substitutions only multiply),
+/// faer's Cholesky beyond. Returns `false` if `a` is not positive definite
+/// (a pivot not > 0, or not finite).
 pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
-    fn fixed<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
-        let m = nalgebra::SMatrix::<f64, N, N>::from_row_slice(a);
-        let v = nalgebra::SVector::<f64, N>::from_column_slice(b);
-        match m.cholesky() {
-            Some(ch) => {
-                x.copy_from_slice(ch.solve(&v).as_slice());
-                true
-            }
-            None => false,
-        }
-    }
     match n {
-        1 => fixed::<1>(a, b, x),
-        2 => fixed::<2>(a, b, x),
-        3 => fixed::<3>(a, b, x),
-        4 => fixed::<4>(a, b, x),
-        5 => fixed::<5>(a, b, x),
-        6 => fixed::<6>(a, b, x),
+        1 => ldlt::<1>(a, b, x),
+        2 => ldlt::<2>(a, b, x),
+        3 => ldlt::<3>(a, b, x),
+        4 => ldlt::<4>(a, b, x),
+        5 => ldlt::<5>(a, b, x),
+        6 => ldlt::<6>(a, b, x),
         _ => {
             let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
             let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
@@ -622,6 +620,51 @@ pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
             }
         }
     }
+}
+
+/// `a = L D L^T` (unit lower `L`, the lower triangle of `a` read) and the
+/// solve of `a x = b`, `N x N` on the stack.
+#[inline]
+fn ldlt<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+    let mut l = [[0.0f64; N]; N];
+    // w[i][k] = L[i][k] d[k]
+    let mut w = [[0.0f64; N]; N];
+    let mut dinv = [0.0f64; N];
+    for j in 0..N {
+        let mut d = a[j * N + j];
+        for k in 0..j {
+            d -= l[j][k] * w[j][k];
+        }
+        // not > 0 also catches NaN
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        dinv[j] = 1.0 / d;
+        for i in j + 1..N {
+            let mut v = a[i * N + j];
+            for k in 0..j {
+                v -= l[i][k] * w[j][k];
+            }
+            w[i][j] = v;
+            l[i][j] = v * dinv[j];
+        }
+    }
+    let mut y = [0.0f64; N];
+    for i in 0..N {
+        let mut v = b[i];
+        for k in 0..i {
+            v -= l[i][k] * y[k];
+        }
+        y[i] = v;
+    }
+    for i in (0..N).rev() {
+        let mut v = y[i] * dinv[i];
+        for k in i + 1..N {
+            v -= l[k][i] * x[k];
+        }
+        x[i] = v;
+    }
+    x[..N].iter().all(|v| v.is_finite())
 }
 
 /// Solves the general `n x n` system `a x = b` by LU (nalgebra for n <= 6,
@@ -738,6 +781,46 @@ mod tests {
                 assert!(st.converged, "{step:?} {damping:?} {st:?}");
                 assert!((x[0] - 1.5).abs() < 1e-10 && (x[1] + 0.7).abs() < 1e-10);
             }
+        }
+    }
+
+    #[test]
+    fn small_spd_solve_matches_faer_and_rejects_indefinite_matrices() {
+        // a = M M^T + 0.1 I from a fixed pseudo-random M, n = 1..6
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for n in 1..=6 {
+            let m: Vec<f64> = (0..n * n).map(|_| rnd()).collect();
+            let a: Vec<f64> = (0..n * n)
+                .map(|ij| {
+                    let (i, j) = (ij / n, ij % n);
+                    let v: f64 = (0..n).map(|k| m[i * n + k] * m[j * n + k]).sum();
+                    v + if i == j { 0.1 } else { 0.0 }
+                })
+                .collect();
+            let b: Vec<f64> = (0..n).map(|_| rnd()).collect();
+            let mut x = vec![0.0; n];
+            assert!(solve_spd(n, &a, &b, &mut x));
+            let fa = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
+            let fb = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
+            let want = fa.llt(faer::Side::Lower).unwrap().solve(&fb);
+            for i in 0..n {
+                assert!(
+                    (x[i] - want[(i, 0)]).abs() < 1e-12 * (1.0 + want[(i, 0)].abs()),
+                    "n={n}"
+                );
+            }
+            // an indefinite matrix (the last pivot negative) and NaN are refused
+            let mut bad = a.clone();
+            bad[n * n - 1] = -1.0;
+            assert!(!solve_spd(n, &bad, &b, &mut x), "n={n}");
+            bad[0] = f64::NAN;
+            assert!(!solve_spd(n, &bad, &b, &mut x), "n={n}");
         }
     }
 

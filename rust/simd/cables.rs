@@ -797,7 +797,11 @@ const STACK_JOINTS: usize = 8;
 fn block<S: Simd, const U: usize>(simd: S, op: BlockOp<'_>) {
     let n = op.geom.n;
     let z = [simd.splat_f64s(0.0); U];
-    if n <= STACK_JOINTS {
+    // stack buffers sized for the arm (not zeroing more than it uses)
+    if n <= 4 {
+        let mut buf = [[z; 4]; 5];
+        block_in::<S, U, _>(simd, op, &mut buf);
+    } else if n <= STACK_JOINTS {
         let mut buf = [[z; STACK_JOINTS]; 5];
         block_in::<S, U, _>(simd, op, &mut buf);
     } else {
