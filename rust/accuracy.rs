@@ -507,15 +507,15 @@ impl BlockStats {
         }
     }
 
-    /// One sample's quantities on lane `b`.
+    /// One sample's quantities on lane `b` alone.
     fn add(&mut self, b: usize, v: [f64; QUANTITIES]) {
-        self.count[b] += 1;
-        for (q, x) in v.iter().enumerate() {
-            self.sum[q][b] += x;
-            self.sum_sq[q][b] += x * x;
-            self.min[q][b] = self.min[q][b].min(*x);
-            self.max[q][b] = self.max[q][b].max(*x);
+        let mut take = [false; BLOCK_ROWS];
+        take[b] = true;
+        let mut lanes = [[0.0; BLOCK_ROWS]; QUANTITIES];
+        for (l, x) in lanes.iter_mut().zip(v) {
+            l[b] = x;
         }
+        self.add_lanes(&take, &lanes);
     }
 
     /// Stores the first `lanes` lanes as the configurations `j0..` of `stats`.
