@@ -4,6 +4,7 @@
 
 use crate::geometry::ArmGeometry;
 use crate::robot::Robot;
+use crate::simd::math::cos_sin_short;
 
 /// End pose `[x, y, phi]` (m, m, rad) for joint angles `theta` (rad, length n).
 #[inline]
@@ -12,21 +13,33 @@ pub fn fk(robot: &Robot, theta: &[f64]) -> [f64; 3] {
 }
 
 /// End pose and its Jacobian: `jac[k] = d[x, y, phi]/d theta_k` (column k).
+/// The attitudes' cos/sin by angle addition from the joints' (those by the
+/// crate's sin/cos kernel, four joints in lockstep).
 pub fn fk_jacobian(robot: &Robot, theta: &[f64], jac: &mut [[f64; 3]]) -> [f64; 3] {
+    let n = theta.len();
+    let mut stack = [(1.0, 0.0); 8];
+    let mut heap;
+    let cs: &mut [(f64, f64)] = if n <= stack.len() {
+        &mut stack[..n]
+    } else {
+        heap = vec![(1.0, 0.0); n];
+        &mut heap
+    };
+    cos_sin_short(theta, cs);
     let (mut x, mut y, mut phi) = (0.0f64, 0.0f64, 0.0f64);
     // (sin, cos) of the attitude before joint k: the one after joint k - 1
     let (mut s, mut c) = (0.0f64, 1.0f64);
-    for (k, &t) in theta.iter().enumerate() {
+    for (k, (&t, &(ck, sk))) in theta.iter().zip(cs.iter()).enumerate() {
         x += robot.link_before[k] * c;
         y += robot.link_before[k] * s;
         jac[k] = [x, y, 1.0]; // joint k position, finished below
         phi += t;
-        (s, c) = phi.sin_cos();
+        (c, s) = (c * ck - s * sk, s * ck + c * sk);
         let l = robot.link_after[k] + robot.thickness[k];
         x += l * c;
         y += l * s;
     }
-    for col in jac.iter_mut().take(theta.len()) {
+    for col in jac.iter_mut().take(n) {
         let (jx, jy) = (col[0], col[1]);
         *col = [-(y - jy), x - jx, 1.0];
     }
