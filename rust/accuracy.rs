@@ -198,7 +198,13 @@ impl McStats {
             self.min[k] = self.min[k].min(*vq);
             self.max[k] = self.max[k].max(*vq);
         }
-        self.hist[j * HIST_BINS + hist_bin(v[NORM])] += 1;
+        self.add_to_hist(j, v[NORM]);
+    }
+
+    /// Counts a position-error norm `norm` (m) of configuration `j` in its bin.
+    #[inline]
+    fn add_to_hist(&mut self, j: usize, norm: f64) {
+        self.hist[j * HIST_BINS + hist_bin(norm)] += 1;
     }
 
     /// Appends the configurations of `other` after those of `self`.
@@ -330,7 +336,7 @@ pub fn monte_carlo(
                         acc.add_lanes(&taken, &v);
                         for b in (0..lanes).filter(|b| taken[*b]) {
                             let j = start + b - first;
-                            stats.hist[j * HIST_BINS + hist_bin(v[NORM][b])] += 1;
+                            stats.add_to_hist(j, v[NORM][b]);
                             if check_slack {
                                 // the answer's angles from its cos/sin, relative to the seed
                                 let t0 = &theta0[(start + b) * n..(start + b + 1) * n];
@@ -363,7 +369,7 @@ pub fn monte_carlo(
                             let ds = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
                             let norm = (ds[0] * ds[0] + ds[1] * ds[1]).sqrt();
                             acc.add(b, [ds[0], ds[1], ds[2], norm]);
-                            stats.hist[j * HIST_BINS + hist_bin(norm)] += 1;
+                            stats.add_to_hist(j, norm);
                             if check_slack {
                                 acc.slack[b] += u64::from(slack_at(&th));
                             }
@@ -402,52 +408,50 @@ fn block_deviation(
     small: f64,
     v: &mut [[f64; BLOCK_ROWS]; QUANTITIES],
 ) {
-    {
-        const W: usize = BLOCK_ROWS;
-        let (mut x, mut y) = ([0.0f64; W], [0.0f64; W]);
-        let (mut c, mut s) = ([1.0f64; W], [0.0f64; W]);
-        let (mut pc, mut ps) = ([1.0f64; W], [0.0f64; W]);
-        let mut large = [false; W];
-        for k in 0..robot.n() {
-            let (lb, la) = (
-                robot.link_before[k],
-                robot.link_after[k] + robot.thickness[k],
-            );
-            let ck = &block.cos[k * W..(k + 1) * W];
-            let sk = &block.sin[k * W..(k + 1) * W];
-            let c0 = &block.seed_cos[k * W..(k + 1) * W];
-            let s0 = &block.seed_sin[k * W..(k + 1) * W];
-            for b in 0..W {
-                x[b] += lb * c[b];
-                y[b] += lb * s[b];
-                (c[b], s[b]) = (c[b] * ck[b] - s[b] * sk[b], s[b] * ck[b] + c[b] * sk[b]);
-                x[b] += la * c[b];
-                y[b] += la * s[b];
-                // the joint's rotation relative to the seed, multiplied in
-                let (dc, ds) = cs_difference((ck[b], sk[b]), (c0[b], s0[b]));
-                large[b] |= dc < small;
-                (pc[b], ps[b]) = (pc[b] * dc - ps[b] * ds, pc[b] * ds + ps[b] * dc);
-            }
-        }
+    const W: usize = BLOCK_ROWS;
+    let (mut x, mut y) = ([0.0f64; W], [0.0f64; W]);
+    let (mut c, mut s) = ([1.0f64; W], [0.0f64; W]);
+    let (mut pc, mut ps) = ([1.0f64; W], [0.0f64; W]);
+    let mut large = [false; W];
+    for k in 0..robot.n() {
+        let (lb, la) = (
+            robot.link_before[k],
+            robot.link_after[k] + robot.thickness[k],
+        );
+        let ck = &block.cos[k * W..(k + 1) * W];
+        let sk = &block.sin[k * W..(k + 1) * W];
+        let c0 = &block.seed_cos[k * W..(k + 1) * W];
+        let s0 = &block.seed_sin[k * W..(k + 1) * W];
         for b in 0..W {
-            let (dx, dy) = (x[b] - p0[b][0], y[b] - p0[b][1]);
-            v[0][b] = dx;
-            v[1][b] = dy;
-            v[3][b] = (dx * dx + dy * dy).sqrt();
+            x[b] += lb * c[b];
+            y[b] += lb * s[b];
+            (c[b], s[b]) = (c[b] * ck[b] - s[b] * sk[b], s[b] * ck[b] + c[b] * sk[b]);
+            x[b] += la * c[b];
+            y[b] += la * s[b];
+            // the joint's rotation relative to the seed, multiplied in
+            let (dc, ds) = cs_difference((ck[b], sk[b]), (c0[b], s0[b]));
+            large[b] |= dc < small;
+            (pc[b], ps[b]) = (pc[b] * dc - ps[b] * ds, pc[b] * ds + ps[b] * dc);
         }
-        // one atan2 of the product per lane (SIMD, within 1 ulp of libm's)
-        atan2_slice(&ps, &pc, &mut v[2]);
-        for b in (0..W).filter(|b| large[*b]) {
-            v[2][b] = (0..robot.n())
-                .map(|k| {
-                    let d = cs_difference(
-                        (block.cos[k * W + b], block.sin[k * W + b]),
-                        (block.seed_cos[k * W + b], block.seed_sin[k * W + b]),
-                    );
-                    d.1.atan2(d.0)
-                })
-                .sum();
-        }
+    }
+    for b in 0..W {
+        let (dx, dy) = (x[b] - p0[b][0], y[b] - p0[b][1]);
+        v[0][b] = dx;
+        v[1][b] = dy;
+        v[3][b] = (dx * dx + dy * dy).sqrt();
+    }
+    // one atan2 of the product per lane (SIMD, within 1 ulp of libm's)
+    atan2_slice(&ps, &pc, &mut v[2]);
+    for b in (0..W).filter(|b| large[*b]) {
+        v[2][b] = (0..robot.n())
+            .map(|k| {
+                let d = cs_difference(
+                    (block.cos[k * W + b], block.sin[k * W + b]),
+                    (block.seed_cos[k * W + b], block.seed_sin[k * W + b]),
+                );
+                d.1.atan2(d.0)
+            })
+            .sum();
     }
 }
 
