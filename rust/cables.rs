@@ -111,9 +111,10 @@ impl CableGeometry {
 
     /// Upper-cable lengths (m) and their Jacobian (row-major `n x n`, lower
     /// triangular, m/rad) from the joints' `(cos, sin)`, in one pass.
-    #[inline]
+    #[inline(always)]
     pub fn upper_lengths_and_jacobian(&self, cs: &[(f64, f64)], len: &mut [f64], jac: &mut [f64]) {
-        let n = self.n;
+        let n = len.len();
+        debug_assert_eq!(n, self.n);
         // the derivative's denominator is kept finite at a zero-length segment
         let tiny = f64::MIN_POSITIVE.sqrt();
         for (i, (out, row)) in len.iter_mut().zip(jac.chunks_exact_mut(n)).enumerate() {

@@ -46,8 +46,11 @@ impl TaskMask {
     }
 }
 
-/// The pose-IK problem: `r_i = w_i (fk_i(theta) - target_i)` over the active coordinates.
-struct PoseProblem<'a> {
+/// The pose-IK problem: `r_i = w_i (fk_i(theta) - target_i)` over the active
+/// coordinates. `N`: the number of joints when it is known at compile time
+/// (the full pose of a small arm: the solver's loops then have constant trip
+/// counts), else 0.
+struct PoseProblem<'a, const N: usize> {
     robot: &'a Robot,
     target: [f64; 3],
     mask: TaskMask,
@@ -57,19 +60,25 @@ struct PoseProblem<'a> {
     enforce_limits: bool,
 }
 
-impl Problem for PoseProblem<'_> {
+impl<const N: usize> Problem for PoseProblem<'_, N> {
+    #[inline(always)]
     fn dims(&self) -> (usize, usize) {
-        (self.m, self.robot.n())
+        if N > 0 {
+            (PLANAR_TASK, N)
+        } else {
+            (self.m, self.robot.n())
+        }
     }
 
+    #[inline(always)]
     fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
-        let n = x.len();
-        let p = fk_jacobian(self.robot, x, self.jac);
-        for (row, &i) in self.active[..self.m].iter().enumerate() {
+        let (m, n) = self.dims();
+        let p = fk_jacobian(self.robot, &x[..n], &mut self.jac[..n]);
+        for (row, &i) in self.active[..m].iter().enumerate() {
             r[row] = self.mask.weights[i] * (p[i] - self.target[i]);
         }
         if let Some(j) = jac {
-            for (row, &i) in self.active[..self.m].iter().enumerate() {
+            for (row, &i) in self.active[..m].iter().enumerate() {
                 for k in 0..n {
                     j[row * n + k] = self.mask.weights[i] * self.jac[k][i];
                 }
@@ -113,17 +122,27 @@ impl<'a> IkSolver<'a> {
 
     /// `theta` holds the seed on entry and the answer on exit.
     pub fn solve(&mut self, target: &[f64; 3], theta: &mut [f64]) -> Status {
-        let (active, m) = self.mask.active();
-        let mut p = PoseProblem {
-            robot: self.robot,
-            target: *target,
-            mask: self.mask,
-            active,
-            m,
-            jac: &mut self.jac,
-            enforce_limits: self.opts.enforce_limits,
-        };
-        lm::solve(&mut p, theta, &self.lm, &mut self.ws)
+        fn run<const N: usize>(s: &mut IkSolver, target: &[f64; 3], theta: &mut [f64]) -> Status {
+            let (active, m) = s.mask.active();
+            let mut p = PoseProblem::<N> {
+                robot: s.robot,
+                target: *target,
+                mask: s.mask,
+                active,
+                m,
+                jac: &mut s.jac,
+                enforce_limits: s.opts.enforce_limits,
+            };
+            lm::solve(&mut p, theta, &s.lm, &mut s.ws)
+        }
+        if self.mask.active().1 < PLANAR_TASK {
+            return run::<0>(self, target, theta);
+        }
+        match self.robot.n() {
+            3 => run::<3>(self, target, theta),
+            4 => run::<4>(self, target, theta),
+            _ => run::<0>(self, target, theta),
+        }
     }
 }
 

@@ -15,6 +15,7 @@ pub fn fk(robot: &Robot, theta: &[f64]) -> [f64; 3] {
 /// End pose and its Jacobian: `jac[k] = d[x, y, phi]/d theta_k` (column k).
 /// The attitudes' cos/sin by angle addition from the joints' (those by the
 /// crate's sin/cos kernel, four joints in lockstep).
+#[inline(always)]
 pub fn fk_jacobian(robot: &Robot, theta: &[f64], jac: &mut [[f64; 3]]) -> [f64; 3] {
     let n = theta.len();
     let mut stack = [(1.0, 0.0); 8];

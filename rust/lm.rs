@@ -238,147 +238,180 @@ pub fn solve<P: Problem + ?Sized>(
 ) -> Status {
     let (m, n) = problem.dims();
     ws.fit(m, n, lm.step);
-    ws.x.copy_from_slice(x);
-    let st = iterate(problem, lm, ws, m, n);
-    x.copy_from_slice(&ws.x);
+    let (st, flipped) = iterate(problem, x, lm, ws, m, n);
+    if flipped {
+        // the answer's residual and Jacobian are in the trial buffers
+        std::mem::swap(&mut ws.x, &mut ws.x_trial);
+        std::mem::swap(&mut ws.r, &mut ws.r_trial);
+        std::mem::swap(&mut ws.jac, &mut ws.jac_trial);
+    }
     st
 }
 
-/// The iterations of [`solve`] from `ws.x` (the answer left there).
+/// A point of the solve: `x`, `r(x)`, `J(x)`, views of exact length into
+/// the workspace (an accepted trial swaps the views, not the buffers).
+struct Point<'w> {
+    x: &'w mut [f64],
+    r: &'w mut [f64],
+    jac: &'w mut [f64],
+}
+
+/// The iterations of [`solve`] from `x0` (the answer written back there),
+/// and whether the answer was left in the trial buffers.
 fn iterate<P: Problem + ?Sized>(
     problem: &mut P,
+    x0: &mut [f64],
     lm: &Lm,
     ws: &mut Workspace,
     m: usize,
     n: usize,
-) -> Status {
-    let done = |converged: bool, iterations: u32, r: &[f64], reason: Reason| Status {
-        converged,
-        iterations,
-        residual: max_abs(r),
-        cost: sum_sq(r),
-        reason,
+) -> (Status, bool) {
+    let Workspace {
+        x,
+        r,
+        r_trial,
+        jac,
+        jac_trial,
+        x_trial,
+        delta,
+        a,
+        g,
+        jac_free,
+        active,
+        ..
+    } = ws;
+    let mut cur = Point {
+        x: &mut x[..n],
+        r: &mut r[..m],
+        jac: &mut jac[..m * n],
     };
-    if !problem.eval(&ws.x, &mut ws.r, Some(&mut ws.jac)) {
-        ws.r.fill(f64::NAN);
-        return done(false, 0, &ws.r, Reason::Singular);
+    let mut trial = Point {
+        x: &mut x_trial[..n],
+        r: &mut r_trial[..m],
+        jac: &mut jac_trial[..m * n],
+    };
+    let (delta, active) = (&mut delta[..n], &mut active[..n]);
+    let mut flipped = false;
+    cur.x.copy_from_slice(x0);
+    let mut done = |cur: &Point, converged: bool, iterations: u32, reason: Reason| {
+        x0.copy_from_slice(cur.x);
+        Status {
+            converged,
+            iterations,
+            residual: max_abs(cur.r),
+            cost: sum_sq(cur.r),
+            reason,
+        }
+    };
+    if !problem.eval(cur.x, cur.r, Some(cur.jac)) {
+        cur.r.fill(f64::NAN);
+        return (done(&cur, false, 0, Reason::Singular), flipped);
     }
-    let mut cost = sum_sq(&ws.r);
+    let mut cost = sum_sq(cur.r);
     let mut lambda = lm.lambda0;
     let mut iterations = 0;
     loop {
-        let res = max_abs(&ws.r);
+        let res = max_abs(cur.r);
         if res <= lm.tol {
-            return done(true, iterations, &ws.r, Reason::Converged);
+            return (done(&cur, true, iterations, Reason::Converged), flipped);
         }
         if !res.is_finite() {
-            return done(false, iterations, &ws.r, Reason::Singular);
+            return (done(&cur, false, iterations, Reason::Singular), flipped);
         }
         if iterations >= lm.max_iter {
-            let reason = if stationary(&ws.jac, &ws.r, m, n) {
+            let reason = if stationary(cur.jac, cur.r, m, n) {
                 Reason::Unreachable
             } else {
                 Reason::IterationLimit
             };
-            return done(false, iterations, &ws.r, reason);
+            return (done(&cur, false, iterations, reason), flipped);
         }
         if lambda > LAMBDA_MAX {
             if lm.min_decrease > 0.0 {
                 // least squares: no step lowers the cost any more, a minimum
-                return done(true, iterations, &ws.r, Reason::Converged);
+                return (done(&cur, true, iterations, Reason::Converged), flipped);
             }
-            let reason = if problem.on_bound(&ws.x) {
+            let reason = if problem.on_bound(cur.x) {
                 Reason::OutsideLimits
-            } else if stationary(&ws.jac, &ws.r, m, n) {
+            } else if stationary(cur.jac, cur.r, m, n) {
                 Reason::Unreachable
             } else {
                 Reason::Singular
             };
-            return done(false, iterations, &ws.r, reason);
+            return (done(&cur, false, iterations, reason), flipped);
         }
         iterations += 1;
         // components a bound stops from going downhill are held out of the step
         let mut any = false;
         if problem.bounded() || lm.min_decrease > 0.0 {
-            for k in 0..n {
-                let gk: f64 = (0..m).map(|i| ws.jac[i * n + k] * ws.r[i]).sum();
+            for (k, held) in active.iter_mut().enumerate() {
+                let gk: f64 = (0..m).map(|i| cur.jac[i * n + k] * cur.r[i]).sum();
                 // least squares: a column the residual does not depend on
                 // carries no information, its component stays put
-                let blind = lm.min_decrease > 0.0 && (0..m).all(|i| ws.jac[i * n + k] == 0.0);
-                ws.active[k] = blind || problem.blocked(&ws.x, k, -gk);
-                any |= ws.active[k];
+                let blind = lm.min_decrease > 0.0 && (0..m).all(|i| cur.jac[i * n + k] == 0.0);
+                *held = blind || problem.blocked(cur.x, k, -gk);
+                any |= *held;
             }
         }
         let jac: &[f64] = if any {
-            ws.jac_free.clear();
-            ws.jac_free.extend_from_slice(&ws.jac);
-            for row in ws.jac_free.chunks_exact_mut(n) {
-                for (v, a) in row.iter_mut().zip(&ws.active) {
+            jac_free.clear();
+            jac_free.extend_from_slice(cur.jac);
+            for row in jac_free.chunks_exact_mut(n) {
+                for (v, a) in row.iter_mut().zip(active.iter()) {
                     if *a {
                         *v = 0.0;
                     }
                 }
             }
-            &ws.jac_free
+            jac_free
         } else {
-            &ws.jac
+            cur.jac
         };
         // the undamped triangular step inline (the cable solves' hot path),
         // every other step in `step`
         let ok = if lm.step == Step::Triangular && lambda <= LAMBDA_MIN && m == n {
-            forward_substitution(jac, &ws.r, n, &mut ws.g, &mut ws.delta)
+            forward_substitution(jac, cur.r, n, g, delta)
         } else {
-            step(
-                lm,
-                jac,
-                &ws.r,
-                m,
-                n,
-                lambda,
-                &mut ws.a,
-                &mut ws.g,
-                &mut ws.delta,
-            )
+            step(lm, jac, cur.r, m, n, lambda, a, g, delta)
         };
         if any {
-            for (d, a) in ws.delta.iter_mut().zip(&ws.active) {
+            for (d, a) in delta.iter_mut().zip(active.iter()) {
                 if *a {
                     *d = 0.0;
                 }
             }
-            if lm.min_decrease > 0.0 && ws.active.iter().all(|a| *a) {
+            if lm.min_decrease > 0.0 && active.iter().all(|a| *a) {
                 // every component held (bounds, no information): a minimum
-                return done(true, iterations, &ws.r, Reason::Converged);
+                return (done(&cur, true, iterations, Reason::Converged), flipped);
             }
         }
-        if !ok || !ws.delta.iter().all(|d| d.is_finite()) {
+        if !ok || !delta.iter().all(|d| d.is_finite()) {
             lambda = raise(lambda);
             continue;
         }
-        for ((t, xk), d) in ws.x_trial.iter_mut().zip(&ws.x).zip(&ws.delta) {
+        for ((t, xk), d) in trial.x.iter_mut().zip(cur.x.iter()).zip(delta.iter()) {
             *t = xk + d;
         }
-        problem.project(&mut ws.x_trial);
+        problem.project(trial.x);
         let joint = problem.jacobian_with_residual();
         let evaluated = if joint {
-            problem.eval(&ws.x_trial, &mut ws.r_trial, Some(&mut ws.jac_trial))
+            problem.eval(trial.x, trial.r, Some(trial.jac))
         } else {
-            problem.eval(&ws.x_trial, &mut ws.r_trial, None)
+            problem.eval(trial.x, trial.r, None)
         };
         let c = if evaluated {
-            sum_sq(&ws.r_trial)
+            sum_sq(trial.r)
         } else {
             f64::INFINITY
         };
-        let accept = c < cost && (joint || problem.jacobian(&ws.x_trial, &mut ws.jac_trial));
+        let accept = c < cost && (joint || problem.jacobian(trial.x, trial.jac));
         if accept {
-            std::mem::swap(&mut ws.x, &mut ws.x_trial);
-            std::mem::swap(&mut ws.r, &mut ws.r_trial);
-            std::mem::swap(&mut ws.jac, &mut ws.jac_trial);
+            std::mem::swap(&mut cur, &mut trial);
+            flipped = !flipped;
             let small = lm.min_decrease > 0.0 && cost - c <= lm.min_decrease * cost;
             cost = c;
             if small {
-                return done(true, iterations, &ws.r, Reason::Converged);
+                return (done(&cur, true, iterations, Reason::Converged), flipped);
             }
             lambda = (lambda / 10.0).max(LAMBDA_MIN);
         } else {
@@ -391,7 +424,7 @@ fn iterate<P: Problem + ?Sized>(
 /// lower triangular (`n x n`), with the diagonal's reciprocals (into `inv`)
 /// formed first, off the substitution's dependency chain. False when a
 /// diagonal entry is zero or not finite.
-#[inline]
+#[inline(always)]
 fn forward_substitution(
     jac: &[f64],
     r: &[f64],
@@ -444,6 +477,7 @@ fn stationary(jac: &[f64], r: &[f64], m: usize, n: usize) -> bool {
 /// [`forward_substitution`], taken by the caller); false when it cannot be
 /// computed.
 #[allow(clippy::too_many_arguments)]
+#[inline(always)]
 fn step(
     lm: &Lm,
     jac: &[f64],

@@ -160,8 +160,10 @@ pub enum CableMethod {
 }
 
 /// The damped-Newton problem of the cable solve: `r = L_upper(theta) - target`
-/// with its lower-triangular Jacobian.
-struct CableProblem<'a> {
+/// with its lower-triangular Jacobian. `N` is the number of joints when it is
+/// known at compile time (small arms: the solver's loops then have constant
+/// trip counts), else 0 (any `n`, taken from `target`).
+struct CableProblem<'a, const N: usize> {
     robot: &'a Robot,
     geom: &'a CableGeometry,
     target: &'a [f64],
@@ -169,19 +171,30 @@ struct CableProblem<'a> {
     enforce_limits: bool,
 }
 
-impl Problem for CableProblem<'_> {
+impl<const N: usize> Problem for CableProblem<'_, N> {
+    #[inline(always)]
     fn dims(&self) -> (usize, usize) {
-        (self.target.len(), self.target.len())
+        let n = if N > 0 { N } else { self.target.len() };
+        (n, n)
     }
 
-    #[inline]
+    #[inline(always)]
     fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
-        cos_sin_short(x, self.cs);
+        let n = self.dims().0;
+        // a small arm's cos/sin stay in registers
+        let mut local = [(1.0, 0.0); N];
+        let cs = if N > 0 {
+            &mut local[..]
+        } else {
+            &mut self.cs[..n]
+        };
+        let r = &mut r[..n];
+        cos_sin_short(&x[..n], cs);
         match jac {
-            Some(j) => self.geom.upper_lengths_and_jacobian(self.cs, r, j),
-            None => self.geom.upper_lengths(self.cs, r),
+            Some(j) => self.geom.upper_lengths_and_jacobian(cs, r, &mut j[..n * n]),
+            None => self.geom.upper_lengths(cs, r),
         }
-        for (ri, ti) in r.iter_mut().zip(self.target) {
+        for (ri, ti) in r.iter_mut().zip(&self.target[..n]) {
             *ri -= ti;
         }
         true
@@ -239,15 +252,30 @@ impl<'a> CableSolver<'a> {
     }
 
     fn newton(&mut self, geom: &CableGeometry, target: &[f64], theta: &mut [f64]) -> Status {
-        let mut p = CableProblem {
-            robot: self.robot,
-            geom,
-            target,
-            cs: &mut self.cs,
-            enforce_limits: self.opts.enforce_limits,
+        fn run<const N: usize>(
+            s: &mut CableSolver,
+            geom: &CableGeometry,
+            target: &[f64],
+            theta: &mut [f64],
+        ) -> Status {
+            let mut p = CableProblem::<N> {
+                robot: s.robot,
+                geom,
+                target,
+                cs: &mut s.cs,
+                enforce_limits: s.opts.enforce_limits,
+            };
+            lm::solve(&mut p, theta, &s.lm, &mut s.ws)
+        }
+        let st = match target.len() {
+            1 => run::<1>(self, geom, target, theta),
+            2 => run::<2>(self, geom, target, theta),
+            3 => run::<3>(self, geom, target, theta),
+            4 => run::<4>(self, geom, target, theta),
+            _ => run::<0>(self, geom, target, theta),
         };
-        // the last evaluation was at the answer unless the last trial was rejected
-        let st = lm::solve(&mut p, theta, &self.lm, &mut self.ws);
+        // `self.cs` does not hold the answer's cos/sin (a small arm's stay
+        // local; otherwise the last evaluation may have been a rejected trial)
         self.cs_fresh = false;
         st
     }

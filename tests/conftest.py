@@ -138,6 +138,9 @@ def make_pair(cdsm_mod, name: str) -> RobotPair:
         lk = N1_LINKAGES
     elif name == "n12":
         lk = N12_LINKAGES
+    elif name in ("n2", "n4"):
+        # the sizes the solvers compile with constant dimensions, besides 1 and 3
+        lk = N12_LINKAGES[: int(name[1:])]
     elif name in ("paper_perturbed", "n12_perturbed"):
         base = make_pair(cdsm_mod, name.removesuffix("_perturbed"))
         d = hole_perturbation(base.ref.n, 3e-4, seed=7)
@@ -148,7 +151,7 @@ def make_pair(cdsm_mod, name: str) -> RobotPair:
     return RobotPair(name, cdsm_mod.Robot.from_toml_str(robot_toml(lk)), reference_robot(lk))
 
 
-ROBOT_NAMES = ["paper", "n1", "n12", "paper_perturbed", "n12_perturbed"]
+ROBOT_NAMES = ["paper", "n1", "n2", "n4", "n12", "paper_perturbed", "n12_perturbed"]
 
 
 @pytest.fixture(params=ROBOT_NAMES)

@@ -474,7 +474,7 @@ pub fn sin_cos_slice(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
 /// independent dependency chains), so a short vector of joint angles costs
 /// about one call's latency. Same bits as [`sin_cos`] lane by lane (same
 /// error bound). Panics if the lengths differ.
-#[inline]
+#[inline(always)]
 pub fn cos_sin_short(x: &[f64], cs: &mut [(f64, f64)]) {
     assert_eq!(x.len(), cs.len(), "cos_sin_short: lengths differ");
     let simd = pulp::Scalar::new();
