@@ -15,7 +15,7 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 from matplotlib.colors import LogNorm, Normalize
-from matplotlib.ticker import MaxNLocator
+from matplotlib.ticker import FormatStrFormatter, LogLocator, MaxNLocator
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
@@ -52,6 +52,13 @@ def _scatter_map(fig, ax, xy, val, cmap, norm, label, size=9, order=True, bar=Tr
         cb = fig.colorbar(sc, ax=ax, shrink=0.92, pad=0.02)
         cb.set_label(label)
         cb.locator = MaxNLocator(6)
+        if isinstance(norm, LogNorm):
+            # plain numbers, every bar labelled (decade-only labels left narrow
+            # ranges bare): round steps within about a decade, decades beyond
+            if norm.vmax > 20 * norm.vmin:
+                cb.locator = LogLocator(numticks=7)
+            cb.formatter = FormatStrFormatter("%.3g")
+            cb.minorticks_off()
         cb.update_ticks()
     return sc
 
