@@ -13,7 +13,7 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.colors import LinearSegmentedColormap, Normalize
+from matplotlib.colors import LinearSegmentedColormap, LogNorm, Normalize
 from matplotlib.figure import Figure
 
 from ..inputs import CdsmInputError
@@ -21,7 +21,8 @@ from ..progress import Progress
 from ..robot import Robot
 
 __all__ = ["DPI", "RED", "BLUE", "GREEN", "HUES", "new_figure", "report_style", "save", "hue_cmap",
-           "sym_norm", "chain_points", "draw_arm", "file_key", "tight", "few_ticks", "render_jobs", "FigureJob"]
+           "sym_norm", "chain_points", "draw_arm", "file_key", "tight", "few_ticks", "colour_bar", "render_jobs",
+           "FigureJob"]
 
 DPI = 110
 RED, BLUE, GREEN = "#d62728", "#1f5fbf", "#2ca02c"
@@ -72,6 +73,27 @@ def few_ticks(ax, n: int = 5) -> None:
     for axis in (ax.xaxis, ax.yaxis):
         if axis.get_scale() == "linear":
             axis.set_major_locator(MaxNLocator(n))
+
+
+def colour_bar(fig: Figure, mappable, ax, label: str, ticks: int = 6):
+    """A colour bar for ``mappable`` beside ``ax``, labelled ``label``, with
+    about ``ticks`` major ticks. A log-scaled one gets plain numbers on every
+    bar (matplotlib labels only decades, so a narrow range was left bare):
+    round steps within about a decade, decades beyond; no minor ticks."""
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, MaxNLocator
+
+    cb = fig.colorbar(mappable, ax=ax, shrink=0.92, pad=0.02)
+    cb.set_label(label)
+    norm = mappable.norm
+    if isinstance(norm, LogNorm) and norm.vmax > 20 * norm.vmin:
+        cb.locator = LogLocator(numticks=ticks + 1)
+    else:
+        cb.locator = MaxNLocator(ticks)
+    if isinstance(norm, LogNorm):
+        cb.formatter = FormatStrFormatter("%.3g")
+        cb.minorticks_off()
+    cb.update_ticks()
+    return cb
 
 
 def report_style():

@@ -15,14 +15,13 @@ from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 from matplotlib.colors import LogNorm, Normalize
-from matplotlib.ticker import FormatStrFormatter, LogLocator, MaxNLocator
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
 from ..accuracy.scenarios import deviation
 from ..robot import Robot
-from .figures import (BLUE, GREEN, HUES, RED, draw_arm, file_key, hue_cmap, new_figure, render_jobs, report_style,
-                      few_ticks, sym_norm, tight)
+from .figures import (BLUE, GREEN, HUES, RED, colour_bar, draw_arm, file_key, hue_cmap, new_figure, render_jobs,
+                      report_style, few_ticks, sym_norm, tight)
 
 __all__ = [
     "PROTOCOL_TITLES", "scenario_figure", "overview_figure",
@@ -49,17 +48,7 @@ def _scatter_map(fig, ax, xy, val, cmap, norm, label, size=9, order=True, bar=Tr
     sc = ax.scatter(xy[idx, 0], xy[idx, 1], c=val[idx], cmap=cmap, norm=norm, s=size,
                     linewidths=0, rasterized=True)
     if bar:
-        cb = fig.colorbar(sc, ax=ax, shrink=0.92, pad=0.02)
-        cb.set_label(label)
-        cb.locator = MaxNLocator(6)
-        if isinstance(norm, LogNorm):
-            # plain numbers, every bar labelled (decade-only labels left narrow
-            # ranges bare): round steps within about a decade, decades beyond
-            if norm.vmax > 20 * norm.vmin:
-                cb.locator = LogLocator(numticks=7)
-            cb.formatter = FormatStrFormatter("%.3g")
-            cb.minorticks_off()
-        cb.update_ticks()
+        colour_bar(fig, sc, ax, label)
     return sc
 
 

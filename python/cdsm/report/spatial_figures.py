@@ -23,7 +23,7 @@ from matplotlib.ticker import MaxNLocator
 
 from ..accuracy.montecarlo import MonteCarlo
 from ..accuracy.tolerance import pooled_percentile
-from .figures import FigureJob, few_ticks, file_key, new_figure, render_jobs, report_style, tight
+from .figures import FigureJob, colour_bar, few_ticks, file_key, new_figure, render_jobs, report_style, tight
 
 __all__ = ["AXES", "PLANES", "main_plane", "workspace_figure", "overview_figure", "scenario_figure",
            "monte_carlo_figure", "singular_figure", "slack_figure", "figure_jobs", "all_figures",
@@ -64,10 +64,7 @@ def _map(fig, ax, pts, plane, val, cmap, norm, label, size=7.0, bar=True, order=
     sc = ax.scatter(pts[idx, i], pts[idx, j], c=val[idx], cmap=cmap, norm=norm, s=size, linewidths=0,
                     rasterized=True)
     if bar:
-        cb = fig.colorbar(sc, ax=ax, shrink=0.92, pad=0.02)
-        cb.set_label(label)
-        cb.locator = MaxNLocator(5)
-        cb.update_ticks()
+        colour_bar(fig, sc, ax, label, 5)
     return sc
 
 
