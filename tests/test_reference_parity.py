@@ -298,10 +298,13 @@ def _ik_parity(pair, ref, pose, seed, what, **kw):
     np.testing.assert_array_equal(conv, expected["converged"], err_msg=f"{what}: converged")
     theta = np.asarray(sol.theta)
     assert_close(theta[conv], expected["theta"][conv], ANGLE_TOL, f"{what}: theta")
-    # a solve both stop unconverged (a pose past the limits, an over-determined
-    # arm) ends where max_iter leaves a stalled search: the same place, not the
-    # same bits (the 2-joint arm's full pose differs there by up to 7.4e-5 rad)
-    assert_close(theta[~conv], expected["theta"][~conv], 1e-3, f"{what}: unconverged theta")
+    # an arm with fewer joints than pose coordinates (over-determined: the
+    # minimal-norm step is rank-deficient as the damping falls) that both stop
+    # unconverged ends where max_iter leaves a stalled search: the same place,
+    # not the same bits (the 2-joint arm differs there by up to 7.4e-5 rad);
+    # every other unconverged row to the full tolerance
+    stalled_tol = 1e-3 if pair.ref.n < 3 else ANGLE_TOL
+    assert_close(theta[~conv], expected["theta"][~conv], stalled_tol, f"{what}: unconverged theta")
     np.testing.assert_array_equal(
         np.asarray(sol.within_limits), expected["within_limits"], err_msg=f"{what}: limits"
     )
