@@ -11,6 +11,7 @@ use crate::simd::cables::{closed_form_block, ClosedFormBlock, BLOCK_ROWS};
 use crate::simd::math::atan2_slice;
 use crate::solve::{cs_difference, CableMethod, CableSolver, SolveOptions};
 use crate::statics::{feasible, Loads, Statics};
+use pulp::{Simd, WithSimd};
 
 /// Hole-location errors of the samples of a Monte-Carlo study.
 #[derive(Debug, Clone, Copy)]
@@ -113,7 +114,7 @@ pub fn hist_edges() -> &'static [f64] {
 
 /// Bin of a position-error norm (m), exact against [`hist_edges`]: a cheap
 /// log estimate from the float's exponent and mantissa, corrected by the edges.
-#[inline]
+#[inline(always)]
 pub fn hist_bin(v: f64) -> usize {
     let edges = hist_edges();
     if v.is_nan() || v < edges[0] {
@@ -202,7 +203,7 @@ impl McStats {
     }
 
     /// Counts a position-error norm `norm` (m) of configuration `j` in its bin.
-    #[inline]
+    #[inline(always)]
     fn add_to_hist(&mut self, j: usize, norm: f64) {
         self.hist[j * HIST_BINS + hist_bin(norm)] += 1;
     }
@@ -314,71 +315,68 @@ pub fn monte_carlo(
                 }
             }
             acc.clear();
-            // the samples of the block compiled for the instruction set of
-            // `arch` (the loops across lanes vectorise)
-            arch.dispatch(|| {
-                for s in 0..samples {
-                    let geom = geom_of(s);
-                    let mut taken = [false; BLOCK_ROWS];
-                    if simd {
-                        for b in 0..lanes {
-                            for k in 0..n {
-                                block.target[k * BLOCK_ROWS + b] = l0[b * n + k] + dl[s * n + k];
-                            }
-                        }
-                        closed_form_block(arch, geom, &mut block);
-                        for (b, t) in taken.iter_mut().enumerate().take(lanes) {
-                            *t = block.ok[b] && block.residual[b] <= opts.tol;
-                        }
-                        // every lane's deviation at once (SIMD across lanes);
-                        // a lane not taken goes the general path below
-                        block_deviation(robot, &block, &p0, small, &mut v);
-                        acc.add_lanes(&taken, &v);
+            for s in 0..samples {
+                let geom = geom_of(s);
+                let mut taken = [false; BLOCK_ROWS];
+                if simd {
+                    // the lanes' closed form and deviations, compiled for
+                    // the instruction set of `arch`; a lane not taken goes
+                    // the general path below
+                    taken = arch.dispatch(SampleLanes {
+                        robot,
+                        geom,
+                        block: &mut block,
+                        l0: &l0,
+                        dl: &dl[s * n..(s + 1) * n],
+                        p0: &p0,
+                        small,
+                        tol: opts.tol,
+                        lanes,
+                        acc: &mut acc,
+                        v: &mut v,
+                        stats: &mut stats,
+                        j0: start - first,
+                    });
+                    if check_slack {
                         for b in (0..lanes).filter(|b| taken[*b]) {
-                            let j = start + b - first;
-                            stats.add_to_hist(j, v[NORM][b]);
-                            if check_slack {
-                                // the answer's angles from its cos/sin, relative to the seed
-                                let t0 = &theta0[(start + b) * n..(start + b + 1) * n];
-                                let sc = &seed_cs[b * n..(b + 1) * n];
-                                for (k, (t, (s0, t0k))) in
-                                    th.iter_mut().zip(sc.iter().zip(t0)).enumerate()
-                                {
-                                    let c = (
-                                        block.cos[k * BLOCK_ROWS + b],
-                                        block.sin[k * BLOCK_ROWS + b],
-                                    );
-                                    let d = cs_difference(c, *s0);
-                                    *t = t0k + d.1.atan2(d.0);
-                                }
-                                acc.slack[b] += u64::from(slack_at(&th));
+                            // the answer's angles from its cos/sin, relative to the seed
+                            let t0 = &theta0[(start + b) * n..(start + b + 1) * n];
+                            let sc = &seed_cs[b * n..(b + 1) * n];
+                            for (k, (t, (s0, t0k))) in
+                                th.iter_mut().zip(sc.iter().zip(t0)).enumerate()
+                            {
+                                let c =
+                                    (block.cos[k * BLOCK_ROWS + b], block.sin[k * BLOCK_ROWS + b]);
+                                let d = cs_difference(c, *s0);
+                                *t = t0k + d.1.atan2(d.0);
                             }
-                        }
-                    }
-                    for b in (0..lanes).filter(|b| !taken[*b]) {
-                        // the general path (Newton asked for, or the closed form's failure)
-                        let (i, j) = (start + b, start + b - first);
-                        for (k, tk) in target.iter_mut().enumerate() {
-                            *tk = l0[b * n + k] + dl[s * n + k];
-                        }
-                        th.copy_from_slice(&theta0[i * n..(i + 1) * n]);
-                        let st = solver.solve(geom, &target, &mut th);
-                        if st.converged {
-                            let p = solver.pose(&th);
-                            let q = p0[b];
-                            let ds = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
-                            let norm = (ds[0] * ds[0] + ds[1] * ds[1]).sqrt();
-                            acc.add(b, [ds[0], ds[1], ds[2], norm]);
-                            stats.add_to_hist(j, norm);
-                            if check_slack {
-                                acc.slack[b] += u64::from(slack_at(&th));
-                            }
-                        } else {
-                            acc.failed[b] += 1;
+                            acc.slack[b] += u64::from(slack_at(&th));
                         }
                     }
                 }
-            });
+                for b in (0..lanes).filter(|b| !taken[*b]) {
+                    // the general path (Newton asked for, or the closed form's failure)
+                    let (i, j) = (start + b, start + b - first);
+                    for (k, tk) in target.iter_mut().enumerate() {
+                        *tk = l0[b * n + k] + dl[s * n + k];
+                    }
+                    th.copy_from_slice(&theta0[i * n..(i + 1) * n]);
+                    let st = solver.solve(geom, &target, &mut th);
+                    if st.converged {
+                        let p = solver.pose(&th);
+                        let q = p0[b];
+                        let ds = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+                        let norm = (ds[0] * ds[0] + ds[1] * ds[1]).sqrt();
+                        acc.add(b, [ds[0], ds[1], ds[2], norm]);
+                        stats.add_to_hist(j, norm);
+                        if check_slack {
+                            acc.slack[b] += u64::from(slack_at(&th));
+                        }
+                    } else {
+                        acc.failed[b] += 1;
+                    }
+                }
+            }
             acc.store(&mut stats, start - first, lanes);
         }
         stats
@@ -389,6 +387,72 @@ pub fn monte_carlo(
         out.extend(p);
     }
     Ok(out)
+}
+
+/// One sample on a block of configurations, SIMD across them: the closed
+/// form of every lane (targets `l0 + dl`, seeded at the block's seeds), the
+/// lanes it solved within `tol` taken, their deviations (`v`) added to the
+/// block's statistics `acc` and to the histograms of configurations `j0..`
+/// of `stats`. Returns which lanes were taken. Run through
+/// `pulp::Arch::dispatch`, all of it is compiled for the chosen instruction
+/// set (the helpers are inlined into it).
+struct SampleLanes<'a> {
+    robot: &'a Robot,
+    geom: &'a CableGeometry,
+    block: &'a mut ClosedFormBlock,
+    /// nominal upper-cable lengths of the lanes, lane-major `(lanes, n)`, m
+    l0: &'a [f64],
+    /// the sample's upper-cable errors `(n,)`, m
+    dl: &'a [f64],
+    p0: &'a [[f64; 3]; BLOCK_ROWS],
+    small: f64,
+    tol: f64,
+    lanes: usize,
+    acc: &'a mut BlockStats,
+    v: &'a mut [[f64; BLOCK_ROWS]; QUANTITIES],
+    stats: &'a mut McStats,
+    j0: usize,
+}
+
+impl WithSimd for SampleLanes<'_> {
+    type Output = [bool; BLOCK_ROWS];
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, simd: S) -> [bool; BLOCK_ROWS] {
+        let SampleLanes {
+            robot,
+            geom,
+            block,
+            l0,
+            dl,
+            p0,
+            small,
+            tol,
+            lanes,
+            acc,
+            v,
+            stats,
+            j0,
+        } = self;
+        let n = dl.len();
+        for b in 0..lanes {
+            for k in 0..n {
+                block.target[k * BLOCK_ROWS + b] = l0[b * n + k] + dl[k];
+            }
+        }
+        closed_form_block(simd, geom, block);
+        let mut taken = [false; BLOCK_ROWS];
+        for (b, t) in taken.iter_mut().enumerate().take(lanes) {
+            *t = block.ok[b] && block.residual[b] <= tol;
+        }
+        // every lane's deviation at once (lanes not taken hold garbage)
+        block_deviation(robot, block, p0, small, v);
+        acc.add_lanes(&taken, v);
+        for b in (0..lanes).filter(|b| taken[*b]) {
+            stats.add_to_hist(j0 + b, v[NORM][b]);
+        }
+        taken
+    }
 }
 
 /// The tip deviations `[dX, dY, dphi, |dXY|]` (m, m, rad, m; into `v`,
@@ -491,9 +555,9 @@ impl BlockStats {
     }
 
     /// One sample's quantities `v` on the lanes `take`.
-    #[inline]
     // lane loops over parallel arrays (they vectorise as written)
     #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
     fn add_lanes(&mut self, take: &[bool; BLOCK_ROWS], v: &[[f64; BLOCK_ROWS]; QUANTITIES]) {
         for b in 0..BLOCK_ROWS {
             self.count[b] += u64::from(take[b]);

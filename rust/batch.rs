@@ -372,29 +372,50 @@ pub fn solve_cables(
             }
             return out;
         }
-        // the closed form SIMD across rows (straight into the answer), then
-        // each row decided as the scalar solver does
-        let mut out = BatchSolution::with_capacity(m, n);
-        out.theta.resize(m * n, 0.0);
-        let (mut residual, mut ok) = (vec![0.0; m], vec![false; m]);
+        // the closed form SIMD across rows, straight into the answer; then
+        // each row decided as the scalar solver does: a row the closed form
+        // solved within tol (and within the limits when they are enforced) is
+        // accepted in place, any other goes through the solver's `finish`
+        let mut theta = vec![0.0; m * n];
+        let mut residual = vec![0.0; m];
+        let mut ok = vec![false; m];
         solve_cables_closed_form_batch_in(
             arch,
             &g,
             upper,
             seed,
-            &mut out.theta,
+            &mut theta,
             &mut residual,
             &mut ok,
         );
+        let mut converged = vec![false; m];
+        let mut iterations = vec![0u32; m];
+        let mut within_limits = vec![false; m];
+        let mut reason = vec![Reason::Converged as u8; m];
         for i in 0..m {
             let rows_i = i * n..(i + 1) * n;
-            let th = &mut out.theta[rows_i.clone()];
+            let th = &mut theta[rows_i.clone()];
+            let within = kinematics::within_limits(robot, th);
+            if ok[i] && solver.accepts(residual[i], within) {
+                (converged[i], within_limits[i]) = (true, within);
+                continue;
+            }
             let closed = ok[i].then_some(residual[i]);
             let st = solver.finish_from(&g, &upper[rows_i.clone()], &seed[rows_i], th, closed);
-            let within = kinematics::within_limits(robot, th);
-            out.push_status(st, within);
+            converged[i] = st.converged;
+            iterations[i] = st.iterations;
+            residual[i] = st.residual;
+            within_limits[i] = kinematics::within_limits(robot, th);
+            reason[i] = st.reason as u8;
         }
-        out
+        BatchSolution {
+            theta,
+            converged,
+            iterations,
+            residual,
+            within_limits,
+            reason,
+        }
     });
     Ok(BatchSolution::concat(parts))
 }

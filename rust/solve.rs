@@ -315,7 +315,7 @@ impl<'a> CableSolver<'a> {
         let ok = closed.is_some();
         let in_box = !self.opts.enforce_limits || within_limits(self.robot, theta);
         let st = closed_form_status(closed, self.opts.tol);
-        if st.converged && in_box {
+        if closed.is_some_and(|r| self.accepts(r, in_box)) {
             return st;
         }
         if let Some(s) = seed {
@@ -341,6 +341,14 @@ impl<'a> CableSolver<'a> {
             theta.copy_from_slice(&self.seed);
         }
         self.newton(geom, target, theta)
+    }
+
+    /// Whether a closed-form answer with residual `residual` (m) is accepted
+    /// as it is: within tol, and within the joint limits (`within_limits`)
+    /// when they are enforced.
+    #[inline]
+    pub fn accepts(&self, residual: f64, within_limits: bool) -> bool {
+        residual <= self.opts.tol && (within_limits || !self.opts.enforce_limits)
     }
 
     /// [`CableSolver::finish`] for a closed form computed elsewhere (SIMD

@@ -790,76 +790,48 @@ impl WithSimd for BlockOp<'_> {
     }
 }
 
-/// Joints handled with stack buffers in [`closed_form_block`] (more: heap).
-const STACK_JOINTS: usize = 8;
-
+/// The closed form of `block` in place: its joint-major buffers are `n`
+/// vectors of `U` SIMD vectors each (`U * W == BLOCK_ROWS`), read and
+/// written as such (no copies, no stack buffers to clear).
 #[inline(always)]
 fn block<S: Simd, const U: usize>(simd: S, op: BlockOp<'_>) {
-    let n = op.geom.n;
-    let z = [simd.splat_f64s(0.0); U];
-    // stack buffers sized for the arm (not zeroing more than it uses)
-    if n <= 4 {
-        let mut buf = [[z; 4]; 5];
-        block_in::<S, U, _>(simd, op, &mut buf);
-    } else if n <= STACK_JOINTS {
-        let mut buf = [[z; STACK_JOINTS]; 5];
-        block_in::<S, U, _>(simd, op, &mut buf);
-    } else {
-        let mut buf: [Vec<[S::f64s; U]>; 5] = std::array::from_fn(|_| vec![z; n]);
-        block_in::<S, U, _>(simd, op, &mut buf);
-    }
-}
-
-#[inline(always)]
-fn block_in<S: Simd, const U: usize, B: AsMut<[[S::f64s; U]]>>(
-    simd: S,
-    op: BlockOp<'_>,
-    buf: &mut [B; 5],
-) {
+    use pulp::bytemuck::{cast_slice, cast_slice_mut};
     let BlockOp { geom, block } = op;
-    let n = geom.n;
-    let w = U * S::F64_LANES;
-    debug_assert!(w <= BLOCK_ROWS);
-    let [tv, sc, ss, cv, sv] = buf;
-    let (tv, sc, ss, cv, sv) = (
-        &mut tv.as_mut()[..n],
-        &mut sc.as_mut()[..n],
-        &mut ss.as_mut()[..n],
-        &mut cv.as_mut()[..n],
-        &mut sv.as_mut()[..n],
+    debug_assert_eq!(U * S::F64_LANES, BLOCK_ROWS);
+    let len = geom.n * BLOCK_ROWS;
+    // f64 slices as slices of [S::f64s; U] (exact: len is a multiple of U * W)
+    fn vectors<S: Simd, const U: usize>(x: &[f64]) -> &[[S::f64s; U]] {
+        cast_slice::<f64, S::f64s>(x).as_chunks::<U>().0
+    }
+    fn vectors_mut<S: Simd, const U: usize>(x: &mut [f64]) -> &mut [[S::f64s; U]] {
+        cast_slice_mut::<f64, S::f64s>(x).as_chunks_mut::<U>().0
+    }
+    let (res, good) = closed_form_lanes_x::<S, U>(
+        simd,
+        geom,
+        vectors::<S, U>(&block.target[..len]),
+        vectors::<S, U>(&block.seed_cos[..len]),
+        vectors::<S, U>(&block.seed_sin[..len]),
+        vectors_mut::<S, U>(&mut block.cos[..len]),
+        vectors_mut::<S, U>(&mut block.sin[..len]),
     );
-    for j in 0..n {
-        let r = j * BLOCK_ROWS..j * BLOCK_ROWS + w;
-        pulp::bytemuck::cast_slice_mut::<S::f64s, f64>(&mut tv[j])
-            .copy_from_slice(&block.target[r.clone()]);
-        pulp::bytemuck::cast_slice_mut::<S::f64s, f64>(&mut sc[j])
-            .copy_from_slice(&block.seed_cos[r.clone()]);
-        pulp::bytemuck::cast_slice_mut::<S::f64s, f64>(&mut ss[j])
-            .copy_from_slice(&block.seed_sin[r]);
-    }
-    let (res, good) = closed_form_lanes_x(simd, geom, tv, sc, ss, cv, sv);
-    for j in 0..n {
-        let r = j * BLOCK_ROWS..j * BLOCK_ROWS + w;
-        block.cos[r.clone()].copy_from_slice(pulp::bytemuck::cast_slice::<S::f64s, f64>(&cv[j]));
-        block.sin[r].copy_from_slice(pulp::bytemuck::cast_slice::<S::f64s, f64>(&sv[j]));
-    }
-    block.residual[..w].copy_from_slice(pulp::bytemuck::cast_slice::<S::f64s, f64>(&res));
+    block
+        .residual
+        .copy_from_slice(cast_slice::<S::f64s, f64>(&res));
     let flags = Mask::<S, U> { simd, v: good }
         .select(Lanes::splat(simd, 1.0), Lanes::splat(simd, 0.0))
         .v;
-    for (o, f) in block
-        .ok
-        .iter_mut()
-        .zip(pulp::bytemuck::cast_slice::<S::f64s, f64>(&flags))
-    {
+    for (o, f) in block.ok.iter_mut().zip(cast_slice::<S::f64s, f64>(&flags)) {
         *o = *f != 0.0;
     }
 }
 
-/// The closed form of the [`BLOCK_ROWS`] rows of `block` (SIMD across rows,
-/// instruction set of `arch`): on rows with a solution, `cos`, `sin` and
-/// `residual` are bit-identical to [`crate::solve::closed_form_cs`] from the
-/// same seed `(cos, sin)`.
-pub fn closed_form_block(arch: pulp::Arch, geom: &CableGeometry, block: &mut ClosedFormBlock) {
-    arch.dispatch(BlockOp { geom, block });
+/// The closed form of the [`BLOCK_ROWS`] rows of `block`, SIMD across rows
+/// with the instruction set of `simd` (call it from code compiled for that
+/// set, e.g. inside a `pulp::WithSimd` op): on rows with a solution, `cos`,
+/// `sin` and `residual` are bit-identical to [`crate::solve::closed_form_cs`]
+/// from the same seed `(cos, sin)`.
+#[inline(always)]
+pub fn closed_form_block<S: Simd>(simd: S, geom: &CableGeometry, block: &mut ClosedFormBlock) {
+    BlockOp { geom, block }.with_simd(simd)
 }
