@@ -113,27 +113,51 @@ impl CableGeometry {
     /// triangular, m/rad) from the joints' `(cos, sin)`, in one pass.
     #[inline(always)]
     pub fn upper_lengths_and_jacobian(&self, cs: &[(f64, f64)], len: &mut [f64], jac: &mut [f64]) {
+        self.upper_lengths_and_roots(cs, len, jac);
+        self.roots_to_jacobian(cs, jac);
+    }
+
+    /// Upper-cable lengths (m, `n` into `len`) from the joints' `(cos, sin)`,
+    /// and the segments' lengths (m) into the lower triangle of `roots`
+    /// (row-major `n x n`, cable by joint; the rest left as it is): with
+    /// [`CableGeometry::roots_to_jacobian`], the Jacobian without a second
+    /// square root.
+    #[inline(always)]
+    pub fn upper_lengths_and_roots(&self, cs: &[(f64, f64)], len: &mut [f64], roots: &mut [f64]) {
         let n = len.len();
         debug_assert_eq!(n, self.n);
-        // the derivative's denominator is kept finite at a zero-length segment
-        let tiny = f64::MIN_POSITIVE.sqrt();
-        for (i, (out, row)) in len.iter_mut().zip(jac.chunks_exact_mut(n)).enumerate() {
+        for (i, (out, row)) in len.iter_mut().zip(roots.chunks_exact_mut(n)).enumerate() {
             let c = 2 * i;
             let segs = &self.seg[c * n..(c + 1) * n];
             let mut l = self.traverse[c];
-            // one loop over the whole row (zeros past the diagonal written in
-            // it: no memset call per row)
-            for (k, ((d, &(ck, sk)), &[p, q, r])) in row.iter_mut().zip(cs).zip(segs).enumerate() {
-                if k > i {
-                    *d = 0.0;
-                    continue;
-                }
-                // one square root: the length, and the derivative's denominator
+            for ((d, &(ck, sk)), &[p, q, r]) in row[..=i].iter_mut().zip(cs).zip(segs) {
                 let root = (p + q * ck + r * sk).max(0.0).sqrt();
                 l += root;
-                *d = (r * ck - q * sk) / (2.0 * root.max(tiny));
+                *d = root;
             }
             *out = l;
+        }
+    }
+
+    /// The upper cables' Jacobian (m/rad), in place over the segment lengths
+    /// that [`CableGeometry::upper_lengths_and_roots`] wrote into `jac` at the
+    /// same `(cos, sin)`; zeros past the diagonal.
+    #[inline(always)]
+    pub fn roots_to_jacobian(&self, cs: &[(f64, f64)], jac: &mut [f64]) {
+        let n = cs.len();
+        // the derivative's denominator is kept finite at a zero-length segment
+        let tiny = f64::MIN_POSITIVE.sqrt();
+        for (i, row) in jac.chunks_exact_mut(n).enumerate() {
+            let segs = &self.seg[2 * i * n..(2 * i + 1) * n];
+            // one loop over the whole row (zeros past the diagonal written in
+            // it: no memset call per row)
+            for (k, ((d, &(ck, sk)), &[_, q, r])) in row.iter_mut().zip(cs).zip(segs).enumerate() {
+                *d = if k > i {
+                    0.0
+                } else {
+                    (r * ck - q * sk) / (2.0 * d.max(tiny))
+                };
+            }
         }
     }
 

@@ -127,6 +127,13 @@ pub trait Problem {
         let mut r = vec![0.0; m];
         self.eval(x, &mut r, Some(jac))
     }
+    /// Whether the solve must end with the Jacobian at the answer in the
+    /// workspace (the default). Otherwise, with
+    /// [`Problem::jacobian_with_residual`] false, an accepted trial within
+    /// tol ends the solve without [`Problem::jacobian`] being asked for it.
+    fn answer_jacobian(&self) -> bool {
+        true
+    }
     /// Moves a trial into the feasible set (bounds); by default none.
     fn project(&self, _x: &mut [f64]) {}
     /// Whether `x` sits on the boundary of the feasible set.
@@ -404,7 +411,12 @@ fn iterate<P: Problem + ?Sized>(
         } else {
             f64::INFINITY
         };
-        let accept = c < cost && (joint || problem.jacobian(trial.x, trial.jac));
+        // the Jacobian of an accepted trial (unless it was evaluated with it,
+        // or it ends the solve and none is needed there)
+        let accept = c < cost
+            && (joint
+                || (!problem.answer_jacobian() && max_abs(trial.r) <= lm.tol)
+                || problem.jacobian(trial.x, trial.jac));
         if accept {
             std::mem::swap(&mut cur, &mut trial);
             flipped = !flipped;

@@ -167,8 +167,26 @@ struct CableProblem<'a, const N: usize> {
     robot: &'a Robot,
     geom: &'a CableGeometry,
     target: &'a [f64],
+    /// `(cos, sin)` and segment lengths of the last evaluation (its Jacobian
+    /// is formed from them when the solver asks): a small arm's (`N > 0`)
+    /// in the problem, the solver's buffers otherwise
+    cs_n: [(f64, f64); N],
+    roots_n: [[f64; N]; N],
     cs: &'a mut [(f64, f64)],
+    roots: &'a mut [f64],
     enforce_limits: bool,
+}
+
+impl<const N: usize> CableProblem<'_, N> {
+    /// The `(cos, sin)` and segment-length buffers of an `n`-joint arm.
+    #[inline(always)]
+    fn buffers(&mut self, n: usize) -> (&mut [(f64, f64)], &mut [f64]) {
+        if N > 0 {
+            (&mut self.cs_n[..], self.roots_n.as_flattened_mut())
+        } else {
+            (&mut self.cs[..n], &mut self.roots[..n * n])
+        }
+    }
 }
 
 impl<const N: usize> Problem for CableProblem<'_, N> {
@@ -181,23 +199,43 @@ impl<const N: usize> Problem for CableProblem<'_, N> {
     #[inline(always)]
     fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
         let n = self.dims().0;
-        // a small arm's cos/sin stay in registers
-        let mut local = [(1.0, 0.0); N];
-        let cs = if N > 0 {
-            &mut local[..]
-        } else {
-            &mut self.cs[..n]
-        };
+        let geom = self.geom;
+        let (cs, roots) = self.buffers(n);
         let r = &mut r[..n];
         cos_sin_short(&x[..n], cs);
         match jac {
-            Some(j) => self.geom.upper_lengths_and_jacobian(cs, r, &mut j[..n * n]),
-            None => self.geom.upper_lengths(cs, r),
+            Some(j) => geom.upper_lengths_and_jacobian(cs, r, &mut j[..n * n]),
+            None => geom.upper_lengths_and_roots(cs, r, roots),
         }
         for (ri, ti) in r.iter_mut().zip(&self.target[..n]) {
             *ri -= ti;
         }
         true
+    }
+
+    /// Trials are evaluated without their Jacobian (no divisions): it is
+    /// formed at accepted points from the evaluation's segment lengths.
+    #[inline(always)]
+    fn jacobian_with_residual(&self) -> bool {
+        false
+    }
+
+    #[inline(always)]
+    fn jacobian(&mut self, _x: &[f64], jac: &mut [f64]) -> bool {
+        let n = self.dims().0;
+        let geom = self.geom;
+        let (cs, roots) = self.buffers(n);
+        let jac = &mut jac[..n * n];
+        jac.copy_from_slice(roots);
+        geom.roots_to_jacobian(cs, jac);
+        true
+    }
+
+    /// The answer's Jacobian is not needed: a trial within tol ends the
+    /// solve without it.
+    #[inline(always)]
+    fn answer_jacobian(&self) -> bool {
+        false
     }
 
     fn project(&self, x: &mut [f64]) {
@@ -233,6 +271,8 @@ pub struct CableSolver<'a> {
     /// cos/sin of the last answer when `cs_fresh` (else of some trial)
     cs: Vec<(f64, f64)>,
     cs_fresh: bool,
+    /// segment lengths of the last evaluation (`n x n`, arms past 4 joints)
+    roots: Vec<f64>,
 }
 
 impl<'a> CableSolver<'a> {
@@ -248,6 +288,7 @@ impl<'a> CableSolver<'a> {
             seed_cs: vec![(1.0, 0.0); n],
             cs: vec![(1.0, 0.0); n],
             cs_fresh: false,
+            roots: vec![0.0; n * n],
         }
     }
 
@@ -262,7 +303,10 @@ impl<'a> CableSolver<'a> {
                 robot: s.robot,
                 geom,
                 target,
+                cs_n: [(1.0, 0.0); N],
+                roots_n: [[0.0; N]; N],
                 cs: &mut s.cs,
+                roots: &mut s.roots,
                 enforce_limits: s.opts.enforce_limits,
             };
             lm::solve(&mut p, theta, &s.lm, &mut s.ws)
