@@ -139,8 +139,15 @@ impl BatchSolution {
 /// Validates a flat `(N, width)` batch; returns `N`.
 pub fn rows_of(name: &str, values: &[f64], width: usize) -> Result<usize> {
     let rows = check_rows(name, values, width)?;
-    check_finite(name, values)?;
-    Ok(rows)
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(rows),
+        Some(index) => Err(CdsmError::NonFiniteAt {
+            name: name.to_string(),
+            row: index / width,
+            column: index % width,
+            value: values[index],
+        }),
+    }
 }
 
 /// Validates a flat `(rows, width)` batch that must have exactly `rows` rows.

@@ -23,6 +23,14 @@ pub enum CdsmError {
         index: usize,
         value: f64,
     },
+    /// A NaN or infinite value in a batch of rows.
+    #[error("`{name}`: non-finite value {value} at row {row}, column {column}")]
+    NonFiniteAt {
+        name: String,
+        row: usize,
+        column: usize,
+        value: f64,
+    },
     /// An option outside its domain.
     #[error("`{name}`: {problem}")]
     Option { name: String, problem: String },

@@ -16,8 +16,12 @@ from ._cdsm import CdsmInputError
 __all__ = ["CdsmInputError", "as_batch", "as_vector", "as_finite", "as_iterations", "as_tolerances"]
 
 
-def as_batch(name: str, value, width: int) -> Tuple[np.ndarray, bool]:
-    """``value`` as a C-contiguous float64 ``(N, width)`` array, and whether it was 1-D."""
+def as_batch(name: str, value, width: int, finite: bool = True) -> Tuple[np.ndarray, bool]:
+    """``value`` as a C-contiguous float64 ``(N, width)`` array, and whether it was 1-D.
+
+    ``finite``: reject NaN and infinities here (naming the row and column);
+    False where the core checks the batch itself with the same message (a
+    second pass over a large batch is not free)."""
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -29,7 +33,7 @@ def as_batch(name: str, value, width: int) -> Tuple[np.ndarray, bool]:
         raise CdsmInputError(
             f"`{name}`: expected shape (N, {width}) or ({width},), got {np.shape(value)}"
         )
-    if not np.isfinite(arr).all():
+    if finite and not np.isfinite(arr).all():
         row, col = np.argwhere(~np.isfinite(arr))[0]
         raise CdsmInputError(f"`{name}`: non-finite value {arr[row, col]} at row {row}, column {col}")
     return np.ascontiguousarray(arr), single

@@ -146,7 +146,8 @@ class Arm:
     def _seed(self, seed, rows: int) -> Optional[np.ndarray]:
         if seed is None:
             return None
-        s, single = as_batch("seed", seed, self.n)
+        # every solve's core checks its seeds (row and column named)
+        s, single = as_batch("seed", seed, self.n, finite=False)
         if single and rows > 1:
             s = np.ascontiguousarray(np.broadcast_to(s, (rows, self.n)))
         if s.shape[0] != rows:
@@ -366,7 +367,7 @@ class Robot(Arm):
         limits are flagged (``within_limits``) and enforced only with
         ``enforce_limits``.
         """
-        p, single = as_batch("pose", pose, 3)
+        p, single = as_batch("pose", pose, 3, finite=False)  # checked by the core
         if method not in IK_METHODS:
             raise CdsmInputError(f"`method`: expected one of {', '.join(map(repr, IK_METHODS))}, got {method!r}")
         res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), method, float(tol),
@@ -391,7 +392,7 @@ class Robot(Arm):
         (per joint, the acos branch nearest the seed) or ``"auto"`` (closed form,
         verified, LM if it fails).
         """
-        u, single = as_batch("upper", upper, self.n)
+        u, single = as_batch("upper", upper, self.n, finite=False)  # checked by the core
         res = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
                                      as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
         return Solution.from_core(res, self.n, single, self)
