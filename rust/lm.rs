@@ -222,7 +222,9 @@ impl Workspace {
         &self.r
     }
 
-    /// The Jacobian at the answer of the last solve (row-major `m x n`).
+    /// The Jacobian at the answer of the last solve (row-major `m x n`);
+    /// that of an earlier point when the problem did not ask for it
+    /// ([`Problem::answer_jacobian`] false) and the last trial converged.
     pub fn jacobian(&self) -> &[f64] {
         &self.jac
     }
