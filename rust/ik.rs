@@ -102,7 +102,7 @@ impl<const N: usize> Problem for PoseProblem<'_, N> {
 pub struct IkSolver<'a> {
     robot: &'a Robot,
     pub opts: SolveOptions,
-    pub mask: TaskMask,
+    mask: TaskMask,
     lm: Lm,
     ws: Workspace,
     jac: Vec<[f64; 3]>,
@@ -110,11 +110,20 @@ pub struct IkSolver<'a> {
 
 impl<'a> IkSolver<'a> {
     pub fn new(robot: &'a Robot, mask: TaskMask, opts: SolveOptions) -> Self {
+        // the damped step solves (J J^T + lambda I) y = -r (minimal norm) while
+        // the task has no more rows than the arm has joints; with more rows
+        // (a 1- or 2-joint arm, full pose) J J^T is rank-deficient and the
+        // same step, (J^T J + lambda I) delta = -J^T r, is the well-posed one
+        let step = if mask.active().1 > robot.n() {
+            Step::Normal
+        } else {
+            Step::MinNorm
+        };
         IkSolver {
             robot,
             opts,
             mask,
-            lm: Lm::equations(Step::MinNorm, opts.tol, opts.max_iter),
+            lm: Lm::equations(step, opts.tol, opts.max_iter),
             ws: Workspace::default(),
             jac: vec![[0.0; 3]; robot.n()],
         }

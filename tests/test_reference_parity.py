@@ -298,13 +298,16 @@ def _ik_parity(pair, ref, pose, seed, what, **kw):
     np.testing.assert_array_equal(conv, expected["converged"], err_msg=f"{what}: converged")
     theta = np.asarray(sol.theta)
     assert_close(theta[conv], expected["theta"][conv], ANGLE_TOL, f"{what}: theta")
-    # an arm with fewer joints than pose coordinates (over-determined: the
-    # minimal-norm step is rank-deficient as the damping falls) that both stop
-    # unconverged ends where max_iter leaves a stalled search: the same place,
-    # not the same bits (the 2-joint arm differs there by up to 7.4e-5 rad);
-    # every other unconverged row to the full tolerance
-    stalled_tol = 1e-3 if pair.ref.n < 3 else ANGLE_TOL
-    assert_close(theta[~conv], expected["theta"][~conv], stalled_tol, f"{what}: unconverged theta")
+    # a row both leave unconverged with an angle held on the joint box (limits
+    # enforced) is a search that crept along the bound until max_iter, and
+    # where it stopped depends on rounding (poses out of reach within the box:
+    # the 2-joint arm's such rows end up to 3.3e-5 rad apart): 1e-3 rad;
+    # every other row to the full tolerance
+    lo, hi = pair.ref.joint_limits.T
+    crept = ~conv & np.any((theta == lo) | (theta == hi), axis=1) & bool(kw.get("enforce_limits"))
+    assert_close(theta[crept], expected["theta"][crept], 1e-3, f"{what}: theta crept along the box")
+    rest = ~conv & ~crept
+    assert_close(theta[rest], expected["theta"][rest], ANGLE_TOL, f"{what}: unconverged theta")
     np.testing.assert_array_equal(
         np.asarray(sol.within_limits), expected["within_limits"], err_msg=f"{what}: limits"
     )

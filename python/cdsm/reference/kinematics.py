@@ -475,7 +475,8 @@ def ik(robot, pose, seed=None, tol=1e-12, max_iter=100, enforce_limits=False) ->
 
     ``pose``: ``(N, 3)`` ``[X m, Y m, phi rad]``; ``seed``: ``(N, n)`` or
     ``(n,)`` rad, default zeros.  Step
-    ``delta = J^T (J J^T + lambda I_3)^{-1} r``.  Returns a dict with
+    ``delta = J^T (J J^T + lambda I_3)^{-1} r``, or the same step as
+    ``(J^T J + lambda I_n)^{-1} J^T r`` for an arm of fewer than 3 joints.  Returns a dict with
     ``theta (N, n)`` rad, ``converged (N,)`` bool, ``iterations (N,)`` int
     (number of trials), ``residual (N,)`` = ``max|r|`` of the final iterate,
     ``within_limits (N,)`` bool.
@@ -489,9 +490,15 @@ def ik(robot, pose, seed=None, tol=1e-12, max_iter=100, enforce_limits=False) ->
 
     def step(th, r, lam, idx):
         J = fk_jacobian(robot, th)  # (k, 3, n)
-        A = J @ np.swapaxes(J, 1, 2) + lam[:, None, None] * np.eye(3)
+        Jt = np.swapaxes(J, 1, 2)
+        if g.n < 3:
+            # more pose coordinates than joints: J J^T is singular, so the
+            # same step in its n x n form, (J^T J + lambda I_n)^{-1} J^T r
+            A = Jt @ J + lam[:, None, None] * np.eye(g.n)
+            return batched_solve(A, (Jt @ r[..., None])[..., 0])
+        A = J @ Jt + lam[:, None, None] * np.eye(3)
         y = batched_solve(A, r)
-        return (np.swapaxes(J, 1, 2) @ y[..., None])[..., 0]
+        return (Jt @ y[..., None])[..., 0]
 
     lo, hi = g.limits[:, 0], g.limits[:, 1]
     project = (lambda th: np.clip(th, lo, hi)) if enforce_limits else None
