@@ -166,15 +166,7 @@ pub fn compensate(
         }
         geom.upper_lengths(&cs, &mut nominal[i * n..(i + 1) * n]);
     }
-    let lm = Lm::equations(
-        if active.len() <= n {
-            Step::MinNorm
-        } else {
-            Step::Normal
-        },
-        tol,
-        max_iter,
-    );
+    let lm = Lm::equations(Step::levenberg(active.len(), n), tol, max_iter);
     // every target's delivered lengths (independent of the order)
     let parts = split_rows(rows, threads, |range| {
         let mut ws = Workspace::default();

@@ -110,15 +110,9 @@ pub struct IkSolver<'a> {
 
 impl<'a> IkSolver<'a> {
     pub fn new(robot: &'a Robot, mask: TaskMask, opts: SolveOptions) -> Self {
-        // the damped step solves (J J^T + lambda I) y = -r (minimal norm) while
-        // the task has no more rows than the arm has joints; with more rows
-        // (a 1- or 2-joint arm, full pose) J J^T is rank-deficient and the
-        // same step, (J^T J + lambda I) delta = -J^T r, is the well-posed one
-        let step = if mask.active().1 > robot.n() {
-            Step::Normal
-        } else {
-            Step::MinNorm
-        };
+        // more task rows than joints (a 1- or 2-joint arm, full pose): the
+        // normal-equation form of the step
+        let step = Step::levenberg(mask.active().1, robot.n());
         IkSolver {
             robot,
             opts,

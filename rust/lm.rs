@@ -37,6 +37,21 @@ pub enum Step {
     Qr,
 }
 
+impl Step {
+    /// The damped Levenberg step for `m` residuals and `n` unknowns, in the
+    /// form whose matrix is regular: minimal norm, `(J J^T + lambda I)` of
+    /// size `m`, while `m <= n`; the normal equations, `(J^T J + lambda I)`
+    /// of size `n`, when there are more residuals than unknowns (`J J^T` is
+    /// then singular). The two are the same step in exact arithmetic.
+    pub fn levenberg(m: usize, n: usize) -> Step {
+        if m <= n {
+            Step::MinNorm
+        } else {
+            Step::Normal
+        }
+    }
+}
+
 /// The damping matrix `D` of the normal-equation and QR steps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Damping {

@@ -656,15 +656,7 @@ pub fn compensate(
                 .map(|c| cable_length(robot, &chain, *c, &mut pts, None)),
         );
     }
-    let lm = Lm::equations(
-        if active.len() <= m {
-            Step::MinNorm
-        } else {
-            Step::Normal
-        },
-        tol,
-        max_iter,
-    );
+    let lm = Lm::equations(Step::levenberg(active.len(), m), tol, max_iter);
     let parts = split_rows(rows, threads, |range| {
         let mut ws = Workspace::default();
         let mut out = Vec::with_capacity(range.len());

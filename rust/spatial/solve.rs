@@ -229,13 +229,11 @@ impl<'a> SpatialIkSolver<'a> {
             jac: vec![0.0; 6 * n],
             limits: self.opts.enforce_limits.then(|| limits(self.robot)),
         };
-        // the minimal-norm step while the rows fewer than the joints
-        let step = if self.mask.rows() < n {
-            Step::MinNorm
-        } else {
-            Step::Normal
-        };
-        let lm = Lm::equations(step, self.opts.tol, self.opts.max_iter);
+        let lm = Lm::equations(
+            Step::levenberg(self.mask.rows(), n),
+            self.opts.tol,
+            self.opts.max_iter,
+        );
         lm::solve(&mut p, theta, &lm, &mut self.ws)
     }
 }
