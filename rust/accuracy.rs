@@ -298,7 +298,10 @@ pub fn monte_carlo(
         let first = r.start;
         let mut acc = BlockStats::default();
         let mut v = [[0.0; BLOCK_ROWS]; QUANTITIES];
-        let simd = method != CableMethod::Newton;
+        // the SIMD lanes accept a closed form within tol; with the joint
+        // limits enforced every solve goes the general path (its `finish`
+        // also checks the answer against the limits)
+        let simd = method != CableMethod::Newton && !opts.enforce_limits;
         for start in r.clone().step_by(BLOCK_ROWS) {
             let lanes = BLOCK_ROWS.min(r.end - start);
             for b in 0..lanes {
@@ -404,8 +407,12 @@ struct SampleLanes<'a> {
     l0: &'a [f64],
     /// the sample's upper-cable errors `(n,)`, m
     dl: &'a [f64],
+    /// the lanes' nominal tip poses `[x (m), y (m), phi (rad)]`
     p0: &'a [[f64; 3]; BLOCK_ROWS],
+    /// the cosine below which a joint's rotation from its seed counts as
+    /// large (see [`block_deviation`])
     small: f64,
+    /// cable-length tolerance (m) for accepting a lane's closed form
     tol: f64,
     lanes: usize,
     acc: &'a mut BlockStats,
@@ -654,6 +661,39 @@ mod tests {
             }
             assert_eq!(st.count[j], 1);
         }
+    }
+
+    #[test]
+    fn monte_carlo_with_enforced_limits_counts_as_the_solver() {
+        // a configuration 1 mrad inside joint 1's upper limit: of +-1 mm on
+        // cable 1 (about +-33 mrad on joint 1) one sample ends past the limit
+        let r = Robot::paper();
+        let hi = r.joint_limits[0][1];
+        let th = [hi - 1e-3, 0.0, 0.0, 0.0, 0.1, -0.1];
+        let dl = [1e-3, 0.0, 0.0, -1e-3, 0.0, 0.0];
+        let opts = SolveOptions {
+            enforce_limits: true,
+            ..SolveOptions::default()
+        };
+        let method = CableMethod::ClosedForm;
+        let st = monte_carlo(&r, &th, &dl, HoleErrors::None, method, &opts, false, 1).unwrap();
+        let g = CableGeometry::new(&r, None);
+        for j in 0..2 {
+            let t0 = &th[j * 3..(j + 1) * 3];
+            let mut l = [0.0; 6];
+            g.lengths(t0, &mut l);
+            let solved = (0..2)
+                .filter(|s| {
+                    let d = &dl[s * 3..(s + 1) * 3];
+                    let target = [l[0] + d[0], l[2] + d[1], l[4] + d[2]];
+                    let mut x = t0.to_vec();
+                    crate::solve::solve_cables(&r, &g, &target, &mut x, method, &opts).converged
+                })
+                .count() as u64;
+            assert_eq!(st.count[j], solved, "configuration {j}");
+            assert_eq!(st.count[j] + st.failed[j], 2);
+        }
+        assert_eq!(st.count, [1, 2]);
     }
 
     #[test]

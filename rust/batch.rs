@@ -139,15 +139,16 @@ impl BatchSolution {
 /// Validates a flat `(N, width)` batch; returns `N`.
 pub fn rows_of(name: &str, values: &[f64], width: usize) -> Result<usize> {
     let rows = check_rows(name, values, width)?;
-    match values.iter().position(|v| !v.is_finite()) {
-        None => Ok(rows),
-        Some(index) => Err(CdsmError::NonFiniteAt {
-            name: name.to_string(),
+    check_finite(name, values).map_err(|e| match e {
+        CdsmError::NonFinite { name, index, value } => CdsmError::NonFiniteAt {
+            name,
             row: index / width,
             column: index % width,
-            value: values[index],
-        }),
-    }
+            value,
+        },
+        e => e,
+    })?;
+    Ok(rows)
 }
 
 /// Validates a flat `(rows, width)` batch that must have exactly `rows` rows.

@@ -110,7 +110,8 @@ impl CableGeometry {
     }
 
     /// Upper-cable lengths (m) and their Jacobian (row-major `n x n`, lower
-    /// triangular, m/rad) from the joints' `(cos, sin)`, in one pass.
+    /// triangular, m/rad) from the joints' `(cos, sin)`: one square root per
+    /// segment, the lengths first, then the derivatives from the roots.
     #[inline(always)]
     pub fn upper_lengths_and_jacobian(&self, cs: &[(f64, f64)], len: &mut [f64], jac: &mut [f64]) {
         self.upper_lengths_and_roots(cs, len, jac);

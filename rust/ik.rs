@@ -1,5 +1,7 @@
 //! Pose IK: the joint angles that put the end frame on a target, by the
-//! shared damped least squares ([`crate::lm`], minimal-norm step), with a
+//! shared damped least squares ([`crate::lm`], the step of
+//! [`crate::lm::Step::levenberg`]: minimal norm unless the task has more rows
+//! than the arm has joints), with a
 //! task mask over the robot kind's task-space coordinates (planar: `x`, `y`,
 //! `phi`): the full pose, the position only, or any weights; and the closed
 //! form of 3-joint arms (both branches, the one nearest the seed).

@@ -238,8 +238,8 @@ impl Workspace {
     }
 
     /// The Jacobian at the answer of the last solve (row-major `m x n`);
-    /// that of an earlier point when the problem did not ask for it
-    /// ([`Problem::answer_jacobian`] false) and the last trial converged.
+    /// unspecified when the problem did not ask for it
+    /// ([`Problem::answer_jacobian`] false).
     pub fn jacobian(&self) -> &[f64] {
         &self.jac
     }

@@ -20,8 +20,8 @@ def as_batch(name: str, value, width: int, finite: bool = True) -> Tuple[np.ndar
     """``value`` as a C-contiguous float64 ``(N, width)`` array, and whether it was 1-D.
 
     ``finite``: reject NaN and infinities here (naming the row and column);
-    False where the core checks the batch itself with the same message (a
-    second pass over a large batch is not free)."""
+    False where the core checks the batch itself, naming the row and column
+    too (a second pass over a large batch is not free)."""
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:

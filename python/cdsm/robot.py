@@ -356,7 +356,8 @@ class Robot(Arm):
         """Pose IK: pose [x (m), y (m), phi (rad)] (N, 3) -> Solution.
 
         ``method``: ``"lm"`` (default) — damped least squares
-        (Levenberg–Marquardt, minimal-norm steps) from the seed, any arm and
+        (Levenberg–Marquardt, minimal-norm steps; normal-equation steps when
+        the task has more rows than the arm has joints) from the seed, any arm and
         mask; ``"closed_form"`` — 3-joint arms, full pose: both branches, the
         one nearest the seed (ties: theta_2 <= 0, the paper's), 0 iterations
         (``docs/model.md``). ``seed`` (N, n) or (n,), rad; default theta = 0.
