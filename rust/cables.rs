@@ -93,9 +93,8 @@ impl CableGeometry {
         if k > pair(c) {
             return 0.0;
         }
-        let [p, q, r] = self.seg[c * self.n + k];
-        let s2 = p + q * cs.0 + r * cs.1;
-        (r * cs.0 - q * cs.1) / (2.0 * s2.max(f64::MIN_POSITIVE).sqrt())
+        let [_, q, r] = self.seg[c * self.n + k];
+        segment_slope(q, r, cs, self.segment(c, k, cs))
     }
 
     /// Cable Jacobian `(2n, n)` row-major into `out`.
@@ -146,17 +145,15 @@ impl CableGeometry {
     #[inline(always)]
     pub fn roots_to_jacobian(&self, cs: &[(f64, f64)], jac: &mut [f64]) {
         let n = cs.len();
-        // the derivative's denominator is kept finite at a zero-length segment
-        let tiny = f64::MIN_POSITIVE.sqrt();
         for (i, row) in jac.chunks_exact_mut(n).enumerate() {
             let segs = &self.seg[2 * i * n..(2 * i + 1) * n];
             // one loop over the whole row (zeros past the diagonal written in
             // it: no memset call per row)
-            for (k, ((d, &(ck, sk)), &[_, q, r])) in row.iter_mut().zip(cs).zip(segs).enumerate() {
+            for (k, ((d, &c), &[_, q, r])) in row.iter_mut().zip(cs).zip(segs).enumerate() {
                 *d = if k > i {
                     0.0
                 } else {
-                    (r * ck - q * sk) / (2.0 * d.max(tiny))
+                    segment_slope(q, r, c, *d)
                 };
             }
         }
@@ -198,6 +195,14 @@ impl CableGeometry {
             sin_mid,
         })
     }
+}
+
+/// `d/dtheta` (m/rad) of a segment of length `root` (m) whose squared length
+/// is `P + Q cos + R sin` at the joint's `(cos, sin)` `cs`; the denominator
+/// kept finite at a zero-length segment.
+#[inline(always)]
+fn segment_slope(q: f64, r: f64, cs: (f64, f64), root: f64) -> f64 {
+    (r * cs.0 - q * cs.1) / (2.0 * root.max(f64::MIN_POSITIVE.sqrt()))
 }
 
 /// The two angles `mid ± half` solving one joint of the closed form, with
