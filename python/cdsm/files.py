@@ -1,24 +1,42 @@
 """Every file cdsm reads or writes goes through here: text (robot TOML, model
-JSON), CSV tables (measurements, targets, regions, report tables) and JSON,
-with errors that name the file and what it is for (:class:`CdsmInputError`).
+JSON), CSV tables (measurements, targets, regions, report tables), JSON,
+``.npz`` arrays and PNG figures, with errors that name the file and what it
+is for (:class:`CdsmInputError`).
+
+Files are written whole or not at all: into a temporary file beside the
+target, then renamed into place (:func:`atomic_file`), so a killed run never
+leaves a truncated file at a final path. An output directory written by one
+run (a report) carries a manifest, ``cdsm-run.json``: it says
+``"complete": false`` from the moment the run starts writing there and
+``"complete": true`` with every file of the run and its SHA-256 only once
+the last one is in place (:func:`begin_run`, :func:`finish_run`,
+:func:`run_complete`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import io
 import json
 import math
 import os
-from typing import Dict, List, Optional, Sequence, Tuple
+import tempfile
+import zipfile
+from typing import Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ._cdsm import CdsmInputError
 
 __all__ = ["read_text", "write_text", "read_bytes", "sha256_of", "parse_table", "read_table", "table_column",
-           "write_csv", "write_json", "json_safe", "csv_cell", "write_npz", "read_npz"]
+           "write_csv", "write_json", "json_safe", "csv_cell", "write_npz", "read_npz", "atomic_file",
+           "toml_string", "RUN_MANIFEST", "begin_run", "finish_run", "run_complete"]
+
+#: The manifest of an output directory written by one run (see the module doc).
+RUN_MANIFEST = "cdsm-run.json"
+_RUN_FORMAT = "cdsm-run/1"
 
 
 def read_text(path: "str | os.PathLike[str]", what: str) -> str:
@@ -37,16 +55,82 @@ def read_text(path: "str | os.PathLike[str]", what: str) -> str:
         raise CdsmInputError(f"{what} file {str(path)!r}: not UTF-8 text") from None
 
 
-def write_text(path: "str | os.PathLike[str]", text: str, what: str) -> str:
-    """Write ``text`` (UTF-8, line endings as given) to ``path``;
-    :class:`CdsmInputError` naming the file when it cannot be written.
-    Returns the path."""
+@contextlib.contextmanager
+def atomic_file(path: "str | os.PathLike[str]", what: str) -> Iterator[io.BufferedWriter]:
+    """A binary file object whose bytes land at ``path`` whole or not at all:
+    written to a temporary file in the same directory, flushed to disk and
+    renamed over ``path`` when the ``with`` block ends without an error
+    (removed otherwise). :class:`CdsmInputError` naming the file when it
+    cannot be written."""
+    target = os.fspath(path)
+    folder = os.path.dirname(os.path.abspath(target))
     try:
-        with open(path, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
+        fd, tmp = tempfile.mkstemp(prefix=f".{os.path.basename(target)}.", suffix=".part", dir=folder)
     except OSError as exc:
-        raise CdsmInputError(f"{what} file {str(path)!r}: {exc.strerror}") from None
+        raise CdsmInputError(f"{what} file {target!r}: {exc.strerror}") from None
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_UMASK)
+        os.replace(tmp, target)
+    except OSError as exc:
+        _remove_quietly(tmp)
+        raise CdsmInputError(f"{what} file {target!r}: {exc.strerror}") from None
+    except BaseException:
+        _remove_quietly(tmp)
+        raise
+
+
+def _read_umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+# read once, at import (reading it means setting it, for a moment)
+_UMASK = _read_umask()
+
+
+def _remove_quietly(path: str) -> None:
+    try:
+        os.remove(path)
+    except OSError:
+        pass
+
+
+def write_text(path: "str | os.PathLike[str]", text: str, what: str) -> str:
+    """Write ``text`` (UTF-8, line endings as given) to ``path``, whole or
+    not at all (:func:`atomic_file`); :class:`CdsmInputError` naming the file
+    when it cannot be written. Returns the path."""
+    try:
+        data = text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise CdsmInputError(f"{what} file {str(path)!r}: text is not valid Unicode ({exc.reason})") from None
+    with atomic_file(path, what) as fh:
+        fh.write(data)
     return str(path)
+
+
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string: UTF-8 characters as they are (any
+    plane), ``"`` and ``\\`` escaped, control characters as ``\\uXXXX``; a
+    string that is not valid Unicode (a lone surrogate) is refused."""
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise CdsmInputError(f"`name`: not valid Unicode text ({exc.reason})") from None
+    out = []
+    for ch in text:
+        o = ord(ch)
+        if ch in '"\\':
+            out.append("\\" + ch)
+        elif o < 0x20 or o == 0x7F:
+            out.append(f"\\u{o:04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
 
 
 def read_bytes(path: "str | os.PathLike[str]", what: str) -> bytes:
@@ -69,25 +153,26 @@ def sha256_of(path: "str | os.PathLike[str]") -> Optional[str]:
 
 
 def write_npz(path: "str | os.PathLike[str]", arrays: Dict[str, np.ndarray], what: str) -> str:
-    """Write arrays to a compressed ``.npz`` (NumPy adds the suffix when
-    missing); returns the path written."""
-    try:
-        np.savez_compressed(path, **arrays)
-    except OSError as exc:
-        raise CdsmInputError(f"{what} file {str(path)!r}: {exc.strerror}") from None
+    """Write arrays to a compressed ``.npz`` (the suffix added when missing,
+    as NumPy does), whole or not at all; returns the path written."""
     p = os.fspath(path)
-    return p if p.endswith(".npz") else p + ".npz"
+    p = p if p.endswith(".npz") else p + ".npz"
+    with atomic_file(p, what) as fh:
+        np.savez_compressed(fh, **arrays)
+    return p
 
 
 def read_npz(path: "str | os.PathLike[str]", what: str) -> Dict[str, np.ndarray]:
-    """The arrays of a ``.npz`` file (no pickles)."""
+    """The arrays of a ``.npz`` file (no pickles); :class:`CdsmInputError`
+    naming the file when it is missing, truncated or not an ``.npz``."""
     try:
         with np.load(path, allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
     except FileNotFoundError:
         raise CdsmInputError(f"{what} file {str(path)!r}: does not exist") from None
-    except (OSError, ValueError) as exc:
-        raise CdsmInputError(f"{what} file {str(path)!r}: not a readable .npz ({exc})") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError) as exc:
+        raise CdsmInputError(f"{what} file {str(path)!r}: not a readable .npz, truncated or damaged "
+                             f"({type(exc).__name__}: {exc})") from None
 
 
 def _numeric(cells: Sequence[str]) -> bool:
@@ -200,3 +285,47 @@ def json_safe(obj):
 def write_json(path: "str | os.PathLike[str]", obj, what: str = "JSON", indent: int = 1) -> str:
     """Write :func:`json_safe` of ``obj`` as strict JSON. Returns the path."""
     return write_text(path, json.dumps(json_safe(obj), indent=indent, allow_nan=False) + "\n", what)
+
+
+# ---------------------------------------------------------------------------
+# output directories of one run
+# ---------------------------------------------------------------------------
+def begin_run(out: "str | os.PathLike[str]", command: str) -> None:
+    """Mark the output directory ``out`` as being written by ``command``:
+    its manifest says ``"complete": false`` until :func:`finish_run`. Call it
+    before the first file of the run is written there."""
+    write_text(os.path.join(out, RUN_MANIFEST),
+               json.dumps({"format": _RUN_FORMAT, "command": command, "complete": False}, indent=1) + "\n",
+               "run manifest")
+
+
+def finish_run(out: "str | os.PathLike[str]", command: str, files: Iterable["str | os.PathLike[str]"]) -> str:
+    """Mark ``out`` complete: the manifest lists every file of the run (paths
+    relative to ``out``, sorted) with its SHA-256. Returns the manifest's path."""
+    root = os.path.abspath(out)
+    listed = {}
+    for f in files:
+        rel = os.path.relpath(os.path.abspath(f), root).replace(os.sep, "/")
+        digest = sha256_of(f)
+        if digest is None:
+            raise CdsmInputError(f"run manifest: {str(f)!r} was not written")
+        listed[rel] = digest
+    body = {"format": _RUN_FORMAT, "command": command, "complete": True,
+            "files": {k: listed[k] for k in sorted(listed)}}
+    return write_text(os.path.join(out, RUN_MANIFEST), json.dumps(body, indent=1) + "\n", "run manifest")
+
+
+def run_complete(out: "str | os.PathLike[str]", verify: bool = True) -> bool:
+    """Whether ``out`` holds a finished run: its manifest says complete and
+    (``verify``) every file it lists is there with the listed SHA-256. Files
+    beside them that the manifest does not list are not part of the run."""
+    try:
+        man = json.loads(read_text(os.path.join(out, RUN_MANIFEST), "run manifest"))
+    except (CdsmInputError, ValueError):
+        return False
+    if not (isinstance(man, dict) and man.get("format") == _RUN_FORMAT and man.get("complete") is True):
+        return False
+    files = man.get("files")
+    if not isinstance(files, dict):
+        return False
+    return not verify or all(sha256_of(os.path.join(out, k)) == v for k, v in files.items())

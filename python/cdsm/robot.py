@@ -8,7 +8,6 @@ naming the argument.
 
 from __future__ import annotations
 
-import json
 import math
 import os
 from dataclasses import dataclass, field
@@ -18,7 +17,7 @@ from typing import Callable, Dict, Optional, Tuple
 import numpy as np
 
 from . import _cdsm
-from .files import read_text
+from .files import read_text, toml_string
 from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
 
 __all__ = ["Arm", "Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
@@ -272,7 +271,7 @@ class Robot(Arm):
         lb, la, h, lim = self.link_before, self.link_after, self.holes, self.joint_limits
         lines = [
             "# written by cdsm.Robot.to_toml; SI units (m, kg, N, rad, Pa)",
-            f"name = {json.dumps(self.name)}",
+            f"name = {toml_string(self.name)}",
             f"n = {n}",
             "",
             "[cable]",

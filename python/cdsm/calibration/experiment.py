@@ -121,9 +121,9 @@ class Suggestion:
         dl[0::2], dl[1::2] = self.approach, self.dL
         return th, dl, np.tile([False, True], k)
 
-    def to_csv(self, path: "str | os.PathLike[str]") -> None:
+    def to_csv(self, path: "str | os.PathLike[str]") -> str:
         """Write the proposed commands as a measurement CSV without measured
-        columns (format in the module docstring)."""
+        columns (format in the module docstring). Returns the path."""
         n = self.theta.shape[1]
         mcols = "x, y" if self.kind == "absolute" else "dx, dy"
         buf = io.StringIO()
@@ -143,7 +143,7 @@ class Suggestion:
             i = j // 2 if self.approach is not None else j
             w.writerow([f"s{i + 1}" if seen[j] else f"s{i + 1} approach"] + [repr(float(v)) for v in th[j]]
                        + [repr(float(v)) for v in dl[j]] + [repr(float(v)) for v in pose[i]])
-        write_text(path, buf.getvalue(), "suggestion")
+        return write_text(path, buf.getvalue(), "suggestion")
 
     def summary(self) -> str:
         """A short human-readable account (units in the text)."""

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
@@ -86,34 +85,33 @@ def _diagnose_run(args) -> int:
     report_dir = None if args.report is None else prepare_dir(args.report, "--report")
     for opt, path in (("--json", args.json), ("--save-model", args.save_model)):
         check_out_file(path, opt)
+    if args.suggest is not None and robot.kind != "planar":
+        raise UserError("--suggest: experiment design is available for planar arms only (not yet spatial)")
     d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
                           frame=args.frame,
                           progress=show)
     for line in diagnose_report.summary(d):
         print(line)
+    suggestion = None
+    if args.suggest is not None:
+        from ..calibration.experiment import suggest
+
+        suggestion = suggest(d, args.suggest)
+        print(suggestion.summary())
     if args.json is not None:
         write_json(args.json, d.to_json(), "--json")
         print(f"json: {args.json}")
     if report_dir is not None:
-        paths = diagnose_report.write(d, report_dir)
+        paths = diagnose_report.write(d, report_dir, suggestion=suggestion)
         print(f"report: {paths['report_html']}")
         print(f"        {paths['report_md']}")
+        if "suggested_csv" in paths:
+            print(f"suggested configurations: {paths['suggested_csv']}")
     if args.save_model is not None:
         from ..calibration.model import Model
 
         Model.from_diagnosis(d).save(args.save_model)
         print(f"model: {args.save_model}")
-    if args.suggest is not None and robot.kind != "planar":
-        raise UserError("--suggest: experiment design is available for planar arms only (not yet spatial)")
-    if args.suggest is not None:
-        from ..calibration.experiment import suggest
-
-        s = suggest(d, args.suggest)
-        print(s.summary())
-        if report_dir is not None:
-            path = os.path.join(report_dir, "suggested.csv")
-            s.to_csv(path)
-            print(f"suggested configurations: {path}")
     if show:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return 0

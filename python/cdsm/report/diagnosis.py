@@ -23,7 +23,7 @@ import numpy as np
 from .. import __version__
 from ..calibration import diagnosis as diagnose
 from ..calibration import stats
-from ..files import write_csv, write_json, write_text
+from ..files import begin_run, finish_run, write_csv, write_json, write_text
 from .document import Document
 from .figures import BLUE, GREEN, RED, new_figure, save
 
@@ -629,13 +629,17 @@ def _residual_rows(d: diagnose.Diagnosis) -> List[dict]:
     return out
 
 
-def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]") -> Dict[str, str]:
+def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None) -> Dict[str, str]:
     """Write ``report.md``, ``report.html`` (self-contained), ``diagnosis.json``,
-    ``residuals.csv`` and ``figures/*.png`` into ``out`` (created). Returns
-    {name: path} (``report_md``, ``report_html``, ``json``, ``csv``, ``figures``)."""
+    ``residuals.csv``, ``figures/*.png`` and, given a ``suggestion``
+    (:func:`cdsm.calibration.experiment.suggest`), ``suggested.csv`` into
+    ``out`` (created). Returns {name: path} (``report_md``, ``report_html``,
+    ``json``, ``csv``, ``figures``, ``suggested_csv``, ``manifest``: see
+    :func:`cdsm.files.finish_run`)."""
     out = os.fspath(out)
     figdir = os.path.join(out, "figures")
     os.makedirs(figdir, exist_ok=True)
+    begin_run(out, "cdsm diagnose")
     pngs = figures(d, figdir)
     doc = _build(d, pngs)
     paths = {"figures": figdir}
@@ -645,4 +649,8 @@ def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]") -> Dict[str, str
                                       "report")
     paths["json"] = write_json(os.path.join(out, "diagnosis.json"), d.to_json(), "diagnosis")
     paths["csv"] = write_csv(os.path.join(out, "residuals.csv"), _residual_rows(d), "residuals")
+    if suggestion is not None:
+        paths["suggested_csv"] = suggestion.to_csv(os.path.join(out, "suggested.csv"))
+    paths["manifest"] = finish_run(out, "cdsm diagnose", [*pngs.values(), *(v for k, v in paths.items()
+                                                                           if k != "figures")])
     return paths

@@ -16,6 +16,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import LinearSegmentedColormap, LogNorm, Normalize
 from matplotlib.figure import Figure
 
+from ..files import atomic_file
 from ..inputs import CdsmInputError
 from ..progress import Progress
 from ..robot import Robot
@@ -107,7 +108,8 @@ def save(fig: Figure, path: "str | os.PathLike[str]", dpi: int = DPI) -> str:
     """Write ``fig`` as PNG at ``path`` (directories created), with an
     adaptive palette of 256 colours: plots lose nothing visible and the files
     (and the self-contained HTML reports that embed them) shrink about four
-    times. Returns the path."""
+    times. Written whole or not at all (:func:`cdsm.files.atomic_file`).
+    Returns the path."""
     from PIL import Image  # matplotlib's own dependency
 
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
@@ -115,7 +117,8 @@ def save(fig: Figure, path: "str | os.PathLike[str]", dpi: int = DPI) -> str:
     fig.canvas.draw()
     w, h = fig.canvas.get_width_height(physical=True)
     img = Image.frombuffer("RGBA", (w, h), fig.canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB")
-    img.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE).save(path, format="PNG")
+    with atomic_file(path, "figure") as fh:
+        img.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE).save(fh, format="PNG")
     return str(path)
 
 
@@ -202,6 +205,22 @@ def _render(outdir: str, make) -> Dict[str, str]:
     return {name: save(fig, os.path.join(outdir, f"{name}.png")) for name, fig in make()}
 
 
+def _die_with_parent(parent: int) -> None:
+    """In a forked figure worker, first: end when the parent ends, however it
+    ends (a signal, SIGKILL, the OOM killer). Linux's ``PR_SET_PDEATHSIG``
+    has the kernel send SIGKILL when the thread that forked this process
+    exits; a parent already gone ends the worker at once."""
+    import ctypes
+    import signal
+
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL), 0, 0, 0)  # 1: PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:
+        os._exit(1)
+
+
 def _render_forked(i: int) -> Dict[str, str]:
     jobs_of, study, outdir = _FORKED
     return _render(outdir, jobs_of(study)[i][1])
@@ -213,8 +232,8 @@ def render_jobs(jobs_of: Callable[[object], List[FigureJob]], study, outdir: "st
     costliest first) as ``outdir/<name>.png``; returns {name: path} in job
     order. ``workers`` processes render them (default: one per core; forked,
     so only where the platform forks — elsewhere one; each worker rebuilds
-    the job list from the inherited study). Shows a progress line when
-    ``progress``."""
+    the job list from the inherited study; they end with this process,
+    however it ends). Shows a progress line when ``progress``."""
     global _FORKED
     outdir = os.fspath(outdir)
     jobs = jobs_of(study)
@@ -226,7 +245,8 @@ def render_jobs(jobs_of: Callable[[object], List[FigureJob]], study, outdir: "st
         _FORKED = (jobs_of, study, outdir)
         try:
             ctx = multiprocessing.get_context("fork")
-            with ProcessPoolExecutor(min(n, len(jobs)), mp_context=ctx) as ex:
+            with ProcessPoolExecutor(min(n, len(jobs)), mp_context=ctx, initializer=_die_with_parent,
+                                     initargs=(os.getpid(),)) as ex:
                 futs = {ex.submit(_render_forked, i): name for i, (name, _) in enumerate(jobs)}
                 for f in as_completed(futs):
                     out[futs[f]] = f.result()

@@ -14,7 +14,7 @@ import numpy as np
 
 from .. import __version__
 from ..accuracy.workspace import MIN_LINE, REASONS
-from ..files import write_csv, write_text
+from ..files import begin_run, finish_run, write_csv, write_text
 from ..paper import finite_rms
 from . import diagnosis as diagnosis_report
 from .document import Document
@@ -615,10 +615,13 @@ def _order(pngs: Dict[str, str]) -> Dict[str, str]:
 def write(study, out: "str | os.PathLike[str]", progress: bool = False) -> Dict[str, str]:
     """Write figures, CSV tables, ``report.md`` and ``report.html`` into ``out``.
     Returns {name: path} of the written files (``report_md``, ``report_html``,
-    the CSVs and ``figures``)."""
+    the CSVs, ``figures`` and ``manifest``). The directory's manifest
+    (:data:`cdsm.files.RUN_MANIFEST`) says incomplete while it is written and
+    lists every file once it is done."""
     out = os.fspath(out)
     figdir = os.path.join(out, "figures")
     os.makedirs(figdir, exist_ok=True)
+    begin_run(out, "cdsm paper")
     pngs = _order(all_figures(study, figdir, progress=progress))
     paths: Dict[str, str] = {"figures": figdir}
     srows = scenario_rows(study)
@@ -642,4 +645,6 @@ def write(study, out: "str | os.PathLike[str]", progress: bool = False) -> Dict[
     ht = os.path.join(out, "report.html")
     write_text(ht, doc.html(pngs, f"cdsm paper study — {study.robot.name}"), "report")
     paths["report_md"], paths["report_html"] = md, ht
+    paths["manifest"] = finish_run(out, "cdsm paper", [*pngs.values(), *(v for k, v in paths.items()
+                                                                        if k != "figures")])
     return paths

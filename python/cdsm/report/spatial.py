@@ -16,7 +16,7 @@ import numpy as np
 
 from .. import __version__
 from ..accuracy.tolerance import pooled_percentile
-from ..files import write_csv, write_text
+from ..files import begin_run, finish_run, write_csv, write_text
 from ..paper import finite_rms
 from .document import Document
 from .figures import file_key
@@ -353,10 +353,12 @@ def write(study, out: "str | os.PathLike[str]", progress: bool = False, detail: 
     ``configurations.csv``, ``report.md`` and ``report.html`` into ``out``.
     ``detail``: also one figure per scenario (three projections each).
     Returns {name: path} of the written files (``report_md``,
-    ``report_html``, the CSVs and ``figures``)."""
+    ``report_html``, the CSVs, ``figures`` and ``manifest``: see
+    :func:`cdsm.files.finish_run`)."""
     out = os.fspath(out)
     figdir = os.path.join(out, "figures")
     os.makedirs(figdir, exist_ok=True)
+    begin_run(out, "cdsm paper")
     pngs = all_figures(study, figdir, progress=progress, detail=detail, workers=workers)
     paths: Dict[str, str] = {"figures": figdir}
     paths["scenarios_csv"] = write_csv(os.path.join(out, "scenarios.csv"), scenario_rows(study))
@@ -368,4 +370,6 @@ def write(study, out: "str | os.PathLike[str]", progress: bool = False, detail: 
     ht = os.path.join(out, "report.html")
     write_text(ht, doc.html(pngs, f"cdsm spatial study — {study.robot.name}"), "report")
     paths["report_md"], paths["report_html"] = md, ht
+    paths["manifest"] = finish_run(out, "cdsm paper", [*pngs.values(), *(v for k, v in paths.items()
+                                                                        if k != "figures")])
     return paths
