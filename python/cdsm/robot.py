@@ -165,7 +165,18 @@ class Arm:
     @classmethod
     def from_toml(cls, path: "str | os.PathLike[str]") -> "Arm":
         """Read a robot description (TOML, SI units): a :class:`Robot`, or a
-        :class:`cdsm.spatial.SpatialRobot` when it says ``kind = "spatial"``."""
+        :class:`cdsm.spatial.SpatialRobot` when it says ``kind = "spatial"``.
+
+        ``path`` is a file, or the name of a packaged robot
+        (:func:`packaged_robots`, e.g. ``"two_universal"``) when no such file
+        exists: the one rule for naming a robot everywhere (``--robot`` too).
+        A name that is neither says so and lists the packaged names."""
+        if not os.path.exists(path):
+            name = os.fspath(path)
+            if name in packaged_robots():
+                return cls.packaged(name)
+            raise CdsmInputError(f"robot file {name!r}: does not exist, and no packaged robot has that name "
+                                 f"(packaged: {', '.join(packaged_robots())})")
         return Robot.from_toml_str(read_text(path, "robot"))
 
 

@@ -489,6 +489,15 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     return out
 
 
+def _least_tension(tension: np.ndarray) -> np.ndarray:
+    """(N,) the least tension of each row, N; NaN where the statics has no
+    tension set (a slack configuration: the whole row is NaN)."""
+    slack = np.isnan(tension).all(axis=1)
+    least = np.where(np.isnan(tension), np.inf, tension).min(axis=1, initial=np.inf)
+    least[slack] = np.nan
+    return least
+
+
 def _spatial_features(robot, th: np.ndarray, dl: np.ndarray) -> Dict[str, np.ndarray]:
     sv = np.linalg.svd(robot.fk_jacobian(th)[:, :3, :], compute_uv=False)
     pose = robot.fk(th)
@@ -500,7 +509,7 @@ def _spatial_features(robot, th: np.ndarray, dl: np.ndarray) -> Dict[str, np.nda
         "Y (m)": pose[:, 1],
         "Z (m)": pose[:, 2],
         "cable with dL (index)": np.where(a.max(axis=1) > 0, a.argmax(axis=1) + 1, 0).astype(float),
-        "min position-cable tension (N)": np.nanmin(robot.tensions(th), axis=1),
+        "min position-cable tension (N)": _least_tension(robot.tensions(th)),
     }
 
 
@@ -560,11 +569,7 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     largest combination forward selection may build. frame: ``"register"``
     (absolute data are in an instrument frame) or ``"base"``.
     """
-    known = plant.effects_of(robot)
-    library = list(known if effects is None else effects)
-    for e in library:
-        if e not in known:
-            raise CdsmInputError(f"`effects`: unknown effect {e!r}; known: {', '.join(known)}")
+    library = plant.check_effects(robot, plant.effects_of(robot) if effects is None else effects)
     if noise is not None and not (np.isfinite(noise) and noise > 0):
         raise CdsmInputError(f"`noise`: must be a positive number of m, got {noise}")
     prep = prepare(robot, meas, frame)

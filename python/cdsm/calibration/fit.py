@@ -115,13 +115,15 @@ def _summary(effects, idx, scale, names, r, order, width: int) -> Fit:
     ``J^T J`` and singular values): covariance ``sigma^2 (J^T J)^+`` with ``sigma^2 = ssr/(m - k)``;
     a parameter with a share in a direction the data cannot see (a singular
     value below 1e-8 of the largest, columns scaled to unit norm) has no
-    determined value: its standard deviation is NaN."""
+    determined value: its standard deviation is NaN. A fit that could not be
+    evaluated at all (no finite Jacobian) determines nothing: every standard
+    deviation and correlation NaN."""
     k, m = len(idx), int(r.m)
     cost = float(r.cost)
     p = np.array(r.p)
     z = p[idx] / scale if k else np.zeros(0)
-    if k and m:
-        J = np.asarray(r.r_factor).reshape(-1, k)  # R of J = QR: same J^T J, same singular values
+    J = np.asarray(r.r_factor).reshape(-1, k) if k else np.zeros((0, 0))  # R of J = QR: same J^T J
+    if k and m and J.size and np.isfinite(J).all() and np.isfinite(cost):
         sigma2 = cost / max(m - k, 1)
         col = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
         _, sv, vt = np.linalg.svd(J / col, full_matrices=False)
@@ -131,7 +133,9 @@ def _summary(effects, idx, scale, names, r, order, width: int) -> Fit:
         blind = (np.linalg.norm(J, axis=0) == 0) | ((null ** 2).sum(axis=0) > 1e-2)
         std[blind] = np.nan
         d = np.sqrt(np.maximum(np.diag(cov_z), 1e-300))
-        corr = cov_z / np.outer(d, d)
+        corr = cov_z / d[:, None] / d[None, :]  # |cov_ij| <= d_i d_j: no overflow
+    elif k and m:
+        sv, std, corr = np.zeros(0), np.full(k, np.nan), np.full((k, k), np.nan)
     else:
         sv, std, corr = np.zeros(0), np.zeros(k), np.zeros((k, k))
     ll = m * np.log(max(cost / max(m, 1), 1e-300))

@@ -47,7 +47,7 @@ from .measurements import KIND_CODES, Measurements
 
 __all__ = ["EFFECTS", "BLOCKS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size", "params",
            "effect_indices", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
-           "SPATIAL_EFFECTS", "effects_of", "width", "dims", "commands", "command_lengths"]
+           "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths"]
 
 #: Parameter blocks of the flat vector, in order (defined by the Rust core).
 BLOCKS: Tuple[str, ...] = tuple(_cdsm.PLANT_EFFECTS)
@@ -79,6 +79,19 @@ TYPICAL["hole_position"] = 2e-4
 def effects_of(robot) -> Tuple[str, ...]:
     """The diagnosis library of a robot's kind."""
     return SPATIAL_EFFECTS if robot.kind == "spatial" else EFFECTS
+
+
+def check_effects(robot, effects: Sequence[str], field: str = "effects") -> List[str]:
+    """``effects`` as a list, each one of the library of ``robot``'s kind;
+    :class:`CdsmInputError` naming ``field``, the unknown names and the
+    kind's library otherwise."""
+    known = effects_of(robot)
+    names = list(effects)
+    bad = [e for e in names if e not in known]
+    if bad:
+        raise CdsmInputError(f"`{field}`: unknown effect(s) {', '.join(map(repr, bad))} for a {robot.kind} arm; "
+                             f"known: {', '.join(known)}")
+    return names
 
 
 def width(robot) -> int:

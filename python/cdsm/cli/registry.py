@@ -104,12 +104,10 @@ def load_robot(path: Optional[str]):
     """The robot of ``--robot`` (a TOML file, or the name of a packaged robot
     file such as ``two_universal``), or the paper's prototype."""
     from ..inputs import CdsmInputError
-    from ..robot import Robot, packaged_robots
+    from ..robot import Robot
 
     if path is None:
         return Robot.paper()
-    if not os.path.exists(path) and path in packaged_robots():
-        return Robot.packaged(path)
     if os.path.isdir(path):
         raise UserError(f"robot file {path!r}: is a directory")
     try:
