@@ -1,21 +1,24 @@
-//! Compensation: the upper-cable commands that put the tip of a fitted plant
-//! ([`crate::plant`]) on target poses. SI units (m, rad).
+//! Compensation: the position-cable commands that put the tip of a fitted
+//! plant ([`crate::plant`]) on target poses, written once over the arm's
+//! kind. SI units (m, rad).
 //!
 //! For each target the shared solver ([`crate::lm`]) finds the lengths the
 //! screws must deliver, `r`, such that the plant's observation meets the
-//! target on the weighted coordinates (`w = [1, 1, L]` with `L` the straight
-//! arm length when the attitude is a target, `[1, 1, 0]` otherwise); the
-//! Jacobian is exact (implicit function theorem through the settle). The
-//! targets are then run in order through the backlash: a cable whose
-//! delivered length must grow is commanded `r + b`, one that must shrink
-//! `r - b`, one that stays is not moved.
+//! target on the weighted coordinates (planar `[x, y, phi]`, spatial `[x, y,
+//! z, rx, ry, rz]`; a weight of 0 leaves a coordinate free; an attitude
+//! counts as the tip displacement it causes, its weight the straight arm's
+//! length); the Jacobian is exact (implicit function theorem through the
+//! settle). The targets are then run in order through the backlash: a cable
+//! whose delivered length must grow is commanded `r + b`, one that must
+//! shrink `r - b`, one that stays is not moved.
 
 use crate::batch::{rows_exactly, split_rows};
-use crate::cables::CableGeometry;
+use crate::chain::Chain;
 use crate::error::{CdsmError, Result};
+use crate::kinds::{Frame, Kind, Planar, Spatial};
 use crate::lm::{self, Lm, Problem, Step, Workspace};
-use crate::plant::{Plant, SettleWork};
-use crate::robot::Robot;
+use crate::model::{self, Model};
+use crate::plant::{position_lengths, Plant, SettleWork};
 use crate::solve::SolveOptions;
 
 /// Appends the command that makes the screws deliver `delivered` (m) from
@@ -63,19 +66,21 @@ pub struct Compensation {
 
 /// One target as a problem of the shared solver; the unknowns are the
 /// delivered lengths.
-struct Target<'a> {
-    plant: &'a Plant<'a>,
-    work: SettleWork<'a>,
-    target: [f64; 3],
-    weights: [f64; 3],
-    active: Vec<usize>,
+struct Target<'a, K: Kind> {
+    plant: &'a Plant<'a, K>,
+    work: SettleWork<'a, K>,
+    chain: Chain<f64, K::Frame<f64>>,
+    target: &'a [f64],
+    weights: &'a [f64],
+    active: &'a [usize],
     seed: &'a [f64],
     real: Vec<f64>,
     theta: Vec<f64>,
+    seen: Vec<f64>,
     dseen: Vec<f64>,
 }
 
-impl Target<'_> {
+impl<K: Kind> Target<'_, K> {
     fn settle(&mut self, r: &[f64]) -> bool {
         self.plant.actuate(r, &mut self.real);
         self.theta.copy_from_slice(self.seed);
@@ -84,21 +89,22 @@ impl Target<'_> {
     }
 }
 
-impl Problem for Target<'_> {
+impl<K: Kind> Problem for Target<'_, K> {
     fn dims(&self) -> (usize, usize) {
-        (self.active.len(), self.seed.len())
+        (self.active.len(), self.real.len())
     }
 
     fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
         if !self.settle(x) {
             return false;
         }
-        let seen = self.plant.observe(&self.theta);
+        self.plant
+            .observe(&self.theta, &mut self.chain, &mut self.seen);
         for (row, &c) in self.active.iter().enumerate() {
-            r[row] = self.weights[c] * (seen[c] - self.target[c]);
+            r[row] = self.weights[c] * (self.seen[c] - self.target[c]);
         }
         if let Some(j) = jac {
-            let n = x.len();
+            let m = x.len();
             let (real, theta) = (self.real.clone(), self.theta.clone());
             if !self
                 .plant
@@ -108,8 +114,8 @@ impl Problem for Target<'_> {
             }
             let gain = self.plant.gain();
             for (row, &c) in self.active.iter().enumerate() {
-                for k in 0..n {
-                    j[row * n + k] = self.weights[c] * self.dseen[c * n + k] * gain;
+                for k in 0..m {
+                    j[row * m + k] = self.weights[c] * self.dseen[c * m + k] * gain;
                 }
             }
         }
@@ -117,29 +123,61 @@ impl Problem for Target<'_> {
     }
 }
 
-/// Compensated commands for `targets (N, 3)` (m, m, rad) on the plant `p`
-/// (flat), from the nominal configurations `theta_cmd (N, n)` (the nominal
-/// pose IK of each target, rad), matching the coordinates with non-zero
-/// `weights` (`[1, 1, L]` or `[1, 1, 0]`). `start`: the backlash state (the
-/// delivered lengths, m) before the first target; `None`: the straight pose.
+/// Compensated commands for `targets (N, TASK)` (m, rad: planar `[x, y,
+/// phi]`, spatial `[x, y, z, rx, ry, rz]`) on the plant `p` (flat), from the
+/// nominal configurations `theta_cmd (N, n)` (the nominal IK of each target,
+/// rad), matching the coordinates with non-zero `weights` (`TASK` values,
+/// each `>= 0`). `start`: the backlash state (the delivered lengths, m)
+/// before the first target; `None`: the straight pose.
 #[allow(clippy::too_many_arguments)]
 pub fn compensate(
-    robot: &Robot,
+    model: &Model,
     p: &[f64],
     theta_cmd: &[f64],
     targets: &[f64],
-    weights: [f64; 3],
+    weights: &[f64],
     start: Option<&[f64]>,
     opts: &SolveOptions,
     tol: f64,
     max_iter: u32,
     threads: usize,
 ) -> Result<Compensation> {
-    let n = robot.n();
-    let rows = crate::batch::rows_of("targets", targets, 3)?;
+    let args = (
+        p, theta_cmd, targets, weights, start, opts, tol, max_iter, threads,
+    );
+    match model.kind {
+        model::Kind::Planar => compensate_k::<Planar>(model, args),
+        model::Kind::Spatial => compensate_k::<Spatial>(model, args),
+    }
+}
+
+type Args<'a> = (
+    &'a [f64],
+    &'a [f64],
+    &'a [f64],
+    &'a [f64],
+    Option<&'a [f64]>,
+    &'a SolveOptions,
+    f64,
+    u32,
+    usize,
+);
+
+fn compensate_k<K: Kind>(model: &Model, args: Args) -> Result<Compensation> {
+    let (p, theta_cmd, targets, weights, start, opts, tol, max_iter, threads) = args;
+    let n = model.n();
+    let task = <K::Frame<f64> as Frame<f64>>::TASK;
+    let rows = crate::batch::rows_of("targets", targets, task)?;
     rows_exactly("theta_cmd", theta_cmd, n, rows)?;
-    crate::error::check_finite("weights", &weights)?;
-    let active: Vec<usize> = (0..3).filter(|c| weights[*c] != 0.0).collect();
+    crate::error::check_finite("weights", weights)?;
+    if weights.len() != task {
+        return Err(CdsmError::Shape {
+            name: "weights".into(),
+            expected: format!("({task},)"),
+            got: format!("({},)", weights.len()),
+        });
+    }
+    let active: Vec<usize> = (0..task).filter(|c| weights[*c] != 0.0).collect();
     if active.is_empty() || weights.iter().any(|w| *w < 0.0) {
         return Err(CdsmError::Option {
             name: "weights".into(),
@@ -152,46 +190,41 @@ pub fn compensate(
             problem: format!("must be positive and finite, got {tol}"),
         });
     }
-    let plant = Plant::new(robot, p)?;
+    let plant = Plant::<K>::new(model, p)?;
+    let m = plant.reference_lengths().len();
     if let Some(s) = start {
-        rows_exactly("start", s, n, 1)?;
+        rows_exactly("start", s, m, 1)?;
     }
-    let geom = CableGeometry::new(robot, None);
-    let mut nominal = vec![0.0; rows * n];
-    let mut cs = vec![(1.0, 0.0); n];
+    let mut nominal = Vec::with_capacity(rows * m);
     for i in 0..rows {
-        for (c, t) in cs.iter_mut().zip(&theta_cmd[i * n..(i + 1) * n]) {
-            let (s, co) = t.sin_cos();
-            *c = (co, s);
-        }
-        geom.upper_lengths(&cs, &mut nominal[i * n..(i + 1) * n]);
+        nominal.extend(position_lengths(model, &theta_cmd[i * n..(i + 1) * n]));
     }
-    let lm = Lm::equations(Step::levenberg(active.len(), n), tol, max_iter);
+    let lm = Lm::equations(Step::levenberg(active.len(), m), tol, max_iter);
     // every target's delivered lengths (independent of the order)
     let parts = split_rows(rows, threads, |range| {
         let mut ws = Workspace::default();
         let mut out = Vec::with_capacity(range.len());
         for i in range {
-            let seed = &theta_cmd[i * n..(i + 1) * n];
             let mut prob = Target {
                 plant: &plant,
                 work: SettleWork::new(&plant, *opts),
-                target: [targets[3 * i], targets[3 * i + 1], targets[3 * i + 2]],
+                chain: Chain::new(model),
+                target: &targets[task * i..task * (i + 1)],
                 weights,
-                active: active.clone(),
-                seed,
-                real: vec![0.0; n],
+                active: &active,
+                seed: &theta_cmd[i * n..(i + 1) * n],
+                real: vec![0.0; m],
                 theta: vec![0.0; n],
-                dseen: vec![0.0; 3 * n],
+                seen: vec![0.0; task],
+                dseen: vec![0.0; task * m],
             };
-            let mut r = nominal[i * n..(i + 1) * n].to_vec();
+            let mut r = nominal[i * m..(i + 1) * m].to_vec();
             let st = lm::solve(&mut prob, &mut r, &lm, &mut ws);
             let settled = prob.settle(&r);
-            let seen = if settled {
-                plant.observe(&prob.theta)
-            } else {
-                [f64::NAN; 3]
-            };
+            let mut seen = vec![f64::NAN; task];
+            if settled {
+                plant.observe(&prob.theta, &mut prob.chain, &mut seen);
+            }
             out.push((r, st, settled, prob.theta.clone(), seen));
         }
         out
@@ -212,16 +245,16 @@ pub fn compensate(
     // the nominal commands through the same plant, in order
     let mut state = start.map_or_else(|| plant.reference_lengths().to_vec(), |s| s.to_vec());
     let mut work = SettleWork::new(&plant, *opts);
-    let mut real = vec![0.0; n];
-    let mut th = vec![0.0; n];
+    let mut chain = Chain::new(model);
+    let (mut real, mut th, mut seen) = (vec![0.0; m], vec![0.0; n], vec![0.0; task]);
     for i in 0..rows {
-        plant.realise_one(&nominal[i * n..(i + 1) * n], &mut state, &mut real);
+        plant.realise_one(&nominal[i * m..(i + 1) * m], &mut state, &mut real);
         th.copy_from_slice(&theta_cmd[i * n..(i + 1) * n]);
-        let seen = if plant.settle(&real, &mut th, &mut work) {
-            plant.observe(&th)
+        if plant.settle(&real, &mut th, &mut work) {
+            plant.observe(&th, &mut chain, &mut seen);
         } else {
-            [f64::NAN; 3]
-        };
+            seen.fill(f64::NAN);
+        }
         res.seen_nominal.extend_from_slice(&seen);
     }
     Ok(res)
@@ -231,17 +264,20 @@ pub fn compensate(
 mod tests {
     use super::*;
     use crate::geometry::ArmGeometry;
-    use crate::plant::effect_offsets;
+    use crate::plant::{layout, Effect};
+    use crate::robot::Robot;
 
     #[test]
     fn compensated_commands_put_the_plant_on_target() {
         let r = Robot::paper();
-        let (off, total) = effect_offsets(3);
-        let mut p = vec![0.0; total];
-        p[off[0]] = 0.03;
-        p[off[2]] = 3e-4;
-        p[off[8]] = 5e-5;
-        p[off[5]] = 1e-4;
+        let m = Model::from_planar(&r);
+        let lay = layout(&m);
+        let at = |e| lay.find(e).unwrap().0;
+        let mut p = vec![0.0; lay.total];
+        p[at(Effect::ActuationScale)] = 0.03;
+        p[at(Effect::HoleHeight)] = 3e-4;
+        p[at(Effect::Backlash)] = 5e-5;
+        p[at(Effect::HoleClearance)] = 1e-4;
         let theta = [0.2, -0.3, 0.25, -0.1, 0.2, 0.1];
         let mut targets = Vec::new();
         for t in theta.chunks(3) {
@@ -249,11 +285,11 @@ mod tests {
         }
         let l = r.straight_length();
         let res = compensate(
-            &r,
+            &m,
             &p,
             &theta,
             &targets,
-            [1.0, 1.0, l],
+            &[1.0, 1.0, l],
             None,
             &SolveOptions::default(),
             1e-10,

@@ -2,10 +2,9 @@
 //! plant's predictions meet the measurements, by the shared solver
 //! ([`crate::lm`], QR step, Marquardt damping) in parameters scaled by their
 //! typical size, within the plant's physical domain, with an active set on
-//! its bounds. Any plant kind that implements [`FitModel`] is fitted the same
-//! way (planar: [`PlanarFit`], exact Jacobians; spatial:
-//! [`crate::spatial::plant::SpatialFit`]). Cross-validation folds are fitted in
-//! one call, in parallel.
+//! its bounds. Any plant that implements [`FitModel`] is fitted the same
+//! way (the one plant of either kind: [`crate::plant::PlantFit`], exact
+//! Jacobians). Cross-validation folds are fitted in one call, in parallel.
 //!
 //! Residual: for every scored row and every measured component,
 //! `w_c (prediction - measurement)` with the model's weights (an attitude
@@ -16,9 +15,7 @@
 use crate::batch::split_rows;
 use crate::error::{CdsmError, Result};
 use crate::lm::{self, Damping, Lm, Problem, Step, Workspace};
-use crate::plant::{bounds, effect_offsets, Plant, Predictions, Sequence, Settled};
-use crate::robot::Robot;
-use crate::solve::SolveOptions;
+use crate::plant::Predictions;
 
 /// A plant the diagnosis can fit: predictions of a data set's rows for a
 /// flat parameter vector, and their derivatives with respect to some of the
@@ -44,52 +41,6 @@ pub trait FitModel: Sync {
     /// `(rows, width, k)` derivatives of the predictions with respect to the
     /// parameters `free` at `p` (the state of [`FitModel::settle`] at `p`).
     fn jacobian(&self, p: &[f64], state: &Self::State, free: &[usize]) -> Option<Vec<f64>>;
-}
-
-/// The planar plant ([`crate::plant`]) on one data set.
-pub struct PlanarFit<'a> {
-    pub robot: &'a Robot,
-    pub seq: &'a Sequence,
-    /// Settle options.
-    pub opts: SolveOptions,
-}
-
-impl FitModel for PlanarFit<'_> {
-    type State = Settled;
-
-    fn rows(&self) -> usize {
-        self.seq.rows()
-    }
-
-    fn width(&self) -> usize {
-        3
-    }
-
-    fn weights(&self) -> Vec<f64> {
-        vec![1.0, 1.0, self.robot.straight_length()]
-    }
-
-    fn params(&self) -> usize {
-        effect_offsets(self.robot.n()).1
-    }
-
-    fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
-        bounds(self.robot)
-    }
-
-    fn settle(&self, p: &[f64]) -> Option<Settled> {
-        let plant = Plant::new(self.robot, p).ok()?;
-        Some(Settled::new(&plant, self.seq, &self.opts, 1))
-    }
-
-    fn predictions(&self, state: &Settled) -> Predictions {
-        state.predictions(self.seq)
-    }
-
-    fn jacobian(&self, p: &[f64], state: &Settled, free: &[usize]) -> Option<Vec<f64>> {
-        let plant = Plant::new(self.robot, p).ok()?;
-        state.jacobian(&plant, self.seq, free, 1).ok()
-    }
 }
 
 /// What to fit and where.
@@ -399,12 +350,22 @@ pub fn fit_folds<M: FitModel>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plant::{predict, RowKind, Rows};
+    use crate::kinds::Planar;
+    use crate::model::Model;
+    use crate::plant::{layout, predict, Effect, PlantFit, RowKind, Rows, Sequence};
+    use crate::robot::Robot;
+    use crate::solve::SolveOptions;
 
     #[test]
     fn a_hidden_effect_is_recovered_from_exact_data() {
-        let r = Robot::paper();
-        let (off, total) = effect_offsets(3);
+        let r = Model::from_planar(&Robot::paper());
+        let lay = layout(&r);
+        let total = lay.total;
+        let (scale, holes) = (
+            lay.find(Effect::ActuationScale).unwrap().0,
+            lay.find(Effect::HoleHeight).unwrap().0,
+        );
+        let off = [scale, 0, holes];
         let mut truth = vec![0.0; total];
         truth[off[2]] = 2e-4;
         truth[off[2] + 1] = -1e-4;
@@ -430,11 +391,7 @@ mod tests {
         let meas = predict(&r, &truth, &rows, &o, 1).unwrap().observation;
         let seq = Sequence::new(&r, &rows).unwrap();
         let free = [off[0], off[2], off[2] + 1, off[2] + 2];
-        let model = PlanarFit {
-            robot: &r,
-            seq: &seq,
-            opts: o,
-        };
+        let model = PlantFit::<Planar>::new(&r, &seq, o);
         let spec = FitSpec {
             model: &model,
             measured: &meas,

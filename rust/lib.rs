@@ -6,14 +6,18 @@
 
 pub mod accuracy;
 pub mod batch;
+pub mod cable_solve;
 pub mod cables;
+pub mod chain;
 pub mod compensate;
 pub mod error;
 pub mod fit;
 pub mod geometry;
 pub mod ik;
+pub mod kinds;
 pub mod kinematics;
 pub mod lm;
+pub mod model;
 pub mod plant;
 pub mod real;
 pub mod robot;
@@ -22,6 +26,7 @@ pub mod simd;
 pub mod solve;
 pub mod spatial;
 pub mod statics;
+pub mod tension;
 
 #[cfg(feature = "python")]
 mod python;

@@ -1,92 +1,223 @@
 //! The real arm as the nominal model plus candidate unmodelled effects (the
-//! "plant"), as specified in `docs/model.md` ("The plant"): commands in
-//! sequence through backlash and the actuators, an arm with perturbed holes
-//! and links whose cables bear on oversized holes and stretch, seen by an
-//! instrument through a tip offset and a frame. All-zero parameters give the
-//! nominal model exactly. SI units (m, rad, N).
+//! "plant", `docs/model.md`, "The plant"), written once over the arm's kind:
+//! commands in sequence through backlash and the actuators, an arm with
+//! moved holes, links and joint axes whose cables bear on oversized holes
+//! and stretch, seen by an instrument through a tip offset and a frame.
+//! All-zero parameters give the nominal model exactly. SI units (m, rad, N).
 //!
-//! The residual of the settling equation and the observation are written
-//! once over [`Real`]: in `f64` they settle and predict, in [`Jet`]s they give
-//! exact derivatives along [`JET`] directions per evaluation, so the Jacobian
-//! of the predictions with respect to the parameters follows from the
-//! implicit function theorem at the settled configuration (no finite
-//! differences, no extra settles).
+//! The flat parameter vector's layout is the kind's ([`layout`]): which
+//! effects an arm of that kind has, and how many numbers each takes. The
+//! effects themselves move the one model's numbers ([`ArmNumbers`]) and are
+//! written once.
+//!
+//! The equations of the settled state and the observation are written once
+//! over [`Real`]: in `f64` they settle and predict, in [`Jet`]s they give
+//! exact derivatives along [`JET`] directions per evaluation, so the
+//! Jacobian of the predictions with respect to the parameters follows from
+//! the implicit function theorem at the settled configuration.
 
-use crate::batch::{rows_of, split_rows};
+use crate::batch::{rows_exactly, rows_of, split_rows};
+use crate::cable_solve::CableSolve;
 use crate::cables::CableGeometry;
+use crate::chain::{ArmNumbers, Chain};
 use crate::error::{CdsmError, Result};
-use crate::geometry::{pair, Arm, ArmGeometry};
+use crate::fit::FitModel;
+use crate::kinds::{Frame, Kind, Planar, Spatial, Vector};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
+use crate::model::{self, Mode, Model};
 use crate::real::{Jet, Real};
 use crate::robot::Robot;
 use crate::solve::{CableMethod, CableSolver, SolveOptions};
-use crate::statics::{upper_tensions, Loads, TensionBuffers};
+use crate::tension::{Balance, Wrench};
 
-/// The effects, in the order of the parameter vector (the last two were
-/// added after the first eight and sit at the end).
-pub const EFFECTS: [&str; 10] = [
-    "actuation_scale",
-    "cable_offset",
-    "hole_height",
-    "link_length",
-    "cable_elasticity",
-    "hole_clearance",
-    "frame_misalignment",
-    "tip_offset",
-    "backlash",
-    "clearance_width",
-];
+/// The effects of the library, by name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Effect {
+    /// `s`: realised `= L_ref + (1 + s)(delivered - L_ref) + o` (1).
+    ActuationScale,
+    /// `o` per position cable (m).
+    CableOffset,
+    /// Planar: the holes of the cables ending at disk `i` moved along their
+    /// local `y`, position cable `+dh_i`, force cable `-dh_i` (m, one per disk).
+    HoleHeight,
+    /// Spatial: every hole of the position cables moved, `[x, y, z]` in its face frame (m).
+    HolePosition,
+    /// Planar: `link_before[1]` and every `link_after` lengthened (m, `n + 1`);
+    /// spatial: every joint offset, then every disk's `link_after` moved by a 3-vector (m).
+    LinkLength,
+    /// Compliance `kappa >= 0` of the position cables (1/N).
+    CableElasticity,
+    /// Clearance `cl` of the holes beside every bend (m).
+    HoleClearance,
+    /// The clearance's transition width, `w = 0.01 rad + dw` (rad).
+    ClearanceWidth,
+    /// The instrument frame: planar `alpha, fx, fy`; spatial rotation vector, translation (rad, m).
+    FrameMisalignment,
+    /// The measured point in the end frame (m; 2 planar, 3 spatial).
+    TipOffset,
+    /// Dead-band half-width `b >= 0` per position cable (m).
+    Backlash,
+    /// Spatial: every joint axis tilted by two angles (rad).
+    JointAxis,
+}
+
+impl Effect {
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::ActuationScale => "actuation_scale",
+            Effect::CableOffset => "cable_offset",
+            Effect::HoleHeight => "hole_height",
+            Effect::HolePosition => "hole_position",
+            Effect::LinkLength => "link_length",
+            Effect::CableElasticity => "cable_elasticity",
+            Effect::HoleClearance => "hole_clearance",
+            Effect::ClearanceWidth => "clearance_width",
+            Effect::FrameMisalignment => "frame_misalignment",
+            Effect::TipOffset => "tip_offset",
+            Effect::Backlash => "backlash",
+            Effect::JointAxis => "joint_axis",
+        }
+    }
+}
 
 /// The clearance's transition width at `clearance_width = 0` (rad).
 pub const CLEARANCE_WIDTH: f64 = 0.01;
 
-/// Number of parameters of each effect for an `n`-joint robot.
-pub fn effect_sizes(n: usize) -> [usize; 10] {
-    [1, n, n, n + 1, 1, 1, 3, 2, n, 1]
+/// The flat parameter vector of a model's plant: its effects in order, each
+/// with its offset and size.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    pub blocks: Vec<(Effect, usize, usize)>,
+    pub total: usize,
 }
 
-/// Offset of each effect's parameters in the flat parameter vector, and the total.
-pub fn effect_offsets(n: usize) -> ([usize; 10], usize) {
-    let sizes = effect_sizes(n);
-    let mut off = [0; 10];
+impl Layout {
+    /// Offset and size of `e`'s parameters, if the kind has the effect.
+    pub fn find(&self, e: Effect) -> Option<(usize, usize)> {
+        self.blocks.iter().find(|b| b.0 == e).map(|b| (b.1, b.2))
+    }
+}
+
+/// The layout of `model`'s plant (`docs/model.md`, "Parameters"): the
+/// planar one in the order of cdsm 0.1 (`n` joints = `n` position cables),
+/// the spatial one in the order of cdsm 0.2 with the effects added since at
+/// its end.
+pub fn layout(model: &Model) -> Layout {
+    let (n, k) = (model.n(), model.disks.len());
+    let m = model.position_cables().len();
+    let sizes: Vec<(Effect, usize)> = match model.kind {
+        model::Kind::Planar => vec![
+            (Effect::ActuationScale, 1),
+            (Effect::CableOffset, m),
+            (Effect::HoleHeight, k),
+            (Effect::LinkLength, n + 1),
+            (Effect::CableElasticity, 1),
+            (Effect::HoleClearance, 1),
+            (Effect::FrameMisalignment, 3),
+            (Effect::TipOffset, 2),
+            (Effect::Backlash, m),
+            (Effect::ClearanceWidth, 1),
+        ],
+        model::Kind::Spatial => {
+            let holes: usize = model
+                .position_cables()
+                .iter()
+                .map(|c| model.cables[*c].holes.len())
+                .sum();
+            vec![
+                (Effect::ActuationScale, 1),
+                (Effect::CableOffset, m),
+                (Effect::HolePosition, 3 * holes),
+                (Effect::LinkLength, 3 * (n + k)),
+                (Effect::CableElasticity, 1),
+                (Effect::FrameMisalignment, 6),
+                (Effect::TipOffset, 3),
+                (Effect::Backlash, m),
+                (Effect::HoleClearance, 1),
+                (Effect::ClearanceWidth, 1),
+                (Effect::JointAxis, 2 * n),
+            ]
+        }
+    };
+    let mut blocks = Vec::with_capacity(sizes.len());
     let mut total = 0;
-    for (o, s) in off.iter_mut().zip(sizes) {
-        *o = total;
+    for (e, s) in sizes {
+        blocks.push((e, total, s));
         total += s;
     }
-    (off, total)
+    Layout { blocks, total }
+}
+
+/// The smallest distance of a hole from its disk's axis (m, 0 excluded):
+/// a clearance cannot be wider.
+fn least_hole_radius(model: &Model) -> f64 {
+    model
+        .cables
+        .iter()
+        .flat_map(|c| c.holes.iter().map(|h| h[1].hypot(h[2])))
+        .filter(|r| *r > 0.0)
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The physical domain of each parameter as `[lower, upper]` bounds (SI):
-/// non-negative compliance, clearance and backlash, a clearance below the
-/// smallest hole height (a hole cannot be wider than its distance from the
-/// axis), a transition width in (1e-4, 1] rad, links and actuator gain kept
-/// above a tenth of their nominal value.
-pub fn bounds(robot: &Robot) -> (Vec<f64>, Vec<f64>) {
-    let n = robot.n();
-    let (off, total) = effect_offsets(n);
-    let mut lo = vec![f64::NEG_INFINITY; total];
-    let mut hi = vec![f64::INFINITY; total];
-    let min_hole = robot
-        .holes
-        .chunks_exact(2)
-        .map(|p| p[1].abs())
-        .filter(|h| *h > 0.0)
-        .fold(f64::INFINITY, f64::min);
-    if min_hole.is_finite() {
-        hi[off[5]] = min_hole;
+/// actuator gain above a tenth of nominal, non-negative compliance, clearance
+/// and backlash, a clearance below the least hole radius, a transition width
+/// in `[1e-4, 1]` rad, planar links above a tenth of their nominal length.
+pub fn bounds(model: &Model) -> (Vec<f64>, Vec<f64>) {
+    let lay = layout(model);
+    let mut lo = vec![f64::NEG_INFINITY; lay.total];
+    let mut hi = vec![f64::INFINITY; lay.total];
+    for &(e, o, s) in &lay.blocks {
+        match e {
+            Effect::ActuationScale => lo[o] = -0.9,
+            Effect::CableElasticity => lo[o] = 0.0,
+            Effect::HoleClearance => {
+                lo[o] = 0.0;
+                let r = least_hole_radius(model);
+                if r.is_finite() {
+                    hi[o] = r;
+                }
+            }
+            Effect::ClearanceWidth => {
+                lo[o] = 1e-4 - CLEARANCE_WIDTH;
+                hi[o] = 1.0 - CLEARANCE_WIDTH;
+            }
+            Effect::Backlash => lo[o..o + s].fill(0.0),
+            Effect::LinkLength if model.kind == model::Kind::Planar => {
+                lo[o] = -0.9 * model.joints[0].offset[0];
+                for (i, d) in model.disks.iter().enumerate() {
+                    lo[o + 1 + i] = -0.9 * d.link_after[0];
+                }
+            }
+            _ => {}
+        }
     }
-    hi[off[9]] = 1.0 - CLEARANCE_WIDTH;
-    lo[off[0]] = -0.9;
-    lo[off[3]] = -0.9 * robot.link_before[0];
-    for i in 0..n {
-        lo[off[3] + 1 + i] = -0.9 * robot.link_after[i];
-        lo[off[8] + i] = 0.0;
-    }
-    lo[off[4]] = 0.0;
-    lo[off[5]] = 0.0;
-    lo[off[9]] = 1e-4 - CLEARANCE_WIDTH;
     (lo, hi)
+}
+
+/// Whether the flat parameters `p` describe a physical plant (within
+/// [`bounds`], finite).
+pub fn physical(model: &Model, p: &[f64]) -> bool {
+    let (lo, hi) = bounds(model);
+    p.len() == lo.len()
+        && p.iter()
+            .zip(lo.iter().zip(&hi))
+            .all(|(v, (l, h))| v.is_finite() && *v >= *l && *v <= *h)
+}
+
+/// Two unit vectors completing the unit `a` to a right-handed basis: `e1`
+/// the arm's direction `x` made perpendicular to `a` (`y` when `a` is along
+/// `x`), `e2 = a × e1`. A joint axis tilts by `d1 e1 + d2 e2`.
+pub fn tilt_basis(a: [f64; 3]) -> ([f64; 3], [f64; 3]) {
+    let x = if a[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let d = x.dot(a);
+    let e = x.sub(a.scale(d));
+    let e1 = e.scale(1.0 / e.norm());
+    (e1, crate::kinds::cross(a, e1))
 }
 
 /// The parameters of one plant, unpacked, in any scalar.
@@ -94,65 +225,104 @@ pub fn bounds(robot: &Robot) -> (Vec<f64>, Vec<f64>) {
 struct Params<S> {
     scale: S,
     offset: Vec<S>,
-    dh: Vec<S>,
-    dl: Vec<S>,
     kappa: S,
     clearance: S,
     width: S,
-    frame: [S; 3],
-    tip: [S; 2],
+    instrument: Vec<S>,
+    tip: Vec<S>,
     backlash: Vec<S>,
+    /// The plant's arm: the model's numbers, moved.
+    arm: ArmNumbers<S>,
 }
 
 impl<S: Real> Params<S> {
-    /// From the flat vector `p`; the component `dir` (if any) carries derivative 1.
-    fn unpack(n: usize, p: &[f64], lift: impl Fn(usize, f64) -> S) -> Params<S> {
-        let (off, _) = effect_offsets(n);
+    /// From the flat vector `p`; `lift(i, p[i])` makes parameter `i` a scalar
+    /// (constant, or seeded along a derivative direction).
+    fn unpack(model: &Model, lay: &Layout, p: &[f64], lift: impl Fn(usize, f64) -> S) -> Params<S> {
         let v = |i: usize| lift(i, p[i]);
-        let span = |o: usize, len: usize| (o..o + len).map(v).collect::<Vec<S>>();
-        Params {
-            scale: v(off[0]),
-            offset: span(off[1], n),
-            dh: span(off[2], n),
-            dl: span(off[3], n + 1),
-            kappa: v(off[4]),
-            clearance: v(off[5]),
-            width: v(off[9]) + CLEARANCE_WIDTH,
-            frame: [v(off[6]), v(off[6] + 1), v(off[6] + 2)],
-            tip: [v(off[7]), v(off[7] + 1)],
-            backlash: span(off[8], n),
-        }
-    }
-
-    /// The plant's arm: holes of pair `i` moved by `dh_i` (upper `+`, lower
-    /// `-`) on every face it crosses, links lengthened by `dl`.
-    fn arm(&self, robot: &Robot) -> Arm<S> {
-        let n = robot.n();
-        let mut arm = Arm::<S>::of(robot, None);
-        for c in 0..2 * n {
-            let sign = if c % 2 == 0 { 1.0 } else { -1.0 };
-            for d in 0..=pair(c) + 1 {
-                for f in 0..2 {
-                    let i = robot.hole_index(c, d, f) + 1;
-                    arm.holes[i] += self.dh[pair(c)] * sign;
+        let z = S::cst(0.0);
+        let span = |e: Effect| -> Vec<S> {
+            lay.find(e)
+                .map_or_else(Vec::new, |(o, s)| (o..o + s).map(v).collect())
+        };
+        let one = |e: Effect| lay.find(e).map_or(z, |(o, _)| v(o));
+        let pos = model.position_cables();
+        let mut arm = ArmNumbers::<S>::of(model);
+        if let Some((o, _)) = lay.find(Effect::HoleHeight) {
+            for (c, cable) in model.cables.iter().enumerate() {
+                let dh = v(o + cable.end - 1);
+                let dh = if cable.mode == Mode::Position {
+                    dh
+                } else {
+                    -dh
+                };
+                for h in arm.holes[c].iter_mut() {
+                    h[1] += dh;
                 }
             }
         }
-        arm.link_before[0] += self.dl[0];
-        for i in 0..n {
-            arm.link_after[i] += self.dl[i + 1];
+        if let Some((o, _)) = lay.find(Effect::HolePosition) {
+            let mut k = o;
+            for &c in &pos {
+                for h in arm.holes[c].iter_mut() {
+                    for x in h.iter_mut() {
+                        *x += v(k);
+                        k += 1;
+                    }
+                }
+            }
         }
-        arm
+        if let Some((o, s)) = lay.find(Effect::LinkLength) {
+            if model.kind == model::Kind::Planar {
+                arm.offset[0][0] += v(o);
+                for (i, la) in arm.link_after.iter_mut().enumerate() {
+                    la[0] += v(o + 1 + i);
+                }
+            } else {
+                let mut k = o;
+                for x in arm
+                    .offset
+                    .iter_mut()
+                    .chain(arm.link_after.iter_mut())
+                    .flatten()
+                {
+                    *x += v(k);
+                    k += 1;
+                }
+                debug_assert_eq!(k, o + s);
+            }
+        }
+        if let Some((o, _)) = lay.find(Effect::JointAxis) {
+            for (j, joint) in model.joints.iter().enumerate() {
+                let (e1, e2) = tilt_basis(joint.axis);
+                let (d1, d2) = (v(o + 2 * j), v(o + 2 * j + 1));
+                let a: [S; 3] =
+                    std::array::from_fn(|i| S::cst(joint.axis[i]) + d1 * e1[i] + d2 * e2[i]);
+                let norm = a.norm();
+                arm.axis[j] = a.scale(S::cst(1.0) / norm);
+            }
+        }
+        arm.settled(model);
+        Params {
+            scale: one(Effect::ActuationScale),
+            offset: span(Effect::CableOffset),
+            kappa: one(Effect::CableElasticity),
+            clearance: one(Effect::HoleClearance),
+            width: one(Effect::ClearanceWidth) + CLEARANCE_WIDTH,
+            instrument: span(Effect::FrameMisalignment),
+            tip: span(Effect::TipOffset),
+            backlash: span(Effect::Backlash),
+            arm,
+        }
     }
-}
 
-/// Whether the flat parameters `p` describe a physical plant (within
-/// [`bounds`], finite).
-pub fn physical(robot: &Robot, p: &[f64]) -> bool {
-    let (lo, hi) = bounds(robot);
-    p.iter()
-        .zip(lo.iter().zip(&hi))
-        .all(|(v, (l, h))| v.is_finite() && *v >= *l && *v <= *h)
+    fn elastic(&self) -> bool {
+        self.kappa.val() != 0.0 || self.kappa.is_variable()
+    }
+
+    fn clear(&self) -> bool {
+        self.clearance.val() != 0.0 || self.clearance.is_variable()
+    }
 }
 
 /// What a measurement row is.
@@ -182,7 +352,7 @@ impl RowKind {
 }
 
 /// A data set's commands in execution order: `theta_cmd (N, n)` rad,
-/// `dl (N, n)` m and each row's kind.
+/// `dl (N, m)` m (the position cables, file order) and each row's kind.
 #[derive(Debug, Clone, Copy)]
 pub struct Rows<'a> {
     pub theta_cmd: &'a [f64],
@@ -191,12 +361,13 @@ pub struct Rows<'a> {
 }
 
 /// The command sequence of a data set, built once from the nominal model:
-/// every command's nominal upper lengths and the row it belongs to.
+/// every command's nominal position-cable lengths and the row it belongs to.
 #[derive(Debug, Clone)]
 pub struct Sequence {
     n: usize,
+    m: usize,
     rows: usize,
-    /// `(commands, n)` nominal commanded upper lengths (m).
+    /// `(commands, m)` nominal commanded lengths (m).
     command: Vec<f64>,
     /// Row of each command.
     row: Vec<usize>,
@@ -206,11 +377,69 @@ pub struct Sequence {
     theta_cmd: Vec<f64>,
 }
 
+/// The lengths of `model`'s position cables at `theta` (rad), m.
+pub fn position_lengths(model: &Model, theta: &[f64]) -> Vec<f64> {
+    Lengths::new(model).at(model, theta).to_vec()
+}
+
+/// The position cables' lengths of one model at configuration after
+/// configuration, with its buffers.
+pub enum Lengths {
+    Planar(
+        Chain<f64, <Planar as Kind>::Frame<f64>>,
+        Vec<usize>,
+        Vec<f64>,
+    ),
+    Spatial(
+        Chain<f64, <Spatial as Kind>::Frame<f64>>,
+        Vec<usize>,
+        Vec<f64>,
+    ),
+}
+
+impl Lengths {
+    pub fn new(model: &Model) -> Self {
+        let pos = model.position_cables();
+        let out = vec![0.0; pos.len()];
+        match model.kind {
+            model::Kind::Planar => Lengths::Planar(Chain::new(model), pos, out),
+            model::Kind::Spatial => Lengths::Spatial(Chain::new(model), pos, out),
+        }
+    }
+
+    /// The lengths (m) at `theta` (rad).
+    pub fn at(&mut self, model: &Model, theta: &[f64]) -> &[f64] {
+        fn fill<F: Frame<f64>>(
+            ch: &mut Chain<f64, F>,
+            model: &Model,
+            pos: &[usize],
+            out: &mut [f64],
+            theta: &[f64],
+        ) {
+            ch.at(model, model, theta);
+            for (o, c) in out.iter_mut().zip(pos) {
+                *o = ch.cable_length(model, model, *c, None);
+            }
+        }
+        match self {
+            Lengths::Planar(ch, pos, out) => {
+                fill(ch, model, pos, out, theta);
+                out
+            }
+            Lengths::Spatial(ch, pos, out) => {
+                fill(ch, model, pos, out, theta);
+                out
+            }
+        }
+    }
+}
+
 impl Sequence {
-    pub fn new(robot: &Robot, data: &Rows) -> Result<Sequence> {
-        let n = robot.n();
+    pub fn new(model: &Model, data: &Rows) -> Result<Sequence> {
+        let n = model.n();
+        let m = model.position_cables().len();
         let rows = rows_of("theta_cmd", data.theta_cmd, n)?;
-        crate::batch::rows_exactly("dl", data.dl, n, rows)?;
+        rows_exactly("dl", data.dl, m, rows)?;
         if data.kind.len() != rows {
             return Err(CdsmError::Shape {
                 name: "kind".into(),
@@ -218,30 +447,25 @@ impl Sequence {
                 got: format!("({},)", data.kind.len()),
             });
         }
-        let geom = CableGeometry::new(robot, None);
         let mut seq = Sequence {
             n,
+            m,
             rows,
-            command: Vec::with_capacity(2 * rows * n),
+            command: Vec::with_capacity(2 * rows * m),
             row: Vec::with_capacity(2 * rows),
             span: Vec::with_capacity(rows),
             kind: data.kind.to_vec(),
             theta_cmd: data.theta_cmd.to_vec(),
         };
-        let mut cs = vec![(1.0, 0.0); n];
-        let mut c = vec![0.0; n];
+        let mut lengths = Lengths::new(model);
         for i in 0..rows {
-            for (x, t) in cs.iter_mut().zip(&data.theta_cmd[i * n..(i + 1) * n]) {
-                let (s, co) = t.sin_cos();
-                *x = (co, s);
-            }
-            geom.upper_lengths(&cs, &mut c);
+            let c = lengths.at(model, &data.theta_cmd[i * n..(i + 1) * n]);
             let first = seq.row.len();
             if data.kind[i] == RowKind::Displacement {
-                seq.command.extend_from_slice(&c);
+                seq.command.extend_from_slice(c);
                 seq.row.push(i);
             }
-            for (ck, d) in c.iter().zip(&data.dl[i * n..(i + 1) * n]) {
+            for (ck, d) in c.iter().zip(&data.dl[i * m..(i + 1) * m]) {
                 seq.command.push(ck + d);
             }
             seq.row.push(i);
@@ -281,14 +505,14 @@ pub fn dead_band<S: Real>(cmd: f64, state: S, b: S) -> S {
     }
 }
 
-/// The realised rest lengths of every command (`(commands, n)`, m): the
+/// The realised rest lengths of every command (`(commands, m)`, m): the
 /// backlash scan from the straight pose, then the actuators.
 fn realised<S: Real>(seq: &Sequence, prm: &Params<S>, l_ref: &[f64]) -> Vec<S> {
-    let n = seq.n;
+    let m = seq.m;
     let mut state: Vec<S> = l_ref.iter().map(|v| S::cst(*v)).collect();
     let mut out = Vec::with_capacity(seq.command.len());
-    for cmd in seq.command.chunks_exact(n) {
-        for i in 0..n {
+    for cmd in seq.command.chunks_exact(m) {
+        for i in 0..m {
             state[i] = dead_band(cmd[i], state[i], prm.backlash[i]);
             let r = state[i];
             out.push((r - l_ref[i]) * (prm.scale + 1.0) + l_ref[i] + prm.offset[i]);
@@ -297,285 +521,219 @@ fn realised<S: Real>(seq: &Sequence, prm: &Params<S>, l_ref: &[f64]) -> Vec<S> {
     out
 }
 
-/// Buffers of the plant's residual in one scalar.
-struct Buffers<S> {
-    cs: Vec<(S, S)>,
-    shift: Vec<S>,
+/// Buffers of the plant's equations in one scalar.
+struct Buffers<S: Real, F: Frame<S>> {
+    chain: Chain<S, F>,
+    shift: Vec<(F::V, F::V)>,
     lengths: Vec<S>,
     tension: Vec<S>,
-    statics: TensionBuffers<S>,
+    bal: Balance<S>,
+    row: Vec<S>,
+    /// Position and force cables of the model.
+    pos: Vec<usize>,
 }
 
-impl<S: Real> Buffers<S> {
-    fn new(n: usize) -> Self {
+impl<S: Real, F: Frame<S>> Buffers<S, F> {
+    fn new(model: &Model) -> Self {
+        let pos = model.position_cables();
         let z = S::cst(0.0);
         Buffers {
-            cs: vec![(z, z); n],
-            shift: vec![z; n],
-            lengths: vec![z; n],
-            tension: vec![z; n],
-            statics: TensionBuffers::new(n),
+            chain: Chain::new(model),
+            shift: vec![(F::V::zero(), F::V::zero()); model.disks.len()],
+            lengths: vec![z; pos.len()],
+            tension: vec![z; pos.len()],
+            bal: Balance::new(model),
+            row: vec![z; model.n()],
+            pos,
         }
     }
 }
 
-/// The settling residual `F_i = L_arm,i(theta) - (L_i + L_route)(1 + kappa T_i) + L_route`
-/// (m) of the plant with parameters `prm` and arm `arm` at `theta`, realised
-/// lengths `real`.
-fn residual<S: Real>(
-    robot: &Robot,
-    arm: &Arm<S>,
+/// The equations of the settled state (`docs/model.md`, "Settling"), `n` of
+/// them: with as many position cables as joints, per cable
+/// `L_arm,i(theta) - (L_i + L_route)(1 + kappa T_i(theta)) + L_route` (m;
+/// `T` the statics tensions); with more, the balance of the joints:
+/// rigid, `sum_i dL_i/dtheta_j (L_arm,i - L_i)` (the least-squares
+/// condition), elastic, `sum_i dL_i/dtheta_j max(0, s_i) - kappa (tau_j -
+/// sum_f dL_f/dtheta_j T_f)` with the strains `s_i = (L_arm,i + L_route) /
+/// (L_i + L_route) - 1` (m per rad).
+fn equations<S: Real, F: Frame<S>>(
+    model: &Model,
     prm: &Params<S>,
     real: &[S],
     theta: &[S],
-    buf: &mut Buffers<S>,
+    b: &mut Buffers<S, F>,
     out: &mut [S],
 ) {
-    let n = robot.n();
+    let (n, m) = (model.n(), b.pos.len());
+    let arm = &prm.arm;
+    b.chain.at(model, arm, theta);
+    let clear = prm.clear();
+    let elastic = prm.elastic();
     let z = S::cst(0.0);
-    let clear = prm.clearance.val() != 0.0 || prm.clearance.is_variable();
-    for ((cs, shift), t) in buf.cs.iter_mut().zip(buf.shift.iter_mut()).zip(theta) {
-        let (s, c) = t.sin_cos();
-        *cs = (c, s);
-        *shift = if clear {
-            prm.clearance * (*t / prm.width).tanh()
-        } else {
-            z
-        };
-    }
-    for i in 0..n {
-        let c = 2 * i;
-        let mut len = z;
-        for k in 0..=i {
-            len += arm.segment(c, k, buf.shift[k]).length(buf.cs[k]);
-            let next = if k < i { buf.shift[k + 1] } else { z };
-            len += arm.traversal(c, k, buf.shift[k], next);
-        }
-        buf.lengths[i] = len;
-    }
-    let route = robot.cable.routing_length;
-    let elastic = prm.kappa.val() != 0.0 || prm.kappa.is_variable();
     if elastic {
-        let loads = Loads::of(robot);
-        upper_tensions(
+        // the statics: the moment balance (its cable lengths are the holes'
+        // own, without clearance)
+        let zero = [z; 3];
+        b.bal.at(
+            model,
             arm,
-            theta,
-            &loads,
-            &robot.mass,
-            &mut buf.statics,
-            &mut buf.tension,
+            &mut b.chain,
+            model.gravity,
+            Wrench {
+                force: zero,
+                couple: &zero,
+            },
         );
     }
-    for i in 0..n {
-        let stretch = if elastic {
-            (real[i] + route) * prm.kappa * buf.tension[i]
+    if clear {
+        for (s, f) in b.shift.iter_mut().zip(&b.chain.local) {
+            *s = f.bend_shift(prm.clearance, prm.width);
+        }
+    }
+    for (l, &c) in b.lengths.iter_mut().zip(&b.pos) {
+        *l = if elastic && !clear {
+            b.bal.lengths[c]
         } else {
-            z
+            b.chain
+                .cable_length(model, arm, c, clear.then_some(&b.shift[..]))
         };
-        out[i] = buf.lengths[i] - real[i] - stretch;
+    }
+    let route = S::cst(model.cable.routing_length);
+    if m == n {
+        if elastic && !b.bal.solve_square(&mut b.tension) {
+            b.tension.fill(S::cst(f64::NAN));
+        }
+        for i in 0..n {
+            let stretch = if elastic {
+                (real[i] + route) * prm.kappa * b.tension[i]
+            } else {
+                z
+            };
+            out[i] = b.lengths[i] - real[i] - stretch;
+        }
+        return;
+    }
+    if elastic {
+        // b.bal.b = tau - J_f^T T_f; its rows J_p^T
+        for (o, bj) in out[..n].iter_mut().zip(&b.bal.b) {
+            *o = -(prm.kappa * *bj);
+        }
+        for (i, l) in b.lengths.iter().enumerate() {
+            let f = ((*l + route) / (real[i] + route) - 1.0).max0();
+            for (j, o) in out[..n].iter_mut().enumerate() {
+                *o += b.bal.a[j * m + i] * f;
+            }
+        }
+    } else {
+        out[..n].fill(z);
+        for (i, &c) in b.pos.iter().enumerate() {
+            b.chain.cable_jacobian_row(model, arm, c, &mut b.row);
+            let f = b.lengths[i] - real[i];
+            for (o, r) in out[..n].iter_mut().zip(&b.row) {
+                *o += *r * f;
+            }
+        }
     }
 }
 
-/// What the instrument sees of the arm at `theta`: `[x, y, phi]`.
-fn observe<S: Real>(arm: &Arm<S>, prm: &Params<S>, theta: &[S]) -> [S; 3] {
-    let p = arm.fk(theta);
-    let (s, c) = p[2].sin_cos();
-    let [tx, ty] = prm.tip;
-    let tip = [p[0] + c * tx - s * ty, p[1] + s * tx + c * ty];
-    let (sa, ca) = prm.frame[0].sin_cos();
-    [
-        ca * tip[0] - sa * tip[1] + prm.frame[1],
-        sa * tip[0] + ca * tip[1] + prm.frame[2],
-        p[2] + prm.frame[0],
-    ]
+/// What the instrument sees of the arm at `theta`: the task vector of the
+/// frame `E · F_end · Trans(tip)` (`E` the instrument frame).
+fn observe<S: Real, F: Frame<S>>(
+    model: &Model,
+    prm: &Params<S>,
+    theta: &[S],
+    chain: &mut Chain<S, F>,
+    out: &mut [S],
+) {
+    chain.at(model, &prm.arm, theta);
+    observe_at(model, prm, chain, out);
+}
+
+/// [`observe`] from a chain already at the configuration ([`Chain::at`]).
+fn observe_at<S: Real, F: Frame<S>>(
+    model: &Model,
+    prm: &Params<S>,
+    chain: &mut Chain<S, F>,
+    out: &mut [S],
+) {
+    chain.world(model, &prm.arm);
+    let mut tip = [S::cst(0.0); 3];
+    tip[..prm.tip.len()].copy_from_slice(&prm.tip);
+    let seen = F::instrument(&prm.instrument)
+        .compose(chain.end())
+        .translated(F::V::of(tip));
+    seen.task(out);
 }
 
 /// Directions carried by one forward-mode evaluation of the plant.
 pub const JET: usize = 8;
 type J = Jet<JET>;
 
-/// The settle of one command as a problem of the shared solver: `F(theta) = 0`
-/// with the Jacobian `dF/dtheta` in jets.
-struct SettleProblem<'a, 'b> {
-    plant: &'a Plant<'a>,
-    real: &'a [f64],
-    work: &'b mut JetWork,
-}
-
-impl Problem for SettleProblem<'_, '_> {
-    fn dims(&self) -> (usize, usize) {
-        (self.real.len(), self.real.len())
-    }
-
-    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
-        let p = self.plant;
-        residual(
-            p.robot,
-            &p.arm,
-            &p.prm,
-            self.real,
-            x,
-            &mut self.work.fbuf,
-            r,
-        );
-        if let Some(j) = jac {
-            let n = x.len();
-            for (d, v) in self.work.real.iter_mut().zip(self.real) {
-                *d = J::cst(*v);
-            }
-            for c in 0..n.div_ceil(JET) {
-                for (l, d) in self.work.theta.iter_mut().enumerate() {
-                    *d = J::seeded(x[l], l.wrapping_sub(c * JET));
-                }
-                let w = &mut *self.work;
-                residual(
-                    p.robot, &p.carm, &p.cprm, &w.real, &w.theta, &mut w.buf, &mut w.f,
-                );
-                for s in 0..JET.min(n - c * JET) {
-                    for i in 0..n {
-                        j[i * n + c * JET + s] = w.f[i].d[s];
-                    }
-                }
-            }
-        }
-        r.iter().all(|v| v.is_finite())
-    }
-}
-
-/// Buffers of the forward-mode evaluations at one command.
-pub struct JetWork {
-    fbuf: Buffers<f64>,
-    buf: Buffers<J>,
-    theta: Vec<J>,
-    real: Vec<J>,
-    f: Vec<J>,
-    /// `(n, dirs)` residual and `(3, dirs)` observation derivatives.
-    df: Vec<f64>,
-    dobs: Vec<f64>,
-    /// `(3, n)`: `O_theta F_theta^-1`.
-    y: Vec<f64>,
-    ft: Vec<f64>,
-    rhs: Vec<f64>,
-}
-
-impl JetWork {
-    fn new(n: usize) -> JetWork {
-        JetWork {
-            fbuf: Buffers::new(n),
-            buf: Buffers::new(n),
-            theta: vec![J::default(); n],
-            real: vec![J::default(); n],
-            f: vec![J::default(); n],
-            df: Vec::new(),
-            dobs: Vec::new(),
-            y: vec![0.0; 3 * n],
-            ft: vec![0.0; n * n],
-            rhs: vec![0.0; n],
-        }
-    }
-}
-
-/// The inputs of one chunk of [`JET`] directions at one command: the
-/// parameters and arm (seeded along the chunk's parameter directions) and the
-/// realised lengths (seeded along the chunk's length directions).
-struct Chunk<'a> {
-    prm: &'a Params<J>,
-    arm: &'a Arm<J>,
-    real: &'a [J],
-}
-
-/// The derivatives of one settled command's observation along `dirs` input
-/// directions by the implicit function theorem,
-/// `dO/dx = O_x - O_theta F_theta^-1 F_x` (`out`: `(3, dirs)` row-major).
-/// Direction `g` of the combined list `theta_0..theta_{n-1}, x_0..` sits in
-/// slot `g % JET` of chunk `g / JET`. False where `F_theta` is singular.
-fn implicit_derivatives<'c>(
-    robot: &Robot,
-    theta: &[f64],
-    dirs: usize,
-    chunk: impl Fn(usize) -> Chunk<'c>,
-    w: &mut JetWork,
-    out: &mut [f64],
-) -> bool {
-    let n = theta.len();
-    let total = n + dirs;
-    w.df.resize(n * total, 0.0);
-    w.dobs.resize(3 * total, 0.0);
-    for c in 0..total.div_ceil(JET) {
-        let ch = chunk(c);
-        for (l, d) in w.theta.iter_mut().enumerate() {
-            *d = J::seeded(theta[l], l.wrapping_sub(c * JET));
-        }
-        residual(
-            robot, ch.arm, ch.prm, ch.real, &w.theta, &mut w.buf, &mut w.f,
-        );
-        let o = observe(ch.arm, ch.prm, &w.theta);
-        for s in 0..JET.min(total - c * JET) {
-            let g = c * JET + s;
-            for i in 0..n {
-                w.df[i * total + g] = w.f[i].d[s];
-            }
-            for (k, ok) in o.iter().enumerate() {
-                w.dobs[k * total + g] = ok.d[s];
-            }
-        }
-    }
-    // y_k solves F_theta^T y_k = O_theta[k]^T
-    for i in 0..n {
-        for l in 0..n {
-            w.ft[l * n + i] = w.df[i * total + l];
-        }
-    }
-    for k in 0..3 {
-        w.rhs.copy_from_slice(&w.dobs[k * total..k * total + n]);
-        let (rhs, y) = (&w.rhs, &mut w.y[k * n..(k + 1) * n]);
-        if !solve_general(n, &w.ft, rhs, y) {
-            return false;
-        }
-    }
-    for k in 0..3 {
-        for q in 0..dirs {
-            let mut v = w.dobs[k * total + n + q];
-            for i in 0..n {
-                v -= w.y[k * n + i] * w.df[i * total + n + q];
-            }
-            out[k * dirs + q] = v;
-        }
-    }
-    true
+/// The rigid settle: the planar kind's closed form and triangular Newton
+/// (on the moved arm as a planar description), or the general cable solve.
+enum Rigid {
+    Planar(Box<Robot>, CableGeometry),
+    General,
 }
 
 /// One plant (parameters `p`, flat), ready to settle and observe commands.
-pub struct Plant<'a> {
-    robot: &'a Robot,
+pub struct Plant<'a, K: Kind> {
+    model: &'a Model,
     p: Vec<f64>,
+    lay: Layout,
     prm: Params<f64>,
-    arm: Arm<f64>,
-    /// The same parameters and arm as constants in jets (for `dF/dtheta`).
+    /// The same parameters as constants in jets (for `dE/dtheta`).
     cprm: Params<J>,
-    carm: Arm<J>,
-    /// The arm as a robot description (for the rigid closed form).
-    arm_robot: Robot,
-    geom: CableGeometry,
     l_ref: Vec<f64>,
-    rigid: bool,
+    rigid: Rigid,
+    _kind: std::marker::PhantomData<K>,
 }
 
-impl<'a> Plant<'a> {
-    /// The plant of `robot` with the flat parameters `p` (see [`EFFECTS`]);
+/// The planar description of a planar model's numbers (for its closed forms).
+fn planar_robot(model: &Model, arm: &ArmNumbers<f64>) -> Robot {
+    let n = model.n();
+    let mut r = Robot {
+        name: model.name.clone(),
+        link_before: arm.offset.iter().map(|o| o[0]).collect(),
+        link_after: arm.link_after.iter().map(|o| o[0]).collect(),
+        thickness: arm.thickness.clone(),
+        mass: model.disks.iter().map(|d| d.mass).collect(),
+        lower_tension: (0..n).map(|i| model.cables[2 * i + 1].tension).collect(),
+        joint_limits: model.joints.iter().map(|j| j.limits).collect(),
+        holes: vec![0.0; 2 * n * (n + 1) * 4],
+        cable: model.cable.clone(),
+        gravity: [model.gravity[0], model.gravity[1]],
+    };
+    for (c, holes) in arm.holes.iter().enumerate() {
+        for (i, h) in holes.iter().enumerate() {
+            let (d, f) = if i == 0 {
+                (0, 1)
+            } else {
+                (i.div_ceil(2), 1 - i % 2)
+            };
+            let k = r.hole_index(c, d, f);
+            r.holes[k] = h[0];
+            r.holes[k + 1] = h[1];
+        }
+    }
+    r
+}
+
+impl<'a, K: Kind> Plant<'a, K> {
+    /// The plant of `model` with the flat parameters `p` (see [`layout`]);
     /// an error when `p` has the wrong length or leaves the physical domain.
-    pub fn new(robot: &'a Robot, p: &[f64]) -> Result<Plant<'a>> {
-        let n = robot.n();
-        let (_, total) = effect_offsets(n);
-        if p.len() != total {
+    pub fn new(model: &'a Model, p: &[f64]) -> Result<Self> {
+        let lay = layout(model);
+        if p.len() != lay.total {
             return Err(CdsmError::Shape {
                 name: "params".into(),
-                expected: format!("({total},)"),
+                expected: format!("({},)", lay.total),
                 got: format!("({},)", p.len()),
             });
         }
         crate::error::check_finite("params", p)?;
-        if !physical(robot, p) {
+        if !physical(model, p) {
             return Err(CdsmError::Option {
                 name: "params".into(),
                 problem:
@@ -584,46 +742,35 @@ impl<'a> Plant<'a> {
                         .into(),
             });
         }
-        let prm = Params::<f64>::unpack(n, p, |_, v| v);
-        let arm = prm.arm(robot);
-        let arm_robot = Robot {
-            link_before: arm.link_before.clone(),
-            link_after: arm.link_after.clone(),
-            holes: arm.holes.clone(),
-            ..robot.clone()
+        let prm = Params::<f64>::unpack(model, &lay, p, |_, v| v);
+        let cprm = Params::<J>::unpack(model, &lay, p, |_, v| J::cst(v));
+        let l_ref = position_lengths(model, &vec![0.0; model.n()]);
+        let rigid = if model.kind == model::Kind::Planar {
+            let r = planar_robot(model, &prm.arm);
+            let g = CableGeometry::new(&r, None);
+            Rigid::Planar(Box::new(r), g)
+        } else {
+            Rigid::General
         };
-        let geom = CableGeometry::new(&arm_robot, None);
-        let mut l_ref = vec![0.0; n];
-        CableGeometry::new(robot, None).upper_lengths(&vec![(1.0, 0.0); n], &mut l_ref);
-        let rigid = prm.kappa == 0.0 && prm.clearance == 0.0;
-        let cprm = Params::<J>::unpack(n, p, |_, v| J::cst(v));
-        let carm = cprm.arm(robot);
         Ok(Plant {
-            robot,
+            model,
             p: p.to_vec(),
+            lay,
             prm,
-            arm,
             cprm,
-            carm,
-            arm_robot,
-            geom,
             l_ref,
             rigid,
+            _kind: std::marker::PhantomData,
         })
     }
 
-    /// The plant's arm as a robot description (perturbed holes and links).
-    pub fn arm(&self) -> &Robot {
-        &self.arm_robot
-    }
-
-    /// The realised rest lengths of every command of `seq` (`(commands, n)`, m).
+    /// The realised rest lengths of every command of `seq` (`(commands, m)`, m).
     pub fn realised(&self, seq: &Sequence) -> Vec<f64> {
         realised(seq, &self.prm, &self.l_ref)
     }
 
-    /// The upper lengths the screws deliver and the actuators realise for
-    /// one command `cmd` from the backlash state `state` (updated), m.
+    /// The lengths the screws deliver and the actuators realise for one
+    /// command `cmd` from the backlash state `state` (updated), m.
     pub fn realise_one(&self, cmd: &[f64], state: &mut [f64], out: &mut [f64]) {
         for i in 0..cmd.len() {
             state[i] = dead_band(cmd[i], state[i], self.prm.backlash[i]);
@@ -641,8 +788,8 @@ impl<'a> Plant<'a> {
         }
     }
 
-    /// The straight-pose upper lengths of the nominal robot (the backlash
-    /// state at the start and the actuators' pivot), m.
+    /// The straight-pose position-cable lengths of the nominal model (the
+    /// backlash state at the start and the actuators' pivot), m.
     pub fn reference_lengths(&self) -> &[f64] {
         &self.l_ref
     }
@@ -652,13 +799,32 @@ impl<'a> Plant<'a> {
         &self.prm.backlash
     }
 
-    /// Settles the arm for realised lengths `real` (m); `theta` holds the seed
-    /// on entry (the commanded configuration) and the answer on exit.
+    /// The actuators' gain `1 + s` (realised length per delivered length).
+    pub fn gain(&self) -> f64 {
+        1.0 + self.prm.scale
+    }
+
+    /// The nominal model the controller believes in.
+    pub fn nominal(&self) -> &Model {
+        self.model
+    }
+
+    /// Settles the arm for realised lengths `real` (m); `theta` holds the
+    /// seed on entry (the commanded configuration) and the answer on exit.
     /// `work` must have been made for this plant ([`SettleWork::new`]).
-    pub fn settle(&self, real: &[f64], theta: &mut [f64], work: &mut SettleWork) -> bool {
+    pub fn settle(&self, real: &[f64], theta: &mut [f64], work: &mut SettleWork<'_, K>) -> bool {
+        let (n, m) = (self.model.n(), real.len());
         work.start.copy_from_slice(theta);
-        let ok = work.rigid.solve(&self.geom, real, theta).converged;
-        if self.rigid {
+        let ok = match (&self.rigid, work.planar.as_mut()) {
+            (Rigid::Planar(_, geom), Some(s)) => s.solve(geom, real, theta).converged,
+            _ => {
+                work.general
+                    .solve(self.model, &self.prm.arm, real, theta)
+                    .converged
+            }
+        };
+        let clear = self.prm.clear();
+        if !self.prm.elastic() && !clear {
             return ok;
         }
         if !ok {
@@ -669,9 +835,9 @@ impl<'a> Plant<'a> {
             real,
             work: &mut work.jet,
         };
-        // cable i crosses joints 1..i: without stretch (whose tensions couple
-        // every joint) dF/dtheta is lower triangular; Newton first, damped on failure
-        let step = if self.prm.kappa == 0.0 {
+        // with as many cables as joints and no stretch, cable i crosses the
+        // joints of the disks up to its end: planar dE/dtheta is lower triangular
+        let step = if m == n && !self.prm.elastic() && self.model.kind == model::Kind::Planar {
             Step::Triangular
         } else {
             Step::Normal
@@ -683,81 +849,222 @@ impl<'a> Plant<'a> {
         lm::solve(&mut prob, theta, &lm, &mut work.ws).converged
     }
 
+    /// What the instrument sees at `theta` (the task vector, `TASK` values).
+    pub fn observe(&self, theta: &[f64], chain: &mut Chain<f64, K::Frame<f64>>, out: &mut [f64]) {
+        observe(self.model, &self.prm, theta, chain, out)
+    }
+
     /// What the instrument sees at the settled `theta` for realised lengths
-    /// `real`, and its derivative with respect to `real` (`jac`, `(3, n)`
-    /// row-major, 1) by the implicit function theorem. False where `dF/dtheta`
-    /// is singular.
+    /// `real`, and its derivative with respect to `real` (`jac`, `(TASK, m)`
+    /// row-major) by the implicit function theorem. False where the
+    /// equations' Jacobian is singular.
     pub fn observe_linear(
         &self,
         real: &[f64],
         theta: &[f64],
         jac: &mut [f64],
-        work: &mut SettleWork,
+        work: &mut SettleWork<'_, K>,
     ) -> bool {
-        let n = theta.len();
-        // directions: theta (n), then each realised length (n)
-        let reals: Vec<Vec<J>> = (0..(2 * n).div_ceil(JET))
+        let (n, m) = (theta.len(), real.len());
+        // directions: theta (n), then each realised length (m)
+        let reals: Vec<Vec<J>> = (0..(n + m).div_ceil(JET))
             .map(|c| {
-                (0..n)
+                (0..m)
                     .map(|i| J::seeded(real[i], (n + i).wrapping_sub(c * JET)))
                     .collect()
             })
             .collect();
         implicit_derivatives(
-            self.robot,
+            self.model,
             theta,
-            n,
+            m,
             |c| Chunk {
                 prm: &self.cprm,
-                arm: &self.carm,
                 real: &reals[c],
             },
             &mut work.jet,
             jac,
         )
     }
-
-    /// The actuators' gain `1 + s` (realised length per delivered length).
-    pub fn gain(&self) -> f64 {
-        1.0 + self.prm.scale
-    }
-
-    /// What the instrument sees at `theta`: `[x, y, phi]`.
-    pub fn observe(&self, theta: &[f64]) -> [f64; 3] {
-        observe(&self.arm, &self.prm, theta)
-    }
-
-    /// The nominal robot the controller believes in.
-    pub fn nominal(&self) -> &Robot {
-        self.robot
-    }
 }
 
 /// Per-thread buffers of the settles of one plant.
-pub struct SettleWork<'a> {
+pub struct SettleWork<'a, K: Kind> {
     opts: SolveOptions,
-    rigid: CableSolver<'a>,
+    planar: Option<CableSolver<'a>>,
+    general: CableSolve<K::Frame<f64>>,
     start: Vec<f64>,
-    jet: JetWork,
+    jet: JetWork<K>,
     ws: Workspace,
 }
 
-impl<'a> SettleWork<'a> {
-    pub fn new(plant: &'a Plant, opts: SolveOptions) -> Self {
-        let n = plant.robot.n();
+impl<'a, K: Kind> SettleWork<'a, K> {
+    pub fn new(plant: &'a Plant<K>, opts: SolveOptions) -> Self {
+        let model = plant.model;
+        let planar = match &plant.rigid {
+            Rigid::Planar(r, _) => Some(CableSolver::new(r, CableMethod::Auto, opts)),
+            Rigid::General => None,
+        };
         SettleWork {
             opts,
-            rigid: CableSolver::new(&plant.arm_robot, CableMethod::Auto, opts),
-            start: vec![0.0; n],
-            jet: JetWork::new(n),
+            planar,
+            general: CableSolve::new(model, opts),
+            start: vec![0.0; model.n()],
+            jet: JetWork::new(model),
             ws: Workspace::default(),
         }
     }
 }
 
-/// Predictions of `K` plants for one data set: observations `(K, N, 3)` (NaN
-/// for unmeasured rows and rows that did not settle), converged `(K, N)`, and
-/// the configuration each row's last command settles at `(K, N, n)` (rad).
+/// The settle of one command as a problem of the shared solver: the
+/// equations of the settled state with their Jacobian in jets.
+struct SettleProblem<'a, 'b, K: Kind> {
+    plant: &'a Plant<'a, K>,
+    real: &'a [f64],
+    work: &'b mut JetWork<K>,
+}
+
+impl<K: Kind> Problem for SettleProblem<'_, '_, K> {
+    fn dims(&self) -> (usize, usize) {
+        let n = self.plant.model.n();
+        (n, n)
+    }
+
+    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+        let p = self.plant;
+        equations(p.model, &p.prm, self.real, x, &mut self.work.fbuf, r);
+        if let Some(j) = jac {
+            let n = x.len();
+            for (d, v) in self.work.real.iter_mut().zip(self.real) {
+                *d = J::cst(*v);
+            }
+            for c in 0..n.div_ceil(JET) {
+                for (l, d) in self.work.theta.iter_mut().enumerate() {
+                    *d = J::seeded(x[l], l.wrapping_sub(c * JET));
+                }
+                let w = &mut *self.work;
+                equations(p.model, &p.cprm, &w.real, &w.theta, &mut w.buf, &mut w.f);
+                for s in 0..JET.min(n - c * JET) {
+                    for i in 0..n {
+                        j[i * n + c * JET + s] = w.f[i].d[s];
+                    }
+                }
+            }
+        }
+        r.iter().all(|v| v.is_finite())
+    }
+}
+
+/// Buffers of the forward-mode evaluations at one command.
+pub struct JetWork<K: Kind> {
+    fbuf: Buffers<f64, K::Frame<f64>>,
+    buf: Buffers<J, K::Frame<J>>,
+    theta: Vec<J>,
+    real: Vec<J>,
+    f: Vec<J>,
+    obs: Vec<J>,
+    /// `(n, dirs)` equation and `(TASK, dirs)` observation derivatives.
+    df: Vec<f64>,
+    dobs: Vec<f64>,
+    /// `(TASK, n)`: `O_theta E_theta^-1`.
+    y: Vec<f64>,
+    ft: Vec<f64>,
+    rhs: Vec<f64>,
+}
+
+impl<K: Kind> JetWork<K> {
+    fn new(model: &Model) -> Self {
+        let n = model.n();
+        let m = model.position_cables().len();
+        let task = <K::Frame<J> as Frame<J>>::TASK;
+        JetWork {
+            fbuf: Buffers::new(model),
+            buf: Buffers::new(model),
+            theta: vec![J::default(); n],
+            real: vec![J::default(); m],
+            f: vec![J::default(); n],
+            obs: vec![J::default(); task],
+            df: Vec::new(),
+            dobs: Vec::new(),
+            y: vec![0.0; task * n],
+            ft: vec![0.0; n * n],
+            rhs: vec![0.0; n],
+        }
+    }
+}
+
+/// The inputs of one chunk of [`JET`] directions at one command: the
+/// parameters (seeded along the chunk's parameter directions) and the
+/// realised lengths (seeded along the chunk's length directions).
+struct Chunk<'a> {
+    prm: &'a Params<J>,
+    real: &'a [J],
+}
+
+/// The derivatives of one settled command's observation along `dirs` input
+/// directions by the implicit function theorem,
+/// `dO/dx = O_x - O_theta E_theta^-1 E_x` (`out`: `(TASK, dirs)` row-major).
+/// Direction `g` of the combined list `theta_0..theta_{n-1}, x_0..` sits in
+/// slot `g % JET` of chunk `g / JET`. False where `E_theta` is singular.
+fn implicit_derivatives<'c, K: Kind>(
+    model: &Model,
+    theta: &[f64],
+    dirs: usize,
+    chunk: impl Fn(usize) -> Chunk<'c>,
+    w: &mut JetWork<K>,
+    out: &mut [f64],
+) -> bool {
+    let n = theta.len();
+    let task = <K::Frame<J> as Frame<J>>::TASK;
+    let total = n + dirs;
+    w.df.resize(n * total, 0.0);
+    w.dobs.resize(task * total, 0.0);
+    for c in 0..total.div_ceil(JET) {
+        let ch = chunk(c);
+        for (l, d) in w.theta.iter_mut().enumerate() {
+            *d = J::seeded(theta[l], l.wrapping_sub(c * JET));
+        }
+        equations(model, ch.prm, ch.real, &w.theta, &mut w.buf, &mut w.f);
+        observe_at(model, ch.prm, &mut w.buf.chain, &mut w.obs);
+        for s in 0..JET.min(total - c * JET) {
+            let g = c * JET + s;
+            for i in 0..n {
+                w.df[i * total + g] = w.f[i].d[s];
+            }
+            for (k, ok) in w.obs.iter().enumerate() {
+                w.dobs[k * total + g] = ok.d[s];
+            }
+        }
+    }
+    // y_k solves E_theta^T y_k = O_theta[k]^T
+    for i in 0..n {
+        for l in 0..n {
+            w.ft[l * n + i] = w.df[i * total + l];
+        }
+    }
+    for k in 0..task {
+        w.rhs.copy_from_slice(&w.dobs[k * total..k * total + n]);
+        let (rhs, y) = (&w.rhs, &mut w.y[k * n..(k + 1) * n]);
+        if !solve_general(n, &w.ft, rhs, y) {
+            return false;
+        }
+    }
+    for k in 0..task {
+        for q in 0..dirs {
+            let mut v = w.dobs[k * total + n + q];
+            for i in 0..n {
+                v -= w.y[k * n + i] * w.df[i * total + n + q];
+            }
+            out[k * dirs + q] = v;
+        }
+    }
+    true
+}
+
+/// Predictions of `K` plants for one data set: observations `(K, N, TASK)`
+/// (NaN for unmeasured rows and rows that did not settle), converged
+/// `(K, N)`, and the configuration each row's last command settles at
+/// `(K, N, n)` (rad).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Predictions {
     pub observation: Vec<f64>,
@@ -765,142 +1072,156 @@ pub struct Predictions {
     pub theta: Vec<f64>,
 }
 
+/// Every command of a data set settled by one plant: the configurations,
+/// observations and flags (the state a fit keeps between a trial and its
+/// Jacobian).
+#[derive(Debug, Clone, Default)]
+pub struct Settled {
+    theta: Vec<f64>,
+    obs: Vec<f64>,
+    ok: Vec<bool>,
+}
+
 /// The settled configurations and observations of every command of `seq`
 /// for one plant (in parallel over the commands).
-fn settle_all(
-    plant: &Plant,
+fn settle_all<K: Kind>(
+    plant: &Plant<K>,
     seq: &Sequence,
     opts: &SolveOptions,
     threads: usize,
-) -> (Vec<f64>, Vec<[f64; 3]>, Vec<bool>) {
+) -> Settled {
     let n = seq.n;
+    let m = seq.m;
+    let task = <K::Frame<f64> as Frame<f64>>::TASK;
     let real = plant.realised(seq);
     let parts = split_rows(seq.len(), threads, |range| {
         let mut work = SettleWork::new(plant, *opts);
+        let mut chain = Chain::new(plant.model);
         let mut th = vec![0.0; n];
-        let mut out = (
-            Vec::with_capacity(range.len() * n),
-            Vec::with_capacity(range.len()),
-            Vec::with_capacity(range.len()),
-        );
+        let mut o = vec![0.0; task];
+        let mut out = Settled {
+            theta: Vec::with_capacity(range.len() * n),
+            obs: Vec::with_capacity(range.len() * task),
+            ok: Vec::with_capacity(range.len()),
+        };
         for j in range {
             let row = seq.row[j];
             th.copy_from_slice(&seq.theta_cmd[row * n..(row + 1) * n]);
-            let ok = plant.settle(&real[j * n..(j + 1) * n], &mut th, &mut work);
-            out.0.extend_from_slice(&th);
-            out.1.push(if ok {
-                plant.observe(&th)
+            let ok = plant.settle(&real[j * m..(j + 1) * m], &mut th, &mut work);
+            out.theta.extend_from_slice(&th);
+            if ok {
+                plant.observe(&th, &mut chain, &mut o);
+                out.obs.extend_from_slice(&o);
             } else {
-                [f64::NAN; 3]
-            });
-            out.2.push(ok);
+                out.obs.extend(std::iter::repeat_n(f64::NAN, task));
+            }
+            out.ok.push(ok);
         }
         out
     });
-    let mut theta = Vec::with_capacity(seq.len() * n);
-    let mut obs = Vec::with_capacity(seq.len());
-    let mut ok = Vec::with_capacity(seq.len());
-    for (t, o, c) in parts {
-        theta.extend(t);
-        obs.extend(o);
-        ok.extend(c);
+    let mut all = Settled::default();
+    for p in parts {
+        all.theta.extend(p.theta);
+        all.obs.extend(p.obs);
+        all.ok.extend(p.ok);
     }
-    (theta, obs, ok)
+    all
 }
 
-/// Row observations from command observations.
-fn rows_from_commands(
-    seq: &Sequence,
-    theta: &[f64],
-    obs: &[[f64; 3]],
-    ok: &[bool],
-    out: &mut Predictions,
-) {
-    let n = seq.n;
-    for (i, [a, b]) in seq.span.iter().enumerate() {
-        let conv = ok[*a] && ok[*b];
-        let o = match seq.kind[i] {
-            RowKind::Absolute => obs[*b],
-            RowKind::Displacement => [
-                obs[*b][0] - obs[*a][0],
-                obs[*b][1] - obs[*a][1],
-                obs[*b][2] - obs[*a][2],
-            ],
-            RowKind::Unmeasured => [f64::NAN; 3],
-        };
-        out.observation
-            .extend_from_slice(&if conv { o } else { [f64::NAN; 3] });
-        out.converged.push(conv);
-        out.theta.extend(
-            theta[b * n..(b + 1) * n]
-                .iter()
-                .map(|t| if conv { *t } else { f64::NAN }),
-        );
+impl Settled {
+    fn new<K: Kind>(plant: &Plant<K>, seq: &Sequence, opts: &SolveOptions, threads: usize) -> Self {
+        settle_all(plant, seq, opts, threads)
     }
-}
 
-/// Predictions of `K` parameter sets (`params (K, P)`) for the data set
-/// `rows`; see [`Predictions`]. A parameter set outside the physical domain
-/// predicts no row (all not converged).
-pub fn predict(
-    robot: &Robot,
-    params: &[f64],
-    rows: &Rows,
-    opts: &SolveOptions,
-    threads: usize,
-) -> Result<Predictions> {
-    let n = robot.n();
-    let (_, total) = effect_offsets(n);
-    let k = rows_of("params", params, total)?;
-    let seq = Sequence::new(robot, rows)?;
-    let mut out = Predictions::default();
-    for j in 0..k {
-        let p = &params[j * total..(j + 1) * total];
-        match Plant::new(robot, p) {
-            Ok(plant) => {
-                let (theta, obs, ok) = settle_all(&plant, &seq, opts, threads);
-                rows_from_commands(&seq, &theta, &obs, &ok, &mut out);
+    /// The rows' predictions (`task` observed components per row).
+    fn predictions(&self, seq: &Sequence, task: usize) -> Predictions {
+        let n = seq.n;
+        let mut out = Predictions::default();
+        for (i, [a, b]) in seq.span.iter().enumerate() {
+            let conv = self.ok[*a] && self.ok[*b];
+            let (oa, ob) = (
+                &self.obs[a * task..(a + 1) * task],
+                &self.obs[b * task..(b + 1) * task],
+            );
+            for k in 0..task {
+                let v = match seq.kind[i] {
+                    RowKind::Absolute => ob[k],
+                    RowKind::Displacement => ob[k] - oa[k],
+                    RowKind::Unmeasured => f64::NAN,
+                };
+                out.observation.push(if conv { v } else { f64::NAN });
             }
-            Err(CdsmError::Option { .. }) => {
-                out.observation
-                    .extend(std::iter::repeat_n(f64::NAN, 3 * seq.rows()));
-                out.converged.extend(std::iter::repeat_n(false, seq.rows()));
-                out.theta
-                    .extend(std::iter::repeat_n(f64::NAN, n * seq.rows()));
-            }
-            Err(e) => return Err(e),
+            out.converged.push(conv);
+            out.theta
+                .extend(self.theta[b * n..(b + 1) * n].iter().map(|t| {
+                    if conv {
+                        *t
+                    } else {
+                        f64::NAN
+                    }
+                }));
         }
+        out
     }
-    Ok(out)
+
+    /// `(N, TASK, k)` derivatives of the rows' observations with respect to
+    /// the parameters `free` (NaN rows where not defined); `plant` must be
+    /// the one that settled.
+    fn jacobian<K: Kind>(
+        &self,
+        plant: &Plant<K>,
+        seq: &Sequence,
+        free: &[usize],
+        threads: usize,
+    ) -> Result<Vec<f64>> {
+        let total = plant.p.len();
+        if let Some(f) = free.iter().find(|f| **f >= total) {
+            return Err(CdsmError::Option {
+                name: "free".into(),
+                problem: format!("parameter index {f} is beyond the {total} parameters"),
+            });
+        }
+        let task = <K::Frame<f64> as Frame<f64>>::TASK;
+        let kf = free.len();
+        let dcmd = command_derivatives(plant, seq, &self.theta, &self.ok, free, threads);
+        let mut jac = vec![f64::NAN; seq.rows() * task * kf];
+        for (i, [a, b]) in seq.span.iter().enumerate() {
+            if !(self.ok[*a] && self.ok[*b]) || seq.kind[i] == RowKind::Unmeasured {
+                continue;
+            }
+            for c in 0..task {
+                for q in 0..kf {
+                    let vb = dcmd[(b * task + c) * kf + q];
+                    jac[(i * task + c) * kf + q] = match seq.kind[i] {
+                        RowKind::Displacement => vb - dcmd[(a * task + c) * kf + q],
+                        _ => vb,
+                    };
+                }
+            }
+        }
+        Ok(jac)
+    }
 }
 
-/// Predictions of one plant and their Jacobian with respect to the
-/// parameters `free` (indices into the flat vector): `jacobian (N, 3, k)`
-/// (NaN rows where a command did not settle or its Jacobian is singular).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Linearised {
-    pub predictions: Predictions,
-    pub jacobian: Vec<f64>,
-}
-
-/// The derivatives `(commands, 3, k)` of every command's observation with
-/// respect to the parameters `free`, by the implicit function theorem at the
-/// settled `theta` (NaN where a command did not settle).
-fn command_derivatives(
-    plant: &Plant,
+/// The derivatives `(commands, TASK, k)` of every command's observation
+/// with respect to the parameters `free`, by the implicit function theorem
+/// at the settled `theta` (NaN where a command did not settle).
+fn command_derivatives<K: Kind>(
+    plant: &Plant<K>,
     seq: &Sequence,
     theta: &[f64],
     ok: &[bool],
     free: &[usize],
     threads: usize,
 ) -> Vec<f64> {
-    let n = seq.n;
-    let robot = plant.robot;
+    let (n, m) = (seq.n, seq.m);
+    let model = plant.model;
+    let task = <K::Frame<f64> as Frame<f64>>::TASK;
     let kf = free.len();
     // chunk c carries directions c*JET.. of theta_0..theta_{n-1}, free_0..free_{k-1}
-    let chunks: Vec<(Params<J>, Arm<J>, Vec<J>)> = (0..(n + kf).div_ceil(JET))
+    let chunks: Vec<(Params<J>, Vec<J>)> = (0..(n + kf).div_ceil(JET))
         .map(|c| {
-            let prm = Params::<J>::unpack(n, &plant.p, |i, v| {
+            let prm = Params::<J>::unpack(model, &plant.lay, &plant.p, |i, v| {
                 let mut d = [0.0; JET];
                 for (s, x) in d.iter_mut().enumerate() {
                     let g = c * JET + s;
@@ -910,28 +1231,26 @@ fn command_derivatives(
                 }
                 J::with(v, d)
             });
-            let arm = prm.arm(robot);
             let real = realised(seq, &prm, &plant.l_ref);
-            (prm, arm, real)
+            (prm, real)
         })
         .collect();
     let parts = split_rows(seq.len(), threads, |range| {
-        let mut out = vec![f64::NAN; range.len() * 3 * kf];
-        let mut w = JetWork::new(n);
+        let mut out = vec![f64::NAN; range.len() * task * kf];
+        let mut w = JetWork::<K>::new(model);
         for (local, j) in range.enumerate() {
             if !ok[j] {
                 continue;
             }
             let t0 = &theta[j * n..(j + 1) * n];
-            let dst = &mut out[local * 3 * kf..(local + 1) * 3 * kf];
+            let dst = &mut out[local * task * kf..(local + 1) * task * kf];
             let done = implicit_derivatives(
-                robot,
+                model,
                 t0,
                 kf,
                 |c| Chunk {
                     prm: &chunks[c].0,
-                    arm: &chunks[c].1,
-                    real: &chunks[c].2[j * n..(j + 1) * n],
+                    real: &chunks[c].1[j * m..(j + 1) * m],
                 },
                 &mut w,
                 dst,
@@ -945,19 +1264,103 @@ fn command_derivatives(
     parts.concat()
 }
 
+/// Calls `$f::<K>($args)` with `K` the model's kind.
+macro_rules! by_kind {
+    ($model:expr, $f:ident ( $($arg:expr),* )) => {
+        match $model.kind {
+            model::Kind::Planar => $f::<Planar>($($arg),*),
+            model::Kind::Spatial => $f::<Spatial>($($arg),*),
+        }
+    };
+}
+
+/// Observed components per row of a model's measurements: 3 planar, 6 spatial.
+pub fn width(model: &Model) -> usize {
+    model.kind.task()
+}
+
+/// Predictions of `K` parameter sets (`params (K, P)`) for the data set
+/// `rows`; see [`Predictions`]. A parameter set outside the physical domain
+/// predicts no row (all not converged).
+pub fn predict(
+    model: &Model,
+    params: &[f64],
+    rows: &Rows,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<Predictions> {
+    by_kind!(model, predict_k(model, params, rows, opts, threads))
+}
+
+fn predict_k<K: Kind>(
+    model: &Model,
+    params: &[f64],
+    rows: &Rows,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<Predictions> {
+    let n = model.n();
+    let total = layout(model).total;
+    let task = <K::Frame<f64> as Frame<f64>>::TASK;
+    let k = rows_of("params", params, total)?;
+    let seq = Sequence::new(model, rows)?;
+    let mut out = Predictions::default();
+    for j in 0..k {
+        let p = &params[j * total..(j + 1) * total];
+        match Plant::<K>::new(model, p) {
+            Ok(plant) => {
+                let pr = Settled::new(&plant, &seq, opts, threads).predictions(&seq, task);
+                out.observation.extend(pr.observation);
+                out.converged.extend(pr.converged);
+                out.theta.extend(pr.theta);
+            }
+            Err(CdsmError::Option { .. }) => {
+                out.observation
+                    .extend(std::iter::repeat_n(f64::NAN, task * seq.rows()));
+                out.converged.extend(std::iter::repeat_n(false, seq.rows()));
+                out.theta
+                    .extend(std::iter::repeat_n(f64::NAN, n * seq.rows()));
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(out)
+}
+
+/// Predictions of one plant and their Jacobian with respect to the
+/// parameters `free` (indices into the flat vector): `jacobian (N, TASK, k)`
+/// (NaN rows where a command did not settle or its Jacobian is singular).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Linearised {
+    pub predictions: Predictions,
+    pub jacobian: Vec<f64>,
+}
+
 /// [`Linearised`] predictions of the plant `p` (flat) for the data set `rows`.
 pub fn linearise(
-    robot: &Robot,
+    model: &Model,
     p: &[f64],
     free: &[usize],
     rows: &Rows,
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<Linearised> {
-    let seq = Sequence::new(robot, rows)?;
-    let plant = Plant::new(robot, p)?;
+    by_kind!(model, linearise_k(model, p, free, rows, opts, threads))
+}
+
+fn linearise_k<K: Kind>(
+    model: &Model,
+    p: &[f64],
+    free: &[usize],
+    rows: &Rows,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<Linearised> {
+    let seq = Sequence::new(model, rows)?;
+    let plant = Plant::<K>::new(model, p)?;
     let settled = Settled::new(&plant, &seq, opts, threads);
-    let predictions = settled.predictions(&seq);
+    let task = <K::Frame<f64> as Frame<f64>>::TASK;
+    let predictions = settled.predictions(&seq, task);
     let jacobian = settled.jacobian(&plant, &seq, free, threads)?;
     Ok(Linearised {
         predictions,
@@ -965,65 +1368,66 @@ pub fn linearise(
     })
 }
 
-/// Every command of a data set settled by one plant: the configurations,
-/// observations and flags (the state a fit keeps between a trial and its
-/// Jacobian).
-#[derive(Debug, Clone, Default)]
-pub struct Settled {
-    theta: Vec<f64>,
-    obs: Vec<[f64; 3]>,
-    ok: Vec<bool>,
+/// The plant of a model on one data set, for the diagnosis fit
+/// ([`crate::fit`]): exact Jacobians by the implicit function theorem.
+pub struct PlantFit<'a, K: Kind> {
+    pub model: &'a Model,
+    pub seq: &'a Sequence,
+    /// Settle options.
+    pub opts: SolveOptions,
+    pub _kind: std::marker::PhantomData<K>,
 }
 
-impl Settled {
-    /// Settles every command of `seq` for `plant` (threads over the commands).
-    pub fn new(plant: &Plant, seq: &Sequence, opts: &SolveOptions, threads: usize) -> Settled {
-        let (theta, obs, ok) = settle_all(plant, seq, opts, threads);
-        Settled { theta, obs, ok }
+impl<'a, K: Kind> PlantFit<'a, K> {
+    pub fn new(model: &'a Model, seq: &'a Sequence, opts: SolveOptions) -> Self {
+        PlantFit {
+            model,
+            seq,
+            opts,
+            _kind: std::marker::PhantomData,
+        }
+    }
+}
+
+impl<K: Kind> FitModel for PlantFit<'_, K> {
+    type State = Settled;
+
+    fn rows(&self) -> usize {
+        self.seq.rows()
     }
 
-    /// The rows' predictions.
-    pub fn predictions(&self, seq: &Sequence) -> Predictions {
-        let mut out = Predictions::default();
-        rows_from_commands(seq, &self.theta, &self.obs, &self.ok, &mut out);
-        out
+    fn width(&self) -> usize {
+        <K::Frame<f64> as Frame<f64>>::TASK
     }
 
-    /// `(N, 3, k)` derivatives of the rows' observations with respect to the
-    /// parameters `free` (NaN rows where not defined); `plant` must be the one
-    /// that settled.
-    pub fn jacobian(
-        &self,
-        plant: &Plant,
-        seq: &Sequence,
-        free: &[usize],
-        threads: usize,
-    ) -> Result<Vec<f64>> {
-        let total = plant.p.len();
-        if let Some(f) = free.iter().find(|f| **f >= total) {
-            return Err(CdsmError::Option {
-                name: "free".into(),
-                problem: format!("parameter index {f} is beyond the {total} parameters"),
-            });
-        }
-        let kf = free.len();
-        let dcmd = command_derivatives(plant, seq, &self.theta, &self.ok, free, threads);
-        let mut jac = vec![f64::NAN; seq.rows() * 3 * kf];
-        for (i, [a, b]) in seq.span.iter().enumerate() {
-            if !(self.ok[*a] && self.ok[*b]) || seq.kind[i] == RowKind::Unmeasured {
-                continue;
-            }
-            for c in 0..3 {
-                for q in 0..kf {
-                    let vb = dcmd[(b * 3 + c) * kf + q];
-                    jac[(i * 3 + c) * kf + q] = match seq.kind[i] {
-                        RowKind::Displacement => vb - dcmd[(a * 3 + c) * kf + q],
-                        _ => vb,
-                    };
-                }
-            }
-        }
-        Ok(jac)
+    fn weights(&self) -> Vec<f64> {
+        let l = self.model.straight_length();
+        let dim = <K::Frame<f64> as Frame<f64>>::DIM;
+        (0..self.width())
+            .map(|c| if c < dim { 1.0 } else { l })
+            .collect()
+    }
+
+    fn params(&self) -> usize {
+        layout(self.model).total
+    }
+
+    fn bounds(&self) -> (Vec<f64>, Vec<f64>) {
+        bounds(self.model)
+    }
+
+    fn settle(&self, p: &[f64]) -> Option<Settled> {
+        let plant = Plant::<K>::new(self.model, p).ok()?;
+        Some(Settled::new(&plant, self.seq, &self.opts, 1))
+    }
+
+    fn predictions(&self, state: &Settled) -> Predictions {
+        state.predictions(self.seq, self.width())
+    }
+
+    fn jacobian(&self, p: &[f64], state: &Settled, free: &[usize]) -> Option<Vec<f64>> {
+        let plant = Plant::<K>::new(self.model, p).ok()?;
+        state.jacobian(&plant, self.seq, free, 1).ok()
     }
 }
 
@@ -1031,129 +1435,153 @@ impl Settled {
 mod tests {
     use super::*;
 
-    fn zeros(r: &Robot) -> Vec<f64> {
-        vec![0.0; effect_offsets(r.n()).1]
+    const TWO_UNIVERSAL: &str = include_str!("../python/cdsm/robots/two_universal.toml");
+
+    fn data(n: usize, m: usize, rows: usize) -> (Vec<f64>, Vec<f64>, Vec<RowKind>) {
+        let mut th = Vec::new();
+        let mut dl = Vec::new();
+        let mut kind = Vec::new();
+        for i in 0..rows {
+            let a = i as f64 * 0.37;
+            for j in 0..n {
+                th.push(0.35 * (a * (1.0 + 0.3 * j as f64) + j as f64).sin());
+            }
+            for k in 0..m {
+                dl.push(if (i + k) % 3 == 0 {
+                    8e-4 * (1.7 * a + k as f64).cos()
+                } else {
+                    0.0
+                });
+            }
+            kind.push(match i % 4 {
+                1 => RowKind::Displacement,
+                3 => RowKind::Unmeasured,
+                _ => RowKind::Absolute,
+            });
+        }
+        (th, dl, kind)
     }
 
-    fn rows(th: &[f64], dl: &[f64], kind: &[RowKind]) -> (Vec<f64>, Vec<f64>, Vec<RowKind>) {
-        (th.to_vec(), dl.to_vec(), kind.to_vec())
+    /// A parameter vector with every effect of the model's layout at a small size.
+    fn every_effect(model: &Model) -> Vec<f64> {
+        let lay = layout(model);
+        let mut p = vec![0.0; lay.total];
+        for &(e, o, s) in &lay.blocks {
+            for i in 0..s {
+                let wiggle = 1.0 + 0.3 * ((i * 7 + o) as f64).sin();
+                p[o + i] = wiggle
+                    * match e {
+                        Effect::ActuationScale => 0.01,
+                        Effect::CableOffset => 1e-4,
+                        Effect::HoleHeight => 2e-4,
+                        Effect::HolePosition => 5e-5,
+                        Effect::LinkLength => -3e-4,
+                        Effect::CableElasticity => 2e-3,
+                        Effect::HoleClearance => 1e-4,
+                        Effect::ClearanceWidth => 0.005,
+                        Effect::FrameMisalignment => 3e-3,
+                        Effect::TipOffset => 5e-4,
+                        Effect::Backlash => 3e-5,
+                        Effect::JointAxis => 4e-3,
+                    };
+            }
+        }
+        p
+    }
+
+    fn planar() -> Model {
+        Model::from_planar(&Robot::paper())
     }
 
     #[test]
     fn zero_parameters_are_the_nominal_model() {
         let r = Robot::paper();
-        let (th, dl, kind) = rows(
-            &[0.2, -0.3, 0.25, -0.1, 0.0, 0.3],
-            &[-1e-3, 0.0, 0.0, 0.0, 5e-4, 0.0],
-            &[RowKind::Absolute, RowKind::Absolute],
-        );
+        let m = planar();
+        let (th, dl, _) = data(3, 3, 2);
+        let kind = [RowKind::Absolute; 2];
         let o = SolveOptions::default();
-        let data = Rows {
+        let rows = Rows {
             theta_cmd: &th,
             dl: &dl,
             kind: &kind,
         };
-        let pr = predict(&r, &zeros(&r), &data, &o, 1).unwrap();
+        let pr = predict(&m, &vec![0.0; layout(&m).total], &rows, &o, 1).unwrap();
         assert!(pr.converged.iter().all(|x| *x));
-        let (dev, _) =
-            crate::accuracy::deviation(&r, &th[..3], &dl[..3], None, CableMethod::Auto, &o, 1)
-                .unwrap();
-        let p0 = r.fk(&th[..3]);
-        for q in 0..3 {
-            assert!((pr.observation[q] - (p0[q] + dev[q])).abs() < 1e-12);
+        for i in 0..2 {
+            let t = &th[3 * i..3 * i + 3];
+            let (dev, _) = crate::accuracy::deviation(
+                &r,
+                t,
+                &dl[3 * i..3 * i + 3],
+                None,
+                CableMethod::Auto,
+                &o,
+                1,
+            )
+            .unwrap();
+            let p0 = crate::geometry::ArmGeometry::<f64>::fk(&r, t);
+            for q in 0..3 {
+                assert!((pr.observation[3 * i + q] - (p0[q] + dev[q])).abs() < 1e-12);
+            }
+        }
+        let s = Model::from_toml(TWO_UNIVERSAL).unwrap();
+        let (th, _, _) = data(4, 4, 3);
+        let dl = vec![0.0; 12];
+        let kind = [RowKind::Absolute; 3];
+        let rows = Rows {
+            theta_cmd: &th,
+            dl: &dl,
+            kind: &kind,
+        };
+        let pr = predict(&s, &vec![0.0; layout(&s).total], &rows, &o, 1).unwrap();
+        let want = crate::spatial::fk(&s, &th, 1).unwrap();
+        for (a, b) in pr.observation.iter().zip(&want) {
+            assert!((a - b).abs() < 1e-12, "{a} vs {b}");
         }
     }
 
     #[test]
-    fn dual_jacobian_matches_central_differences_of_the_predictions() {
+    fn planar_jet_jacobian_matches_central_differences_of_the_predictions() {
         // every effect at once, on absolute and displacement rows, with backlash
-        let r = Robot::paper();
-        let (off, total) = effect_offsets(3);
-        let mut p = zeros(&r);
-        p[off[0]] = 0.01;
-        p[off[1] + 1] = 1e-4;
-        p[off[2]] = 2e-4;
-        p[off[3] + 2] = -3e-4;
-        p[off[4]] = 0.02;
-        p[off[5]] = 1e-4;
-        p[off[6]] = 3e-3;
-        p[off[7]] = 5e-4;
-        p[off[8]] = 4e-5;
-        p[off[8] + 2] = 2e-5;
-        p[off[9]] = 0.005;
-        let (th, dl, kind) = rows(
-            &[0.2, -0.3, 0.25, -0.1, 0.15, 0.3, 0.05, 0.2, -0.2],
-            &[-1e-3, 0.0, 0.0, 0.0, 5e-4, 0.0, 0.0, 0.0, 1e-3],
-            &[RowKind::Absolute, RowKind::Displacement, RowKind::Absolute],
-        );
-        let data = Rows {
-            theta_cmd: &th,
-            dl: &dl,
-            kind: &kind,
-        };
-        let o = SolveOptions::default();
-        let free: Vec<usize> = (0..total).collect();
-        let lin = linearise(&r, &p, &free, &data, &o, 1).unwrap();
-        let h = 1e-7;
-        let (lo, _) = bounds(&r);
-        for (q, &f) in free.iter().enumerate() {
-            let step = h * (1.0 + p[f].abs() * 100.0);
-            let (mut a, mut b) = (p.clone(), p.clone());
-            a[f] += step;
-            // one-sided at a lower bound (backlash at 0)
-            let central = p[f] - step >= lo[f];
-            if central {
-                b[f] -= step;
-            }
-            let div = if central { 2.0 * step } else { step };
-            let pa = predict(&r, &a, &data, &o, 1).unwrap();
-            let pb = predict(&r, &b, &data, &o, 1).unwrap();
-            for i in 0..3 {
-                for c in 0..3 {
-                    let fd = (pa.observation[i * 3 + c] - pb.observation[i * 3 + c]) / div;
-                    let an = lin.jacobian[(i * 3 + c) * total + q];
-                    assert!(
-                        (fd - an).abs() < 1e-5 * (1.0 + an.abs()),
-                        "param {f} row {i} comp {c}: fd {fd} vs dual {an}"
-                    );
-                }
-            }
-        }
+        let m = planar();
+        let (th, dl, kind) = data(3, 3, 8);
+        check_jacobian(&m, &th, &dl, &kind, (0..layout(&m).total).collect());
     }
 
     #[test]
     fn frame_translation_cancels_in_displacements() {
-        let r = Robot::paper();
-        let (off, _) = effect_offsets(3);
-        let mut p = zeros(&r);
-        p[off[6] + 1] = 0.01;
-        p[off[6] + 2] = -0.02;
-        let (th, dl, kind) = rows(
-            &[0.2, -0.3, 0.25],
-            &[-1e-3, 0.0, 0.0],
-            &[RowKind::Displacement],
-        );
-        let data = Rows {
-            theta_cmd: &th,
-            dl: &dl,
-            kind: &kind,
-        };
-        let o = SolveOptions::default();
-        let a = predict(&r, &zeros(&r), &data, &o, 1).unwrap().observation;
-        let b = predict(&r, &p, &data, &o, 1).unwrap().observation;
-        for q in 0..3 {
-            assert!((a[q] - b[q]).abs() < 1e-15);
+        for m in [planar(), Model::from_toml(TWO_UNIVERSAL).unwrap()] {
+            let lay = layout(&m);
+            let (o, s) = lay.find(Effect::FrameMisalignment).unwrap();
+            let mut p = vec![0.0; lay.total];
+            for k in s - m.kind.dim()..s {
+                p[o + k] = 0.01 * (k as f64 + 1.0);
+            }
+            let (th, mut dl, _) = data(m.n(), m.position_cables().len(), 1);
+            dl[0] = -1e-3;
+            let kind = [RowKind::Displacement];
+            let rows = Rows {
+                theta_cmd: &th,
+                dl: &dl,
+                kind: &kind,
+            };
+            let opts = SolveOptions::default();
+            let a = predict(&m, &vec![0.0; lay.total], &rows, &opts, 1).unwrap();
+            let b = predict(&m, &p, &rows, &opts, 1).unwrap();
+            for (x, y) in a.observation.iter().zip(&b.observation) {
+                assert!((x - y).abs() < 1e-15);
+            }
         }
     }
 
     #[test]
     fn a_reversal_loses_the_whole_dead_band() {
         // cable 1 commanded +1 mm then back: the second move delivers 2b less
-        let r = Robot::paper();
-        let (off, _) = effect_offsets(3);
-        let mut p = zeros(&r);
-        p[off[8]] = 3e-5;
-        let plant = Plant::new(&r, &p).unwrap();
+        let m = planar();
+        let lay = layout(&m);
+        let mut p = vec![0.0; lay.total];
+        p[lay.find(Effect::Backlash).unwrap().0] = 3e-5;
+        let plant = Plant::<Planar>::new(&m, &p).unwrap();
         let l_ref = plant.reference_lengths().to_vec();
         let mut state = l_ref.clone();
         let mut out = [0.0; 3];
@@ -1166,17 +1594,74 @@ mod tests {
 
     #[test]
     fn a_non_physical_plant_predicts_no_row() {
-        let r = Robot::paper();
-        let (off, _) = effect_offsets(3);
-        let mut p = zeros(&r);
-        p[off[3] + 1] = -1.0; // a negative link
-        let (th, dl, kind) = rows(&[0.2, -0.3, 0.25], &[0.0; 3], &[RowKind::Absolute]);
-        let data = Rows {
+        let m = planar();
+        let lay = layout(&m);
+        let mut p = vec![0.0; lay.total];
+        p[lay.find(Effect::LinkLength).unwrap().0 + 1] = -1.0; // a negative link
+        let th = [0.2, -0.3, 0.25];
+        let rows = Rows {
             theta_cmd: &th,
-            dl: &dl,
-            kind: &kind,
+            dl: &[0.0; 3],
+            kind: &[RowKind::Absolute],
         };
-        let pr = predict(&r, &p, &data, &SolveOptions::default(), 1).unwrap();
+        let pr = predict(&m, &p, &rows, &SolveOptions::default(), 1).unwrap();
         assert!(!pr.converged[0] && pr.observation[0].is_nan());
+    }
+
+    /// The jets' Jacobian of the predictions against central differences
+    /// (one-sided at a lower bound), for the parameters `free` of
+    /// [`every_effect`].
+    fn check_jacobian(m: &Model, th: &[f64], dl: &[f64], kind: &[RowKind], free: Vec<usize>) {
+        let rows = Rows {
+            theta_cmd: th,
+            dl,
+            kind,
+        };
+        let o = SolveOptions::default();
+        let p = every_effect(m);
+        let w = width(m);
+        let lin = linearise(m, &p, &free, &rows, &o, 1).unwrap();
+        let (lo, _) = bounds(m);
+        let h = 1e-7;
+        for (q, &f) in free.iter().enumerate() {
+            let step = h * (1.0 + p[f].abs() * 100.0);
+            let (mut a, mut b) = (p.clone(), p.clone());
+            a[f] += step;
+            let central = p[f] - step >= lo[f];
+            if central {
+                b[f] -= step;
+            }
+            let div = if central { 2.0 * step } else { step };
+            let pa = predict(m, &a, &rows, &o, 1).unwrap();
+            let pb = predict(m, &b, &rows, &o, 1).unwrap();
+            for (i, k) in kind.iter().enumerate() {
+                if !lin.predictions.converged[i] || *k == RowKind::Unmeasured {
+                    continue;
+                }
+                for c in 0..w {
+                    let fd = (pa.observation[i * w + c] - pb.observation[i * w + c]) / div;
+                    let an = lin.jacobian[(i * w + c) * free.len() + q];
+                    assert!(
+                        (fd - an).abs() < 1e-5 * (1.0 + an.abs()),
+                        "param {f} row {i} comp {c}: fd {fd} vs jets {an}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn spatial_jet_jacobian_matches_central_differences_of_the_predictions() {
+        // every effect at once (hole clearance and joint axes too), on
+        // absolute and displacement rows, with backlash
+        let m = Model::from_toml(TWO_UNIVERSAL).unwrap();
+        let (th, dl, kind) = data(4, 4, 6);
+        check_jacobian(
+            &m,
+            &th,
+            &dl,
+            &kind,
+            (0..layout(&m).total).step_by(3).collect(),
+        );
     }
 }

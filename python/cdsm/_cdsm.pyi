@@ -25,7 +25,6 @@ HIST_PER_DECADE: int
 HIST_BINS: int
 QUANTITIES: int
 REASONS: List[str]
-PLANT_EFFECTS: List[str]
 CLEARANCE_WIDTH: float
 
 def hist_edges() -> F64: ...
@@ -191,6 +190,8 @@ class CoreSpatialRobot:
     def plant_bounds(self) -> Tuple[F64, F64]: ...
     def plant_predict(self, params: F64, theta_cmd: F64, dl: F64, kind: Sequence[int], tol: float, max_iter: int,
                       threads: int) -> PlantPrediction: ...
+    def plant_linearise(self, params: F64, free: Sequence[int], theta_cmd: F64, dl: F64, kind: Sequence[int],
+                        tol: float, max_iter: int, threads: int) -> PlantPrediction: ...
     def plant_fit(self, theta_cmd: F64, dl: F64, kind: Sequence[int], measured: F64, scored: Sequence[bool],
                   free: Sequence[int], scale: Sequence[float], start: F64, tol: float, max_iter: int, fit_iter: int,
                   threads: int) -> List[PlantFit]: ...

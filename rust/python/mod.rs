@@ -5,6 +5,7 @@
 //! classes that cross the boundary. No physics here.
 
 mod convert;
+mod plant;
 mod results;
 mod robot;
 mod spatial;
@@ -27,7 +28,6 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HIST_BINS", crate::accuracy::HIST_BINS)?;
     m.add("QUANTITIES", crate::accuracy::QUANTITIES)?;
     m.add("REASONS", crate::lm::Reason::NAMES.to_vec())?;
-    m.add("PLANT_EFFECTS", crate::plant::EFFECTS.to_vec())?;
     m.add("CLEARANCE_WIDTH", crate::plant::CLEARANCE_WIDTH)?;
     m.add_function(wrap_pyfunction!(robot::hist_edges, m)?)?;
     m.add_function(wrap_pyfunction!(robot::simd_instruction_set, m)?)?;

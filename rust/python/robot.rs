@@ -2,9 +2,8 @@
 //! with the GIL released around the work. The documented API is
 //! `cdsm.Robot` and the Python modules that call these methods.
 
-use super::convert::{
-    err, ik_method, kinds, mask, method, opt_slice, options, slice, vec1, Arr, Array,
-};
+use super::convert::{err, ik_method, mask, method, opt_slice, options, slice, vec1, Arr, Array};
+use super::plant::{self, Data, FitArgs};
 use super::results::{
     CompensationResult, DeviationResult, ElasticResult, MonteCarloStats, PlantFit, PlantPrediction,
     SensitivityResult, SolveResult,
@@ -12,8 +11,7 @@ use super::results::{
 use crate::accuracy::{self, HoleErrors};
 use crate::batch;
 use crate::error::CdsmError;
-use crate::fit::{self, FitSpec, PlanarFit};
-use crate::plant::{self, Rows, Sequence};
+use crate::model::Model;
 use crate::robot::{CableMaterial, Robot};
 use crate::statics::{self, BatchLoads};
 use numpy::PyArray1;
@@ -23,11 +21,20 @@ use pyo3::prelude::*;
 #[pyclass(frozen, module = "cdsm._cdsm")]
 pub struct CoreRobot {
     inner: Robot,
+    /// The same arm as the one model (the plant's).
+    model: Model,
 }
 
 type ThetaMap = fn(&Robot, &[f64], usize) -> crate::Result<Vec<f64>>;
 
 impl CoreRobot {
+    fn of(inner: Robot) -> Self {
+        CoreRobot {
+            model: Model::from_planar(&inner),
+            inner,
+        }
+    }
+
     /// A batched map of `theta (N, n)`, run with the GIL released.
     fn theta_map<'py>(
         &self,
@@ -52,30 +59,18 @@ impl CoreRobot {
             gravity: opt_slice("gravity", gravity)?,
         })
     }
-
-    fn rows<'a>(theta_cmd: &'a [f64], dl: &'a [f64], kind: &'a [plant::RowKind]) -> Rows<'a> {
-        Rows {
-            theta_cmd,
-            dl,
-            kind,
-        }
-    }
 }
 
 #[pymethods]
 impl CoreRobot {
     #[staticmethod]
     fn from_toml(text: &str) -> PyResult<Self> {
-        Ok(CoreRobot {
-            inner: Robot::from_toml(text).map_err(err)?,
-        })
+        Ok(CoreRobot::of(Robot::from_toml(text).map_err(err)?))
     }
 
     #[staticmethod]
     fn paper() -> Self {
-        CoreRobot {
-            inner: Robot::paper(),
-        }
+        CoreRobot::of(Robot::paper())
     }
 
     // ---- description -------------------------------------------------
@@ -143,9 +138,7 @@ impl CoreRobot {
     fn with_holes(&self, holes: Arr<'_>) -> PyResult<Self> {
         let h = slice("holes", &holes)?;
         crate::error::check_finite("holes", h).map_err(err)?;
-        Ok(CoreRobot {
-            inner: self.inner.with_holes(h).map_err(err)?,
-        })
+        Ok(CoreRobot::of(self.inner.with_holes(h).map_err(err)?))
     }
 
     /// The same robot with another cable material / routing length (validated).
@@ -162,7 +155,7 @@ impl CoreRobot {
             routing_length,
         };
         r.validate().map_err(err)?;
-        Ok(CoreRobot { inner: r })
+        Ok(CoreRobot::of(r))
     }
 
     /// The same robot with other loads: lower tensions (N) and gravity (m/s²).
@@ -180,7 +173,7 @@ impl CoreRobot {
         r.lower_tension = lo.to_vec();
         r.gravity = [g[0], g[1]];
         r.validate().map_err(err)?;
-        Ok(CoreRobot { inner: r })
+        Ok(CoreRobot::of(r))
     }
 
     fn hole_height_error<'py>(&self, py: Python<'py>, dh: Arr<'_>) -> PyResult<Array<'py>> {
@@ -473,17 +466,12 @@ impl CoreRobot {
     // ---- the plant -----------------------------------------------------
     /// Names and sizes of the plant's effects, in parameter order.
     fn plant_effects(&self) -> Vec<(String, usize)> {
-        plant::EFFECTS
-            .iter()
-            .zip(plant::effect_sizes(self.inner.n()))
-            .map(|(a, b)| (a.to_string(), b))
-            .collect()
+        plant::effects(&self.model)
     }
 
     /// Lower and upper bounds of the plant's parameters (the physical domain).
     fn plant_bounds<'py>(&self, py: Python<'py>) -> (Array<'py>, Array<'py>) {
-        let (lo, hi) = plant::bounds(&self.inner);
-        (vec1(py, lo), vec1(py, hi))
+        plant::bounds(py, &self.model)
     }
 
     #[pyo3(signature = (params, theta_cmd, dl, kind, tol, max_iter, threads))]
@@ -499,15 +487,8 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<PlantPrediction> {
-        let p = slice("params", &params)?;
-        let t = slice("theta_cmd", &theta_cmd)?;
-        let d = slice("dl", &dl)?;
-        let k = kinds(&kind)?;
-        let o = options(tol, max_iter, false);
-        let out = py
-            .detach(|| plant::predict(&self.inner, p, &Self::rows(t, d, &k), &o, threads))
-            .map_err(err)?;
-        Ok(PlantPrediction::new(py, out, None))
+        let data = Data::of(&theta_cmd, &dl, &kind)?;
+        plant::predict(py, &self.model, params, &data, tol, max_iter, threads)
     }
 
     #[pyo3(signature = (params, free, theta_cmd, dl, kind, tol, max_iter, threads))]
@@ -524,19 +505,17 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<PlantPrediction> {
-        let p = slice("params", &params)?;
-        let t = slice("theta_cmd", &theta_cmd)?;
-        let d = slice("dl", &dl)?;
-        let k = kinds(&kind)?;
-        let o = options(tol, max_iter, false);
-        let out = py
-            .detach(|| plant::linearise(&self.inner, p, &free, &Self::rows(t, d, &k), &o, threads))
-            .map_err(err)?;
-        Ok(PlantPrediction::new(
+        let data = Data::of(&theta_cmd, &dl, &kind)?;
+        plant::linearise(
             py,
-            out.predictions,
-            Some(out.jacobian),
-        ))
+            &self.model,
+            params,
+            &free,
+            &data,
+            tol,
+            max_iter,
+            threads,
+        )
     }
 
     /// Fits the plant parameters `free` (scaled by `scale`) from `start` on
@@ -559,32 +538,16 @@ impl CoreRobot {
         fit_iter: u32,
         threads: usize,
     ) -> PyResult<Vec<PlantFit>> {
-        let t = slice("theta_cmd", &theta_cmd)?;
-        let d = slice("dl", &dl)?;
-        let k = kinds(&kind)?;
-        let m = slice("measured", &measured)?;
-        let s0 = slice("start", &start)?;
-        let o = options(tol, max_iter, false);
-        let fits = py
-            .detach(|| {
-                let seq = Sequence::new(&self.inner, &Self::rows(t, d, &k))?;
-                let model = PlanarFit {
-                    robot: &self.inner,
-                    seq: &seq,
-                    opts: o,
-                };
-                let spec = FitSpec {
-                    model: &model,
-                    measured: m,
-                    free: &free,
-                    scale: &scale,
-                    start: s0,
-                    max_iter: fit_iter,
-                };
-                fit::fit_folds(&spec, &scored, threads)
-            })
-            .map_err(err)?;
-        fits.into_iter().map(|f| PlantFit::new(py, f)).collect()
+        let data = Data::of(&theta_cmd, &dl, &kind)?;
+        let args = FitArgs {
+            measured: slice("measured", &measured)?,
+            scored: &scored,
+            free: &free,
+            scale: &scale,
+            start: slice("start", &start)?,
+            fit_iter,
+        };
+        plant::fit(py, &self.model, &data, args, tol, max_iter, threads)
     }
 
     #[pyo3(signature = (params, theta_cmd, targets, weights, start, tol, settle_tol, max_iter, threads))]
@@ -602,29 +565,19 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<CompensationResult> {
-        let p = slice("params", &params)?;
-        let t = slice("theta_cmd", &theta_cmd)?;
-        let g = slice("targets", &targets)?;
-        let s = opt_slice("start", &start)?;
-        let w = mask(&weights)?.weights;
-        let o = options(settle_tol, 100, false);
-        let out = py
-            .detach(|| {
-                crate::compensate::compensate(
-                    &self.inner,
-                    p,
-                    t,
-                    g,
-                    w,
-                    s,
-                    &o,
-                    tol,
-                    max_iter,
-                    threads,
-                )
-            })
-            .map_err(err)?;
-        Ok(CompensationResult::new(py, out))
+        plant::compensate(
+            py,
+            &self.model,
+            params,
+            theta_cmd,
+            targets,
+            &weights,
+            start,
+            tol,
+            settle_tol,
+            max_iter,
+            threads,
+        )
     }
 }
 

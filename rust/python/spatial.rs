@@ -2,12 +2,11 @@
 //! batch calls of the core on it, with the GIL released around the work. The
 //! documented API is `cdsm.SpatialRobot`.
 
-use super::convert::{err, kinds, opt_slice, options, slice, vec1, Arr, Array, CdsmInputError};
+use super::convert::{err, opt_slice, options, slice, vec1, Arr, Array, CdsmInputError};
+use super::plant::{self, Data, FitArgs};
 use super::results::{
     CompensationResult, MonteCarloStats, PlantFit, PlantPrediction, SolveResult, TensionResult,
 };
-use crate::fit::{self, FitSpec};
-use crate::spatial::plant::{self as splant, SpatialFit, SpatialSequence};
 use crate::spatial::{self, solve::SpatialMask, SpatialRobot};
 use pyo3::prelude::*;
 
@@ -240,19 +239,15 @@ impl CoreSpatialRobot {
         Ok(MonteCarloStats::new(py, st))
     }
 
-    /// The plant's parameter blocks: `[(effect, size)]` in vector order.
+    // ---- the plant -----------------------------------------------------
+    /// Names and sizes of the plant's effects, in parameter order.
     fn plant_effects(&self) -> Vec<(String, usize)> {
-        splant::EFFECTS
-            .iter()
-            .zip(splant::effect_sizes(&self.inner))
-            .map(|(a, b)| (a.to_string(), b))
-            .collect()
+        plant::effects(&self.inner)
     }
 
     /// Lower and upper bounds of the plant's parameters (the physical domain).
     fn plant_bounds<'py>(&self, py: Python<'py>) -> (Array<'py>, Array<'py>) {
-        let (lo, hi) = splant::bounds(&self.inner);
-        (vec1(py, lo), vec1(py, hi))
+        plant::bounds(py, &self.inner)
     }
 
     #[pyo3(signature = (params, theta_cmd, dl, kind, tol, max_iter, threads))]
@@ -268,20 +263,39 @@ impl CoreSpatialRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<PlantPrediction> {
-        let p = slice("params", &params)?;
-        let t = slice("theta_cmd", &theta_cmd)?;
-        let d = slice("dl", &dl)?;
-        let k = kinds(&kind)?;
-        let o = options(tol, max_iter, false);
-        let out = py
-            .detach(|| {
-                let seq = SpatialSequence::new(&self.inner, t, d, &k)?;
-                splant::predict(&self.inner, p, &seq, &o, threads)
-            })
-            .map_err(err)?;
-        Ok(PlantPrediction::new(py, out, None))
+        let data = Data::of(&theta_cmd, &dl, &kind)?;
+        plant::predict(py, &self.inner, params, &data, tol, max_iter, threads)
     }
 
+    #[pyo3(signature = (params, free, theta_cmd, dl, kind, tol, max_iter, threads))]
+    #[allow(clippy::too_many_arguments)]
+    fn plant_linearise(
+        &self,
+        py: Python<'_>,
+        params: Arr<'_>,
+        free: Vec<usize>,
+        theta_cmd: Arr<'_>,
+        dl: Arr<'_>,
+        kind: Vec<u8>,
+        tol: f64,
+        max_iter: u32,
+        threads: usize,
+    ) -> PyResult<PlantPrediction> {
+        let data = Data::of(&theta_cmd, &dl, &kind)?;
+        plant::linearise(
+            py,
+            &self.inner,
+            params,
+            &free,
+            &data,
+            tol,
+            max_iter,
+            threads,
+        )
+    }
+
+    /// Fits the plant parameters `free` (scaled by `scale`) from `start` on
+    /// every fold's scored rows (`scored (F, N)`), folds in parallel.
     #[pyo3(signature = (theta_cmd, dl, kind, measured, scored, free, scale, start, tol, max_iter, fit_iter, threads))]
     #[allow(clippy::too_many_arguments)]
     fn plant_fit(
@@ -300,41 +314,16 @@ impl CoreSpatialRobot {
         fit_iter: u32,
         threads: usize,
     ) -> PyResult<Vec<PlantFit>> {
-        let t = slice("theta_cmd", &theta_cmd)?;
-        let d = slice("dl", &dl)?;
-        let k = kinds(&kind)?;
-        let m = slice("measured", &measured)?;
-        let s0 = slice("start", &start)?;
-        let o = options(tol, max_iter, false);
-        let fits = py
-            .detach(|| {
-                let seq = SpatialSequence::new(&self.inner, t, d, &k)?;
-                let total = splant::effect_offsets(&self.inner).1;
-                // central-difference steps: 1e-4 of each fitted parameter's typical size
-                let mut steps = vec![1e-7; total];
-                for (f, s) in free.iter().zip(&scale) {
-                    if *f < total {
-                        steps[*f] = 1e-4 * s;
-                    }
-                }
-                let model = SpatialFit {
-                    robot: &self.inner,
-                    seq: &seq,
-                    opts: o,
-                    steps,
-                };
-                let spec = FitSpec {
-                    model: &model,
-                    measured: m,
-                    free: &free,
-                    scale: &scale,
-                    start: s0,
-                    max_iter: fit_iter,
-                };
-                fit::fit_folds(&spec, &scored, threads)
-            })
-            .map_err(err)?;
-        fits.into_iter().map(|f| PlantFit::new(py, f)).collect()
+        let data = Data::of(&theta_cmd, &dl, &kind)?;
+        let args = FitArgs {
+            measured: slice("measured", &measured)?,
+            scored: &scored,
+            free: &free,
+            scale: &scale,
+            start: slice("start", &start)?,
+            fit_iter,
+        };
+        plant::fit(py, &self.inner, &data, args, tol, max_iter, threads)
     }
 
     #[pyo3(signature = (params, theta_cmd, targets, weights, start, tol, settle_tol, max_iter, threads))]
@@ -352,18 +341,19 @@ impl CoreSpatialRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<CompensationResult> {
-        let p = slice("params", &params)?;
-        let t = slice("theta_cmd", &theta_cmd)?;
-        let g = slice("targets", &targets)?;
-        let s = opt_slice("start", &start)?;
-        let w: [f64; 6] = weights.try_into().map_err(|_| {
-            CdsmInputError::new_err("`weights`: expected 6 values (x, y, z, rx, ry, rz)")
-        })?;
-        let o = options(settle_tol, 100, false);
-        let out = py
-            .detach(|| splant::compensate(&self.inner, p, t, g, w, s, &o, tol, max_iter, threads))
-            .map_err(err)?;
-        Ok(CompensationResult::new(py, out))
+        plant::compensate(
+            py,
+            &self.inner,
+            params,
+            theta_cmd,
+            targets,
+            &weights,
+            start,
+            tol,
+            settle_tol,
+            max_iter,
+            threads,
+        )
     }
 
     fn tensions(
@@ -388,5 +378,5 @@ impl CoreSpatialRobot {
 /// The `kind` of a robot description: `"planar"` or `"spatial"`.
 #[pyfunction]
 pub fn robot_kind(text: &str) -> PyResult<String> {
-    crate::spatial::robot::kind_of(text).map_err(err)
+    crate::model::kind_of(text).map_err(err)
 }

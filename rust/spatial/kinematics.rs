@@ -4,7 +4,7 @@
 //! hole points and every cable's length and Jacobian. nalgebra fixed-size
 //! work throughout.
 
-use super::robot::SpatialRobot;
+use crate::model::SpatialRobot;
 use nalgebra::{Matrix3, Rotation3, Unit, UnitQuaternion, Vector3};
 
 type V3 = Vector3<f64>;

@@ -5,17 +5,16 @@
 //! that run over threads like the planar ones.
 
 pub mod kinematics;
-pub mod plant;
-pub mod robot;
+
 pub mod solve;
 pub mod statics;
 
 use crate::accuracy::McStats;
 use crate::batch::{rows_of, seeds, split_rows, BatchSolution};
 use crate::error::{CdsmError, Result};
+pub use crate::model::SpatialRobot;
 use crate::solve::SolveOptions;
 use kinematics::{cable_length, geometric_jacobian, pose_vector, Chain};
-pub use robot::SpatialRobot;
 use solve::{within_limits, SpatialCableSolver, SpatialIkSolver, SpatialMask};
 
 /// Task-space width of a spatial pose: x, y, z (m), rotation vector (rad).

@@ -4,8 +4,8 @@
 //! (`docs/spatial.md`, "Solves").
 
 use super::kinematics::{cable_length, log_of, rotation_of, Chain};
-use super::robot::SpatialRobot;
 use crate::lm::{self, Lm, Problem, Step, Workspace};
+use crate::model::SpatialRobot;
 use crate::solve::{clamp_to_limits_box, SolveOptions, Status};
 use nalgebra::{Matrix3, Vector3};
 

@@ -6,7 +6,7 @@
 //! floor: the configuration needs a slack cable.
 
 use super::kinematics::{cable_points, Chain};
-use super::robot::{Mode, SpatialRobot};
+use crate::model::{Mode, SpatialRobot};
 use faer::Mat;
 use nalgebra::Vector3;
 

@@ -40,7 +40,6 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .. import _cdsm
 from ..inputs import CdsmInputError, as_batch
 from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
@@ -49,31 +48,35 @@ __all__ = ["EFFECTS", "BLOCKS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layo
            "effect_indices", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
            "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths"]
 
-#: Parameter blocks of the flat vector, in order (defined by the Rust core).
-BLOCKS: Tuple[str, ...] = tuple(_cdsm.PLANT_EFFECTS)
+#: The planar plant's parameter blocks, in the order of its flat vector (the
+#: Rust core's layout: :func:`layout` gives any robot's).
+BLOCKS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_height", "link_length", "cable_elasticity",
+                           "hole_clearance", "frame_misalignment", "tip_offset", "backlash", "clearance_width")
 
 #: The blocks an effect of the library fits (default: the block of its name).
 EFFECT_BLOCKS: Dict[str, Tuple[str, ...]] = {"hole_clearance": ("hole_clearance", "clearance_width")}
 
-#: The effects of the diagnosis library.
+#: The effects of the diagnosis library of planar arms.
 EFFECTS: Tuple[str, ...] = tuple(b for b in BLOCKS if not any(b in v[1:] for v in EFFECT_BLOCKS.values()))
+
+#: The effects of the diagnosis library of spatial arms (``hole_position``
+#: in 3-D where a planar arm has ``hole_height``; ``joint_axis``: each
+#: joint's axis tilted by two angles).
+SPATIAL_EFFECTS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_position", "link_length",
+                                    "cable_elasticity", "frame_misalignment", "tip_offset", "backlash",
+                                    "hole_clearance", "joint_axis")
 
 # A magnitude a real prototype could have, per block (the unit the fit works
 # in, and the size of generated test effects): 2 % actuation error, 0.2 mm
 # offsets and holes, 0.3 mm links, a polymer-like compliance (E A ~ 50 N),
 # 0.15 mm clearance and a 10 mrad transition, 5 mrad / 5 mm frame, 1 mm tip
-# offset, 30 µm of backlash.
+# offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt.
 TYPICAL: Dict[str, float] = {
-    "actuation_scale": 0.02, "cable_offset": 2e-4, "hole_height": 2e-4, "link_length": 3e-4,
-    "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "clearance_width": 0.01,
-    "frame_misalignment": 5e-3, "tip_offset": 1e-3, "backlash": 3e-5,
+    "actuation_scale": 0.02, "cable_offset": 2e-4, "hole_height": 2e-4, "hole_position": 2e-4,
+    "link_length": 3e-4, "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "clearance_width": 0.01,
+    "frame_misalignment": 5e-3, "tip_offset": 1e-3, "backlash": 3e-5, "joint_axis": 1e-2,
 }
-assert set(TYPICAL) == set(BLOCKS), "a typical size per parameter block"
-
-#: The effects of a spatial arm's plant (its parameter blocks, in vector order).
-SPATIAL_EFFECTS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_position", "link_length",
-                                    "cable_elasticity", "frame_misalignment", "tip_offset", "backlash")
-TYPICAL["hole_position"] = 2e-4
+assert set(BLOCKS) | set(SPATIAL_EFFECTS) <= set(TYPICAL), "a typical size per parameter block"
 
 
 def effects_of(robot) -> Tuple[str, ...]:

@@ -1,10 +1,53 @@
-//! The spatial robot description (`kind = "spatial"`, `docs/spatial.md`):
-//! revolute axes in 3-D, disks with holes anywhere within their radius, and
-//! per cable the disk it ends at and its control mode. SI units.
+//! The one arm model (`docs/model.md`, "The arm model"): a chain of
+//! revolute joints about axes in 3-D, disks with holes anywhere on their
+//! faces, and per cable the disk it ends at and its control mode. Both robot
+//! files read into it: a spatial file (`kind = "spatial"`, `docs/spatial.md`)
+//! as written, a planar file (`docs/model.md`) as the case with every axis
+//! along `z`, every offset and hole in the `x`–`y` plane, and its cables in
+//! pairs (upper: position-controlled; lower: force-controlled at the file's
+//! lower tension). The kind says which task space the arm is measured in
+//! (planar `[x, y, phi]`, spatial `[x, y, z, rx, ry, rz]`) and lets the
+//! planar closed forms serve it. SI units.
 
 use crate::error::{CdsmError, Result};
-use crate::robot::{bad, parse_toml, CableMaterial};
+use crate::robot::{bad, parse_toml, CableMaterial, Robot};
 use serde::Deserialize;
+
+/// The kind of an arm: which motion group its joints span and which task
+/// space it is measured in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// Parallel joint axes (`z`), a planar chain: task `[x, y, phi]`.
+    Planar,
+    /// Axes anywhere in 3-D: task `[x, y, z, rx, ry, rz]`.
+    Spatial,
+}
+
+impl Kind {
+    /// `"planar"` or `"spatial"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Planar => "planar",
+            Kind::Spatial => "spatial",
+        }
+    }
+
+    /// Dimension of the arm's space: 2 or 3.
+    pub fn dim(self) -> usize {
+        match self {
+            Kind::Planar => 2,
+            Kind::Spatial => 3,
+        }
+    }
+
+    /// Width of the task vector: 3 (`x, y, phi`) or 6 (`x, y, z, rx, ry, rz`).
+    pub fn task(self) -> usize {
+        match self {
+            Kind::Planar => 3,
+            Kind::Spatial => 6,
+        }
+    }
+}
 
 /// One revolute joint: a unit `axis` and the `offset` from the previous frame
 /// to the joint (m), both in the previous frame; `limits` (rad).
@@ -51,10 +94,11 @@ pub struct Cable {
     pub holes: Vec<[f64; 3]>,
 }
 
-/// A spatial cable-driven serpentine arm.
+/// A cable-driven serpentine arm of either kind.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SpatialRobot {
+pub struct Model {
     pub name: String,
+    pub kind: Kind,
     pub joints: Vec<Joint>,
     pub disks: Vec<Disk>,
     pub base_radius: f64,
@@ -161,9 +205,100 @@ pub fn kind_of(text: &str) -> Result<String> {
     Ok(kind)
 }
 
-impl SpatialRobot {
+/// The earlier name of [`Model`], for the spatial code written before the
+/// one model.
+pub type SpatialRobot = Model;
+
+impl Model {
+    /// Parses and validates a robot description of either kind: a spatial
+    /// file as written, a planar file through [`Robot::from_toml`] and
+    /// [`Model::from_planar`].
+    pub fn from_toml(text: &str) -> Result<Model> {
+        match kind_of(text)?.as_str() {
+            "planar" => Ok(Model::from_planar(&Robot::from_toml(text)?)),
+            _ => Model::from_spatial_toml(text),
+        }
+    }
+
+    /// A planar arm as the one model: joint `i` about `z` at the offset
+    /// `(link_before[i], 0, 0)`, disk `i` at `link_after = (link_after[i], 0,
+    /// 0)` with its mass at its centre `(thickness / 2, 0, 0)`; cable `2i`
+    /// (upper) position-controlled and cable `2i + 1` (lower) force-controlled
+    /// at `lower_tension[i]`, both ending at disk `i + 1`, their holes
+    /// `(x, y, 0)`; gravity `(gx, gy, 0)`. A disk's radius is the largest
+    /// `|y|` of its holes (the planar file has none).
+    pub fn from_planar(robot: &Robot) -> Model {
+        let n = robot.n();
+        let hole = |c: usize, d: usize, f: usize| {
+            let k = robot.hole_index(c, d, f);
+            [robot.holes[k], robot.holes[k + 1], 0.0]
+        };
+        let cables: Vec<Cable> = (0..2 * n)
+            .map(|c| {
+                let end = c / 2 + 1;
+                let mut holes = vec![hole(c, 0, 1)];
+                for d in 1..=end {
+                    holes.push(hole(c, d, 0));
+                    holes.push(hole(c, d, 1));
+                }
+                let lower = c % 2 == 1;
+                Cable {
+                    end,
+                    mode: if lower { Mode::Force } else { Mode::Position },
+                    tension: if lower {
+                        robot.lower_tension[c / 2]
+                    } else {
+                        0.0
+                    },
+                    holes,
+                }
+            })
+            .collect();
+        let radius = |d: usize| {
+            cables
+                .iter()
+                .filter(|c| c.end >= d)
+                .flat_map(|c| {
+                    let pts = if d == 0 {
+                        &c.holes[..1]
+                    } else {
+                        &c.holes[2 * d - 1..=2 * d]
+                    };
+                    pts.iter().map(|h| h[1].abs())
+                })
+                .fold(0.0f64, f64::max)
+        };
+        let disks = (0..n)
+            .map(|i| Disk {
+                joints: i..i + 1,
+                link_after: [robot.link_after[i], 0.0, 0.0],
+                thickness: robot.thickness[i],
+                radius: radius(i + 1),
+                mass: robot.mass[i],
+                com: [robot.thickness[i] / 2.0, 0.0, 0.0],
+            })
+            .collect();
+        let joints = (0..n)
+            .map(|i| Joint {
+                axis: [0.0, 0.0, 1.0],
+                offset: [robot.link_before[i], 0.0, 0.0],
+                limits: robot.joint_limits[i],
+            })
+            .collect();
+        Model {
+            name: robot.name.clone(),
+            kind: Kind::Planar,
+            joints,
+            disks,
+            base_radius: radius(0),
+            gravity: [robot.gravity[0], robot.gravity[1], 0.0],
+            cables,
+            cable: robot.cable.clone(),
+        }
+    }
+
     /// Parses and validates a spatial robot description (`docs/spatial.md`).
-    pub fn from_toml(text: &str) -> Result<SpatialRobot> {
+    pub fn from_spatial_toml(text: &str) -> Result<Model> {
         let f: File = parse_toml(text)?;
         if f.kind != "spatial" {
             return Err(bad(
@@ -334,8 +469,9 @@ impl SpatialRobot {
                 holes,
             });
         }
-        let robot = SpatialRobot {
+        let robot = Model {
             name: f.name.unwrap_or_else(|| "unnamed".into()),
+            kind: Kind::Spatial,
             joints,
             disks,
             base_radius,
@@ -359,6 +495,17 @@ impl SpatialRobot {
     /// Number of joints.
     pub fn n(&self) -> usize {
         self.joints.len()
+    }
+
+    /// Length of the straight arm along its chain (m): the distance of the
+    /// end frame's origin from the base at `theta = 0`.
+    pub fn straight_length(&self) -> f64 {
+        use crate::kinds::{Frame, Se3};
+        let mut chain = crate::chain::Chain::<f64, Se3<f64>>::new(self);
+        chain.at(self, self, &vec![0.0; self.n()]);
+        chain.world(self, self);
+        let p = chain.end().origin();
+        (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt()
     }
 
     /// Indices of the position-controlled cables (file order).
@@ -387,7 +534,7 @@ impl SpatialRobot {
 
     /// The same robot with holes `flat` (as [`Self::flat_holes`]); no radius check
     /// (errors of a few tenths of a mm may leave the disk in a study).
-    pub fn with_flat_holes(&self, flat: &[f64]) -> Result<SpatialRobot> {
+    pub fn with_flat_holes(&self, flat: &[f64]) -> Result<Model> {
         let want: usize = self.cables.iter().map(|c| 3 * c.holes.len()).sum();
         if flat.len() != want {
             return Err(CdsmError::Shape {

@@ -1,0 +1,174 @@
+//! The plant's calls (`crate::plant`, `crate::fit`, `crate::compensate`) on
+//! the one arm model, for the robot classes of either kind: arrays in, named
+//! results out, the GIL released around the work.
+
+use super::convert::{err, kinds, opt_slice, options, slice, vec1, Arr, Array};
+use super::results::{CompensationResult, PlantFit, PlantPrediction};
+use crate::fit::{self, FitSpec};
+use crate::kinds::{Kind, Planar, Spatial};
+use crate::model::{self, Model};
+use crate::plant::{self, PlantFit as Fit, Rows, Sequence};
+use pyo3::prelude::*;
+
+/// Names and sizes of the plant's parameter blocks, in vector order.
+pub fn effects(model: &Model) -> Vec<(String, usize)> {
+    plant::layout(model)
+        .blocks
+        .iter()
+        .map(|(e, _, s)| (e.name().to_string(), *s))
+        .collect()
+}
+
+/// Lower and upper bounds of the plant's parameters (the physical domain).
+pub fn bounds<'py>(py: Python<'py>, model: &Model) -> (Array<'py>, Array<'py>) {
+    let (lo, hi) = plant::bounds(model);
+    (vec1(py, lo), vec1(py, hi))
+}
+
+/// The rows of a data set: commands `theta_cmd (N, n)`, `dl (N, m)` and
+/// the row kinds' codes.
+pub struct Data<'a> {
+    pub theta_cmd: &'a [f64],
+    pub dl: &'a [f64],
+    pub kind: Vec<plant::RowKind>,
+}
+
+impl<'a> Data<'a> {
+    pub fn of(theta_cmd: &'a Arr<'_>, dl: &'a Arr<'_>, kind: &[u8]) -> PyResult<Self> {
+        Ok(Data {
+            theta_cmd: slice("theta_cmd", theta_cmd)?,
+            dl: slice("dl", dl)?,
+            kind: kinds(kind)?,
+        })
+    }
+
+    fn rows(&self) -> Rows<'_> {
+        Rows {
+            theta_cmd: self.theta_cmd,
+            dl: self.dl,
+            kind: &self.kind,
+        }
+    }
+}
+
+/// Predictions of the parameter sets `params (K, P)`.
+pub fn predict(
+    py: Python<'_>,
+    model: &Model,
+    params: Arr<'_>,
+    data: &Data,
+    tol: f64,
+    max_iter: u32,
+    threads: usize,
+) -> PyResult<PlantPrediction> {
+    let p = slice("params", &params)?;
+    let o = options(tol, max_iter, false);
+    let out = py
+        .detach(|| plant::predict(model, p, &data.rows(), &o, threads))
+        .map_err(err)?;
+    Ok(PlantPrediction::new(py, out, None))
+}
+
+/// Predictions of one plant and their Jacobian with respect to `free`.
+#[allow(clippy::too_many_arguments)]
+pub fn linearise(
+    py: Python<'_>,
+    model: &Model,
+    params: Arr<'_>,
+    free: &[usize],
+    data: &Data,
+    tol: f64,
+    max_iter: u32,
+    threads: usize,
+) -> PyResult<PlantPrediction> {
+    let p = slice("params", &params)?;
+    let o = options(tol, max_iter, false);
+    let out = py
+        .detach(|| plant::linearise(model, p, free, &data.rows(), &o, threads))
+        .map_err(err)?;
+    Ok(PlantPrediction::new(
+        py,
+        out.predictions,
+        Some(out.jacobian),
+    ))
+}
+
+/// What a fit of every fold needs besides the data.
+pub struct FitArgs<'a> {
+    pub measured: &'a [f64],
+    pub scored: &'a [bool],
+    pub free: &'a [usize],
+    pub scale: &'a [f64],
+    pub start: &'a [f64],
+    pub fit_iter: u32,
+}
+
+fn fit_k<K: Kind>(
+    model: &Model,
+    seq: &Sequence,
+    o: crate::solve::SolveOptions,
+    a: &FitArgs,
+    threads: usize,
+) -> crate::Result<Vec<crate::fit::FitResult>> {
+    let m = Fit::<K>::new(model, seq, o);
+    let spec = FitSpec {
+        model: &m,
+        measured: a.measured,
+        free: a.free,
+        scale: a.scale,
+        start: a.start,
+        max_iter: a.fit_iter,
+    };
+    fit::fit_folds(&spec, a.scored, threads)
+}
+
+/// Fits the plant parameters `free` on every fold's scored rows.
+pub fn fit(
+    py: Python<'_>,
+    model: &Model,
+    data: &Data,
+    args: FitArgs,
+    tol: f64,
+    max_iter: u32,
+    threads: usize,
+) -> PyResult<Vec<PlantFit>> {
+    let o = options(tol, max_iter, false);
+    let fits = py
+        .detach(|| {
+            let seq = Sequence::new(model, &data.rows())?;
+            match model.kind {
+                model::Kind::Planar => fit_k::<Planar>(model, &seq, o, &args, threads),
+                model::Kind::Spatial => fit_k::<Spatial>(model, &seq, o, &args, threads),
+            }
+        })
+        .map_err(err)?;
+    fits.into_iter().map(|f| PlantFit::new(py, f)).collect()
+}
+
+/// Compensated commands of `targets` on the plant `params`.
+#[allow(clippy::too_many_arguments)]
+pub fn compensate(
+    py: Python<'_>,
+    model: &Model,
+    params: Arr<'_>,
+    theta_cmd: Arr<'_>,
+    targets: Arr<'_>,
+    weights: &[f64],
+    start: Option<Arr<'_>>,
+    tol: f64,
+    settle_tol: f64,
+    max_iter: u32,
+    threads: usize,
+) -> PyResult<CompensationResult> {
+    let p = slice("params", &params)?;
+    let t = slice("theta_cmd", &theta_cmd)?;
+    let g = slice("targets", &targets)?;
+    let s = opt_slice("start", &start)?;
+    let o = options(settle_tol, 100, false);
+    let out = py
+        .detach(|| {
+            crate::compensate::compensate(model, p, t, g, weights, s, &o, tol, max_iter, threads)
+        })
+        .map_err(err)?;
+    Ok(CompensationResult::new(py, out))
+}

@@ -1,0 +1,295 @@
+//! The statics of the one arm model (`docs/model.md`, "Statics"), written
+//! once over the arm's kind and any [`Real`] scalar: the moment balance
+//! about every joint axis and the tensions of the position-controlled cables
+//! that close it.
+//!
+//! Frictionless pins and holes, massless straight cables, quasi-static. By
+//! virtual work a cable of tension `T_c` pulls the part of the arm distal of
+//! joint `j` with the moment `-T_c dL_c/dtheta_j` about the joint's axis, so
+//! the balance is
+//!
+//! ```text
+//! sum_c T_c dL_c/dtheta_j = tau_j     (j = 1..n)
+//! ```
+//!
+//! with `tau_j` the moment of the loads on that part (gravity on the disks'
+//! masses at their centres of mass, a tip wrench at the end frame's origin).
+//! Force-controlled cables carry their set tension; the position-controlled
+//! ones solve `J_p^T T_p = tau - J_f^T T_f`: uniquely when they are as many
+//! as the joints (a planar arm's upper cables), else the minimum-norm set
+//! above a floor.
+
+use crate::chain::{Chain, Numbers};
+use crate::kinds::Frame;
+use crate::model::{Mode, Model};
+use crate::real::Real;
+
+/// The moment balance at one configuration: `a T_p = b` with `a = J_p^T`
+/// (`(n, m_pos)` row-major, m/rad) and `b = tau - J_f^T T_f` (`(n,)`, N m).
+#[derive(Debug, Clone)]
+pub struct Balance<S> {
+    pub n: usize,
+    pub m: usize,
+    pub a: Vec<S>,
+    pub b: Vec<S>,
+    /// The length of every cable at the balance's configuration (m, the
+    /// model's own holes).
+    pub lengths: Vec<S>,
+    row: Vec<S>,
+    /// Scratch of the square solve.
+    lu: Vec<S>,
+}
+
+/// A tip wrench in a scalar: force (N) and couple (N m, `[Mz]` planar,
+/// `[Mx, My, Mz]` spatial), base frame, at the end frame's origin.
+#[derive(Debug, Clone, Copy)]
+pub struct Wrench<'a, S> {
+    pub force: [S; 3],
+    pub couple: &'a [S],
+}
+
+impl<S: Real> Balance<S> {
+    pub fn new(model: &Model) -> Self {
+        let (n, m) = (model.n(), model.position_cables().len());
+        Balance {
+            n,
+            m,
+            a: vec![S::cst(0.0); n * m],
+            b: vec![S::cst(0.0); n],
+            lengths: vec![S::cst(0.0); model.cables.len()],
+            row: vec![S::cst(0.0); n],
+            lu: vec![S::cst(0.0); n * m],
+        }
+    }
+
+    /// The balance of `model` (numbers `nums`) at `chain` (after
+    /// [`Chain::at`]): gravity `g` (m/s², base frame), the tip wrench
+    /// `wrench`, force cables at their set tensions.
+    pub fn at<F: Frame<S>, N: Numbers<S>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        chain: &mut Chain<S, F>,
+        g: [f64; 3],
+        wrench: Wrench<S>,
+    ) {
+        let n = self.n;
+        let loaded = g.iter().any(|v| *v != 0.0)
+            || wrench
+                .force
+                .iter()
+                .chain(wrench.couple)
+                .any(|v| v.val() != 0.0 || v.is_variable());
+        if loaded {
+            chain.world(model, nums);
+            chain.joints_world(model);
+            chain.load_moments(model, nums, g, wrench.force, wrench.couple, &mut self.b);
+        } else {
+            self.b.fill(S::cst(0.0));
+        }
+        let mut i = 0;
+        for (c, cable) in model.cables.iter().enumerate() {
+            self.lengths[c] = chain.cable_length_and_row(model, nums, c, &mut self.row);
+            match cable.mode {
+                Mode::Position => {
+                    for j in 0..n {
+                        self.a[j * self.m + i] = self.row[j];
+                    }
+                    i += 1;
+                }
+                Mode::Force => {
+                    let t = S::cst(cable.tension);
+                    for j in 0..n {
+                        self.b[j] -= self.row[j] * t;
+                    }
+                }
+            }
+        }
+    }
+
+    /// The position tensions (N) when they are as many as the joints: the
+    /// balance solved exactly (Gaussian elimination with partial pivoting);
+    /// false where it is singular (a cable without a moment arm).
+    pub fn solve_square(&mut self, out: &mut [S]) -> bool {
+        debug_assert_eq!(self.n, self.m);
+        self.lu.copy_from_slice(&self.a);
+        out.copy_from_slice(&self.b);
+        solve_dense(self.n, &mut self.lu, out)
+    }
+}
+
+/// Solves `a x = b` in place (`a` `(n, n)` row-major, overwritten; `b`
+/// becomes `x`) by Gaussian elimination with partial pivoting on the
+/// values; false when a pivot is zero or not finite.
+pub fn solve_dense<S: Real>(n: usize, a: &mut [S], b: &mut [S]) -> bool {
+    for k in 0..n {
+        let p = (k..n)
+            .max_by(|&i, &j| {
+                a[i * n + k]
+                    .val()
+                    .abs()
+                    .total_cmp(&a[j * n + k].val().abs())
+            })
+            .unwrap_or(k);
+        let piv = a[p * n + k].val();
+        if piv == 0.0 || !piv.is_finite() {
+            return false;
+        }
+        if p != k {
+            for c in 0..n {
+                a.swap(k * n + c, p * n + c);
+            }
+            b.swap(k, p);
+        }
+        let inv = S::cst(1.0) / a[k * n + k];
+        for i in k + 1..n {
+            let f = a[i * n + k] * inv;
+            if f.val() == 0.0 && !f.is_variable() {
+                continue;
+            }
+            for c in k + 1..n {
+                let v = a[k * n + c];
+                a[i * n + c] -= f * v;
+            }
+            let v = b[k];
+            b[i] -= f * v;
+        }
+    }
+    for k in (0..n).rev() {
+        let mut s = b[k];
+        for c in k + 1..n {
+            s -= a[k * n + c] * b[c];
+        }
+        b[k] = s / a[k * n + k];
+    }
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinds::{Se2, Se3};
+    use crate::real::Dual;
+    use crate::robot::Robot;
+    use crate::statics::{Loads, Statics};
+
+    #[test]
+    fn the_square_balance_is_the_planar_statics() {
+        let r = Robot::paper();
+        let m = Model::from_planar(&r);
+        let mut ch = Chain::<f64, Se2<f64>>::new(&m);
+        let mut bal = Balance::<f64>::new(&m);
+        let mut st = Statics::new(&r);
+        let w = [0.3, -0.2, 0.01];
+        let g = [1.0, -9.81];
+        for th in [[0.3, -0.45, 0.2], [0.0, 0.0, 0.0], [-0.5, 0.6, -0.1]] {
+            ch.at(&m, &m, &th);
+            bal.at(
+                &m,
+                &m,
+                &mut ch,
+                [g[0], g[1], 0.0],
+                Wrench {
+                    force: [w[0], w[1], 0.0],
+                    couple: &w[2..],
+                },
+            );
+            let mut t = [0.0; 3];
+            assert!(bal.solve_square(&mut t));
+            let mut want = [0.0; 3];
+            let loads = Loads {
+                lower: &r.lower_tension,
+                tip_wrench: w,
+                gravity: g,
+            };
+            st.tensions(&th, &loads, &mut want);
+            for k in 0..3 {
+                assert!(
+                    (t[k] - want[k]).abs() < 1e-12 * (1.0 + want[k].abs()),
+                    "{t:?} vs {want:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_balance_is_the_spatial_statics_and_exact_in_dual_numbers() {
+        let m = Model::from_toml(include_str!("../python/cdsm/robots/two_universal.toml")).unwrap();
+        let th = [0.2, -0.3, 0.1, 0.25];
+        let mut ch = Chain::<f64, Se3<f64>>::new(&m);
+        ch.at(&m, &m, &th);
+        let mut bal = Balance::<f64>::new(&m);
+        let zero = [0.0; 3];
+        bal.at(
+            &m,
+            &m,
+            &mut ch,
+            m.gravity,
+            Wrench {
+                force: zero,
+                couple: &zero,
+            },
+        );
+        let mut t = [0.0; 4];
+        assert!(bal.solve_square(&mut t));
+        let mut old = crate::spatial::kinematics::Chain::new(&m);
+        old.at(&m, &th);
+        let want = crate::spatial::statics::position_tensions(&m, &old, &[0.0; 6], -1e3).unwrap();
+        for k in 0..4 {
+            assert!(
+                (t[k] - want[k]).abs() < 1e-12 * (1.0 + want[k].abs()),
+                "{t:?} vs {want:?}"
+            );
+        }
+        // d T / d theta_0 by dual numbers against central differences
+        let mut chd = Chain::<Dual, Se3<Dual>>::new(&m);
+        let thd: Vec<Dual> = th
+            .iter()
+            .enumerate()
+            .map(|(i, v)| Dual::new(*v, if i == 0 { 1.0 } else { 0.0 }))
+            .collect();
+        chd.at(&m, &m, &thd);
+        let mut bd = Balance::<Dual>::new(&m);
+        let zd = [Dual::cst(0.0); 3];
+        bd.at(
+            &m,
+            &m,
+            &mut chd,
+            m.gravity,
+            Wrench {
+                force: zd,
+                couple: &zd,
+            },
+        );
+        let mut td = [Dual::cst(0.0); 4];
+        assert!(bd.solve_square(&mut td));
+        let h = 1e-6;
+        let mut at = |d: f64| {
+            let mut x = th;
+            x[0] += d;
+            ch.at(&m, &m, &x);
+            bal.at(
+                &m,
+                &m,
+                &mut ch,
+                m.gravity,
+                Wrench {
+                    force: zero,
+                    couple: &zero,
+                },
+            );
+            let mut t = [0.0; 4];
+            bal.solve_square(&mut t);
+            t
+        };
+        let (tp, tm) = (at(h), at(-h));
+        for k in 0..4 {
+            let fd = (tp[k] - tm[k]) / (2.0 * h);
+            assert!(
+                (td[k].d[0] - fd).abs() < 1e-6 * (1.0 + fd.abs()),
+                "{k}: {} vs {fd}",
+                td[k].d[0]
+            );
+        }
+    }
+}
