@@ -8,6 +8,9 @@ actuation, hole clearance, elastic settling, observation).
 ``spatial``: the spatial arms of ``docs/spatial.md`` (robot files, kinematics,
 cables, solves, statics); a submodule only (``reference.spatial.fk``), as its
 names would shadow the planar ones.
+``spatial_plant``: the plant of spatial arms (parameter layout, the moved arm,
+backlash, actuation, hole clearance at a 3-D bend, settling, observation
+``[x, y, z, rx, ry, rz]``); a submodule only (``reference.spatial_plant.predict``).
 """
 
 from .kinematics import *  # noqa: F401,F403
@@ -15,5 +18,6 @@ from .kinematics import __all__ as _kinematics_all
 from .plant import *  # noqa: F401,F403
 from .plant import __all__ as _plant_all
 from . import spatial  # noqa: F401
+from . import spatial_plant  # noqa: F401
 
 __all__ = list(_kinematics_all) + list(_plant_all)
