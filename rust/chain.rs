@@ -450,47 +450,57 @@ mod tests {
     }
 
     #[test]
-    fn the_spatial_chain_is_the_spatial_kinematics() {
+    fn spatial_jacobians_meet_central_differences() {
         let m = Model::from_toml(TWO_UNIVERSAL).unwrap();
-        let mut ch = Chain::<f64, Se3<f64>>::new(&m);
-        let mut old = crate::spatial::kinematics::Chain::new(&m);
-        let mut pts = Vec::new();
         let n = m.n();
-        for th in thetas(n, 20) {
+        let mut ch = Chain::<f64, Se3<f64>>::new(&m);
+        let h = 1e-6;
+        let at = |ch: &mut Chain<f64, Se3<f64>>, th: &[f64]| {
+            ch.at(&m, &m, th);
+            ch.world(&m, &m);
+            let lens: Vec<f64> = (0..m.cables.len())
+                .map(|c| ch.cable_length(&m, &m, c, None))
+                .collect();
+            (*ch.end(), lens)
+        };
+        for th in thetas(n, 10) {
             ch.at(&m, &m, &th);
             ch.world(&m, &m);
             ch.joints_world(&m);
-            old.at(&m, &th);
-            let e = ch.end();
-            let o = old.end();
-            for i in 0..3 {
-                assert!((e.t[i] - o.p[i]).abs() < 1e-15);
-                for j in 0..3 {
-                    assert!((e.r[i][j] - o.r[(i, j)]).abs() < 1e-15);
-                }
-            }
             let mut jac = vec![0.0; 6 * n];
-            let mut jold = vec![0.0; 6 * n];
             ch.geometric_jacobian(&mut jac);
-            crate::spatial::kinematics::geometric_jacobian(&old, &mut jold);
-            for (a, b) in jac.iter().zip(&jold) {
-                assert!((a - b).abs() < 1e-15);
-            }
-            for c in 0..m.cables.len() {
-                let mut row = vec![0.0; n];
-                let mut rold = vec![0.0; n];
-                let l = ch.cable_length(&m, &m, c, None);
-                let lo = crate::spatial::kinematics::cable_length(
-                    &m,
-                    &old,
-                    c,
-                    &mut pts,
-                    Some(&mut rold),
-                );
-                ch.cable_jacobian_row(&m, &m, c, &mut row);
-                assert!((l - lo).abs() < 1e-15, "cable {c}: {l} vs {lo}");
-                for (a, b) in row.iter().zip(&rold) {
-                    assert!((a - b).abs() < 1e-14, "cable {c}: {row:?} vs {rold:?}");
+            let rows: Vec<Vec<f64>> = (0..m.cables.len())
+                .map(|c| {
+                    let mut row = vec![0.0; n];
+                    ch.cable_jacobian_row(&m, &m, c, &mut row);
+                    row
+                })
+                .collect();
+            for k in 0..n {
+                let (mut a, mut b) = (th.clone(), th.clone());
+                a[k] += h;
+                b[k] -= h;
+                let ((fa, la), (fb, lb)) = (at(&mut ch, &a), at(&mut ch, &b));
+                // angular velocity: log(R_a R_b^T) / 2h
+                let rel: [[f64; 3]; 3] = std::array::from_fn(|i| {
+                    std::array::from_fn(|j| (0..3).map(|q| fa.r[i][q] * fb.r[j][q]).sum())
+                });
+                let w = crate::kinds::log_so3(&rel);
+                for i in 0..3 {
+                    let v = (fa.t[i] - fb.t[i]) / (2.0 * h);
+                    assert!((jac[i * n + k] - v).abs() < 1e-9, "velocity {i} joint {k}");
+                    assert!(
+                        (jac[(3 + i) * n + k] - w[i] / (2.0 * h)).abs() < 1e-9,
+                        "omega {i} joint {k}"
+                    );
+                }
+                for (c, row) in rows.iter().enumerate() {
+                    let d = (la[c] - lb[c]) / (2.0 * h);
+                    assert!(
+                        (row[k] - d).abs() < 1e-9,
+                        "cable {c} joint {k}: {} vs {d}",
+                        row[k]
+                    );
                 }
             }
         }
@@ -603,21 +613,49 @@ mod tests {
     }
 
     #[test]
-    fn load_moments_are_the_spatial_statics() {
+    fn load_moments_are_the_virtual_work_of_the_loads() {
+        // tau_j = sum_b m_b g . dc_b/dtheta_j + F . dtip/dtheta_j + M . omega_j
         let m = Model::from_toml(TWO_UNIVERSAL).unwrap();
+        let n = m.n();
         let mut ch = Chain::<f64, Se3<f64>>::new(&m);
-        let mut old = crate::spatial::kinematics::Chain::new(&m);
         let w = [0.3, -0.2, 0.5, 0.01, -0.02, 0.03];
-        for th in thetas(4, 10) {
+        let h = 1e-6;
+        let points = |ch: &mut Chain<f64, Se3<f64>>, th: &[f64]| {
+            ch.at(&m, &m, th);
+            ch.world(&m, &m);
+            let coms: Vec<[f64; 3]> = (0..m.disks.len())
+                .map(|b| ch.face_a[b].point(m.disks[b].com))
+                .collect();
+            (coms, *ch.end())
+        };
+        for th in thetas(n, 10) {
             ch.at(&m, &m, &th);
             ch.world(&m, &m);
             ch.joints_world(&m);
-            old.at(&m, &th);
-            let mut tau = [0.0; 4];
+            let mut tau = vec![0.0; n];
             ch.load_moments(&m, &m, m.gravity, [w[0], w[1], w[2]], &w[3..], &mut tau);
-            let (_, ext) = crate::spatial::statics::moments(&m, &old, &w);
-            for j in 0..4 {
-                assert!((tau[j] - ext[j]).abs() < 1e-15, "{tau:?} vs {ext:?}");
+            let mut jac = vec![0.0; 6 * n];
+            ch.geometric_jacobian(&mut jac);
+            for k in 0..n {
+                let (mut a, mut b) = (th.clone(), th.clone());
+                a[k] += h;
+                b[k] -= h;
+                let ((ca, ea), (cb, eb)) = (points(&mut ch, &a), points(&mut ch, &b));
+                let mut want = 0.0;
+                for (bi, disk) in m.disks.iter().enumerate() {
+                    for i in 0..3 {
+                        want += disk.mass * m.gravity[i] * (ca[bi][i] - cb[bi][i]) / (2.0 * h);
+                    }
+                }
+                for i in 0..3 {
+                    want +=
+                        w[i] * (ea.t[i] - eb.t[i]) / (2.0 * h) + w[3 + i] * jac[(3 + i) * n + k];
+                }
+                assert!(
+                    (tau[k] - want).abs() < 1e-9,
+                    "joint {k}: {} vs {want}",
+                    tau[k]
+                );
             }
         }
     }

@@ -1,17 +1,22 @@
 //! Pose IK: the joint angles that put the end frame on a target, by the
 //! shared damped least squares ([`crate::lm`], the step of
 //! [`crate::lm::Step::levenberg`]: minimal norm unless the task has more rows
-//! than the arm has joints), with a
-//! task mask over the robot kind's task-space coordinates (planar: `x`, `y`,
-//! `phi`): the full pose, the position only, or any weights; and the closed
-//! form of 3-joint arms (both branches, the one nearest the seed).
+//! than the arm has joints), with a task mask over the robot kind's
+//! task-space coordinates. Planar arms (`x`, `y`, `phi`): the full pose, the
+//! position only, or any weights, with the closed form of 3-joint arms (both
+//! branches, the one nearest the seed) as their fast path. Spatial arms
+//! ([`SpatialIk`], `x, y, z` and the rotation): the position, the pointing
+//! direction or the full pose, on the one model's chain.
 
+use crate::chain::Chain;
 use crate::error::{CdsmError, Result};
 use crate::geometry::ArmGeometry;
+use crate::kinds::{exp_so3, log_so3, Se3};
 use crate::kinematics::{fk_jacobian, within_limits};
 use crate::lm::{self, Lm, Problem, Reason, Step, Workspace};
+use crate::model::Model;
 use crate::robot::Robot;
-use crate::solve::{at_limit, clamp_to_limits, SolveOptions, Status};
+use crate::solve::{at_limit, clamp_to_limits, clamp_to_limits_box, SolveOptions, Status};
 use std::f64::consts::{PI, TAU};
 
 /// Task-space coordinates of a planar arm: `x`, `y` (m), `phi` (rad).
@@ -319,5 +324,166 @@ mod tests {
         assert!(st.converged, "{st:?}");
         let q = r.fk(&th);
         assert!((q[0] - p[0]).abs() < 1e-12 && (q[1] - p[1]).abs() < 1e-12);
+    }
+}
+
+/// What the pose IK of a spatial arm matches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SpatialMask {
+    /// The end origin (3 rows).
+    Position,
+    /// The origin and the direction of the end frame's x axis (6 rows, 5 DOF).
+    Pointing,
+    /// The origin and the orientation (6 rows).
+    Pose,
+}
+
+impl SpatialMask {
+    pub fn rows(&self) -> usize {
+        match self {
+            SpatialMask::Position => 3,
+            _ => 6,
+        }
+    }
+}
+
+type M3 = [[f64; 3]; 3];
+
+fn column0(r: &M3) -> [f64; 3] {
+    [r[0][0], r[1][0], r[2][0]]
+}
+
+fn transpose(r: &M3) -> M3 {
+    std::array::from_fn(|i| std::array::from_fn(|j| r[j][i]))
+}
+
+fn mul(a: &M3, b: &M3) -> M3 {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+
+fn mul_v(a: &M3, v: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|i| (0..3).map(|k| a[i][k] * v[k]).sum())
+}
+
+/// The pose-IK problem of a spatial arm (`docs/spatial.md`, "Solves"):
+/// position `p - p_t`; pointing `R e_x - R_t e_x`; pose `R_t log(R_t^T R)`.
+struct SpatialPose<'a> {
+    model: &'a Model,
+    mask: SpatialMask,
+    target_p: [f64; 3],
+    target_r: M3,
+    chain: Chain<f64, Se3<f64>>,
+    jac: Vec<f64>,
+    limits: Option<Vec<[f64; 2]>>,
+}
+
+impl Problem for SpatialPose<'_> {
+    fn dims(&self) -> (usize, usize) {
+        (self.mask.rows(), self.model.n())
+    }
+
+    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+        let n = x.len();
+        self.chain.at(self.model, self.model, x);
+        self.chain.world(self.model, self.model);
+        let end = *self.chain.end();
+        for ((ri, t), p) in r.iter_mut().zip(end.t).zip(self.target_p) {
+            *ri = t - p;
+        }
+        let d = column0(&end.r);
+        match self.mask {
+            SpatialMask::Position => {}
+            SpatialMask::Pointing => {
+                let dt = column0(&self.target_r);
+                for i in 0..3 {
+                    r[3 + i] = d[i] - dt[i];
+                }
+            }
+            SpatialMask::Pose => {
+                let e = mul_v(
+                    &self.target_r,
+                    log_so3(&mul(&transpose(&self.target_r), &end.r)),
+                );
+                r[3..6].copy_from_slice(&e);
+            }
+        }
+        if let Some(j) = jac {
+            self.chain.joints_world(self.model);
+            self.chain.geometric_jacobian(&mut self.jac);
+            j[..3 * n].copy_from_slice(&self.jac[..3 * n]);
+            match self.mask {
+                SpatialMask::Position => {}
+                SpatialMask::Pointing => {
+                    for k in 0..n {
+                        let w = [
+                            self.jac[3 * n + k],
+                            self.jac[4 * n + k],
+                            self.jac[5 * n + k],
+                        ];
+                        let v = crate::kinds::cross(w, d);
+                        for i in 0..3 {
+                            j[(3 + i) * n + k] = v[i];
+                        }
+                    }
+                }
+                SpatialMask::Pose => j[3 * n..6 * n].copy_from_slice(&self.jac[3 * n..6 * n]),
+            }
+        }
+        r.iter().all(|v| v.is_finite())
+    }
+
+    fn project(&self, x: &mut [f64]) {
+        if let Some(l) = &self.limits {
+            clamp_to_limits_box(l, x);
+        }
+    }
+
+    fn on_bound(&self, x: &[f64]) -> bool {
+        self.limits
+            .as_ref()
+            .is_some_and(|l| x.iter().zip(l).any(|(t, b)| *t <= b[0] || *t >= b[1]))
+    }
+}
+
+/// A pose-IK solver of a spatial arm with its buffers.
+pub struct SpatialIk<'a> {
+    model: &'a Model,
+    mask: SpatialMask,
+    opts: SolveOptions,
+    ws: Workspace,
+}
+
+impl<'a> SpatialIk<'a> {
+    pub fn new(model: &'a Model, mask: SpatialMask, opts: SolveOptions) -> Self {
+        SpatialIk {
+            model,
+            mask,
+            opts,
+            ws: Workspace::default(),
+        }
+    }
+
+    /// Target `[x, y, z, rx, ry, rz]` (m, rotation vector rad) to `theta`
+    /// (seed on entry, answer on exit).
+    pub fn solve(&mut self, target: &[f64; 6], theta: &mut [f64]) -> Status {
+        let n = self.model.n();
+        let mut p = SpatialPose {
+            model: self.model,
+            mask: self.mask,
+            target_p: [target[0], target[1], target[2]],
+            target_r: exp_so3([target[3], target[4], target[5]]),
+            chain: Chain::new(self.model),
+            jac: vec![0.0; 6 * n],
+            limits: self
+                .opts
+                .enforce_limits
+                .then(|| self.model.joints.iter().map(|j| j.limits).collect()),
+        };
+        let lm = Lm::equations(
+            Step::levenberg(self.mask.rows(), n),
+            self.opts.tol,
+            self.opts.max_iter,
+        );
+        lm::solve(&mut p, theta, &lm, &mut self.ws)
     }
 }

@@ -5,8 +5,8 @@
 //! knows nothing of Python; `python/` (feature `python`) converts types.
 
 pub mod accuracy;
+pub mod arm;
 pub mod batch;
-pub mod cable_solve;
 pub mod cables;
 pub mod chain;
 pub mod compensate;
@@ -19,12 +19,12 @@ pub mod kinematics;
 pub mod lm;
 pub mod model;
 pub mod plant;
+pub mod qp;
 pub mod real;
 pub mod robot;
 pub mod sensitivity;
 pub mod simd;
 pub mod solve;
-pub mod spatial;
 pub mod statics;
 pub mod tension;
 

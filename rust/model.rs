@@ -106,6 +106,9 @@ pub struct Model {
     pub gravity: [f64; 3],
     pub cables: Vec<Cable>,
     pub cable: CableMaterial,
+    /// The planar description of a planar arm: the data of its closed forms
+    /// and SIMD kernels, made with the model ([`Model::planar`]).
+    planar: Option<Box<Robot>>,
 }
 
 #[derive(Deserialize)]
@@ -183,6 +186,57 @@ fn positive(field: &str, v: f64) -> Result<f64> {
             format!("must be positive and finite, got {v}"),
         ))
     }
+}
+
+/// The unit vector along `a`: `a` itself when its length is 1 to within
+/// rounding (a file written by [`Model::to_toml`] reads back to the same
+/// bits), else `a` divided by its length, computed without overflow;
+/// `None` for a zero vector.
+fn unit_axis(a: [f64; 3]) -> Option<[f64; 3]> {
+    let s = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    if s <= 0.0 || !s.is_finite() {
+        return None;
+    }
+    let u = a.map(|v| v / s);
+    let nu = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+    if (s * nu - 1.0).abs() <= 4.0 * f64::EPSILON {
+        return Some(a);
+    }
+    Some(u.map(|v| v / nu))
+}
+
+/// A float as TOML (its shortest round-trip form).
+fn toml_f(v: f64) -> String {
+    format!("{v:?}")
+}
+
+/// A TOML array of floats.
+fn toml_fs(v: &[f64]) -> String {
+    format!(
+        "[{}]",
+        v.iter().map(|x| toml_f(*x)).collect::<Vec<_>>().join(", ")
+    )
+}
+
+/// `text` as a TOML basic string: UTF-8 as it is, `"` and `\` escaped,
+/// control characters as `\uXXXX`.
+pub fn toml_string(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 2);
+    out.push('"');
+    for ch in text.chars() {
+        match ch {
+            '"' | '\\' => {
+                out.push('\\');
+                out.push(ch);
+            }
+            c if (c as u32) < 0x20 || c as u32 == 0x7F => {
+                out.push_str(&format!("\\u{:04X}", c as u32));
+            }
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
 }
 
 /// The `kind` of a robot description: `"planar"` (the default) or `"spatial"`.
@@ -294,7 +348,126 @@ impl Model {
             gravity: [robot.gravity[0], robot.gravity[1], 0.0],
             cables,
             cable: robot.cable.clone(),
+            planar: Some(Box::new(robot.clone())),
         }
+    }
+
+    /// The same arm with another cable material (validated).
+    pub fn with_cable(&self, cable: CableMaterial) -> Result<Model> {
+        cable.validate()?;
+        if let Some(p) = self.planar() {
+            let mut r = p.clone();
+            r.cable = cable;
+            return Ok(Model::from_planar(&r));
+        }
+        let mut m = self.clone();
+        m.cable = cable;
+        Ok(m)
+    }
+
+    /// A robot file (TOML, SI units) that rebuilds this arm exactly: a
+    /// planar arm in the planar format (explicit holes), a spatial one in
+    /// the spatial format (explicit holes); every float in its shortest
+    /// round-trip form, the name in any Unicode.
+    pub fn to_toml(&self) -> String {
+        let mut t = String::new();
+        let w = &mut t;
+        let line = |w: &mut String, s: String| {
+            w.push_str(&s);
+            w.push('\n');
+        };
+        line(
+            w,
+            "# written by cdsm (Robot.to_toml); SI units: m, kg, N, rad, Pa, m/s^2".into(),
+        );
+        if self.kind == Kind::Spatial {
+            line(w, "kind = \"spatial\"".into());
+        }
+        line(w, format!("name = {}", toml_string(&self.name)));
+        let g = if self.kind == Kind::Planar {
+            &self.gravity[..2]
+        } else {
+            &self.gravity[..]
+        };
+        line(w, format!("gravity = {}", toml_fs(g)));
+        line(w, String::new());
+        line(w, "[cable]".into());
+        line(
+            w,
+            format!("youngs_modulus = {}", toml_f(self.cable.youngs_modulus)),
+        );
+        line(w, format!("diameter = {}", toml_f(self.cable.diameter)));
+        line(
+            w,
+            format!("routing_length = {}", toml_f(self.cable.routing_length)),
+        );
+        if let Some(r) = self.planar() {
+            line(w, format!("\n# {} linkages", r.n()));
+            for i in 0..r.n() {
+                line(w, String::new());
+                line(w, "[[linkage]]".into());
+                line(w, format!("link_before = {}", toml_f(r.link_before[i])));
+                line(w, format!("link_after = {}", toml_f(r.link_after[i])));
+                line(w, format!("thickness = {}", toml_f(r.thickness[i])));
+                line(w, format!("mass = {}", toml_f(r.mass[i])));
+                line(w, format!("lower_tension = {}", toml_f(r.lower_tension[i])));
+                line(w, format!("joint_limits = {}", toml_fs(&r.joint_limits[i])));
+                for (key, c) in [("upper_holes", 2 * i), ("lower_holes", 2 * i + 1)] {
+                    let pts: Vec<String> = self.cables[c]
+                        .holes
+                        .iter()
+                        .map(|h| toml_fs(&h[..2]))
+                        .collect();
+                    line(w, format!("{key} = [{}]", pts.join(", ")));
+                }
+            }
+            return t;
+        }
+        line(w, String::new());
+        line(w, "[base]".into());
+        line(w, format!("radius = {}", toml_f(self.base_radius)));
+        for d in &self.disks {
+            line(w, String::new());
+            line(w, "[[linkage]]".into());
+            let joints: Vec<String> = self.joints[d.joints.clone()]
+                .iter()
+                .map(|j| {
+                    format!(
+                        "  {{ axis = {}, offset = {}, limits = {} }},",
+                        toml_fs(&j.axis),
+                        toml_fs(&j.offset),
+                        toml_fs(&j.limits)
+                    )
+                })
+                .collect();
+            line(w, format!("joints = [\n{}\n]", joints.join("\n")));
+            line(w, format!("link_after = {}", toml_fs(&d.link_after)));
+            line(w, format!("thickness = {}", toml_f(d.thickness)));
+            line(w, format!("radius = {}", toml_f(d.radius)));
+            line(w, format!("mass = {}", toml_f(d.mass)));
+            line(w, format!("com = {}", toml_fs(&d.com)));
+        }
+        for c in &self.cables {
+            line(w, String::new());
+            line(w, "[[cables]]".into());
+            line(w, format!("end = {}", c.end));
+            match c.mode {
+                Mode::Position => line(w, "mode = \"position\"".into()),
+                Mode::Force => {
+                    line(w, "mode = \"force\"".into());
+                    line(w, format!("tension = {}", toml_f(c.tension)));
+                }
+            }
+            let pts: Vec<String> = c.holes.iter().map(|h| toml_fs(h)).collect();
+            line(w, format!("holes = [{}]", pts.join(", ")));
+        }
+        t
+    }
+
+    /// The planar description of a planar arm (its fast paths' data), `None`
+    /// for a spatial one.
+    pub fn planar(&self) -> Option<&Robot> {
+        self.planar.as_deref()
     }
 
     /// Parses and validates a spatial robot description (`docs/spatial.md`).
@@ -343,13 +516,12 @@ impl Model {
             for (j, jf) in l.joints.iter().enumerate() {
                 let jfield = |name: &str| format!("linkage[{k}].joints[{j}].{name}");
                 let a = finite3(&jfield("axis"), jf.axis)?;
-                let norm = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-                if norm.is_nan() || norm <= 1e-12 {
+                let Some(axis) = unit_axis(a) else {
                     return Err(bad(
                         jfield("axis"),
                         format!("must be a non-zero vector, got {a:?}"),
                     ));
-                }
+                };
                 let lim = jf
                     .limits
                     .unwrap_or([-std::f64::consts::PI, std::f64::consts::PI]);
@@ -360,7 +532,7 @@ impl Model {
                     ));
                 }
                 joints.push(Joint {
-                    axis: [a[0] / norm, a[1] / norm, a[2] / norm],
+                    axis,
                     offset: finite3(&jfield("offset"), jf.offset)?,
                     limits: lim,
                 });
@@ -478,6 +650,7 @@ impl Model {
             gravity,
             cables,
             cable,
+            planar: None,
         };
         let m = robot.position_cables().len();
         if m < robot.n() {
@@ -533,7 +706,8 @@ impl Model {
     }
 
     /// The same robot with holes `flat` (as [`Self::flat_holes`]); no radius check
-    /// (errors of a few tenths of a mm may leave the disk in a study).
+    /// (errors of a few tenths of a mm may leave the disk in a study). A
+    /// planar arm's holes stay in its plane (`z` must be 0).
     pub fn with_flat_holes(&self, flat: &[f64]) -> Result<Model> {
         let want: usize = self.cables.iter().map(|c| 3 * c.holes.len()).sum();
         if flat.len() != want {
@@ -552,6 +726,68 @@ impl Model {
                 k += 3;
             }
         }
+        if let Some(p) = self.planar() {
+            if let Some(i) = (0..flat.len() / 3).find(|i| flat[3 * i + 2] != 0.0) {
+                return Err(bad(
+                    "holes".into(),
+                    format!(
+                        "a planar arm's holes lie in its plane: hole {i} has z = {}",
+                        flat[3 * i + 2]
+                    ),
+                ));
+            }
+            let mut holes = p.holes.clone();
+            for (c, cable) in r.cables.iter().enumerate() {
+                for (i, h) in cable.holes.iter().enumerate() {
+                    let (d, f) = if i == 0 {
+                        (0, 1)
+                    } else {
+                        (i.div_ceil(2), 1 - i % 2)
+                    };
+                    let at = p.hole_index(c, d, f);
+                    holes[at] = h[0];
+                    holes[at + 1] = h[1];
+                }
+            }
+            r = Model::from_planar(&p.with_holes(&holes)?);
+        }
         Ok(r)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_written_model_reads_back_exactly() {
+        for text in [
+            include_str!("../python/cdsm/robots/paper.toml"),
+            include_str!("../python/cdsm/robots/paper_vertical.toml"),
+            include_str!("../python/cdsm/robots/serpentine8.toml"),
+            include_str!("../python/cdsm/robots/two_universal.toml"),
+            include_str!("../python/cdsm/robots/paper_spatial.toml"),
+            include_str!("../python/cdsm/robots/sjtu_snake.toml"),
+        ] {
+            let mut m = Model::from_toml(text).unwrap();
+            m.name = "arm \u{1F4AA} \"q\" \\ \t\u{7f}".into();
+            if let Some(p) = m.planar.as_mut() {
+                p.name = m.name.clone();
+            }
+            let back = Model::from_toml(&m.to_toml()).unwrap();
+            assert_eq!(back, m, "{}", m.to_toml());
+        }
+    }
+
+    #[test]
+    fn a_huge_axis_is_a_unit_axis_not_zero() {
+        let u = unit_axis([0.0, 1e308, 1e308]).unwrap();
+        assert!(
+            u[0] == 0.0 && (u[1] - 0.5f64.sqrt()).abs() <= 2.0 * f64::EPSILON && u[1] == u[2],
+            "{u:?}"
+        );
+        assert_eq!(unit_axis([0.0, 0.0, 0.0]), None);
+        let a = [0.6, 0.8, 0.0];
+        assert_eq!(unit_axis(a), Some(a));
     }
 }

@@ -17,7 +17,6 @@
 //! the implicit function theorem at the settled configuration.
 
 use crate::batch::{rows_exactly, rows_of, split_rows};
-use crate::cable_solve::CableSolve;
 use crate::cables::CableGeometry;
 use crate::chain::{ArmNumbers, Chain};
 use crate::error::{CdsmError, Result};
@@ -27,6 +26,7 @@ use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
 use crate::model::{self, Mode, Model};
 use crate::real::{Jet, Real};
 use crate::robot::Robot;
+use crate::solve::CableSolve;
 use crate::solve::{CableMethod, CableSolver, SolveOptions};
 use crate::tension::{Balance, Wrench};
 
@@ -620,7 +620,7 @@ fn equations<S: Real, F: Frame<S>>(
             *o = -(prm.kappa * *bj);
         }
         for (i, l) in b.lengths.iter().enumerate() {
-            let f = ((*l + route) / (real[i] + route) - 1.0).max0();
+            let f = taut_strain((*l + route) / (real[i] + route) - 1.0);
             for (j, o) in out[..n].iter_mut().enumerate() {
                 *o += b.bal.a[j * m + i] * f;
             }
@@ -634,6 +634,19 @@ fn equations<S: Real, F: Frame<S>>(
                 *o += *r * f;
             }
         }
+    }
+}
+
+/// `max(0, s)` of a cable's strain `s`, with the taut side's derivative at
+/// `s = 0` (a cable at zero stretch: the Newton step sees its stiffness, so
+/// a settle that starts with every cable at zero stretch, as the rigid
+/// answer of consistent lengths does, can move).
+#[inline]
+fn taut_strain<S: Real>(s: S) -> S {
+    if s.val() >= 0.0 {
+        s
+    } else {
+        S::cst(0.0)
     }
 }
 
@@ -1534,7 +1547,7 @@ mod tests {
             kind: &kind,
         };
         let pr = predict(&s, &vec![0.0; layout(&s).total], &rows, &o, 1).unwrap();
-        let want = crate::spatial::fk(&s, &th, 1).unwrap();
+        let want = crate::arm::fk(&s, &th, 1).unwrap();
         for (a, b) in pr.observation.iter().zip(&want) {
             assert!((a - b).abs() < 1e-12, "{a} vs {b}");
         }

@@ -20,6 +20,17 @@ pub struct CableMaterial {
     pub routing_length: f64,
 }
 
+impl CableMaterial {
+    /// Checks that the numbers are physical (positive modulus and diameter,
+    /// a routing length `>= 0`), naming the field.
+    pub fn validate(&self) -> Result<()> {
+        positive("cable.youngs_modulus".into(), self.youngs_modulus)?;
+        positive("cable.diameter".into(), self.diameter)?;
+        non_negative("cable.routing_length".into(), self.routing_length)?;
+        Ok(())
+    }
+}
+
 /// A planar CDSM with `n` joints and `2n` cables (see `docs/model.md`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Robot {
@@ -293,9 +304,7 @@ impl Robot {
             positive(format!("linkage[{i}].link_after"), self.link_after[i])?;
             positive(format!("linkage[{i}].thickness"), self.thickness[i])?;
         }
-        positive("cable.youngs_modulus".into(), self.cable.youngs_modulus)?;
-        positive("cable.diameter".into(), self.cable.diameter)?;
-        non_negative("cable.routing_length".into(), self.cable.routing_length)?;
+        self.cable.validate()?;
         if !(self.gravity[0].is_finite() && self.gravity[1].is_finite()) {
             return Err(bad(
                 "gravity".into(),

@@ -1,13 +1,18 @@
-//! The cable solve (upper-cable lengths -> joint angles): the closed form,
-//! joint by joint (fast path and branch census), and damped Newton through
-//! the shared solver ([`crate::lm`]) with its triangular step. The options and
-//! the per-element status shared with the pose IK ([`crate::ik`]) live here.
-//! The algorithms are specified in `docs/model.md`.
+//! The cable solve (position-cable lengths -> joint angles): for planar
+//! arms the closed form, joint by joint (fast path and branch census), and
+//! damped Newton through the shared solver ([`crate::lm`]) with its
+//! triangular step; for any arm the general solve on the one model's chain
+//! ([`CableSolve`]). The options and the per-element status shared with the
+//! pose IK ([`crate::ik`]) live here. The algorithms are specified in
+//! `docs/model.md`.
 
 use crate::cables::CableGeometry;
+use crate::chain::{Chain, Numbers};
 use crate::geometry::ArmGeometry;
+use crate::kinds::Frame;
 use crate::kinematics::within_limits;
 use crate::lm::{self, Lm, Problem, Reason, Step, Workspace};
+use crate::model::Model;
 use crate::robot::Robot;
 use crate::simd::math::cos_sin_short;
 
@@ -437,6 +442,104 @@ pub fn solve_cables(
     opts: &SolveOptions,
 ) -> Status {
     CableSolver::new(robot, method, *opts).solve(geom, target, theta)
+}
+
+struct GeneralProblem<'a, F: Frame<f64>, N> {
+    model: &'a Model,
+    nums: &'a N,
+    cables: &'a [usize],
+    target: &'a [f64],
+    chain: &'a mut Chain<f64, F>,
+    row: &'a mut [f64],
+    limits: Option<&'a [[f64; 2]]>,
+}
+
+impl<F: Frame<f64>, N: Numbers<f64>> Problem for GeneralProblem<'_, F, N> {
+    fn dims(&self) -> (usize, usize) {
+        (self.cables.len(), self.model.n())
+    }
+
+    fn eval(&mut self, x: &[f64], r: &mut [f64], mut jac: Option<&mut [f64]>) -> bool {
+        let n = x.len();
+        self.chain.at(self.model, self.nums, x);
+        for (i, &c) in self.cables.iter().enumerate() {
+            r[i] = self.chain.cable_length(self.model, self.nums, c, None) - self.target[i];
+            if let Some(j) = jac.as_deref_mut() {
+                self.chain
+                    .cable_jacobian_row(self.model, self.nums, c, self.row);
+                j[i * n..(i + 1) * n].copy_from_slice(self.row);
+            }
+        }
+        r.iter().all(|v| v.is_finite())
+    }
+
+    fn project(&self, x: &mut [f64]) {
+        if let Some(l) = self.limits {
+            clamp_to_limits_box(l, x);
+        }
+    }
+
+    fn on_bound(&self, x: &[f64]) -> bool {
+        self.limits
+            .is_some_and(|l| x.iter().zip(l).any(|(t, b)| *t <= b[0] || *t >= b[1]))
+    }
+}
+
+/// The general cable solve (`docs/model.md`, "Solves"): the lengths of the
+/// position-controlled cables to the joint angles through the shared solver
+/// on the chain of either kind and any numbers (the model's own, or a
+/// plant's moved arm). As many cables as joints: damped Newton; more: least
+/// squares (converged when an accepted step lowers the squared misfit by
+/// less than `1e-12` of itself). With its buffers, reused across solves and
+/// across arms of the model's structure with other numbers.
+pub struct CableSolve<F: Frame<f64>> {
+    cables: Vec<usize>,
+    opts: SolveOptions,
+    limits: Vec<[f64; 2]>,
+    ws: Workspace,
+    row: Vec<f64>,
+    /// The chain at the last evaluation (the answer's when the solve converged).
+    pub chain: Chain<f64, F>,
+}
+
+impl<F: Frame<f64>> CableSolve<F> {
+    pub fn new(model: &Model, opts: SolveOptions) -> Self {
+        CableSolve {
+            cables: model.position_cables(),
+            opts,
+            limits: model.joints.iter().map(|j| j.limits).collect(),
+            ws: Workspace::default(),
+            row: vec![0.0; model.n()],
+            chain: Chain::new(model),
+        }
+    }
+
+    /// Lengths `target` (m) of the position-controlled cables (file order)
+    /// of the arm `nums` to `theta` (seed on entry, answer on exit).
+    pub fn solve<N: Numbers<f64>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        target: &[f64],
+        theta: &mut [f64],
+    ) -> Status {
+        let (m, n) = (self.cables.len(), model.n());
+        let mut p = GeneralProblem {
+            model,
+            nums,
+            cables: &self.cables,
+            target,
+            chain: &mut self.chain,
+            row: &mut self.row,
+            limits: self.opts.enforce_limits.then_some(&self.limits[..]),
+        };
+        let lm = Lm {
+            lambda0: 0.0,
+            min_decrease: if m > n { 1e-12 } else { 0.0 },
+            ..Lm::equations(Step::Normal, self.opts.tol, self.opts.max_iter)
+        };
+        lm::solve(&mut p, theta, &lm, &mut self.ws)
+    }
 }
 
 #[cfg(test)]

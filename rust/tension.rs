@@ -73,6 +73,20 @@ impl<S: Real> Balance<S> {
         g: [f64; 3],
         wrench: Wrench<S>,
     ) {
+        self.at_with(model, nums, chain, g, wrench, None);
+    }
+
+    /// [`Balance::at`] with the force cables at the tensions `force` (N, in
+    /// the order of the force cables) when given.
+    pub fn at_with<F: Frame<S>, N: Numbers<S>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        chain: &mut Chain<S, F>,
+        g: [f64; 3],
+        wrench: Wrench<S>,
+        force: Option<&[f64]>,
+    ) {
         let n = self.n;
         let loaded = g.iter().any(|v| *v != 0.0)
             || wrench
@@ -87,7 +101,7 @@ impl<S: Real> Balance<S> {
         } else {
             self.b.fill(S::cst(0.0));
         }
-        let mut i = 0;
+        let (mut i, mut f) = (0, 0);
         for (c, cable) in model.cables.iter().enumerate() {
             self.lengths[c] = chain.cable_length_and_row(model, nums, c, &mut self.row);
             match cable.mode {
@@ -98,7 +112,8 @@ impl<S: Real> Balance<S> {
                     i += 1;
                 }
                 Mode::Force => {
-                    let t = S::cst(cable.tension);
+                    let t = S::cst(force.map_or(cable.tension, |v| v[f]));
+                    f += 1;
                     for j in 0..n {
                         self.b[j] -= self.row[j] * t;
                     }
@@ -232,13 +247,24 @@ mod tests {
         );
         let mut t = [0.0; 4];
         assert!(bal.solve_square(&mut t));
-        let mut old = crate::spatial::kinematics::Chain::new(&m);
-        old.at(&m, &th);
-        let want = crate::spatial::statics::position_tensions(&m, &old, &[0.0; 6], -1e3).unwrap();
-        for k in 0..4 {
+        // the virtual work of the tensions is the loads' (no tip wrench here)
+        let mut tau = [0.0; 4];
+        ch.load_moments(&m, &m, m.gravity, zero, &zero, &mut tau);
+        for j in 0..4 {
+            let mut work = 0.0;
+            for (c, cable) in m.cables.iter().enumerate() {
+                let mut row = [0.0; 4];
+                ch.cable_jacobian_row(&m, &m, c, &mut row);
+                let tc = match cable.mode {
+                    Mode::Force => cable.tension,
+                    Mode::Position => t[m.position_cables().iter().position(|p| *p == c).unwrap()],
+                };
+                work += tc * row[j];
+            }
             assert!(
-                (t[k] - want[k]).abs() < 1e-12 * (1.0 + want[k].abs()),
-                "{t:?} vs {want:?}"
+                (work - tau[j]).abs() < 1e-12 * (1.0 + tau[j].abs()),
+                "{j}: {work} vs {}",
+                tau[j]
             );
         }
         // d T / d theta_0 by dual numbers against central differences

@@ -53,13 +53,6 @@ def test_a_saved_model_of_a_non_bmp_robot_loads_back(cdsm, tmp_path):
     assert robot_from_spec(robot_spec(r)).name == r.name  # what a Dask worker receives
 
 
-def test_toml_string_refuses_a_lone_surrogate(cdsm):
-    from cdsm.files import toml_string
-
-    with pytest.raises(cdsm.CdsmInputError, match="not valid Unicode"):
-        toml_string("half \ud83d")
-
-
 # ---------------------------------------------------------------------------
 # forked figure workers end with their parent
 # ---------------------------------------------------------------------------

@@ -182,8 +182,9 @@ def test_redundant_elastic_arm_settles_at_its_equilibrium(eight, effects):
 
 
 @pytest.mark.xfail(strict=True, reason="the core's elastic settle of an arm with more position cables than joints "
-                   "fails where cables are slack at the equilibrium (or start at zero stretch), though the "
-                   "equilibrium exists (the reference settles every row; see the report of branch `ref`)")
+                   "(damped Newton on the balance, whose equations have a kink where a cable goes slack) fails "
+                   "on about half of the configurations where cables are slack at the equilibrium, though it "
+                   "exists (the reference minimises the arm's energy and settles every row)")
 def test_redundant_elastic_arm_settles_with_slack_cables(eight):
     """kappa = 0.02 1/N, the nominal lengths of the commanded configuration (dL = 0):
     the arm sags under gravity until the stretched cables hold it, the others go slack."""

@@ -4,8 +4,8 @@ manipulators, with a Rust core. SI units everywhere (m, rad, N, kg).
 =====================  ==========================================================
 module                 holds
 =====================  ==========================================================
-``robot``              :class:`Robot` (planar: kinematics, solves, statics) and :class:`Solution`
-``spatial``            :class:`SpatialRobot` (3-D joints and holes, ``kind = "spatial"``)
+``robot``              :class:`Robot` (either kind: kinematics, solves, statics) and :class:`Solution`
+``spatial``            the spatial kind's constants (``kind = "spatial"``: 3-D joints and holes)
 ``accuracy``           error studies of the nominal model (scenarios, Monte Carlo, tolerances)
 ``calibration``        the gap to a real arm (measurements, plant, diagnosis, compensation)
 ``paper``              the seed paper's study end to end
@@ -21,16 +21,21 @@ from . import deprecated as _deprecated
 from ._cdsm import CdsmInputError
 from .calibration.model import Model
 from .robot import Robot, Solution
-from .spatial import SpatialRobot
 
-__all__ = ["Robot", "SpatialRobot", "Solution", "CdsmInputError", "Model", "accuracy", "calibration", "report"]
+__all__ = ["Robot", "Solution", "CdsmInputError", "Model", "accuracy", "calibration", "report"]
 __version__ = "0.2.0"
 
 _deprecated.install()
 
 
 def __getattr__(name: str):
-    """Subpackages on first use, and the 0.1 module names (deprecated aliases)."""
+    """Subpackages on first use, and the 0.1 and 0.2 names (deprecated aliases)."""
+    if name == "SpatialRobot":
+        import warnings
+
+        warnings.warn("cdsm.SpatialRobot is cdsm.Robot now (one class of either kind); use cdsm.Robot",
+                      DeprecationWarning, stacklevel=2)
+        return Robot
     if name in ("accuracy", "calibration", "report", "paper", "reference", "cli") \
             or f"cdsm.{name}" in _deprecated.MOVED:
         return _importlib.import_module(f"cdsm.{name}")

@@ -32,7 +32,7 @@ from ._cdsm import CdsmInputError
 
 __all__ = ["read_text", "write_text", "read_bytes", "sha256_of", "parse_table", "read_table", "table_column",
            "write_csv", "write_json", "json_safe", "csv_cell", "write_npz", "read_npz", "atomic_file",
-           "toml_string", "RUN_MANIFEST", "begin_run", "finish_run", "run_complete"]
+           "RUN_MANIFEST", "begin_run", "finish_run", "run_complete"]
 
 #: The manifest of an output directory written by one run (see the module doc).
 RUN_MANIFEST = "cdsm-run.json"
@@ -111,26 +111,6 @@ def write_text(path: "str | os.PathLike[str]", text: str, what: str) -> str:
     with atomic_file(path, what) as fh:
         fh.write(data)
     return str(path)
-
-
-def toml_string(text: str) -> str:
-    """``text`` as a TOML basic string: UTF-8 characters as they are (any
-    plane), ``"`` and ``\\`` escaped, control characters as ``\\uXXXX``; a
-    string that is not valid Unicode (a lone surrogate) is refused."""
-    try:
-        text.encode("utf-8")
-    except UnicodeEncodeError as exc:
-        raise CdsmInputError(f"`name`: not valid Unicode text ({exc.reason})") from None
-    out = []
-    for ch in text:
-        o = ord(ch)
-        if ch in '"\\':
-            out.append("\\" + ch)
-        elif o < 0x20 or o == 0x7F:
-            out.append(f"\\u{o:04X}")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
 
 
 def read_bytes(path: "str | os.PathLike[str]", what: str) -> bytes:

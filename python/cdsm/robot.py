@@ -1,4 +1,5 @@
-"""The robot: a thin, typed front over the Rust core (SI units: m, rad, N, kg).
+"""The robot of either kind: a thin, typed front over the Rust core (SI
+units: m, rad, N, kg).
 
 Arrays in, arrays out. Batch inputs are ``(N, k)``; a single configuration may
 be given 1-D and then comes back 1-D. Integer and non-contiguous arrays are
@@ -8,27 +9,24 @@ naming the argument.
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Dict, Optional, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 
 from . import _cdsm
-from .files import read_text, toml_string
+from .files import read_text
 from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
 
-__all__ = ["Arm", "Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
-           "IK_METHODS", "packaged_robots"]
+__all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
+           "SPATIAL_MASKS", "IK_METHODS", "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 
-#: Robot kinds by name: a function building the robot from its TOML text.
-#: Each kind's module registers itself (``planar`` here, ``spatial`` in
-#: :mod:`cdsm.spatial`, imported by ``cdsm``).
-KINDS: Dict[str, Callable[[str], "Arm"]] = {}
+#: The robot kinds.
+KINDS = ("planar", "spatial")
 
 
 def packaged_robots() -> Tuple[str, ...]:
@@ -47,6 +45,9 @@ IK_METHODS = ("lm", "closed_form")
 
 #: Named task masks of the pose IK over the planar task coordinates (x, y, phi).
 TASK_MASKS = {"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}
+
+#: Task masks of a spatial arm's pose IK.
+SPATIAL_MASKS = ("position", "pointing", "pose")
 
 
 @dataclass(frozen=True)
@@ -101,18 +102,95 @@ class Solution:
         return cls(*parts, _robot=robot, **extra)
 
 
-class Arm:
-    """What every robot kind shares: the core it wraps, the worker threads of
-    its batch calls, and batch handling of inputs and seeds. See
-    :class:`Robot` (planar) and :class:`cdsm.spatial.SpatialRobot`."""
+class Robot:
+    """A cable-driven serpentine manipulator of either kind: ``"planar"``
+    (``n`` joints with parallel axes and ``2n`` cables, the seed paper's
+    kind: ``docs/model.md``) or ``"spatial"`` (revolute axes anywhere,
+    universal joints, holes anywhere on the disks, position- and
+    force-controlled cables: ``docs/spatial.md``). One class: the kind is
+    data (:attr:`kind`), and so are the task space (planar ``[x, y, phi]``,
+    spatial ``[x, y, z, rx, ry, rz]``: the end frame's origin, m, and its
+    rotation vector, rad) and what the arm's calls return.
 
-    #: ``"planar"`` or ``"spatial"``
-    kind = ""
+    Build with :meth:`paper`, :meth:`from_toml` (a file or a packaged name)
+    or :meth:`packaged`. SI units: m, rad, N, kg.
+    """
 
-    def __init__(self, core, threads: int = 0):
+    def __init__(self, core: "_cdsm.CoreRobot", threads: int = 0):
         #: the Rust core robot, used by the other modules
         self.core = core
         self.threads = threads
+
+    # ---- construction -------------------------------------------------
+    @classmethod
+    def paper(cls) -> "Robot":
+        """The paper's 3-DOF prototype: Table 1, lower cables 50/10/5 g, limits ±35°."""
+        return cls(_cdsm.CoreRobot.paper())
+
+    @classmethod
+    def packaged(cls, name: str) -> "Robot":
+        """A robot description shipped with cdsm (``cdsm/robots/<name>.toml``),
+        planar or spatial: see :func:`packaged_robots`."""
+        names = packaged_robots()
+        if name not in names:
+            raise CdsmInputError(f"`name`: no packaged robot {name!r}; packaged: {', '.join(names)}")
+        return cls.from_toml_str(read_text(_ROBOTS / f"{name}.toml", "robot"))
+
+    @classmethod
+    def from_toml(cls, path: "str | os.PathLike[str]") -> "Robot":
+        """Read a robot description (TOML, SI units), of either kind.
+
+        ``path`` is a file, or the name of a packaged robot
+        (:func:`packaged_robots`, e.g. ``"two_universal"``) when no such file
+        exists: the one rule for naming a robot everywhere (``--robot`` too).
+        A name that is neither says so and lists the packaged names."""
+        if not os.path.exists(path):
+            name = os.fspath(path)
+            if name in packaged_robots():
+                return cls.packaged(name)
+            raise CdsmInputError(f"robot file {name!r}: does not exist, and no packaged robot has that name "
+                                 f"(packaged: {', '.join(packaged_robots())})")
+        return cls.from_toml_str(read_text(path, "robot"))
+
+    @classmethod
+    def from_toml_str(cls, text: str) -> "Robot":
+        """Parse a robot description given as TOML text (either kind)."""
+        return cls(_cdsm.CoreRobot.from_toml(text))
+
+    def to_toml(self) -> str:
+        """A robot file (TOML, SI units) that rebuilds this robot exactly:
+        its own kind's format, explicit holes (also those set by
+        :meth:`with_holes`), every float in its shortest round-trip form,
+        the name in any Unicode."""
+        return self.core.to_toml()
+
+    def with_holes(self, holes) -> "Robot":
+        """The same robot with other holes, m: planar ``(2n, n+1, 2, 2)``
+        (:attr:`holes`); spatial a list like :attr:`holes`, or one flat array
+        of every ``[x, y, z]`` (:attr:`flat_holes`)."""
+        if self.kind == "planar":
+            h = np.ascontiguousarray(np.asarray(holes, dtype=np.float64))
+            if h.shape != self.holes.shape:
+                raise CdsmInputError(f"`holes`: expected shape {self.holes.shape}, got {h.shape}")
+            return Robot(self.core.with_holes(h), self.threads)
+        if isinstance(holes, (list, tuple)):
+            flat = np.concatenate([np.asarray(h, dtype=float).reshape(-1) for h in holes])
+        else:
+            flat = np.asarray(holes, dtype=float).reshape(-1)
+        return Robot(self.core.with_holes(np.ascontiguousarray(flat)), self.threads)
+
+    def hole_height_error(self, dh) -> np.ndarray:
+        """Planar arms: hole positions (2n, n+1, 2, 2), m, after the paper's
+        per-disk hole-height error ``dh`` (n,), m: pair i's holes move
+        outward by ``dh[i]`` on every face."""
+        d = as_vector("dh", dh, self.n)
+        return self.core.hole_height_error(d).reshape(self.holes.shape)
+
+    # ---- what every kind has -------------------------------------------
+    @property
+    def kind(self) -> str:
+        """``"planar"`` or ``"spatial"``."""
+        return self.core.kind
 
     @property
     def threads(self) -> int:
@@ -138,6 +216,132 @@ class Arm:
     def name(self) -> str:
         return self.core.name
 
+    @property
+    def task(self) -> int:
+        """Width of the task vector: 3 (planar ``[x, y, phi]``) or 6 (spatial)."""
+        return 3 if self.kind == "planar" else 6
+
+    @property
+    def joint_limits(self) -> np.ndarray:
+        """(n, 2) joint limits [lo, hi], rad."""
+        return self.core.joint_limits.reshape(-1, 2)
+
+    @property
+    def axes(self) -> np.ndarray:
+        """(n, 3) unit joint axes, each in its joint's local frame (planar: z)."""
+        return self.core.axes.reshape(-1, 3)
+
+    @property
+    def gravity(self) -> np.ndarray:
+        """Gravity, m/s^2, base frame: planar the in-plane ``[gx, gy]`` (2,),
+        spatial ``(3,)``. The default of every statics call (robot file
+        ``gravity``; 0: a horizontal plane)."""
+        g = np.array(self.core.gravity)
+        return g[:2] if self.kind == "planar" else g
+
+    @property
+    def straight_length(self) -> float:
+        """Distance of the straight arm's tip (theta = 0) from the base, m."""
+        return self.core.straight_length
+
+    @property
+    def cables(self) -> int:
+        """Number of cables (planar: 2n, upper and lower of each pair)."""
+        return self.core.cables
+
+    @property
+    def position_cables(self) -> List[int]:
+        """Indices of the position-controlled cables (their lengths are
+        commanded; planar: the upper cables 0, 2, 4, ...)."""
+        return list(self.core.position_cables)
+
+    @property
+    def cable_ends(self) -> List[int]:
+        """The disk (1-based) each cable ends at."""
+        return list(self.core.cable_ends)
+
+    @property
+    def cable_tensions(self) -> np.ndarray:
+        """(cables,) set tension of each force-controlled cable, N (0 for position cables)."""
+        return self.core.cable_tensions
+
+    @property
+    def flat_holes(self) -> np.ndarray:
+        """Every hole as one flat array: cable by cable, face by face (base
+        face b, then faces a and b of each disk it crosses), ``[x, y, z]``
+        in the face's frame, m."""
+        return self.core.flat_holes
+
+    @property
+    def radii(self) -> np.ndarray:
+        """Disk radii (base first), m (planar: the largest hole height of each disk)."""
+        return self.core.radii
+
+    @property
+    def mass(self) -> np.ndarray:
+        """(disks,) disk (linkage) masses, kg."""
+        return self.core.mass
+
+    @property
+    def youngs_modulus(self) -> float:
+        """Cable Young's modulus, Pa."""
+        return self.core.youngs_modulus
+
+    @property
+    def cable_diameter(self) -> float:
+        """Cable diameter, m."""
+        return self.core.cable_diameter
+
+    @property
+    def routing_length(self) -> float:
+        """Cable path behind the base disk to the actuator, m (stretches with the cable)."""
+        return self.core.routing_length
+
+    @property
+    def axial_stiffness(self) -> float:
+        """Cable axial stiffness E A, N (A = pi d^2 / 4)."""
+        return self.core.axial_stiffness
+
+    @property
+    def holes(self):
+        """Planar: ``(2n, n+1, 2, 2)`` hole positions: cable, disk (0 = base),
+        face (a, b), (x, y), m. Spatial: per cable, its holes ``(2 end + 1,
+        3)`` in face frames, m."""
+        if self.kind == "planar":
+            n = self.n
+            return self.core.holes.reshape(2 * n, n + 1, 2, 2)
+        flat = self.flat_holes
+        out, k = [], 0
+        for e in self.cable_ends:
+            out.append(flat[k:k + 3 * (2 * e + 1)].reshape(-1, 3))
+            k += 3 * (2 * e + 1)
+        return out
+
+    def __repr__(self) -> str:
+        return f"Robot({self.name!r}, n={self.n}, kind={self.kind!r}, cables={self.cables})"
+
+    # ---- planar arms' description ----------------------------------------
+    @property
+    def link_before(self) -> np.ndarray:
+        """Planar: (n,) link before each joint, m (the paper's link_{i-1,J_i})."""
+        return self.core.link_before
+
+    @property
+    def link_after(self) -> np.ndarray:
+        """Planar: (n,) link after each joint, m (the paper's link_{J_i,i})."""
+        return self.core.link_after
+
+    @property
+    def thickness(self) -> np.ndarray:
+        """Planar: (n,) disk thickness, m (the paper's B)."""
+        return self.core.thickness
+
+    @property
+    def lower_tension(self) -> np.ndarray:
+        """Planar: (n,) tension on the lower (force-controlled) cable of each pair, N."""
+        return self.core.lower_tension
+
+    # ---- batches --------------------------------------------------------
     def _out(self, flat: np.ndarray, shape: Tuple[int, ...], single: bool) -> np.ndarray:
         out = flat.reshape((-1,) + shape)
         return out[0] if single else out
@@ -153,206 +357,44 @@ class Arm:
             raise CdsmInputError(f"`seed`: expected shape ({rows}, {self.n}) or ({self.n},), got {s.shape}")
         return s
 
-    @classmethod
-    def packaged(cls, name: str) -> "Arm":
-        """A robot description shipped with cdsm (``cdsm/robots/<name>.toml``),
-        planar or spatial: see :func:`packaged_robots`."""
-        names = packaged_robots()
-        if name not in names:
-            raise CdsmInputError(f"`name`: no packaged robot {name!r}; packaged: {', '.join(names)}")
-        return Robot.from_toml(_ROBOTS / f"{name}.toml")
-
-    @classmethod
-    def from_toml(cls, path: "str | os.PathLike[str]") -> "Arm":
-        """Read a robot description (TOML, SI units): a :class:`Robot`, or a
-        :class:`cdsm.spatial.SpatialRobot` when it says ``kind = "spatial"``.
-
-        ``path`` is a file, or the name of a packaged robot
-        (:func:`packaged_robots`, e.g. ``"two_universal"``) when no such file
-        exists: the one rule for naming a robot everywhere (``--robot`` too).
-        A name that is neither says so and lists the packaged names."""
-        if not os.path.exists(path):
-            name = os.fspath(path)
-            if name in packaged_robots():
-                return cls.packaged(name)
-            raise CdsmInputError(f"robot file {name!r}: does not exist, and no packaged robot has that name "
-                                 f"(packaged: {', '.join(packaged_robots())})")
-        return Robot.from_toml_str(read_text(path, "robot"))
-
-
-class Robot(Arm):
-    """A planar cable-driven serpentine manipulator with ``n`` joints and ``2n`` cables.
-
-    Build with :meth:`paper` (the seed paper's prototype, Table 1) or
-    :meth:`from_toml`. The model and solver conventions are in ``docs/model.md``.
-    """
-
-    kind = "planar"
-
-    def __init__(self, core: "_cdsm.CoreRobot", threads: int = 0):
-        super().__init__(core, threads)
-
-    # ---- construction -------------------------------------------------
-    @classmethod
-    def paper(cls) -> "Robot":
-        """The paper's 3-DOF prototype: Table 1, lower cables 50/10/5 g, limits ±35°."""
-        return cls(_cdsm.CoreRobot.paper())
-
-    @staticmethod
-    def from_toml_str(text: str) -> "Arm":
-        """Parse a robot description given as TOML text (planar, or spatial
-        when it says ``kind = "spatial"``)."""
-        kind = _cdsm.robot_kind(text)
-        if kind not in KINDS:
-            raise CdsmInputError(f"`kind`: robots of kind {kind!r} are not available (import cdsm first)")
-        return KINDS[kind](text)
-
-    def with_holes(self, holes) -> "Robot":
-        """The same robot with hole positions ``holes`` (2n, n+1, 2, 2), m."""
-        h = np.ascontiguousarray(np.asarray(holes, dtype=np.float64))
-        if h.shape != self.holes.shape:
-            raise CdsmInputError(f"`holes`: expected shape {self.holes.shape}, got {h.shape}")
-        return Robot(self.core.with_holes(h), self.threads)
-
-    def hole_height_error(self, dh) -> np.ndarray:
-        """Hole positions (2n, n+1, 2, 2), m, after the paper's per-disk hole-height
-        error ``dh`` (n,), m: pair i's holes move outward by ``dh[i]`` on every face."""
-        d = as_vector("dh", dh, self.n)
-        return self.core.hole_height_error(d).reshape(self.holes.shape)
-
-    # ---- description --------------------------------------------------
-    @property
-    def link_before(self) -> np.ndarray:
-        """(n,) link before each joint, m (the paper's link_{i-1,J_i})."""
-        return self.core.link_before
-
-    @property
-    def link_after(self) -> np.ndarray:
-        """(n,) link after each joint, m (the paper's link_{J_i,i})."""
-        return self.core.link_after
-
-    @property
-    def thickness(self) -> np.ndarray:
-        """(n,) disk thickness, m (the paper's B)."""
-        return self.core.thickness
-
-    @property
-    def mass(self) -> np.ndarray:
-        """(n,) linkage masses, kg."""
-        return self.core.mass
-
-    @property
-    def lower_tension(self) -> np.ndarray:
-        """(n,) tension on the lower (force-controlled) cable of each pair, N."""
-        return self.core.lower_tension
-
-    @property
-    def joint_limits(self) -> np.ndarray:
-        """(n, 2) joint limits [lo, hi], rad."""
-        return self.core.joint_limits.reshape(-1, 2)
-
-    @property
-    def holes(self) -> np.ndarray:
-        """(2n, n+1, 2, 2) hole positions: cable, disk (0 = base), face (a, b), (x, y); m."""
-        n = self.n
-        return self.core.holes.reshape(2 * n, n + 1, 2, 2)
-
-    @property
-    def youngs_modulus(self) -> float:
-        """Cable Young's modulus, Pa."""
-        return self.core.youngs_modulus
-
-    @property
-    def cable_diameter(self) -> float:
-        """Cable diameter, m."""
-        return self.core.cable_diameter
-
-    def to_toml(self) -> str:
-        """A TOML description that rebuilds this robot exactly (explicit
-        ``upper_holes``/``lower_holes``, every float by ``repr``; SI units).
-        Hole entries the model never uses (base face a, disks beyond a
-        cable's pair) are not written and read back as 0."""
-        def f(v) -> str:
-            x = float(v)
-            if not math.isfinite(x):
-                raise CdsmInputError(f"to_toml: non-finite value {x}")
-            return repr(x)
-
-        n = self.n
-        lb, la, h, lim = self.link_before, self.link_after, self.holes, self.joint_limits
-        lines = [
-            "# written by cdsm.Robot.to_toml; SI units (m, kg, N, rad, Pa)",
-            f"name = {toml_string(self.name)}",
-            f"n = {n}",
-            "",
-            "[cable]",
-            f"youngs_modulus = {f(self.youngs_modulus)}",
-            f"diameter = {f(self.cable_diameter)}",
-            f"routing_length = {f(self.routing_length)}",
-        ]
-        for i in range(n):
-            pts = []
-            for c in (2 * i, 2 * i + 1):
-                row = []
-                for j in range(2 * i + 3):  # base face b, then faces a, b of disks 1..i+1
-                    d, face = (0, 1) if j == 0 else ((j + 1) // 2, 1 - j % 2)
-                    x, y = h[c, d, face]
-                    row.append(f"[{f(x)}, {f(y)}]")
-                pts.append("[" + ", ".join(row) + "]")
-            lines += [
-                "",
-                "[[linkage]]",
-                f"link_before = {f(lb[i])}",
-                f"link_after = {f(la[i])}",
-                f"thickness = {f(self.thickness[i])}",
-                f"mass = {f(self.mass[i])}",
-                f"lower_tension = {f(self.lower_tension[i])}",
-                f"joint_limits = [{f(lim[i, 0])}, {f(lim[i, 1])}]",
-                f"upper_holes = {pts[0]}",
-                f"lower_holes = {pts[1]}",
-            ]
-        return "\n".join(lines) + "\n"
-
-    def __repr__(self) -> str:
-        return f"Robot({self.name!r}, n={self.n})"
+    def _map(self, theta, method, shape):
+        t, single = as_batch("theta", theta, self.n)
+        return self._out(method(t, self.threads), shape, single)
 
     # ---- kinematics ---------------------------------------------------
     def fk(self, theta) -> np.ndarray:
-        """End pose [x (m), y (m), phi (rad)]: (N, n) -> (N, 3); (n,) -> (3,)."""
-        t, single = as_batch("theta", theta, self.n)
-        return self._out(self.core.fk(t, self.threads), (3,), single)
+        """End pose: (N, n) -> (N, task); (n,) -> (task,). Planar ``[x (m), y
+        (m), phi (rad)]``, spatial ``[x, y, z (m), rx, ry, rz (rad, rotation
+        vector)]``."""
+        return self._map(theta, self.core.fk, (self.task,))
 
     def fk_matrix(self, theta) -> np.ndarray:
-        """End frame as a homogeneous transform in 3-D (the plane is z = 0,
-        joints turn about z), as spatial arms give it: (N, n) -> (N, 4, 4);
-        (n,) -> (4, 4). Rotation Rz(phi), translation (x, y, 0) m."""
-        t, single = as_batch("theta", theta, self.n)
-        pose = self.core.fk(t, self.threads).reshape(-1, 3)
-        c, s = np.cos(pose[:, 2]), np.sin(pose[:, 2])
-        f = np.zeros((len(pose), 4, 4))
-        f[:, 0, 0], f[:, 0, 1], f[:, 1, 0], f[:, 1, 1] = c, -s, s, c
-        f[:, 2, 2] = f[:, 3, 3] = 1.0
-        f[:, 0, 3], f[:, 1, 3] = pose[:, 0], pose[:, 1]
-        return f[0] if single else f
+        """End frame as a homogeneous transform in 3-D (a planar arm's plane
+        is z = 0, its joints turn about z): (N, n) -> (N, 4, 4), m."""
+        return self._map(theta, self.core.fk_matrix, (4, 4))
 
     def fk_jacobian(self, theta) -> np.ndarray:
-        """d[x, y, phi]/d theta: (N, n) -> (N, 3, n)."""
-        t, single = as_batch("theta", theta, self.n)
-        return self._out(self.core.fk_jacobian(t, self.threads), (3, self.n), single)
+        """Task Jacobian: (N, n) -> (N, task, n). Planar ``d[x, y, phi]/d
+        theta``; spatial the geometric Jacobian: rows 0-2 the velocity of the
+        end frame's origin (m/rad), rows 3-5 its angular velocity."""
+        return self._map(theta, self.core.fk_jacobian, (self.task, self.n))
 
     def cable_lengths(self, theta) -> np.ndarray:
-        """Lengths of all 2n cables, m: (N, n) -> (N, 2n), order L_c1_1, L_c1_2, ..., L_cn_2."""
-        t, single = as_batch("theta", theta, self.n)
-        return self._out(self.core.cable_lengths(t, self.threads), (2 * self.n,), single)
+        """Lengths of every cable, m: (N, n) -> (N, cables) (planar order
+        L_c1_1, L_c1_2, ..., L_cn_2: upper and lower of each pair)."""
+        return self._map(theta, self.core.cable_lengths, (self.cables,))
+
+    def position_lengths(self, theta) -> np.ndarray:
+        """Lengths of the position-controlled cables, m: (N, n) -> (N, m_pos)."""
+        return self.cable_lengths(theta)[..., self.position_cables]
 
     def upper_lengths(self, theta) -> np.ndarray:
-        """Lengths of the n upper (position-controlled) cables, m: (N, n) -> (N, n)."""
-        return self.cable_lengths(theta)[..., 0::2]
+        """Planar name of :meth:`position_lengths`: the n upper cables, m."""
+        return self.position_lengths(theta)
 
     def cable_jacobian(self, theta) -> np.ndarray:
-        """dL/d theta, m/rad: (N, n) -> (N, 2n, n) (lower triangular in pairs)."""
-        t, single = as_batch("theta", theta, self.n)
-        return self._out(self.core.cable_jacobian(t, self.threads), (2 * self.n, self.n), single)
+        """dL/d theta, m/rad: (N, n) -> (N, cables, n)."""
+        return self._map(theta, self.core.cable_jacobian, (self.cables, self.n))
 
     def within_limits(self, theta) -> np.ndarray:
         """Whether every angle lies within the joint limits: (N, n) -> (N,) bool."""
@@ -361,32 +403,43 @@ class Robot(Arm):
         return ok[0] if single else ok
 
     # ---- solves -------------------------------------------------------
-    def ik(self, pose, seed=None, tol: float = 1e-12, max_iter: int = 100,
-           enforce_limits: bool = False, mask="pose", method: str = "lm") -> Solution:
-        """Pose IK: pose [x (m), y (m), phi (rad)] (N, 3) -> Solution.
+    def ik(self, target=None, seed=None, tol: float = 1e-12, max_iter: int = 100,
+           enforce_limits: bool = False, mask="pose", method: str = "lm", pose=None) -> Solution:
+        """Pose IK: targets (N, task) -> :class:`Solution`; ``seed`` (N, n) or
+        (n,), rad (default theta = 0). ``pose`` is the planar name of ``target``.
 
         ``method``: ``"lm"`` (default) — damped least squares
         (Levenberg–Marquardt, minimal-norm steps; normal-equation steps when
-        the task has more rows than the arm has joints) from the seed, any arm and
-        mask; ``"closed_form"`` — 3-joint arms, full pose: both branches, the
-        one nearest the seed (ties: theta_2 <= 0, the paper's), 0 iterations
-        (``docs/model.md``). ``seed`` (N, n) or (n,), rad; default theta = 0.
-        ``mask``: which task coordinates to match — ``"pose"`` (x, y, phi),
-        ``"position"`` (x, y; the attitude is free, its column of ``pose``
-        ignored) or three non-negative weights on the x, y, phi residuals
-        (m, m, rad). Convergence is judged on the weighted residual. Joint
-        limits are flagged (``within_limits``) and enforced only with
-        ``enforce_limits``.
+        the task has more rows than the arm has joints) from the seed;
+        ``"closed_form"`` — planar 3-joint arms, full pose: both branches,
+        the one nearest the seed (ties: theta_2 <= 0, the paper's), 0
+        iterations (``docs/model.md``). ``mask``: what to match. Planar:
+        ``"pose"`` (x, y, phi), ``"position"`` (x, y; the attitude free) or
+        three non-negative weights on the x, y, phi residuals (m, m, rad).
+        Spatial: ``"position"`` (the end origin; the rotation columns
+        ignored), ``"pointing"`` (the origin and the direction of the end
+        frame's x axis) or ``"pose"``. Convergence is judged on the
+        (weighted) residual. Joint limits are flagged (``within_limits``) and
+        enforced only with ``enforce_limits``.
         """
-        p, single = as_batch("pose", pose, 3, finite=False)  # checked by the core
+        # the kind's word for it: a planar arm's pose, a spatial arm's target
+        name, target = ("pose", pose) if pose is not None else (
+            "pose" if self.kind == "planar" else "target", target)
+        if target is None:
+            raise CdsmInputError("`target`: the targets (N, task) are missing")
+        p, single = as_batch(name, target, self.task, finite=False)  # checked by the core
         if method not in IK_METHODS:
             raise CdsmInputError(f"`method`: expected one of {', '.join(map(repr, IK_METHODS))}, got {method!r}")
         res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), method, float(tol),
                            as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
         return Solution.from_core(res, self.n, single, self)
 
-    @staticmethod
-    def _mask(mask) -> list:
+    def _mask(self, mask):
+        if self.kind == "spatial":
+            if not isinstance(mask, str) or mask not in SPATIAL_MASKS:
+                raise CdsmInputError(f"`mask`: expected one of {', '.join(map(repr, SPATIAL_MASKS))} "
+                                     f"for a spatial arm, got {mask!r}")
+            return mask
         if isinstance(mask, str):
             if mask not in TASK_MASKS:
                 raise CdsmInputError(f"`mask`: expected one of {', '.join(map(repr, TASK_MASKS))} "
@@ -394,24 +447,94 @@ class Robot(Arm):
             return list(TASK_MASKS[mask])
         return [float(v) for v in as_vector("mask", mask, 3)]
 
-    def solve_cables(self, upper, seed=None, method: str = "auto", tol: float = 1e-12,
+    def solve_cables(self, lengths, seed=None, method: str = "auto", tol: float = 1e-12,
                      max_iter: int = 100, enforce_limits: bool = False) -> Solution:
-        """Upper-cable lengths (N, n), m -> joint angles (hybrid control: the lower
-        cables are force controlled and follow).
+        """Lengths of the position-controlled cables (N, m_pos), m -> joint
+        angles (the force-controlled cables follow).
 
-        method: ``"newton"`` (damped Newton / LM from the seed), ``"closed_form"``
-        (per joint, the acos branch nearest the seed) or ``"auto"`` (closed form,
-        verified, LM if it fails).
+        method: planar arms ``"newton"`` (damped Newton / LM from the seed),
+        ``"closed_form"`` (per joint, the acos branch nearest the seed) or
+        ``"auto"`` (closed form, verified, LM if it fails); spatial arms have
+        no closed form: ``"auto"`` and ``"newton"`` run the damped Newton
+        with as many cables as joints, least squares with more
+        (``residual`` reports the misfit, m). ``seed`` (N, n) or (n,), rad;
+        default 0.
         """
-        u, single = as_batch("upper", upper, self.n, finite=False)  # checked by the core
+        # the kind's word for them: a planar arm's upper cables
+        name = "upper" if self.kind == "planar" else "lengths"
+        u, single = as_batch(name, lengths, len(self.position_cables), finite=False)  # checked by the core
         res = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
                                      as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
         return Solution.from_core(res, self.n, single, self)
 
+    # ---- statics ------------------------------------------------------
+    def _statics(self, theta, min_tension, tip_wrench, force, gravity, force_name="force"):
+        t, single = as_batch("theta", theta, self.n)
+        rows = t.shape[0]
 
-    # ---- statics and cable elasticity (issue 4; model in rust/statics.rs) --
+        def rowed(name, value, width):
+            if value is None:
+                return None
+            arr, one = as_batch(name, value, width)
+            if not one and arr.shape[0] != rows:
+                raise CdsmInputError(f"`{name}`: expected shape ({rows}, {width}) or ({width},), "
+                                     f"got {np.shape(value)}")
+            return arr
+
+        w = rowed("tip_wrench", tip_wrench, self.task)
+        if w is not None and self.kind == "planar":
+            # [Fx, Fy, Mz] -> the core's [Fx, Fy, Fz, Mz]
+            w = np.ascontiguousarray(np.insert(w, 2, 0.0, axis=1))
+        f = rowed(force_name, force, self.cables - len(self.position_cables))
+        g = None
+        if gravity is not None:
+            g = [float(v) for v in as_vector("gravity", gravity, 2 if self.kind == "planar" else 3)]
+            g = g + [0.0] if self.kind == "planar" else g
+        res = self.core.tensions(t, None if f is None else f.reshape(-1), None if w is None else w.reshape(-1),
+                                 g, as_finite("min_tension", min_tension), self.threads)
+        return res, single
+
+    def tensions(self, theta, tip_wrench=None, min_tension: float = 0.0, force=None, gravity=None,
+                 lower=None) -> np.ndarray:
+        """Tensions of the position-controlled cables, N: (N, n) -> (N, m_pos).
+
+        The moment balance about every (frictionless) joint of the part
+        distal of it (``docs/model.md``, "Statics"): gravity (``gravity``,
+        m/s^2, base frame: planar ``[gx, gy]``, spatial ``(3,)``; default the
+        robot file's) on the disks' masses, the force-controlled cables at
+        their tensions (``force`` (f,) or (N, f), N; default the robot
+        file's; ``lower`` is its planar name: the lower cables of the pairs)
+        and the tip wrench in the task space (planar ``[Fx, Fy, Mz]``, spatial
+        ``[Fx, Fy, Fz, Mx, My, Mz]``; N, N m, base frame; (task,) or (N,
+        task)). As many position cables as joints (a planar arm): the
+        balance's one solution, negative where a cable would have to push,
+        NaN where a cable has no moment arm; more: the minimum-norm set at or
+        above ``min_tension`` (N), NaN rows where none exists."""
+        force, name = self._force(force, lower)
+        res, single = self._statics(theta, min_tension, tip_wrench, force, gravity, name)
+        return self._out(res.tension, (len(self.position_cables),), single)
+
+    @staticmethod
+    def _force(force, lower):
+        """The force-cable tensions and the name they were given by."""
+        if lower is None:
+            return force, "force"
+        if force is not None:
+            raise CdsmInputError("`lower`, `force`: give one of them (lower is the planar name of force)")
+        return lower, "lower"
+
+    def feasible(self, theta, min_tension: float = 0.0, tip_wrench=None, force=None, gravity=None,
+                 lower=None) -> np.ndarray:
+        """Whether the position cables hold the arm, every tension above
+        ``min_tension`` (N): (N, n) -> (N,) bool (False: a cable would have to
+        go slack). Loads as :meth:`tensions`."""
+        force, name = self._force(force, lower)
+        res, single = self._statics(theta, min_tension, tip_wrench, force, gravity, name)
+        ok = np.asarray(res.feasible, bool)
+        return ok[0] if single else ok
+
     def _loads(self, rows: int, lower, tip_wrench, gravity):
-        """Validated load arrays for the core: shared (k,) or per row (N, k)."""
+        """Validated planar load arrays for the core: shared (k,) or per row (N, k)."""
         def rowed(name, value, width):
             if value is None:
                 return None
@@ -423,67 +546,18 @@ class Robot(Arm):
         g = None if gravity is None else as_vector("gravity", gravity, 2)
         return rowed("lower", lower, self.n), rowed("tip_wrench", tip_wrench, 3), g
 
-    def tensions(self, theta, lower=None, tip_wrench=None, gravity=None) -> np.ndarray:
-        """Upper-cable tensions, N (positive = taut): (N, n) -> (N, n); (n,) -> (n,).
-
-        Moment balance about every (frictionless) joint of the part distal of
-        it; each cable pulls that part at its hole in disk k along its segment.
-        lower: lower (force-controlled) tensions, N, (n,) or (N, n); default the
-        robot file's (paper: 50, 10, 5 g on disks 1, 2, 3). tip_wrench:
-        [Fx (N), Fy (N), Mz (N m)] at the tip, base frame, (3,) or (N, 3).
-        gravity: [gx, gy] (m/s^2) in the base frame; default the robot file's
-        (``gravity``; [0, 0]: horizontal plane); linkage i's mass sits at the
-        centre of disk i. NaN where an upper cable has no moment arm about its
-        own joint.
-        """
-        t, single = as_batch("theta", theta, self.n)
-        lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
-        out = self.core.tensions(t, lo, w, g, self.threads)
-        return self._out(out, (self.n,), single)
-
-    def feasible(self, theta, min_tension: float = 0.0, lower=None, tip_wrench=None,
-                 gravity=None) -> np.ndarray:
-        """Whether every upper cable is taut beyond ``min_tension`` (N):
-        (N, n) -> (N,) bool. False where a cable would have to go slack
-        (tension <= min_tension) or the balance is impossible (NaN)."""
-        t, single = as_batch("theta", theta, self.n)
-        lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
-        ok = self.core.feasible(t, lo, w, g, as_finite("min_tension", min_tension), self.threads)
-        return ok[0] if single else ok
-
     def stretch(self, theta, lower=None, tip_wrench=None, gravity=None) -> np.ndarray:
-        """Elongation of every upper cable, m, under the statics tensions at theta:
-        ``(L_geom + routing_length) * eps / (1 + eps)``, ``eps = T / (E A)``,
-        ``A = pi d^2 / 4``. (N, n) -> (N, n)."""
+        """Planar arms: elongation of every upper cable, m, under the statics
+        tensions at theta: ``(L_geom + routing_length) * eps / (1 + eps)``,
+        ``eps = T / (E A)``, ``A = pi d^2 / 4``. (N, n) -> (N, n)."""
         t, single = as_batch("theta", theta, self.n)
         lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
         out = self.core.stretch(t, lo, w, g, self.threads)
         return self._out(out, (self.n,), single)
 
-    @property
-    def routing_length(self) -> float:
-        """Cable path behind the base disk to the actuator, m (stretches with the cable)."""
-        return self.core.routing_length
-
-    @property
-    def axial_stiffness(self) -> float:
-        """Cable axial stiffness E A, N (A = pi d^2 / 4)."""
-        return self.core.axial_stiffness
-
-    @property
-    def gravity(self) -> np.ndarray:
-        """(2,) in-plane gravity [gx, gy], m/s^2, base frame: the default of
-        every statics path (robot file ``gravity``; [0, 0]: horizontal plane)."""
-        return np.array(self.core.gravity)
-
-    @property
-    def straight_length(self) -> float:
-        """Length of the straight arm, m: the tip x at theta = 0."""
-        return self.core.straight_length
-
     def with_loads(self, lower_tension=None, gravity=None) -> "Robot":
-        """The same robot with other lower-cable tensions (n,), N, and/or
-        gravity [gx, gy], m/s^2 (e.g. the paper's other readings)."""
+        """Planar arms: the same robot with other lower-cable tensions (n,),
+        N, and/or gravity [gx, gy], m/s^2 (e.g. the paper's other readings)."""
         lo = self.lower_tension if lower_tension is None else as_vector("lower_tension", lower_tension, self.n)
         g = self.gravity if gravity is None else as_vector("gravity", gravity, 2)
         return Robot(self.core.with_loads(np.ascontiguousarray(lo, float), np.ascontiguousarray(g, float)),
@@ -500,8 +574,9 @@ class Robot(Arm):
     def solve_cables_elastic(self, upper, seed=None, lower=None, tip_wrench=None, gravity=None,
                              min_tension: float = 0.0, tol: float = 1e-12,
                              max_iter: int = 100) -> "ElasticSolution":
-        """Commanded (unstretched) upper-cable lengths (N, n), m -> joint angles
-        with elastic cables whose tensions depend on theta (coupled solve).
+        """Planar arms: commanded (unstretched) upper-cable lengths (N, n), m
+        -> joint angles with elastic cables whose tensions depend on theta
+        (coupled solve).
 
         The arm sees ``L_geom = (L_cmd + routing_length)(1 + T/(E A)) - routing_length``
         per upper cable, T from :meth:`tensions` at the answer. Each row: the
@@ -527,5 +602,3 @@ class ElasticSolution(Solution):
     tension: np.ndarray = None
 
 
-
-KINDS["planar"] = lambda text: Robot(_cdsm.CoreRobot.from_toml(text))

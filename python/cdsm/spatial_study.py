@@ -60,7 +60,7 @@ class SpatialScenario:
     number 1.. in file order). kind: one of :data:`KINDS`. cable: the cable's
     file index (0-based). sign: ±1. size: the error's magnitude, m. dL:
     (m_pos,) error on the position-controlled cables' lengths, m. dholes:
-    (3 H,) error on every hole coordinate (the order of ``robot.core.holes``),
+    (3 H,) error on every hole coordinate (the order of ``robot.flat_holes``),
     m, or None."""
 
     key: str
@@ -75,7 +75,7 @@ class SpatialScenario:
 
 def hole_direction(robot, cable: int, kind: str) -> np.ndarray:
     """(3 H,) unit moves of cable ``cable``'s holes (zero elsewhere), in the
-    order of ``robot.core.holes``: ``"radial"`` outward in each face plane,
+    order of ``robot.flat_holes``: ``"radial"`` outward in each face plane,
     ``"normal"`` along the face's x axis."""
     if kind not in ("radial", "normal"):
         raise CdsmInputError(f"`kind`: expected 'radial' or 'normal', got {kind!r}")

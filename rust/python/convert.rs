@@ -3,7 +3,7 @@
 //! core's enums, and the core's errors to `CdsmInputError`.
 
 use crate::error::CdsmError;
-use crate::ik::{IkMethod, TaskMask};
+use crate::ik::IkMethod;
 use crate::plant::RowKind;
 use crate::solve::{CableMethod, SolveOptions};
 use numpy::{PyArray1, PyReadonlyArrayDyn};
@@ -69,19 +69,6 @@ pub fn ik_method(name: &str) -> PyResult<IkMethod> {
         "closed_form" => Ok(IkMethod::ClosedForm),
         other => Err(CdsmInputError::new_err(format!(
             "`method`: expected 'lm' or 'closed_form', got {other:?}"
-        ))),
-    }
-}
-
-/// The task mask from its three weights over `x`, `y`, `phi`.
-pub fn mask(weights: &[f64]) -> PyResult<TaskMask> {
-    match weights {
-        [x, y, p] => Ok(TaskMask {
-            weights: [*x, *y, *p],
-        }),
-        _ => Err(CdsmInputError::new_err(format!(
-            "`mask`: expected 3 weights (x, y, phi), got {}",
-            weights.len()
         ))),
     }
 }

@@ -1,22 +1,21 @@
 //! The Python binding (feature `python`): the only code that knows pyo3 and
 //! numpy. `convert` turns arrays and options into the core's types and
-//! errors into exceptions, `robot` is the `CoreRobot` class whose methods
-//! release the GIL around batch work, `results` holds the named result
-//! classes that cross the boundary. No physics here.
+//! errors into exceptions, `robot` is the `CoreRobot` class (an arm of
+//! either kind) whose methods release the GIL around batch work, `plant`
+//! its calls on the plant, `results` the named result classes that cross
+//! the boundary. No physics here.
 
 mod convert;
 mod plant;
 mod results;
 mod robot;
-mod spatial;
 
 use pyo3::prelude::*;
 
 #[pymodule]
 fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robot::CoreRobot>()?;
-    m.add_class::<spatial::CoreSpatialRobot>()?;
-    m.add_function(wrap_pyfunction!(spatial::robot_kind, m)?)?;
+    m.add_function(wrap_pyfunction!(robot::robot_kind, m)?)?;
     results::register(m)?;
     m.add(
         "CdsmInputError",

@@ -1,38 +1,59 @@
-//! `CoreRobot`: a validated robot and every batch call of the core on it,
-//! with the GIL released around the work. The documented API is
-//! `cdsm.Robot` and the Python modules that call these methods.
+//! `CoreRobot`: a validated arm of either kind (the one model) and every
+//! batch call of the core on it, with the GIL released around the work. A
+//! call that only a planar arm has yet says so for a spatial one. The
+//! documented API is `cdsm.Robot` and the Python modules that call these
+//! methods.
 
-use super::convert::{err, ik_method, mask, method, opt_slice, options, slice, vec1, Arr, Array};
+use super::convert::{
+    err, ik_method, method, opt_slice, options, slice, vec1, Arr, Array, CdsmInputError,
+};
 use super::plant::{self, Data, FitArgs};
 use super::results::{
     CompensationResult, DeviationResult, ElasticResult, MonteCarloStats, PlantFit, PlantPrediction,
-    SensitivityResult, SolveResult,
+    SensitivityResult, SolveResult, TensionResult,
 };
 use crate::accuracy::{self, HoleErrors};
-use crate::batch;
+use crate::arm::{self, Loads, Task};
 use crate::error::CdsmError;
-use crate::model::Model;
+use crate::ik::{SpatialMask, TaskMask};
+use crate::model::{Mode, Model};
 use crate::robot::{CableMaterial, Robot};
 use crate::statics::{self, BatchLoads};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 
-/// A validated robot (SI units); see `cdsm.Robot` for the documented API.
+/// A validated arm (SI units); see `cdsm.Robot` for the documented API.
 #[pyclass(frozen, module = "cdsm._cdsm")]
 pub struct CoreRobot {
-    inner: Robot,
-    /// The same arm as the one model (the plant's).
     model: Model,
 }
 
-type ThetaMap = fn(&Robot, &[f64], usize) -> crate::Result<Vec<f64>>;
+type ThetaMap = fn(&Model, &[f64], usize) -> crate::Result<Vec<f64>>;
+
+/// A task mask from Python: three weights over a planar arm's `x, y, phi`,
+/// or the name of a spatial mask.
+#[derive(FromPyObject)]
+enum MaskArg {
+    Name(String),
+    Weights(Vec<f64>),
+}
 
 impl CoreRobot {
-    fn of(inner: Robot) -> Self {
-        CoreRobot {
-            model: Model::from_planar(&inner),
-            inner,
-        }
+    fn of(model: Model) -> Self {
+        CoreRobot { model }
+    }
+
+    fn of_planar(r: Robot) -> Self {
+        CoreRobot::of(Model::from_planar(&r))
+    }
+
+    /// The planar description, or an error naming `call` for a spatial arm.
+    fn planar(&self, call: &str) -> PyResult<&Robot> {
+        self.model.planar().ok_or_else(|| {
+            CdsmInputError::new_err(format!(
+                "`{call}`: available for planar arms only (this arm is spatial)"
+            ))
+        })
     }
 
     /// A batched map of `theta (N, n)`, run with the GIL released.
@@ -44,7 +65,7 @@ impl CoreRobot {
         f: ThetaMap,
     ) -> PyResult<Array<'py>> {
         let t = slice("theta", &theta)?;
-        let out = py.detach(|| f(&self.inner, t, threads)).map_err(err)?;
+        let out = py.detach(|| f(&self.model, t, threads)).map_err(err)?;
         Ok(vec1(py, out))
     }
 
@@ -65,135 +86,231 @@ impl CoreRobot {
 impl CoreRobot {
     #[staticmethod]
     fn from_toml(text: &str) -> PyResult<Self> {
-        Ok(CoreRobot::of(Robot::from_toml(text).map_err(err)?))
+        Ok(CoreRobot::of(Model::from_toml(text).map_err(err)?))
     }
 
     #[staticmethod]
     fn paper() -> Self {
-        CoreRobot::of(Robot::paper())
+        CoreRobot::of_planar(Robot::paper())
     }
 
-    // ---- description -------------------------------------------------
+    /// A robot file (TOML, SI units) that rebuilds this arm exactly.
+    fn to_toml(&self) -> String {
+        self.model.to_toml()
+    }
+
+    // ---- description (both kinds) ---------------------------------------
+    /// `"planar"` or `"spatial"`.
+    #[getter]
+    fn kind(&self) -> &'static str {
+        self.model.kind.name()
+    }
     #[getter]
     fn n(&self) -> usize {
-        self.inner.n()
+        self.model.n()
     }
     #[getter]
     fn name(&self) -> String {
-        self.inner.name.clone()
+        self.model.name.clone()
     }
-    #[getter]
-    fn link_before<'py>(&self, py: Python<'py>) -> Array<'py> {
-        vec1(py, self.inner.link_before.clone())
-    }
-    #[getter]
-    fn link_after<'py>(&self, py: Python<'py>) -> Array<'py> {
-        vec1(py, self.inner.link_after.clone())
-    }
-    #[getter]
-    fn thickness<'py>(&self, py: Python<'py>) -> Array<'py> {
-        vec1(py, self.inner.thickness.clone())
-    }
-    #[getter]
-    fn mass<'py>(&self, py: Python<'py>) -> Array<'py> {
-        vec1(py, self.inner.mass.clone())
-    }
-    #[getter]
-    fn lower_tension<'py>(&self, py: Python<'py>) -> Array<'py> {
-        vec1(py, self.inner.lower_tension.clone())
-    }
+    /// `(n*2)` joint limits, rad.
     #[getter]
     fn joint_limits<'py>(&self, py: Python<'py>) -> Array<'py> {
-        vec1(py, self.inner.joint_limits.concat())
+        vec1(
+            py,
+            self.model.joints.iter().flat_map(|j| j.limits).collect(),
+        )
     }
+    /// `(n*3)` unit joint axes (each in its joint's frame).
     #[getter]
-    fn holes<'py>(&self, py: Python<'py>) -> Array<'py> {
-        vec1(py, self.inner.holes.clone())
+    fn axes<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.joints.iter().flat_map(|j| j.axis).collect())
+    }
+    /// `(3,)` gravity, m/s², base frame.
+    #[getter]
+    fn gravity<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.gravity.to_vec())
+    }
+    /// Distance of the straight arm's tip from the base (m).
+    #[getter]
+    fn straight_length(&self) -> f64 {
+        self.model.straight_length()
+    }
+    /// Number of cables.
+    #[getter]
+    fn cables(&self) -> usize {
+        self.model.cables.len()
+    }
+    /// Indices of the position-controlled cables.
+    #[getter]
+    fn position_cables(&self) -> Vec<usize> {
+        self.model.position_cables()
+    }
+    /// The disk (1-based) each cable ends at.
+    #[getter]
+    fn cable_ends(&self) -> Vec<usize> {
+        self.model.cables.iter().map(|c| c.end).collect()
+    }
+    /// Set tensions of the cables (N; 0 for position-controlled ones).
+    #[getter]
+    fn cable_tensions<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(
+            py,
+            self.model
+                .cables
+                .iter()
+                .map(|c| {
+                    if c.mode == Mode::Force {
+                        c.tension
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+        )
+    }
+    /// Every hole, flat (cable by cable, `[x, y, z]` per face), m.
+    #[getter]
+    fn flat_holes<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.flat_holes())
+    }
+    /// Disk radii (base first), m.
+    #[getter]
+    fn radii<'py>(&self, py: Python<'py>) -> Array<'py> {
+        let mut r = vec![self.model.base_radius];
+        r.extend(self.model.disks.iter().map(|d| d.radius));
+        vec1(py, r)
+    }
+    /// `(disks,)` disk masses, kg.
+    #[getter]
+    fn mass<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.disks.iter().map(|d| d.mass).collect())
     }
     #[getter]
     fn youngs_modulus(&self) -> f64 {
-        self.inner.cable.youngs_modulus
+        self.model.cable.youngs_modulus
     }
     #[getter]
     fn cable_diameter(&self) -> f64 {
-        self.inner.cable.diameter
+        self.model.cable.diameter
     }
     #[getter]
     fn routing_length(&self) -> f64 {
-        self.inner.cable.routing_length
-    }
-    #[getter]
-    fn gravity(&self) -> (f64, f64) {
-        (self.inner.gravity[0], self.inner.gravity[1])
-    }
-    #[getter]
-    fn straight_length(&self) -> f64 {
-        self.inner.straight_length()
+        self.model.cable.routing_length
     }
     #[getter]
     fn axial_stiffness(&self) -> f64 {
-        statics::axial_stiffness(&self.inner)
+        let d = self.model.cable.diameter;
+        self.model.cable.youngs_modulus * std::f64::consts::PI * d * d / 4.0
     }
 
+    /// The same arm with other holes: planar `(2n, n+1, 2, 2)` flat, spatial
+    /// every `[x, y, z]` flat (as `flat_holes`), m.
     fn with_holes(&self, holes: Arr<'_>) -> PyResult<Self> {
         let h = slice("holes", &holes)?;
         crate::error::check_finite("holes", h).map_err(err)?;
-        Ok(CoreRobot::of(self.inner.with_holes(h).map_err(err)?))
+        match self.model.planar() {
+            Some(r) => Ok(CoreRobot::of_planar(r.with_holes(h).map_err(err)?)),
+            None => Ok(CoreRobot::of(self.model.with_flat_holes(h).map_err(err)?)),
+        }
     }
 
-    /// The same robot with another cable material / routing length (validated).
+    /// The same arm with another cable material / routing length (validated).
     fn with_cable(
         &self,
         youngs_modulus: f64,
         diameter: f64,
         routing_length: f64,
     ) -> PyResult<Self> {
-        let mut r = self.inner.clone();
-        r.cable = CableMaterial {
+        let cable = CableMaterial {
             youngs_modulus,
             diameter,
             routing_length,
         };
-        r.validate().map_err(err)?;
-        Ok(CoreRobot::of(r))
+        match self.model.planar() {
+            Some(r) => {
+                let mut r = r.clone();
+                r.cable = cable;
+                r.validate().map_err(err)?;
+                Ok(CoreRobot::of_planar(r))
+            }
+            None => Ok(CoreRobot::of(self.model.with_cable(cable).map_err(err)?)),
+        }
     }
 
-    /// The same robot with other loads: lower tensions (N) and gravity (m/s²).
+    // ---- description (planar arms) ---------------------------------------
+    #[getter]
+    fn link_before<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
+        Ok(vec1(py, self.planar("link_before")?.link_before.clone()))
+    }
+    #[getter]
+    fn link_after<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
+        Ok(vec1(py, self.planar("link_after")?.link_after.clone()))
+    }
+    #[getter]
+    fn thickness<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
+        Ok(vec1(py, self.planar("thickness")?.thickness.clone()))
+    }
+    #[getter]
+    fn lower_tension<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
+        Ok(vec1(
+            py,
+            self.planar("lower_tension")?.lower_tension.clone(),
+        ))
+    }
+    /// `(2n, n+1, 2, 2)` flat: a planar arm's holes.
+    #[getter]
+    fn holes<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
+        Ok(vec1(py, self.planar("holes")?.holes.clone()))
+    }
+
+    /// The same robot with other loads: lower tensions (N) and gravity (m/s², in-plane).
     fn with_loads(&self, lower_tension: Arr<'_>, gravity: Arr<'_>) -> PyResult<Self> {
+        let r = self.planar("with_loads")?;
         let lo = slice("lower_tension", &lower_tension)?;
         let g = slice("gravity", &gravity)?;
-        if lo.len() != self.inner.n() || g.len() != 2 {
+        if lo.len() != r.n() || g.len() != 2 {
             return Err(err(CdsmError::Shape {
                 name: "lower_tension, gravity".into(),
-                expected: format!("({},) and (2,)", self.inner.n()),
+                expected: format!("({},) and (2,)", r.n()),
                 got: format!("({},) and ({},)", lo.len(), g.len()),
             }));
         }
-        let mut r = self.inner.clone();
+        let mut r = r.clone();
         r.lower_tension = lo.to_vec();
         r.gravity = [g[0], g[1]];
         r.validate().map_err(err)?;
-        Ok(CoreRobot::of(r))
+        Ok(CoreRobot::of_planar(r))
     }
 
     fn hole_height_error<'py>(&self, py: Python<'py>, dh: Arr<'_>) -> PyResult<Array<'py>> {
+        let r = self.planar("hole_height_error")?;
         let d = slice("dh", &dh)?;
-        if d.len() != self.inner.n() {
+        if d.len() != r.n() {
             return Err(err(CdsmError::Shape {
                 name: "dh".into(),
-                expected: format!("({},)", self.inner.n()),
+                expected: format!("({},)", r.n()),
                 got: format!("{} values", d.len()),
             }));
         }
         crate::error::check_finite("dh", d).map_err(err)?;
-        let mut out = vec![0.0; self.inner.holes.len()];
-        self.inner.hole_height_error_into(d, &mut out);
+        let mut out = vec![0.0; r.holes.len()];
+        r.hole_height_error_into(d, &mut out);
         Ok(vec1(py, out))
     }
 
     // ---- kinematics ----------------------------------------------------
     fn fk<'py>(&self, py: Python<'py>, theta: Arr<'_>, threads: usize) -> PyResult<Array<'py>> {
-        self.theta_map(py, theta, threads, batch::fk)
+        self.theta_map(py, theta, threads, arm::fk)
+    }
+
+    fn fk_matrix<'py>(
+        &self,
+        py: Python<'py>,
+        theta: Arr<'_>,
+        threads: usize,
+    ) -> PyResult<Array<'py>> {
+        self.theta_map(py, theta, threads, arm::fk_matrix)
     }
 
     fn fk_jacobian<'py>(
@@ -202,7 +319,7 @@ impl CoreRobot {
         theta: Arr<'_>,
         threads: usize,
     ) -> PyResult<Array<'py>> {
-        self.theta_map(py, theta, threads, batch::fk_jacobian)
+        self.theta_map(py, theta, threads, arm::fk_jacobian)
     }
 
     fn cable_lengths<'py>(
@@ -211,7 +328,7 @@ impl CoreRobot {
         theta: Arr<'_>,
         threads: usize,
     ) -> PyResult<Array<'py>> {
-        self.theta_map(py, theta, threads, batch::cable_lengths)
+        self.theta_map(py, theta, threads, arm::cable_lengths)
     }
 
     fn cable_jacobian<'py>(
@@ -220,7 +337,7 @@ impl CoreRobot {
         theta: Arr<'_>,
         threads: usize,
     ) -> PyResult<Array<'py>> {
-        self.theta_map(py, theta, threads, batch::cable_jacobian)
+        self.theta_map(py, theta, threads, arm::cable_jacobian)
     }
 
     fn within_limits<'py>(
@@ -231,43 +348,66 @@ impl CoreRobot {
     ) -> PyResult<Bound<'py, PyArray1<bool>>> {
         let t = slice("theta", &theta)?;
         let out = py
-            .detach(|| batch::within_limits(&self.inner, t, threads))
+            .detach(|| arm::within_limits(&self.model, t, threads))
             .map_err(err)?;
         Ok(vec1(py, out))
     }
 
     // ---- solves --------------------------------------------------------
-    #[pyo3(signature = (pose, seed, mask, method, tol, max_iter, enforce_limits, threads))]
+    /// Pose IK of targets `(N, TASK)`; `mask`: three weights (planar) or
+    /// `"position"`, `"pointing"`, `"pose"` (spatial).
+    #[pyo3(signature = (target, seed, mask, method, tol, max_iter, enforce_limits, threads))]
     #[allow(clippy::too_many_arguments)]
     fn ik(
         &self,
         py: Python<'_>,
-        pose: Arr<'_>,
+        target: Arr<'_>,
         seed: Option<Arr<'_>>,
-        mask: Vec<f64>,
+        mask: MaskArg,
         method: &str,
         tol: f64,
         max_iter: u32,
         enforce_limits: bool,
         threads: usize,
     ) -> PyResult<SolveResult> {
-        let p = slice("pose", &pose)?;
+        let p = slice("target", &target)?;
         let s = opt_slice("seed", &seed)?;
-        let m = self::mask(&mask)?;
+        let task = match mask {
+            MaskArg::Weights(w) => match w[..] {
+                [x, y, p] => Task::Planar(TaskMask { weights: [x, y, p] }),
+                _ => {
+                    return Err(CdsmInputError::new_err(format!(
+                        "`mask`: expected 3 weights (x, y, phi), got {}",
+                        w.len()
+                    )))
+                }
+            },
+            MaskArg::Name(name) => Task::Spatial(match name.as_str() {
+                "position" => SpatialMask::Position,
+                "pointing" => SpatialMask::Pointing,
+                "pose" => SpatialMask::Pose,
+                other => {
+                    return Err(CdsmInputError::new_err(format!(
+                        "`mask`: expected 'position', 'pointing' or 'pose' for a spatial arm, got {other:?}"
+                    )))
+                }
+            }),
+        };
         let how = ik_method(method)?;
         let o = options(tol, max_iter, enforce_limits);
         let out = py
-            .detach(|| batch::ik(&self.inner, p, s, m, how, &o, threads))
+            .detach(|| arm::ik(&self.model, p, s, task, how, &o, threads))
             .map_err(err)?;
         Ok(SolveResult::new(py, out))
     }
 
-    #[pyo3(signature = (upper, seed, method, tol, max_iter, enforce_limits, threads))]
+    /// Position-cable lengths `(N, m_pos)` to joint angles.
+    #[pyo3(signature = (lengths, seed, method, tol, max_iter, enforce_limits, threads))]
     #[allow(clippy::too_many_arguments)]
     fn solve_cables(
         &self,
         py: Python<'_>,
-        upper: Arr<'_>,
+        lengths: Arr<'_>,
         seed: Option<Arr<'_>>,
         method: &str,
         tol: f64,
@@ -275,12 +415,12 @@ impl CoreRobot {
         enforce_limits: bool,
         threads: usize,
     ) -> PyResult<SolveResult> {
-        let u = slice("upper", &upper)?;
+        let u = slice("lengths", &lengths)?;
         let s = opt_slice("seed", &seed)?;
         let m = self::method(method)?;
         let o = options(tol, max_iter, enforce_limits);
         let out = py
-            .detach(|| batch::solve_cables(&self.inner, u, s, m, &o, threads))
+            .detach(|| arm::solve_cables(&self.model, u, s, m, &o, threads))
             .map_err(err)?;
         Ok(SolveResult::new(py, out))
     }
@@ -299,17 +439,22 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<DeviationResult> {
+        let r = self.planar("deviation")?;
         let t = slice("theta0", &theta0)?;
         let d = slice("dl", &dl)?;
         let h = opt_slice("holes", &holes)?;
         let m = self::method(method)?;
         let o = options(tol, max_iter, false);
         let (ds, sol) = py
-            .detach(|| accuracy::deviation(&self.inner, t, d, h, m, &o, threads))
+            .detach(|| accuracy::deviation(r, t, d, h, m, &o, threads))
             .map_err(err)?;
         DeviationResult::new(py, ds, sol)
     }
 
+    /// Monte Carlo: a planar arm's kernel (closed form across lanes, per-pair
+    /// `dh` or full `dholes` errors, slack check), a spatial arm's general
+    /// solve (`dholes` flat as `flat_holes`; its quantities dX, dY, dZ,
+    /// |dXYZ|, rotation angle).
     #[pyo3(signature = (theta0, dl, dh, dholes, method, tol, max_iter, check_slack, threads))]
     #[allow(clippy::too_many_arguments)]
     fn monte_carlo(
@@ -327,7 +472,21 @@ impl CoreRobot {
     ) -> PyResult<MonteCarloStats> {
         let t = slice("theta0", &theta0)?;
         let d = slice("dl", &dl)?;
-        let holes = match (opt_slice("dh", &dh)?, opt_slice("dholes", &dholes)?) {
+        let (dh, dholes) = (opt_slice("dh", &dh)?, opt_slice("dholes", &dholes)?);
+        let m = self::method(method)?;
+        let o = options(tol, max_iter, false);
+        let Some(r) = self.model.planar() else {
+            if dh.is_some() || check_slack {
+                return Err(CdsmInputError::new_err(
+                    "`dh`, `check_slack`: a spatial arm's Monte Carlo takes `dholes` and no slack check",
+                ));
+            }
+            let st = py
+                .detach(|| arm::monte_carlo(&self.model, t, d, dholes, &o, threads))
+                .map_err(err)?;
+            return Ok(MonteCarloStats::new(py, st));
+        };
+        let holes = match (dh, dholes) {
             (None, None) => HoleErrors::None,
             (Some(a), None) => HoleErrors::PerPair(a),
             (None, Some(a)) => HoleErrors::Full(a),
@@ -338,10 +497,8 @@ impl CoreRobot {
                 }))
             }
         };
-        let m = self::method(method)?;
-        let o = options(tol, max_iter, false);
         let st = py
-            .detach(|| accuracy::monte_carlo(&self.inner, t, d, holes, m, &o, check_slack, threads))
+            .detach(|| accuracy::monte_carlo(r, t, d, holes, m, &o, check_slack, threads))
             .map_err(err)?;
         Ok(MonteCarloStats::new(py, st))
     }
@@ -354,9 +511,10 @@ impl CoreRobot {
         holes: bool,
         threads: usize,
     ) -> PyResult<SensitivityResult> {
+        let r = self.planar("sensitivity")?;
         let t = slice("theta", &theta)?;
         let s = py
-            .detach(|| crate::sensitivity::sensitivities(&self.inner, t, holes, threads))
+            .detach(|| crate::sensitivity::sensitivities(r, t, holes, threads))
             .map_err(err)?;
         Ok(SensitivityResult::new(py, s, holes))
     }
@@ -373,51 +531,51 @@ impl CoreRobot {
         h: f64,
         threads: usize,
     ) -> PyResult<(Array<'py>, Array<'py>)> {
+        let r = self.planar("rms_amplification")?;
         let t = slice("theta", &theta)?;
         let tl = slice("tol", &tol)?;
         let (v, g) = py
-            .detach(|| crate::sensitivity::rms_amplification(&self.inner, t, tl, h, threads))
+            .detach(|| crate::sensitivity::rms_amplification(r, t, tl, h, threads))
             .map_err(err)?;
         Ok((vec1(py, v), vec1(py, g)))
     }
 
     // ---- statics -------------------------------------------------------
-    #[pyo3(signature = (theta, lower, tip_wrench, gravity, threads))]
-    fn tensions<'py>(
-        &self,
-        py: Python<'py>,
-        theta: Arr<'_>,
-        lower: Option<Arr<'_>>,
-        tip_wrench: Option<Arr<'_>>,
-        gravity: Option<Arr<'_>>,
-        threads: usize,
-    ) -> PyResult<Array<'py>> {
-        let t = slice("theta", &theta)?;
-        let loads = Self::loads(&lower, &tip_wrench, &gravity)?;
-        let out = py
-            .detach(|| statics::tensions(&self.inner, t, &loads, threads))
-            .map_err(err)?;
-        Ok(vec1(py, out))
-    }
-
-    #[pyo3(signature = (theta, lower, tip_wrench, gravity, min_tension, threads))]
+    /// Position-cable tensions `(N, m_pos)` N and feasibility `(N,)`: the
+    /// balance under gravity (`gravity` (3,), default the file's), the force
+    /// cables' tensions (`force`, default the file's) and the tip wrench
+    /// (`[F, M]`: 4 planar `Fx, Fy, Fz, Mz`, 6 spatial), shared or per row.
+    #[pyo3(signature = (theta, force, tip_wrench, gravity, min_tension, threads))]
     #[allow(clippy::too_many_arguments)]
-    fn feasible<'py>(
+    fn tensions(
         &self,
-        py: Python<'py>,
+        py: Python<'_>,
         theta: Arr<'_>,
-        lower: Option<Arr<'_>>,
+        force: Option<Arr<'_>>,
         tip_wrench: Option<Arr<'_>>,
-        gravity: Option<Arr<'_>>,
+        gravity: Option<Vec<f64>>,
         min_tension: f64,
         threads: usize,
-    ) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    ) -> PyResult<TensionResult> {
         let t = slice("theta", &theta)?;
-        let loads = Self::loads(&lower, &tip_wrench, &gravity)?;
-        let out = py
-            .detach(|| statics::feasibility(&self.inner, t, &loads, min_tension, threads))
+        let gravity = match gravity {
+            None => None,
+            Some(g) => Some(<[f64; 3]>::try_from(g.as_slice()).map_err(|_| {
+                CdsmInputError::new_err(format!(
+                    "`gravity`: expected 3 values (m/s^2), got {}",
+                    g.len()
+                ))
+            })?),
+        };
+        let loads = Loads {
+            gravity,
+            force: opt_slice("force", &force)?,
+            wrench: opt_slice("tip_wrench", &tip_wrench)?,
+        };
+        let (tension, feasible) = py
+            .detach(|| arm::tensions(&self.model, t, &loads, min_tension, threads))
             .map_err(err)?;
-        Ok(vec1(py, out))
+        Ok(TensionResult::new(py, tension, feasible))
     }
 
     #[pyo3(signature = (theta, lower, tip_wrench, gravity, threads))]
@@ -430,10 +588,11 @@ impl CoreRobot {
         gravity: Option<Arr<'_>>,
         threads: usize,
     ) -> PyResult<Array<'py>> {
+        let r = self.planar("stretch")?;
         let t = slice("theta", &theta)?;
         let loads = Self::loads(&lower, &tip_wrench, &gravity)?;
         let out = py
-            .detach(|| statics::stretches(&self.inner, t, &loads, threads))
+            .detach(|| statics::stretches(r, t, &loads, threads))
             .map_err(err)?;
         Ok(vec1(py, out))
     }
@@ -453,12 +612,13 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<ElasticResult> {
+        let r = self.planar("solve_elastic")?;
         let u = slice("upper", &upper)?;
         let s = opt_slice("seed", &seed)?;
         let loads = Self::loads(&lower, &tip_wrench, &gravity)?;
         let o = options(tol, max_iter, false);
         let out = py
-            .detach(|| statics::solve_elastic(&self.inner, u, s, &loads, min_tension, &o, threads))
+            .detach(|| statics::solve_elastic(r, u, s, &loads, min_tension, &o, threads))
             .map_err(err)?;
         ElasticResult::new(py, out)
     }
@@ -579,6 +739,12 @@ impl CoreRobot {
             threads,
         )
     }
+}
+
+/// The `kind` of a robot description: `"planar"` or `"spatial"`.
+#[pyfunction]
+pub fn robot_kind(text: &str) -> PyResult<String> {
+    crate::model::kind_of(text).map_err(err)
 }
 
 /// Edges (m) of the Monte-Carlo histogram's regular bins (see `accuracy::hist_edges`).

@@ -77,32 +77,25 @@ class ClusterError(RuntimeError):
 # the robot as plain data (the pyo3 robot is not picklable)
 # ---------------------------------------------------------------------------
 def robot_spec(robot: Robot) -> dict:
-    """The robot as plain data for another process: ``{"toml": str, "holes":
-    m}``. The TOML is :meth:`cdsm.Robot.to_toml` (every parameter, explicit
-    holes, floats by ``repr``: parsed back to the same bits; a spatial robot's
-    own file text); the full hole array (planar (2n, n+1, 2, 2), spatial
-    flat) is then set exactly, so robots built in code (``with_holes``,
-    ``with_cable``) travel too."""
-    holes = robot.core.holes if robot.kind == "spatial" else robot.holes
-    return {"toml": robot.to_toml(), "holes": np.array(holes, dtype=np.float64)}
+    """The robot as plain data for another process: ``{"toml": str}``,
+    :meth:`cdsm.Robot.to_toml` (every parameter, explicit holes, floats in
+    their shortest round-trip form: parsed back to the same bits), so robots
+    built in code (``with_holes``, ``with_cable``) travel too."""
+    return {"toml": robot.to_toml()}
 
 
 def robot_from_spec(spec: dict, threads: int = 0) -> Robot:
     """The robot of :func:`robot_spec` (``threads``: Rust threads, 0 = all cores)."""
-    holes = np.array(spec["holes"], dtype=np.float64, order="C")  # a fresh, owned copy
-    r = Robot.from_toml_str(spec["toml"]).with_holes(holes)
+    r = Robot.from_toml_str(spec["toml"])
     r.threads = int(threads)
     return r
 
 
 def _check_spec(robot: Robot, spec: dict) -> None:
     back = robot_from_spec(spec)
-    names = (("joint_limits", "axes", "gravity", "cable_tensions") if robot.kind == "spatial" else
-             ("link_before", "link_after", "thickness", "mass", "lower_tension", "joint_limits", "holes"))
-    for name in names:
-        if not np.array_equal(getattr(back, name), getattr(robot, name)):  # pragma: no cover
-            raise CdsmInputError(f"robot {robot.name!r}: cannot be sent to the workers "
-                                 f"(`{name}` does not survive the round trip)")
+    if back.to_toml() != robot.to_toml():  # pragma: no cover
+        raise CdsmInputError(f"robot {robot.name!r}: cannot be sent to the workers (its description does "
+                             f"not survive the round trip)")
 
 
 # ---------------------------------------------------------------------------

@@ -164,7 +164,7 @@ def error_widths(robot) -> Tuple[int, int]:
     (upper cables, disks' hole heights); spatial (position-controlled cables,
     every hole coordinate)."""
     if robot.kind == "spatial":
-        return len(robot.position_cables), len(robot.core.holes)
+        return len(robot.position_cables), len(robot.flat_holes)
     return robot.n, robot.n
 
 
@@ -187,7 +187,7 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
     th = robot.threads if threads is None else int(threads)
     if robot.kind == "spatial":
-        st = robot.core.monte_carlo(theta0, dl, dh if np.any(dh_tol) else None, 1e-12, 100, th)
+        st = robot.core.monte_carlo(theta0, dl, None, dh if np.any(dh_tol) else None, method, 1e-12, 100, False, th)
         names = SPATIAL_QUANTITY_NAMES
     else:
         st = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)

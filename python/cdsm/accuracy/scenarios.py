@@ -117,7 +117,7 @@ def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter) -> Deviation:
     dl = np.zeros(m) if dL is None else as_vector("dL", dL, m)
     moved = robot
     if dholes is not None:
-        flat = robot.core.holes
+        flat = robot.flat_holes
         d = np.asarray(dholes, dtype=np.float64).reshape(-1)
         if d.shape != flat.shape or not np.isfinite(d).all():
             raise CdsmInputError(f"`dholes`: expected {flat.size} finite values (every hole's x, y, z, m)")

@@ -460,7 +460,7 @@ SPATIAL_REGION_DEFAULT = "sobol:1000"
 
 def hole_tolerances(robot, per_cable) -> np.ndarray:
     """(3 H,) tolerance of every hole coordinate of a spatial arm, in the
-    order of ``robot.core.holes``, from one tolerance per cable's holes
+    order of ``robot.flat_holes``, from one tolerance per cable's holes
     (cables,) m."""
     sizes = [3 * (2 * e + 1) for e in robot.cable_ends]
     return np.repeat(np.asarray(per_cable, dtype=np.float64), sizes)
@@ -471,7 +471,7 @@ def spatial_tolerances(robot, dl_tol, dh_tol, source: str = "") -> Tuple[np.ndar
     scalar or one per position-controlled cable; ``dh_tol`` a scalar, one per
     cable (every coordinate of its holes) or one per hole coordinate."""
     pre = f"{source}: " if source else ""
-    m, cables, flat = len(robot.position_cables), robot.cables, len(robot.core.holes)
+    m, cables, flat = len(robot.position_cables), robot.cables, len(robot.flat_holes)
     out = []
     for key, value, sizes in (("cable_length_tol_m", dl_tol, (m,)), ("hole_tol_m", dh_tol, (cables, flat))):
         try:

@@ -236,19 +236,18 @@ def _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter):
 
 def linearise(robot: Robot, p, free, theta_cmd, dL=None, kind="absolute", tol: float = 1e-12,
               max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Predictions (N, 3), converged (N,) and their exact Jacobian (N, 3, k)
+    """Predictions (N, w), converged (N,) and their exact Jacobian (N, w, k)
     with respect to the parameters ``free`` (indices into the flat vector) of
     the plant ``p`` (P,) — implicit function theorem at the settled
-    configurations, dual numbers in the Rust core (no finite differences).
-    Planar arms."""
-    if robot.kind != "planar":
-        raise CdsmInputError("linearise: planar arms only (the spatial plant's Jacobian is in the fit)")
+    configurations, forward-mode jets in the Rust core (no finite
+    differences). ``w`` = :func:`width` (3 planar, 6 spatial)."""
     pp = np.ascontiguousarray(as_batch("params", p, size(robot))[0][0])
     t, d, k = _inputs(robot, theta_cmd, dL, kind)
     fr = [int(i) for i in np.atleast_1d(free)]
     res = robot.core.plant_linearise(pp, fr, t, d, k, float(tol), int(max_iter), robot.threads)
-    return (res.observation.reshape(-1, 3), np.asarray(res.converged, bool),
-            res.jacobian.reshape(len(t), 3, len(fr)))
+    w = width(robot)
+    return (res.observation.reshape(-1, w), np.asarray(res.converged, bool),
+            res.jacobian.reshape(len(t), w, len(fr)))
 
 
 def settle(robot: Robot, p, theta_cmd, dL=None, kind="absolute", tol: float = 1e-12,

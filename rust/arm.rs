@@ -1,0 +1,465 @@
+//! Batched calls on an arm of either kind ([`Model`]), over threads: the
+//! kinematics, the cable solve, the pose IK, the statics and the Monte
+//! Carlo of its errors. A planar arm runs its fast paths (the planar
+//! drivers of [`crate::batch`]: closed forms, SIMD, the triangular Newton);
+//! every arm can run the general ones on the one model's chain, which are
+//! the only ones of a spatial arm. SI units; arrays row-major.
+
+use crate::accuracy::McStats;
+use crate::batch::{self, rows_exactly, rows_of, seeds, split_rows, BatchSolution};
+use crate::chain::Chain;
+use crate::error::{CdsmError, Result};
+use crate::ik::{IkMethod, SpatialIk, SpatialMask, TaskMask};
+use crate::kinds::{log_so3, Frame, Kind, Planar, Se3, Spatial, Vector};
+use crate::model::{self, Model};
+use crate::qp::min_norm_active;
+use crate::solve::{CableMethod, CableSolve, SolveOptions};
+use crate::tension::{Balance, Wrench};
+
+/// A row-wise map over `theta (N, n)` producing `width` values per row from
+/// the chain of the configuration (after [`Chain::at`] and [`Chain::world`]).
+fn map_chain<K: Kind>(
+    model: &Model,
+    theta: &[f64],
+    width: usize,
+    threads: usize,
+    f: impl Fn(&mut Chain<f64, K::Frame<f64>>, &mut [f64]) + Sync,
+) -> Result<Vec<f64>> {
+    let n = model.n();
+    let rows = rows_of("theta", theta, n)?;
+    let parts = split_rows(rows, threads, |r| {
+        let mut chain = Chain::new(model);
+        let mut out = vec![0.0; r.len() * width];
+        for (local, i) in r.enumerate() {
+            chain.at(model, model, &theta[i * n..(i + 1) * n]);
+            chain.world(model, model);
+            f(&mut chain, &mut out[local * width..(local + 1) * width]);
+        }
+        out
+    });
+    Ok(parts.concat())
+}
+
+/// End poses: planar `[x, y, phi]`, spatial `[x, y, z, rx, ry, rz]` (m,
+/// rad; `(N, TASK)`).
+pub fn fk(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    match model.planar() {
+        Some(r) => batch::fk(r, theta, threads),
+        None => map_chain::<Spatial>(model, theta, 6, threads, |c, o| c.end().task(o)),
+    }
+}
+
+/// End frames as row-major 4x4 matrices `(N, 16)` (m).
+pub fn fk_matrix(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    map_chain::<Spatial>(model, theta, 16, threads, |c, o| {
+        let e = c.end();
+        for i in 0..3 {
+            o[4 * i..4 * i + 3].copy_from_slice(&e.r[i]);
+            o[4 * i + 3] = e.t[i];
+        }
+        o[12..16].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+    })
+}
+
+/// Task Jacobians `(N, TASK, n)`: planar `d[x, y, phi]/dtheta`, spatial the
+/// geometric Jacobian (velocity of the end frame's origin, then its angular
+/// velocity).
+pub fn fk_jacobian(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    match model.planar() {
+        Some(r) => batch::fk_jacobian(r, theta, threads),
+        None => map_chain::<Spatial>(model, theta, 6 * model.n(), threads, |c, o| {
+            c.joints_world(model);
+            c.geometric_jacobian(o)
+        }),
+    }
+}
+
+/// Lengths of every cable, in the model's cable order `(N, cables)` (m).
+pub fn cable_lengths(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    let m = model.cables.len();
+    match model.planar() {
+        Some(r) => batch::cable_lengths(r, theta, threads),
+        None => map_chain::<Spatial>(model, theta, m, threads, |c, o| {
+            for (k, v) in o.iter_mut().enumerate() {
+                *v = c.cable_length(model, model, k, None);
+            }
+        }),
+    }
+}
+
+/// Cable Jacobians `(N, cables, n)` (m/rad).
+pub fn cable_jacobian(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    let (m, n) = (model.cables.len(), model.n());
+    match model.planar() {
+        Some(r) => batch::cable_jacobian(r, theta, threads),
+        None => map_chain::<Spatial>(model, theta, m * n, threads, |c, o| {
+            for k in 0..m {
+                c.cable_jacobian_row(model, model, k, &mut o[k * n..(k + 1) * n]);
+            }
+        }),
+    }
+}
+
+/// Whether every angle lies within its joint's limits.
+pub fn within_limits_of(model: &Model, theta: &[f64]) -> bool {
+    theta
+        .iter()
+        .zip(&model.joints)
+        .all(|(t, j)| *t >= j.limits[0] && *t <= j.limits[1])
+}
+
+/// Joint-limit checks `(N,)`.
+pub fn within_limits(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<bool>> {
+    let n = model.n();
+    let rows = rows_of("theta", theta, n)?;
+    Ok(split_rows(rows, threads, |r| {
+        r.map(|i| within_limits_of(model, &theta[i * n..(i + 1) * n]))
+            .collect::<Vec<bool>>()
+    })
+    .concat())
+}
+
+/// The cable solve of a batch: lengths `(N, m_pos)` of the position cables
+/// (m), `seed (N, n)` or zeros. A planar arm by `method` (closed form,
+/// Newton or both); a spatial arm has no closed form: `auto` and `newton`
+/// run the general solve, `closed_form` is an error.
+pub fn solve_cables(
+    model: &Model,
+    lengths: &[f64],
+    seed: Option<&[f64]>,
+    method: CableMethod,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<BatchSolution> {
+    if let Some(r) = model.planar() {
+        return batch::solve_cables(r, lengths, seed, method, opts, threads);
+    }
+    if method == CableMethod::ClosedForm {
+        return Err(CdsmError::Option {
+            name: "method".into(),
+            problem:
+                "a spatial arm's cable solve has no closed form (its joints are not all parallel); \
+                      use 'auto' or 'newton'"
+                    .into(),
+        });
+    }
+    solve_cables_general::<Spatial>(model, lengths, seed, opts, threads)
+}
+
+/// The general cable solve of a batch (any kind).
+pub fn solve_cables_general<K: Kind>(
+    model: &Model,
+    lengths: &[f64],
+    seed: Option<&[f64]>,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<BatchSolution> {
+    let (n, m) = (model.n(), model.position_cables().len());
+    let rows = rows_of("lengths", lengths, m)?;
+    let seed = seeds(seed, rows, n)?;
+    batch::check_options(opts)?;
+    let parts = split_rows(rows, threads, |r| {
+        let mut out = BatchSolution::with_capacity(r.len(), n);
+        let mut solver = CableSolve::<K::Frame<f64>>::new(model, *opts);
+        let mut th = vec![0.0; n];
+        for i in r {
+            match seed {
+                Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
+                None => th.fill(0.0),
+            }
+            let st = solver.solve(model, model, &lengths[i * m..(i + 1) * m], &mut th);
+            out.push_row(&th, st, within_limits_of(model, &th));
+        }
+        out
+    });
+    Ok(BatchSolution::concat(parts))
+}
+
+/// What the pose IK matches: planar weights over `x, y, phi`, or a spatial mask.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Task {
+    Planar(TaskMask),
+    Spatial(SpatialMask),
+}
+
+/// The pose IK of a batch: targets `(N, TASK)` (m, rad), `seed (N, n)` or
+/// zeros.
+pub fn ik(
+    model: &Model,
+    target: &[f64],
+    seed: Option<&[f64]>,
+    task: Task,
+    method: IkMethod,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<BatchSolution> {
+    let mismatch = |what: &str| CdsmError::Option {
+        name: "mask".into(),
+        problem: format!("{what} is not a mask of a {} arm", model.kind.name()),
+    };
+    match (model.planar(), task) {
+        (Some(r), Task::Planar(mask)) => batch::ik(r, target, seed, mask, method, opts, threads),
+        (Some(_), Task::Spatial(_)) => Err(mismatch("a spatial mask")),
+        (None, Task::Planar(_)) => Err(mismatch("a planar weight triple")),
+        (None, Task::Spatial(mask)) => {
+            if method == IkMethod::ClosedForm {
+                return Err(CdsmError::Option {
+                    name: "method".into(),
+                    problem: "a spatial arm's pose IK has no closed form; use 'lm'".into(),
+                });
+            }
+            let n = model.n();
+            let rows = rows_of("target", target, 6)?;
+            let seed = seeds(seed, rows, n)?;
+            batch::check_options(opts)?;
+            let parts = split_rows(rows, threads, |r| {
+                let mut out = BatchSolution::with_capacity(r.len(), n);
+                let mut solver = SpatialIk::new(model, mask, *opts);
+                let mut th = vec![0.0; n];
+                for i in r {
+                    match seed {
+                        Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
+                        None => th.fill(0.0),
+                    }
+                    let t: [f64; 6] = std::array::from_fn(|k| target[i * 6 + k]);
+                    let st = solver.solve(&t, &mut th);
+                    out.push_row(&th, st, within_limits_of(model, &th));
+                }
+                out
+            });
+            Ok(BatchSolution::concat(parts))
+        }
+    }
+}
+
+/// The loads of a statics batch: the robot file's gravity and force-cable
+/// tensions unless given (`gravity` (3,) m/s²; `force` per force cable, N,
+/// shared `(f,)` or per row `(N, f)`), and the tip wrench `[F (3), M]` (N, N
+/// m; `M`: 1 planar, 3 spatial), shared or per row; all in the base frame.
+pub struct Loads<'a> {
+    pub gravity: Option<[f64; 3]>,
+    pub force: Option<&'a [f64]>,
+    pub wrench: Option<&'a [f64]>,
+}
+
+/// Per-row or shared values of a batch: `(width,)` or `(rows, width)`.
+fn shared_or_rows<'a>(
+    name: &str,
+    v: Option<&'a [f64]>,
+    width: usize,
+    rows: usize,
+) -> Result<Option<(&'a [f64], bool)>> {
+    let Some(v) = v else {
+        return Ok(None);
+    };
+    crate::error::check_finite(name, v)?;
+    if v.len() == width {
+        Ok(Some((v, false)))
+    } else if v.len() == rows * width {
+        Ok(Some((v, true)))
+    } else {
+        Err(CdsmError::Shape {
+            name: name.into(),
+            expected: format!("({width},) or ({rows}, {width})"),
+            got: format!("{} values", v.len()),
+        })
+    }
+}
+
+fn row_of(v: Option<(&[f64], bool)>, width: usize, i: usize) -> Option<&[f64]> {
+    v.map(|(v, per_row)| {
+        if per_row {
+            &v[i * width..(i + 1) * width]
+        } else {
+            v
+        }
+    })
+}
+
+/// The position-cable tensions at a batch of configurations `(N, m_pos)`
+/// (N) and whether they hold the arm with every tension above `floor` (N)
+/// `(N,)`, under `loads`. As many position cables as joints: the balance
+/// has one solution, returned even where a cable would have to push (then
+/// not feasible; NaN where it is singular), feasible when every tension is
+/// strictly above the floor. More: the minimum-norm set at or above the
+/// floor (`crate::qp`), NaN rows where none exists.
+pub fn tensions(
+    model: &Model,
+    theta: &[f64],
+    loads: &Loads,
+    floor: f64,
+    threads: usize,
+) -> Result<(Vec<f64>, Vec<bool>)> {
+    match model.kind {
+        model::Kind::Planar => tensions_k::<Planar>(model, theta, loads, floor, threads),
+        model::Kind::Spatial => tensions_k::<Spatial>(model, theta, loads, floor, threads),
+    }
+}
+
+fn tensions_k<K: Kind>(
+    model: &Model,
+    theta: &[f64],
+    loads: &Loads,
+    floor: f64,
+    threads: usize,
+) -> Result<(Vec<f64>, Vec<bool>)> {
+    if !floor.is_finite() {
+        return Err(CdsmError::Option {
+            name: "min_tension".into(),
+            problem: format!("must be finite (N), got {floor}"),
+        });
+    }
+    let n = model.n();
+    let rows = rows_of("theta", theta, n)?;
+    let nf = model.cables.len() - model.position_cables().len();
+    let couple = model.kind.task() - model.kind.dim();
+    let wrench = shared_or_rows("tip_wrench", loads.wrench, 3 + couple, rows)?;
+    let force = shared_or_rows("force", loads.force, nf, rows)?;
+    if let Some(g) = loads.gravity {
+        crate::error::check_finite("gravity", &g)?;
+    }
+    let g = loads.gravity.unwrap_or(model.gravity);
+    let square = model.position_cables().len() == n;
+    let m = model.position_cables().len();
+    let parts = split_rows(rows, threads, |r| {
+        let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
+        let mut bal = Balance::<f64>::new(model);
+        let mut t = vec![0.0; m];
+        let mut out = (Vec::with_capacity(r.len() * m), Vec::with_capacity(r.len()));
+        for i in r {
+            chain.at(model, model, &theta[i * n..(i + 1) * n]);
+            let w = row_of(wrench, 3 + couple, i).unwrap_or(&[0.0; 6][..3 + couple]);
+            bal.at_with(
+                model,
+                model,
+                &mut chain,
+                g,
+                Wrench {
+                    force: [w[0], w[1], w[2]],
+                    couple: &w[3..],
+                },
+                row_of(force, nf, i),
+            );
+            let ok = if square {
+                // a square balance: its one solution (NaN where singular),
+                // taut when strictly above the floor
+                if !bal.solve_square(&mut t) {
+                    t.fill(f64::NAN);
+                }
+                t.iter().all(|v| *v > floor)
+            } else {
+                match above_floor(&bal, floor) {
+                    Some(s) => {
+                        t.copy_from_slice(&s);
+                        true
+                    }
+                    None => {
+                        t.fill(f64::NAN);
+                        false
+                    }
+                }
+            };
+            out.0.extend_from_slice(&t);
+            out.1.push(ok);
+        }
+        out
+    });
+    let mut all = (Vec::new(), Vec::new());
+    for (t, ok) in parts {
+        all.0.extend(t);
+        all.1.extend(ok);
+    }
+    Ok(all)
+}
+
+/// The minimum-norm tensions of a balance above `floor` (N), if any.
+fn above_floor(bal: &Balance<f64>, floor: f64) -> Option<Vec<f64>> {
+    let a = faer::Mat::<f64>::from_fn(bal.n, bal.m, |j, i| bal.a[j * bal.m + i]);
+    min_norm_active(&a, &bal.b, floor).map(|s| s.t)
+}
+
+/// Monte Carlo of an arm's errors by the general solve: for every sample
+/// `s` (errors `dl[s]` on the position cables, m, and `dholes[s]` on every
+/// hole, as [`Model::flat_holes`], m, when given) and every configuration
+/// `theta0[j]`, the cable solve seeded at `theta0[j]` and the end frame's
+/// deviation, reduced to [`McStats`] with the spatial quantities `dX, dY,
+/// dZ, |dXYZ|` (m) and the rotation angle (rad). (A planar arm's
+/// Monte-Carlo kernel is [`crate::accuracy::monte_carlo`].)
+pub fn monte_carlo(
+    model: &Model,
+    theta0: &[f64],
+    dl: &[f64],
+    dholes: Option<&[f64]>,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<McStats> {
+    let n = model.n();
+    let m = model.position_cables().len();
+    let rows = rows_of("theta0", theta0, n)?;
+    let samples = rows_of("dl", dl, m)?;
+    batch::check_options(opts)?;
+    let nominal_holes = model.flat_holes();
+    let h = nominal_holes.len();
+    let models: Vec<Model> = match dholes {
+        None => Vec::new(),
+        Some(d) => {
+            rows_exactly("dholes", d, h, samples)?;
+            (0..samples)
+                .map(|s| {
+                    let flat: Vec<f64> = nominal_holes
+                        .iter()
+                        .zip(&d[s * h..(s + 1) * h])
+                        .map(|(a, b)| a + b)
+                        .collect();
+                    model.with_flat_holes(&flat)
+                })
+                .collect::<Result<_>>()?
+        }
+    };
+    let model_of = |s: usize| models.get(s).unwrap_or(model);
+    let parts = split_rows(rows, threads, |r| {
+        let mut stats = McStats::with_quantities(r.len(), SPATIAL_QUANTITIES);
+        let mut solver = CableSolve::<Se3<f64>>::new(model, *opts);
+        let mut chain = Chain::<f64, Se3<f64>>::new(model);
+        let (mut l0, mut target, mut th) = (vec![0.0; m], vec![0.0; m], vec![0.0; n]);
+        let pos = model.position_cables();
+        for (j, i) in r.enumerate() {
+            let t0 = &theta0[i * n..(i + 1) * n];
+            chain.at(model, model, t0);
+            chain.world(model, model);
+            for (k, &c) in pos.iter().enumerate() {
+                l0[k] = chain.cable_length(model, model, c, None);
+            }
+            let end0 = *chain.end();
+            for s in 0..samples {
+                for k in 0..m {
+                    target[k] = l0[k] + dl[s * m + k];
+                }
+                th.copy_from_slice(t0);
+                let ms = model_of(s);
+                if !solver.solve(ms, ms, &target, &mut th).converged {
+                    stats.failed[j] += 1;
+                    continue;
+                }
+                solver.chain.world(ms, ms);
+                let end = solver.chain.end();
+                let d = end.t.sub(end0.t);
+                let rel: [[f64; 3]; 3] = std::array::from_fn(|a| {
+                    std::array::from_fn(|b| (0..3).map(|k| end0.r[k][a] * end.r[k][b]).sum())
+                });
+                let angle = log_so3(&rel).norm();
+                stats.add_values(j, &[d[0], d[1], d[2], d.norm(), angle]);
+            }
+        }
+        stats
+    });
+    let mut out = McStats::with_quantities(0, SPATIAL_QUANTITIES);
+    for p in parts {
+        out.extend(p);
+    }
+    Ok(out)
+}
+
+/// Quantities of a spatial Monte-Carlo sample: dX, dY, dZ, |dXYZ| (m),
+/// rotation angle (rad).
+pub const SPATIAL_QUANTITIES: usize = 5;
