@@ -27,9 +27,12 @@
 
 use crate::batch::{map_rows, rows_of};
 use crate::cables::CableGeometry;
+use crate::chain::{Chain, Numbers};
 use crate::error::Result;
 use crate::geometry::{pair, traversal_vector, ArmGeometry};
+use crate::kinds::{Frame, Kind, Planar, Spatial, Vector};
 use crate::kinematics::fk_jacobian;
+use crate::model::{self, Model};
 use crate::robot::Robot;
 
 /// Sensitivities of a batch of configurations (row-major, flat).
@@ -284,9 +287,206 @@ pub fn rms_amplification(
     Ok((v, g))
 }
 
+// ---------------------------------------------------------------------------
+// Any arm: the one model's chain
+// ---------------------------------------------------------------------------
+
+/// Sensitivities of an arm of either kind over the one model's chain
+/// (`docs/model.md`, "Sensitivities"): the position cables keep their
+/// lengths, so `dtheta = (J_p^T J_p)^-1 J_p^T dL` (least squares with more
+/// cables than joints, `J_p^-1` with as many), `dS/dL = J_task dtheta/dL` and
+/// `dS/dholes = -dS/dL dL_p/dholes`. `J_task` is the task Jacobian (planar
+/// `d[x, y, phi]/dtheta`; spatial the geometric Jacobian, angular velocity in
+/// its last rows); every hole coordinate in the order of
+/// [`Model::flat_holes`] (force cables' holes move nothing).
+pub fn general(
+    model: &Model,
+    theta: &[f64],
+    with_holes: bool,
+    threads: usize,
+) -> Result<Sensitivities> {
+    match model.kind {
+        model::Kind::Planar => general_k::<Planar>(model, theta, with_holes, threads),
+        model::Kind::Spatial => general_k::<Spatial>(model, theta, with_holes, threads),
+    }
+}
+
+fn general_k<K: Kind>(
+    model: &Model,
+    theta: &[f64],
+    with_holes: bool,
+    threads: usize,
+) -> Result<Sensitivities> {
+    let n = model.n();
+    let rows = rows_of("theta", theta, n)?;
+    let pos = model.position_cables();
+    let m = pos.len();
+    let task = model.kind.task();
+    let hl = model.flat_holes().len();
+    // where each cable's holes start in the flat layout
+    let mut start = Vec::with_capacity(model.cables.len());
+    let mut at = 0;
+    for c in &model.cables {
+        start.push(at);
+        at += 3 * c.holes.len();
+    }
+    let width = task * m + 1 + if with_holes { task * hl } else { 0 };
+    let flat = map_rows(rows, width, threads, |i, out| {
+        let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
+        let th = &theta[i * n..(i + 1) * n];
+        chain.at(model, model, th);
+        chain.world(model, model);
+        chain.joints_world(model);
+        let mut jt = vec![0.0; task * n];
+        chain.geometric_jacobian(&mut jt);
+        let mut jp = vec![0.0; m * n];
+        for (k, &c) in pos.iter().enumerate() {
+            chain.cable_jacobian_row(model, model, c, &mut jp[k * n..(k + 1) * n]);
+        }
+        // G = J_p^T J_p (n x n); X = G^-1 J_p^T (n x m)
+        let mut g = vec![0.0; n * n];
+        for a in 0..n {
+            for b in 0..n {
+                g[a * n + b] = (0..m).map(|k| jp[k * n + a] * jp[k * n + b]).sum();
+            }
+        }
+        let (cable, rest) = out.split_at_mut(task * m);
+        let (flag, holes) = rest.split_at_mut(1);
+        let mut x = vec![0.0; n * m];
+        let mut ok = true;
+        for k in 0..m {
+            let rhs: Vec<f64> = (0..n).map(|a| jp[k * n + a]).collect();
+            let mut col = vec![0.0; n];
+            if !crate::lm::solve_spd(n, &g, &rhs, &mut col) {
+                ok = false;
+                break;
+            }
+            for a in 0..n {
+                x[a * m + k] = col[a];
+            }
+        }
+        if !ok {
+            cable.fill(f64::NAN);
+            holes.fill(f64::NAN);
+            flag[0] = 0.0;
+            return;
+        }
+        for r in 0..task {
+            for k in 0..m {
+                cable[r * m + k] = (0..n).map(|a| jt[r * n + a] * x[a * m + k]).sum();
+            }
+        }
+        flag[0] = 1.0;
+        if with_holes {
+            holes.fill(0.0);
+            let mut grad = vec![0.0; hl];
+            for (k, &c) in pos.iter().enumerate() {
+                grad.fill(0.0);
+                hole_gradient(&chain, model, c, &mut grad[start[c]..]);
+                for r in 0..task {
+                    let sr = -cable[r * m + k];
+                    for (h, gj) in holes[r * hl..(r + 1) * hl].iter_mut().zip(&grad) {
+                        *h += sr * gj;
+                    }
+                }
+            }
+        }
+    });
+    let mut out = Sensitivities {
+        cable: Vec::with_capacity(rows * task * m),
+        pair: Vec::new(),
+        holes: Vec::with_capacity(if with_holes { rows * task * hl } else { 0 }),
+        ok: Vec::with_capacity(rows),
+    };
+    for row in flat.chunks_exact(width.max(1)) {
+        out.cable.extend_from_slice(&row[..task * m]);
+        out.ok.push(row[task * m] != 0.0);
+        if with_holes {
+            out.holes.extend_from_slice(&row[task * m + 1..]);
+        }
+    }
+    Ok(out)
+}
+
+/// The gradient of cable `c`'s length with respect to its own holes'
+/// coordinates (`[x, y, z]` per hole, in its order), into `grad`: segment `k`
+/// `v = T_k a - b` gives `d|v|/da = R_k^T u`, `d|v|/db = -u`; the traversal
+/// of disk `k`, `t = thickness e_x + b_k - a_k`, `d|t|/db_k = t/|t|`,
+/// `d|t|/da_k = -t/|t|` (a planar arm's `z` derivative is 0).
+fn hole_gradient<F: Frame<f64>>(chain: &Chain<f64, F>, model: &Model, c: usize, grad: &mut [f64]) {
+    let nums = model;
+    let add = |g: &mut [f64], i: usize, v: [f64; 3], s: f64| {
+        for q in 0..3 {
+            g[3 * i + q] += s * v[q];
+        }
+    };
+    for k in 1..=model.cables[c].end {
+        let a = F::V::of(nums.hole(c, 2 * k - 1));
+        let b = F::V::of(nums.hole(c, 2 * k - 2));
+        let v = chain.local[k - 1].point(a).sub(b);
+        let l = v.norm();
+        if l > 0.0 {
+            let u = v.scale(1.0 / l);
+            add(grad, 2 * k - 1, chain.local[k - 1].dir_inv(u).to3(), 1.0);
+            add(grad, 2 * k - 2, u.to3(), -1.0);
+        }
+        let ha: [f64; 3] = nums.hole(c, 2 * k - 1);
+        let hb: [f64; 3] = nums.hole(c, 2 * k);
+        let t = [
+            model.disks[k - 1].thickness + hb[0] - ha[0],
+            hb[1] - ha[1],
+            hb[2] - ha[2],
+        ];
+        let tl = (t[0] * t[0] + t[1] * t[1] + t[2] * t[2]).sqrt();
+        if tl > 0.0 {
+            let e = [t[0] / tl, t[1] / tl, t[2] / tl];
+            add(grad, 2 * k, e, 1.0);
+            add(grad, 2 * k - 1, e, -1.0);
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn general_sensitivities_of_a_planar_arm_are_the_planar_ones() {
+        let r = Robot::paper();
+        let m = Model::from_planar(&r);
+        let th = [0.3, -0.4, 0.2, -0.1, 0.25, 0.5];
+        let a = general(&m, &th, true, 1).unwrap();
+        let b = sensitivities(&r, &th, true, 1).unwrap();
+        assert_eq!(a.ok, b.ok);
+        for (x, y) in a.cable.iter().zip(&b.cable) {
+            assert!((x - y).abs() < 1e-12, "{x} vs {y}");
+        }
+        // the flat holes of the model against the planar layout (x, y; z moves nothing)
+        let hl = m.flat_holes().len();
+        let ph = r.holes.len();
+        for row in 0..2 {
+            for t in 0..3 {
+                let mut k = 0;
+                for (c, cable) in m.cables.iter().enumerate() {
+                    for (i, _) in cable.holes.iter().enumerate() {
+                        let (d, f) = if i == 0 {
+                            (0, 1)
+                        } else {
+                            (i.div_ceil(2), 1 - i % 2)
+                        };
+                        let at = r.hole_index(c, d, f);
+                        for q in 0..2 {
+                            let x = a.holes[(row * 3 + t) * hl + k + q];
+                            let y = b.holes[(row * 3 + t) * ph + at + q];
+                            assert!((x - y).abs() < 1e-12, "cable {c} hole {i}: {x} vs {y}");
+                        }
+                        assert_eq!(a.holes[(row * 3 + t) * hl + k + 2], 0.0);
+                        k += 3;
+                    }
+                }
+            }
+        }
+    }
     use crate::accuracy::deviation;
     use crate::solve::{CableMethod, SolveOptions};
 

@@ -63,21 +63,36 @@ def test_cli_effects_follow_the_robots_kind(cdsm, tmp_path, capsys):
     assert rc == 2 and "no-such-data" in err
 
 
-def test_cli_suggest_on_a_spatial_arm_is_refused_before_the_diagnosis(cdsm, tmp_path, capsys):
-    from cdsm.calibration import plant
+def test_suggest_designs_measurements_for_a_spatial_arm(cdsm, tmp_path, capsys):
+    """Experiment design on a spatial arm: proposals in its own columns
+    (theta_1..4, dL on its 4 position cables, x, y, z), predicted in 3-D,
+    approached from both sides when a candidate has backlash, and the file
+    reads back as a spatial measurement table."""
+    from cdsm.calibration import diagnosis, experiment, measurements, plant
 
     robot = cdsm.Robot.packaged("two_universal")
-    vp = plant.VirtualPrototype(robot, {"actuation_scale": [0.02]}, noise=1e-5, seed=0)
-    th, dl = vp.random_commands(8)
-    m = vp.measure(th, dl)
-    cols = ([f"theta_{i + 1}" for i in range(4)] + [f"dL_{i + 1}" for i in range(4)] + ["x", "y", "z"])
-    rows = np.hstack([th, dl, m.measured[:, :3]])
-    data = tmp_path / "d.csv"
-    data.write_text(",".join(cols) + "\n" + "\n".join(",".join(repr(float(v)) for v in r) for r in rows) + "\n")
-    out = tmp_path / "d.json"
-    rc, err = _cli(capsys, ["diagnose", str(data), "--robot", "two_universal", "--suggest", "2", "--json", str(out),
-                            "--quiet"])
-    assert rc == 2 and "--suggest" in err and not out.exists()
+    vp = plant.VirtualPrototype(robot, {"backlash": [4e-5, 3e-5, 2e-5, 3e-5]}, noise=1e-5, seed=0)
+    th, dl = vp.random_commands(12)
+    d = diagnosis.diagnose(robot, vp.measure(th, dl), effects=["backlash", "cable_offset"], folds=3,
+                           noise=1e-5, frame="base")
+    s = experiment.suggest(d, 3, pool=60)
+    assert len(s) == 3 and s.theta.shape == (3, 4) and s.dL.shape == (3, 4)
+    assert all(p.shape == (3, 3) for p in s.predictions.values())
+    assert s.approach is not None  # a candidate with backlash: approach moves
+    path = s.to_csv(tmp_path / "s.csv")
+    header = [ln for ln in open(path).read().splitlines() if not ln.startswith("#")][0].split(",")
+    assert header[:9] == ["point"] + [f"theta_{i}" for i in range(1, 5)] + [f"dL_{i}" for i in range(1, 5)]
+    assert "z_nom" in header and "rz_nom" in header
+    # measured as proposed: x, y, z added, empty on the approach rows
+    lines = open(path).read().splitlines()
+    body = [ln for ln in lines if not ln.startswith("#")]
+    pred = next(iter(s.predictions.values()))
+    rows = [body[0] + ",x,y,z"]
+    for k, ln in enumerate(body[1:]):
+        rows.append(ln + (",,," if k % 2 == 0 else "," + ",".join(repr(float(v)) for v in pred[k // 2])))
+    (tmp_path / "m.csv").write_text("\n".join(rows) + "\n")
+    back = measurements.read_for(robot, str(tmp_path / "m.csv"))
+    assert len(back) == 6 and back.observed.tolist() == [False, True] * 3
 
 
 # ---------------------------------------------------------------------------
@@ -98,3 +113,70 @@ def test_a_spatial_diagnosis_with_undetermined_fits_warns_nothing(cdsm):
         d = diagnosis.diagnose(robot, m, effects=["cable_elasticity", "tip_offset"], folds=3, noise=1e-5)
     assert d.best is not None and "tip_offset" in d.best
 
+
+
+# ---------------------------------------------------------------------------
+# linear sensitivities and the equal-effect tolerance shape, spatial arms
+# ---------------------------------------------------------------------------
+def test_spatial_sensitivities_are_the_reference_solves_differentiated(cdsm, ref):
+    """d(tip)/d(cable length) and d(tip)/d(hole) of two_universal against
+    central differences of the NumPy reference's own cable solves."""
+    from cdsm.accuracy.sensitivity import sensitivities
+
+    robot = cdsm.Robot.packaged("two_universal")
+    mirror = ref.spatial.load_spatial(ROBOTS / "two_universal.toml")
+    theta = np.random.default_rng(3).uniform(-0.4, 0.4, (4, 4))
+    s = sensitivities(robot, theta, holes=True)
+    assert s.ok.all() and s.cable.shape == (4, 6, 4) and s.holes.shape == (4, 6, len(robot.flat_holes))
+    pos = ref.spatial.position_cables(mirror)
+    L0 = ref.spatial.cable_lengths(mirror, theta)[:, pos]
+    h = 1e-6
+
+    def tips(m, lengths):
+        sol = ref.spatial.solve_cables(m, lengths, seed=theta)
+        assert sol["converged"].all()
+        return ref.spatial.fk_matrix(m, sol["theta"])[:, :3, 3]
+
+    for k in range(4):
+        d = np.zeros(4)
+        d[k] = h
+        fd = (tips(mirror, L0 + d) - tips(mirror, L0 - d)) / (2 * h)
+        np.testing.assert_allclose(s.cable[:, :3, k], fd, atol=1e-7)
+    flat = robot.flat_holes
+    for j in (3, 13, 25, 40):  # a few hole coordinates of position cables
+        e = np.zeros_like(flat)
+        e[j] = h
+
+        def moved(sign):
+            holes, k = [], 0
+            for hh in mirror.holes:
+                holes.append((flat + sign * e)[k:k + hh.size].reshape(hh.shape))
+                k += hh.size
+            return ref.spatial.SpatialRobot(**{**mirror.__dict__, "holes": tuple(holes)})
+
+        fd = (tips(moved(1.0), L0) - tips(moved(-1.0), L0)) / (2 * h)
+        np.testing.assert_allclose(s.holes[:, :3, j], fd, atol=1e-7)
+
+
+def test_a_spatial_allocation_starts_from_its_linear_guess_and_meets_the_target(cdsm):
+    from cdsm.accuracy import tolerance
+    from cdsm.accuracy.sampling import sample_configurations
+    from cdsm.accuracy.sensitivity import sensitivities
+
+    robot = cdsm.Robot.packaged("two_universal")
+    theta = sample_configurations(robot, 40)
+    for shape in ("ratio", "equal-effect"):
+        a = tolerance.allocate(robot, 0.5e-3, theta, percentile=95, shape=shape, samples=200, seed=1)
+        assert a.holds and np.isfinite(a.alpha_linear) and a.achieved_m <= 0.5e-3
+        assert 0.5 < a.alpha / a.alpha_linear < 2.0  # the linear guess is near the answer
+    # equal-effect: every group adds the same linear variance over the region
+    sens = sensitivities(robot, theta, holes=True)
+    em = np.concatenate([sens.cable[:, :3], sens.holes[:, :3]], axis=2)
+    full = np.concatenate([a.cable_length_tol_m, tolerance.hole_tolerances(robot, a.hole_tol_m)])
+    var = ((em ** 2).sum(axis=1).mean(axis=0)) * full ** 2
+    m = len(robot.position_cables)
+    groups = [var[:m][i] for i in range(m)]
+    starts = np.cumsum([0] + [3 * (2 * e + 1) for e in robot.cable_ends])
+    groups += [var[m + starts[c]:m + starts[c + 1]].sum() for c in range(robot.cables)
+               if c in robot.position_cables]
+    assert np.ptp(groups) <= 1e-9 * max(groups)

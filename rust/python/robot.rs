@@ -503,6 +503,9 @@ impl CoreRobot {
         Ok(MonteCarloStats::new(py, st))
     }
 
+    /// First-order sensitivities: planar `cable (N*3*n)`, `pair (N*3*n)` and
+    /// `holes (N*3*H)` in the planar hole layout; spatial `cable
+    /// (N*6*m_pos)`, no `pair`, `holes (N*6*3H)` over `flat_holes`.
     #[pyo3(signature = (theta, holes, threads))]
     fn sensitivity(
         &self,
@@ -511,10 +514,12 @@ impl CoreRobot {
         holes: bool,
         threads: usize,
     ) -> PyResult<SensitivityResult> {
-        let r = self.planar("sensitivity")?;
         let t = slice("theta", &theta)?;
         let s = py
-            .detach(|| crate::sensitivity::sensitivities(r, t, holes, threads))
+            .detach(|| match self.model.planar() {
+                Some(r) => crate::sensitivity::sensitivities(r, t, holes, threads),
+                None => crate::sensitivity::general(&self.model, t, holes, threads),
+            })
             .map_err(err)?;
         Ok(SensitivityResult::new(py, s, holes))
     }

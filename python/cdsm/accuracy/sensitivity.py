@@ -37,15 +37,19 @@ __all__ = ["Sensitivities", "sensitivities", "sensitivity", "error_matrix", "tol
 class Sensitivities:
     """First-order sensitivities of the tip pose at ``theta (N, n)`` rad.
 
-    cable: (N, 3, n) d[x, y, phi]/d(upper-cable length), m/m (rad/m for phi).
-    pair: (N, 3, n) d[x, y, phi]/d(hole height of disk i) (the paper's dh), m/m.
-    holes: (N, 3, 2n, n+1, 2, 2) d[x, y, phi]/d(every hole coordinate), or None.
-    ok: (N,) the upper-cable Jacobian is invertible (NaN rows otherwise).
+    Planar arms: cable (N, 3, n) d[x, y, phi]/d(upper-cable length), m/m
+    (rad/m for phi); pair (N, 3, n) d[x, y, phi]/d(hole height of disk i)
+    (the paper's dh), m/m; holes (N, 3, 2n, n+1, 2, 2) d[x, y, phi]/d(every
+    hole coordinate), or None. Spatial arms: cable (N, 6, m_pos) d[x, y, z,
+    wx, wy, wz]/d(position-cable length) (the last three the rotation, rad/m,
+    as an angular velocity); pair None; holes (N, 6, 3H) over
+    :attr:`cdsm.Robot.flat_holes`, or None. ok: (N,) the cable Jacobian has
+    full rank (NaN rows otherwise).
     """
 
     theta: np.ndarray
     cable: np.ndarray
-    pair: np.ndarray
+    pair: Optional[np.ndarray]
     holes: Optional[np.ndarray]
     ok: np.ndarray
 
@@ -53,10 +57,15 @@ class Sensitivities:
 def sensitivities(robot: Robot, theta, holes: bool = False) -> Sensitivities:
     """Analytic tip sensitivities (Rust core) over ``theta (N, n)`` rad (or (n,))."""
     t, _ = as_batch("theta", theta, robot.n)
-    n = robot.n
     res = robot.core.sensitivity(t, bool(holes), robot.threads)
+    ok = np.asarray(res.ok, bool)
+    if robot.kind == "spatial":
+        m = len(robot.position_cables)
+        hs = None if res.holes is None else res.holes.reshape(-1, 6, len(robot.flat_holes))
+        return Sensitivities(t, res.cable.reshape(-1, 6, m), None, hs, ok)
+    n = robot.n
     hs = None if res.holes is None else res.holes.reshape((-1, 3) + robot.holes.shape)
-    return Sensitivities(t, res.cable.reshape(-1, 3, n), res.pair.reshape(-1, 3, n), hs, np.asarray(res.ok, bool))
+    return Sensitivities(t, res.cable.reshape(-1, 3, n), res.pair.reshape(-1, 3, n), hs, ok)
 
 
 def sensitivity(robot: Robot, theta) -> np.ndarray:
@@ -108,14 +117,15 @@ def amplification(sens: Sensitivities, dl_tol, dh_tol) -> Dict[str, np.ndarray]:
 
 def linear_percentile(m: np.ndarray, tol: np.ndarray, p: float, samples: int = 2000,
                       seed: int = 0) -> float:
-    """Pooled p-th percentile (m) of |d(x, y)| over all configurations under
-    the linear model ``m (N, 2, k)`` with independent uniform errors within
-    ``±tol (k,)`` (``samples`` common draws). Exactly proportional to ``tol``."""
+    """Pooled p-th percentile (m) of the tip position error |d(x, y)| (or
+    |d(x, y, z)|) over all configurations under the linear model ``m (N, d,
+    k)`` (d = 2 or 3) with independent uniform errors within ``±tol (k,)``
+    (``samples`` common draws). Exactly proportional to ``tol``."""
     rng = np.random.default_rng([int(seed), 7])
     v = rng.uniform(-1.0, 1.0, (int(samples), m.shape[2])) * tol
     ok = np.isfinite(m).all(axis=(1, 2))
     e = np.einsum("nik,sk->nsi", m[ok], v)
-    return float(np.percentile(np.hypot(e[..., 0], e[..., 1]), p))
+    return float(np.percentile(np.sqrt((e ** 2).sum(axis=-1)), p))
 
 
 # ---------------------------------------------------------------------------

@@ -16,10 +16,14 @@ starts the search is :mod:`cdsm.accuracy.sensitivity`.
 Spatial arms (:func:`allocate` dispatches on ``robot.kind``): the errors are
 uniform in ``±tc_j`` on every position-controlled cable's length and in
 ``±th_c`` on every coordinate (x, y, z) of every hole of cable ``c`` (one
-tolerance per cable's holes); ``shape = w * [base_cable ... ; base_hole ...]``.
-The core has no linear sensitivities of spatial arms, so there is no linear
-first guess: the search starts at ``alpha = 1`` (the weighted reference
-tolerances) and brackets and bisects ``alpha`` with the Monte Carlo alone
+tolerance per cable's holes; each coordinate an independent error);
+``shape = w * [base_cable ... ; base_hole ...]``, or with
+``shape="equal-effect"`` ``w`` over the RMS (over the region) of the error
+group's linear effect on |d(x, y, z)| (a hole group: the root sum of squares
+over its coordinates), so every group adds equally to the linear tip
+variance. The linear first guess, as for planar arms, comes from the
+sensitivities of :mod:`cdsm.accuracy.sensitivity` (the general ones of the
+one model); Monte Carlo then brackets and bisects ``alpha``
 (:class:`SpatialAllocation`). Regions are cut over the two axes along which
 the tips spread most.
 
@@ -241,9 +245,9 @@ def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0
        alpha until ``hi / lo <= 1 + rel_tol``; the answer is ``lo``, verified
        ``achieved(lo) <= T``, and ``achieved(1.25 lo) > T`` is evaluated.
 
-    Spatial arms return a :class:`SpatialAllocation` (module doc: no linear
-    first guess; ``theta`` defaults to 1000 Sobol samples of the joint box;
-    ``weights``: 2 or ``m_pos + cables`` numbers; ``shape="ratio"`` only).
+    Spatial arms return a :class:`SpatialAllocation` (module doc; ``theta``
+    defaults to 1000 Sobol samples of the joint box; ``weights``: 2 or
+    ``m_pos + cables`` numbers).
     """
     if robot.kind == "spatial":
         return _allocate_spatial(robot, target_m, theta, percentile, weights, base, shape, samples, seed,
@@ -522,8 +526,9 @@ class SpatialAllocation(Verdicts):
     holes. achieved_m: the pooled percentile of |d(x, y, z)| verified by
     Monte Carlo (<= target). achieved_1p25_m: the same with every tolerance
     × 1.25. alpha: common scale of ``shape`` ((m_pos + cables,) m; alpha = 1
-    is the weighted reference). history: (alpha, achieved) of every
-    evaluation. No linear estimate (module doc).
+    is the weighted reference). linear_m: the linear model's percentile at
+    ``alpha`` (m); alpha_linear: its first guess. history: (alpha, achieved)
+    of every evaluation.
     """
 
     cable_length_tol_m: np.ndarray
@@ -535,6 +540,8 @@ class SpatialAllocation(Verdicts):
     alpha: float
     shape: np.ndarray
     failed: int
+    linear_m: float = float("nan")
+    alpha_linear: float = float("nan")
     history: List[tuple] = field(default_factory=list)
     params: dict = field(default_factory=dict)
 
@@ -552,9 +559,8 @@ class SpatialAllocation(Verdicts):
             holds=self.holds,
             achieved_at_1p25_tol_mm=self.achieved_1p25_m * 1e3,
             not_loose=self.not_loose,
-            linear_estimate_mm=None,
-            linear_estimate_note="no linear first guess: the core has no linear sensitivities of spatial arms; "
-                                 "alpha is bracketed from 1 and bisected with the Monte Carlo alone",
+            linear_estimate_mm=self.linear_m * 1e3,
+            alpha_linear=self.alpha_linear,
             alpha=self.alpha,
             histogram_resolution=HIST_RESOLUTION,
             failed_solves=self.failed,
@@ -563,17 +569,41 @@ class SpatialAllocation(Verdicts):
         )
 
 
-def _spatial_shape(robot, weights, base, shape: str) -> np.ndarray:
+def _spatial_error_matrix(robot, theta) -> np.ndarray:
+    """(N, 3, m_pos + 3H) d(x, y, z)/d[dl (position cables), every hole
+    coordinate] (m/m) of a spatial arm at ``theta`` (the general sensitivities)."""
+    sens = sensitivities(robot, theta, holes=True)
+    return np.concatenate([sens.cable[:, :3, :], sens.holes[:, :3, :]], axis=2)
+
+
+def _spatial_expand(robot, group_tol: np.ndarray) -> np.ndarray:
+    """(m_pos + 3H,) tolerance of every error from (m_pos + cables,) per group."""
+    m = len(robot.position_cables)
+    return np.concatenate([group_tol[:m], hole_tolerances(robot, group_tol[m:])])
+
+
+def _spatial_shape(robot, weights, base, shape: str, em: np.ndarray) -> np.ndarray:
     m, cables = len(robot.position_cables), robot.cables
-    if shape != "ratio":
-        raise CdsmInputError(f"`shape`: {shape!r} needs linear sensitivities, which the core has for planar arms "
-                             "only; a spatial arm takes shape='ratio'")
+    if shape not in ("ratio", "equal-effect"):
+        raise CdsmInputError(f"`shape`: expected 'ratio' or 'equal-effect', got {shape!r}")
     w = np.ones(m + cables) if weights is None else np.asarray(weights, dtype=np.float64).reshape(-1)
     if w.size == 2:
         w = np.repeat(w, [m, cables])
     if w.size != m + cables or not np.isfinite(w).all() or (w <= 0).any():
         raise CdsmInputError(f"`weights`: need 2 or {m + cables} positive numbers ({m} position-controlled "
                              f"cables then {cables} cables' holes), got {weights}")
+    if shape == "equal-effect":
+        ok = np.isfinite(em).all(axis=(1, 2))
+        per_error = np.sqrt((em[ok] ** 2).sum(axis=1).mean(axis=0))    # RMS over the region, per error
+        sizes = [3 * (2 * e + 1) for e in robot.cable_ends]
+        holes = np.sqrt(np.add.reduceat(per_error[m:] ** 2, np.cumsum([0] + sizes[:-1])))
+        effect = np.concatenate([per_error[:m], holes])
+        with np.errstate(divide="ignore"):
+            shp = np.where(effect > 0, w / np.where(effect > 0, effect, 1.0), 0.0)
+        if not (shp > 0).any():
+            raise CdsmInputError("the linear model gives no tip error over this region (no sensitivity)")
+        # a group that moves nothing is not constrained: give it the largest tolerance of the others
+        return np.where(shp > 0, shp, shp.max())
     b = np.asarray(base, dtype=np.float64).reshape(-1)
     if b.size != 2 or not np.isfinite(b).all() or (b <= 0).any():
         raise CdsmInputError(f"`base`: need two positive lengths (cable, hole), m, got {base}")
@@ -590,19 +620,24 @@ def _allocate_spatial(robot, target_m, theta, percentile, weights, base, shape, 
     if not 0.0 < float(percentile) < 100.0:
         raise CdsmInputError(f"`percentile`: must be within (0, 100), got {percentile}")
     m = len(robot.position_cables)
-    shp = _spatial_shape(robot, weights, base, shape)
-    # no linear first guess: bracket from alpha = 1 by target / achieved (a little beyond)
+    em = _spatial_error_matrix(robot, t)
+    shp = _spatial_shape(robot, weights, base, shape, em)
+    p_lin1 = linear_percentile(em, _spatial_expand(robot, shp), percentile, seed=seed)
+    if not (np.isfinite(p_lin1) and p_lin1 > 0):
+        raise CdsmInputError("the linear model gives no tip error over this region (no sensitivity)")
+    a_lin = target / p_lin1
     lo, run, history = _scale_search(
         lambda tol: monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:m],
                                 dh_tol=hole_tolerances(robot, tol[m:]), progress=False),
-        shp, target, percentile, 1.0, (1.02, 20.0), (0.05, 0.98), rel_tol, max_evals, progress, 1.02)
+        shp, target, percentile, a_lin, (1.02, 1.3), (0.5, 0.98), rel_tol, max_evals, progress)
     mc = run(lo)
     ach = pooled_percentile(mc, percentile)
     a125 = pooled_percentile(run(1.25 * lo), percentile)
     tol = lo * shp
     return SpatialAllocation(
         cable_length_tol_m=tol[:m], hole_tol_m=tol[m:], achieved_m=ach, achieved_1p25_m=a125, target_m=target,
-        percentile=float(percentile), alpha=float(lo), shape=shp, failed=int(mc.failed.sum()), history=history,
+        percentile=float(percentile), alpha=float(lo), shape=shp, failed=int(mc.failed.sum()),
+        linear_m=float(lo * p_lin1), alpha_linear=float(a_lin), history=history,
         params=dict(achieved_interpolated_m=pooled_percentile(mc, percentile, interpolate=True),
                     samples=int(samples), seed=int(seed), configurations=int(len(t)), shape=shape,
                     weights=None if weights is None else np.asarray(weights, float).ravel().tolist(),

@@ -13,7 +13,8 @@ which the measurements would separate models a and b is
 
     D_ab(S) = d^T (2 sigma^2 I + J_a C_a J_a^T + J_b C_b J_b^T)^-1 d,   d = y_a(S) - y_b(S)
 
-(y: predicted observations [x, y] or [dx, dy], m; J: Jacobians on S; sigma:
+(y: predicted observed positions — [x, y] or [dx, dy] planar, [x, y, z] or
+[dx, dy, dz] spatial — m; J: Jacobians on S; sigma:
 noise per axis, m). A difference a model could absorb by moving a poorly
 determined parameter counts little, and rows that tell the same thing share
 one covariance, so they add little together. The score of S is the sum of D_ab
@@ -25,7 +26,7 @@ information of its parameters).
 Candidate pool: commanded configurations uniform within the joint limits
 (shrunk by ``margin``), with dL as in the data: displacement data gets one
 upper cable at ±``dl`` (Table-3 style), absolute data dL uniform in ±``dl``;
-kept only when every upper cable stays taut (:meth:`Robot.feasible`) at the
+kept only when every position cable stays taut (:meth:`Robot.feasible`) at the
 commanded configuration and at the nominal one with dL, and when every
 candidate model predicts the row.
 
@@ -77,16 +78,18 @@ __all__ = ["suggest", "Suggestion", "candidate_pool", "combine", "discrimination
 class Suggestion:
     """K proposed measurements.
 
-    theta: (K, n) commanded angles, rad. dL: (K, n) upper-cable extras, m.
-    kind: "absolute" or "displacement" (as the data). criterion:
-    "discrimination" or "d-optimal". models: candidate names compared.
-    predictions: {model: (K, 2) predicted observation, m}. gain: (K,) score
-    after each greedy pick (chi-square units for discrimination, log det for
-    d-optimal). score_before: the score of the data already taken.
-    pairs_before / pairs_after: {"a vs b": D_ab + D_ba} (chi-square).
-    noise: per-axis noise, m. pose: (K, 3) nominal tip poses (m, m, rad).
-    approach: (K, n) dL (m) of the unmeasured approach row run before each
-    measured row (backlash candidates; see the module doc), or None.
+    theta: (K, n) commanded angles, rad. dL: (K, m) extras on the
+    position-controlled cables (a planar arm's upper cables), m. kind:
+    "absolute" or "displacement" (as the data). criterion: "discrimination"
+    or "d-optimal". models: candidate names compared. predictions: {model:
+    (K, d) predicted observed position, m; d = 2 planar, 3 spatial}. gain:
+    (K,) score after each greedy pick (chi-square units for discrimination,
+    log det for d-optimal). score_before: the score of the data already
+    taken. pairs_before / pairs_after: {"a vs b": D_ab + D_ba} (chi-square).
+    noise: per-axis noise, m. pose: (K, task) nominal tip poses (planar m, m,
+    rad; spatial x, y, z m, rotation vector rad). approach: (K, m) dL (m) of
+    the unmeasured approach row run before each measured row (backlash
+    candidates; see the module doc), or None.
     """
 
     theta: np.ndarray
@@ -111,33 +114,37 @@ class Suggestion:
         return len(self.theta)
 
     def commands(self) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The rows to run, in order: theta (R, n) rad, dL (R, n) m, and
+        """The rows to run, in order: theta (R, n) rad, dL (R, m) m, and
         which to measure (R,) bool (approach rows are run, not measured)."""
         if self.approach is None:
             return self.theta, self.dL, np.ones(len(self), bool)
-        k, n = self.theta.shape
+        k = len(self.theta)
         th = np.repeat(self.theta, 2, axis=0)
-        dl = np.empty((2 * k, n))
+        dl = np.empty((2 * k, self.dL.shape[1]))
         dl[0::2], dl[1::2] = self.approach, self.dL
         return th, dl, np.tile([False, True], k)
 
     def to_csv(self, path: "str | os.PathLike[str]") -> str:
         """Write the proposed commands as a measurement CSV without measured
         columns (format in the module docstring). Returns the path."""
-        n = self.theta.shape[1]
-        mcols = "x, y" if self.kind == "absolute" else "dx, dy"
+        n, m = self.theta.shape[1], self.dL.shape[1]
+        d = next(iter(self.predictions.values())).shape[1] if self.predictions else 2
+        axes = "xyz"[:d]
+        mcols = ", ".join(axes) if self.kind == "absolute" else ", ".join(f"d{a}" for a in axes)
+        names = ["x_nom", "y_nom", "phi_nom"] if d == 2 else ["x_nom", "y_nom", "z_nom", "rx_nom", "ry_nom",
+                                                              "rz_nom"]
         buf = io.StringIO()
         buf.write(f"# cdsm diagnose --suggest: {len(self)} proposed measurements ({self.criterion}; "
                   f"models: {', '.join(self.models)})\n")
-        buf.write("# SI units: theta_i, phi_nom in rad; dL_i, x_nom, y_nom in m. x_nom, y_nom, phi_nom: "
+        buf.write(f"# SI units: theta_i and angles in rad; dL_i and positions in m. {', '.join(names)}: "
                   "nominal tip pose (labels only)\n")
         buf.write(f"# measurement kind: {self.kind}; run the rows in this order; after measuring add columns "
                   f"{mcols} (m), empty on 'approach' rows (run, not measured), and run cdsm diagnose on it "
                   "after the earlier data\n")
         w = csv.writer(buf, lineterminator="\n")
-        w.writerow(["point"] + [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in range(1, n + 1)]
-                   + ["x_nom", "y_nom", "phi_nom"])
-        pose = self.pose if self.pose is not None else np.full((len(self), 3), np.nan)
+        w.writerow(["point"] + [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in range(1, m + 1)]
+                   + names)
+        pose = self.pose if self.pose is not None else np.full((len(self), len(names)), np.nan)
         th, dl, seen = self.commands()
         for j in range(len(th)):
             i = j // 2 if self.approach is not None else j
@@ -175,7 +182,7 @@ class Suggestion:
             if self.approach is not None:
                 first = self.dL[i] if self.kind == "absolute" else 0.0
                 side = ", approached from " + ("above" if (self.approach[i] - first).mean() > 0 else "below")
-            pr = "; ".join(f"{m}: ({p[i, 0] * 1e3:+.3f}, {p[i, 1] * 1e3:+.3f})"
+            pr = "; ".join(f"{m}: (" + ", ".join(f"{v * 1e3:+.3f}" for v in p[i]) + ")"
                            for m, p in self.predictions.items())
             lines.append(f"  s{i + 1}: theta = ({th}) deg, dL = ({dl}) mm{side}; predicted [mm] {pr}")
         return "\n".join(lines)
@@ -184,21 +191,22 @@ class Suggestion:
 # ---------------------------------------------------------------------------
 def candidate_pool(robot: Robot, kind: str, size: int = 400, seed: int = 0, dl: float = 1e-3,
                    margin: float = 0.9) -> Tuple[np.ndarray, np.ndarray]:
-    """Random candidate commands (theta (C, n) rad, dL (C, n) m) within
-    ``margin`` x the joint limits around their midpoints, each half-width at
-    most 40° (0.698 rad), with taut upper cables (see module doc). ``size``
-    draws before the feasibility filter (C <= size); ``dl`` in m."""
+    """Random candidate commands (theta (C, n) rad, dL (C, m) m on the
+    position-controlled cables) within ``margin`` x the joint limits around
+    their midpoints, each half-width at most 40° (0.698 rad), with taut
+    cables (see module doc). ``size`` draws before the feasibility filter
+    (C <= size); ``dl`` in m."""
     rng = np.random.default_rng(seed)
-    n = robot.n
+    n, m = robot.n, plant.commands(robot)
     lim = robot.joint_limits
     mid, half = lim.mean(axis=1), 0.5 * (lim[:, 1] - lim[:, 0]) * margin
     half = np.minimum(half, np.radians(40.0))
     theta = mid + rng.uniform(-1.0, 1.0, (size, n)) * half
-    d = np.zeros((size, n))
+    d = np.zeros((size, m))
     if kind == "displacement":
-        d[np.arange(size), rng.integers(0, n, size)] = rng.choice([-dl, dl], size)
+        d[np.arange(size), rng.integers(0, m, size)] = rng.choice([-dl, dl], size)
     else:
-        d = rng.uniform(-dl, dl, (size, n))
+        d = rng.uniform(-dl, dl, (size, m))
     return _feasible(robot, theta, d)
 
 
@@ -208,10 +216,10 @@ def _feasible(robot: Robot, theta: np.ndarray, d: np.ndarray) -> Tuple[np.ndarra
 
 
 def _feasible_mask(robot: Robot, theta: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """(C,) commands within the joint limits with taut upper cables at theta
-    and at the nominal configuration that theta's lengths + d reach."""
+    """(C,) commands within the joint limits with taut cables at theta and at
+    the nominal configuration that theta's lengths + d reach."""
     ok = robot.within_limits(theta) & robot.feasible(theta)
-    sol = robot.solve_cables(robot.upper_lengths(theta) + d, seed=theta)
+    sol = robot.solve_cables(plant.command_lengths(robot, theta) + d, seed=theta)
     th2 = np.array(sol.theta, dtype=float)
     conv = np.asarray(sol.converged, bool)
     ok &= conv
@@ -239,7 +247,7 @@ def combine(robot: Robot, *tables: "Measurements | Prepared") -> Measurements:
         rows = prep.order[runs[prep.order]]  # execution order
         th.append(prep.theta_cmd[rows])
         dl.append(prep.dL[rows])
-        ms.append(prep.measured[rows, :2])
+        ms.append(prep.measured[rows, :plant.dims(robot)])
     if kind is None:
         raise CdsmInputError("combine: no tables")
     return Measurements(kind, robot.n, np.concatenate(dl), np.concatenate(ms), theta=np.concatenate(th),
@@ -266,13 +274,14 @@ def _model_set(diag: Diagnosis):
 
 
 def _pred_and_jac(robot: Robot, effects, p, theta, dl, kind):
-    """Predictions (R, 2) and their exact Jacobian (R, 2, k) in scaled
-    parameters (the Rust core's linearised plant); NaN rows where the plant
-    does not settle."""
+    """Predictions (R, d) of the observed position (d = 2 planar, 3 spatial)
+    and their exact Jacobian (R, d, k) in scaled parameters (the Rust core's
+    linearised plant); NaN rows where the plant does not settle."""
     idx, scale, _ = free_parameters(robot, effects)
     obs, conv, J = plant.linearise(robot, p, idx, theta, dl, kind)
-    y = obs[:, :2].copy()
-    J = J[:, :2, :] * scale
+    d = plant.dims(robot)
+    y = obs[:, :d].copy()
+    J = J[:, :d, :] * scale
     y[~conv] = np.nan
     J[~conv] = np.nan
     return y, J
@@ -280,7 +289,7 @@ def _pred_and_jac(robot: Robot, effects, p, theta, dl, kind):
 
 def _posterior_cov(J_old: np.ndarray, noise: float, prior: float) -> np.ndarray:
     """Parameter covariance (k, k) in scaled units from the rows already
-    measured (J_old (R, 2, k)) and a Gaussian prior of ``prior`` typical sizes."""
+    measured (J_old (R, d, k)) and a Gaussian prior of ``prior`` typical sizes."""
     J = J_old.reshape(-1, J_old.shape[-1]) / noise
     return np.linalg.inv(J.T @ J + np.eye(J.shape[1]) / prior ** 2)
 
@@ -289,7 +298,7 @@ def discrimination(y: Dict[str, np.ndarray], J: Dict[str, np.ndarray], C: Dict[s
                    noise: float) -> Dict[Tuple[str, str], float]:
     """Expected chi-square separation of every pair of models on a set of
     new rows: ``d^T (2 sigma^2 I + J_a C_a J_a^T + J_b C_b J_b^T)^-1 d`` with
-    ``d = y_a - y_b`` over the rows. y[m]: (S, 2) m; J[m]: (S, 2, k) per
+    ``d = y_a - y_b`` over the rows. y[m]: (S, d) m; J[m]: (S, d, k) per
     scaled parameter; C[m]: (k, k) posterior covariance (see module doc)."""
     out = {}
     names = list(y)
@@ -309,7 +318,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
     """The ``k`` next measurements that best separate the diagnosis' tied
     candidates (or, with one candidate, D-optimal ones for its parameters).
 
-    candidates: optional pool (theta (C, n) rad, dL (C, n) m), filtered for
+    candidates: optional pool (theta (C, n) rad, dL (C, m) m), filtered for
     joint limits and taut cables; default a random pool of ``pool`` commands
     (seed ``seed``) with dL as in the data (±``dl`` m). The measurement kind is
     the data's. approach: the approach move (m, default ``dl``) when a
@@ -325,8 +334,8 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
     else:
         cth = np.atleast_2d(np.asarray(candidates[0], float))
         cdl = np.atleast_2d(np.asarray(candidates[1], float))
-        if cth.shape != cdl.shape or cth.shape[1] != robot.n:
-            raise CdsmInputError(f"`candidates`: need theta and dL of shape (C, {robot.n})")
+        if len(cth) != len(cdl) or cth.shape[1] != robot.n or cdl.shape[1] != plant.commands(robot):
+            raise CdsmInputError(f"`candidates`: need theta (C, {robot.n}) and dL (C, {plant.commands(robot)})")
         cth, cdl = _feasible(robot, cth, cdl)
     models = _model_set(diag)
     if not models:
@@ -364,7 +373,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
         cand_rows = nD + np.arange(len(cth))
     else:
         th_all.append(np.repeat(cth, 2, axis=0))
-        d = np.empty((2 * len(cth), robot.n))
+        d = np.empty((2 * len(cth), cdl.shape[1]))
         d[0::2], d[1::2] = app, cdl
         dl_all.append(d)
         codes.append(np.tile(np.array([KIND_CODES["unmeasured"], KIND_CODES[kind]], np.uint8), len(cth)))
@@ -388,20 +397,22 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
     gains = []
     Cr = cand_rows[cand]
 
+    dm = plant.dims(robot)
+
     def pair_terms(sel):
         """Separation of the new rows sel (indices into all rows) plus each candidate."""
         idx = np.array(sel, dtype=int)
-        M, s = len(Cr), 2 * len(idx)
+        M, s = len(Cr), dm * len(idx)
         tot = np.zeros(M)
         for i, a in enumerate(names):
             for b in names[i + 1:]:
                 d = np.concatenate([np.broadcast_to((Y[a][idx] - Y[b][idx]).reshape(-1), (M, s)),
-                                    Y[a][Cr] - Y[b][Cr]], axis=1)                      # (M, s+2)
-                S = 2 * noise ** 2 * np.eye(s + 2)[None].repeat(M, 0)
+                                    Y[a][Cr] - Y[b][Cr]], axis=1)                      # (M, s+d)
+                S = 2 * noise ** 2 * np.eye(s + dm)[None].repeat(M, 0)
                 for m in (a, b):
                     kk = JJ[m].shape[-1]
                     Jm = np.concatenate([np.broadcast_to(JJ[m][idx].reshape(s, kk), (M, s, kk)),
-                                         JJ[m][Cr]], axis=1)                         # (M, s+2, k)
+                                         JJ[m][Cr]], axis=1)                         # (M, s+d, k)
                     S = S + Jm @ Cov[m] @ np.transpose(Jm, (0, 2, 1))
                 tot += np.einsum("mi,mi->m", d, np.linalg.solve(S, d[..., None])[..., 0])
         return tot
@@ -409,7 +420,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
     def logdet_terms(sel):
         idx = np.array(sel, dtype=int)
         name = names[0]
-        J0 = (JJ[name][idx] / noise).reshape(2 * len(idx), -1)
+        J0 = (JJ[name][idx] / noise).reshape(dm * len(idx), -1)
         kk = J0.shape[1]
         G0 = J0.T @ J0
         G0 = G0 + np.eye(kk) / prior ** 2  # Gaussian prior of `prior` typical sizes

@@ -109,13 +109,14 @@ def dims(robot) -> int:
 
 def command_lengths(robot, theta) -> np.ndarray:
     """The nominal lengths (m) of the commanded cables at ``theta`` (N, n) rad:
-    the upper cables (planar) or the position-controlled ones (spatial)."""
-    return robot.position_lengths(theta) if robot.kind == "spatial" else robot.upper_lengths(theta)
+    the position-controlled cables (a planar arm's upper cables)."""
+    return robot.position_lengths(theta)
 
 
 def commands(robot) -> int:
-    """Commanded cables per row (the width of ``dL``): n planar, the position-controlled cables spatial."""
-    return len(robot.position_cables) if robot.kind == "spatial" else robot.n
+    """Commanded cables per row (the width of ``dL``): the position-controlled
+    cables (n upper cables of a planar arm)."""
+    return len(robot.position_cables)
 
 # Hidden effects for 3-joint robots, ~1-2x TYPICAL with mixed signs: every
 # effect of the library and a two-effect mixture (SI). The virtual-prototype

@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from .registry import (UserError, check_out_file, load_robot, options, positive_int, prepare_dir, subcommand)
+from .registry import (check_out_file, load_robot, options, positive_int, prepare_dir, subcommand)
 from typing import List
 
 
@@ -85,8 +85,6 @@ def _diagnose_run(args) -> int:
     report_dir = None if args.report is None else prepare_dir(args.report, "--report")
     for opt, path in (("--json", args.json), ("--save-model", args.save_model)):
         check_out_file(path, opt)
-    if args.suggest is not None and robot.kind != "planar":
-        raise UserError("--suggest: experiment design is available for planar arms only (not yet spatial)")
     d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
                           frame=args.frame,
                           progress=show)

@@ -125,23 +125,18 @@ def _inputs(args, robot, default_region: str, width: int, what: str):
 def _spatial_run(args, robot, t0: float, region: str, theta, desc: str, weights, base) -> int:
     """``cdsm tolerance`` on a spatial robot: ± tolerances on the
     position-controlled cables' lengths and on every coordinate of each
-    cable's holes, by bisection on a common scale with the Monte Carlo alone
-    (the core has no linear sensitivities of spatial arms: no linear first
-    guess)."""
+    cable's holes: the linear first guess from the sensitivities, then
+    bisection on a common scale with the Monte Carlo."""
     from ..accuracy import tolerance
     from ..files import write_json
 
     cables = robot.cables
-    if args.shape != "ratio":
-        raise UserError(f"--shape {args.shape}: needs linear sensitivities, which the core has for planar robots "
-                        "only; spatial robots take --shape ratio")
     show = not args.quiet
     if show:
         print(f"cdsm tolerance: spatial robot {robot.name!r} ({robot.n} joints), region {desc}, "
-              f"P{args.percentile:g} <= {args.target_mm:g} mm, {args.samples} samples; no linear first guess "
-              "for spatial arms: bisection with the Monte Carlo alone", file=sys.stderr)
+              f"P{args.percentile:g} <= {args.target_mm:g} mm, {args.samples} samples", file=sys.stderr)
     a = tolerance.allocate(robot, args.target_mm * 1e-3, theta, percentile=args.percentile, weights=weights,
-                           base=[b * 1e-3 for b in base], shape="ratio", samples=args.samples, seed=args.seed,
+                           base=[b * 1e-3 for b in base], shape=args.shape, samples=args.samples, seed=args.seed,
                            progress=show)
     dist = tolerance.distribution(robot, a.cable_length_tol_m, a.hole_tol_m, theta,
                                   percentiles=(50.0, args.percentile), samples=args.samples, seed=args.seed,
@@ -157,7 +152,7 @@ def _spatial_run(args, robot, t0: float, region: str, theta, desc: str, weights,
           f"(target {args.target_mm:g} mm; bin-edge bound, +{tolerance.HIST_RESOLUTION * 100:.1f} % "
           f"resolution; interpolated {out['achieved_interpolated_mm']:.4f} mm); "
           f"with every tolerance x1.25: {a.achieved_1p25_m * 1e3:.4f} mm")
-    print(f"no linear estimate (spatial: Monte Carlo bisection, {len(a.history)} evaluations); failed solves "
+    print(f"linear estimate {a.linear_m * 1e3:.4f} mm ({len(a.history)} Monte-Carlo evaluations); failed solves "
           f"{a.failed}; done in {time.perf_counter() - t0:.1f} s")
     if args.json:
         write_json(args.json, out, "--json", indent=2)
