@@ -3,11 +3,14 @@
 //! the coupled elastic cable solve.
 
 use cdsm::cables::CableGeometry;
+use cdsm::chain::Chain;
 use cdsm::ik::{IkSolver, TaskMask};
+use cdsm::kinds::Se2;
 use cdsm::kinematics::fk;
-use cdsm::lm::Workspace;
+use cdsm::model::Model;
+use cdsm::plant::{self, LoadRows};
 use cdsm::solve::{CableMethod, CableSolver, SolveOptions};
-use cdsm::statics::{self, Loads, Statics};
+use cdsm::tension::{Balance, Wrench};
 use cdsm::Robot;
 use std::hint::black_box;
 
@@ -62,30 +65,55 @@ fn main() {
         } else {
             vec![0.5; n]
         };
-        let loads = Loads {
-            lower: &lower,
-            tip_wrench: [0.0, -0.1, 0.0],
-            gravity: [0.0, -9.81],
-        };
-        let mut st = Statics::new(&r);
+        let model = Model::from_planar(&r);
+        let mut chain = Chain::<f64, Se2<f64>>::new(&model);
+        let mut bal = Balance::<f64>::new(&model);
+        let wrench = [0.0, -0.1, 0.0];
+        let couple = [0.0];
         let mut t = vec![0.0; n];
         c.run(&format!("tensions/n={n}"), 1, || {
-            st.tensions(black_box(&th), &loads, &mut t)
+            chain.at(&model, &model, black_box(&th));
+            bal.at_with(
+                &model,
+                &model,
+                &mut chain,
+                [0.0, -9.81, 0.0],
+                Wrench {
+                    force: wrench,
+                    couple: &couple,
+                },
+                Some(&lower),
+            );
+            bal.solve_square(&mut t)
         });
-        let mut ws = Workspace::default();
+        let tip = [0.0, -0.1, 0.0, 0.0];
+        let loads = LoadRows {
+            force: Some(&lower),
+            wrench: Some(&tip),
+            gravity: Some([0.0, -9.81, 0.0]),
+        };
         c.run(&format!("cable_solve_elastic/n={n}"), 1, || {
-            let mut x = th.clone();
-            statics::solve_cables_elastic(
-                &r,
-                &g,
-                black_box(&upper),
-                &loads,
-                &mut x,
-                &mut t,
-                &opts,
-                &mut ws,
-            )
+            plant::solve_elastic(&model, black_box(&upper), Some(&th), &loads, 0.0, &opts, 1)
         });
+        // per row of a batch of 64 (the setup shared, as in a Monte-Carlo run)
+        let rows = 64;
+        let many_upper: Vec<f64> = (0..rows).flat_map(|_| upper.iter().copied()).collect();
+        let many_th: Vec<f64> = (0..rows).flat_map(|_| th.iter().copied()).collect();
+        c.run(
+            &format!("cable_solve_elastic_batch/n={n}"),
+            rows as u64,
+            || {
+                plant::solve_elastic(
+                    &model,
+                    black_box(&many_upper),
+                    Some(&many_th),
+                    &loads,
+                    0.0,
+                    &opts,
+                    1,
+                )
+            },
+        );
         let mut ik = IkSolver::new(&r, TaskMask::POSE, opts);
         let mut t = th.clone();
         c.run(&format!("pose_ik/n={n}"), 1, || {

@@ -4,13 +4,16 @@
 
 use crate::batch::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
+use crate::chain::Chain;
 use crate::error::{CdsmError, Result};
+use crate::kinds::Se2;
 use crate::kinematics::fk;
+use crate::model::Model;
 use crate::robot::Robot;
 use crate::simd::cables::{closed_form_block, ClosedFormBlock, BLOCK_ROWS};
 use crate::simd::math::atan2_slice;
 use crate::solve::{cs_difference, CableMethod, CableSolver, SolveOptions};
-use crate::statics::{feasible, Loads, Statics};
+use crate::tension::{Balance, Wrench};
 use pulp::{Simd, WithSimd};
 
 /// Hole-location errors of the samples of a Monte-Carlo study.
@@ -276,17 +279,24 @@ pub fn monte_carlo(
     let small = (std::f64::consts::FRAC_PI_2 / n as f64).cos();
     // configurations outermost: each one's statistics stay in cache while its
     // samples are added (in sample order, as any chunking of the samples would)
-    let loads = Loads::of(robot);
+    let model = Model::from_planar(robot);
     let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
         let mut stats = McStats::new(r.len());
         let (mut target, mut th) = (vec![0.0; n], vec![0.0; n]);
         let mut solver = CableSolver::new(robot, method, *opts);
-        let mut statics = Statics::new(robot);
+        let mut chain = Chain::<f64, Se2<f64>>::new(&model);
+        let mut bal = Balance::<f64>::new(&model);
         let mut tension = vec![0.0; n];
+        let zero = [0.0; 3];
         let mut slack_at = |theta: &[f64]| {
-            statics.tensions(theta, &loads, &mut tension);
-            !feasible(&tension, 0.0)
+            chain.at(&model, &model, theta);
+            let wrench = Wrench {
+                force: zero,
+                couple: &zero[..1],
+            };
+            bal.at(&model, &model, &mut chain, model.gravity, wrench);
+            !(bal.solve_square(&mut tension) && tension.iter().all(|t| *t > 0.0))
         };
         // blocks of configurations, one per SIMD lane: the closed form of a
         // block for one sample shares that sample's geometry; each

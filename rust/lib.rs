@@ -25,7 +25,6 @@ pub mod robot;
 pub mod sensitivity;
 pub mod simd;
 pub mod solve;
-pub mod statics;
 pub mod tension;
 
 #[cfg(feature = "python")]

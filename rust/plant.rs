@@ -16,7 +16,7 @@
 //! Jacobian of the predictions with respect to the parameters follows from
 //! the implicit function theorem at the settled configuration.
 
-use crate::batch::{rows_exactly, rows_of, split_rows};
+use crate::batch::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
 use crate::chain::{ArmNumbers, Chain};
 use crate::error::{CdsmError, Result};
@@ -521,6 +521,28 @@ fn realised<S: Real>(seq: &Sequence, prm: &Params<S>, l_ref: &[f64]) -> Vec<S> {
     out
 }
 
+/// The loads of a settle: gravity (m/s², base frame), the force cables'
+/// tensions (N, in the order of the force cables; `None`: the model's) and
+/// a tip wrench `[F (3), M]` (N, N m, base frame; `M`: `[Mz]` planar, 3
+/// spatial) at the end frame's origin.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Loads {
+    pub gravity: [f64; 3],
+    pub force: Option<Vec<f64>>,
+    pub wrench: [f64; 6],
+}
+
+impl Loads {
+    /// The robot file's: its gravity and force tensions, no tip wrench.
+    pub fn of(model: &Model) -> Loads {
+        Loads {
+            gravity: model.gravity,
+            force: None,
+            wrench: [0.0; 6],
+        }
+    }
+}
+
 /// Buffers of the plant's equations in one scalar.
 struct Buffers<S: Real, F: Frame<S>> {
     chain: Chain<S, F>,
@@ -560,6 +582,7 @@ impl<S: Real, F: Frame<S>> Buffers<S, F> {
 fn equations<S: Real, F: Frame<S>>(
     model: &Model,
     prm: &Params<S>,
+    loads: &Loads,
     real: &[S],
     theta: &[S],
     b: &mut Buffers<S, F>,
@@ -574,16 +597,18 @@ fn equations<S: Real, F: Frame<S>>(
     if elastic {
         // the statics: the moment balance (its cable lengths are the holes'
         // own, without clearance)
-        let zero = [z; 3];
-        b.bal.at(
+        let w: [S; 6] = std::array::from_fn(|i| S::cst(loads.wrench[i]));
+        let couple = model.kind.task() - model.kind.dim();
+        b.bal.at_with(
             model,
             arm,
             &mut b.chain,
-            model.gravity,
+            loads.gravity,
             Wrench {
-                force: zero,
-                couple: &zero,
+                force: [w[0], w[1], w[2]],
+                couple: &w[3..3 + couple],
             },
+            loads.force.as_deref(),
         );
     }
     if clear {
@@ -826,25 +851,33 @@ impl<'a, K: Kind> Plant<'a, K> {
     /// seed on entry (the commanded configuration) and the answer on exit.
     /// `work` must have been made for this plant ([`SettleWork::new`]).
     pub fn settle(&self, real: &[f64], theta: &mut [f64], work: &mut SettleWork<'_, K>) -> bool {
+        self.settle_status(real, theta, work).converged
+    }
+
+    /// [`Plant::settle`] with the solver's status (the rigid solve's, or the
+    /// elastic / clearance solve's that follows it).
+    pub fn settle_status(
+        &self,
+        real: &[f64],
+        theta: &mut [f64],
+        work: &mut SettleWork<'_, K>,
+    ) -> crate::solve::Status {
         let (n, m) = (self.model.n(), real.len());
         work.start.copy_from_slice(theta);
-        let ok = match (&self.rigid, work.planar.as_mut()) {
-            (Rigid::Planar(_, geom), Some(s)) => s.solve(geom, real, theta).converged,
-            _ => {
-                work.general
-                    .solve(self.model, &self.prm.arm, real, theta)
-                    .converged
-            }
+        let rigid = match (&self.rigid, work.planar.as_mut()) {
+            (Rigid::Planar(_, geom), Some(s)) => s.solve(geom, real, theta),
+            _ => work.general.solve(self.model, &self.prm.arm, real, theta),
         };
         let clear = self.prm.clear();
         if !self.prm.elastic() && !clear {
-            return ok;
+            return rigid;
         }
-        if !ok {
+        if !rigid.converged {
             theta.copy_from_slice(&work.start);
         }
         let mut prob = SettleProblem {
             plant: self,
+            loads: &work.loads,
             real,
             work: &mut work.jet,
         };
@@ -856,10 +889,10 @@ impl<'a, K: Kind> Plant<'a, K> {
             Step::Normal
         };
         let lm = Lm {
-            lambda0: 0.0,
+            lambda0: work.lambda0,
             ..Lm::equations(step, work.opts.tol, work.opts.max_iter)
         };
-        lm::solve(&mut prob, theta, &lm, &mut work.ws).converged
+        lm::solve(&mut prob, theta, &lm, &mut work.ws)
     }
 
     /// What the instrument sees at `theta` (the task vector, `TASK` values).
@@ -904,6 +937,11 @@ impl<'a, K: Kind> Plant<'a, K> {
 /// Per-thread buffers of the settles of one plant.
 pub struct SettleWork<'a, K: Kind> {
     opts: SolveOptions,
+    /// The loads the settles hold the arm against (default the robot file's).
+    pub loads: Loads,
+    /// The initial damping of the elastic / clearance solve (default 0:
+    /// Newton first; the batch elastic solve starts damped, `1e-3`).
+    pub lambda0: f64,
     planar: Option<CableSolver<'a>>,
     general: CableSolve<K::Frame<f64>>,
     start: Vec<f64>,
@@ -920,6 +958,8 @@ impl<'a, K: Kind> SettleWork<'a, K> {
         };
         SettleWork {
             opts,
+            loads: Loads::of(model),
+            lambda0: 0.0,
             planar,
             general: CableSolve::new(model, opts),
             start: vec![0.0; model.n()],
@@ -933,6 +973,7 @@ impl<'a, K: Kind> SettleWork<'a, K> {
 /// equations of the settled state with their Jacobian in jets.
 struct SettleProblem<'a, 'b, K: Kind> {
     plant: &'a Plant<'a, K>,
+    loads: &'b Loads,
     real: &'a [f64],
     work: &'b mut JetWork<K>,
 }
@@ -945,7 +986,15 @@ impl<K: Kind> Problem for SettleProblem<'_, '_, K> {
 
     fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
         let p = self.plant;
-        equations(p.model, &p.prm, self.real, x, &mut self.work.fbuf, r);
+        equations(
+            p.model,
+            &p.prm,
+            self.loads,
+            self.real,
+            x,
+            &mut self.work.fbuf,
+            r,
+        );
         if let Some(j) = jac {
             let n = x.len();
             for (d, v) in self.work.real.iter_mut().zip(self.real) {
@@ -956,7 +1005,9 @@ impl<K: Kind> Problem for SettleProblem<'_, '_, K> {
                     *d = J::seeded(x[l], l.wrapping_sub(c * JET));
                 }
                 let w = &mut *self.work;
-                equations(p.model, &p.cprm, &w.real, &w.theta, &mut w.buf, &mut w.f);
+                equations(
+                    p.model, &p.cprm, self.loads, &w.real, &w.theta, &mut w.buf, &mut w.f,
+                );
                 for s in 0..JET.min(n - c * JET) {
                     for i in 0..n {
                         j[i * n + c * JET + s] = w.f[i].d[s];
@@ -970,6 +1021,8 @@ impl<K: Kind> Problem for SettleProblem<'_, '_, K> {
 
 /// Buffers of the forward-mode evaluations at one command.
 pub struct JetWork<K: Kind> {
+    /// The loads of the implicit derivatives (the robot file's).
+    loads: Loads,
     fbuf: Buffers<f64, K::Frame<f64>>,
     buf: Buffers<J, K::Frame<J>>,
     theta: Vec<J>,
@@ -991,6 +1044,7 @@ impl<K: Kind> JetWork<K> {
         let m = model.position_cables().len();
         let task = <K::Frame<J> as Frame<J>>::TASK;
         JetWork {
+            loads: Loads::of(model),
             fbuf: Buffers::new(model),
             buf: Buffers::new(model),
             theta: vec![J::default(); n],
@@ -1037,7 +1091,9 @@ fn implicit_derivatives<'c, K: Kind>(
         for (l, d) in w.theta.iter_mut().enumerate() {
             *d = J::seeded(theta[l], l.wrapping_sub(c * JET));
         }
-        equations(model, ch.prm, ch.real, &w.theta, &mut w.buf, &mut w.f);
+        equations(
+            model, ch.prm, &w.loads, ch.real, &w.theta, &mut w.buf, &mut w.f,
+        );
         observe_at(model, ch.prm, &mut w.buf.chain, &mut w.obs);
         for s in 0..JET.min(total - c * JET) {
             let g = c * JET + s;
@@ -1444,6 +1500,181 @@ impl<K: Kind> FitModel for PlantFit<'_, K> {
     }
 }
 
+/// Result of a batch of elastic cable solves.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ElasticSolution {
+    pub solution: BatchSolution,
+    /// `(N, m)` position-cable tensions at the answer (N).
+    pub tension: Vec<f64>,
+    /// Every position tension `> min_tension`.
+    pub feasible: Vec<bool>,
+}
+
+/// Per-row or shared loads of a batch of elastic solves (validated by the
+/// caller's shapes): `force` `(f,)` or `(N, f)` N, `wrench` `(3 + c,)` or
+/// `(N, 3 + c)` (`c` = 1 planar, 3 spatial), `gravity` (m/s²).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LoadRows<'a> {
+    pub force: Option<&'a [f64]>,
+    pub wrench: Option<&'a [f64]>,
+    pub gravity: Option<[f64; 3]>,
+}
+
+/// The coupled elastic cable solve of a batch (`docs/model.md`,
+/// "Statics"): commanded (unstretched) lengths `(N, m)` of the position
+/// cables (m) to the configuration where the cables, stretched under their
+/// tensions (`E A` of the robot file's cable: the plant's equations with
+/// `kappa = 1/(E A)` and no other effect), hold the arm under the loads;
+/// `seed (N, n)` or zeros (the rigid solve first). With the tensions at the
+/// answer (the balance's, or Hooke's where the cables outnumber the joints)
+/// and whether each is above `min_tension` (N).
+pub fn solve_elastic(
+    model: &Model,
+    lengths: &[f64],
+    seed: Option<&[f64]>,
+    loads: &LoadRows,
+    min_tension: f64,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<ElasticSolution> {
+    by_kind!(
+        model,
+        solve_elastic_k(model, lengths, seed, loads, min_tension, opts, threads)
+    )
+}
+
+fn solve_elastic_k<K: Kind>(
+    model: &Model,
+    lengths: &[f64],
+    seed: Option<&[f64]>,
+    loads: &LoadRows,
+    min_tension: f64,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<ElasticSolution> {
+    let (n, m) = (model.n(), model.position_cables().len());
+    let rows = rows_of("lengths", lengths, m)?;
+    let seed = crate::batch::seeds(seed, rows, n)?;
+    crate::batch::check_options(opts)?;
+    if !min_tension.is_finite() {
+        return Err(CdsmError::Option {
+            name: "min_tension".into(),
+            problem: format!("must be finite, got {min_tension}"),
+        });
+    }
+    let nf = model.cables.len() - m;
+    let cw = 3 + model.kind.task() - model.kind.dim();
+    let per_row = |name: &str, v: Option<&[f64]>, width: usize| -> Result<bool> {
+        match v {
+            None => Ok(false),
+            Some(v) => {
+                crate::error::check_finite(name, v)?;
+                if v.len() == width {
+                    Ok(false)
+                } else if v.len() == rows * width {
+                    Ok(true)
+                } else {
+                    Err(CdsmError::Shape {
+                        name: name.into(),
+                        expected: format!("({width},) or ({rows}, {width})"),
+                        got: format!("{} values", v.len()),
+                    })
+                }
+            }
+        }
+    };
+    let (force_rows, wrench_rows) = (
+        per_row("lower", loads.force, nf)?,
+        per_row("tip_wrench", loads.wrench, cw)?,
+    );
+    if let Some(g) = loads.gravity {
+        crate::error::check_finite("gravity", &g)?;
+    }
+    let kappa = {
+        let d = model.cable.diameter;
+        1.0 / (model.cable.youngs_modulus * std::f64::consts::PI * d * d / 4.0)
+    };
+    let lay = layout(model);
+    let mut p = vec![0.0; lay.total];
+    p[lay
+        .find(Effect::CableElasticity)
+        .expect("every kind has elasticity")
+        .0] = kappa;
+    let plant = Plant::<K>::new(model, &p)?;
+    let route = model.cable.routing_length;
+    let parts = split_rows(rows, threads, |r| {
+        let mut out = ElasticSolution::default();
+        let mut work = SettleWork::new(&plant, *opts);
+        work.lambda0 = crate::lm::LAMBDA_RESTART;
+        let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
+        let mut bal = Balance::<f64>::new(model);
+        let (mut th, mut t) = (vec![0.0; n], vec![0.0; m]);
+        for i in r {
+            match seed {
+                Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
+                None => th.fill(0.0),
+            }
+            fn pick(v: Option<&[f64]>, w: usize, rows_given: bool, i: usize) -> Option<&[f64]> {
+                v.map(|v| {
+                    if rows_given {
+                        &v[i * w..(i + 1) * w]
+                    } else {
+                        v
+                    }
+                })
+            }
+            let force = pick(loads.force, nf, force_rows, i);
+            let wrench = pick(loads.wrench, cw, wrench_rows, i);
+            work.loads = Loads {
+                gravity: loads.gravity.unwrap_or(model.gravity),
+                force: force.map(|f| f.to_vec()),
+                wrench: std::array::from_fn(|k| {
+                    wrench.and_then(|w| w.get(k).copied()).unwrap_or(0.0)
+                }),
+            };
+            let target = &lengths[i * m..(i + 1) * m];
+            let st = plant.settle_status(target, &mut th, &mut work);
+            // the tensions at the answer
+            chain.at(model, model, &th);
+            let w = work.loads.wrench;
+            bal.at_with(
+                model,
+                model,
+                &mut chain,
+                work.loads.gravity,
+                Wrench {
+                    force: [w[0], w[1], w[2]],
+                    couple: &w[3..cw],
+                },
+                force,
+            );
+            if m == n {
+                if !bal.solve_square(&mut t) {
+                    t.fill(f64::NAN);
+                }
+            } else {
+                for (k, tk) in t.iter_mut().enumerate() {
+                    let s = (bal.lengths[model.position_cables()[k]] + route) / (target[k] + route)
+                        - 1.0;
+                    *tk = s.max(0.0) / kappa;
+                }
+            }
+            out.solution
+                .push_row(&th, st, crate::arm::within_limits_of(model, &th));
+            out.tension.extend_from_slice(&t);
+            out.feasible.push(t.iter().all(|v| *v > min_tension));
+        }
+        out
+    });
+    let mut all = ElasticSolution::default();
+    for p in parts {
+        all.solution.extend(p.solution);
+        all.tension.extend(p.tension);
+        all.feasible.extend(p.feasible);
+    }
+    Ok(all)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1619,6 +1850,39 @@ mod tests {
         };
         let pr = predict(&m, &p, &rows, &SolveOptions::default(), 1).unwrap();
         assert!(!pr.converged[0] && pr.observation[0].is_nan());
+    }
+
+    #[test]
+    fn the_elastic_solve_meets_its_equation_and_moves_a_steel_arm_a_little() {
+        let r = Robot::paper();
+        let m = planar();
+        let th0 = [0.2, -0.3, 0.25];
+        let cmd = position_lengths(&m, &th0);
+        let out = solve_elastic(
+            &m,
+            &cmd,
+            Some(&th0),
+            &LoadRows::default(),
+            0.0,
+            &SolveOptions::default(),
+            1,
+        )
+        .unwrap();
+        assert!(out.solution.converged[0] && out.feasible[0]);
+        let th = &out.solution.theta[..3];
+        // the stretched cables let the arm move a little (steel: < 1 mrad)
+        let moved = th
+            .iter()
+            .zip(th0)
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()));
+        assert!(moved > 1e-7 && moved < 1e-3, "{moved}");
+        // L_geom = L_cmd (1 + T / (E A)) per upper cable
+        let lg = position_lengths(&m, th);
+        let d = r.cable.diameter;
+        let ea = r.cable.youngs_modulus * std::f64::consts::PI * d * d / 4.0;
+        for i in 0..3 {
+            assert!((lg[i] - cmd[i] * (1.0 + out.tension[i] / ea)).abs() < 1e-12);
+        }
     }
 
     /// The jets' Jacobian of the predictions against central differences

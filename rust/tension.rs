@@ -186,44 +186,88 @@ mod tests {
     use crate::kinds::{Se2, Se3};
     use crate::real::Dual;
     use crate::robot::Robot;
-    use crate::statics::{Loads, Statics};
 
     #[test]
-    fn the_square_balance_is_the_planar_statics() {
+    fn the_straight_paper_arm_holds_its_weights() {
+        // Table 1: at theta = 0 in a horizontal plane each upper cable carries
+        // its pair's lower weight (50, 10, 5 g)
         let r = Robot::paper();
         let m = Model::from_planar(&r);
         let mut ch = Chain::<f64, Se2<f64>>::new(&m);
+        ch.at(&m, &m, &[0.0; 3]);
         let mut bal = Balance::<f64>::new(&m);
-        let mut st = Statics::new(&r);
-        let w = [0.3, -0.2, 0.01];
-        let g = [1.0, -9.81];
-        for th in [[0.3, -0.45, 0.2], [0.0, 0.0, 0.0], [-0.5, 0.6, -0.1]] {
-            ch.at(&m, &m, &th);
-            bal.at(
-                &m,
-                &m,
-                &mut ch,
-                [g[0], g[1], 0.0],
-                Wrench {
-                    force: [w[0], w[1], 0.0],
-                    couple: &w[2..],
-                },
-            );
-            let mut t = [0.0; 3];
-            assert!(bal.solve_square(&mut t));
-            let mut want = [0.0; 3];
-            let loads = Loads {
-                lower: &r.lower_tension,
-                tip_wrench: w,
-                gravity: g,
-            };
-            st.tensions(&th, &loads, &mut want);
-            for k in 0..3 {
-                assert!(
-                    (t[k] - want[k]).abs() < 1e-12 * (1.0 + want[k].abs()),
-                    "{t:?} vs {want:?}"
-                );
+        let zero = [0.0; 3];
+        bal.at(
+            &m,
+            &m,
+            &mut ch,
+            [0.0; 3],
+            Wrench {
+                force: zero,
+                couple: &zero[..1],
+            },
+        );
+        let mut t = [0.0; 3];
+        assert!(bal.solve_square(&mut t));
+        for k in 0..3 {
+            assert!((t[k] - r.lower_tension[k]).abs() < 1e-14, "{t:?}");
+        }
+    }
+
+    #[test]
+    fn the_planar_balance_is_the_virtual_work_of_its_loads() {
+        // sum_c T_c dL_c/dtheta_k = tau_k: the tip wrench through the pose
+        // Jacobian, gravity through the disks' centres by central differences
+        let r = Robot::paper();
+        let m = Model::from_planar(&r);
+        let th = [0.3, -0.45, 0.2];
+        let (w, g) = ([0.3, -0.2, 0.0, 0.01], [1.0, -9.81, 0.0]);
+        let mut ch = Chain::<f64, Se2<f64>>::new(&m);
+        ch.at(&m, &m, &th);
+        let mut bal = Balance::<f64>::new(&m);
+        bal.at(
+            &m,
+            &m,
+            &mut ch,
+            g,
+            Wrench {
+                force: [w[0], w[1], w[2]],
+                couple: &w[3..],
+            },
+        );
+        let mut t = [0.0; 3];
+        assert!(bal.solve_square(&mut t));
+        let mut jac = [0.0; 18];
+        crate::cables::CableGeometry::new(&r, None).jacobian(&th, &mut jac);
+        let mut jt = [[0.0; 3]; 3];
+        crate::kinematics::fk_jacobian(&r, &th, &mut jt);
+        let centres = |x: &[f64; 3]| {
+            let (mut j, mut c) = ([[0.0; 2]; 3], [[0.0; 2]; 3]);
+            crate::geometry::ArmGeometry::<f64>::chain(&r, x, &mut j, &mut c);
+            c
+        };
+        for k in 0..3 {
+            let work: f64 = (0..6)
+                .map(|c| {
+                    jac[c * 3 + k]
+                        * if c % 2 == 0 {
+                            t[c / 2]
+                        } else {
+                            r.lower_tension[c / 2]
+                        }
+                })
+                .sum();
+            let mut tau = jt[k][0] * w[0] + jt[k][1] * w[1] + jt[k][2] * w[3];
+            let h = 1e-6;
+            let (mut a, mut b) = (th, th);
+            a[k] += h;
+            b[k] -= h;
+            let (ca, cb) = (centres(&a), centres(&b));
+            for j in 0..3 {
+                tau += r.mass[j] * ((ca[j][0] - cb[j][0]) * g[0] + (ca[j][1] - cb[j][1]) * g[1])
+                    / (2.0 * h);
             }
+            assert!((work - tau).abs() < 1e-9, "{k}: {work} vs {tau}");
         }
     }
 

@@ -533,27 +533,14 @@ class Robot:
         ok = np.asarray(res.feasible, bool)
         return ok[0] if single else ok
 
-    def _loads(self, rows: int, lower, tip_wrench, gravity):
-        """Validated planar load arrays for the core: shared (k,) or per row (N, k)."""
-        def rowed(name, value, width):
-            if value is None:
-                return None
-            arr, single = as_batch(name, value, width)
-            if not single and arr.shape[0] != rows:
-                raise CdsmInputError(f"`{name}`: expected shape ({rows}, {width}) or ({width},), "
-                                     f"got {np.shape(value)}")
-            return arr.reshape(-1)
-        g = None if gravity is None else as_vector("gravity", gravity, 2)
-        return rowed("lower", lower, self.n), rowed("tip_wrench", tip_wrench, 3), g
-
-    def stretch(self, theta, lower=None, tip_wrench=None, gravity=None) -> np.ndarray:
-        """Planar arms: elongation of every upper cable, m, under the statics
-        tensions at theta: ``(L_geom + routing_length) * eps / (1 + eps)``,
-        ``eps = T / (E A)``, ``A = pi d^2 / 4``. (N, n) -> (N, n)."""
-        t, single = as_batch("theta", theta, self.n)
-        lo, w, g = self._loads(t.shape[0], lower, tip_wrench, gravity)
-        out = self.core.stretch(t, lo, w, g, self.threads)
-        return self._out(out, (self.n,), single)
+    def stretch(self, theta, tip_wrench=None, force=None, gravity=None, lower=None) -> np.ndarray:
+        """Elongation of every position cable, m, under the statics tensions
+        at theta (loads as :meth:`tensions`): ``(L_geom + routing_length) *
+        eps / (1 + eps)``, ``eps = T / (E A)``, ``A = pi d^2 / 4``. (N, n) ->
+        (N, m_pos). NaN where the tensions are."""
+        t = self.tensions(theta, tip_wrench=tip_wrench, force=force, gravity=gravity, lower=lower)
+        eps = t / self.axial_stiffness
+        return (self.position_lengths(theta) + self.routing_length) * eps / (1.0 + eps)
 
     def with_loads(self, lower_tension=None, gravity=None) -> "Robot":
         """Planar arms: the same robot with other lower-cable tensions (n,),
@@ -571,33 +558,59 @@ class Robot:
         r = self.routing_length if routing_length is None else as_finite("routing_length", routing_length)
         return Robot(self.core.with_cable(e, d, r), self.threads)
 
-    def solve_cables_elastic(self, upper, seed=None, lower=None, tip_wrench=None, gravity=None,
-                             min_tension: float = 0.0, tol: float = 1e-12,
-                             max_iter: int = 100) -> "ElasticSolution":
-        """Planar arms: commanded (unstretched) upper-cable lengths (N, n), m
-        -> joint angles with elastic cables whose tensions depend on theta
-        (coupled solve).
+    def solve_cables_elastic(self, lengths, seed=None, lower=None, tip_wrench=None, gravity=None,
+                             min_tension: float = 0.0, tol: float = 1e-12, max_iter: int = 100,
+                             force=None) -> "ElasticSolution":
+        """Commanded (unstretched) lengths of the position cables (N, m_pos),
+        m -> joint angles with elastic cables whose tensions depend on theta
+        (coupled solve; ``docs/model.md``, "Statics").
 
-        The arm sees ``L_geom = (L_cmd + routing_length)(1 + T/(E A)) - routing_length``
-        per upper cable, T from :meth:`tensions` at the answer. Each row: the
-        rigid cable solve (auto) from ``seed`` (default 0), then damped Newton
-        (LM) on the coupled equations. Returns an :class:`ElasticSolution`
-        (also flags slack cables: ``feasible``).
+        The arm sees ``L_geom = (L_cmd + routing_length)(1 + T/(E A)) -
+        routing_length`` per position cable: with as many position cables as
+        joints T from the balance (:meth:`tensions`), with more the cables'
+        own Hooke tensions at the equilibrium. Loads as :meth:`tensions`
+        (``lower`` the planar name of ``force``). Each row: the rigid cable
+        solve from ``seed`` (default 0), then damped Newton (LM) on the
+        coupled equations. Returns an :class:`ElasticSolution` (also flags
+        slack cables: ``feasible``).
         """
-        u, single = as_batch("upper", upper, self.n)
-        lo, w, g = self._loads(u.shape[0], lower, tip_wrench, gravity)
-        res = self.core.solve_elastic(u, self._seed(seed, u.shape[0]), lo, w, g,
+        name = "upper" if self.kind == "planar" else "lengths"
+        u, single = as_batch(name, lengths, len(self.position_cables))
+        force, fname = self._force(force, lower)
+        rows = u.shape[0]
+
+        def rowed(label, value, width):
+            if value is None:
+                return None
+            arr, one = as_batch(label, value, width)
+            if not one and arr.shape[0] != rows:
+                raise CdsmInputError(f"`{label}`: expected shape ({rows}, {width}) or ({width},), "
+                                     f"got {np.shape(value)}")
+            return arr
+
+        w = rowed("tip_wrench", tip_wrench, self.task)
+        if w is not None and self.kind == "planar":
+            w = np.ascontiguousarray(np.insert(w, 2, 0.0, axis=1))
+        f = rowed(fname, force, self.cables - len(self.position_cables))
+        g = None
+        if gravity is not None:
+            g = [float(v) for v in as_vector("gravity", gravity, 2 if self.kind == "planar" else 3)]
+            g = g + [0.0] if self.kind == "planar" else g
+        res = self.core.solve_elastic(u, self._seed(seed, rows), None if f is None else f.reshape(-1),
+                                      None if w is None else w.reshape(-1), g,
                                       as_finite("min_tension", min_tension), float(tol),
                                       as_iterations("max_iter", max_iter), self.threads)
-        return ElasticSolution.from_core(res.solution, self.n, single, self, tension=res.tension.reshape(-1, self.n),
+        m = len(self.position_cables)
+        return ElasticSolution.from_core(res.solution, self.n, single, self, tension=res.tension.reshape(-1, m),
                                          _feasible=res.feasible)
 
 
 @dataclass(frozen=True)
 class ElasticSolution(Solution):
     """A :class:`Solution` of the elastic cable solve, plus the statics at the
-    answer: tension (N, n) upper-cable tensions, N; ``feasible`` (N,) here means
-    every upper tension above ``min_tension`` (False: some cable would go slack)."""
+    answer: tension (N, m_pos) position-cable tensions, N; ``feasible`` (N,)
+    here means every such tension above ``min_tension`` (False: some cable
+    would go slack)."""
 
     tension: np.ndarray = None
 

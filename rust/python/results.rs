@@ -7,9 +7,9 @@ use crate::accuracy::McStats;
 use crate::batch::BatchSolution;
 use crate::compensate::Compensation;
 use crate::fit::FitResult;
+use crate::plant::ElasticSolution;
 use crate::plant::Predictions;
 use crate::sensitivity::Sensitivities;
-use crate::statics::ElasticSolution;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 

@@ -18,7 +18,6 @@ use crate::error::CdsmError;
 use crate::ik::{SpatialMask, TaskMask};
 use crate::model::{Mode, Model};
 use crate::robot::{CableMaterial, Robot};
-use crate::statics::{self, BatchLoads};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 
@@ -67,18 +66,6 @@ impl CoreRobot {
         let t = slice("theta", &theta)?;
         let out = py.detach(|| f(&self.model, t, threads)).map_err(err)?;
         Ok(vec1(py, out))
-    }
-
-    fn loads<'a>(
-        lower: &'a Option<Arr<'_>>,
-        tip_wrench: &'a Option<Arr<'_>>,
-        gravity: &'a Option<Arr<'_>>,
-    ) -> PyResult<BatchLoads<'a>> {
-        Ok(BatchLoads {
-            lower: opt_slice("lower", lower)?,
-            tip_wrench: opt_slice("tip_wrench", tip_wrench)?,
-            gravity: opt_slice("gravity", gravity)?,
-        })
     }
 }
 
@@ -583,47 +570,44 @@ impl CoreRobot {
         Ok(TensionResult::new(py, tension, feasible))
     }
 
-    #[pyo3(signature = (theta, lower, tip_wrench, gravity, threads))]
-    fn stretch<'py>(
-        &self,
-        py: Python<'py>,
-        theta: Arr<'_>,
-        lower: Option<Arr<'_>>,
-        tip_wrench: Option<Arr<'_>>,
-        gravity: Option<Arr<'_>>,
-        threads: usize,
-    ) -> PyResult<Array<'py>> {
-        let r = self.planar("stretch")?;
-        let t = slice("theta", &theta)?;
-        let loads = Self::loads(&lower, &tip_wrench, &gravity)?;
-        let out = py
-            .detach(|| statics::stretches(r, t, &loads, threads))
-            .map_err(err)?;
-        Ok(vec1(py, out))
-    }
-
-    #[pyo3(signature = (upper, seed, lower, tip_wrench, gravity, min_tension, tol, max_iter, threads))]
+    /// The coupled elastic cable solve of position-cable lengths `(N, m)`:
+    /// loads as `tensions` (force tensions, tip wrench `[F, M]`, gravity (3,)).
+    #[pyo3(signature = (lengths, seed, force, tip_wrench, gravity, min_tension, tol, max_iter, threads))]
     #[allow(clippy::too_many_arguments)]
     fn solve_elastic(
         &self,
         py: Python<'_>,
-        upper: Arr<'_>,
+        lengths: Arr<'_>,
         seed: Option<Arr<'_>>,
-        lower: Option<Arr<'_>>,
+        force: Option<Arr<'_>>,
         tip_wrench: Option<Arr<'_>>,
-        gravity: Option<Arr<'_>>,
+        gravity: Option<Vec<f64>>,
         min_tension: f64,
         tol: f64,
         max_iter: u32,
         threads: usize,
     ) -> PyResult<ElasticResult> {
-        let r = self.planar("solve_elastic")?;
-        let u = slice("upper", &upper)?;
+        let u = slice("lengths", &lengths)?;
         let s = opt_slice("seed", &seed)?;
-        let loads = Self::loads(&lower, &tip_wrench, &gravity)?;
+        let gravity = match gravity {
+            None => None,
+            Some(g) => Some(<[f64; 3]>::try_from(g.as_slice()).map_err(|_| {
+                CdsmInputError::new_err(format!(
+                    "`gravity`: expected 3 values (m/s^2), got {}",
+                    g.len()
+                ))
+            })?),
+        };
+        let loads = crate::plant::LoadRows {
+            force: opt_slice("force", &force)?,
+            wrench: opt_slice("tip_wrench", &tip_wrench)?,
+            gravity,
+        };
         let o = options(tol, max_iter, false);
         let out = py
-            .detach(|| statics::solve_elastic(r, u, s, &loads, min_tension, &o, threads))
+            .detach(|| {
+                crate::plant::solve_elastic(&self.model, u, s, &loads, min_tension, &o, threads)
+            })
             .map_err(err)?;
         ElasticResult::new(py, out)
     }

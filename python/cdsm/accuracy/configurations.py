@@ -2,28 +2,36 @@
 
 The paper's conclusion: "If we can avoid these special points in trajectory
 planning, the tip positioning accuracy will be significantly improved." For a
-target pose we pick the joint configuration whose tip is least sensitive to
-the cable-length and hole-height errors, measured by the linear RMS of the
-tip position error (:func:`cdsm.accuracy.sensitivity.amplification`: ``sqrt(sum_ij S_ij^2 t_j^2 / 3)``,
-i in x, y; ``t`` the tolerances, default the paper's ±1 mm per cable and
-±0.35 mm per disk):
+target we pick the joint configuration whose tip is least sensitive to the
+cable-length and hole errors, measured by the linear RMS of the tip position
+error (:func:`cdsm.accuracy.sensitivity.amplification`: ``sqrt(sum_ij S_ij^2
+t_j^2 / 3)``, i over the position components; ``t`` the tolerances). Planar
+arms: default the paper's ±1 mm per cable and ±0.35 mm per disk's hole
+height, targets ``[x, y, phi]`` (mask ``"pose"``). Spatial arms: ±1 mm per
+position cable and ±0.35 mm on every coordinate of every hole (the general
+sensitivities of the one model), targets ``[x, y, z, rx, ry, rz]`` matched on
+the mask's rows (default ``"position"``: the end origin, so that an arm with
+more than three joints has a null space; ``"pose"`` needs more than six).
 
-* n = 3: the pose IK has (generically) two branches; both are found from
-  several seeds (``(0, ∓1e-3, 0)``, ``(0, ±0.5, 0)``, 0) and the converged
-  branch within the joint limits with the smaller RMS amplification wins.
-* n > 3: gradient projection in the null space of the pose Jacobian
-  (``P = I - J^+ J``, gradient of the squared RMS amplification by central
-  differences in the Rust core),
-  a step along ``-P grad`` followed by the pose IK back onto the target,
-  accepted only if it lowers the objective and stays within the joint limits;
-  started from the θ = 0 seeded IK (the default).
-* Paths: n = 3 dynamic programming over the branches (cost = sum of RMS
+* No redundancy (as many joints as matched rows, e.g. a planar 3-joint arm
+  on the full pose): the IK has (generically) several branches; they are
+  found from several seeds (``(0, ∓1e-3, 0)``, ``(0, ±0.5, 0)``, 0) and the
+  converged branch within the joint limits with the smaller RMS
+  amplification wins.
+* Redundancy: gradient projection in the null space of the matched rows of
+  the task Jacobian (``P = I - J^+ J``, gradient of the squared RMS
+  amplification by central differences: planar in the Rust core, spatial of
+  the general sensitivities), a step along ``-P grad`` followed by the IK
+  back onto the target, accepted only if it lowers the objective and stays
+  within the joint limits; started from the θ = 0 seeded IK (the default).
+* Paths: dynamic programming over the branches (cost = sum of RMS
   amplification + ``mu |Δθ|²``, transitions with ``max |Δθ| > max_step``
-  forbidden, so the sequence stays continuous); n > 3 warm-started null-space
-  descent from the previous pose, with the penalty ``mu |θ - θ_prev|²``.
+  forbidden, so the sequence stays continuous); with redundancy warm-started
+  null-space descent from the previous target, with the penalty
+  ``mu |θ - θ_prev|²``.
 
 :func:`compare_with_default` measures the improvement with the Rust Monte
-Carlo (the P-th percentile of |d(x, y)| per pose and pooled).
+Carlo (the P-th percentile of the tip position error per target and pooled).
 """
 
 from __future__ import annotations
@@ -36,7 +44,7 @@ from ..inputs import CdsmInputError, as_batch
 from ..robot import Robot
 from .montecarlo import monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
-from .sensitivity import tolerance_vector
+from .sensitivity import sensitivities, tolerance_vector
 from .tolerance import pooled_percentile
 
 __all__ = ["rms_amplification", "rms_and_gradient", "ik_branches", "best_configurations", "null_space_optimize",
@@ -44,33 +52,68 @@ __all__ = ["rms_amplification", "rms_and_gradient", "ik_branches", "best_configu
 
 
 def rms_amplification(robot: Robot, theta, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL) -> np.ndarray:
-    """(N,) linear RMS of |d(x, y)| (m) at ``theta (N, n)`` rad for uniform
-    errors within ±dl_tol per upper cable and ±dh_tol per disk (m); inf where
+    """(N,) linear RMS of the tip position error (m) at ``theta (N, n)`` rad
+    for uniform errors within ±dl_tol per position cable and ±dh_tol per
+    disk's hole height (planar) or hole coordinate (spatial), m; inf where
     the cable Jacobian is singular."""
     return rms_and_gradient(robot, theta, dl_tol, dh_tol)[0]
 
 
+def _spatial_rms(robot: Robot, theta: np.ndarray, dl_tol, dh_tol) -> np.ndarray:
+    from .tolerance import spatial_tolerances
+
+    dl, dh = spatial_tolerances(robot, dl_tol, dh_tol)
+    s = sensitivities(robot, theta, holes=True)
+    t2 = np.concatenate([dl, dh]) ** 2
+    m = np.concatenate([s.cable[:, :3], s.holes[:, :3]], axis=2)
+    v = np.sqrt(((m ** 2).sum(axis=1) @ t2) / 3.0)
+    return np.where(s.ok, v, np.inf)
+
+
 def rms_and_gradient(robot: Robot, theta, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL, h: float = 1e-6):
     """:func:`rms_amplification` (N,) m and its gradient (N, n) m/rad in
-    ``theta (N, n)`` rad (central differences of ``h`` rad in the Rust core)."""
+    ``theta (N, n)`` rad (central differences of ``h`` rad: planar in the
+    Rust core, spatial over one batch of the general sensitivities)."""
     t, _ = as_batch("theta", theta, robot.n)
+    if robot.kind == "spatial":
+        n = robot.n
+        steps = np.concatenate([np.zeros((1, n)), h * np.eye(n), -h * np.eye(n)])
+        v = _spatial_rms(robot, (t[:, None, :] + steps[None]).reshape(-1, n), dl_tol, dh_tol).reshape(len(t), -1)
+        with np.errstate(invalid="ignore"):
+            g = (v[:, 1:n + 1] - v[:, n + 1:]) / (2 * h)
+        return v[:, 0], g
     tol = np.ascontiguousarray(tolerance_vector(robot, dl_tol, dh_tol))
     v, g = robot.core.rms_amplification(t, tol, float(h), robot.threads)
     return v, g.reshape(-1, robot.n)
 
 
-def _pose_ok(robot: Robot, theta: np.ndarray, poses: np.ndarray, sol) -> np.ndarray:
+def _rows(robot: Robot, mask: Optional[str]) -> np.ndarray:
+    """The task rows a mask matches: planar ``"pose"`` (x, y, phi) or
+    ``"position"`` (x, y); spatial ``"position"`` (x, y, z) or ``"pose"``."""
+    mask = ("pose" if robot.kind == "planar" else "position") if mask is None else mask
+    rows = {"pose": np.arange(robot.task), "position": np.arange(2 if robot.kind == "planar" else 3)}
+    if mask not in rows:
+        raise CdsmInputError(f"`mask`: expected 'pose' or 'position', got {mask!r}")
+    return rows[mask]
+
+
+def _mask_name(robot: Robot, mask: Optional[str]) -> str:
+    return ("pose" if robot.kind == "planar" else "position") if mask is None else mask
+
+
+def _pose_ok(robot: Robot, theta: np.ndarray, poses: np.ndarray, sol, mask=None) -> np.ndarray:
     ok = np.asarray(sol.converged, bool) & robot.within_limits(theta)
-    err = np.abs(robot.fk(theta) - poses).max(axis=1)
+    rows = _rows(robot, mask)
+    err = np.abs(robot.fk(theta)[:, rows] - poses[:, rows]).max(axis=1)
     return ok & (err < 1e-9)
 
 
-def ik_branches(robot: Robot, poses, seeds=None):
-    """Candidate IK solutions of every pose (N, 3) from several seeds.
+def ik_branches(robot: Robot, poses, seeds=None, mask=None):
+    """Candidate IK solutions of every target (N, task) from several seeds.
 
     Returns ``theta (N, B, n)`` rad and ``valid (N, B)`` (converged, within the
     joint limits, not a duplicate of an earlier seed's answer)."""
-    p, _ = as_batch("poses", poses, 3)
+    p, _ = as_batch("poses", poses, robot.task)
     n = robot.n
     if seeds is None:
         seeds = []
@@ -83,10 +126,10 @@ def ik_branches(robot: Robot, poses, seeds=None):
     cand = np.empty((len(p), len(seeds), n))
     valid = np.zeros((len(p), len(seeds)), bool)
     for b, s in enumerate(seeds):
-        sol = robot.ik(p, seed=np.asarray(s, float))
+        sol = robot.ik(p, seed=np.asarray(s, float), mask=_mask_name(robot, mask))
         th = np.atleast_2d(sol.theta)
         cand[:, b] = th
-        ok = _pose_ok(robot, th, p, sol)
+        ok = _pose_ok(robot, th, p, sol, mask)
         for prev in range(b):
             ok &= ~(valid[:, prev] & (np.abs(cand[:, prev] - th).max(axis=1) < 1e-6))
         valid[:, b] = ok
@@ -95,12 +138,14 @@ def ik_branches(robot: Robot, poses, seeds=None):
 
 def null_space_optimize(robot: Robot, poses, theta_start, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL,
                         iters: int = 60, theta_prev=None, mu: float = 0.0, step: float = 0.05,
-                        margin: float = np.radians(0.5)) -> np.ndarray:
-    """Null-space descent (n > 3) of ``rms² + mu |θ - θ_prev|²`` keeping the
-    pose: ``poses (N, 3)``, ``theta_start (N, n)`` rad (must reach the poses);
-    returns the improved ``theta (N, n)``. ``step``: initial max joint step,
-    rad; joint limits shrunk by ``margin`` rad."""
-    p, _ = as_batch("poses", poses, 3)
+                        margin: float = np.radians(0.5), mask=None) -> np.ndarray:
+    """Null-space descent of ``rms² + mu |θ - θ_prev|²`` keeping the matched
+    rows of the target: ``poses (N, task)``, ``theta_start (N, n)`` rad (must
+    reach them); returns the improved ``theta (N, n)``. ``step``: initial max
+    joint step, rad; joint limits shrunk by ``margin`` rad."""
+    p, _ = as_batch("poses", poses, robot.task)
+    rows = _rows(robot, mask)
+    mname = _mask_name(robot, mask)
     th, _ = as_batch("theta_start", theta_start, robot.n)
     th = th.copy()
     n, N = robot.n, len(p)
@@ -127,16 +172,16 @@ def null_space_optimize(robot: Robot, poses, theta_start, dl_tol=PAPER_DL_TOL, d
             break
         t = th[idx]
         grad = objective(t, idx)[1]
-        J = robot.fk_jacobian(t)
+        J = robot.fk_jacobian(t)[:, rows]
         P = np.eye(n)[None] - np.linalg.pinv(J) @ J
         d = -(P @ grad[..., None])[..., 0]
         dmax = np.abs(d).max(axis=1)
         move = dmax > 1e-14
         dn = np.where(move[:, None], d / np.maximum(dmax, 1e-300)[:, None], 0.0)
         trial = np.clip(t + eta[idx, None] * dn, lo, hi)
-        sol = robot.ik(p[idx], seed=trial, enforce_limits=True)
+        sol = robot.ik(p[idx], seed=trial, enforce_limits=True, mask=mname)
         tn = np.atleast_2d(sol.theta)
-        ok = _pose_ok(robot, tn, p[idx], sol) & np.all((tn >= lo) & (tn <= hi), axis=1) & move
+        ok = _pose_ok(robot, tn, p[idx], sol, mask) & np.all((tn >= lo) & (tn <= hi), axis=1) & move
         fn = np.where(ok, objective(np.where(ok[:, None], tn, t), idx)[0], np.inf)
         better = ok & (fn < f[idx] * (1 - 1e-9))
         th[idx[better]] = tn[better]
@@ -147,22 +192,24 @@ def null_space_optimize(robot: Robot, poses, theta_start, dl_tol=PAPER_DL_TOL, d
 
 
 def best_configurations(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL,
-                        iters: int = 60, starts: int = 4) -> dict:
-    """Least-sensitive configuration of every pose (N, 3) against the default
-    (θ = 0 seeded pose IK). Returns ``theta_default``, ``theta_best`` (N, n)
-    rad, ``rms_default``, ``rms_best`` (N,) m (linear RMS of |d(x, y)|), and
-    ``ok`` (N,) (the default IK reached the pose within the limits). Poses the
+                        iters: int = 60, starts: int = 4, mask=None) -> dict:
+    """Least-sensitive configuration of every target (N, task) against the
+    default (θ = 0 seeded IK on the mask's rows; module doc). Returns
+    ``theta_default``, ``theta_best`` (N, n) rad, ``rms_default``,
+    ``rms_best`` (N,) m (linear RMS of the tip position error), and ``ok``
+    (N,) (the default IK reached the target within the limits). Targets the
     default cannot reach within the limits keep the default (not compared).
-    n > 3: null-space descent from the default and from ``starts - 1`` IK
-    answers of fixed random seeds; the lowest objective wins."""
-    p, _ = as_batch("poses", poses, 3)
+    With redundancy: null-space descent from the default and from ``starts
+    - 1`` IK answers of fixed random seeds; the lowest objective wins."""
+    p, _ = as_batch("poses", poses, robot.task)
     n = robot.n
-    sol = robot.ik(p)
+    mname = _mask_name(robot, mask)
+    sol = robot.ik(p, mask=mname)
     t_def = np.atleast_2d(sol.theta)
-    ok = _pose_ok(robot, t_def, p, sol)
+    ok = _pose_ok(robot, t_def, p, sol, mask)
     f_def = np.where(ok, rms_amplification(robot, t_def, dl_tol, dh_tol), np.inf)
-    if n <= 3:
-        cand, valid = ik_branches(robot, p)
+    if n <= len(_rows(robot, mask)):
+        cand, valid = ik_branches(robot, p, mask=mask)
         f = rms_amplification(robot, cand.reshape(-1, n), dl_tol, dh_tol).reshape(valid.shape)
         f = np.where(valid, f, np.inf)
         b = np.argmin(f, axis=1)
@@ -180,13 +227,13 @@ def best_configurations(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_D
                 t0, ok0 = t_def, ok
             else:
                 seed = rng.uniform(0.6 * lim[:, 0], 0.6 * lim[:, 1])
-                s0 = robot.ik(p, seed=seed)
+                s0 = robot.ik(p, seed=seed, mask=mname)
                 t0 = np.atleast_2d(s0.theta)
-                ok0 = _pose_ok(robot, t0, p, s0)
+                ok0 = _pose_ok(robot, t0, p, s0, mask)
             if not ok0.any():
                 continue
             tk = t0.copy()
-            tk[ok0] = null_space_optimize(robot, p[ok0], t0[ok0], dl_tol, dh_tol, iters=iters)
+            tk[ok0] = null_space_optimize(robot, p[ok0], t0[ok0], dl_tol, dh_tol, iters=iters, mask=mask)
             fk_ = np.where(ok0, rms_amplification(robot, tk, dl_tol, dh_tol), np.inf)
             better = fk_ < f_best
             t_best[better] = tk[better]
@@ -198,17 +245,19 @@ def best_configurations(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_D
 
 
 def path_configurations(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL,
-                        mu: float = 1e-4, max_step: float = 0.15, iters: int = 30) -> dict:
+                        mu: float = 1e-4, max_step: float = 0.15, iters: int = 30, mask=None) -> dict:
     """A continuous, low-sensitivity configuration sequence along a path of
-    poses (M, 3). ``mu`` (m²/rad² on the squared objective for n > 3; m/rad²
-    on the DP cost for n = 3) weighs continuity; ``max_step`` (rad) is the
-    largest joint change allowed between consecutive poses (n = 3).
+    targets (M, task). ``mu`` (m²/rad² on the squared objective with
+    redundancy; m/rad² on the DP cost without) weighs continuity;
+    ``max_step`` (rad) is the largest joint change allowed between
+    consecutive targets (without redundancy).
 
     Returns ``theta (M, n)``, ``rms (M,)`` m, and ``max_joint_step`` (rad)."""
-    p, _ = as_batch("poses", poses, 3)
+    p, _ = as_batch("poses", poses, robot.task)
     n, M = robot.n, len(p)
-    if n <= 3:
-        cand, valid = ik_branches(robot, p)
+    mname = _mask_name(robot, mask)
+    if n <= len(_rows(robot, mask)):
+        cand, valid = ik_branches(robot, p, mask=mask)
         B = cand.shape[1]
         f = rms_amplification(robot, cand.reshape(-1, n), dl_tol, dh_tol).reshape(M, B)
         f = np.where(valid, f, np.inf)
@@ -233,10 +282,10 @@ def path_configurations(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_D
         theta = np.empty((M, n))
         prev = np.zeros(n)
         for i in range(M):
-            sol = robot.ik(p[i], seed=prev)
+            sol = robot.ik(p[i], seed=prev, mask=mname)
             t = np.atleast_2d(sol.theta)
             theta[i] = null_space_optimize(robot, p[i:i + 1], t, dl_tol, dh_tol, iters=iters,
-                                           theta_prev=None if i == 0 else prev[None], mu=mu)[0]
+                                           theta_prev=None if i == 0 else prev[None], mu=mu, mask=mask)[0]
             prev = theta[i]
     steps = np.abs(np.diff(theta, axis=0)).max(axis=1) if M > 1 else np.zeros(0)
     return dict(theta=theta, rms=rms_amplification(robot, theta, dl_tol, dh_tol),
@@ -245,17 +294,21 @@ def path_configurations(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_D
 
 def compare_with_default(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL,
                          percentile: float = 95.0, samples: int = 500, seed: int = 0,
-                         iters: int = 60, best: Optional[dict] = None) -> dict:
+                         iters: int = 60, best: Optional[dict] = None, mask=None) -> dict:
     """Monte-Carlo check (Rust core) of :func:`best_configurations` against the
-    θ = 0 seeded default over the poses (N, 3) where the default is valid.
+    θ = 0 seeded default over the targets (N, task) where the default is valid.
 
     Returns per-pose percentiles (m) ``p_default``, ``p_best``, the pooled
     percentiles ``pooled_default_m``, ``pooled_best_m``, the worst per-pose
     percentiles, the median per-pose ratio best/default, the fraction of poses
     improved by more than 1 % and the count of poses compared."""
-    p, _ = as_batch("poses", poses, 3)
-    res = best if best is not None else best_configurations(robot, p, dl_tol, dh_tol, iters)
+    p, _ = as_batch("poses", poses, robot.task)
+    res = best if best is not None else best_configurations(robot, p, dl_tol, dh_tol, iters, mask=mask)
     ok = res["ok"]
+    if robot.kind == "spatial":
+        from .tolerance import spatial_tolerances
+
+        dl_tol, dh_tol = spatial_tolerances(robot, dl_tol, dh_tol)
     kw = dict(samples=samples, seed=seed, dl_tol=dl_tol, dh_tol=dh_tol, progress=False)
     md = monte_carlo(robot, res["theta_default"][ok], **kw)
     mb = monte_carlo(robot, res["theta_best"][ok], **kw)
