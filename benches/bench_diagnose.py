@@ -10,6 +10,10 @@ base frame or in a tracker frame (1.4 m and 30° away).
    ``frame="base"``.
 2. Every single library effect hidden at its typical size, 60 and 600 rows.
 3. The seed paper's Table 3 (9 displacement rows, leave-one-out).
+4. Spatial arms, 60 rows, whole library, 10-fold, registered: ``two_universal``
+   (4 joints) and the 8-joint spatial arm of ``benches/bench_scale.py``, with
+   hole positions + actuation scale hidden (issue 22: <= 3 s and <= 10 s on
+   2 cores).
 
 Prints seconds, rows per second and the answer. Threads: ``--threads``
 (default 2; the robot's worker threads).
@@ -19,12 +23,17 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 from cdsm import Robot
 from cdsm.calibration import diagnosis, measurements, plant
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_scale import spatial_toml  # noqa: E402
 
 MIX = {"hole_height": [2e-4, -1e-4, 1.5e-4], "actuation_scale": [0.02]}
 TRACKER = [np.radians(30.0), 1.4, -0.6]
@@ -60,6 +69,7 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--rows", default="60,600,6000", help="row counts of part 1")
     ap.add_argument("--singles", default="60,600", help="row counts of part 2 (empty: skip)")
+    ap.add_argument("--spatial", default="60", help="row counts of part 4 (empty: skip)")
     args = ap.parse_args()
     robot = Robot.paper()
     robot.threads = args.threads
@@ -86,6 +96,19 @@ def main() -> None:
     meas = measurements.packaged("table3")
     dt, d = timed(robot, meas)
     line("  Table 3 (displacements, leave-one-out)", len(meas), dt, d)
+    print("4. spatial arms, hole_position + actuation_scale hidden, whole library, 10-fold, registered")
+    arms = (("two_universal (4 joints)", Robot.from_toml("two_universal")),
+            ("bench_scale 8-joint spatial arm", Robot.from_toml_str(spatial_toml(4))))
+    for rows in [int(r) for r in args.spatial.split(",") if r]:
+        for label, arm in arms:
+            arm.threads = args.threads
+            sl = plant.layout(arm)["hole_position"]
+            holes = sl.stop - sl.start
+            rng = np.random.default_rng(7)
+            hidden = {"hole_position": list(rng.uniform(-1.5e-4, 1.5e-4, holes)), "actuation_scale": [0.02]}
+            meas = dataset(arm, rows, hidden, seed=rows)
+            dt, d = timed(arm, meas)
+            line(f"  {label}", rows, dt, d)
 
 
 if __name__ == "__main__":

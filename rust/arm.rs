@@ -319,7 +319,6 @@ fn tensions_k<K: Kind>(
         crate::error::check_finite("gravity", &g)?;
     }
     let g = loads.gravity.unwrap_or(model.gravity);
-    let square = model.position_cables().len() == n;
     let m = model.position_cables().len();
     let parts = split_rows(rows, threads, |r| {
         let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
@@ -340,25 +339,7 @@ fn tensions_k<K: Kind>(
                 },
                 row_of(force, nf, i),
             );
-            let ok = if square {
-                // a square balance: its one solution (NaN where singular),
-                // taut when strictly above the floor
-                if !bal.solve_square(&mut t) {
-                    t.fill(f64::NAN);
-                }
-                t.iter().all(|v| *v > floor)
-            } else {
-                match above_floor(&bal, floor) {
-                    Some(s) => {
-                        t.copy_from_slice(&s);
-                        true
-                    }
-                    None => {
-                        t.fill(f64::NAN);
-                        false
-                    }
-                }
-            };
+            let ok = held(&mut bal, floor, &mut t);
             out.0.extend_from_slice(&t);
             out.1.push(ok);
         }
@@ -372,6 +353,31 @@ fn tensions_k<K: Kind>(
     Ok(all)
 }
 
+/// Solves a balance for its position tensions `t` (N) and says whether
+/// they hold the arm above `floor` (N). As many position cables as joints:
+/// the one solution (NaN where singular), held when every tension is
+/// strictly above the floor; more: the minimum-norm set at or above the
+/// floor, NaN where none exists.
+fn held(bal: &mut Balance<f64>, floor: f64, t: &mut [f64]) -> bool {
+    if bal.n == bal.m {
+        if !bal.solve_square(t) {
+            t.fill(f64::NAN);
+        }
+        t.iter().all(|v| *v > floor)
+    } else {
+        match above_floor(bal, floor) {
+            Some(s) => {
+                t.copy_from_slice(&s);
+                true
+            }
+            None => {
+                t.fill(f64::NAN);
+                false
+            }
+        }
+    }
+}
+
 /// The minimum-norm tensions of a balance above `floor` (N), if any.
 fn above_floor(bal: &Balance<f64>, floor: f64) -> Option<Vec<f64>> {
     let a = faer::Mat::<f64>::from_fn(bal.n, bal.m, |j, i| bal.a[j * bal.m + i]);
@@ -383,14 +389,19 @@ fn above_floor(bal: &Balance<f64>, floor: f64) -> Option<Vec<f64>> {
 /// hole, as [`Model::flat_holes`], m, when given) and every configuration
 /// `theta0[j]`, the cable solve seeded at `theta0[j]` and the end frame's
 /// deviation, reduced to [`McStats`] with the spatial quantities `dX, dY,
-/// dZ, |dXYZ|` (m) and the rotation angle (rad). (A planar arm's
-/// Monte-Carlo kernel is [`crate::accuracy::monte_carlo`].)
+/// dZ, |dXYZ|` (m) and the rotation angle (rad). With `check_slack`, every
+/// converged sample's configuration is also checked for a set of position
+/// tensions holding the arm under its gravity and force cables (the
+/// perturbed holes for the moment arms; [`tensions`] at floor 0) and
+/// counted in `slack` when none exists. (A planar arm's Monte-Carlo kernel
+/// is [`crate::accuracy::monte_carlo`].)
 pub fn monte_carlo(
     model: &Model,
     theta0: &[f64],
     dl: &[f64],
     dholes: Option<&[f64]>,
     opts: &SolveOptions,
+    check_slack: bool,
     threads: usize,
 ) -> Result<McStats> {
     let n = model.n();
@@ -422,6 +433,8 @@ pub fn monte_carlo(
         let mut solver = CableSolve::<Se3<f64>>::new(model, *opts);
         let mut chain = Chain::<f64, Se3<f64>>::new(model);
         let (mut l0, mut target, mut th) = (vec![0.0; m], vec![0.0; m], vec![0.0; n]);
+        let mut bal = Balance::<f64>::new(model);
+        let mut t = vec![0.0; m];
         let pos = model.position_cables();
         for (j, i) in r.enumerate() {
             let t0 = &theta0[i * n..(i + 1) * n];
@@ -449,6 +462,17 @@ pub fn monte_carlo(
                 });
                 let angle = log_so3(&rel).norm();
                 stats.add_values(j, &[d[0], d[1], d[2], d.norm(), angle]);
+                if check_slack {
+                    let zero = [0.0; 3];
+                    let wrench = Wrench {
+                        force: zero,
+                        couple: &zero,
+                    };
+                    bal.at(ms, ms, &mut solver.chain, ms.gravity, wrench);
+                    if !held(&mut bal, 0.0, &mut t) {
+                        stats.slack[j] += 1;
+                    }
+                }
             }
         }
         stats

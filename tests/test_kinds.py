@@ -199,3 +199,50 @@ def test_configuration_choice_in_the_null_space_of_a_redundant_spatial_arm(cdsm)
     np.testing.assert_allclose(robot.fk(path["theta"])[:, :3], targets[:3, :3], atol=1e-9)
     c = cf.compare_with_default(robot, targets, best=res, samples=200)
     assert c["median_ratio"] <= 1.0
+
+
+# ---------------------------------------------------------------------------
+# the Monte-Carlo quantities of both kinds
+# ---------------------------------------------------------------------------
+def _weakly_held_two_universal(redundant: bool) -> str:
+    """``two_universal`` with 0.01 N force cables (slack on about half of the
+    joint box); ``redundant``: its 180-degree cables position-controlled too
+    (6 position cables on 4 joints) and gravity along +y."""
+    text = re.sub(r"tension = [0-9.]+\n", "tension = 0.01\n", (ROBOTS / "two_universal.toml").read_text())
+    if redundant:
+        text, count = re.subn(r'mode = "force"\ntension = [0-9.]+\n(radius = [0-9.]+\nangle = 3.14)',
+                              r'mode = "position"\n\1', text)
+        assert count == 2
+        text = text.replace("gravity = [0.0, 0.0, -9.80665]", "gravity = [0.0, 9.80665, 0.0]")
+    return text
+
+
+@pytest.mark.parametrize("redundant", [False, True])
+def test_spatial_monte_carlo_counts_slack_samples_as_the_reference_statics(cdsm, ref, redundant):
+    """With one sample per configuration, ``slack`` is exactly the NumPy
+    reference's verdict on that sample's solved configuration, with the
+    sample's holes for the moment arms: no taut set of position tensions
+    (the square balance, or the minimum-norm set above 0 with 6 position
+    cables on 4 joints)."""
+    import dataclasses
+
+    from cdsm.accuracy.montecarlo import monte_carlo, sample_errors
+
+    text = _weakly_held_two_universal(redundant)
+    r, nominal = cdsm.Robot.from_toml_str(text), ref.spatial.parse_spatial(text)
+    assert len(r.position_cables) == (6 if redundant else 4)
+    theta = np.random.default_rng(3).uniform(-0.6, 0.6, (60, r.n))
+    mc = monte_carlo(r, theta, samples=1, seed=11, chunk=1, progress=False, check_slack=True)
+    m, h = len(r.position_cables), len(r.flat_holes)
+    dl, dh = sample_errors(r.n, 1, 11, 0, np.full(m, 1e-3), np.full(h, 0.35e-3))
+    d = cdsm.accuracy.deviation(r, theta, dL=dl[0], dholes=dh[0])
+    assert d.ok.all()
+    sizes = [x.size for x in nominal.holes]
+    parts = np.split(np.concatenate([x.ravel() for x in nominal.holes]) + dh[0], np.cumsum(sizes)[:-1])
+    moved = dataclasses.replace(nominal, holes=tuple(p.reshape(x.shape) for p, x in zip(parts, nominal.holes)))
+    _, taut = ref.spatial.tensions(moved, d.solution.theta)
+    np.testing.assert_array_equal(mc.slack, (~taut).astype(int))
+    assert 0 < mc.slack.sum() < len(theta)
+    plain = monte_carlo(r, theta, samples=1, seed=11, chunk=1, progress=False)
+    assert plain.slack is None
+    np.testing.assert_array_equal(plain.sum, mc.sum)

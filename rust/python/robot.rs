@@ -439,9 +439,9 @@ impl CoreRobot {
     }
 
     /// Monte Carlo: a planar arm's kernel (closed form across lanes, per-pair
-    /// `dh` or full `dholes` errors, slack check), a spatial arm's general
-    /// solve (`dholes` flat as `flat_holes`; its quantities dX, dY, dZ,
-    /// |dXYZ|, rotation angle).
+    /// `dh` or full `dholes` errors), a spatial arm's general solve
+    /// (`dholes` flat as `flat_holes`; its quantities dX, dY, dZ, |dXYZ|,
+    /// rotation angle); both with the optional slack check.
     #[pyo3(signature = (theta0, dl, dh, dholes, method, tol, max_iter, check_slack, threads))]
     #[allow(clippy::too_many_arguments)]
     fn monte_carlo(
@@ -463,13 +463,13 @@ impl CoreRobot {
         let m = self::method(method)?;
         let o = options(tol, max_iter, false);
         let Some(r) = self.model.planar() else {
-            if dh.is_some() || check_slack {
+            if dh.is_some() {
                 return Err(CdsmInputError::new_err(
-                    "`dh`, `check_slack`: a spatial arm's Monte Carlo takes `dholes` and no slack check",
+                    "`dh`: per-pair hole heights are planar; a spatial arm's Monte Carlo takes `dholes`",
                 ));
             }
             let st = py
-                .detach(|| arm::monte_carlo(&self.model, t, d, dholes, &o, threads))
+                .detach(|| arm::monte_carlo(&self.model, t, d, dholes, &o, check_slack, threads))
                 .map_err(err)?;
             return Ok(MonteCarloStats::new(py, st));
         };

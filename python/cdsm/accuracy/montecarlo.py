@@ -47,8 +47,9 @@ class MonteCarlo:
     rotation angle of the end frame (rad). ``hist`` (N, bins) counts the
     position-error norm in log-spaced bins (:attr:`hist_edges`).
     ``feasible0`` (N,): every upper cable taut at the initial configuration.
-    ``slack`` (N,): converged samples whose configuration needs a slack upper
-    cable (only with ``check_slack``, else None).
+    ``slack`` (N,): converged samples whose configuration needs a slack
+    position cable — no taut set of position tensions holds it under the
+    robot's gravity and force cables (only with ``check_slack``, else None).
     """
 
     theta0: np.ndarray
@@ -134,16 +135,15 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     hole height (m, scalars or (n,)); every configuration of theta0 (N, n) is
     solved for every sample in the Rust core. Chunks of ``chunk`` samples keep
     memory bounded; chunk c draws from the stream (seed, c). With
-    ``check_slack`` every converged sample is also checked for a slack upper
-    cable (statics; about twice the run time): ``MonteCarlo.slack``.
+    ``check_slack`` every converged sample is also checked for a slack
+    position cable (statics, either kind; planar about twice the run time):
+    ``MonteCarlo.slack``.
     """
     t0, _ = as_batch("theta0", theta0, robot.n)
     if int(samples) < 1 or int(chunk) < 1:
         raise CdsmInputError(f"`samples`, `chunk`: must be >= 1, got {samples}, {chunk}")
     wl, wh = error_widths(robot)
     dlt, dht = as_tolerances("dl_tol", dl_tol, wl), as_tolerances("dh_tol", dh_tol, wh)
-    if check_slack and robot.kind != "planar":
-        raise CdsmInputError("`check_slack`: counted for planar arms only (spatial statics: SpatialRobot.feasible)")
     total, out = int(samples), None
     bar = Progress(total, "monte carlo", progress)
     for c, m in enumerate(chunk_sizes(total, chunk)):
@@ -187,7 +187,8 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
     th = robot.threads if threads is None else int(threads)
     if robot.kind == "spatial":
-        st = robot.core.monte_carlo(theta0, dl, None, dh if np.any(dh_tol) else None, method, 1e-12, 100, False, th)
+        st = robot.core.monte_carlo(theta0, dl, None, dh if np.any(dh_tol) else None, method, 1e-12, 100,
+                                    bool(check_slack), th)
         names = SPATIAL_QUANTITY_NAMES
     else:
         st = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
