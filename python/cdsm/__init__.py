@@ -20,9 +20,10 @@ import importlib as _importlib
 from . import deprecated as _deprecated
 from ._cdsm import CdsmInputError
 from .calibration.model import Model
+from .inputs import CdsmDataWarning
 from .robot import Robot, Solution
 
-__all__ = ["Robot", "Solution", "CdsmInputError", "Model", "accuracy", "calibration", "report"]
+__all__ = ["Robot", "Solution", "CdsmInputError", "CdsmDataWarning", "Model", "accuracy", "calibration", "report"]
 __version__ = "0.2.0"
 
 _deprecated.install()

@@ -18,15 +18,18 @@ import numpy as np
 
 from . import _cdsm
 from .files import read_text
-from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
+from .inputs import CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector
 
 __all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
-           "SPATIAL_MASKS", "IK_METHODS", "packaged_robots"]
+           "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 
 #: The robot kinds.
 KINDS = ("planar", "spatial")
+
+#: The most worker threads a robot takes (:attr:`Robot.threads`).
+MAX_THREADS = 4096
 
 
 def packaged_robots() -> Tuple[str, ...]:
@@ -59,8 +62,11 @@ class Solution:
     trial steps (0 = closed form). residual: (N,) max |residual| (m, or rad for
     the attitude). within_limits: (N,) all angles within the joint limits.
     reason: (N,) why each solve ended: ``"converged"``, ``"iteration limit"``,
-    ``"singular"`` (the step could not be computed), ``"unreachable"`` (the
-    residual cannot be lowered: the target is out of reach) or ``"outside
+    ``"singular"`` (the step could not be computed), ``"stalled"`` (the
+    residual stopped falling short of zero: a local minimum, or a closed
+    form's branch without an answer — another seed may succeed),
+    ``"unreachable"`` (proven: no configuration realises the target, e.g. a
+    cable length outside the range its geometry allows) or ``"outside
     limits"`` (stuck on the joint-limit box while limits are enforced).
     feasible: (N,) every upper cable taut (tension > 0 N) at theta under the
     robot's lower tensions and gravity — False flags a configuration the
@@ -164,20 +170,29 @@ class Robot:
         the name in any Unicode."""
         return self.core.to_toml()
 
-    def with_holes(self, holes) -> "Robot":
+    def with_holes(self, holes, within_disks: bool = True) -> "Robot":
         """The same robot with other holes, m: planar ``(2n, n+1, 2, 2)``
         (:attr:`holes`); spatial a list like :attr:`holes`, or one flat array
-        of every ``[x, y, z]`` (:attr:`flat_holes`)."""
+        of every ``[x, y, z]`` (:attr:`flat_holes`). ``within_disks``: a
+        spatial hole outside its disk's radius is refused, as in a robot
+        file (False for error studies that move holes past the nominal
+        outline; such a robot's :meth:`to_toml` does not load back)."""
         if self.kind == "planar":
-            h = np.ascontiguousarray(np.asarray(holes, dtype=np.float64))
+            h = np.ascontiguousarray(as_array("holes", holes))
             if h.shape != self.holes.shape:
                 raise CdsmInputError(f"`holes`: expected shape {self.holes.shape}, got {h.shape}")
             return Robot(self.core.with_holes(h), self.threads)
         if isinstance(holes, (list, tuple)):
-            flat = np.concatenate([np.asarray(h, dtype=float).reshape(-1) for h in holes])
+            if len(holes) != len(self.holes):
+                raise CdsmInputError(f"`holes`: expected {len(self.holes)} arrays (one per cable), got {len(holes)}")
+            parts = [as_array(f"holes[{c}]", h) for c, h in enumerate(holes)]
+            for c, (got, want) in enumerate(zip(parts, self.holes)):
+                if got.shape != want.shape:
+                    raise CdsmInputError(f"`holes[{c}]`: expected shape {want.shape}, got {got.shape}")
+            flat = np.concatenate([p.reshape(-1) for p in parts])
         else:
-            flat = np.asarray(holes, dtype=float).reshape(-1)
-        return Robot(self.core.with_holes(np.ascontiguousarray(flat)), self.threads)
+            flat = as_array("holes", holes).reshape(-1)
+        return Robot(self.core.with_holes(np.ascontiguousarray(flat), bool(within_disks)), self.threads)
 
     def hole_height_error(self, dh) -> np.ndarray:
         """Planar arms: hole positions (2n, n+1, 2, 2), m, after the paper's
@@ -194,18 +209,14 @@ class Robot:
 
     @property
     def threads(self) -> int:
-        """Worker threads of batch calls (0 = all cores); they run without the GIL."""
+        """Worker threads of batch calls (0 = all cores, at most
+        :data:`MAX_THREADS`); they run without the GIL. Where the system
+        cannot start as many, the calling thread does the rest."""
         return self._threads
 
     @threads.setter
     def threads(self, value: int) -> None:
-        try:
-            v = int(value)
-        except (TypeError, ValueError):
-            raise CdsmInputError(f"`threads`: expected a non-negative integer, got {value!r}") from None
-        if v < 0 or v != value:
-            raise CdsmInputError(f"`threads`: expected a non-negative integer, got {value!r}")
-        self._threads = v
+        self._threads = as_count("threads", value, 0, MAX_THREADS)
 
     @property
     def n(self) -> int:

@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import _cdsm
 from ..files import json_safe, read_npz, write_npz
-from ..inputs import CdsmInputError, as_batch, as_tolerances
+from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
@@ -140,11 +140,11 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     ``MonteCarlo.slack``.
     """
     t0, _ = as_batch("theta0", theta0, robot.n)
-    if int(samples) < 1 or int(chunk) < 1:
-        raise CdsmInputError(f"`samples`, `chunk`: must be >= 1, got {samples}, {chunk}")
+    samples, chunk = as_count("samples", samples, 1), as_count("chunk", chunk, 1)
+    seed = as_count("seed", seed)
     wl, wh = error_widths(robot)
     dlt, dht = as_tolerances("dl_tol", dl_tol, wl), as_tolerances("dh_tol", dh_tol, wh)
-    total, out = int(samples), None
+    total, out = samples, None
     bar = Progress(total, "monte carlo", progress)
     for c, m in enumerate(chunk_sizes(total, chunk)):
         part = monte_carlo_chunk(robot, t0, seed, c, m, dlt, dht, method, check_slack=check_slack)
@@ -154,7 +154,7 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
             out.merge(part)
         bar.update(m)
     out.feasible0 = robot.feasible(t0)
-    out.params = dict(samples=total, seed=int(seed), chunk=int(chunk), dl_tol_m=dlt.tolist(),
+    out.params = dict(samples=total, seed=seed, chunk=chunk, dl_tol_m=dlt.tolist(),
                       dh_tol_m=dht.tolist(), method=method, check_slack=bool(check_slack))
     return out
 
@@ -185,7 +185,7 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     (default ``robot.threads``) only splits the configurations: the result does
     not depend on it. This is the unit of work of local and cluster runs."""
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
-    th = robot.threads if threads is None else int(threads)
+    th = robot.threads if threads is None else as_count("threads", threads)
     if robot.kind == "spatial":
         st = robot.core.monte_carlo(theta0, dl, None, dh if np.any(dh_tol) else None, method, 1e-12, 100,
                                     bool(check_slack), th)

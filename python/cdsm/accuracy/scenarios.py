@@ -11,7 +11,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..inputs import CdsmInputError, as_batch, as_vector
+from ..inputs import CdsmInputError, as_array, as_batch, as_finite, as_iterations, as_vector
 from ..robot import Robot, Solution
 
 __all__ = ["deviation", "Deviation", "rotation_vectors", "PAPER_DL_TOL", "PAPER_DH_TOL"]
@@ -84,7 +84,7 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
     if dh is not None:
         holes = robot.hole_height_error(dh)
     elif dholes is not None:
-        d = np.asarray(dholes, dtype=np.float64)
+        d = as_array("dholes", dholes)
         if d.shape != robot.holes.shape:
             raise CdsmInputError(f"`dholes`: expected shape {robot.holes.shape}, got {d.shape}")
         if not np.isfinite(d).all():
@@ -92,7 +92,8 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
         holes = robot.holes + d
     if holes is not None:
         holes = np.ascontiguousarray(holes.reshape(-1))
-    res = robot.core.deviation(t0, dl, holes, method, float(tol), int(max_iter), robot.threads)
+    res = robot.core.deviation(t0, dl, holes, method, as_finite("tol", tol), as_iterations("max_iter", max_iter),
+                               robot.threads)
     sol = Solution.from_core(res.solution, robot.n, False)
     feasible = robot.feasible(t0) & robot.feasible(sol.theta)
     return Deviation(res.ds.reshape(-1, 3), t0, sol, ik, feasible)
@@ -118,10 +119,10 @@ def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter) -> Deviation:
     moved = robot
     if dholes is not None:
         flat = robot.flat_holes
-        d = np.asarray(dholes, dtype=np.float64).reshape(-1)
+        d = as_array("dholes", dholes).reshape(-1)
         if d.shape != flat.shape or not np.isfinite(d).all():
             raise CdsmInputError(f"`dholes`: expected {flat.size} finite values (every hole's x, y, z, m)")
-        moved = robot.with_holes(flat + d)
+        moved = robot.with_holes(flat + d, within_disks=False)
     sol = moved.solve_cables(robot.position_lengths(t0) + dl, seed=t0, tol=tol, max_iter=max_iter)
     f0, f1 = robot.fk_matrix(t0), moved.fk_matrix(sol.theta)
     ds = np.concatenate([f1[:, :3, 3] - f0[:, :3, 3],

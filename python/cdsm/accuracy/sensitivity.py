@@ -23,7 +23,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from ..inputs import as_batch, as_tolerances
+from ..inputs import as_batch, as_count, as_tolerances
 from ..robot import Robot
 from .montecarlo import monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, deviation
@@ -121,8 +121,8 @@ def linear_percentile(m: np.ndarray, tol: np.ndarray, p: float, samples: int = 2
     |d(x, y, z)|) over all configurations under the linear model ``m (N, d,
     k)`` (d = 2 or 3) with independent uniform errors within ``±tol (k,)``
     (``samples`` common draws). Exactly proportional to ``tol``."""
-    rng = np.random.default_rng([int(seed), 7])
-    v = rng.uniform(-1.0, 1.0, (int(samples), m.shape[2])) * tol
+    rng = np.random.default_rng([as_count("seed", seed), 7])
+    v = rng.uniform(-1.0, 1.0, (as_count("samples", samples, 1), m.shape[2])) * tol
     ok = np.isfinite(m).all(axis=(1, 2))
     e = np.einsum("nik,sk->nsi", m[ok], v)
     return float(np.percentile(np.sqrt((e ** 2).sum(axis=-1)), p))
