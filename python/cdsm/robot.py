@@ -441,7 +441,7 @@ class Robot:
         p, single = as_batch(name, target, self.task, finite=False)  # checked by the core
         if method not in IK_METHODS:
             raise CdsmInputError(f"`method`: expected one of {', '.join(map(repr, IK_METHODS))}, got {method!r}")
-        res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), method, float(tol),
+        res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), method, as_finite("tol", tol),
                            as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
         return Solution.from_core(res, self.n, single, self)
 
@@ -474,7 +474,7 @@ class Robot:
         # the kind's word for them: a planar arm's upper cables
         name = "upper" if self.kind == "planar" else "lengths"
         u, single = as_batch(name, lengths, len(self.position_cables), finite=False)  # checked by the core
-        res = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
+        res = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), as_finite("tol", tol),
                                      as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
         return Solution.from_core(res, self.n, single, self)
 
@@ -609,7 +609,7 @@ class Robot:
             g = g + [0.0] if self.kind == "planar" else g
         res = self.core.solve_elastic(u, self._seed(seed, rows), None if f is None else f.reshape(-1),
                                       None if w is None else w.reshape(-1), g,
-                                      as_finite("min_tension", min_tension), float(tol),
+                                      as_finite("min_tension", min_tension), as_finite("tol", tol),
                                       as_iterations("max_iter", max_iter), self.threads)
         m = len(self.position_cables)
         return ElasticSolution.from_core(res.solution, self.n, single, self, tension=res.tension.reshape(-1, m),
