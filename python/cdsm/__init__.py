@@ -11,6 +11,7 @@ module                 holds
 ``paper``              the seed paper's study end to end
 ``report``             Markdown/HTML reports and figures
 ``cli``                the ``cdsm`` command
+``interop``            other tools' descriptions: CASPR models in, MuJoCo MJCF and URDF out
 ``reference``          an independent NumPy implementation the tests check the core against
 =====================  ==========================================================
 """
@@ -37,7 +38,7 @@ def __getattr__(name: str):
         warnings.warn("cdsm.SpatialRobot is cdsm.Robot now (one class of either kind); use cdsm.Robot",
                       DeprecationWarning, stacklevel=2)
         return Robot
-    if name in ("accuracy", "calibration", "report", "paper", "reference", "cli") \
+    if name in ("accuracy", "calibration", "report", "paper", "reference", "cli", "interop") \
             or f"cdsm.{name}" in _deprecated.MOVED:
         return _importlib.import_module(f"cdsm.{name}")
     raise AttributeError(f"module 'cdsm' has no attribute {name!r}")

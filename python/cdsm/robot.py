@@ -163,6 +163,61 @@ class Robot:
         """Parse a robot description given as TOML text (either kind)."""
         return cls(_cdsm.CoreRobot.from_toml(text))
 
+    @classmethod
+    def from_caspr(cls, bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathLike[str]",
+                   cable_set: Optional[str] = None) -> "Robot":
+        """A spatial robot from a CASPR multi-link model (https://github.com/darwinlau/CASPR):
+        the paths of its ``<name>_bodies.xml`` and ``<name>_cables.xml``, and
+        the id of the cable set (None: the file's ``default_cable_set``, else
+        its only set; an unknown id is an error listing the ids).
+
+        Joints in CASPR's order (link by link, each joint type's axes in
+        order; ``R_X``, ``R_Y``, ``R_Z``, ``R_AXIS``, ``U_XY``, ``U_XZ``,
+        ``U_YZ``), cables in the file's order, all position-controlled; a
+        cable's length is the sum of the straight segments between its
+        consecutive attachments, as in CASPR. CASPR's vectors are turned by
+        one constant rotation so that the links point along ``+x``
+        (``docs/interop.md`` has the whole mapping;
+        :func:`cdsm.interop.caspr.caspr_toml` writes the robot file). What is
+        not kept (inertia tensors, cable force limits, names, ...) is said in
+        one ``UserWarning``; what cannot be represented (a cable that does
+        not start at the base, another joint type, a tree, ...) raises
+        :class:`CdsmInputError` naming the link or cable. SI units."""
+        from .interop.caspr import caspr_toml
+
+        text = caspr_toml(bodies_xml, cables_xml, cable_set)
+        try:
+            return cls.from_toml_str(text)
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"CASPR model {os.fspath(bodies_xml)!r}: cdsm cannot represent it: {exc}") from None
+
+    def to_mjcf(self) -> str:
+        """MuJoCo's MJCF of this robot (XML text): a body per disk with one
+        hinge per joint in cdsm's order (``nq = n``, limits), masses and
+        centres of mass with the inertia of a uniform solid cylinder of the
+        disk's radius and thickness (the robot file has no inertia tensor), a
+        site at every hole, a spatial tendon per cable through its holes in
+        cdsm's cable order (tendon length = :meth:`cable_lengths`, ``ten_J``
+        = :meth:`cable_jacobian`), a ``position`` actuator on each position
+        cable (a linear spring ``E A / L_0``, pulling only) and a ``general``
+        actuator of constant force ``-T`` on each force cable (its set
+        tension). ``docs/interop.md``, :mod:`cdsm.interop.mjcf`. SI units.
+        A disk without mass raises :class:`CdsmInputError` (MuJoCo rejects
+        it)."""
+        from .interop.mjcf import to_mjcf
+
+        return to_mjcf(self)
+
+    def to_urdf(self) -> str:
+        """The URDF of this robot (XML text): links ``base``, one per joint,
+        revolute joints in cdsm's order (a universal joint as two, limits),
+        inertials as in :meth:`to_mjcf`, and a link ``tip`` fixed at the end
+        frame (its pose is :meth:`fk_matrix`). ``docs/interop.md``,
+        :mod:`cdsm.interop.urdf`. SI units."""
+        from .interop.urdf import to_urdf
+
+        return to_urdf(self)
+
     def to_toml(self) -> str:
         """A robot file (TOML, SI units) that rebuilds this robot exactly:
         its own kind's format, explicit holes (also those set by
@@ -292,6 +347,35 @@ class Robot:
     def mass(self) -> np.ndarray:
         """(disks,) disk (linkage) masses, kg."""
         return self.core.mass
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """(n, 3) each joint's offset from the previous frame, in that frame,
+        m (``docs/spatial.md``; planar: ``(link_before, 0, 0)``)."""
+        return self.core.offsets.reshape(-1, 3)
+
+    @property
+    def joint_disks(self) -> List[int]:
+        """The disk (1-based) each joint belongs to (the joints before it)."""
+        return list(self.core.joint_disks)
+
+    @property
+    def disk_link_after(self) -> np.ndarray:
+        """(disks, 3) last joint -> proximal face (face a) of each disk, in
+        the last joint's frame, m (planar: ``(link_after, 0, 0)``)."""
+        return self.core.disk_link_after.reshape(-1, 3)
+
+    @property
+    def disk_thickness(self) -> np.ndarray:
+        """(disks,) disk thickness along the disk's local x axis (face a ->
+        face b), m; both kinds (:attr:`thickness` is the planar name)."""
+        return self.core.disk_thickness
+
+    @property
+    def com(self) -> np.ndarray:
+        """(disks, 3) centre of mass of each disk in its face-a frame, m
+        (planar: the disk's centre, ``(thickness / 2, 0, 0)``)."""
+        return self.core.com.reshape(-1, 3)
 
     @property
     def youngs_modulus(self) -> float:

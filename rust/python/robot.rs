@@ -173,6 +173,39 @@ impl CoreRobot {
     fn mass<'py>(&self, py: Python<'py>) -> Array<'py> {
         vec1(py, self.model.disks.iter().map(|d| d.mass).collect())
     }
+    /// `(n*3)` joint offsets (m): previous frame -> joint, in the previous frame.
+    #[getter]
+    fn offsets<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(
+            py,
+            self.model.joints.iter().flat_map(|j| j.offset).collect(),
+        )
+    }
+    /// The disk (1-based) each joint belongs to.
+    #[getter]
+    fn joint_disks(&self) -> Vec<usize> {
+        (0..self.model.n())
+            .map(|j| self.model.joint_disk(j))
+            .collect()
+    }
+    /// `(disks*3)` last joint -> proximal face of each disk (m, joint frame).
+    #[getter]
+    fn disk_link_after<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(
+            py,
+            self.model.disks.iter().flat_map(|d| d.link_after).collect(),
+        )
+    }
+    /// `(disks,)` disk thickness along its local x axis (m).
+    #[getter]
+    fn disk_thickness<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.disks.iter().map(|d| d.thickness).collect())
+    }
+    /// `(disks*3)` centres of mass (m, proximal-face frame).
+    #[getter]
+    fn com<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.disks.iter().flat_map(|d| d.com).collect())
+    }
     #[getter]
     fn youngs_modulus(&self) -> f64 {
         self.model.cable.youngs_modulus

@@ -16,7 +16,7 @@ from .registry import COMMANDS, PROG, UserError
 __all__ = ["main", "build_parser", "COMMANDS", "COMMAND_MODULES"]
 
 #: the modules that register the commands, in help order
-COMMAND_MODULES = ("paper", "diagnose", "compensate", "tolerance", "montecarlo")
+COMMAND_MODULES = ("paper", "diagnose", "compensate", "tolerance", "montecarlo", "export")
 
 
 def build_parser() -> argparse.ArgumentParser:
