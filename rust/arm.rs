@@ -62,6 +62,25 @@ pub fn fk_matrix(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64
     })
 }
 
+/// The face frames of every disk in the base frame `(N, K, 2, 4, 4)`: face
+/// `a` (proximal) then face `b` (distal) of disks `1..=K`, homogeneous,
+/// translation in m (the base face is the identity).
+pub fn disk_frames(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    let k = model.disks.len();
+    map_chain::<Spatial>(model, theta, 32 * k, threads, |c, o| {
+        for d in 0..k {
+            for (f, frame) in [&c.face_a[d], &c.face_b[d]].into_iter().enumerate() {
+                let m = &mut o[32 * d + 16 * f..32 * d + 16 * (f + 1)];
+                for i in 0..3 {
+                    m[4 * i..4 * i + 3].copy_from_slice(&frame.r[i]);
+                    m[4 * i + 3] = frame.t[i];
+                }
+                m[12..16].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+            }
+        }
+    })
+}
+
 /// Task Jacobians `(N, TASK, n)`: planar `d[x, y, phi]/dtheta`, spatial the
 /// geometric Jacobian (velocity of the end frame's origin, then its angular
 /// velocity).

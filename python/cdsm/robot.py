@@ -12,13 +12,14 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import List, Optional, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
 from . import _cdsm
 from .files import read_text
 from .inputs import CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector
+from .display import ShortRepr
 
 __all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
            "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "packaged_robots"]
@@ -53,8 +54,8 @@ TASK_MASKS = {"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}
 SPATIAL_MASKS = ("position", "pointing", "pose")
 
 
-@dataclass(frozen=True)
-class Solution:
+@dataclass(frozen=True, repr=False)
+class Solution(ShortRepr):
     """Result of a batch of solves.
 
     theta: (N, n) joint angles, rad. converged: (N,) bool; a failed element
@@ -405,15 +406,83 @@ class Robot:
         if self.kind == "planar":
             n = self.n
             return self.core.holes.reshape(2 * n, n + 1, 2, 2)
-        flat = self.flat_holes
-        out, k = [], 0
+        return self.holes_by_cable()
+
+    def __repr__(self) -> str:
+        return f"Robot({self.name!r}, n={self.n}, kind={self.kind!r}, cables={self.cables})"
+
+    def summary_tables(self) -> Dict[str, Tuple[List[str], List[List[str]]]]:
+        """The robot as tables of text (SI units in the headers): ``joints``,
+        ``disks``, ``cables`` — each ``(header, rows)`` — for :meth:`__str__`
+        and the notebook view."""
+        lim = np.degrees(self.joint_limits)
+        joints = (["joint", "disk", "axis", "offset (m)", "limits (deg)"],
+                  [[str(j + 1), str(d), _vec(a, 3), _vec(o, 4), f"[{lo:.1f}, {hi:.1f}]"]
+                   for j, (d, a, o, (lo, hi)) in enumerate(zip(self.joint_disks, self.axes, self.offsets, lim))])
+        disks = (["disk", "link after (m)", "thickness (m)", "radius (m)", "mass (kg)"],
+                 [[str(d + 1), _vec(la, 4), f"{t:.4g}", f"{r:.4g}", f"{m:.4g}"]
+                  for d, (la, t, r, m) in enumerate(zip(self.disk_link_after, self.disk_thickness,
+                                                        self.radii[1:], self.mass))])
+        pos = set(self.position_cables)
+        cab_rows = []
+        for c, (e, h, t) in enumerate(zip(self.cable_ends, self.holes_by_cable(), self.cable_tensions)):
+            mode = "position" if c in pos else f"force, {t:.4g} N"
+            cab_rows.append([str(c + 1), str(e), mode, _vec(h[0], 4), _vec(h[-1], 4)])
+        cables = (["cable", "ends at disk", "mode", "base hole (m)", "last hole (m)"], cab_rows)
+        return {"joints": joints, "disks": disks, "cables": cables}
+
+    def holes_by_cable(self) -> List[np.ndarray]:
+        """Each cable's holes ``(2 end + 1, 3)`` in face frames (base face b,
+        then faces a and b of each disk it crosses), m — both kinds."""
+        flat, out, k = self.flat_holes, [], 0
         for e in self.cable_ends:
             out.append(flat[k:k + 3 * (2 * e + 1)].reshape(-1, 3))
             k += 3 * (2 * e + 1)
         return out
 
-    def __repr__(self) -> str:
-        return f"Robot({self.name!r}, n={self.n}, kind={self.kind!r}, cables={self.cables})"
+    def _headline(self) -> str:
+        m = len(self.position_cables)
+        g = np.linalg.norm(self.gravity)
+        return (f"{self.name!r}: {self.kind} arm, {self.n} joints on {len(self.disk_thickness)} disks, "
+                f"{self.cables} cables ({m} position-, {self.cables - m} force-controlled), straight length "
+                f"{self.straight_length:.4g} m, gravity {g:.4g} m/s^2, cable E = {self.youngs_modulus:.3g} Pa, "
+                f"d = {self.cable_diameter:.3g} m")
+
+    def __str__(self) -> str:
+        parts = [self._headline()]
+        for name, (head, rows) in self.summary_tables().items():
+            widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(head)]
+            parts.append(name + ":")
+            parts.append("  " + "  ".join(h.ljust(w) for h, w in zip(head, widths)))
+            parts += ["  " + "  ".join(v.ljust(w) for v, w in zip(r, widths)) for r in rows]
+        return "\n".join(parts)
+
+    def _repr_html_(self) -> str:
+        import html
+
+        out = [f"<p><b>{html.escape(self._headline())}</b></p>"]
+        for name, (head, rows) in self.summary_tables().items():
+            out.append(f"<details{' open' if name != 'cables' else ''}><summary>{name}</summary><table>")
+            out.append("<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>")
+            out += ["<tr>" + "".join(f"<td>{html.escape(v)}</td>" for v in r) + "</tr>" for r in rows]
+            out.append("</table></details>")
+        return "".join(out)
+
+    def disk_frames(self, theta) -> np.ndarray:
+        """Face frames of every disk in the base frame: (N, n) rad -> (N, K,
+        2, 4, 4): face a (proximal) then face b (distal) of disks 1..K as
+        homogeneous transforms, translation in m (the base face is the
+        identity; a planar arm lies in z = 0)."""
+        k = len(self.disk_thickness)
+        return self._map(theta, self.core.disk_frames, (k, 2, 4, 4))
+
+    def plot(self, theta=None, ax=None, cables: bool = True):
+        """Draw the arm at ``theta`` (n,) rad (default: straight) with
+        matplotlib — in its plane for a planar arm, in 3-D for a spatial
+        one — and return the axes (:func:`cdsm.report.drawing.draw_arm`)."""
+        from .report.drawing import draw_arm
+
+        return draw_arm(self, theta, ax=ax, cables=cables)
 
     # ---- planar arms' description ----------------------------------------
     @property
@@ -700,7 +769,7 @@ class Robot:
                                          _feasible=res.feasible)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class ElasticSolution(Solution):
     """A :class:`Solution` of the elastic cable solve, plus the statics at the
     answer: tension (N, m_pos) position-cable tensions, N; ``feasible`` (N,)
@@ -710,3 +779,6 @@ class ElasticSolution(Solution):
     tension: np.ndarray = None
 
 
+def _vec(v, digits: int) -> str:
+    """A short vector for the summary tables."""
+    return "[" + ", ".join(f"{x:.{digits}g}" for x in np.asarray(v, dtype=float)) + "]"

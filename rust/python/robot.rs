@@ -341,6 +341,15 @@ impl CoreRobot {
         self.theta_map(py, theta, threads, arm::fk_matrix)
     }
 
+    fn disk_frames<'py>(
+        &self,
+        py: Python<'py>,
+        theta: Arr<'_>,
+        threads: usize,
+    ) -> PyResult<Array<'py>> {
+        self.theta_map(py, theta, threads, arm::disk_frames)
+    }
+
     fn fk_jacobian<'py>(
         &self,
         py: Python<'py>,

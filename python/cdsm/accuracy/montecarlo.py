@@ -22,6 +22,7 @@ from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
+from ..display import ShortRepr
 
 __all__ = ["MonteCarlo", "monte_carlo", "monte_carlo_chunk", "chunk_sizes", "sample_errors",
            "QUANTITY_NAMES", "QUANTITY_UNITS", "SPATIAL_QUANTITY_NAMES", "SPATIAL_QUANTITY_UNITS",
@@ -38,8 +39,8 @@ SPATIAL_QUANTITY_NAMES = ("dX", "dY", "dZ", "dXYZ", "rot")
 SPATIAL_QUANTITY_UNITS = ("m", "m", "m", "m", "rad")
 
 
-@dataclass
-class MonteCarlo:
+@dataclass(repr=False)
+class MonteCarlo(ShortRepr):
     """Per-configuration statistics of a Monte-Carlo error study.
 
     Columns of the (N, Q) arrays (``quantities``): planar dX (m), dY (m),

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..inputs import CdsmInputError, as_array, as_batch, as_finite, as_iterations, as_vector
 from ..robot import Robot, Solution
+from ..display import ShortRepr
 
 __all__ = ["deviation", "Deviation", "rotation_vectors", "PAPER_DL_TOL", "PAPER_DH_TOL"]
 
@@ -22,8 +23,8 @@ PAPER_DL_TOL = 1e-3
 PAPER_DH_TOL = 0.35e-3
 
 
-@dataclass(frozen=True)
-class Deviation:
+@dataclass(frozen=True, repr=False)
+class Deviation(ShortRepr):
     """Result of :func:`deviation`.
 
     dS: (N, 3) tip deviation [dX (m), dY (m), dphi (rad)], NaN where the solve

@@ -28,13 +28,14 @@ from ..robot import Robot
 from .montecarlo import monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, deviation
 from .workspace import jump_points, singular_values, sweep
+from ..display import ShortRepr
 
 __all__ = ["Sensitivities", "sensitivities", "sensitivity", "error_matrix", "tolerance_vector", "amplification",
            "linear_percentile", "linear_vs_mc", "amplification_maps"]
 
 
-@dataclass(frozen=True)
-class Sensitivities:
+@dataclass(frozen=True, repr=False)
+class Sensitivities(ShortRepr):
     """First-order sensitivities of the tip pose at ``theta (N, n)`` rad.
 
     Planar arms: cable (N, 3, n) d[x, y, phi]/d(upper-cable length), m/m

@@ -15,6 +15,7 @@ import numpy as np
 
 from ..robot import Robot
 from .workspace import joint_grid
+from ..display import ShortRepr
 
 __all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation", "load_readings", "Reading",
            "reading_maps", "STANDARD_GRAVITY"]
@@ -23,8 +24,8 @@ __all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation", "load_r
 STANDARD_GRAVITY = 9.80665
 
 
-@dataclass(frozen=True)
-class FeasibilityMap:
+@dataclass(frozen=True, repr=False)
+class FeasibilityMap(ShortRepr):
     """theta (N, n) rad; pose (N, 3) tip [x, y, phi]; tension (N, n) upper
     tensions, N; feasible (N,) all upper tensions > min_tension."""
 
@@ -83,8 +84,8 @@ def load_readings(robot: Robot) -> Dict[str, Robot]:
             "other plane, weights reversed": robot.with_loads(lower_tension=rev, gravity=other)}
 
 
-@dataclass(frozen=True)
-class Reading:
+@dataclass(frozen=True, repr=False)
+class Reading(ShortRepr):
     """One load reading over a joint grid: the robot, its feasibility map and
     the tip deviation (N, 3) [dX m, dY m, dphi rad] its elastic cables cause
     when the rigid model's lengths are commanded (NaN where slack or not

@@ -19,6 +19,7 @@ import numpy as np
 
 from ..inputs import CdsmInputError, as_batch
 from ..robot import Robot, Solution
+from ..display import ShortRepr
 
 __all__ = [
     "joint_grid", "default_step", "grid_neighbours", "paper_ik_seed", "Workspace", "sweep",
@@ -77,8 +78,8 @@ def paper_ik_seed(n: int) -> np.ndarray:
     return s
 
 
-@dataclass(frozen=True)
-class Workspace:
+@dataclass(frozen=True, repr=False)
+class Workspace(ShortRepr):
     """A set of initial configurations for an error study.
 
     protocol: ``"joint"`` or ``"attitude0"``. grid: (N, n) grid angles, rad.
@@ -163,8 +164,8 @@ def singular_values(robot: Robot, theta, attitude_scale: Optional[float] = None)
     return np.linalg.svd(j, compute_uv=False)
 
 
-@dataclass(frozen=True)
-class Jumps:
+@dataclass(frozen=True, repr=False)
+class Jumps(ShortRepr):
     """Jump points of one deviation map.
 
     change: (E,) |Δ d(X, Y)| across each neighbour pair, m (NaN if either end

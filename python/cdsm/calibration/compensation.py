@@ -15,6 +15,7 @@ import numpy as np
 from ..accuracy.workspace import paper_ik_seed
 from ..files import read_table, table_column, write_text
 from ..inputs import CdsmInputError, as_array, as_finite, as_iterations, as_vector
+from ..display import ShortRepr
 
 __all__ = ["Compensation", "compensate", "read_targets", "TARGET_COLUMNS"]
 
@@ -57,8 +58,8 @@ ROTATION_ERROR = {"planar": "predicted_phi_error", "spatial": "predicted_rotatio
 # ---------------------------------------------------------------------------
 # compensation result
 # ---------------------------------------------------------------------------
-@dataclass
-class Compensation:
+@dataclass(repr=False)
+class Compensation(ShortRepr):
     """Compensated commands for N target poses (robot with n joints).
 
     targets: (N, 2) or (N, 3) the targets [x, y(, phi)] (m, m, rad).

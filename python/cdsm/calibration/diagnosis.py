@@ -61,6 +61,7 @@ from ..robot import Robot
 from . import plant, stats
 from .fit import Fit, fit_folds
 from .measurements import KIND_CODES, Measurements
+from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "features",
            "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES"]
@@ -75,8 +76,8 @@ OUTLIER_SIGMA = 5.0
 ALPHA = 0.025
 
 
-@dataclass
-class Prepared:
+@dataclass(repr=False)
+class Prepared(ShortRepr):
     """Measurements ready for the plant, in file order.
 
     theta_cmd (N, n) rad: solved commands; dL (N, n) m; kinds (N,) plant row
@@ -262,8 +263,8 @@ def repeat_groups(prep: Prepared, decimals: int = 9) -> List[np.ndarray]:
     return [np.array(v) for v in keys.values() if len(v) >= 2]
 
 
-@dataclass
-class NoiseEstimate:
+@dataclass(repr=False)
+class NoiseEstimate(ShortRepr):
     """The noise of one reading per axis (m), where it came from
     (``"repeats"``, ``"given"``, ``"assumed"``), its 95 % interval (repeats),
     and the pure error the repeats give (sum of squares m², degrees of
@@ -322,8 +323,8 @@ def _noise(prep: Prepared, given: Optional[float]) -> NoiseEstimate:
 # ---------------------------------------------------------------------------
 # candidates
 # ---------------------------------------------------------------------------
-@dataclass
-class Candidate:
+@dataclass(repr=False)
+class Candidate(ShortRepr):
     """One effect or combination: its fit on all usable rows, its held-out
     position errors |e_xy| (m, one per usable row; a row the candidate cannot
     predict counts with the nominal model's error) and how many such
@@ -384,8 +385,8 @@ class _Scorer:
         return Candidate(name, list(effects), full, held, int(fail.sum()))
 
 
-@dataclass
-class Verdict:
+@dataclass(repr=False)
+class Verdict(ShortRepr):
     """The answer for one set of rows: the verdict, whether the nominal and
     the final model are adequate, and the lack-of-fit test of the final model
     (``test``: ``"chi2"`` or ``"F"``, statistic, degrees of freedom, p-value)."""
@@ -400,8 +401,8 @@ class Verdict:
     noise_needed: float
 
 
-@dataclass
-class Diagnosis:
+@dataclass(repr=False)
+class Diagnosis(ShortRepr):
     """The answer: ``best`` (an effect, a '+'-joined combination, or 'none'),
     the ``verdict``, the baseline, every candidate (best first), the chosen
     model, the noise, per-row residuals and features, and identifiability
@@ -428,6 +429,11 @@ class Diagnosis:
     unidentifiable: List[str] = field(default_factory=list)
     folds: int = 10
     alphas: List[float] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        return (f"Diagnosis(verdict={self.verdict!r}, best={self.best!r}, held-out RMS "
+                f"{self.baseline.heldout_rms * 1e6:.1f} -> {self.final().heldout_rms * 1e6:.1f} um, noise floor "
+                f"{self.noise_floor * 1e6:.1f} um, {int(self.prep.usable.sum())} usable rows of {len(self.prep.meas)})")
 
     @property
     def noise(self) -> float:

@@ -70,12 +70,13 @@ from . import plant
 from .diagnosis import Diagnosis, Prepared, prepare
 from .fit import free_parameters
 from .measurements import KIND_CODES, Measurements
+from ..display import ShortRepr
 
 __all__ = ["suggest", "Suggestion", "candidate_pool", "combine", "discrimination"]
 
 
-@dataclass
-class Suggestion:
+@dataclass(repr=False)
+class Suggestion(ShortRepr):
     """K proposed measurements.
 
     theta: (K, n) commanded angles, rad. dL: (K, m) extras on the

@@ -16,6 +16,7 @@ import numpy as np
 from ..inputs import CdsmInputError, as_array, as_iterations
 from ..robot import Robot
 from . import plant
+from ..display import ShortRepr
 
 __all__ = ["Fit", "fit", "fit_folds", "free_parameters", "FIT_ITERATIONS"]
 
@@ -23,8 +24,8 @@ __all__ = ["Fit", "fit", "fit_folds", "free_parameters", "FIT_ITERATIONS"]
 FIT_ITERATIONS = 30
 
 
-@dataclass
-class Fit:
+@dataclass(repr=False)
+class Fit(ShortRepr):
     """A fitted model: effects, the full parameter vector p (P,), free
     parameter names and values, standard deviations (NaN: not determined by
     the data), correlation, singular values of the column-scaled Jacobian,

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..files import parse_table, read_text, table_column
 from ..inputs import CdsmInputError
+from ..display import ShortRepr
 
 __all__ = ["Measurements", "parse_csv", "read_csv", "read_for", "packaged", "after_reversals", "KIND_CODES"]
 
@@ -37,8 +38,8 @@ __all__ = ["Measurements", "parse_csv", "read_csv", "read_for", "packaged", "aft
 KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
 
 
-@dataclass
-class Measurements:
+@dataclass(repr=False)
+class Measurements(ShortRepr):
     """A parsed measurement table; every array has one row per measurement.
 
     kind: ``"absolute"`` (x, y) or ``"displacement"`` (dx, dy). theta: (N, n)
