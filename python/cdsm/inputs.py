@@ -93,8 +93,9 @@ def as_count(name: str, value, minimum: int = 0, maximum: Optional[int] = None) 
         raise CdsmInputError(f"`{name}`: expected an integer, got {value!r}")
     if isinstance(value, (int, np.integer)):
         v = int(value)
-    elif isinstance(value, (float, np.floating)) and np.isfinite(value) and float(value).is_integer():
-        v = int(value)
+    elif (isinstance(value, (float, np.floating)) and np.isfinite(value) and float(value).is_integer()
+          and abs(value) <= 2**53):
+        v = int(value)  # past 2**53 a float is not an exact count
     else:
         raise CdsmInputError(f"`{name}`: expected a whole number, got {value!r}")
     if v < minimum:

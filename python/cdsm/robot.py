@@ -10,6 +10,7 @@ naming the argument.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
@@ -18,16 +19,19 @@ import numpy as np
 
 from . import _cdsm
 from .files import read_text
-from .inputs import CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector
+from .inputs import CdsmDataWarning, CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector
 from .display import ShortRepr
 
 __all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
-           "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "packaged_robots"]
+           "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "PLAUSIBLE_LENGTH", "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 
 #: The robot kinds.
 KINDS = ("planar", "spatial")
+
+#: The longest straight arm (m) taken without a warning about its unit.
+PLAUSIBLE_LENGTH = 10.0
 
 #: The most worker threads a robot takes (:attr:`Robot.threads`).
 MAX_THREADS = 4096
@@ -161,8 +165,16 @@ class Robot:
 
     @classmethod
     def from_toml_str(cls, text: str) -> "Robot":
-        """Parse a robot description given as TOML text (either kind)."""
-        return cls(_cdsm.CoreRobot.from_toml(text))
+        """Parse a robot description given as TOML text (either kind). A
+        description whose straight arm is longer than
+        :data:`PLAUSIBLE_LENGTH` (a file in mm read as m, most likely)
+        raises a :class:`CdsmDataWarning`."""
+        robot = cls(_cdsm.CoreRobot.from_toml(text))
+        length = robot.straight_length
+        if length > PLAUSIBLE_LENGTH:
+            warnings.warn(f"robot {robot.name!r}: the straight arm is {length:.4g} m long; is the file in mm? cdsm "
+                          "reads SI units: metres (divide every length by 1000)", CdsmDataWarning, stacklevel=2)
+        return robot
 
     @classmethod
     def from_caspr(cls, bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathLike[str]",

@@ -130,7 +130,7 @@ def sample_errors(n: int, samples: int, seed: int, chunk_index: int, dl_tol, dh_
 
 def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol=PAPER_DL_TOL,
                 dh_tol=PAPER_DH_TOL, chunk: int = 100, progress: bool = True,
-                method: str = "auto", check_slack: bool = False) -> MonteCarlo:
+                method: str = "auto", check_slack: bool = False, label: str = "monte carlo") -> MonteCarlo:
     """Random composite errors (the paper's Fig. 7): every sample draws a
     uniform error within ±dl_tol on each upper cable and ±dh_tol on each disk's
     hole height (m, scalars or (n,)); every configuration of theta0 (N, n) is
@@ -146,7 +146,7 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     wl, wh = error_widths(robot)
     dlt, dht = as_tolerances("dl_tol", dl_tol, wl), as_tolerances("dh_tol", dh_tol, wh)
     total, out = samples, None
-    bar = Progress(total, "monte carlo", progress)
+    bar = Progress(total, label, progress)
     for c, m in enumerate(chunk_sizes(total, chunk)):
         part = monte_carlo_chunk(robot, t0, seed, c, m, dlt, dht, method, check_slack=check_slack)
         if out is None:

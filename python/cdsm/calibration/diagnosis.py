@@ -631,7 +631,8 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     if prep.registered:
         library = [e for e in library if e != "frame_misalignment"]
     rows = prep.rows
-    bar = Progress(len(library) + 2, "diagnose", progress)
+    # steps: the baseline, its held-out errors, every single effect, the selection
+    bar = Progress(len(library) + 3, "diagnose", progress)
     scorer = _Scorer(prep, rows, folds)
     base = scorer.evaluate("none", [])
     bar.update(1)

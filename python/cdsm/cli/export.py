@@ -5,12 +5,11 @@ from __future__ import annotations
 import argparse
 import os
 
-from .registry import UserError, check_out_file, load_robot, options, subcommand
+from .registry import (UserError, add_robot_option, check_out_file, load_robot, options, subcommand)
 
 
 def _export_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units), or the name of a "
-                   "packaged robot (e.g. two_universal); default: the paper's 3-joint prototype")
+    add_robot_option(p)
     p.add_argument("--mjcf", metavar="OUT.xml", help="write MuJoCo's MJCF: a body per disk, a hinge per "
                    "joint in cdsm's order, a site per hole, a spatial tendon per cable, actuators")
     p.add_argument("--urdf", metavar="OUT.urdf", help="write the URDF: revolute joints in cdsm's order, "

@@ -7,13 +7,12 @@ import math
 import sys
 import time
 
-from .registry import (DeprecatedOption, UserError, load_robot, options, positive_int, prepare_dir, seed_int,
-                       subcommand)
+from .registry import (DeprecatedOption, UserError, add_robot_option, load_robot, options, positive_int, prepare_dir,
+                       seed_int, subcommand)
 
 
 def _paper_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units); "
-                   "default: the paper's 3-joint prototype")
+    add_robot_option(p)
     p.add_argument("--out-dir", metavar="DIR", default="cdsm-paper", dest="out_dir",
                    help="output directory (default: ./cdsm-paper)")
     p.add_argument("--out", metavar="DIR", dest="out_dir", action=DeprecatedOption, replacement="--out-dir",

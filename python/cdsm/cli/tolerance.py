@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from .registry import (UserError, check_out_file, load_robot, options, positive_int, seed_int,
+from .registry import (UserError, add_robot_option, check_out_file, load_robot, options, positive_int, seed_int,
                        subcommand)
 from typing import List
 
@@ -17,8 +17,7 @@ def _tolerance_args(p: argparse.ArgumentParser) -> None:
                    help="tip position error budget |d(x, y)|, mm")
     p.add_argument("--percentile", metavar="P", type=float, default=95.0,
                    help="percentile of |d(x, y)| pooled over the region (default: 95)")
-    p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units); "
-                   "default: the paper's 3-joint prototype")
+    add_robot_option(p)
     p.add_argument("--region", metavar="SPEC", default=None,
                    help="configurations where the errors are applied: grid:LO_DEG:HI_DEG:STEP_DEG[:N] "
                         "(every joint; a grid of more than 20000 points, or N given, is "
