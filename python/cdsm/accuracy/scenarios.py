@@ -33,7 +33,8 @@ class Deviation(ShortRepr):
     solves. ik: the pose IK that produced theta0, when poses were given.
     feasible: (N,) every upper cable taut (tension > 0 N, the robot's lower
     tensions, no external load) both before and after the error; False flags
-    a configuration the hybrid-controlled arm cannot hold with taut cables.
+    a configuration the hybrid-controlled arm cannot hold with taut cables
+    (None when not asked for: ``deviation(..., statics=False)``).
     """
 
     dS: np.ndarray
@@ -64,7 +65,7 @@ def _theta0(robot: Robot, theta0, poses, ik_seed):
 
 def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes=None,
               ik_seed=None, method: str = "auto", tol: float = 1e-12,
-              max_iter: int = 100) -> Deviation:
+              max_iter: int = 100, statics: bool = True) -> Deviation:
     """Tip deviation caused by cable-length and hole-location errors (Fig. 3a–c).
 
     theta0: (N, n) initial joint angles, rad — or poses: (N, 3) [x, y, phi]
@@ -72,12 +73,15 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
     dL: (n,) error on each upper cable, m (L = L0 + dL). dh: (n,) the paper's
     error on disk i's holes (hole height of pair i), m. dholes: (2n, n+1, 2, 2)
     an error on every hole coordinate, m. Holes and lengths may be combined.
+    ``statics``: also judge every configuration's cables taut before and
+    after (:attr:`Deviation.feasible`; None without) — on an arm of many
+    position cables the statics cost more than the solves.
     """
     t0, ik = _theta0(robot, theta0, poses, ik_seed)
     if robot.kind == "spatial":
         if dh is not None:
             raise CdsmInputError("`dh`: the per-disk hole-height error is planar; give `dholes` for a spatial arm")
-        return _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter)
+        return _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter, statics)
     dl = np.zeros(robot.n) if dL is None else as_vector("dL", dL, robot.n)
     if dh is not None and dholes is not None:
         raise CdsmInputError("`dh`, `dholes`: give at most one of them")
@@ -96,7 +100,7 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
     res = robot.core.deviation(t0, dl, holes, method, as_finite("tol", tol), as_iterations("max_iter", max_iter),
                                robot.threads)
     sol = Solution.from_core(res.solution, robot.n, False)
-    feasible = robot.feasible(t0) & robot.feasible(sol.theta)
+    feasible = robot.feasible(t0) & robot.feasible(sol.theta) if statics else None
     return Deviation(res.ds.reshape(-1, 3), t0, sol, ik, feasible)
 
 
@@ -114,7 +118,7 @@ def rotation_vectors(r: np.ndarray) -> np.ndarray:
     return v * k[..., None]
 
 
-def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter) -> Deviation:
+def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter, statics=True) -> Deviation:
     m = len(robot.position_cables)
     dl = np.zeros(m) if dL is None else as_vector("dL", dL, m)
     moved = robot
@@ -131,5 +135,5 @@ def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter) -> Deviation:
                                    rotation_vectors(np.einsum("nji,njk->nik", f0[:, :3, :3], f1[:, :3, :3])))],
                         axis=1)
     ds[~np.asarray(sol.converged)] = np.nan
-    feasible = robot.feasible(t0) & moved.feasible(sol.theta)
+    feasible = robot.feasible(t0) & moved.feasible(sol.theta) if statics else None
     return Deviation(ds, t0, sol, ik, feasible)
