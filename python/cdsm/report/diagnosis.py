@@ -251,7 +251,32 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
                f"frame {_um(d.identity.heldout_rms)}, registered {_um(d.final().heldout_rms)}: the frame is "
                + ("named (`frame_misalignment`): it beats the identity frame." if d.registration_named else
                   "not named: it does not beat the identity frame significantly."))
+        if prep.frame == "auto":
+            reg += (f" (The data lie {_um(prep.offset)} RMS from the nominal predictions, beyond 5 % of the arm's "
+                    "length: an instrument's own frame.)")
         out["answer"].append(reg)
+    elif prep.kind == "absolute" and prep.frame == "auto":
+        out["answer"].append(f"The data lie {_um(prep.offset)} RMS from the nominal predictions, within 5 % of the "
+                             "arm's length: taken in the robot's base frame, with `frame_misalignment` a candidate "
+                             "effect like any other.")
+    if d.dropped:
+        out["answer"].append("Backward elimination dropped " + ", ".join(f"`{e}`" for e in d.dropped)
+                             + ": with the other effects in, the model does not need it.")
+    if d.search is not None:
+        s = d.search
+        fitted = len(s.tried)
+        txt = (f"Search beyond forward selection ({s.reason}): {s.family} combinations (every pair, triples "
+               f"among the best five) screened on the linearised plant, {fitted} fitted in full, each tested "
+               f"at {s.alpha:.2g} against the nominal model and every smaller combination.")
+        if s.picked is None:
+            txt += " None is supported."
+        elif s.replaced:
+            txt += f" It found `{s.picked}`, which replaces forward selection's answer."
+        else:
+            txt += f" It confirms `{s.picked}`."
+        if s.ties:
+            txt += f" Tied with it (the held-out errors cannot tell them apart): {', '.join(s.ties)}."
+        out["answer"].append(txt)
     if d.outliers:
         out["answer"].append(outlier_note(d, names))
 
