@@ -55,7 +55,7 @@ def brute_neighbours(t, k):
     return np.argsort(d, axis=1, kind="stable")[:, :k], d
 
 
-@pytest.mark.parametrize("n", [2, 4, 8, 24])
+@pytest.mark.parametrize("n", [2, 4, 8, 12, 13, 24])
 def test_nearest_neighbours_equal_brute_force(cdsm, n):
     from cdsm.accuracy import sampling
 
@@ -64,11 +64,15 @@ def test_nearest_neighbours_equal_brute_force(cdsm, n):
     np.testing.assert_array_equal(sampling.nearest_neighbours(t, 6), want)
 
 
-def test_nearest_neighbours_with_ties_and_repeats(cdsm):
+@pytest.mark.parametrize("pad", [0, 12])
+def test_nearest_neighbours_with_ties_and_repeats(cdsm, pad):
     from cdsm.accuracy import sampling
 
-    # a grid: many equal distances; any tied choice has the brute-force distances
-    g = np.stack(np.meshgrid(np.arange(6.0), np.arange(5.0)), axis=-1).reshape(-1, 2) * 0.1
+    # pad: zero joints added, so the search of more than TREE_MAX_JOINTS joints is tested too
+    assert 2 <= sampling.TREE_MAX_JOINTS < 2 + 12
+    # an integer grid: many equal distances, exact in floating point; any tied choice has the brute-force distances
+    g = np.stack(np.meshgrid(np.arange(6.0), np.arange(5.0)), axis=-1).reshape(-1, 2)
+    g = np.hstack([g, np.zeros((len(g), pad))])
     nb = sampling.nearest_neighbours(g, 5)
     want, d = brute_neighbours(g, 5)
     rows = np.arange(len(g))[:, None]
@@ -76,6 +80,7 @@ def test_nearest_neighbours_with_ties_and_repeats(cdsm):
     assert (nb != rows).all() and all(len(set(r)) == 5 for r in nb)
     # a configuration repeated: its copies are its nearest neighbours, never itself
     t = np.array([[0.0, 0.0]] * 4 + [[1.0, 0.0], [0.0, 2.0]])
+    t = np.hstack([t, np.zeros((len(t), pad))])
     nb = sampling.nearest_neighbours(t, 3)
     for i in range(4):
         assert sorted(nb[i]) == sorted(set(range(4)) - {i})

@@ -88,6 +88,19 @@ def test_normal_sf_published_values():
     assert stats.normal_sf(-10.0) == pytest.approx(1.0, rel=1e-15)
 
 
+def test_normal_isf_published_quantiles():
+    # z_0.975, z_0.95 and z_0.995 (NIST/SEMATECH e-Handbook 1.3.6.7.1, here to 16 digits)
+    assert stats.normal_isf(0.025) == pytest.approx(1.959963984540054, rel=1e-14)
+    assert stats.normal_isf(0.05) == pytest.approx(1.6448536269514722, rel=1e-14)
+    assert stats.normal_isf(0.005) == pytest.approx(2.5758293035489004, rel=1e-14)
+    assert stats.normal_isf(0.5) == 0.0
+    # Abramowitz & Stegun 26.2: Q(10) = 7.6198530241605e-24
+    assert stats.normal_isf(7.6198530241605e-24) == pytest.approx(10.0, rel=1e-12)
+    for bad in (0.0, 1.0, -0.1):
+        with pytest.raises(ValueError):
+            stats.normal_isf(bad)
+
+
 def mid_ranks(v) -> np.ndarray:
     """1-based ranks, ties sharing their average (counted pairwise)."""
     v = np.asarray(v, float)

@@ -1,7 +1,7 @@
 """Sampled configurations of an arm and what is judged on them: a Sobol
 sequence (``scipy.stats.qmc.Sobol``), seeded random and Sobol samples of
 the joint box, neighbour-based jump detection (nearest neighbours from
-``scipy.spatial.KDTree``), and the singular measure of the position
+``scipy.spatial.KDTree`` up to 12 joints), and the singular measure of the position
 Jacobian. SI units: m, rad.
 
 A full joint grid is impossible past a few joints (13 values per joint and 8
@@ -34,8 +34,9 @@ from scipy.stats import qmc
 
 from ..inputs import CdsmInputError, as_batch
 
-__all__ = ["SOBOL_MAX_DIM", "sobol", "sample_configurations", "sampling_limits", "nearest_neighbours",
-           "SampledJumps", "jump_points", "singular_measure", "position_singular_values", "METHODS"]
+__all__ = ["SOBOL_MAX_DIM", "TREE_MAX_JOINTS", "sobol", "sample_configurations", "sampling_limits",
+           "nearest_neighbours", "SampledJumps", "jump_points", "singular_measure", "position_singular_values",
+           "METHODS"]
 
 #: Sampling methods of :func:`sample_configurations`.
 METHODS = ("sobol", "random")
@@ -49,6 +50,13 @@ SOBOL_MAX_DIM = int(qmc.Sobol.MAXDIM)
 #: Leaf size of the neighbour search tree: 32-64 points per leaf is about
 #: twice as fast as SciPy's default 16 from 8 joints up (benches/bench_sampling.py).
 _LEAF = 64
+
+#: Most joints for which :func:`nearest_neighbours` searches a k-d tree. In
+#: more dimensions a tree visits nearly every leaf of uniform samples and is
+#: 1.2-1.6x slower than comparing every pair by matrix products (4000
+#: configurations, 14-24 joints; benches/bench_sampling.py); up to 12 joints
+#: it is 1.3-10x faster.
+TREE_MAX_JOINTS = 12
 
 
 def _sobol_engine(dim: int, scramble: bool, rng: np.random.Generator) -> qmc.Sobol:
@@ -122,14 +130,14 @@ def sample_configurations(robot, count: int, method: str = "sobol", seed: int = 
 # ---------------------------------------------------------------------------
 # neighbours and jumps
 # ---------------------------------------------------------------------------
-def nearest_neighbours(theta, k: int = 6, block: int = 1024) -> np.ndarray:
+def nearest_neighbours(theta, k: int = 6) -> np.ndarray:
     """(N, k) indices of each configuration's ``k`` nearest other
     configurations of ``theta`` (N, n) rad, Euclidean in joint space, nearest
-    first (``scipy.spatial.KDTree``, exact). Equal distances: the tree's
-    order (deterministic for equal input), and at the k-th place any one of
-    the tied configurations; a configuration repeated in ``theta`` is its
-    copy's nearest neighbour (distance 0), never its own. ``block`` is kept
-    for callers and unused (the search no longer forms distance blocks)."""
+    first. Exact: ``scipy.spatial.KDTree`` up to :data:`TREE_MAX_JOINTS`
+    joints, beyond every pair compared (squared distances by one matrix
+    product per block of 1024 rows; faster there). Equal distances: any one
+    of the tied configurations; a configuration repeated in ``theta`` is its
+    copy's nearest neighbour (distance 0), never its own."""
     t = np.asarray(theta, dtype=np.float64)
     if t.ndim != 2:
         raise CdsmInputError(f"`theta`: expected shape (N, n), got {t.shape}")
@@ -139,6 +147,8 @@ def nearest_neighbours(theta, k: int = 6, block: int = 1024) -> np.ndarray:
     k = int(k)
     if not 1 <= k < n_pts:
         raise CdsmInputError(f"`k`: need 1 <= k < N = {n_pts}, got {k}")
+    if t.shape[1] > TREE_MAX_JOINTS:
+        return _neighbours_by_blocks(t, k)
     _, idx = KDTree(t, leafsize=_LEAF).query(t, k + 1)
     # drop each configuration itself; where k + 1 copies tie at distance 0 it may be left out: drop the last
     own = idx == np.arange(n_pts)[:, None]
@@ -146,6 +156,21 @@ def nearest_neighbours(theta, k: int = 6, block: int = 1024) -> np.ndarray:
     keep = np.ones(idx.shape, bool)
     keep[np.arange(n_pts), drop] = False
     return idx[keep].reshape(n_pts, k).astype(np.int64)
+
+
+def _neighbours_by_blocks(t: np.ndarray, k: int, block: int = 1024) -> np.ndarray:
+    """:func:`nearest_neighbours` of ``t`` (N, n) by every pair's squared
+    distance, ``block`` rows at a time."""
+    sq = (t * t).sum(axis=1)
+    out = np.empty((len(t), k), dtype=np.int64)
+    for s in range(0, len(t), block):
+        rows = slice(s, min(s + block, len(t)))
+        d = sq[rows, None] + sq[None, :] - 2.0 * t[rows] @ t.T
+        d[np.arange(rows.stop - rows.start), np.arange(rows.start, rows.stop)] = np.inf
+        part = np.argpartition(d, k - 1, axis=1)[:, :k]
+        order = np.argsort(np.take_along_axis(d, part, axis=1), axis=1, kind="stable")
+        out[rows] = np.take_along_axis(part, order, axis=1)
+    return out
 
 
 @dataclass(frozen=True)
