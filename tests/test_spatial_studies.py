@@ -38,6 +38,17 @@ def test_sobol_puts_one_point_in_each_dyadic_interval(cdsm, scramble):
         np.testing.assert_array_equal(np.bincount(np.floor(u[:, d] * 64).astype(int), minlength=64), 1)
 
 
+def test_sobol_max_dim_is_scipys(cdsm):
+    from scipy.stats import qmc
+
+    from cdsm.accuracy import sampling
+
+    assert sampling.SOBOL_MAX_DIM == qmc.Sobol.MAXDIM
+    assert sampling.sobol(2, sampling.SOBOL_MAX_DIM).shape == (2, sampling.SOBOL_MAX_DIM)
+    with pytest.raises(cdsm.CdsmInputError, match="dim"):
+        sampling.sobol(2, sampling.SOBOL_MAX_DIM + 1)
+
+
 def test_sobol_skip_and_seed(cdsm):
     from cdsm.accuracy import sampling
 

@@ -29,8 +29,6 @@ from dataclasses import dataclass
 from typing import Optional
 
 import numpy as np
-from scipy.spatial import KDTree
-from scipy.stats import qmc
 
 from ..inputs import CdsmInputError, as_batch
 
@@ -44,8 +42,10 @@ METHODS = ("sobol", "random")
 #: Bits of the Sobol integers (points are multiples of 2**-32).
 _BITS = 32
 
-#: Largest dimension of :func:`sobol` (SciPy's Joe–Kuo table: 21201).
-SOBOL_MAX_DIM = int(qmc.Sobol.MAXDIM)
+#: Largest dimension of :func:`sobol`: the rows of SciPy's Joe–Kuo table
+#: (``scipy.stats.qmc.Sobol.MAXDIM``, a test; SciPy is imported on first use:
+#: ``scipy.stats`` takes 0.5-0.8 s to import, once per process).
+SOBOL_MAX_DIM = 21201
 
 #: Leaf size of the neighbour search tree: 32-64 points per leaf is about
 #: twice as fast as SciPy's default 16 from 8 joints up (benches/bench_sampling.py).
@@ -59,8 +59,11 @@ _LEAF = 64
 TREE_MAX_JOINTS = 12
 
 
-def _sobol_engine(dim: int, scramble: bool, rng: np.random.Generator) -> qmc.Sobol:
-    """SciPy's 32-bit Sobol engine drawing its scramble from ``rng``."""
+def _sobol_engine(dim: int, scramble: bool, rng: np.random.Generator):
+    """SciPy's 32-bit Sobol engine (``scipy.stats.qmc.Sobol``) drawing its
+    scramble from ``rng``."""
+    from scipy.stats import qmc
+
     try:
         return qmc.Sobol(dim, scramble=scramble, bits=_BITS, rng=rng)
     except TypeError:  # SciPy < 1.15 names the generator `seed`
@@ -149,6 +152,8 @@ def nearest_neighbours(theta, k: int = 6) -> np.ndarray:
         raise CdsmInputError(f"`k`: need 1 <= k < N = {n_pts}, got {k}")
     if t.shape[1] > TREE_MAX_JOINTS:
         return _neighbours_by_blocks(t, k)
+    from scipy.spatial import KDTree
+
     _, idx = KDTree(t, leafsize=_LEAF).query(t, k + 1)
     # drop each configuration itself; where k + 1 copies tie at distance 0 it may be left out: drop the last
     own = idx == np.arange(n_pts)[:, None]

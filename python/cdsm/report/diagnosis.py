@@ -21,9 +21,6 @@ from typing import Dict, List, Tuple
 
 import numpy as np
 from matplotlib.ticker import MaxNLocator
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import KDTree
 
 from .. import __version__
 from ..calibration import diagnosis as diagnose
@@ -431,6 +428,10 @@ def _clusters(xy: np.ndarray, link: float) -> List[np.ndarray]:
     (N, 2) chained by distances below ``link`` (single linkage: the
     connected components of ``scipy.sparse.csgraph`` over the pairs of
     ``scipy.spatial.KDTree``), largest first (ties: the lowest index first)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import KDTree
+
     fin = np.flatnonzero(np.isfinite(xy).all(1))
     if len(fin) < 2:
         return []
@@ -452,6 +453,8 @@ def _away_offsets(xy: np.ndarray, points: float = 7.0) -> np.ndarray:
     neighbour (``scipy.spatial.KDTree``; equally near ones: any one of them;
     up-right when it has none or sits on it), so close labels part."""
     out = np.tile([points * 0.7, points * 0.7], (len(xy), 1))
+    from scipy.spatial import KDTree
+
     fin = np.flatnonzero(np.isfinite(xy).all(1))
     if len(fin) < 2:
         return out
