@@ -10,10 +10,15 @@
 //! accepted step lowers the cost by less than that fraction, or when no step
 //! lowers it at all (the damping passes 1e12). The step:
 //!
-//! * [`Step::Triangular`]: square lower-triangular `J` (the cable solves):
-//!   forward substitution `J delta = -r` (Gauss–Newton; the diagonal's
-//!   reciprocals formed first) while `lambda <= 1e-12` (it may start at 0),
-//!   the damped normal equations otherwise;
+//! * [`Step::Triangular`]: square lower-triangular `J` (the planar cable
+//!   solves): forward substitution `J delta = -r` (Gauss–Newton; the
+//!   diagonal's reciprocals formed first) while `lambda <= 1e-12` (it may
+//!   start at 0), the damped normal equations otherwise;
+//! * [`Step::Square`]: square `J` (the general cable solve): the Newton step
+//!   `J delta = -r` while `lambda <= 1e-12` — block by block when the
+//!   problem gives `J`'s block lower-triangular structure
+//!   ([`Problem::blocks`], [`block_solve`]), else by LU with partial
+//!   pivoting ([`lu_solve`]) — and the damped normal equations otherwise;
 //! * [`Step::Normal`]: `(J^T J + lambda D) delta = -J^T r` by Cholesky;
 //! * [`Step::MinNorm`]: `delta = -J^T (J J^T + lambda I)^-1 r` (more unknowns
 //!   than residuals: the pose IK of redundant arms);
@@ -23,8 +28,12 @@
 //! `D` is the identity ([`Damping::Levenberg`]) or `diag(J^T J)`
 //! ([`Damping::Marquardt`]). The solver allocates nothing per solve once its
 //! [`Workspace`] has seen the problem's size (Cholesky and LU of more than 6
-//! unknowns and the QR step allocate in faer).
+//! unknowns and the QR step allocate in faer). The square Newton step, the
+//! normal equations and the `L D L^T` solve are written over
+//! [`crate::real::Lane`], so the general cable solve's lanes
+//! ([`crate::solve`]) take the same steps with the same operations.
 
+use crate::real::Lane;
 use faer::linalg::solvers::{Solve, SolveLstsq};
 use faer::Mat;
 
@@ -32,6 +41,7 @@ use faer::Mat;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Step {
     Triangular,
+    Square,
     Normal,
     MinNorm,
     Qr,
@@ -148,6 +158,11 @@ pub trait Problem {
     /// tol ends the solve without [`Problem::jacobian`] being asked for it.
     fn answer_jacobian(&self) -> bool {
         true
+    }
+    /// The block lower-triangular structure of a square `J`, if it has
+    /// one (the square step then solves block by block); by default none.
+    fn blocks(&self) -> Option<&Blocks> {
+        None
     }
     /// Moves a trial into the feasible set (bounds); by default none.
     fn project(&self, _x: &mut [f64]) {}
@@ -395,6 +410,8 @@ fn iterate<P: Problem + ?Sized>(
         // every other step in `step`
         let ok = if lm.step == Step::Triangular && lambda <= LAMBDA_MIN && m == n {
             forward_substitution(jac, cur.r, n, g, delta)
+        } else if lm.step == Step::Square && lambda <= LAMBDA_MIN && m == n {
+            square_step(jac, cur.r, n, problem.blocks(), a, delta)
         } else {
             step(lm, jac, cur.r, m, n, lambda, a, g, delta)
         };
@@ -519,8 +536,8 @@ fn step(
     delta: &mut [f64],
 ) -> bool {
     match lm.step {
-        Step::Triangular | Step::Normal => {
-            normal_equations(jac, r, m, n, lambda, lm.damping, a, g);
+        Step::Triangular | Step::Square | Step::Normal => {
+            normal_equations_f64(jac, r, m, n, lambda, lm.damping, a, g);
             solve_spd(n, &a[..n * n], &g[..n], delta)
         }
         Step::MinNorm => {
@@ -567,9 +584,23 @@ fn step(
     }
 }
 
-/// `a = J^T J + lambda D` (n x n) and `g = -J^T r`.
+/// [`newton_step`] on one row, out of line (the solver's loop stays small).
+#[inline(never)]
+fn square_step(
+    jac: &[f64],
+    r: &[f64],
+    n: usize,
+    blocks: Option<&Blocks>,
+    a: &mut [f64],
+    delta: &mut [f64],
+) -> bool {
+    newton_step(jac, r, n, blocks, a, delta) && delta.iter().all(|d| d.is_finite())
+}
+
+/// [`normal_equations`] on one row, out of line.
 #[allow(clippy::too_many_arguments)]
-fn normal_equations(
+#[inline(never)]
+fn normal_equations_f64(
     jac: &[f64],
     r: &[f64],
     m: usize,
@@ -579,21 +610,213 @@ fn normal_equations(
     a: &mut [f64],
     g: &mut [f64],
 ) {
+    normal_equations(jac, r, m, n, lambda, damping, a, g)
+}
+
+/// `a = J^T J + lambda D` (n x n) and `g = -J^T r`, lane by lane.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn normal_equations<L: Lane>(
+    jac: &[L],
+    r: &[L],
+    m: usize,
+    n: usize,
+    lambda: L,
+    damping: Damping,
+    a: &mut [L],
+    g: &mut [L],
+) {
+    let zero = L::cst(0.0);
     for k in 0..n {
         for l in 0..=k {
-            let v: f64 = (0..m).map(|i| jac[i * n + k] * jac[i * n + l]).sum();
+            let mut v = zero;
+            for i in 0..m {
+                v += jac[i * n + k] * jac[i * n + l];
+            }
             a[k * n + l] = v;
             a[l * n + k] = v;
         }
-        g[k] = -(0..m).map(|i| jac[i * n + k] * r[i]).sum::<f64>();
+        let mut v = zero;
+        for i in 0..m {
+            v += jac[i * n + k] * r[i];
+        }
+        g[k] = -v;
     }
     for k in 0..n {
         let d = match damping {
-            Damping::Levenberg => 1.0,
-            Damping::Marquardt => a[k * n + k].max(1e-300),
+            Damping::Levenberg => L::cst(1.0),
+            Damping::Marquardt => a[k * n + k].max(L::cst(1e-300)),
         };
         a[k * n + k] += lambda * d;
     }
+}
+
+/// The undamped square step into `delta`: the Newton step `J delta = -r`
+/// (`J` `n x n`), lane by lane, by [`block_solve`] with `blocks`, else by
+/// [`lu_solve`] of `J` copied into `a` (`n x n` scratch). The lanes where
+/// `J` (a diagonal block) is singular come back false.
+#[inline(always)]
+pub fn newton_step<L: Lane>(
+    jac: &[L],
+    r: &[L],
+    n: usize,
+    blocks: Option<&Blocks>,
+    a: &mut [L],
+    delta: &mut [L],
+) -> L::Mask {
+    if let Some(b) = blocks {
+        return block_solve(n, jac, r, b, a, delta);
+    }
+    let a = &mut a[..n * n];
+    a.copy_from_slice(&jac[..n * n]);
+    for (d, ri) in delta.iter_mut().zip(r) {
+        *d = -*ri;
+    }
+    lu_solve(n, a, delta)
+}
+
+/// The block lower-triangular structure of a square `n x n` matrix: a
+/// permutation of its rows and consecutive ranges of its columns, the
+/// blocks, such that the rows of block `b` (`rows[cols_b]`, as many as its
+/// columns `cols_b`) vanish in the columns of every later block. (The
+/// general cable solve's Jacobian when as many position cables end at each
+/// disk as it has joints: a cable does not depend on the joints past its
+/// end.)
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Blocks {
+    /// The rows, block by block.
+    pub rows: Vec<usize>,
+    /// The columns of each block, in order, covering `0..n`.
+    pub cols: Vec<std::ops::Range<usize>>,
+}
+
+/// Solves `J delta = -r` (`J` `n x n` row-major with the structure
+/// `blocks`) by block forward substitution, lane by lane: for each block in
+/// order its rows' right-hand side less the columns already solved, then
+/// [`lu_solve`] of its square diagonal block (copied into `a`). The lanes
+/// where a diagonal block is singular come back false.
+#[inline(always)]
+pub fn block_solve<L: Lane>(
+    n: usize,
+    jac: &[L],
+    r: &[L],
+    blocks: &Blocks,
+    a: &mut [L],
+    delta: &mut [L],
+) -> L::Mask {
+    let mut ok = L::mask(true);
+    for cols in &blocks.cols {
+        let (c0, k) = (cols.start, cols.len());
+        for (bi, &i) in blocks.rows[cols.clone()].iter().enumerate() {
+            let row = &jac[i * n..(i + 1) * n];
+            let mut v = -r[i];
+            for (j, d) in row[..c0].iter().zip(&delta[..c0]) {
+                v -= *j * *d;
+            }
+            delta[c0 + bi] = v;
+            a[bi * k..(bi + 1) * k].copy_from_slice(&row[cols.clone()]);
+        }
+        ok = ok & lu_solve(k, &mut a[..k * k], &mut delta[cols.clone()]);
+    }
+    ok
+}
+
+/// Solves the square `a x = b` (`n x n` row-major `a`, overwritten by its
+/// factors; `b` overwritten by `x`) by Gaussian elimination with partial
+/// pivoting (in each column the entry of largest magnitude, the last of
+/// equals), lane by lane: each lane pivots on its own rows (a jet on its
+/// values). The lanes whose pivot is zero or not finite (a singular matrix)
+/// come back false, their `x` unspecified. The LU of the square Newton
+/// step, of its lanes, and of the statics' square balance
+/// ([`crate::tension::Balance::solve_square`]).
+#[inline(always)]
+pub fn lu_solve<L: Lane>(n: usize, a: &mut [L], b: &mut [L]) -> L::Mask {
+    let mut ok = L::mask(true);
+    for k in 0..n {
+        let mut best = a[k * n + k].abs();
+        let mut piv = L::cst(k as f64);
+        for i in k + 1..n {
+            let v = a[i * n + k].abs();
+            let m = best.le(v);
+            best = L::select(m, v, best);
+            piv = L::select(m, L::cst(i as f64), piv);
+        }
+        ok = ok & L::cst(0.0).lt(best) & best.finite();
+        // rows k and piv swap in the lanes that pivot on row i (selects
+        // without a branch: which rows pivot varies from lane to lane)
+        for i in k + 1..n {
+            let m = piv.eq(L::cst(i as f64));
+            for j in k..n {
+                let (x, y) = (a[k * n + j], a[i * n + j]);
+                a[k * n + j] = L::select(m, y, x);
+                a[i * n + j] = L::select(m, x, y);
+            }
+            let (x, y) = (b[k], b[i]);
+            b[k] = L::select(m, y, x);
+            b[i] = L::select(m, x, y);
+        }
+        let inv = L::cst(1.0) / a[k * n + k];
+        for i in k + 1..n {
+            let f = a[i * n + k] * inv;
+            for j in k + 1..n {
+                let v = a[k * n + j];
+                a[i * n + j] -= f * v;
+            }
+            let v = b[k];
+            b[i] -= f * v;
+        }
+    }
+    for k in (0..n).rev() {
+        let mut v = b[k];
+        for j in k + 1..n {
+            v -= a[k * n + j] * b[j];
+        }
+        b[k] = v / a[k * n + k];
+    }
+    ok
+}
+
+/// Solves the symmetric positive-definite `a x = b` (`n x n` row-major; its
+/// lower triangle read, `a` overwritten; `b` overwritten by `x`) by the
+/// square-root-free `L D L^T` in place (`L` below the diagonal, `L D` above
+/// it, the pivots' reciprocals on it), lane by lane. The lanes whose pivot
+/// is not > 0 or not finite come back false.
+#[inline(always)]
+pub fn ldlt_solve<L: Lane>(n: usize, a: &mut [L], b: &mut [L]) -> L::Mask {
+    let mut ok = L::mask(true);
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            d -= a[j * n + k] * a[k * n + j];
+        }
+        ok = ok & L::cst(0.0).lt(d) & d.finite();
+        let dinv = L::cst(1.0) / d;
+        a[j * n + j] = dinv;
+        for i in j + 1..n {
+            let mut v = a[i * n + j];
+            for k in 0..j {
+                // l[i][k] w[j][k]: l below the diagonal, w = L D above it
+                v -= a[i * n + k] * a[k * n + j];
+            }
+            a[j * n + i] = v;
+            a[i * n + j] = v * dinv;
+        }
+    }
+    for i in 0..n {
+        let mut v = b[i];
+        for k in 0..i {
+            v -= a[i * n + k] * b[k];
+        }
+        b[i] = v;
+    }
+    for i in (0..n).rev() {
+        let mut v = b[i] * a[i * n + i];
+        for k in i + 1..n {
+            v -= a[k * n + i] * b[k];
+        }
+        b[i] = v;
+    }
+    ok
 }
 
 /// The damped least-squares step by Householder QR (faer).
@@ -656,78 +879,41 @@ pub fn r_factor(jac: &[f64], m: usize, n: usize) -> Vec<f64> {
 }
 
 /// Solves the symmetric positive-definite `n x n` system `a x = b` (`a`
-/// row-major): a square-root-free `L D L^T` on the stack for n <= 6 (the
-/// pivots' reciprocals formed once, so the substitutions only multiply),
-/// faer's Cholesky beyond. Returns `false` if `a` is not positive definite
-/// (a pivot not > 0, or not finite).
+/// row-major): the square-root-free `L D L^T` of [`ldlt_solve`] on a copy on
+/// the stack for n <= 6 (the pivots' reciprocals formed once, so the
+/// substitutions only multiply), faer's Cholesky beyond. Returns `false` if
+/// `a` is not positive definite (a pivot not > 0, or not finite).
 pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+    /// [`ldlt_solve`] of a constant size (its loops unrolled).
+    fn fixed<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+        let mut f = [[0.0; N]; N];
+        let f = f.as_flattened_mut();
+        f.copy_from_slice(&a[..N * N]);
+        let x = &mut x[..N];
+        x.copy_from_slice(&b[..N]);
+        ldlt_solve(N, f, x) && x.iter().all(|v| v.is_finite())
+    }
     match n {
-        1 => ldlt::<1>(a, b, x),
-        2 => ldlt::<2>(a, b, x),
-        3 => ldlt::<3>(a, b, x),
-        4 => ldlt::<4>(a, b, x),
-        5 => ldlt::<5>(a, b, x),
-        6 => ldlt::<6>(a, b, x),
-        _ => {
-            let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
-            let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
-            match m.llt(faer::Side::Lower) {
-                Ok(ch) => {
-                    let sol = ch.solve(&rhs);
-                    for (i, xi) in x.iter_mut().enumerate() {
-                        *xi = sol[(i, 0)];
-                    }
-                    true
-                }
-                Err(_) => false,
+        1 => return fixed::<1>(a, b, x),
+        2 => return fixed::<2>(a, b, x),
+        3 => return fixed::<3>(a, b, x),
+        4 => return fixed::<4>(a, b, x),
+        5 => return fixed::<5>(a, b, x),
+        6 => return fixed::<6>(a, b, x),
+        _ => {}
+    }
+    let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
+    let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
+    match m.llt(faer::Side::Lower) {
+        Ok(ch) => {
+            let sol = ch.solve(&rhs);
+            for (i, xi) in x.iter_mut().enumerate() {
+                *xi = sol[(i, 0)];
             }
+            true
         }
+        Err(_) => false,
     }
-}
-
-/// `a = L D L^T` (unit lower `L`, the lower triangle of `a` read) and the
-/// solve of `a x = b`, `N x N` on the stack.
-#[inline]
-fn ldlt<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
-    let mut l = [[0.0f64; N]; N];
-    // w[i][k] = L[i][k] d[k]
-    let mut w = [[0.0f64; N]; N];
-    let mut dinv = [0.0f64; N];
-    for j in 0..N {
-        let mut d = a[j * N + j];
-        for k in 0..j {
-            d -= l[j][k] * w[j][k];
-        }
-        // not > 0 also catches NaN
-        if !(d > 0.0 && d.is_finite()) {
-            return false;
-        }
-        dinv[j] = 1.0 / d;
-        for i in j + 1..N {
-            let mut v = a[i * N + j];
-            for k in 0..j {
-                v -= l[i][k] * w[j][k];
-            }
-            w[i][j] = v;
-            l[i][j] = v * dinv[j];
-        }
-    }
-    let mut y = [0.0f64; N];
-    for i in 0..N {
-        let mut v = b[i];
-        for k in 0..i {
-            v -= l[i][k] * y[k];
-        }
-        y[i] = v;
-    }
-    for i in (0..N).rev() {
-        let mut v = y[i] * dinv[i];
-        for k in i + 1..N {
-            v -= l[k][i] * x[k];
-        }
-        x[i] = v;
-    }
-    x[..N].iter().all(|v| v.is_finite())
 }
 
 /// Solves the general `n x n` system `a x = b` by LU (nalgebra for n <= 6,
