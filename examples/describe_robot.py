@@ -23,7 +23,7 @@ def main(argv=None) -> None:
     args = ap.parse_args(argv)
 
     robot = cdsm.Robot.from_toml(args.robot)  # a bad file names the field and the problem
-    print(robot, f"straight length {robot.straight_length * 1e3:.1f} mm, gravity {robot.gravity} m/s^2")
+    print(robot)
     theta = np.radians([20.0, -10.0, 15.0, 5.0][:robot.n] + [0.0] * max(0, robot.n - 4))
     print("tip pose [x m, y m, phi rad]:", robot.fk(theta).round(5))
     print("cable lengths (m):", robot.cable_lengths(theta).round(5))

@@ -24,8 +24,8 @@ def main(argv=None) -> None:
 
     region = workspace.joint_grid(robot.n, step=np.radians(args.step))
     a = tolerance.allocate(robot, args.target_mm * 1e-3, region, samples=args.samples)
-    print("cable length tolerance (mm):", [round(v * 1e3, 4) for v in a.cable_length_tol_m])
-    print("hole height tolerance (mm):  ", [round(v * 1e3, 4) for v in a.hole_height_tol_m])
+    print("cable length tolerance (mm):", ", ".join(f"{v * 1e3:.4f}" for v in a.cable_length_tol_m))
+    print("hole height tolerance (mm):  ", ", ".join(f"{v * 1e3:.4f}" for v in a.hole_height_tol_m))
     print(f"P95 |d(x, y)| = {a.achieved_m * 1e3:.4f} mm (target {args.target_mm} mm); "
           f"every tolerance x1.25 gives {a.achieved_1p25_m * 1e3:.4f} mm")
 

@@ -11,6 +11,7 @@ use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
 use crate::ik::{IkMethod, SpatialIk, SpatialMask, TaskMask};
 use crate::kinds::{log_so3, Frame, Kind, Planar, Se3, Spatial, Vector};
+use crate::lm::Reason;
 use crate::model::{self, Model};
 use crate::qp::min_norm_active;
 use crate::real::Lane;
@@ -63,6 +64,25 @@ pub fn fk_matrix(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64
             o[4 * i + 3] = e.t[i];
         }
         o[12..16].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+    })
+}
+
+/// The face frames of every disk in the base frame `(N, K, 2, 4, 4)`: face
+/// `a` (proximal) then face `b` (distal) of disks `1..=K`, homogeneous,
+/// translation in m (the base face is the identity).
+pub fn disk_frames(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    let k = model.disks.len();
+    map_chain::<Spatial>(model, theta, 32 * k, threads, |c, o| {
+        for d in 0..k {
+            for (f, frame) in [&c.face_a[d], &c.face_b[d]].into_iter().enumerate() {
+                let m = &mut o[32 * d + 16 * f..32 * d + 16 * (f + 1)];
+                for i in 0..3 {
+                    m[4 * i..4 * i + 3].copy_from_slice(&frame.r[i]);
+                    m[4 * i + 3] = frame.t[i];
+                }
+                m[12..16].copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+            }
+        }
     })
 }
 
@@ -127,8 +147,40 @@ pub fn within_limits(model: &Model, theta: &[f64], threads: usize) -> Result<Vec
 /// The cable solve of a batch: lengths `(N, m_pos)` of the position cables
 /// (m), `seed (N, n)` or zeros. A planar arm by `method` (closed form,
 /// Newton or both); a spatial arm has no closed form: `auto` and `newton`
-/// run the general solve, `closed_form` is an error.
+/// run the general solve, `closed_form` is an error. A row that fails with
+/// a length outside [`Model::cable_length_bounds`] is reported
+/// `unreachable` (no configuration realises it), whatever the solver saw.
 pub fn solve_cables(
+    model: &Model,
+    lengths: &[f64],
+    seed: Option<&[f64]>,
+    method: CableMethod,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<BatchSolution> {
+    let mut out = solve_cables_by_kind(model, lengths, seed, method, opts, threads)?;
+    let bounds = model.cable_length_bounds();
+    let pos = model.position_cables();
+    let m = pos.len();
+    for (i, reason) in out.reason.iter_mut().enumerate() {
+        if out.converged[i] {
+            continue;
+        }
+        let row = &lengths[i * m..(i + 1) * m];
+        let outside = row.iter().zip(&pos).any(|(l, &c)| {
+            let [lo, hi] = bounds[c];
+            // a margin of the solve's tolerance and of rounding
+            let slack = opts.tol + 1e-12 * hi;
+            *l < lo - slack || *l > hi + slack
+        });
+        if outside {
+            *reason = Reason::Unreachable as u8;
+        }
+    }
+    Ok(out)
+}
+
+fn solve_cables_by_kind(
     model: &Model,
     lengths: &[f64],
     seed: Option<&[f64]>,

@@ -22,7 +22,9 @@ pub fn resolve_threads(threads: usize) -> usize {
 }
 
 /// Runs `work` on contiguous ranges of `0..rows` in up to `threads` scoped
-/// threads and returns the per-range results in row order.
+/// threads and returns the per-range results in row order. A range whose
+/// thread the system cannot start (too many threads) is worked by the
+/// calling thread: the result does not depend on how many start.
 pub fn split_rows<T: Send>(
     rows: usize,
     threads: usize,
@@ -34,16 +36,24 @@ pub fn split_rows<T: Send>(
     }
     let per = rows.div_ceil(threads);
     std::thread::scope(|s| {
-        let handles: Vec<_> = (0..threads)
+        let w = &work;
+        let started: Vec<_> = (0..threads)
             .map(|t| {
                 let r = (t * per).min(rows)..((t + 1) * per).min(rows);
-                let w = &work;
-                s.spawn(move || w(r))
+                std::thread::Builder::new()
+                    .spawn_scoped(s, {
+                        let r = r.clone();
+                        move || w(r)
+                    })
+                    .map_err(|_| r)
             })
             .collect();
-        handles
+        started
             .into_iter()
-            .map(|h| h.join().expect("worker thread panicked"))
+            .map(|h| match h {
+                Ok(h) => h.join().expect("worker thread panicked"),
+                Err(r) => w(r),
+            })
             .collect()
     })
 }

@@ -358,6 +358,17 @@ pub fn rotation<S: Arith>(a: [S; 3], (c, s): (S, S)) -> [[S; 3]; 3] {
 /// `A = sin(t)/t`, `B = (1 - cos t)/t^2`, `t = |v|`, by their series in `t^2`
 /// near 0 (smooth through `v = 0`, where derivatives are taken).
 pub fn exp_so3<S: Real>(v: [S; 3]) -> [[S; 3]; 3] {
+    // a vector past 1e154 rad would overflow |v|^2: scale it down first
+    // (any finite vector is a rotation; its angle counts modulo 2 pi)
+    let big = v.iter().fold(0.0f64, |m, x| m.max(x.val().abs()));
+    if big > 1e150 {
+        let k = S::cst(big);
+        let w = [v[0] / k, v[1] / k, v[2] / k];
+        let tw = w.dot(w).sqrt();
+        let u = [w[0] / tw, w[1] / tw, w[2] / tw];
+        let (s, c) = (k * tw).sin_cos();
+        return rotation_about(u, s, S::cst(1.0) - c);
+    }
     let t2 = v.dot(v);
     let (a, b) = if t2.val() < 1e-2 {
         // A = 1 - t2/6 + t2^2/120 - t2^3/5040 + t2^4/362880
@@ -376,7 +387,14 @@ pub fn exp_so3<S: Real>(v: [S; 3]) -> [[S; 3]; 3] {
         let (s, c) = t.sin_cos();
         (s / t, (S::cst(1.0) - c) / t2)
     };
-    let (x, y, z) = (v[0], v[1], v[2]);
+    rotation_about(v, a, b)
+}
+
+/// `I + a [u]x + b [u]x^2` (Rodrigues: a unit axis `u` with `a = sin t`,
+/// `b = 1 - cos t`, or the rotation vector with `a = sin t / t`,
+/// `b = (1 - cos t) / t^2`).
+fn rotation_about<S: Real>(u: [S; 3], a: S, b: S) -> [[S; 3]; 3] {
+    let (x, y, z) = (u[0], u[1], u[2]);
     let one = S::cst(1.0);
     [
         [

@@ -22,6 +22,7 @@ pub mod plant;
 pub mod qp;
 pub mod real;
 pub mod robot;
+pub mod robot_file;
 pub mod sensitivity;
 pub mod simd;
 pub mod solve;

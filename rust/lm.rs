@@ -78,20 +78,26 @@ pub enum Reason {
     IterationLimit = 1,
     /// The step could not be computed (singular Jacobian) or went nowhere.
     Singular = 2,
-    /// A stationary point with a non-zero residual: the target is out of reach.
+    /// Proven out of reach: no configuration realises the target (a
+    /// bound on the cable lengths, the closed-form pose IK's reach).
     Unreachable = 3,
     /// Stuck on the joint-limit box while limits are enforced.
     OutsideLimits = 4,
+    /// Stopped at a non-zero residual with no proof that the target is out
+    /// of reach: a stationary point of the misfit (a local minimum), or a
+    /// closed form whose branch has no answer; another seed may succeed.
+    Stalled = 5,
 }
 
 impl Reason {
     /// The names, in code order (`Reason as u8` indexes them).
-    pub const NAMES: [&'static str; 5] = [
+    pub const NAMES: [&'static str; 6] = [
         "converged",
         "iteration limit",
         "singular",
         "unreachable",
         "outside limits",
+        "stalled",
     ];
 }
 
@@ -260,8 +266,19 @@ impl Workspace {
     }
 }
 
+/// `max |v_i|`, NaN when any entry is NaN (`f64::max` would drop it and
+/// report a NaN residual as 0).
 fn max_abs(v: &[f64]) -> f64 {
-    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+    v.iter().fold(
+        0.0,
+        |m: f64, x| {
+            if x.is_nan() {
+                f64::NAN
+            } else {
+                m.max(x.abs())
+            }
+        },
+    )
 }
 
 fn sum_sq(v: &[f64]) -> f64 {
@@ -359,7 +376,7 @@ fn iterate<P: Problem + ?Sized>(
         }
         if iterations >= lm.max_iter {
             let reason = if stationary(cur.jac, cur.r, m, n) {
-                Reason::Unreachable
+                Reason::Stalled
             } else {
                 Reason::IterationLimit
             };
@@ -373,7 +390,7 @@ fn iterate<P: Problem + ?Sized>(
             let reason = if problem.on_bound(cur.x) {
                 Reason::OutsideLimits
             } else if stationary(cur.jac, cur.r, m, n) {
-                Reason::Unreachable
+                Reason::Stalled
             } else {
                 Reason::Singular
             };
@@ -1090,12 +1107,12 @@ mod tests {
     }
 
     #[test]
-    fn an_unreachable_target_is_reported_as_such() {
+    fn a_stationary_misfit_is_reported_as_stalled() {
         let mut x = [0.3];
         let lm = Lm::equations(Step::Normal, 1e-12, 100);
         let st = solve(&mut NoRoot, &mut x, &lm, &mut Workspace::default());
         assert!(!st.converged);
-        assert_eq!(st.reason, Reason::Unreachable, "{st:?}");
+        assert_eq!(st.reason, Reason::Stalled, "{st:?}");
         // the cost 2 + 2 x^2 stops falling in floating point once x^2 < 1e-16
         assert!(
             (st.residual - 1.0).abs() < 1e-7 && x[0].abs() < 1e-7,

@@ -10,7 +10,8 @@
 //! planar closed forms serve it. SI units.
 
 use crate::error::{CdsmError, Result};
-use crate::robot::{bad, parse_toml, CableMaterial, Robot};
+use crate::robot::{CableMaterial, Robot};
+use crate::robot_file::{bad, coordinates, joint_limits, parse_toml, positive_length, Exact};
 use serde::Deserialize;
 
 /// The kind of an arm: which motion group its joints span and which task
@@ -116,7 +117,7 @@ pub struct Model {
 struct File {
     kind: String,
     name: Option<String>,
-    gravity: Option<[f64; 3]>,
+    gravity: Option<Exact<3>>,
     cable: Option<MaterialFile>,
     base: BaseFile,
     linkage: Vec<LinkageFile>,
@@ -141,21 +142,21 @@ struct BaseFile {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct JointFile {
-    axis: [f64; 3],
-    offset: [f64; 3],
-    limits: Option<[f64; 2]>,
+    axis: Exact<3>,
+    offset: Exact<3>,
+    limits: Option<Exact<2>>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct LinkageFile {
     joints: Vec<JointFile>,
-    link_after: [f64; 3],
+    link_after: Exact<3>,
     thickness: f64,
     radius: f64,
     #[serde(default)]
     mass: f64,
-    com: Option<[f64; 3]>,
+    com: Option<Exact<3>>,
 }
 
 #[derive(Deserialize)]
@@ -166,7 +167,7 @@ struct CableFile {
     tension: Option<f64>,
     radius: Option<f64>,
     angle: Option<f64>,
-    holes: Option<Vec<[f64; 3]>>,
+    holes: Option<Vec<Exact<3>>>,
 }
 
 fn finite3(field: &str, v: [f64; 3]) -> Result<[f64; 3]> {
@@ -174,17 +175,6 @@ fn finite3(field: &str, v: [f64; 3]) -> Result<[f64; 3]> {
         Ok(v)
     } else {
         Err(bad(field.into(), format!("non-finite value in {v:?}")))
-    }
-}
-
-fn positive(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(bad(
-            field.into(),
-            format!("must be positive and finite, got {v}"),
-        ))
     }
 }
 
@@ -241,8 +231,7 @@ pub fn toml_string(text: &str) -> String {
 
 /// The `kind` of a robot description: `"planar"` (the default) or `"spatial"`.
 pub fn kind_of(text: &str) -> Result<String> {
-    let table = toml::from_str::<toml::Table>(text)
-        .map_err(|e| bad("<file>".into(), e.to_string().trim().replace('\n', " ")))?;
+    let table: toml::Table = parse_toml(text)?;
     let kind = match table.get("kind") {
         None => "planar".to_string(),
         Some(v) => v
@@ -486,26 +475,23 @@ impl Model {
             ));
         }
         let cable = match f.cable {
-            Some(c) => CableMaterial {
-                youngs_modulus: positive("cable.youngs_modulus", c.youngs_modulus)?,
-                diameter: positive("cable.diameter", c.diameter)?,
-                routing_length: if c.routing_length.is_finite() && c.routing_length >= 0.0 {
-                    c.routing_length
-                } else {
-                    return Err(bad(
-                        "cable.routing_length".into(),
-                        "must be finite and >= 0",
-                    ));
-                },
-            },
+            Some(c) => {
+                let m = CableMaterial {
+                    youngs_modulus: c.youngs_modulus,
+                    diameter: c.diameter,
+                    routing_length: c.routing_length,
+                };
+                m.validate()?;
+                m
+            }
             None => CableMaterial {
                 youngs_modulus: 1.8e11,
                 diameter: 0.18e-3,
                 routing_length: 0.0,
             },
         };
-        let gravity = finite3("gravity", f.gravity.unwrap_or([0.0; 3]))?;
-        let base_radius = positive("base.radius", f.base.radius)?;
+        let gravity = finite3("gravity", f.gravity.map_or([0.0; 3], |g| g.0))?;
+        let base_radius = positive_length("base.radius".into(), f.base.radius)?;
         let (mut joints, mut disks) = (Vec::new(), Vec::new());
         for (k, l) in f.linkage.iter().enumerate() {
             let field = |name: &str| format!("linkage[{k}].{name}");
@@ -515,29 +501,21 @@ impl Model {
             let first = joints.len();
             for (j, jf) in l.joints.iter().enumerate() {
                 let jfield = |name: &str| format!("linkage[{k}].joints[{j}].{name}");
-                let a = finite3(&jfield("axis"), jf.axis)?;
+                let a = finite3(&jfield("axis"), jf.axis.0)?;
                 let Some(axis) = unit_axis(a) else {
                     return Err(bad(
                         jfield("axis"),
                         format!("must be a non-zero vector, got {a:?}"),
                     ));
                 };
-                let lim = jf
-                    .limits
-                    .unwrap_or([-std::f64::consts::PI, std::f64::consts::PI]);
-                if !(lim[0].is_finite() && lim[1].is_finite() && lim[0] < lim[1]) {
-                    return Err(bad(
-                        jfield("limits"),
-                        format!("must be finite [lo, hi] with lo < hi (rad), got {lim:?}"),
-                    ));
-                }
+                let lim = joint_limits(jfield("limits"), jf.limits)?;
                 joints.push(Joint {
                     axis,
-                    offset: finite3(&jfield("offset"), jf.offset)?,
+                    offset: coordinates(jfield("offset"), jf.offset.0)?,
                     limits: lim,
                 });
             }
-            let thickness = positive(&field("thickness"), l.thickness)?;
+            let thickness = positive_length(field("thickness"), l.thickness)?;
             if !(l.mass.is_finite() && l.mass >= 0.0) {
                 return Err(bad(
                     field("mass"),
@@ -546,11 +524,14 @@ impl Model {
             }
             disks.push(Disk {
                 joints: first..joints.len(),
-                link_after: finite3(&field("link_after"), l.link_after)?,
+                link_after: coordinates(field("link_after"), l.link_after.0)?,
                 thickness,
-                radius: positive(&field("radius"), l.radius)?,
+                radius: positive_length(field("radius"), l.radius)?,
                 mass: l.mass,
-                com: finite3(&field("com"), l.com.unwrap_or([thickness / 2.0, 0.0, 0.0]))?,
+                com: coordinates(
+                    field("com"),
+                    l.com.map_or([thickness / 2.0, 0.0, 0.0], |c| c.0),
+                )?,
             });
         }
         if f.cables.is_empty() {
@@ -598,7 +579,7 @@ impl Model {
                     }
                     vec![[0.0, r * a.cos(), r * a.sin()]; count]
                 }
-                (None, None, Some(h)) => h.clone(),
+                (None, None, Some(h)) => h.iter().map(|p| p.0).collect(),
                 _ => {
                     return Err(bad(
                         field("holes"),
@@ -617,22 +598,7 @@ impl Model {
                 ));
             }
             for (i, h) in holes.iter().enumerate() {
-                finite3(&field("holes"), *h)?;
-                let disk = i.div_ceil(2); // 0: base; 2d-1, 2d: disk d
-                let radius = if disk == 0 {
-                    base_radius
-                } else {
-                    disks[disk - 1].radius
-                };
-                let rr = (h[1] * h[1] + h[2] * h[2]).sqrt();
-                if rr > radius * (1.0 + 1e-12) {
-                    return Err(bad(
-                        field("holes"),
-                        format!(
-                            "hole {i} lies {rr} m from the axis, outside the radius {radius} m of disk {disk}"
-                        ),
-                    ));
-                }
+                coordinates(format!("cables[{c}].holes[{i}]"), *h)?;
             }
             cables.push(Cable {
                 end: cf.end,
@@ -652,6 +618,7 @@ impl Model {
             cable,
             planar: None,
         };
+        robot.check_holes()?;
         let m = robot.position_cables().len();
         if m < robot.n() {
             return Err(bad(
@@ -668,6 +635,36 @@ impl Model {
     /// Number of joints.
     pub fn n(&self) -> usize {
         self.joints.len()
+    }
+
+    /// Checks that every hole lies within its disk (the base's or the
+    /// disk's radius, to rounding), naming the cable and the hole.
+    pub fn check_holes(&self) -> Result<()> {
+        for (c, cable) in self.cables.iter().enumerate() {
+            for (i, h) in cable.holes.iter().enumerate() {
+                let disk = i.div_ceil(2); // 0: base; 2d-1, 2d: disk d
+                let radius = if disk == 0 {
+                    self.base_radius
+                } else {
+                    self.disks[disk - 1].radius
+                };
+                let rr = h[1].hypot(h[2]);
+                if rr > radius * (1.0 + 1e-12) {
+                    return Err(bad(
+                        format!("cables[{c}].holes[{i}]"),
+                        format!(
+                            "lies {rr} m from the axis, outside the radius {radius} m of {}",
+                            if disk == 0 {
+                                "the base".to_string()
+                            } else {
+                                format!("disk {disk}")
+                            }
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Length of the straight arm along its chain (m): the distance of the
@@ -695,6 +692,75 @@ impl Model {
             .position(|d| d.joints.contains(&j))
             .map(|k| k + 1)
             .unwrap_or(0)
+    }
+
+    /// For every cable, an interval `[lo, hi]` (m) holding its length at
+    /// every configuration, joint limits or not (`docs/model.md`, "Lengths
+    /// no configuration reaches"): the traversals of the disks are fixed;
+    /// a gap with one joint ranges exactly over
+    /// `sqrt(da^2 + (|u_perp| -+ |w_perp|)^2)` (the parts of the two hole
+    /// vectors along and across the axis); a gap with more joints is
+    /// bounded by spherical shells about each joint's offset. A length
+    /// outside its interval is reached by no configuration.
+    pub fn cable_length_bounds(&self) -> Vec<[f64; 2]> {
+        fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+            [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+        }
+        fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+            a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+        }
+        fn norm(a: [f64; 3]) -> f64 {
+            a[0].hypot(a[1]).hypot(a[2])
+        }
+        // |o + R(axis) x| over every rotation about `axis` (exact)
+        fn about_axis(o: [f64; 3], x: [f64; 3], axis: [f64; 3]) -> [f64; 2] {
+            let (oa, xa) = (dot(o, axis), dot(x, axis));
+            let perp =
+                |v: [f64; 3], va: f64| norm(sub(v, [axis[0] * va, axis[1] * va, axis[2] * va]));
+            let (op, xp) = (perp(o, oa), perp(x, xa));
+            let along = oa + xa;
+            [along.hypot(op - xp), along.hypot(op + xp)]
+        }
+        // |o + y| over every y with |y| in [r0, r1] (any direction)
+        fn shell(o: [f64; 3], r: [f64; 2]) -> [f64; 2] {
+            let d = norm(o);
+            [(r[0] - d).max(d - r[1]).max(0.0), d + r[1]]
+        }
+        self.cables
+            .iter()
+            .map(|cable| {
+                let mut total = [0.0, 0.0];
+                for k in 1..=cable.end {
+                    let disk = &self.disks[k - 1];
+                    // gap: p on the previous face b, q on face a of disk k;
+                    // A = o_1 + R_1 (o_2 + R_2 (... + R_J (link_after + q)))
+                    let (p, q) = (cable.holes[2 * k - 2], cable.holes[2 * k - 1]);
+                    let joints = &self.joints[disk.joints.clone()];
+                    let mut x = [
+                        disk.link_after[0] + q[0],
+                        disk.link_after[1] + q[1],
+                        disk.link_after[2] + q[2],
+                    ];
+                    let mut range: Option<[f64; 2]> = None;
+                    for (i, j) in joints.iter().enumerate().rev() {
+                        let o = if i == 0 { sub(j.offset, p) } else { j.offset };
+                        let r = match range {
+                            None => about_axis(o, x, j.axis),
+                            Some(r) => shell(o, r),
+                        };
+                        range = Some(r);
+                        x = [0.0; 3]; // known by its norm only from here on
+                    }
+                    let gap = range.expect("a disk has at least one joint");
+                    // traversal of disk k, face a to face b
+                    let b = cable.holes[2 * k];
+                    let t = norm(sub([disk.thickness + b[0], b[1], b[2]], q));
+                    total[0] += gap[0] + t;
+                    total[1] += gap[1] + t;
+                }
+                total
+            })
+            .collect()
     }
 
     /// Every hole as one flat vector (cable by cable, `[x, y, z]` per face), m.
@@ -789,5 +855,56 @@ mod tests {
         assert_eq!(unit_axis([0.0, 0.0, 0.0]), None);
         let a = [0.6, 0.8, 0.0];
         assert_eq!(unit_axis(a), Some(a));
+    }
+
+    #[test]
+    fn every_configuration_has_its_cable_lengths_within_the_bounds() {
+        // sampled far past the joint limits (the bounds hold at any angle);
+        // a one-joint gap's interval is exact, so a planar pair-1 cable's
+        // extremes are approached by the samples
+        use crate::chain::Chain;
+        use crate::kinds::Se3;
+        for text in [
+            include_str!("../python/cdsm/robots/paper.toml"),
+            include_str!("../python/cdsm/robots/two_universal.toml"),
+            include_str!("../python/cdsm/robots/sjtu_snake.toml"),
+        ] {
+            let m = Model::from_toml(text).unwrap();
+            let bounds = m.cable_length_bounds();
+            let mut chain = Chain::<f64, Se3<f64>>::new(&m);
+            let mut seen = vec![[f64::INFINITY, f64::NEG_INFINITY]; m.cables.len()];
+            let mut state = 0x2545f4914f6cdd1du64;
+            for _ in 0..4000 {
+                let th: Vec<f64> = (0..m.n())
+                    .map(|_| {
+                        state ^= state << 13;
+                        state ^= state >> 7;
+                        state ^= state << 17;
+                        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 * std::f64::consts::PI
+                            - std::f64::consts::PI
+                    })
+                    .collect();
+                chain.at(&m, &m, &th);
+                chain.world(&m, &m);
+                for (c, b) in bounds.iter().enumerate() {
+                    let l = chain.cable_length(&m, &m, c, None);
+                    assert!(
+                        l >= b[0] - 1e-12 && l <= b[1] + 1e-12,
+                        "{c}: {l} not in {b:?}"
+                    );
+                    seen[c] = [seen[c][0].min(l), seen[c][1].max(l)];
+                }
+            }
+            if m.planar().is_some() {
+                // one joint crossed: the samples come close to both extremes
+                for (c, (b, s)) in bounds.iter().zip(&seen).enumerate().take(2) {
+                    let width = b[1] - b[0];
+                    assert!(
+                        s[0] - b[0] < 0.05 * width && b[1] - s[1] < 0.05 * width,
+                        "{c}: {s:?} vs {b:?}"
+                    );
+                }
+            }
+        }
     }
 }

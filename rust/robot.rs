@@ -1,7 +1,11 @@
 //! The robot description: link lengths, disks, hole positions, masses,
 //! lower-cable tensions and joint limits (SI units), read from TOML.
 
-use crate::error::{CdsmError, Result};
+use crate::error::Result;
+use crate::robot_file::{
+    bad, coordinates, joint_limits, non_negative, parse_toml, positive, positive_length, Exact,
+    MAX_LENGTH,
+};
 use serde::Deserialize;
 
 /// The paper's prototype (Table 1), shipped with the Python package.
@@ -24,9 +28,18 @@ impl CableMaterial {
     /// Checks that the numbers are physical (positive modulus and diameter,
     /// a routing length `>= 0`), naming the field.
     pub fn validate(&self) -> Result<()> {
-        positive("cable.youngs_modulus".into(), self.youngs_modulus)?;
-        positive("cable.diameter".into(), self.diameter)?;
-        non_negative("cable.routing_length".into(), self.routing_length)?;
+        positive("cable.youngs_modulus".into(), self.youngs_modulus, "Pa")?;
+        positive_length("cable.diameter".into(), self.diameter)?;
+        non_negative("cable.routing_length".into(), self.routing_length, "m")?;
+        if self.routing_length > MAX_LENGTH {
+            return Err(bad(
+                "cable.routing_length".into(),
+                format!(
+                    "must be at most {MAX_LENGTH} m, got {}",
+                    self.routing_length
+                ),
+            ));
+        }
         Ok(())
     }
 }
@@ -61,7 +74,7 @@ struct RobotFile {
     kind: Option<String>,
     name: Option<String>,
     n: Option<usize>,
-    gravity: Option<[f64; 2]>,
+    gravity: Option<Exact<2>>,
     cable: Option<CableFile>,
     linkage: Vec<LinkageFile>,
 }
@@ -82,54 +95,13 @@ struct LinkageFile {
     link_after: f64,
     thickness: f64,
     hole_height: Option<f64>,
-    upper_holes: Option<Vec<[f64; 2]>>,
-    lower_holes: Option<Vec<[f64; 2]>>,
+    upper_holes: Option<Vec<Exact<2>>>,
+    lower_holes: Option<Vec<Exact<2>>>,
     #[serde(default)]
     mass: f64,
     #[serde(default)]
     lower_tension: f64,
-    joint_limits: Option<[f64; 2]>,
-}
-
-/// A robot-file error on `field`.
-pub(crate) fn bad(field: String, problem: impl Into<String>) -> CdsmError {
-    CdsmError::Robot {
-        field,
-        problem: problem.into(),
-    }
-}
-
-/// Parses a robot file's TOML into `T`; a syntax or type error names the
-/// field the parser names (`<file>` when none).
-pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T> {
-    toml::from_str(text).map_err(|e| {
-        let msg = e.message().to_string();
-        let field = msg
-            .split('`')
-            .nth(1)
-            .map(str::to_string)
-            .unwrap_or_else(|| "<file>".to_string());
-        bad(field, e.to_string().trim().replace('\n', " "))
-    })
-}
-
-fn positive(field: String, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(bad(
-            field,
-            format!("must be a positive finite length, got {v}"),
-        ))
-    }
-}
-
-fn non_negative(field: String, v: f64) -> Result<f64> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(v)
-    } else {
-        Err(bad(field, format!("must be finite and >= 0, got {v}")))
-    }
+    joint_limits: Option<Exact<2>>,
 }
 
 impl Robot {
@@ -177,9 +149,9 @@ impl Robot {
         }
         let cable = match file.cable {
             Some(c) => CableMaterial {
-                youngs_modulus: positive("cable.youngs_modulus".into(), c.youngs_modulus)?,
-                diameter: positive("cable.diameter".into(), c.diameter)?,
-                routing_length: non_negative("cable.routing_length".into(), c.routing_length)?,
+                youngs_modulus: c.youngs_modulus,
+                diameter: c.diameter,
+                routing_length: c.routing_length,
             },
             None => CableMaterial {
                 youngs_modulus: 1.8e11,
@@ -197,30 +169,24 @@ impl Robot {
             joint_limits: Vec::with_capacity(n),
             holes: vec![0.0; 2 * n * (n + 1) * 4],
             cable,
-            gravity: file.gravity.unwrap_or([0.0, 0.0]),
+            gravity: file.gravity.map_or([0.0, 0.0], |g| g.0),
         };
         for (i, l) in file.linkage.iter().enumerate() {
             let f = |name: &str| format!("linkage[{i}].{name}");
             robot
                 .link_before
-                .push(positive(f("link_before"), l.link_before)?);
+                .push(positive_length(f("link_before"), l.link_before)?);
             robot
                 .link_after
-                .push(positive(f("link_after"), l.link_after)?);
-            robot.thickness.push(positive(f("thickness"), l.thickness)?);
-            robot.mass.push(non_negative(f("mass"), l.mass)?);
+                .push(positive_length(f("link_after"), l.link_after)?);
+            robot
+                .thickness
+                .push(positive_length(f("thickness"), l.thickness)?);
+            robot.mass.push(non_negative(f("mass"), l.mass, "kg")?);
             robot
                 .lower_tension
-                .push(non_negative(f("lower_tension"), l.lower_tension)?);
-            let lim = l
-                .joint_limits
-                .unwrap_or([-std::f64::consts::PI, std::f64::consts::PI]);
-            if !(lim[0].is_finite() && lim[1].is_finite() && lim[0] < lim[1]) {
-                return Err(bad(
-                    f("joint_limits"),
-                    format!("must be finite [lo, hi] with lo < hi (rad), got {lim:?}"),
-                ));
-            }
+                .push(non_negative(f("lower_tension"), l.lower_tension, "N")?);
+            let lim = joint_limits(f("joint_limits"), l.joint_limits)?;
             robot.joint_limits.push(lim);
         }
         for (i, l) in file.linkage.iter().enumerate() {
@@ -229,10 +195,13 @@ impl Robot {
             let explicit = (l.upper_holes.as_ref(), l.lower_holes.as_ref());
             let (upper, lower): (Vec<[f64; 2]>, Vec<[f64; 2]>) = match (l.hole_height, explicit) {
                 (Some(h), (None, None)) => {
-                    let h = positive(f("hole_height"), h)?;
+                    let h = positive_length(f("hole_height"), h)?;
                     (vec![[0.0, h]; along], vec![[0.0, -h]; along])
                 }
-                (None, (Some(u), Some(w))) => (u.clone(), w.clone()),
+                (None, (Some(u), Some(w))) => (
+                    u.iter().map(|p| p.0).collect(),
+                    w.iter().map(|p| p.0).collect(),
+                ),
                 _ => {
                     return Err(bad(
                         f("hole_height"),
@@ -251,8 +220,8 @@ impl Robot {
                         ),
                     ));
                 }
-                if let Some(p) = pts.iter().find(|p| !(p[0].is_finite() && p[1].is_finite())) {
-                    return Err(bad(f(side), format!("non-finite hole position {p:?}")));
+                for (j, p) in pts.iter().enumerate() {
+                    coordinates(format!("linkage[{i}].{side}[{j}]"), *p)?;
                 }
             }
             for (s, pts) in [upper, lower].iter().enumerate() {
@@ -300,9 +269,9 @@ impl Robot {
             ));
         }
         for i in 0..n {
-            positive(format!("linkage[{i}].link_before"), self.link_before[i])?;
-            positive(format!("linkage[{i}].link_after"), self.link_after[i])?;
-            positive(format!("linkage[{i}].thickness"), self.thickness[i])?;
+            positive_length(format!("linkage[{i}].link_before"), self.link_before[i])?;
+            positive_length(format!("linkage[{i}].link_after"), self.link_after[i])?;
+            positive_length(format!("linkage[{i}].thickness"), self.thickness[i])?;
         }
         self.cable.validate()?;
         if !(self.gravity[0].is_finite() && self.gravity[1].is_finite()) {
@@ -311,10 +280,17 @@ impl Robot {
                 format!("must be finite [gx, gy] (m/s^2), got {:?}", self.gravity),
             ));
         }
-        if let Some(k) = self.holes.iter().position(|v| !v.is_finite()) {
+        if let Some(k) = self
+            .holes
+            .iter()
+            .position(|v| !(v.is_finite() && v.abs() <= MAX_LENGTH))
+        {
             return Err(bad(
                 "holes".into(),
-                format!("non-finite value at flat index {k}"),
+                format!(
+                    "every coordinate must be finite and within ±{MAX_LENGTH} m, got {} at flat index {k}",
+                    self.holes[k]
+                ),
             ));
         }
         Ok(())

@@ -60,7 +60,8 @@ pub fn closed_form_status(residual: Option<f64>, tol: f64) -> Status {
             iterations: 0,
             residual: f64::INFINITY,
             cost: f64::INFINITY,
-            reason: Reason::Unreachable,
+            // the branch nearest the seed has no answer; the other may
+            reason: Reason::Stalled,
         },
     }
 }
@@ -363,7 +364,27 @@ impl<'a> CableSolver<'a> {
         closed: Option<f64>,
     ) -> Status {
         let ok = closed.is_some();
-        let in_box = !self.opts.enforce_limits || within_limits(self.robot, theta);
+        let mut closed = closed;
+        let mut in_box = !self.opts.enforce_limits || within_limits(self.robot, theta);
+        if ok && !in_box {
+            // an answer a rounding outside a limit (a configuration on the
+            // limit): the limit itself, when its lengths still match
+            let mut on = theta.to_vec();
+            clamp_to_limits(self.robot, &mut on);
+            let mut l = vec![0.0; 2 * self.robot.n()];
+            geom.lengths(&on, &mut l);
+            let r = target
+                .iter()
+                .enumerate()
+                .map(|(i, t)| (l[2 * i] - t).abs())
+                .fold(0.0, f64::max);
+            if r <= self.opts.tol {
+                theta.copy_from_slice(&on);
+                self.cs_fresh = false;
+                closed = Some(r);
+                in_box = true;
+            }
+        }
         let st = closed_form_status(closed, self.opts.tol);
         if closed.is_some_and(|r| self.accepts(r, in_box)) {
             return st;
@@ -915,6 +936,6 @@ mod tests {
             CableMethod::ClosedForm,
             &SolveOptions::default(),
         );
-        assert!(!st.converged && st.reason == Reason::Unreachable, "{st:?}");
+        assert!(!st.converged && st.reason == Reason::Stalled, "{st:?}");
     }
 }

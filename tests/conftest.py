@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import importlib.util
 import math
+import re
 import sys
 from dataclasses import dataclass
+from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
@@ -196,3 +198,71 @@ TABLE3_THEORETICAL_MM = np.array(
 TABLE3_DL = np.array([-1e-3, 0.0, 0.0])
 #: The seed that selects the paper's theta_2 <= 0 branch at all nine points.
 TABLE3_SEED = np.array([0.0, -1e-3, 0.0])
+
+
+# --------------------------------------------------------------------------
+# Report pages (issue 23): what every report opens with
+# --------------------------------------------------------------------------
+class _Body(HTMLParser):
+    """The first element inside <body>, and every id and local link."""
+
+    def __init__(self):
+        super().__init__()
+        self.in_body = False
+        self.first = None
+        self.ids, self.links = set(), set()
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "body":
+            self.in_body = True
+        elif self.in_body and self.first is None:
+            self.first = (tag, a.get("id"))
+        if "id" in a:
+            self.ids.add(a["id"])
+        if tag == "a" and (a.get("href") or "").startswith("#"):
+            self.links.add(a["href"][1:])
+
+
+def check_report_page(out: Path) -> str:
+    """Asserts of every report directory; returns the Markdown text."""
+    html = (out / "report.html").read_text(encoding="utf-8")
+    md = (out / "report.md").read_text(encoding="utf-8")
+    check_report_text(html, md)
+    for png in (out / "figures").glob("*.png"):
+        from PIL import Image
+
+        with Image.open(png) as im:
+            assert im.size[0] <= 1144, (png.name, im.size)  # MAX_WIDTH_IN * DPI: not shrunk in the page
+    return md
+
+
+def check_report_text(html: str, md: str) -> None:
+    """Asserts of every report's HTML and Markdown text: the body opens with
+    the headline section, then the contents, whose links all have their
+    anchors; the Markdown opens with the title and the headline's answers;
+    no ``nan`` anywhere."""
+    p = _Body()
+    p.feed(html)
+    assert p.first == ("section", "headline")
+    assert "contents" in p.ids and p.links and p.links <= p.ids
+    # the body opens with the section: nothing (not even text) before it
+    assert re.search(r"<body><section id='headline'><h1>", html)
+    # the headline comes before the contents, and the contents before the first other section
+    assert html.index("id='headline'") < html.index("id='contents'") < html.index("<section id='", html.index(
+        "id='contents'"))
+    assert md.startswith("# ") and md.index("\n- ") < md.index("## Contents")
+    for text in (html, md):
+        assert not re.search(r"\bnan\b", text, re.IGNORECASE), re.search(r".{60}\bnan\b.{20}", text, re.I)
+
+
+@pytest.fixture(scope="session")
+def report_page():
+    """:func:`check_report_page`: the checks of a written report directory."""
+    return check_report_page
+
+
+@pytest.fixture(scope="session")
+def report_text():
+    """:func:`check_report_text`: the checks of a report's text."""
+    return check_report_text

@@ -41,7 +41,7 @@ def test_tolerances(cdsm, capsys, monkeypatch):
 
 def test_describe_robot(cdsm, capsys, monkeypatch):
     text = _run("describe_robot.py", [], capsys, monkeypatch)
-    assert "two-section example arm', n=4" in text and "taut" in text
+    assert "'two-section example arm': planar arm, 4 joints" in text and "taut" in text
     r = cdsm.Robot.from_toml(EXAMPLES / "two_section_arm.toml")
     assert r.n == 4 and np.allclose(r.gravity, [0, -9.80665]) and r.routing_length == 0.4
 
@@ -51,3 +51,14 @@ def test_a_bad_robot_file_names_the_field(cdsm, tmp_path, capsys, monkeypatch):
     bad.write_text((EXAMPLES / "two_section_arm.toml").read_text().replace("thickness = 0.008", "thickness = -1", 1))
     with pytest.raises(cdsm.CdsmInputError, match=r"linkage\[0\]\.thickness"):
         _run("describe_robot.py", [str(bad)], capsys, monkeypatch)
+
+
+def test_walkthrough_from_a_robot_file_to_a_diagnosis(cdsm, tmp_path, capsys, monkeypatch):
+    """The walkthrough: describe and draw the arm, Monte Carlo, measurements
+    through a CSV file, diagnosis (the hidden hole heights found), next
+    measurements, compensation."""
+    text = _run("walkthrough.py", ["--out", str(tmp_path), "--rows", "30", "--samples", "30"], capsys, monkeypatch)
+    assert "two-section example arm" in text and "joints:" in text
+    assert (tmp_path / "arm.png").stat().st_size > 10_000 and (tmp_path / "measurements.csv").exists()
+    assert "verdict: explained; best: hole_height" in text
+    assert "next measurements: 4 commands" in text and "compensated 5 of 5 targets" in text

@@ -58,6 +58,30 @@ def test_html_is_self_contained(paper_run):
     assert "<table>" in html
 
 
+def test_the_paper_report_opens_with_its_answers(paper_run, report_page):
+    """The headline (the body's first element) gives Table 3's agreement,
+    the gap's verdict and the claims' verdicts as the CSV files have them."""
+    import csv
+
+    _, out = paper_run
+    md = report_page(out)
+    head = md[:md.index("## Contents")]
+    t3 = list(csv.DictReader(open(out / "table3.csv")))
+    err = max(abs(float(r[f"d{a}_ours_m"]) - float(r[f"d{a}_paper_m"])) for r in t3 for a in "xy") * 1e3
+    mant, exp = f"{err:.1e}".split("e")
+    assert f"Table 3 reproduced** to {mant}e{int(exp)} mm" in head and err < 2e-4
+    verdict = next(r for r in csv.DictReader(open(out / "readings.csv")) if r["reading"] == "as given")
+    assert f"the verdict is **{verdict['file_order_verdict']}**" in head
+    claims = list(csv.DictReader(open(out / "claims.csv")))
+    held = sum(c["holds"] == "True" for c in claims)
+    assert f"{held} of {len(claims)} hold" in head
+    for c in claims:
+        if c["holds"] != "True":
+            assert c["claim"].split(":")[0] in head
+    for sid in ("table3", "claims", "single-errors", "montecarlo", "readings", "table2", "fig12"):
+        assert f"](#{sid})" in md and f'<a id="{sid}"></a>' in md
+
+
 def test_report_mentions_both_protocols(paper_run):
     _, out = paper_run
     md = (out / "report.md").read_text(encoding="utf-8")
@@ -227,12 +251,12 @@ def test_redundant_robots_get_a_coarser_grid_and_no_jump_search():
     phi = 0 workspace is sampled instead of gridded (bounded memory)."""
     import cdsm
     from cdsm.accuracy import workspace
-    from cdsm.report import paper_figures
+    from cdsm.report import study_figures
 
     r8 = cdsm.Robot.from_toml(Path(cdsm.__file__).parent / "robots" / "serpentine8.toml")
     assert np.degrees(workspace.default_step(3)) == pytest.approx(5.0)
     assert np.degrees(workspace.default_step(8)) == pytest.approx(30.0)
     ws = workspace.sweep(r8, "joint")
     assert len(ws.grid) == 3 ** 8 and len(ws.neighbours) == 0
-    tips = paper_figures.phi0_tips(r8, max_points=5000)
+    tips = study_figures.phi0_tips(r8, max_points=5000)
     assert 0 < len(tips) <= 5000 and np.isfinite(tips).all()

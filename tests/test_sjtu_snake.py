@@ -14,7 +14,9 @@ https://github.com/darwinlau/CASPR, BSD-3-Clause) are read here with
   ``CableSegmentModel``, ``CableModelBase.length``): a point ``r_A`` on link k
   is ``p_k + R_0k r_A`` (on link 0 ``r_A`` itself), and a cable's length is the
   sum of the straight segments between its consecutive attachment points; the
-  set is the file's ``default_cable_set``.
+  set is the file's ``default_cable_set``
+
+(``tests/caspr_reference.py``, shared with ``tests/test_caspr_import.py``).
 
 The NumPy reference of spatial arms (``cdsm.reference.spatial``, loaded from its
 files by ``conftest``; no compiled extension) reads the packaged robot file; its
@@ -38,6 +40,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
+import caspr_reference
 from conftest import ROOT
 
 CASPR = ROOT / "tests" / "data" / "caspr" / "SJTUSnake"
@@ -53,97 +56,25 @@ TOL = 1e-12  # m
 
 
 # --------------------------------------------------------------------------
-# CASPR's model, from its XML files
+# CASPR's model, from its XML files (tests/caspr_reference.py)
 # --------------------------------------------------------------------------
-def _vec(text: str) -> np.ndarray:
-    v = np.array([float(s) for s in text.split()])
-    assert v.shape == (3,), text
-    return v
-
-
-def _rx(t):
-    c, s = np.cos(t), np.sin(t)
-    o, z = np.ones_like(t), np.zeros_like(t)
-    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
-
-
-def _rz(t):
-    c, s = np.cos(t), np.sin(t)
-    o, z = np.ones_like(t), np.zeros_like(t)
-    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
-
-
-#: CASPR's relative rotation R_pe(q) of each joint type this model uses, and its number of variables.
-JOINTS = {"U_XZ": (2, lambda q: _rx(q[:, 0]) @ _rz(q[:, 1]))}
-
-
 def caspr_bodies():
     """The links of ``SJTUSnake_bodies.xml`` as dicts (SI units), in file order."""
-    links = []
-    for el in ET.parse(CASPR / "SJTUSnake_bodies.xml").getroot().find("links").findall("link_rigid"):
-        joint, phys, parent = el.find("joint"), el.find("physical"), el.find("parent")
-        links.append(
-            dict(
-                num=int(el.get("num")),
-                type=joint.get("type"),
-                q_min=[float(s) for s in joint.get("q_min").split()],
-                q_max=[float(s) for s in joint.get("q_max").split()],
-                mass=float(phys.find("mass").text),
-                com=_vec(phys.find("com_location").text),
-                end=_vec(phys.find("end_location").text),
-                parent=int(parent.find("num").text),
-                location=_vec(parent.find("location").text),
-            )
-        )
-    return links
+    return caspr_reference.bodies(CASPR / "SJTUSnake_bodies.xml")
 
 
 def caspr_cables():
-    """``(name, [(link, r_A), ...])`` of every cable of the default set, in file order;
-    attachment points as CASPR lists them (end link first)."""
+    """``(default set id, [(name, [(link, r_A), ...]), ...])`` of the default set, in
+    file order; attachment points as CASPR lists them (end link first)."""
     root = ET.parse(CASPR / "SJTUSnake_cables.xml").getroot()
-    default = root.get("default_cable_set")
-    (cable_set,) = [s for s in root.findall("cable_set") if s.get("id") == default]
-    out = []
-    for c in cable_set:
-        assert c.tag == "cable_ideal" and c.get("attachment_reference") == "joint", c.attrib
-        att = [(int(a.find("link").text), _vec(a.find("location").text)) for a in c.find("attachments")]
-        out.append((c.get("name"), att))
-    return default, out
+    for c in root.iter("cable_ideal"):
+        assert c.get("attachment_reference") == "joint", c.attrib
+    return caspr_reference.cables(CASPR / "SJTUSnake_cables.xml")
 
 
-def caspr_frames(links, q):
-    """World rotations ``R (N, K+1, 3, 3)`` and joint points ``p (N, K+1, 3)`` of every
-    link (index 0: the base, identity), CASPR's base frame, for ``q (N, n)`` in CASPR's order."""
-    N = q.shape[0]
-    R = np.zeros((N, len(links) + 1, 3, 3))
-    p = np.zeros((N, len(links) + 1, 3))
-    R[:, 0] = np.eye(3)
-    col = 0
-    for lk in links:
-        k, a = lk["num"], lk["parent"]
-        assert a < k  # parents first: one pass suffices
-        nq, rel = JOINTS[lk["type"]]
-        R[:, k] = R[:, a] @ rel(q[:, col : col + nq])
-        p[:, k] = p[:, a] + R[:, a] @ lk["location"]
-        col += nq
-    assert col == q.shape[1]
-    return R, p
-
-
-def caspr_points(R, p, attachments):
-    """World points ``(N, len(attachments), 3)`` of one cable's attachments."""
-    return np.stack([p[:, k] + R[:, k] @ r for k, r in attachments], axis=1)
-
-
-def caspr_lengths(links, cables, q):
-    """CASPR's cable lengths ``(N, m)``: the sum of the segments between consecutive points."""
-    R, p = caspr_frames(links, q)
-    out = np.empty((q.shape[0], len(cables)))
-    for c, (_, att) in enumerate(cables):
-        P = caspr_points(R, p, att)
-        out[:, c] = np.linalg.norm(np.diff(P, axis=1), axis=-1).sum(axis=1)
-    return out
+caspr_frames = caspr_reference.frames
+caspr_points = caspr_reference.points
+caspr_lengths = caspr_reference.lengths
 
 
 # --------------------------------------------------------------------------

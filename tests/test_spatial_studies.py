@@ -70,11 +70,26 @@ def test_jump_detector_flags_a_step_not_a_ramp(cdsm):
 
 @pytest.fixture(scope="module")
 def paper_study(cdsm):
-    from cdsm import spatial_study
+    from cdsm import study
 
     robot = cdsm.Robot.packaged("paper_spatial")
     th = np.random.default_rng(0).uniform(-0.5, 0.5, (24, 3))
-    return spatial_study.run(robot, theta=th, samples=20, progress=False)
+    return study.run(robot, theta=th, samples=20, progress=False)
+
+
+def test_the_spatial_study_of_cdsm_0_2_still_runs_and_warns(cdsm):
+    """``cdsm.spatial_study`` (0.2) is a deprecated alias of :mod:`cdsm.study`."""
+    import importlib
+    import sys
+
+    sys.modules.pop("cdsm.spatial_study", None)
+    with pytest.warns(DeprecationWarning, match="cdsm.study"):
+        old = importlib.import_module("cdsm.spatial_study")
+    from cdsm import study
+
+    assert old.run is study.run and old.SpatialStudy is study.Study and old.spatial_scenarios is study.spatial_scenarios
+    st = old.run(cdsm.Robot.packaged("two_universal"), configurations=12, samples=5, progress=False)
+    assert isinstance(st, old.SpatialStudy) and st.protocols == ["sampled"] and len(st.theta) == 12
 
 
 def test_paper_spatial_single_errors_equal_the_planar_arm(cdsm, paper_study):
@@ -100,7 +115,7 @@ def test_paper_spatial_study_is_taut_and_smooth(cdsm, paper_study):
     # at 97.6 % of the grid; the random sample here is within +-29 deg
     assert paper_study.feasible_share > 0.8
     assert all(r.jumps.count == 0 for r in paper_study.scenarios)
-    mc = paper_study.monte_carlo
+    mc = paper_study.monte_carlo["sampled"]
     assert mc.failed.sum() == 0 and mc.mean.shape[0] == 24
 
 
@@ -136,4 +151,5 @@ def test_cli_paper_montecarlo_tolerance_on_a_spatial_robot(cdsm, tmp_path, capsy
     assert np.load(npz)["failed"].sum() == 0
     capsys.readouterr()
     assert main(["paper", "--configurations", "40", "--out-dir", str(tmp_path / "p"), "--quiet"]) == 2
-    assert "spatial robots only" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "--configurations" in err and "joint grid" in err and "sampled for spatial robots" in err

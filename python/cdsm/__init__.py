@@ -8,9 +8,11 @@ module                 holds
 ``spatial``            the spatial kind's constants (``kind = "spatial"``: 3-D joints and holes)
 ``accuracy``           error studies of the nominal model (scenarios, Monte Carlo, tolerances)
 ``calibration``        the gap to a real arm (measurements, plant, diagnosis, compensation)
-``paper``              the seed paper's study end to end
+``study``              the accuracy study of any robot, either kind (``cdsm paper``)
+``paper``              the seed paper's layer on the study (its tables, claims, loads)
 ``report``             Markdown/HTML reports and figures
 ``cli``                the ``cdsm`` command
+``interop``            other tools' descriptions: CASPR models in, MuJoCo MJCF and URDF out
 ``reference``          an independent NumPy implementation the tests check the core against
 =====================  ==========================================================
 """
@@ -20,9 +22,10 @@ import importlib as _importlib
 from . import deprecated as _deprecated
 from ._cdsm import CdsmInputError
 from .calibration.model import Model
+from .inputs import CdsmDataWarning
 from .robot import Robot, Solution
 
-__all__ = ["Robot", "Solution", "CdsmInputError", "Model", "accuracy", "calibration", "report"]
+__all__ = ["Robot", "Solution", "CdsmInputError", "CdsmDataWarning", "Model", "accuracy", "calibration", "report"]
 __version__ = "0.2.0"
 
 _deprecated.install()
@@ -36,7 +39,7 @@ def __getattr__(name: str):
         warnings.warn("cdsm.SpatialRobot is cdsm.Robot now (one class of either kind); use cdsm.Robot",
                       DeprecationWarning, stacklevel=2)
         return Robot
-    if name in ("accuracy", "calibration", "report", "paper", "reference", "cli") \
+    if name in ("accuracy", "calibration", "report", "paper", "study", "reference", "cli", "interop") \
             or f"cdsm.{name}" in _deprecated.MOVED:
         return _importlib.import_module(f"cdsm.{name}")
     raise AttributeError(f"module 'cdsm' has no attribute {name!r}")

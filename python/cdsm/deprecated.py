@@ -1,9 +1,10 @@
-"""The module paths of cdsm 0.1, kept for one release as aliases that warn.
+"""The module paths of cdsm 0.1 and 0.2, kept for one release as aliases that warn.
 
 ``import cdsm.errors`` (or ``cdsm.errors`` after ``import cdsm``) gives a
 module holding the public names of the modules it moved to and emits a
-:class:`DeprecationWarning` naming them. One import hook serves every old
-path (:data:`MOVED`), so no alias file clutters the package.
+:class:`DeprecationWarning` naming them; names that were renamed on the way
+(:data:`RENAMED`) are there under their old names too. One import hook
+serves every old path (:data:`MOVED`), so no alias file clutters the package.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import sys
 import warnings
 from typing import Dict, Tuple
 
-__all__ = ["MOVED", "install"]
+__all__ = ["MOVED", "RENAMED", "install"]
 
 #: old module -> the modules its public names live in now (first wins on a clash)
 MOVED: Dict[str, Tuple[str, ...]] = {
@@ -31,7 +32,18 @@ MOVED: Dict[str, Tuple[str, ...]] = {
     "cdsm.design": ("cdsm.calibration.experiment",),
     "cdsm.model": ("cdsm.calibration.model", "cdsm.calibration.compensation"),
     "cdsm.diagnose_report": ("cdsm.report.diagnosis",),
-    "cdsm.plotting": ("cdsm.report.figures", "cdsm.report.paper_figures"),
+    "cdsm.plotting": ("cdsm.report.figures", "cdsm.report.study_figures", "cdsm.report.paper_figures"),
+    # cdsm 0.2: one study and one report for both kinds of arm
+    "cdsm.spatial_study": ("cdsm.study",),
+    "cdsm.report.spatial": ("cdsm.report.study", "cdsm.study"),
+    "cdsm.report.spatial_figures": ("cdsm.report.study_figures",),
+}
+
+#: old module -> {old name: "module:new name"} for names renamed when they moved
+RENAMED: Dict[str, Dict[str, str]] = {
+    "cdsm.spatial_study": {"SpatialScenario": "cdsm.study:Scenario",
+                           "SpatialScenarioResult": "cdsm.study:ScenarioResult", "SpatialStudy": "cdsm.study:Study"},
+    "cdsm.report.spatial_figures": {"slack_figure": "cdsm.report.study_figures:feasibility_figure"},
 }
 
 
@@ -50,6 +62,10 @@ class _AliasLoader(importlib.abc.Loader):
                 if name not in module.__dict__:
                     setattr(module, name, getattr(mod, name))
                     names.append(name)
+        for old, new in RENAMED.get(module.__name__, {}).items():
+            mod, name = new.split(":")
+            setattr(module, old, getattr(importlib.import_module(mod), name))
+            names.append(old)
         module.__all__ = names
         module.__doc__ = f"Deprecated alias of {', '.join(targets)}."
 

@@ -40,12 +40,13 @@ _RUN_FORMAT = "cdsm-run/1"
 
 
 def read_text(path: "str | os.PathLike[str]", what: str) -> str:
-    """The UTF-8 text of ``path``; :class:`CdsmInputError` ("<what> file
+    """The UTF-8 text of ``path`` (a byte-order mark, as some spreadsheet
+    programs write, is dropped); :class:`CdsmInputError` ("<what> file
     '<path>': <reason>") when it cannot be read."""
     if os.path.isdir(path):
         raise CdsmInputError(f"{what} file {str(path)!r}: is a directory")
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:
             return fh.read()
     except FileNotFoundError:
         raise CdsmInputError(f"{what} file {str(path)!r}: does not exist") from None
@@ -169,6 +170,7 @@ def parse_table(text: str, source: str, headerless: Optional[Sequence[str]] = No
     ``#`` lines (and trailing ``# ...`` remarks) are comments; an error naming
     ``source`` if either is empty. With ``headerless`` (column names), a text
     whose first line is all numbers has no header and takes those names."""
+    text = text[1:] if text.startswith("\ufeff") else text  # a byte-order mark is not part of the header
     lines = [ln.split("#", 1)[0] if headerless is not None else ln for ln in text.splitlines()]
     lines = [ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
     if not lines:
@@ -181,6 +183,10 @@ def parse_table(text: str, source: str, headerless: Optional[Sequence[str]] = No
         lines.insert(0, ",".join(headerless))
     reader = csv.DictReader(io.StringIO("\n".join(lines)))
     cols = [c.strip() for c in (reader.fieldnames or [])]
+    twice = sorted({c for c in cols if cols.count(c) > 1})
+    if twice:
+        raise CdsmInputError(f"{source}: column(s) {', '.join(map(repr, twice))} appear more than once in the "
+                             "header; each column must be named once")
     reader.fieldnames = cols
     rows = list(reader)
     for i, r in enumerate(rows):

@@ -7,13 +7,41 @@ and the problem, and the Rust core receives C-contiguous float64 arrays.
 
 from __future__ import annotations
 
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
 from ._cdsm import CdsmInputError
 
-__all__ = ["CdsmInputError", "as_batch", "as_vector", "as_finite", "as_iterations", "as_tolerances"]
+__all__ = ["CdsmInputError", "CdsmDataWarning", "as_array", "as_batch", "as_vector", "as_finite", "as_count",
+           "as_iterations", "as_tolerances"]
+
+class CdsmDataWarning(UserWarning):
+    """Data cdsm takes but a person should look at (copied rows, say): the
+    message names the rows and what was done with them."""
+
+
+#: The largest iteration count the core takes (an unsigned 32-bit integer).
+MAX_ITERATIONS = 2**32 - 1
+
+
+def as_array(name: str, value) -> np.ndarray:
+    """``value`` as a float64 array of any shape, taken whole: complex
+    values (NumPy would drop the imaginary part), text and other
+    non-numbers are refused naming ``name``."""
+    try:
+        raw = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise CdsmInputError(f"`{name}`: not a numeric array ({exc})") from None
+    if np.iscomplexobj(raw) or (raw.dtype == object and any(isinstance(v, complex) for v in raw.ravel())):
+        raise CdsmInputError(f"`{name}`: complex values are not accepted (the imaginary part would be lost); "
+                             "give real numbers")
+    if raw.dtype.kind in "USV":
+        raise CdsmInputError(f"`{name}`: expected numbers, got {raw.dtype.kind == 'V' and 'records' or 'text'}")
+    try:
+        return raw.astype(np.float64, copy=False)
+    except (TypeError, ValueError) as exc:
+        raise CdsmInputError(f"`{name}`: not a numeric array ({exc})") from None
 
 
 def as_batch(name: str, value, width: int, finite: bool = True) -> Tuple[np.ndarray, bool]:
@@ -22,10 +50,7 @@ def as_batch(name: str, value, width: int, finite: bool = True) -> Tuple[np.ndar
     ``finite``: reject NaN and infinities here (naming the row and column);
     False where the core checks the batch itself, naming the row and column
     too (a second pass over a large batch is not free)."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise CdsmInputError(f"`{name}`: not a numeric array ({exc})") from None
+    arr = as_array(name, value)
     single = arr.ndim == 1
     if single:
         arr = arr[None, :]
@@ -48,7 +73,9 @@ def as_vector(name: str, value, width: int) -> np.ndarray:
 
 
 def as_finite(name: str, value) -> float:
-    """``value`` as a finite float."""
+    """``value`` as a finite float (a complex number is refused)."""
+    if isinstance(value, (complex, np.complexfloating)) or isinstance(value, (str, bytes)):
+        raise CdsmInputError(f"`{name}`: expected a real number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):
@@ -58,20 +85,38 @@ def as_finite(name: str, value) -> float:
     return v
 
 
-def as_iterations(name: str, value) -> int:
-    """``value`` as an iteration count >= 1."""
-    try:
+def as_count(name: str, value, minimum: int = 0, maximum: Optional[int] = None) -> int:
+    """``value`` as a whole count within ``[minimum, maximum]``: an integer,
+    or a float with no fractional part (``1e3``); ``1.7`` is refused, not
+    truncated, and so are booleans and counts past ``maximum``."""
+    if isinstance(value, (bool, np.bool_)):
+        raise CdsmInputError(f"`{name}`: expected an integer, got {value!r}")
+    if isinstance(value, (int, np.integer)):
         v = int(value)
-    except (TypeError, ValueError):
-        raise CdsmInputError(f"`{name}`: expected an integer, got {value!r}") from None
-    if v < 1:
-        raise CdsmInputError(f"`{name}`: must be at least 1, got {value}")
+    elif (isinstance(value, (float, np.floating)) and np.isfinite(value) and float(value).is_integer()
+          and abs(value) <= 2**53):
+        v = int(value)  # past 2**53 a float is not an exact count
+    else:
+        raise CdsmInputError(f"`{name}`: expected a whole number, got {value!r}")
+    if v < minimum:
+        raise CdsmInputError(f"`{name}`: must be at least {minimum}, got {v}")
+    if maximum is not None and v > maximum:
+        raise CdsmInputError(f"`{name}`: must be at most {maximum}, got {v}")
     return v
+
+
+def as_iterations(name: str, value) -> int:
+    """``value`` as an iteration count in ``[1, 2**32 - 1]`` (:func:`as_count`)."""
+    return as_count(name, value, 1, MAX_ITERATIONS)
 
 
 def as_tolerances(name: str, value, n: int) -> np.ndarray:
     """``value`` (scalar or ``(n,)``) as ``(n,)`` finite tolerances >= 0 (m)."""
-    arr = np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)).copy()
+    arr = as_array(name, value)
+    try:
+        arr = np.broadcast_to(arr, (n,)).copy()
+    except ValueError:
+        raise CdsmInputError(f"`{name}`: expected a scalar or ({n},) tolerances (m), got shape {arr.shape}") from None
     if not np.isfinite(arr).all() or (arr < 0).any():
         raise CdsmInputError(f"`{name}`: tolerances must be finite and >= 0 (m), got {value}")
     return arr

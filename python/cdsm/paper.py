@@ -1,127 +1,92 @@
-"""The seed paper's accuracy study end to end (sections 2.3 and 3): error
-scenarios over the workspace (Fig. 5, 6), Monte Carlo (Fig. 7), jump points and
-singular states (Fig. 12), configuration diagrams (Table 2) and the
-experimental comparison (Table 3), with the paper's claims checked; the four
-readings of the paper's loads (weight order x plane) and the Table 3 gap
-diagnosed under each, with backlash under the two execution-order bounds.
+"""The seed paper's own layer on the accuracy study (:mod:`cdsm.study`):
+the figure labels of its single errors (Fig. 5, 6), the experimental
+comparison (Table 3), the configuration diagrams (Table 2), the four readings
+of its loads (weight order x plane) with the Table 3 gap diagnosed under
+each (backlash under the two execution-order bounds), and its claims
+checked. It applies only to a robot with the paper's geometry — the planar
+prototype's links, disks and holes, any loads (:func:`is_prototype`; the
+packaged ``paper*`` planar robots are its four load readings).
 
-All arrays are SI (m, rad); the report converts to mm and degrees for reading.
+:func:`run` is the whole ``cdsm paper`` study: :func:`cdsm.study.run`, then
+:func:`extend` when the geometry is the paper's. All arrays are SI (m, rad);
+the report converts to mm and degrees for reading.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from typing import Dict, List, Optional
 
 import numpy as np
 
-from .accuracy import montecarlo, scenarios, sensitivity, statics, workspace
+from . import study as general
+from .accuracy import scenarios, statics, workspace
 from .calibration import diagnosis, experiment, measurements
-from .progress import Progress
+from .inputs import CdsmInputError
 from .robot import Robot
+from .study import Scenario, ScenarioResult, Study, finite_rms
 
-__all__ = ["Scenario", "ScenarioResult", "PaperStudy", "paper_scenarios", "run",
-           "table3", "table2", "table3_readings", "finite_rms", "ORDERS"]
+__all__ = ["Scenario", "ScenarioResult", "PaperStudy", "paper_scenarios", "run", "extend", "is_prototype",
+           "table3", "table2", "table3_readings", "check_claims", "finite_rms", "ORDERS", "TABLE2"]
 
 #: The execution orders Table 3 is diagnosed under (its real order is unknown).
 ORDERS = {"file order": "rows run in file order, each base approached from the previous row's end",
           "after reversals": "every measured move starts right after a reversal (loses the whole dead band)"}
 
+_LETTERS = "abcdefghijklmnopqrstuvwxyz"
 
-@dataclass(frozen=True)
-class Scenario:
-    """One error condition: dL (n,) on the upper cables and dh (n,) on the
-    hole heights of each disk's cable pair, m."""
 
-    key: str
-    label: str
-    dL: np.ndarray
-    dh: np.ndarray
-    figure: str = ""
+def is_prototype(robot: Robot) -> bool:
+    """Whether ``robot`` has the paper's geometry: a planar arm with the
+    prototype's links, disk thicknesses and holes (to 1 nm), whatever its
+    loads, masses, cable material or joint limits (the four load readings of
+    the packaged ``paper*`` planar robots all do)."""
+    if robot.kind != "planar" or robot.n != 3:
+        return False
+    ref = Robot.paper()
+    return all(np.allclose(getattr(robot, a), getattr(ref, a), rtol=0.0, atol=1e-9)
+               for a in ("link_before", "link_after", "thickness", "holes"))
+
+
+def _figure_label(sc: Scenario, n: int) -> str:
+    """The paper's figure of a planar single error (3 joints): Fig. 5a-f the
+    cables, Fig. 6a-f the disks, in the order -, + per pair."""
+    if n != 3:
+        return ""
+    i = sc.cable // 2
+    j = 0 if sc.sign < 0 else 1
+    return f"Fig. {5 if sc.kind == 'cable' else 6}{_LETTERS[2 * i + j]}"
 
 
 def paper_scenarios(n: int, cable_error: float = scenarios.PAPER_DL_TOL,
                     hole_error: float = scenarios.PAPER_DH_TOL) -> List[Scenario]:
     """The single-error scenarios of Fig. 5 and 6: ±cable_error on each upper
-    cable (the paper's cables 1, 3, 5, ...) and ±hole_error on each disk's holes."""
-    out = []
-    letters = "abcdefghijklmnopqrstuvwxyz"
-    for i in range(n):
-        for j, sign in enumerate((-1.0, 1.0)):
-            dl = np.zeros(n)
-            dl[i] = sign * cable_error
-            fig = f"Fig. 5{letters[2 * i + j]}" if n == 3 else ""
-            out.append(Scenario(f"cable{2 * i + 1}{'+' if sign > 0 else '-'}",
-                                f"{sign * cable_error * 1e3:+g} mm on cable {2 * i + 1}", dl, np.zeros(n), fig))
-    for i in range(n):
-        for j, sign in enumerate((-1.0, 1.0)):
-            dh = np.zeros(n)
-            dh[i] = sign * hole_error
-            fig = f"Fig. 6{letters[2 * i + j]}" if n == 3 else ""
-            out.append(Scenario(f"disk{i + 1}{'+' if sign > 0 else '-'}",
-                                f"{sign * hole_error * 1e3:+g} mm on disk {i + 1}'s holes", np.zeros(n), dh, fig))
-    return out
+    cable (the paper's cables 1, 3, 5, ...) and ±hole_error on each disk's
+    holes, labelled with the paper's figures for 3 joints."""
+    return [replace(sc, figure=_figure_label(sc, n)) for sc in general.planar_scenarios(n, cable_error, hole_error)]
 
 
-@dataclass
-class ScenarioResult:
-    """A scenario over one workspace: dS (N, 3) (NaN where unsolved), ok (N,),
-    and its jump points."""
+@dataclass(repr=False)
+class PaperStudy(Study):
+    """The study of a robot with the paper's geometry (:class:`cdsm.study.Study`)
+    and the paper's layer: table3 (:func:`table3`), table2 (:func:`table2`),
+    claims (:func:`check_claims`), slack_reversed ({protocol: slack fraction
+    with the lower weights in the opposite order}), readings (the four load
+    readings over the ±30° joint grid), table3_readings (per reading: Table 3
+    under each of :data:`ORDERS`), diagnosis (Table 3 as given, file order),
+    table3_suggestion (the next measurements for Table 3)."""
 
-    scenario: Scenario
-    protocol: str
-    dS: np.ndarray
-    ok: np.ndarray
-    jumps: workspace.Jumps
-
-    @property
-    def position_mm(self) -> np.ndarray:
-        """(N,) |d(X, Y)| in mm."""
-        return np.hypot(self.dS[:, 0], self.dS[:, 1]) * 1e3
-
-
-@dataclass
-class PaperStudy:
-    """Everything ``cdsm paper`` computes; the report and figures read it."""
-
-    robot: Robot
-    workspaces: Dict[str, workspace.Workspace]
-    scenarios: List[ScenarioResult]
-    monte_carlo: Dict[str, montecarlo.MonteCarlo]
-    singular: Dict[str, np.ndarray]
-    table3: Optional[dict]
-    table2: List[dict]
-    claims: List[dict]
-    params: dict = field(default_factory=dict)
-    #: per protocol: upper tensions and slack flags at the initial configurations
-    feasibility: Dict[str, statics.FeasibilityMap] = field(default_factory=dict)
-    #: per protocol: slack fraction with the lower weights in the opposite order
+    table3: Optional[dict] = None
+    table2: List[dict] = field(default_factory=list)
+    claims: List[dict] = field(default_factory=list)
     slack_reversed: Dict[str, float] = field(default_factory=dict)
-    #: per protocol: first-order amplification maps (tolerance.amplification_maps)
-    amplification: Dict[str, dict] = field(default_factory=dict)
-    #: the sim-to-real diagnosis of Table 3 (3-joint robots), or None
     diagnosis: Optional["diagnosis.Diagnosis"] = None
-    #: the four load readings over the +-30 deg joint grid (statics.reading_maps)
     readings: Dict[str, statics.Reading] = field(default_factory=dict)
-    #: per reading: Table 3 under each of ORDERS (table3_readings)
     table3_readings: Dict[str, dict] = field(default_factory=dict)
-    #: the next measurements for Table 3 (experiment.suggest), or None
     table3_suggestion: Optional["experiment.Suggestion"] = None
 
     def result(self, key: str, protocol: str = "attitude0") -> ScenarioResult:
-        for r in self.scenarios:
-            if r.scenario.key == key and r.protocol == protocol:
-                return r
-        raise KeyError((key, protocol))
-
-
-def _scenario(robot: Robot, ws: workspace.Workspace, sc: Scenario) -> ScenarioResult:
-    ok0 = ws.reachable
-    theta0 = np.where(ok0[:, None], ws.theta0, 0.0)
-    dev = scenarios.deviation(robot, theta0, dL=sc.dL, dh=sc.dh if np.any(sc.dh) else None)
-    ok = ok0 & dev.ok
-    ds = np.where(ok[:, None], dev.dS, np.nan)
-    return ScenarioResult(sc, ws.protocol, ds, ok, workspace.jump_points(robot, ws, ds))
+        return super().result(key, protocol)
 
 
 def table3(robot: Robot) -> dict:
@@ -194,12 +159,6 @@ def table2(robot: Robot) -> List[dict]:
     return out
 
 
-def finite_rms(v: np.ndarray) -> float:
-    """RMS of the finite entries of ``v`` (NaN when there are none)."""
-    v = v[np.isfinite(v)]
-    return float(np.sqrt(np.mean(v ** 2))) if len(v) else float("nan")
-
-
 def check_claims(study: PaperStudy) -> List[dict]:
     """The paper's claims, each with our number and a verdict."""
     n = study.robot.n
@@ -270,41 +229,41 @@ def check_claims(study: PaperStudy) -> List[dict]:
     return claims
 
 
-def run(robot: Optional[Robot] = None, samples: int = 1000, seed: int = 0,
-        progress: bool = True, grid=None) -> PaperStudy:
-    """Run the whole study on ``robot`` (default: the paper's prototype)."""
-    robot = robot or Robot.paper()
-    spaces = {p: workspace.sweep(robot, p, grid=grid) for p in ("attitude0", "joint")}
-    scen = paper_scenarios(robot.n)
-    bar = Progress(len(scen) * len(spaces), "error scenarios", progress)
-    results = []
-    for p, ws in spaces.items():
-        for sc in scen:
-            results.append(_scenario(robot, ws, sc))
-            bar.update(1)
-    mcs = {}
-    for p, ws in spaces.items():
-        theta0 = ws.theta0[ws.reachable]
-        mc = montecarlo.monte_carlo(robot, theta0, samples=samples, seed=seed, progress=progress,
-                                check_slack=True)
-        mcs[p] = mc
-    singular = {p: workspace.singular_values(robot, np.where(ws.reachable[:, None], ws.theta0, 0.0))
-                for p, ws in spaces.items()}
-    t3 = table3(robot) if robot.n == 3 else None
-    t2 = table2(robot) if robot.n == 3 else []
-    study = PaperStudy(robot, spaces, results, mcs, singular, t3, t2, [],
-                       dict(samples=int(samples), seed=int(seed)))
-    for p, ws in spaces.items():
+def extend(study: Study) -> PaperStudy:
+    """The paper's layer on ``study`` (its robot must have the paper's
+    geometry, :func:`is_prototype`, and the study its attitude-0 protocol):
+    figure labels, Tables 2 and 3, the slack share with the weights
+    reversed, the four load readings, the Table 3 diagnosis under each
+    reading and execution order, the next measurements, the claims."""
+    robot = study.robot
+    if not is_prototype(robot):
+        raise CdsmInputError(f"`study`: robot {robot.name!r} does not have the paper's geometry "
+                                     "(the paper's layer is for its prototype)")
+    if "attitude0" not in study.workspaces:
+        raise CdsmInputError("`study`: the paper's layer needs the attitude-0 protocol (its grid)")
+    base = {f.name: getattr(study, f.name) for f in fields(Study)}
+    for r in base["scenarios"]:
+        r.scenario = replace(r.scenario, figure=_figure_label(r.scenario, robot.n))
+    ps = PaperStudy(**base, table3=table3(robot), table2=table2(robot))
+    for p, ws in ps.workspaces.items():
         th = np.where(ws.reachable[:, None], ws.theta0, 0.0)
-        fm = statics.feasibility_map(robot, th)
-        study.feasibility[p] = fm
         rev = robot.feasible(th, lower=robot.lower_tension[::-1].copy())
-        study.slack_reversed[p] = float(1.0 - rev[ws.reachable].mean())
-        study.amplification[p] = sensitivity.amplification_maps(robot, p, ws)
-    study.readings = statics.reading_maps(robot)
-    if robot.n == 3:
-        study.table3_readings = table3_readings({k: r.robot for k, r in study.readings.items()})
-        study.diagnosis = study.table3_readings["as given"]["diagnoses"]["file order"]
-        study.table3_suggestion = experiment.suggest(study.diagnosis, 6)
-    study.claims = check_claims(study)
-    return study
+        ps.slack_reversed[p] = float(1.0 - rev[ws.reachable].mean())
+    ps.readings = statics.reading_maps(robot)
+    ps.table3_readings = table3_readings({k: r.robot for k, r in ps.readings.items()})
+    ps.diagnosis = ps.table3_readings["as given"]["diagnoses"]["file order"]
+    ps.table3_suggestion = experiment.suggest(ps.diagnosis, 6)
+    ps.claims = check_claims(ps)
+    return ps
+
+
+def run(robot: Optional[Robot] = None, samples: int = 1000, seed: int = 0,
+        progress: bool = True, grid=None) -> Study:
+    """The ``cdsm paper`` study of ``robot`` (default: the paper's prototype):
+    :func:`cdsm.study.run` and, for the paper's geometry, :func:`extend`
+    (a :class:`PaperStudy`); any other robot gets the general study."""
+    robot = robot or Robot.paper()
+    st = general.run(robot, samples=samples, seed=seed, progress=progress, grid=grid)
+    if is_prototype(robot) and "attitude0" in st.workspaces:
+        return extend(st)
+    return st

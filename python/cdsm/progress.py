@@ -28,10 +28,10 @@ class Progress:
             return
         el = time.perf_counter() - self.t0
         frac = self.done / max(self.total, 1)
-        eta = el / frac - el if frac > 0 else float("nan")
-        bar = "#" * int(30 * frac)
-        sys.stderr.write(f"\r{self.label} [{bar:<30}] {self.done}/{self.total} "
-                         f"{el:6.1f}s elapsed, {eta:6.1f}s left")
+        bar = "#" * int(30 * min(frac, 1.0))
+        # no estimate before the first step, nor once done (not "-0.0 s left")
+        left = f", {el / frac - el:6.1f}s left" if 0 < frac < 1 else ""
+        sys.stderr.write(f"\r{self.label} [{bar:<30}] {self.done}/{self.total} {el:6.1f}s elapsed{left}")
         if self.done >= self.total:
             sys.stderr.write("\n")
         sys.stderr.flush()

@@ -10,23 +10,31 @@ naming the argument.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import List, Optional, Tuple
+from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
 from . import _cdsm
 from .files import read_text
-from .inputs import CdsmInputError, as_batch, as_finite, as_iterations, as_vector
+from .inputs import CdsmDataWarning, CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector
+from .display import ShortRepr
 
 __all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
-           "SPATIAL_MASKS", "IK_METHODS", "packaged_robots"]
+           "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "PLAUSIBLE_LENGTH", "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 
 #: The robot kinds.
 KINDS = ("planar", "spatial")
+
+#: The longest straight arm (m) taken without a warning about its unit.
+PLAUSIBLE_LENGTH = 10.0
+
+#: The most worker threads a robot takes (:attr:`Robot.threads`).
+MAX_THREADS = 4096
 
 
 def packaged_robots() -> Tuple[str, ...]:
@@ -50,8 +58,8 @@ TASK_MASKS = {"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}
 SPATIAL_MASKS = ("position", "pointing", "pose")
 
 
-@dataclass(frozen=True)
-class Solution:
+@dataclass(frozen=True, repr=False)
+class Solution(ShortRepr):
     """Result of a batch of solves.
 
     theta: (N, n) joint angles, rad. converged: (N,) bool; a failed element
@@ -59,8 +67,11 @@ class Solution:
     trial steps (0 = closed form). residual: (N,) max |residual| (m, or rad for
     the attitude). within_limits: (N,) all angles within the joint limits.
     reason: (N,) why each solve ended: ``"converged"``, ``"iteration limit"``,
-    ``"singular"`` (the step could not be computed), ``"unreachable"`` (the
-    residual cannot be lowered: the target is out of reach) or ``"outside
+    ``"singular"`` (the step could not be computed), ``"stalled"`` (the
+    residual stopped falling short of zero: a local minimum, or a closed
+    form's branch without an answer — another seed may succeed),
+    ``"unreachable"`` (proven: no configuration realises the target, e.g. a
+    cable length outside the range its geometry allows) or ``"outside
     limits"`` (stuck on the joint-limit box while limits are enforced).
     feasible: (N,) every upper cable taut (tension > 0 N) at theta under the
     robot's lower tensions and gravity — False flags a configuration the
@@ -154,8 +165,71 @@ class Robot:
 
     @classmethod
     def from_toml_str(cls, text: str) -> "Robot":
-        """Parse a robot description given as TOML text (either kind)."""
-        return cls(_cdsm.CoreRobot.from_toml(text))
+        """Parse a robot description given as TOML text (either kind). A
+        description whose straight arm is longer than
+        :data:`PLAUSIBLE_LENGTH` (a file in mm read as m, most likely)
+        raises a :class:`CdsmDataWarning`."""
+        robot = cls(_cdsm.CoreRobot.from_toml(text))
+        length = robot.straight_length
+        if length > PLAUSIBLE_LENGTH:
+            warnings.warn(f"robot {robot.name!r}: the straight arm is {length:.4g} m long; is the file in mm? cdsm "
+                          "reads SI units: metres (divide every length by 1000)", CdsmDataWarning, stacklevel=2)
+        return robot
+
+    @classmethod
+    def from_caspr(cls, bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathLike[str]",
+                   cable_set: Optional[str] = None) -> "Robot":
+        """A spatial robot from a CASPR multi-link model (https://github.com/darwinlau/CASPR):
+        the paths of its ``<name>_bodies.xml`` and ``<name>_cables.xml``, and
+        the id of the cable set (None: the file's ``default_cable_set``, else
+        its only set; an unknown id is an error listing the ids).
+
+        Joints in CASPR's order (link by link, each joint type's axes in
+        order; ``R_X``, ``R_Y``, ``R_Z``, ``R_AXIS``, ``U_XY``, ``U_XZ``,
+        ``U_YZ``), cables in the file's order, all position-controlled; a
+        cable's length is the sum of the straight segments between its
+        consecutive attachments, as in CASPR. CASPR's vectors are turned by
+        one constant rotation so that the links point along ``+x``
+        (``docs/interop.md`` has the whole mapping;
+        :func:`cdsm.interop.caspr.caspr_toml` writes the robot file). What is
+        not kept (inertia tensors, cable force limits, names, ...) is said in
+        one ``UserWarning``; what cannot be represented (a cable that does
+        not start at the base, another joint type, a tree, ...) raises
+        :class:`CdsmInputError` naming the link or cable. SI units."""
+        from .interop.caspr import caspr_toml
+
+        text = caspr_toml(bodies_xml, cables_xml, cable_set)
+        try:
+            return cls.from_toml_str(text)
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"CASPR model {os.fspath(bodies_xml)!r}: cdsm cannot represent it: {exc}") from None
+
+    def to_mjcf(self) -> str:
+        """MuJoCo's MJCF of this robot (XML text): a body per disk with one
+        hinge per joint in cdsm's order (``nq = n``, limits), masses and
+        centres of mass with the inertia of a uniform solid cylinder of the
+        disk's radius and thickness (the robot file has no inertia tensor), a
+        site at every hole, a spatial tendon per cable through its holes in
+        cdsm's cable order (tendon length = :meth:`cable_lengths`, ``ten_J``
+        = :meth:`cable_jacobian`), a ``position`` actuator on each position
+        cable (a linear spring ``E A / L_0``, pulling only) and a ``general``
+        actuator of constant force ``-T`` on each force cable (its set
+        tension). ``docs/interop.md``, :mod:`cdsm.interop.mjcf`. SI units.
+        A disk without mass raises :class:`CdsmInputError` (MuJoCo rejects
+        it)."""
+        from .interop.mjcf import to_mjcf
+
+        return to_mjcf(self)
+
+    def to_urdf(self) -> str:
+        """The URDF of this robot (XML text): links ``base``, one per joint,
+        revolute joints in cdsm's order (a universal joint as two, limits),
+        inertials as in :meth:`to_mjcf`, and a link ``tip`` fixed at the end
+        frame (its pose is :meth:`fk_matrix`). ``docs/interop.md``,
+        :mod:`cdsm.interop.urdf`. SI units."""
+        from .interop.urdf import to_urdf
+
+        return to_urdf(self)
 
     def to_toml(self) -> str:
         """A robot file (TOML, SI units) that rebuilds this robot exactly:
@@ -164,20 +238,29 @@ class Robot:
         the name in any Unicode."""
         return self.core.to_toml()
 
-    def with_holes(self, holes) -> "Robot":
+    def with_holes(self, holes, within_disks: bool = True) -> "Robot":
         """The same robot with other holes, m: planar ``(2n, n+1, 2, 2)``
         (:attr:`holes`); spatial a list like :attr:`holes`, or one flat array
-        of every ``[x, y, z]`` (:attr:`flat_holes`)."""
+        of every ``[x, y, z]`` (:attr:`flat_holes`). ``within_disks``: a
+        spatial hole outside its disk's radius is refused, as in a robot
+        file (False for error studies that move holes past the nominal
+        outline; such a robot's :meth:`to_toml` does not load back)."""
         if self.kind == "planar":
-            h = np.ascontiguousarray(np.asarray(holes, dtype=np.float64))
+            h = np.ascontiguousarray(as_array("holes", holes))
             if h.shape != self.holes.shape:
                 raise CdsmInputError(f"`holes`: expected shape {self.holes.shape}, got {h.shape}")
             return Robot(self.core.with_holes(h), self.threads)
         if isinstance(holes, (list, tuple)):
-            flat = np.concatenate([np.asarray(h, dtype=float).reshape(-1) for h in holes])
+            if len(holes) != len(self.holes):
+                raise CdsmInputError(f"`holes`: expected {len(self.holes)} arrays (one per cable), got {len(holes)}")
+            parts = [as_array(f"holes[{c}]", h) for c, h in enumerate(holes)]
+            for c, (got, want) in enumerate(zip(parts, self.holes)):
+                if got.shape != want.shape:
+                    raise CdsmInputError(f"`holes[{c}]`: expected shape {want.shape}, got {got.shape}")
+            flat = np.concatenate([p.reshape(-1) for p in parts])
         else:
-            flat = np.asarray(holes, dtype=float).reshape(-1)
-        return Robot(self.core.with_holes(np.ascontiguousarray(flat)), self.threads)
+            flat = as_array("holes", holes).reshape(-1)
+        return Robot(self.core.with_holes(np.ascontiguousarray(flat), bool(within_disks)), self.threads)
 
     def hole_height_error(self, dh) -> np.ndarray:
         """Planar arms: hole positions (2n, n+1, 2, 2), m, after the paper's
@@ -194,18 +277,14 @@ class Robot:
 
     @property
     def threads(self) -> int:
-        """Worker threads of batch calls (0 = all cores); they run without the GIL."""
+        """Worker threads of batch calls (0 = all cores, at most
+        :data:`MAX_THREADS`); they run without the GIL. Where the system
+        cannot start as many, the calling thread does the rest."""
         return self._threads
 
     @threads.setter
     def threads(self, value: int) -> None:
-        try:
-            v = int(value)
-        except (TypeError, ValueError):
-            raise CdsmInputError(f"`threads`: expected a non-negative integer, got {value!r}") from None
-        if v < 0 or v != value:
-            raise CdsmInputError(f"`threads`: expected a non-negative integer, got {value!r}")
-        self._threads = v
+        self._threads = as_count("threads", value, 0, MAX_THREADS)
 
     @property
     def n(self) -> int:
@@ -283,6 +362,35 @@ class Robot:
         return self.core.mass
 
     @property
+    def offsets(self) -> np.ndarray:
+        """(n, 3) each joint's offset from the previous frame, in that frame,
+        m (``docs/spatial.md``; planar: ``(link_before, 0, 0)``)."""
+        return self.core.offsets.reshape(-1, 3)
+
+    @property
+    def joint_disks(self) -> List[int]:
+        """The disk (1-based) each joint belongs to (the joints before it)."""
+        return list(self.core.joint_disks)
+
+    @property
+    def disk_link_after(self) -> np.ndarray:
+        """(disks, 3) last joint -> proximal face (face a) of each disk, in
+        the last joint's frame, m (planar: ``(link_after, 0, 0)``)."""
+        return self.core.disk_link_after.reshape(-1, 3)
+
+    @property
+    def disk_thickness(self) -> np.ndarray:
+        """(disks,) disk thickness along the disk's local x axis (face a ->
+        face b), m; both kinds (:attr:`thickness` is the planar name)."""
+        return self.core.disk_thickness
+
+    @property
+    def com(self) -> np.ndarray:
+        """(disks, 3) centre of mass of each disk in its face-a frame, m
+        (planar: the disk's centre, ``(thickness / 2, 0, 0)``)."""
+        return self.core.com.reshape(-1, 3)
+
+    @property
     def youngs_modulus(self) -> float:
         """Cable Young's modulus, Pa."""
         return self.core.youngs_modulus
@@ -310,15 +418,83 @@ class Robot:
         if self.kind == "planar":
             n = self.n
             return self.core.holes.reshape(2 * n, n + 1, 2, 2)
-        flat = self.flat_holes
-        out, k = [], 0
+        return self.holes_by_cable()
+
+    def __repr__(self) -> str:
+        return f"Robot({self.name!r}, n={self.n}, kind={self.kind!r}, cables={self.cables})"
+
+    def summary_tables(self) -> Dict[str, Tuple[List[str], List[List[str]]]]:
+        """The robot as tables of text (SI units in the headers): ``joints``,
+        ``disks``, ``cables`` — each ``(header, rows)`` — for :meth:`__str__`
+        and the notebook view."""
+        lim = np.degrees(self.joint_limits)
+        joints = (["joint", "disk", "axis", "offset (m)", "limits (deg)"],
+                  [[str(j + 1), str(d), _vec(a, 3), _vec(o, 4), f"[{lo:.1f}, {hi:.1f}]"]
+                   for j, (d, a, o, (lo, hi)) in enumerate(zip(self.joint_disks, self.axes, self.offsets, lim))])
+        disks = (["disk", "link after (m)", "thickness (m)", "radius (m)", "mass (kg)"],
+                 [[str(d + 1), _vec(la, 4), f"{t:.4g}", f"{r:.4g}", f"{m:.4g}"]
+                  for d, (la, t, r, m) in enumerate(zip(self.disk_link_after, self.disk_thickness,
+                                                        self.radii[1:], self.mass))])
+        pos = set(self.position_cables)
+        cab_rows = []
+        for c, (e, h, t) in enumerate(zip(self.cable_ends, self.holes_by_cable(), self.cable_tensions)):
+            mode = "position" if c in pos else f"force, {t:.4g} N"
+            cab_rows.append([str(c + 1), str(e), mode, _vec(h[0], 4), _vec(h[-1], 4)])
+        cables = (["cable", "ends at disk", "mode", "base hole (m)", "last hole (m)"], cab_rows)
+        return {"joints": joints, "disks": disks, "cables": cables}
+
+    def holes_by_cable(self) -> List[np.ndarray]:
+        """Each cable's holes ``(2 end + 1, 3)`` in face frames (base face b,
+        then faces a and b of each disk it crosses), m — both kinds."""
+        flat, out, k = self.flat_holes, [], 0
         for e in self.cable_ends:
             out.append(flat[k:k + 3 * (2 * e + 1)].reshape(-1, 3))
             k += 3 * (2 * e + 1)
         return out
 
-    def __repr__(self) -> str:
-        return f"Robot({self.name!r}, n={self.n}, kind={self.kind!r}, cables={self.cables})"
+    def _headline(self) -> str:
+        m = len(self.position_cables)
+        g = np.linalg.norm(self.gravity)
+        return (f"{self.name!r}: {self.kind} arm, {self.n} joints on {len(self.disk_thickness)} disks, "
+                f"{self.cables} cables ({m} position-, {self.cables - m} force-controlled), straight length "
+                f"{self.straight_length:.4g} m, gravity {g:.4g} m/s^2, cable E = {self.youngs_modulus:.3g} Pa, "
+                f"d = {self.cable_diameter:.3g} m")
+
+    def __str__(self) -> str:
+        parts = [self._headline()]
+        for name, (head, rows) in self.summary_tables().items():
+            widths = [max(len(h), *(len(r[i]) for r in rows)) if rows else len(h) for i, h in enumerate(head)]
+            parts.append(name + ":")
+            parts.append("  " + "  ".join(h.ljust(w) for h, w in zip(head, widths)))
+            parts += ["  " + "  ".join(v.ljust(w) for v, w in zip(r, widths)) for r in rows]
+        return "\n".join(parts)
+
+    def _repr_html_(self) -> str:
+        import html
+
+        out = [f"<p><b>{html.escape(self._headline())}</b></p>"]
+        for name, (head, rows) in self.summary_tables().items():
+            out.append(f"<details{' open' if name != 'cables' else ''}><summary>{name}</summary><table>")
+            out.append("<tr>" + "".join(f"<th>{html.escape(h)}</th>" for h in head) + "</tr>")
+            out += ["<tr>" + "".join(f"<td>{html.escape(v)}</td>" for v in r) + "</tr>" for r in rows]
+            out.append("</table></details>")
+        return "".join(out)
+
+    def disk_frames(self, theta) -> np.ndarray:
+        """Face frames of every disk in the base frame: (N, n) rad -> (N, K,
+        2, 4, 4): face a (proximal) then face b (distal) of disks 1..K as
+        homogeneous transforms, translation in m (the base face is the
+        identity; a planar arm lies in z = 0)."""
+        k = len(self.disk_thickness)
+        return self._map(theta, self.core.disk_frames, (k, 2, 4, 4))
+
+    def plot(self, theta=None, ax=None, cables: bool = True):
+        """Draw the arm at ``theta`` (n,) rad (default: straight) with
+        matplotlib — in its plane for a planar arm, in 3-D for a spatial
+        one — and return the axes (:func:`cdsm.report.drawing.draw_arm`)."""
+        from .report.drawing import draw_arm
+
+        return draw_arm(self, theta, ax=ax, cables=cables)
 
     # ---- planar arms' description ----------------------------------------
     @property
@@ -430,7 +606,7 @@ class Robot:
         p, single = as_batch(name, target, self.task, finite=False)  # checked by the core
         if method not in IK_METHODS:
             raise CdsmInputError(f"`method`: expected one of {', '.join(map(repr, IK_METHODS))}, got {method!r}")
-        res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), method, float(tol),
+        res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), method, as_finite("tol", tol),
                            as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
         return Solution.from_core(res, self.n, single, self)
 
@@ -463,7 +639,7 @@ class Robot:
         # the kind's word for them: a planar arm's upper cables
         name = "upper" if self.kind == "planar" else "lengths"
         u, single = as_batch(name, lengths, len(self.position_cables), finite=False)  # checked by the core
-        res = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), float(tol),
+        res = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), as_finite("tol", tol),
                                      as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
         return Solution.from_core(res, self.n, single, self)
 
@@ -598,14 +774,14 @@ class Robot:
             g = g + [0.0] if self.kind == "planar" else g
         res = self.core.solve_elastic(u, self._seed(seed, rows), None if f is None else f.reshape(-1),
                                       None if w is None else w.reshape(-1), g,
-                                      as_finite("min_tension", min_tension), float(tol),
+                                      as_finite("min_tension", min_tension), as_finite("tol", tol),
                                       as_iterations("max_iter", max_iter), self.threads)
         m = len(self.position_cables)
         return ElasticSolution.from_core(res.solution, self.n, single, self, tension=res.tension.reshape(-1, m),
                                          _feasible=res.feasible)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class ElasticSolution(Solution):
     """A :class:`Solution` of the elastic cable solve, plus the statics at the
     answer: tension (N, m_pos) position-cable tensions, N; ``feasible`` (N,)
@@ -615,3 +791,6 @@ class ElasticSolution(Solution):
     tension: np.ndarray = None
 
 
+def _vec(v, digits: int) -> str:
+    """A short vector for the summary tables."""
+    return "[" + ", ".join(f"{x:.{digits}g}" for x in np.asarray(v, dtype=float)) + "]"

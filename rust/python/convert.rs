@@ -43,12 +43,16 @@ pub fn vec1<'py, T: numpy::Element>(py: Python<'py>, v: Vec<T>) -> Bound<'py, Py
     PyArray1::from_vec(py, v)
 }
 
-pub fn options(tol: f64, max_iter: u32, enforce_limits: bool) -> SolveOptions {
-    SolveOptions {
+/// Solver options, checked as every solve checks them (`tol` positive and
+/// finite, `max_iter` at least 1).
+pub fn options(tol: f64, max_iter: u32, enforce_limits: bool) -> PyResult<SolveOptions> {
+    let o = SolveOptions {
         tol,
         max_iter,
         enforce_limits,
-    }
+    };
+    crate::batch::check_options(&o).map_err(err)?;
+    Ok(o)
 }
 
 pub fn method(name: &str) -> PyResult<CableMethod> {

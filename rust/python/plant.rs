@@ -62,7 +62,7 @@ pub fn predict(
     threads: usize,
 ) -> PyResult<PlantPrediction> {
     let p = slice("params", &params)?;
-    let o = options(tol, max_iter, false);
+    let o = options(tol, max_iter, false)?;
     let out = py
         .detach(|| plant::predict(model, p, &data.rows(), &o, threads))
         .map_err(err)?;
@@ -82,7 +82,7 @@ pub fn linearise(
     threads: usize,
 ) -> PyResult<PlantPrediction> {
     let p = slice("params", &params)?;
-    let o = options(tol, max_iter, false);
+    let o = options(tol, max_iter, false)?;
     let out = py
         .detach(|| plant::linearise(model, p, free, &data.rows(), &o, threads))
         .map_err(err)?;
@@ -132,7 +132,7 @@ pub fn fit(
     max_iter: u32,
     threads: usize,
 ) -> PyResult<Vec<PlantFit>> {
-    let o = options(tol, max_iter, false);
+    let o = options(tol, max_iter, false)?;
     let fits = py
         .detach(|| {
             let seq = Sequence::new(model, &data.rows())?;
@@ -164,7 +164,7 @@ pub fn compensate(
     let t = slice("theta_cmd", &theta_cmd)?;
     let g = slice("targets", &targets)?;
     let s = opt_slice("start", &start)?;
-    let o = options(settle_tol, 100, false);
+    let o = options(settle_tol, 100, false)?;
     let out = py
         .detach(|| {
             crate::compensate::compensate(model, p, t, g, weights, s, &o, tol, max_iter, threads)

@@ -173,6 +173,39 @@ impl CoreRobot {
     fn mass<'py>(&self, py: Python<'py>) -> Array<'py> {
         vec1(py, self.model.disks.iter().map(|d| d.mass).collect())
     }
+    /// `(n*3)` joint offsets (m): previous frame -> joint, in the previous frame.
+    #[getter]
+    fn offsets<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(
+            py,
+            self.model.joints.iter().flat_map(|j| j.offset).collect(),
+        )
+    }
+    /// The disk (1-based) each joint belongs to.
+    #[getter]
+    fn joint_disks(&self) -> Vec<usize> {
+        (0..self.model.n())
+            .map(|j| self.model.joint_disk(j))
+            .collect()
+    }
+    /// `(disks*3)` last joint -> proximal face of each disk (m, joint frame).
+    #[getter]
+    fn disk_link_after<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(
+            py,
+            self.model.disks.iter().flat_map(|d| d.link_after).collect(),
+        )
+    }
+    /// `(disks,)` disk thickness along its local x axis (m).
+    #[getter]
+    fn disk_thickness<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.disks.iter().map(|d| d.thickness).collect())
+    }
+    /// `(disks*3)` centres of mass (m, proximal-face frame).
+    #[getter]
+    fn com<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.disks.iter().flat_map(|d| d.com).collect())
+    }
     #[getter]
     fn youngs_modulus(&self) -> f64 {
         self.model.cable.youngs_modulus
@@ -192,13 +225,21 @@ impl CoreRobot {
     }
 
     /// The same arm with other holes: planar `(2n, n+1, 2, 2)` flat, spatial
-    /// every `[x, y, z]` flat (as `flat_holes`), m.
-    fn with_holes(&self, holes: Arr<'_>) -> PyResult<Self> {
+    /// every `[x, y, z]` flat (as `flat_holes`), m. `within_disks`: refuse a
+    /// spatial hole outside its disk, as a robot file does.
+    #[pyo3(signature = (holes, within_disks=true))]
+    fn with_holes(&self, holes: Arr<'_>, within_disks: bool) -> PyResult<Self> {
         let h = slice("holes", &holes)?;
         crate::error::check_finite("holes", h).map_err(err)?;
         match self.model.planar() {
             Some(r) => Ok(CoreRobot::of_planar(r.with_holes(h).map_err(err)?)),
-            None => Ok(CoreRobot::of(self.model.with_flat_holes(h).map_err(err)?)),
+            None => {
+                let m = self.model.with_flat_holes(h).map_err(err)?;
+                if within_disks {
+                    m.check_holes().map_err(err)?;
+                }
+                Ok(CoreRobot::of(m))
+            }
         }
     }
 
@@ -300,6 +341,15 @@ impl CoreRobot {
         self.theta_map(py, theta, threads, arm::fk_matrix)
     }
 
+    fn disk_frames<'py>(
+        &self,
+        py: Python<'py>,
+        theta: Arr<'_>,
+        threads: usize,
+    ) -> PyResult<Array<'py>> {
+        self.theta_map(py, theta, threads, arm::disk_frames)
+    }
+
     fn fk_jacobian<'py>(
         &self,
         py: Python<'py>,
@@ -381,7 +431,7 @@ impl CoreRobot {
             }),
         };
         let how = ik_method(method)?;
-        let o = options(tol, max_iter, enforce_limits);
+        let o = options(tol, max_iter, enforce_limits)?;
         let out = py
             .detach(|| arm::ik(&self.model, p, s, task, how, &o, threads))
             .map_err(err)?;
@@ -405,7 +455,7 @@ impl CoreRobot {
         let u = slice("lengths", &lengths)?;
         let s = opt_slice("seed", &seed)?;
         let m = self::method(method)?;
-        let o = options(tol, max_iter, enforce_limits);
+        let o = options(tol, max_iter, enforce_limits)?;
         let out = py
             .detach(|| arm::solve_cables(&self.model, u, s, m, &o, threads))
             .map_err(err)?;
@@ -431,7 +481,7 @@ impl CoreRobot {
         let d = slice("dl", &dl)?;
         let h = opt_slice("holes", &holes)?;
         let m = self::method(method)?;
-        let o = options(tol, max_iter, false);
+        let o = options(tol, max_iter, false)?;
         let (ds, sol) = py
             .detach(|| accuracy::deviation(r, t, d, h, m, &o, threads))
             .map_err(err)?;
@@ -461,7 +511,7 @@ impl CoreRobot {
         let d = slice("dl", &dl)?;
         let (dh, dholes) = (opt_slice("dh", &dh)?, opt_slice("dholes", &dholes)?);
         let m = self::method(method)?;
-        let o = options(tol, max_iter, false);
+        let o = options(tol, max_iter, false)?;
         let Some(r) = self.model.planar() else {
             if dh.is_some() {
                 return Err(CdsmInputError::new_err(
@@ -603,7 +653,7 @@ impl CoreRobot {
             wrench: opt_slice("tip_wrench", &tip_wrench)?,
             gravity,
         };
-        let o = options(tol, max_iter, false);
+        let o = options(tol, max_iter, false)?;
         let out = py
             .detach(|| {
                 crate::plant::solve_elastic(&self.model, u, s, &loads, min_tension, &o, threads)

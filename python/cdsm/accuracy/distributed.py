@@ -41,8 +41,9 @@ at most ``window`` results plus the running total.
 
 Available statistics per configuration: count, failed, mean, std, min, max
 (and max |.|) of dX, dY (m), dphi (rad) and |d(X, Y)| (m); percentiles of
-|d(X, Y)| from the exact log-spaced histogram (60 bins per decade, reported at
-the upper bin edge: at most 3.9 % high). Percentiles of dX, dY, dphi would
+|d(X, Y)| from the exact log-spaced histogram (232 bins per decade, reported
+at the bin's geometric middle: within 0.498 % of the sample quantile; the
+counts add, so local and cluster runs agree bitwise). Percentiles of dX, dY, dphi would
 need their own histograms in the Rust kernel (not computed).
 """
 
@@ -56,7 +57,7 @@ from typing import Callable, Dict, Optional
 import numpy as np
 
 from .. import _cdsm
-from ..inputs import CdsmInputError, as_batch, as_tolerances
+from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
 from .montecarlo import MonteCarlo, error_widths, monte_carlo, monte_carlo_chunk
@@ -87,7 +88,7 @@ def robot_spec(robot: Robot) -> dict:
 def robot_from_spec(spec: dict, threads: int = 0) -> Robot:
     """The robot of :func:`robot_spec` (``threads``: Rust threads, 0 = all cores)."""
     r = Robot.from_toml_str(spec["toml"])
-    r.threads = int(threads)
+    r.threads = threads
     return r
 
 
@@ -285,13 +286,10 @@ def run(robot: Robot, theta0, samples: int = 1000, seed: int = 0, chunk: int = 1
     ``params`` record the run.
     """
     t0, _ = as_batch("theta0", theta0, robot.n)
-    if int(samples) < 1 or int(chunk) < 1:
-        raise CdsmInputError(f"`samples`, `chunk`: must be >= 1, got {samples}, {chunk}")
+    samples, chunk = as_count("samples", samples, 1), as_count("chunk", chunk, 1)
+    seed = as_count("seed", seed)
     wl, wh = error_widths(robot)
     dlt, dht = as_tolerances("dl_tol", dl_tol, wl), as_tolerances("dh_tol", dh_tol, wh)
-    samples, chunk, seed = int(samples), int(chunk), int(seed)
-    if seed < 0:
-        raise CdsmInputError(f"`seed`: must be >= 0, got {seed}")
     start = time.perf_counter()
     if scheduler is None:
         mc = monte_carlo(robot, t0, samples=samples, seed=seed, dl_tol=dlt, dh_tol=dht,

@@ -18,12 +18,14 @@ import numpy as np
 
 from .. import _cdsm
 from ..files import json_safe, read_npz, write_npz
-from ..inputs import CdsmInputError, as_batch, as_tolerances
+from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
+from ..display import ShortRepr
 
-__all__ = ["MonteCarlo", "monte_carlo", "monte_carlo_chunk", "chunk_sizes", "sample_errors",
+__all__ = ["QUANTILE_BOUND", "hist_quantile", "MonteCarlo", "monte_carlo", "monte_carlo_chunk", "chunk_sizes",
+           "sample_errors",
            "QUANTITY_NAMES", "QUANTITY_UNITS", "SPATIAL_QUANTITY_NAMES", "SPATIAL_QUANTITY_UNITS",
            "DEFAULT_PERCENTILES", "error_widths",
            "summary", "save_npz", "load_npz"]
@@ -38,8 +40,8 @@ SPATIAL_QUANTITY_NAMES = ("dX", "dY", "dZ", "dXYZ", "rot")
 SPATIAL_QUANTITY_UNITS = ("m", "m", "m", "m", "rad")
 
 
-@dataclass
-class MonteCarlo:
+@dataclass(repr=False)
+class MonteCarlo(ShortRepr):
     """Per-configuration statistics of a Monte-Carlo error study.
 
     Columns of the (N, Q) arrays (``quantities``): planar dX (m), dY (m),
@@ -89,17 +91,14 @@ class MonteCarlo:
         return _cdsm.hist_edges()
 
     def percentile(self, p: float) -> np.ndarray:
-        """(N,) p-th percentile (0–100) of |d(X, Y)|, m, to the bin resolution
-        (upper bin edge: conservative, at most 3.9 % high)."""
-        if not 0.0 <= p <= 100.0:
-            raise CdsmInputError(f"`p`: must be within [0, 100], got {p}")
-        edges = self.hist_edges()
-        upper = np.append(edges, np.inf)
-        cum = np.cumsum(self.hist, axis=1)
-        need = np.ceil(p / 100.0 * self.count).astype(np.int64)
-        idx = np.argmax(cum >= np.maximum(need, 1)[:, None], axis=1)
-        out = upper[np.minimum(idx, len(upper) - 1)]
-        return np.where(self.count > 0, out, np.nan)
+        """(N,) p-th percentile (0–100) of the position-error norm (|d(X, Y)|;
+        spatial |d(X, Y, Z)|), m, over each configuration's converged samples:
+        the sample quantile (the smallest sample with at least p % of them at
+        or below it) to within :data:`QUANTILE_BOUND` (0.498 %) — the
+        geometric middle of its histogram bin. Below 1 nm or above 10 m (the
+        histogram's ends) the bound does not hold: the end is returned. NaN
+        for a configuration without samples."""
+        return hist_quantile(self.hist, p)
 
     def merge(self, other: "MonteCarlo") -> None:
         """Adds the samples of ``other`` (same configurations) to this one."""
@@ -129,7 +128,7 @@ def sample_errors(n: int, samples: int, seed: int, chunk_index: int, dl_tol, dh_
 
 def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol=PAPER_DL_TOL,
                 dh_tol=PAPER_DH_TOL, chunk: int = 100, progress: bool = True,
-                method: str = "auto", check_slack: bool = False) -> MonteCarlo:
+                method: str = "auto", check_slack: bool = False, label: str = "monte carlo") -> MonteCarlo:
     """Random composite errors (the paper's Fig. 7): every sample draws a
     uniform error within ±dl_tol on each upper cable and ±dh_tol on each disk's
     hole height (m, scalars or (n,)); every configuration of theta0 (N, n) is
@@ -140,12 +139,12 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     ``MonteCarlo.slack``.
     """
     t0, _ = as_batch("theta0", theta0, robot.n)
-    if int(samples) < 1 or int(chunk) < 1:
-        raise CdsmInputError(f"`samples`, `chunk`: must be >= 1, got {samples}, {chunk}")
+    samples, chunk = as_count("samples", samples, 1), as_count("chunk", chunk, 1)
+    seed = as_count("seed", seed)
     wl, wh = error_widths(robot)
     dlt, dht = as_tolerances("dl_tol", dl_tol, wl), as_tolerances("dh_tol", dh_tol, wh)
-    total, out = int(samples), None
-    bar = Progress(total, "monte carlo", progress)
+    total, out = samples, None
+    bar = Progress(total, label, progress)
     for c, m in enumerate(chunk_sizes(total, chunk)):
         part = monte_carlo_chunk(robot, t0, seed, c, m, dlt, dht, method, check_slack=check_slack)
         if out is None:
@@ -154,9 +153,52 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
             out.merge(part)
         bar.update(m)
     out.feasible0 = robot.feasible(t0)
-    out.params = dict(samples=total, seed=int(seed), chunk=int(chunk), dl_tol_m=dlt.tolist(),
+    out.params = dict(samples=total, seed=seed, chunk=chunk, dl_tol_m=dlt.tolist(),
                       dh_tol_m=dht.tolist(), method=method, check_slack=bool(check_slack))
     return out
+
+
+#: Relative bound of every Monte-Carlo quantile (:meth:`MonteCarlo.percentile`):
+#: half a histogram bin in log space, ``sqrt(10**(1/HIST_PER_DECADE)) - 1``.
+QUANTILE_BOUND = float(np.sqrt(10.0 ** (1.0 / _cdsm.HIST_PER_DECADE)) - 1.0)
+
+
+def hist_quantile(hist: np.ndarray, p: float, above: Optional[np.ndarray] = None,
+                  interpolate: bool = False) -> np.ndarray:
+    """The p-th percentile (0–100, m) of the samples each row of ``hist``
+    (N, HIST_BINS) counts, plus ``above`` (N,) samples counted above every
+    bin (failed solves, say: inf when they reach the percentile): the
+    smallest sample with at least p % at or below it lies in one bin; its
+    geometric middle is returned (within :data:`QUANTILE_BOUND`), or with
+    ``interpolate`` a log-linear interpolation by rank inside the bin (an
+    estimate within the bin, 1 % at worst). The underflow and overflow bins
+    return their edge; NaN for a row without samples."""
+    if not 0.0 <= float(p) <= 100.0:
+        raise CdsmInputError(f"`p`: must be within [0, 100], got {p}")
+    h = np.atleast_2d(hist).astype(np.int64)
+    extra = np.zeros(len(h), np.int64) if above is None else np.asarray(above, np.int64)
+    total = h.sum(axis=1) + extra
+    need = np.maximum(np.ceil(float(p) / 100.0 * total).astype(np.int64), 1)
+    cum = np.cumsum(h, axis=1)
+    inside = cum[:, -1] >= need
+    idx = np.where(inside, np.argmax(cum >= need[:, None], axis=1), h.shape[1])
+    edges = MonteCarlo.hist_edges()
+    last = len(edges)  # the overflow bin
+    out = np.full(len(h), np.inf)
+    reg = inside & (idx >= 1) & (idx < last)
+    k = np.clip(idx, 1, last - 1)  # a regular bin's index (the others are set below)
+    lo, hi = edges[k - 1], edges[k]
+    if interpolate:
+        rows = np.arange(len(h))
+        below = np.where(idx >= 1, cum[rows, np.maximum(idx - 1, 0)], 0)
+        frac = (need - below) / np.maximum(h[rows, np.minimum(idx, h.shape[1] - 1)], 1)
+        est = lo * (hi / lo) ** np.clip(frac, 0.0, 1.0)
+    else:
+        est = np.sqrt(lo * hi)
+    out[reg] = est[reg]
+    out[inside & (idx == 0)] = edges[0]
+    out[inside & (idx == last)] = edges[-1]
+    return np.where(total > 0, out, np.nan)
 
 
 def error_widths(robot) -> Tuple[int, int]:
@@ -185,7 +227,7 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     (default ``robot.threads``) only splits the configurations: the result does
     not depend on it. This is the unit of work of local and cluster runs."""
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
-    th = robot.threads if threads is None else int(threads)
+    th = robot.threads if threads is None else as_count("threads", threads)
     if robot.kind == "spatial":
         st = robot.core.monte_carlo(theta0, dl, None, dh if np.any(dh_tol) else None, method, 1e-12, 100,
                                     bool(check_slack), th)

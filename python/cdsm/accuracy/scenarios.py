@@ -11,8 +11,9 @@ from typing import Optional
 
 import numpy as np
 
-from ..inputs import CdsmInputError, as_batch, as_vector
+from ..inputs import CdsmInputError, as_array, as_batch, as_finite, as_iterations, as_vector
 from ..robot import Robot, Solution
+from ..display import ShortRepr
 
 __all__ = ["deviation", "Deviation", "rotation_vectors", "PAPER_DL_TOL", "PAPER_DH_TOL"]
 
@@ -22,8 +23,8 @@ PAPER_DL_TOL = 1e-3
 PAPER_DH_TOL = 0.35e-3
 
 
-@dataclass(frozen=True)
-class Deviation:
+@dataclass(frozen=True, repr=False)
+class Deviation(ShortRepr):
     """Result of :func:`deviation`.
 
     dS: (N, 3) tip deviation [dX (m), dY (m), dphi (rad)], NaN where the solve
@@ -32,7 +33,8 @@ class Deviation:
     solves. ik: the pose IK that produced theta0, when poses were given.
     feasible: (N,) every upper cable taut (tension > 0 N, the robot's lower
     tensions, no external load) both before and after the error; False flags
-    a configuration the hybrid-controlled arm cannot hold with taut cables.
+    a configuration the hybrid-controlled arm cannot hold with taut cables
+    (None when not asked for: ``deviation(..., statics=False)``).
     """
 
     dS: np.ndarray
@@ -63,7 +65,7 @@ def _theta0(robot: Robot, theta0, poses, ik_seed):
 
 def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes=None,
               ik_seed=None, method: str = "auto", tol: float = 1e-12,
-              max_iter: int = 100) -> Deviation:
+              max_iter: int = 100, statics: bool = True) -> Deviation:
     """Tip deviation caused by cable-length and hole-location errors (Fig. 3a–c).
 
     theta0: (N, n) initial joint angles, rad — or poses: (N, 3) [x, y, phi]
@@ -71,12 +73,15 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
     dL: (n,) error on each upper cable, m (L = L0 + dL). dh: (n,) the paper's
     error on disk i's holes (hole height of pair i), m. dholes: (2n, n+1, 2, 2)
     an error on every hole coordinate, m. Holes and lengths may be combined.
+    ``statics``: also judge every configuration's cables taut before and
+    after (:attr:`Deviation.feasible`; None without) — on an arm of many
+    position cables the statics cost more than the solves.
     """
     t0, ik = _theta0(robot, theta0, poses, ik_seed)
     if robot.kind == "spatial":
         if dh is not None:
             raise CdsmInputError("`dh`: the per-disk hole-height error is planar; give `dholes` for a spatial arm")
-        return _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter)
+        return _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter, statics)
     dl = np.zeros(robot.n) if dL is None else as_vector("dL", dL, robot.n)
     if dh is not None and dholes is not None:
         raise CdsmInputError("`dh`, `dholes`: give at most one of them")
@@ -84,7 +89,7 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
     if dh is not None:
         holes = robot.hole_height_error(dh)
     elif dholes is not None:
-        d = np.asarray(dholes, dtype=np.float64)
+        d = as_array("dholes", dholes)
         if d.shape != robot.holes.shape:
             raise CdsmInputError(f"`dholes`: expected shape {robot.holes.shape}, got {d.shape}")
         if not np.isfinite(d).all():
@@ -92,9 +97,10 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
         holes = robot.holes + d
     if holes is not None:
         holes = np.ascontiguousarray(holes.reshape(-1))
-    res = robot.core.deviation(t0, dl, holes, method, float(tol), int(max_iter), robot.threads)
+    res = robot.core.deviation(t0, dl, holes, method, as_finite("tol", tol), as_iterations("max_iter", max_iter),
+                               robot.threads)
     sol = Solution.from_core(res.solution, robot.n, False)
-    feasible = robot.feasible(t0) & robot.feasible(sol.theta)
+    feasible = robot.feasible(t0) & robot.feasible(sol.theta) if statics else None
     return Deviation(res.ds.reshape(-1, 3), t0, sol, ik, feasible)
 
 
@@ -112,16 +118,16 @@ def rotation_vectors(r: np.ndarray) -> np.ndarray:
     return v * k[..., None]
 
 
-def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter) -> Deviation:
+def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter, statics=True) -> Deviation:
     m = len(robot.position_cables)
     dl = np.zeros(m) if dL is None else as_vector("dL", dL, m)
     moved = robot
     if dholes is not None:
         flat = robot.flat_holes
-        d = np.asarray(dholes, dtype=np.float64).reshape(-1)
+        d = as_array("dholes", dholes).reshape(-1)
         if d.shape != flat.shape or not np.isfinite(d).all():
             raise CdsmInputError(f"`dholes`: expected {flat.size} finite values (every hole's x, y, z, m)")
-        moved = robot.with_holes(flat + d)
+        moved = robot.with_holes(flat + d, within_disks=False)
     sol = moved.solve_cables(robot.position_lengths(t0) + dl, seed=t0, tol=tol, max_iter=max_iter)
     f0, f1 = robot.fk_matrix(t0), moved.fk_matrix(sol.theta)
     ds = np.concatenate([f1[:, :3, 3] - f0[:, :3, 3],
@@ -129,5 +135,5 @@ def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter) -> Deviation:
                                    rotation_vectors(np.einsum("nji,njk->nik", f0[:, :3, :3], f1[:, :3, :3])))],
                         axis=1)
     ds[~np.asarray(sol.converged)] = np.nan
-    feasible = robot.feasible(t0) & moved.feasible(sol.theta)
+    feasible = robot.feasible(t0) & moved.feasible(sol.theta) if statics else None
     return Deviation(ds, t0, sol, ik, feasible)

@@ -14,6 +14,13 @@ Linear amplification (per configuration, tolerances ``t``):
 * worst case: ``worst_x = sum_j |S_xj| t_j``, ``worst_y = sum_j |S_yj| t_j``,
   ``worst_xy = hypot(worst_x, worst_y)`` (a bound on |d(x, y)|);
 * RMS of |d(x, y)| for uniform errors: ``sqrt(sum_{i in x,y} sum_j S_ij^2 t_j^2 / 3)``.
+
+Error budget (:func:`error_budget`, either kind): the share of each error
+group (one cable's length; one disk's hole height, or on a spatial arm every
+coordinate of one cable's holes) in the linear tip-position variance pooled
+over a set of configurations, ``sum_{i, j in group} S_ij^2 t_j^2 / 3``, and
+the linear first guess of tolerances for a target percentile: the linear
+percentile is exactly proportional to a common scale of every tolerance.
 """
 
 from __future__ import annotations
@@ -23,18 +30,20 @@ from typing import Dict, Optional
 
 import numpy as np
 
-from ..inputs import as_batch, as_tolerances
+from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..robot import Robot
 from .montecarlo import monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, deviation
 from .workspace import jump_points, singular_values, sweep
+from ..display import ShortRepr
 
 __all__ = ["Sensitivities", "sensitivities", "sensitivity", "error_matrix", "tolerance_vector", "amplification",
-           "linear_percentile", "linear_vs_mc", "amplification_maps"]
+           "linear_percentile", "linear_vs_mc", "amplification_maps", "position_matrix", "ErrorBudget",
+           "error_budget"]
 
 
-@dataclass(frozen=True)
-class Sensitivities:
+@dataclass(frozen=True, repr=False)
+class Sensitivities(ShortRepr):
     """First-order sensitivities of the tip pose at ``theta (N, n)`` rad.
 
     Planar arms: cable (N, 3, n) d[x, y, phi]/d(upper-cable length), m/m
@@ -121,8 +130,8 @@ def linear_percentile(m: np.ndarray, tol: np.ndarray, p: float, samples: int = 2
     |d(x, y, z)|) over all configurations under the linear model ``m (N, d,
     k)`` (d = 2 or 3) with independent uniform errors within ``±tol (k,)``
     (``samples`` common draws). Exactly proportional to ``tol``."""
-    rng = np.random.default_rng([int(seed), 7])
-    v = rng.uniform(-1.0, 1.0, (int(samples), m.shape[2])) * tol
+    rng = np.random.default_rng([as_count("seed", seed), 7])
+    v = rng.uniform(-1.0, 1.0, (as_count("samples", samples, 1), m.shape[2])) * tol
     ok = np.isfinite(m).all(axis=(1, 2))
     e = np.einsum("nik,sk->nsi", m[ok], v)
     return float(np.percentile(np.sqrt((e ** 2).sum(axis=-1)), p))
@@ -195,18 +204,143 @@ def linear_vs_mc(robot: Robot, protocol: str = "joint", dl_tol=PAPER_DL_TOL, dh_
 # ---------------------------------------------------------------------------
 def amplification_maps(robot: Robot, protocol: str = "attitude0", ws=None) -> dict:
     """Worst-case and RMS amplification maps over a workspace (default the
-    paper's attitude-0 protocol on the ±30°/5° grid): per configuration the
-    nominal tip (x, y) (m) and :func:`amplification` per unit tolerance
-    (``cable_worst``, ``cable_rms``: mm of tip per mm on every upper cable;
-    ``hole_worst``, ``hole_rms``: mm of tip per mm on every disk's hole height)."""
+    paper's attitude-0 protocol on the ±30°/5° grid; spatial arms: give
+    ``ws``, e.g. :func:`cdsm.accuracy.workspace.sample`): per configuration
+    the nominal tip (``xy`` (N, 2), ``tip`` (N, 2 or 3), m) and the
+    amplification per unit tolerance of the tip position: ``cable_worst``,
+    ``cable_rms`` (mm of tip per mm on every position cable), ``hole_worst``,
+    ``hole_rms`` (planar: per mm on every disk's hole height; spatial: per mm
+    on every coordinate of every hole). Worst: the norm over the position
+    axes of ``sum_j |S_ij|``; RMS: ``sqrt(sum_ij S_ij^2 / 3)``. NaN where the
+    configuration is unreachable or the cable Jacobian singular."""
     if ws is None:
         ws = sweep(robot, protocol)
     ok = np.asarray(ws.reachable, bool) & np.isfinite(ws.theta0).all(axis=1)
     t = np.where(ok[:, None], ws.theta0, 0.0)
-    amp = amplification(sensitivities(robot, t), 1.0, 1.0)
-    out = {k: np.where(ok, v, np.nan) for k, v in amp.items()
-           if k in ("cable_worst", "cable_rms", "hole_worst", "hole_rms")}
+    cab, hol = _position_blocks(robot, t)
+    out = {}
+    for name, m in (("cable", cab), ("hole", hol)):
+        out[f"{name}_worst"] = np.where(ok, np.linalg.norm(np.abs(m).sum(axis=2), axis=1), np.nan)
+        out[f"{name}_rms"] = np.where(ok, np.sqrt((m ** 2).sum(axis=(1, 2)) / 3.0), np.nan)
+    d = 2 if robot.kind == "planar" else 3
     out["xy"] = ws.poses[:, :2]
+    out["tip"] = ws.poses[:, :d]
     out["ok"] = ok
     out["protocol"] = ws.protocol
     return out
+
+
+def _position_blocks(robot: Robot, theta: np.ndarray):
+    """(cable (N, d, m_pos), holes (N, d, k)) sensitivities of the tip
+    position (d = 2 planar, 3 spatial) to the position-cable lengths and to
+    the hole errors (planar: each disk's hole height; spatial: every hole
+    coordinate), m/m."""
+    if robot.kind == "planar":
+        s = sensitivities(robot, theta)
+        return s.cable[:, :2, :], s.pair[:, :2, :]
+    s = sensitivities(robot, theta, holes=True)
+    return s.cable[:, :3, :], s.holes[:, :3, :]
+
+
+def position_matrix(robot: Robot, theta) -> np.ndarray:
+    """(N, d, m_pos + k) linear map from every error (the position-cable
+    lengths, then the hole errors as in :func:`amplification_maps`) to the
+    tip position (d = 2 planar, 3 spatial), m/m, at ``theta`` (N, n) rad.
+    Planar arms: :func:`error_matrix`. NaN rows where the cable Jacobian is
+    singular."""
+    t, _ = as_batch("theta", theta, robot.n)
+    return np.concatenate(_position_blocks(robot, t), axis=2)
+
+
+@dataclass(frozen=True)
+class ErrorBudget:
+    """The linear tip-position error budget of a set of configurations
+    (:func:`error_budget`).
+
+    groups: (G,) labels (``"cable 3"``, ``"disk 2's holes"`` or ``"cable 3's
+    holes"``). kinds: (G,) ``"length"`` or ``"holes"``. tolerance: (G,) the
+    tolerance of each group, m (a hole group: each coordinate's). share: (G,)
+    share of the linear variance of the tip position, pooled over the
+    configurations (sums to 1). rms: (G,) RMS over the configurations of the
+    group's linear effect on the tip position per unit tolerance (m/m).
+    matrix: (N', d, k) :func:`position_matrix` (the finite rows the linear
+    percentile was taken over, see :func:`error_budget`); columns:
+    (k,) the group of every column; tol: (k,) every column's tolerance, m.
+    linear_m: the pooled ``percentile`` of |d position| under the linear
+    model at these tolerances, m. configurations: rows used (finite
+    sensitivities). seed, samples: the linear percentile's draws."""
+
+    groups: tuple
+    kinds: tuple
+    tolerance: np.ndarray
+    share: np.ndarray
+    rms: np.ndarray
+    matrix: np.ndarray
+    columns: np.ndarray
+    tol: np.ndarray
+    percentile: float
+    linear_m: float
+    configurations: int
+    seed: int = 0
+    samples: int = 2000
+
+    def for_target(self, target_m: float, shape: str = "ratio") -> np.ndarray:
+        """(G,) linear first guess of the tolerances (m) that put the pooled
+        percentile of |d position| at ``target_m``: ``"ratio"`` scales every
+        tolerance alike; ``"equal-effect"`` makes every group add equally to
+        the linear variance (tolerance ∝ 1 / rms; inf for a group with no
+        effect). Monte Carlo verifies (``cdsm tolerance``)."""
+        if shape == "ratio":
+            return self.tolerance * (float(target_m) / self.linear_m)
+        if shape != "equal-effect":
+            raise CdsmInputError(f"`shape`: expected 'ratio' or 'equal-effect', got {shape!r}")
+        with np.errstate(divide="ignore"):
+            g = np.where(self.rms > 0, 1.0 / np.maximum(self.rms, 1e-300), 0.0)
+        p1 = linear_percentile(self.matrix, g[self.columns], self.percentile, samples=self.samples, seed=self.seed)
+        with np.errstate(divide="ignore"):
+            return np.where(self.rms > 0, g * (float(target_m) / p1), np.inf)
+
+
+def error_budget(robot: Robot, theta, dl_tol, dh_tol, percentile: float = 95.0, samples: int = 2000,
+                 seed: int = 0) -> ErrorBudget:
+    """The linear error budget (module doc) at ``theta`` (N, n) rad for
+    tolerances ``dl_tol`` (per position cable: scalar or (m_pos,), m) and
+    ``dh_tol`` (planar: per disk's hole height, scalar or (n,); spatial: per
+    hole coordinate, scalar or (3 H,), m), with the pooled linear
+    ``percentile`` over ``samples`` common draws (``seed``). The linear
+    percentile costs ``N samples d k`` multiply-adds; past 1e8 it takes fewer
+    draws (not below 64), then every j-th configuration (the shares use
+    every one)."""
+    t, _ = as_batch("theta", theta, robot.n)
+    m = position_matrix(robot, t)
+    m = m[np.isfinite(m).all(axis=(1, 2))]
+    # the linear percentile costs N * samples * d * k multiply-adds: fewer draws, then fewer rows, past 1e8
+    work = max(m.shape[1] * m.shape[2], 1)
+    samples = min(int(samples), max(64, 100_000_000 // max(len(m) * work, 1)))
+    lin_rows = m[::max(1, -(-len(m) * samples * work // 100_000_000))]
+    pos = robot.position_cables
+    mp = len(pos)
+    if robot.kind == "planar":
+        hole_cols = np.arange(robot.n)
+        hole_groups = [f"disk {i + 1}'s holes" for i in range(robot.n)]
+        hole_of_col = hole_cols
+        dht = as_tolerances("dh_tol", dh_tol, robot.n)
+    else:
+        sizes = [3 * (2 * e + 1) for e in robot.cable_ends]
+        hole_of_col = np.repeat(np.arange(robot.cables), sizes)
+        hole_groups = [f"cable {c + 1}'s holes" for c in range(robot.cables)]
+        dht = as_tolerances("dh_tol", dh_tol, len(robot.flat_holes))
+    dlt = as_tolerances("dl_tol", dl_tol, mp)
+    groups = tuple([f"cable {c + 1}" for c in pos] + hole_groups)
+    kinds = tuple(["length"] * mp + ["holes"] * len(hole_groups))
+    columns = np.concatenate([np.arange(mp), mp + hole_of_col]).astype(np.int64)
+    tol = np.concatenate([dlt, dht])
+    G = len(groups)
+    col_var = (m ** 2).sum(axis=1).mean(axis=0) if len(m) else np.zeros(len(tol))  # per unit tolerance
+    var = np.bincount(columns, weights=col_var * tol ** 2 / 3.0, minlength=G)
+    rms = np.sqrt(np.bincount(columns, weights=col_var, minlength=G))
+    gtol = np.array([tol[columns == g].max() if (columns == g).any() else 0.0 for g in range(G)])
+    share = var / var.sum() if var.sum() > 0 else np.zeros(G)
+    lin = linear_percentile(lin_rows, tol, percentile, samples=samples, seed=seed) if len(m) else float("nan")
+    return ErrorBudget(groups, kinds, gtol, share, rms, lin_rows, columns, tol, float(percentile), lin, int(len(m)),
+                       int(seed), int(samples))

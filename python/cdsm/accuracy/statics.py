@@ -15,6 +15,7 @@ import numpy as np
 
 from ..robot import Robot
 from .workspace import joint_grid
+from ..display import ShortRepr
 
 __all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation", "load_readings", "Reading",
            "reading_maps", "STANDARD_GRAVITY"]
@@ -23,10 +24,14 @@ __all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation", "load_r
 STANDARD_GRAVITY = 9.80665
 
 
-@dataclass(frozen=True)
-class FeasibilityMap:
-    """theta (N, n) rad; pose (N, 3) tip [x, y, phi]; tension (N, n) upper
-    tensions, N; feasible (N,) all upper tensions > min_tension."""
+@dataclass(frozen=True, repr=False)
+class FeasibilityMap(ShortRepr):
+    """theta (N, n) rad; pose (N, task) tip pose (planar [x, y, phi];
+    spatial [x, y, z, rx, ry, rz]); tension (N, m_pos) tensions of the
+    position-controlled cables (planar: the upper cables), N; feasible (N,)
+    the core's verdict (:meth:`cdsm.Robot.feasible`): every position cable
+    held above min_tension — with more position cables than joints a cable
+    of the minimum-norm set may sit exactly at the floor."""
 
     theta: np.ndarray
     pose: np.ndarray
@@ -46,9 +51,9 @@ def feasibility_map(robot: Robot, theta=None, lower=None, tip_wrench=None, gravi
     the paper's +-30 deg, 5 deg grid); ``min_tension`` in N; loads as in
     :meth:`cdsm.Robot.tensions`. Plot ``pose[:, :2]`` coloured by ``feasible``."""
     th = joint_grid(robot.n) if theta is None else np.atleast_2d(np.asarray(theta, dtype=float))
-    T = robot.tensions(th, lower=lower, tip_wrench=tip_wrench, gravity=gravity)
-    with np.errstate(invalid="ignore"):
-        ok = np.all(T > min_tension, axis=1)
+    T = robot.tensions(th, lower=lower, tip_wrench=tip_wrench, gravity=gravity, min_tension=min_tension)
+    ok = np.asarray(robot.feasible(th, lower=lower, tip_wrench=tip_wrench, gravity=gravity,
+                                   min_tension=min_tension), bool)
     return FeasibilityMap(th, robot.fk(th), T, ok, float(min_tension))
 
 
@@ -83,8 +88,8 @@ def load_readings(robot: Robot) -> Dict[str, Robot]:
             "other plane, weights reversed": robot.with_loads(lower_tension=rev, gravity=other)}
 
 
-@dataclass(frozen=True)
-class Reading:
+@dataclass(frozen=True, repr=False)
+class Reading(ShortRepr):
     """One load reading over a joint grid: the robot, its feasibility map and
     the tip deviation (N, 3) [dX m, dY m, dphi rad] its elastic cables cause
     when the rigid model's lengths are commanded (NaN where slack or not

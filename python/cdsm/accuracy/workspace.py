@@ -1,13 +1,18 @@
-"""Workspace sweeps, the two error-study protocols, singular states and jump
+"""Workspace sweeps, the error-study protocols, singular states and jump
 points. SI units: m, rad.
 
-Protocols (each figure of the paper report says which one it uses):
+Protocols (each figure of a study report says which one it uses):
 
 * ``joint`` — the error is applied at the grid angles themselves.
 * ``attitude0`` — the paper's protocol as we read it: the tip position of each
   grid configuration, attitude set to 0, pose IK (seed :func:`paper_ik_seed`),
   then the error. Grid points whose (X, Y, 0) the IK cannot reach are counted
-  and reported (``reachable`` False), never dropped.
+  and reported (``reachable`` False), never dropped. For planar arms without
+  redundancy only (:mod:`cdsm.study` chooses).
+* ``sampled`` — the error is applied at configurations sampled in the joint
+  box (:func:`sample`): arms whose joint grid would be too coarse (spatial
+  arms, planar arms of many joints). Jumps are judged between nearest
+  neighbours in joint space (:func:`cdsm.accuracy.sampling.jump_points`).
 """
 
 from __future__ import annotations
@@ -19,10 +24,12 @@ import numpy as np
 
 from ..inputs import CdsmInputError, as_batch
 from ..robot import Robot, Solution
+from ..display import ShortRepr
+from .sampling import nearest_neighbours, sample_configurations
 
 __all__ = [
-    "joint_grid", "default_step", "grid_neighbours", "paper_ik_seed", "Workspace", "sweep",
-    "singular_values", "cable_fold_ratio", "jump_points", "Jumps", "REASONS",
+    "joint_grid", "default_step", "grid_neighbours", "paper_ik_seed", "Workspace", "sweep", "sample",
+    "grid_values", "singular_values", "cable_fold_ratio", "jump_points", "Jumps", "REASONS", "MIN_LINE",
 ]
 
 
@@ -77,16 +84,20 @@ def paper_ik_seed(n: int) -> np.ndarray:
     return s
 
 
-@dataclass(frozen=True)
-class Workspace:
+@dataclass(frozen=True, repr=False)
+class Workspace(ShortRepr):
     """A set of initial configurations for an error study.
 
-    protocol: ``"joint"`` or ``"attitude0"``. grid: (N, n) grid angles, rad.
-    poses: (N, 3) initial poses [x, y, phi] (m, m, rad). theta0: (N, n) initial
-    angles (rad; for attitude0 the IK answer, NaN where unreachable).
-    reachable: (N,) bool. ik: the IK solution (attitude0 only).
-    neighbours: (E, 4) grid-neighbour pairs with their adjacent edges
-    (:func:`grid_neighbours`; empty for a plain list of configurations).
+    protocol: ``"joint"``, ``"attitude0"`` or ``"sampled"``. grid: (N, n)
+    grid (or sampled) angles, rad. poses: (N, task) initial poses (planar
+    [x, y, phi], m, m, rad; spatial [x, y, z, rx, ry, rz], m and rad).
+    theta0: (N, n) initial angles (rad; for attitude0 the IK answer, NaN
+    where unreachable). reachable: (N,) bool. ik: the IK solution
+    (attitude0 only). neighbours: grid protocols (E, 4) grid-neighbour pairs
+    with their adjacent edges (:func:`grid_neighbours`; empty for a plain
+    list of configurations); ``sampled`` (N, k) each configuration's nearest
+    neighbours in joint space. params: how the configurations were made
+    (``sampled``: method, seed, k).
     """
 
     protocol: str
@@ -96,6 +107,7 @@ class Workspace:
     reachable: np.ndarray
     neighbours: np.ndarray
     ik: Optional[Solution] = None
+    params: Optional[dict] = None
 
     @property
     def n_unreachable(self) -> int:
@@ -103,9 +115,10 @@ class Workspace:
 
     def describe_grid(self) -> str:
         """'±A° in S° steps' for a symmetric joint grid, else 'N configurations'."""
-        v = np.unique(np.round(np.degrees(self.grid), 9))
-        if len(v) > 1 and np.isclose(v[0], -v[-1]):
-            return f"±{v[-1]:g}° in {np.diff(v).min():g}° steps"
+        if self.protocol != "sampled":
+            v = np.unique(np.round(np.degrees(self.grid), 9))
+            if len(v) > 1 and np.isclose(v[0], -v[-1]):
+                return f"±{v[-1]:g}° in {np.diff(v).min():g}° steps"
         return f"{len(self.grid)} configurations"
 
 
@@ -121,6 +134,33 @@ def default_step(n: int, max_points: int = 20_000) -> float:
     while k > 3 and k ** n > max_points:
         k -= 1
     return np.radians(60.0 / (k - 1))
+
+
+def grid_values(n: int, max_points: int = 20_000) -> int:
+    """Values per joint of the default grid of an ``n``-joint arm (the
+    ±30° grid of :func:`default_step`)."""
+    return int(round(60.0 / np.degrees(default_step(n, max_points)))) + 1
+
+
+def sample(robot: Robot, configurations: int = 1000, method: str = "sobol", seed: int = 0, k: int = 6,
+           theta=None) -> Workspace:
+    """The ``sampled`` protocol: ``configurations`` joint angles sampled in
+    the robot's joint box (:func:`cdsm.accuracy.sampling.sample_configurations`:
+    ``method`` ``"sobol"``, scrambled with ``seed``, or ``"random"``), or the
+    given ``theta`` (N, n) rad, with each one's ``k`` nearest neighbours in
+    joint space (for jump points). Either kind."""
+    given = theta is not None
+    if given:
+        t = np.ascontiguousarray(np.asarray(theta, dtype=np.float64))
+        if t.ndim != 2 or t.shape[1] != robot.n or not np.isfinite(t).all():
+            raise CdsmInputError(f"`theta`: expected finite (N, {robot.n}) joint angles, got shape {t.shape}")
+    else:
+        t = sample_configurations(robot, configurations, method=method, seed=seed)
+    if len(t) <= int(k):
+        raise CdsmInputError(f"`configurations`: need more than k = {k} configurations, got {len(t)}")
+    nb = nearest_neighbours(t, k)
+    return Workspace("sampled", t, robot.fk(t), t.copy(), np.ones(len(t), bool), nb,
+                     params=dict(method="given" if given else method, seed=int(seed), k=int(k)))
 
 
 def sweep(robot: Robot, protocol: str = "attitude0", grid=None, ik_seed=None,
@@ -163,8 +203,8 @@ def singular_values(robot: Robot, theta, attitude_scale: Optional[float] = None)
     return np.linalg.svd(j, compute_uv=False)
 
 
-@dataclass(frozen=True)
-class Jumps:
+@dataclass(frozen=True, repr=False)
+class Jumps(ShortRepr):
     """Jump points of one deviation map.
 
     change: (E,) |Δ d(X, Y)| across each neighbour pair, m (NaN if either end

@@ -14,7 +14,8 @@ import numpy as np
 
 from ..accuracy.workspace import paper_ik_seed
 from ..files import read_table, table_column, write_text
-from ..inputs import CdsmInputError, as_vector
+from ..inputs import CdsmInputError, as_array, as_finite, as_iterations, as_vector
+from ..display import ShortRepr
 
 __all__ = ["Compensation", "compensate", "read_targets", "TARGET_COLUMNS"]
 
@@ -57,8 +58,8 @@ ROTATION_ERROR = {"planar": "predicted_phi_error", "spatial": "predicted_rotatio
 # ---------------------------------------------------------------------------
 # compensation result
 # ---------------------------------------------------------------------------
-@dataclass
-class Compensation:
+@dataclass(repr=False)
+class Compensation(ShortRepr):
     """Compensated commands for N target poses (robot with n joints).
 
     targets: (N, 2) or (N, 3) the targets [x, y(, phi)] (m, m, rad).
@@ -188,7 +189,7 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension:
     if r.kind == "spatial":
         return _compensate_spatial(model, poses, tol, max_iter, min_tension, enforce_limits, start)
     n = r.n
-    arr = np.asarray(poses, dtype=np.float64)
+    arr = as_array("poses", poses)
     if arr.ndim == 1:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] not in (2, 3):
@@ -247,7 +248,7 @@ def _compensate_spatial(model, poses, tol, max_iter, min_tension, enforce_limits
     z(, rotation · L)]."""
     r = model.robot
     n, m = r.n, len(r.position_cables)
-    arr = np.atleast_2d(np.asarray(poses, dtype=np.float64))
+    arr = np.atleast_2d(as_array("poses", poses))
     if arr.ndim != 2 or arr.shape[1] not in (3, 6):
         raise CdsmInputError(f"`poses`: expected shape (N, 3) or (N, 6) for a spatial arm, got {np.shape(poses)}")
     if not np.isfinite(arr).all():
@@ -296,8 +297,8 @@ def _solve_rows(model, theta, full, reach, weights, m: int, start, tol, max_iter
     if len(rows):
         st = None if start is None else np.ascontiguousarray(as_vector("start", start, m))
         res = r.core.compensate(np.ascontiguousarray(model.p, float), np.ascontiguousarray(theta[rows]),
-                                np.ascontiguousarray(full[rows]), weights, st, float(tol), 1e-12,
-                                int(max_iter), r.threads)
+                                np.ascontiguousarray(full[rows]), weights, st, as_finite("tol", tol), 1e-12,
+                                as_iterations("max_iter", max_iter), r.threads)
         commands[rows] = res.command.reshape(-1, m)
         nominal[rows] = res.nominal.reshape(-1, m)
         th_pred[rows] = res.theta.reshape(-1, n)

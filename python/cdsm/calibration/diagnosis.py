@@ -46,20 +46,22 @@ for displacement rows, ``sigma`` the noise of one reading per axis.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
-from typing import Dict, List, Optional, Sequence
+from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..accuracy.scenarios import rotation_vectors
 from ..accuracy.sensitivity import sensitivity
 from ..accuracy.workspace import paper_ik_seed, singular_values
-from ..inputs import CdsmInputError
+from ..inputs import CdsmDataWarning, CdsmInputError
 from ..progress import Progress
 from ..robot import Robot
 from . import plant, stats
 from .fit import Fit, fit_folds
 from .measurements import KIND_CODES, Measurements
+from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "features",
            "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES"]
@@ -74,8 +76,8 @@ OUTLIER_SIGMA = 5.0
 ALPHA = 0.025
 
 
-@dataclass
-class Prepared:
+@dataclass(repr=False)
+class Prepared(ShortRepr):
     """Measurements ready for the plant, in file order.
 
     theta_cmd (N, n) rad: solved commands; dL (N, n) m; kinds (N,) plant row
@@ -194,6 +196,28 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "register") -> Prepar
                     registered, start)
 
 
+def _too_few_rows(robot: Robot, meas: Measurements, prep: Prepared) -> str:
+    """Why a data set has fewer than 3 usable rows: the count of each reason,
+    and a hint at the unit when the commanded poses lie far past the arm's
+    reach (millimetres for metres)."""
+    why: Dict[str, int] = {}
+    for reason in prep.flags.values():
+        kind = reason.split(" (", 1)[0]  # one count per kind of reason, without the row's numbers
+        why[kind] = why.get(kind, 0) + 1
+    unmeasured = int((~meas.observed).sum())
+    if unmeasured:
+        why["a move that was not measured"] = unmeasured
+    parts = [f"{count} row(s): {kind}" for kind, count in sorted(why.items(), key=lambda t: -t[1])]
+    msg = (f"{meas.source or 'measurements'}: only {int(prep.usable.sum())} of {len(meas)} rows are usable; "
+           f"the diagnosis needs at least 3" + (" (" + "; ".join(parts) + ")" if parts else ""))
+    if meas.pose_cmd is not None:
+        far = float(np.abs(meas.pose_cmd[:, :2]).max()) / robot.straight_length
+        if far > 10.0:
+            msg += (f". The commanded poses lie up to {far:.0f} times farther than the arm reaches: are they "
+                    "in mm? cdsm reads SI units: metres (divide by 1000)")
+    return msg
+
+
 def _check_scale(meas: Measurements, predicted: np.ndarray, measured: np.ndarray) -> None:
     """Refuse data whose spread is about a thousand times the model's (mm for m)."""
     if meas.kind == "absolute":
@@ -239,8 +263,8 @@ def repeat_groups(prep: Prepared, decimals: int = 9) -> List[np.ndarray]:
     return [np.array(v) for v in keys.values() if len(v) >= 2]
 
 
-@dataclass
-class NoiseEstimate:
+@dataclass(repr=False)
+class NoiseEstimate(ShortRepr):
     """The noise of one reading per axis (m), where it came from
     (``"repeats"``, ``"given"``, ``"assumed"``), its 95 % interval (repeats),
     and the pure error the repeats give (sum of squares m², degrees of
@@ -252,32 +276,55 @@ class NoiseEstimate:
     ss_pure: float = 0.0
     dof_pure: int = 0
     groups: int = 0
+    #: rows (file order, 0-based) whose readings are bit-identical to an
+    #: earlier repeat of the same command: copies, not repeats
+    duplicates: Tuple[int, ...] = ()
 
 
 def _noise(prep: Prepared, given: Optional[float]) -> NoiseEstimate:
-    groups = repeat_groups(prep)
-    ss, dof = 0.0, 0
     k = plant.dims(prep.robot)
+    groups, copies = [], []
+    for g in repeat_groups(prep):
+        # a reading bit-identical to an earlier one of the group is a copy
+        # (a pasted row), not a second measurement: it carries no noise
+        seen: Dict[bytes, int] = {}
+        keep = []
+        for i in g:
+            key = prep.measured[i, :k].tobytes()
+            if key in seen:
+                copies.append(int(i))
+            else:
+                seen[key] = int(i)
+                keep.append(int(i))
+        if len(keep) >= 2:
+            groups.append(np.array(keep))
+    if copies:
+        warnings.warn(f"{prep.meas.source or 'measurements'}: {len(copies)} row(s) repeat an earlier reading of "
+                      f"the same command bit for bit (rows {', '.join(str(i + 1) for i in sorted(copies)[:10])}"
+                      f"{', ...' if len(copies) > 10 else ''}): taken as copies, not as repeats, so they do not "
+                      "estimate the noise", CdsmDataWarning, stacklevel=3)
+    ss, dof = 0.0, 0
     for g in groups:
         y = prep.measured[g, :k]
         ss += float(((y - y.mean(axis=0)) ** 2).sum())
         dof += k * (len(g) - 1)
+    dup = tuple(sorted(copies))
     if given is not None:
-        return NoiseEstimate(float(given), "given", None, ss, dof, len(groups))
+        return NoiseEstimate(float(given), "given", None, ss, dof, len(groups), dup)
     if dof >= 2 and ss > 0:
         r2 = prep.readings ** 2
         sigma = float(np.sqrt(ss / dof / r2))
         ci = (float(np.sqrt(ss / stats.chi2_ppf(0.975, dof) / r2)),
               float(np.sqrt(ss / stats.chi2_ppf(0.025, dof) / r2)))
-        return NoiseEstimate(sigma, "repeats", ci, ss, dof, len(groups))
-    return NoiseEstimate(DEFAULT_NOISE, "assumed", None, ss, dof, len(groups))
+        return NoiseEstimate(sigma, "repeats", ci, ss, dof, len(groups), dup)
+    return NoiseEstimate(DEFAULT_NOISE, "assumed", None, ss, dof, len(groups), dup)
 
 
 # ---------------------------------------------------------------------------
 # candidates
 # ---------------------------------------------------------------------------
-@dataclass
-class Candidate:
+@dataclass(repr=False)
+class Candidate(ShortRepr):
     """One effect or combination: its fit on all usable rows, its held-out
     position errors |e_xy| (m, one per usable row; a row the candidate cannot
     predict counts with the nominal model's error) and how many such
@@ -338,8 +385,8 @@ class _Scorer:
         return Candidate(name, list(effects), full, held, int(fail.sum()))
 
 
-@dataclass
-class Verdict:
+@dataclass(repr=False)
+class Verdict(ShortRepr):
     """The answer for one set of rows: the verdict, whether the nominal and
     the final model are adequate, and the lack-of-fit test of the final model
     (``test``: ``"chi2"`` or ``"F"``, statistic, degrees of freedom, p-value)."""
@@ -354,8 +401,8 @@ class Verdict:
     noise_needed: float
 
 
-@dataclass
-class Diagnosis:
+@dataclass(repr=False)
+class Diagnosis(ShortRepr):
     """The answer: ``best`` (an effect, a '+'-joined combination, or 'none'),
     the ``verdict``, the baseline, every candidate (best first), the chosen
     model, the noise, per-row residuals and features, and identifiability
@@ -382,6 +429,11 @@ class Diagnosis:
     unidentifiable: List[str] = field(default_factory=list)
     folds: int = 10
     alphas: List[float] = field(default_factory=list)
+
+    def __repr__(self) -> str:
+        return (f"Diagnosis(verdict={self.verdict!r}, best={self.best!r}, held-out RMS "
+                f"{self.baseline.heldout_rms * 1e6:.1f} -> {self.final().heldout_rms * 1e6:.1f} um, noise floor "
+                f"{self.noise_floor * 1e6:.1f} um, {int(self.prep.usable.sum())} usable rows of {len(self.prep.meas)})")
 
     @property
     def noise(self) -> float:
@@ -441,7 +493,8 @@ class Diagnosis:
             chosen=cand(self.chosen) if self.chosen else None,
             noise_m=self.noise, noise_source=ne.source,
             noise_ci_m=list(ne.ci) if ne.ci else None,
-            repeat_groups=ne.groups, noise_floor_m=self.noise_floor,
+            repeat_groups=ne.groups, duplicate_rows=[i + 1 for i in ne.duplicates],
+            noise_floor_m=self.noise_floor,
             lack_of_fit=verdict(self.verdict_detail)["lack_of_fit"] if self.verdict_detail else None,
             verdict_detail=verdict(self.verdict_detail),
             outliers=[int(i) + 1 for i in self.outliers],
@@ -574,11 +627,12 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
         raise CdsmInputError(f"`noise`: must be a positive number of m, got {noise}")
     prep = prepare(robot, meas, frame)
     if prep.usable.sum() < 3:
-        raise CdsmInputError(f"only {int(prep.usable.sum())} usable rows; the diagnosis needs at least 3")
+        raise CdsmInputError(_too_few_rows(robot, meas, prep))
     if prep.registered:
         library = [e for e in library if e != "frame_misalignment"]
     rows = prep.rows
-    bar = Progress(len(library) + 2, "diagnose", progress)
+    # steps: the baseline, its held-out errors, every single effect, the selection
+    bar = Progress(len(library) + 3, "diagnose", progress)
     scorer = _Scorer(prep, rows, folds)
     base = scorer.evaluate("none", [])
     bar.update(1)

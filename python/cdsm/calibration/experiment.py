@@ -64,18 +64,19 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 
 from ..files import write_text
-from ..inputs import CdsmInputError
+from ..inputs import CdsmInputError, as_count
 from ..robot import Robot
 from . import plant
 from .diagnosis import Diagnosis, Prepared, prepare
 from .fit import free_parameters
 from .measurements import KIND_CODES, Measurements
+from ..display import ShortRepr
 
 __all__ = ["suggest", "Suggestion", "candidate_pool", "combine", "discrimination"]
 
 
-@dataclass
-class Suggestion:
+@dataclass(repr=False)
+class Suggestion(ShortRepr):
     """K proposed measurements.
 
     theta: (K, n) commanded angles, rad. dL: (K, m) extras on the
@@ -324,9 +325,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
     the data's. approach: the approach move (m, default ``dl``) when a
     candidate has backlash. See the module docstring for the criterion.
     """
-    if int(k) < 1:
-        raise CdsmInputError(f"`k`: must be at least 1, got {k}")
-    k = int(k)
+    k = as_count("k", k, 1)
     prep = diag.prep
     robot, kind, noise = prep.robot, prep.kind, float(diag.noise * prep.readings)
     if candidates is None:

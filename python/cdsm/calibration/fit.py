@@ -13,9 +13,10 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from ..inputs import CdsmInputError
+from ..inputs import CdsmInputError, as_array, as_iterations
 from ..robot import Robot
 from . import plant
+from ..display import ShortRepr
 
 __all__ = ["Fit", "fit", "fit_folds", "free_parameters", "FIT_ITERATIONS"]
 
@@ -23,8 +24,8 @@ __all__ = ["Fit", "fit", "fit_folds", "free_parameters", "FIT_ITERATIONS"]
 FIT_ITERATIONS = 30
 
 
-@dataclass
-class Fit:
+@dataclass(repr=False)
+class Fit(ShortRepr):
     """A fitted model: effects, the full parameter vector p (P,), free
     parameter names and values, standard deviations (NaN: not determined by
     the data), correlation, singular values of the column-scaled Jacobian,
@@ -90,12 +91,13 @@ def fit_folds(prep, effects: Sequence[str], scored: np.ndarray, start: Optional[
     sc = np.atleast_2d(np.asarray(scored, bool))
     if sc.shape[1] != len(prep.theta_cmd):
         raise CdsmInputError(f"`scored`: expected (F, {len(prep.theta_cmd)}) flags, got {sc.shape}")
-    p0 = np.zeros(plant.size(robot)) if start is None else np.asarray(start, float)
+    p0 = np.zeros(plant.size(robot)) if start is None else as_array("start", start)
     o = prep.order
     raw = robot.core.plant_fit(np.ascontiguousarray(prep.theta_cmd[o]), np.ascontiguousarray(prep.dL[o]),
                                prep.kinds[o].tolist(), np.ascontiguousarray(prep.measured[o]),
                                sc[:, o].reshape(-1).tolist(), idx.tolist(), scale.tolist(),
-                               np.ascontiguousarray(p0, float), 1e-12, 100, int(max_iter), robot.threads)
+                               np.ascontiguousarray(p0, float), 1e-12, 100, as_iterations("max_iter", max_iter),
+                               robot.threads)
     return [_summary(list(effects), idx, scale, names, r, o, plant.width(robot)) for r in raw]
 
 

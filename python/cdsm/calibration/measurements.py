@@ -30,15 +30,17 @@ import numpy as np
 
 from ..files import parse_table, read_text, table_column
 from ..inputs import CdsmInputError
+from ..display import ShortRepr
 
-__all__ = ["Measurements", "parse_csv", "read_csv", "read_for", "packaged", "after_reversals", "KIND_CODES"]
+__all__ = ["Measurements", "parse_csv", "read_csv", "read_for", "packaged", "packaged_names", "after_reversals",
+           "KIND_CODES"]
 
 #: Row kinds of the plant's data sets, by code (see ``docs/model.md``).
 KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
 
 
-@dataclass
-class Measurements:
+@dataclass(repr=False)
+class Measurements(ShortRepr):
     """A parsed measurement table; every array has one row per measurement.
 
     kind: ``"absolute"`` (x, y) or ``"displacement"`` (dx, dy). theta: (N, n)
@@ -188,14 +190,31 @@ def read_csv(path: "str | os.PathLike[str]", n: int, cables: Optional[int] = Non
 
 
 def read_for(robot, path: "str | os.PathLike[str]") -> Measurements:
-    """Read a measurement CSV file for ``robot`` (planar or spatial columns)."""
+    """Read a measurement CSV file for ``robot`` (planar or spatial
+    columns); ``path`` may also name a packaged table (``"table3"``) when
+    no such file exists — a file of that name wins."""
     cables = len(robot.position_cables) if robot.kind == "spatial" else None
+    if not os.path.exists(path) and str(path) in packaged_names():
+        text = resources.files("cdsm").joinpath("data", f"{path}.csv").read_text(encoding="utf-8")
+        return parse_csv(text, robot.n, f"cdsm/data/{path}.csv", cables)
+    if not os.path.exists(path):
+        raise CdsmInputError(f"measurement file {str(path)!r}: does not exist (packaged tables, usable by name: "
+                             f"{', '.join(packaged_names())})")
     return read_csv(path, robot.n, cables)
+
+
+def packaged_names() -> List[str]:
+    """Names of the measurement tables shipped with cdsm (``cdsm/data/*.csv``)."""
+    return sorted(p.name[:-4] for p in resources.files("cdsm").joinpath("data").iterdir()
+                  if p.name.endswith(".csv"))
 
 
 def packaged(name: str, n: int = 3) -> Measurements:
     """A table shipped with cdsm: ``"table3"`` (the paper's measurements) or
     ``"table3_theory"`` (the paper's simulated column)."""
+    if name not in packaged_names():
+        raise CdsmInputError(f"`name`: no packaged measurement table {name!r}; packaged: "
+                             f"{', '.join(packaged_names())}")
     text = resources.files("cdsm").joinpath("data", f"{name}.csv").read_text(encoding="utf-8")
     return parse_csv(text, n, f"cdsm/data/{name}.csv")
 

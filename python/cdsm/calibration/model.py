@@ -59,7 +59,7 @@ from typing import Dict, List, Mapping, Optional, Sequence
 import numpy as np
 
 from ..files import read_text, sha256_of, write_text
-from ..inputs import CdsmInputError, as_batch
+from ..inputs import CdsmInputError, as_array, as_batch
 from ..robot import Robot
 from . import plant
 from .compensation import Compensation, compensate
@@ -105,14 +105,21 @@ class Model:
                  std: Optional[Mapping[str, Sequence[float]]] = None, data: Optional[dict] = None,
                  heldout: Optional[dict] = None, robot_toml_text: Optional[str] = None):
         self.robot = robot
-        self.p = np.array(p, dtype=np.float64).reshape(-1)
+        self.p = as_array("p", p).reshape(-1).copy()
         if self.p.size != plant.size(robot) or not np.isfinite(self.p).all():
             raise CdsmInputError(f"`p`: expected {plant.size(robot)} finite plant parameters, got {self.p.size}")
         for e in effects:
             plant.effect_indices(robot, e)  # names the unknown ones
         self.effects = list(effects)
         self.name = name if name is not None else ("+".join(self.effects) or "none")
-        self.std = {k: [float(x) for x in v] for k, v in (std or {}).items()}
+        if std is not None and not isinstance(std, Mapping):
+            raise CdsmInputError(f"`std`: expected {{effect: [1-sigma values]}}, got {type(std).__name__}")
+        self.std = {}
+        for k, v in (std or {}).items():
+            arr = as_array(f"std[{k!r}]", v)
+            if arr.ndim > 1:
+                raise CdsmInputError(f"`std[{k!r}]`: expected a list of numbers, got shape {arr.shape}")
+            self.std[str(k)] = [float(x) for x in np.atleast_1d(arr)]
         self.data = data
         self.heldout = heldout
         self._toml = robot_toml_text if robot_toml_text is not None else robot.to_toml()
@@ -199,14 +206,14 @@ class Model:
             raise CdsmInputError(f"model file {source!r}: bad robot: {exc}") from None
         lay = plant.layout(robot)
         try:
-            flat = np.array(flat, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise CdsmInputError(f"model file {source!r}: params.flat is not a list of numbers") from None
+            flat = as_array("params.flat", flat)
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"model file {source!r}: {exc}") from None
         p = _remap(flat, par.get("layout"), lay, source)
         if not np.isfinite(p).all():
             raise CdsmInputError(f"model file {source!r}: params.flat holds non-finite numbers")
         try:
-            return cls(robot, p, effects, name=d.get("name"), std=par.get("std") or {},
+            return cls(robot, p, effects, name=d.get("name"), std=par.get("std"),
                        data=d.get("data"), heldout=d.get("heldout"), robot_toml_text=toml)
         except CdsmInputError as exc:
             raise CdsmInputError(f"model file {source!r}: {exc}") from None

@@ -40,7 +40,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..inputs import CdsmInputError, as_batch
+from ..inputs import CdsmInputError, as_array, as_batch, as_finite, as_iterations
 from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
 
@@ -170,7 +170,7 @@ def params(robot: Robot, effects: Optional[Mapping[str, Sequence[float]]] = None
     lay = layout(robot)
     p = np.zeros(size(robot))
     for name, val in (effects or {}).items():
-        v = np.atleast_1d(np.asarray(val, dtype=np.float64))
+        v = np.atleast_1d(as_array(f"effects[{name!r}]", val))
         idx = effect_indices(robot, name)
         first = lay[EFFECT_BLOCKS.get(name, (name,))[0]]
         if v.size == first.stop - first.start:
@@ -228,7 +228,8 @@ def predict(robot: Robot, p, theta_cmd, dL=None, kind="absolute", tol: float = 1
 def _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter):
     pp, single = as_batch("params", p, size(robot))
     t, d, k = _inputs(robot, theta_cmd, dL, kind)
-    res = robot.core.plant_predict(pp, t, d, k, float(tol), int(max_iter), robot.threads)
+    res = robot.core.plant_predict(pp, t, d, k, as_finite("tol", tol), as_iterations("max_iter", max_iter),
+                                   robot.threads)
     shape = (len(pp), len(t))
     out = (res.observation.reshape(shape + (width(robot),)), res.converged.reshape(shape),
            res.theta.reshape(shape + (robot.n,)))
@@ -245,7 +246,8 @@ def linearise(robot: Robot, p, free, theta_cmd, dL=None, kind="absolute", tol: f
     pp = np.ascontiguousarray(as_batch("params", p, size(robot))[0][0])
     t, d, k = _inputs(robot, theta_cmd, dL, kind)
     fr = [int(i) for i in np.atleast_1d(free)]
-    res = robot.core.plant_linearise(pp, fr, t, d, k, float(tol), int(max_iter), robot.threads)
+    res = robot.core.plant_linearise(pp, fr, t, d, k, as_finite("tol", tol), as_iterations("max_iter", max_iter),
+                                     robot.threads)
     w = width(robot)
     return (res.observation.reshape(-1, w), np.asarray(res.converged, bool),
             res.jacobian.reshape(len(t), w, len(fr)))

@@ -16,7 +16,7 @@ from .registry import COMMANDS, PROG, UserError
 __all__ = ["main", "build_parser", "COMMANDS", "COMMAND_MODULES"]
 
 #: the modules that register the commands, in help order
-COMMAND_MODULES = ("paper", "diagnose", "compensate", "tolerance", "montecarlo")
+COMMAND_MODULES = ("paper", "diagnose", "compensate", "tolerance", "montecarlo", "export", "listing")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -33,14 +33,17 @@ def build_parser() -> argparse.ArgumentParser:
     for cmd in COMMANDS.values():
         p = sub.add_parser(cmd.name, help=cmd.help, description=cmd.help)
         cmd.add_args(p)
-        p.set_defaults(_run=cmd.run)
+        p.set_defaults(_run=cmd.run, _parser=p)
     return parser
 
 
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``cdsm``; returns the exit status (0 ok, 2 user error)."""
     parser = build_parser()
-    args = parser.parse_args(argv)  # exits 2 with a usage line on bad options
+    args, extra = parser.parse_known_args(argv)  # exits 2 with a usage line on bad options
+    if extra:
+        # an option the command does not know: the command's usage, not the top level's
+        (getattr(args, "_parser", None) or parser).error(f"unrecognized arguments: {' '.join(extra)}")
     if getattr(args, "_run", None) is None:
         parser.print_help(sys.stderr)
         return 2

@@ -14,7 +14,7 @@ def _compensate_args(p: argparse.ArgumentParser) -> None:
                    "phi (rad); spatial arms x, y, z (m) and optional rx, ry, rz (rotation vector, rad); "
                    "'#' comment lines")
     p.add_argument("--model", metavar="MODEL.json", required=True,
-                   help="fitted model (cdsm diagnose --save-model; format cdsm-model/1)")
+                   help="fitted model (cdsm diagnose --save-model; format cdsm-model/2, also reads /1)")
     p.add_argument("--out", metavar="COMMANDS.csv", required=True,
                    help="output: cable length commands L_i (m) per target (planar: the upper cables; spatial: the "
                         "position-controlled ones), converged, "

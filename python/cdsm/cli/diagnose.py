@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from .registry import (check_out_file, load_robot, options, positive_int, prepare_dir, subcommand)
+from .registry import (add_robot_option, check_out_file, load_robot, options, positive_int, prepare_dir, subcommand)
 from typing import List
 
 
@@ -44,10 +44,10 @@ def _effect_list(text: str) -> List[str]:
 def _diagnose_args(p: argparse.ArgumentParser) -> None:
     from ..calibration.diagnosis import DEFAULT_NOISE
 
-    p.add_argument("data", metavar="DATA.csv",
-                   help="measurement table (CSV, SI units; see cdsm.calibration.measurements)")
-    p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units); "
-                   "default: the paper's 3-joint prototype")
+    p.add_argument("data", metavar="DATA.csv|NAME",
+                   help="measurement table (CSV, SI units; see cdsm.calibration.measurements), or the name of a "
+                        "packaged table (`cdsm list data`: e.g. table3)")
+    add_robot_option(p)
     p.add_argument("--effects", metavar="a,b,...", type=_effect_list, default=None,
                    help="candidate effects (comma list; default: the whole library)")
     p.add_argument("--json", metavar="OUT", help="write the diagnosis as JSON (SI units)")
@@ -88,13 +88,14 @@ def _diagnose_run(args) -> int:
     d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
                           frame=args.frame,
                           progress=show)
-    for line in diagnose_report.summary(d):
-        print(line)
     suggestion = None
     if args.suggest is not None:
         from ..calibration.experiment import suggest
 
         suggestion = suggest(d, args.suggest)
+    for line in diagnose_report.summary(d, suggestion):
+        print(line)
+    if suggestion is not None:
         print(suggestion.summary())
     if args.json is not None:
         write_json(args.json, d.to_json(), "--json")

@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from .registry import (UserError, check_out_file, load_robot, options, positive_int, seed_int,
+from .registry import (UserError, add_robot_option, check_out_file, load_robot, options, positive_int, seed_int,
                        subcommand)
 from typing import List
 
@@ -32,8 +32,7 @@ def _angle_deg(text: str) -> float:
 
 
 def _montecarlo_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units); "
-                   "default: the paper's 3-joint prototype")
+    add_robot_option(p)
     p.add_argument("--out", metavar="FILE.npz", required=True,
                    help="output: per-configuration statistics as arrays, with the run's parameters")
     p.add_argument("--samples", metavar="N", type=positive_int, default=1000,

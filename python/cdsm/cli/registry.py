@@ -25,7 +25,7 @@ import sys
 from typing import Callable, Dict, Optional
 
 __all__ = ["PROG", "COMMANDS", "Command", "subcommand", "options", "UserError", "DeprecatedOption", "int_at_least",
-           "positive_int", "seed_int", "load_robot", "prepare_dir", "check_out_file"]
+           "positive_int", "seed_int", "load_robot", "prepare_dir", "check_out_file", "ROBOT_HELP", "add_robot_option"]
 
 PROG = "cdsm"
 
@@ -98,6 +98,16 @@ def positive_int(text: str) -> int:
 def seed_int(text: str) -> int:
     """argparse type: an integer >= 0 (random seeds)."""
     return int_at_least(text, 0, "non-negative")
+
+
+#: The help of every command's ``--robot``.
+ROBOT_HELP = ("robot description: a TOML file (SI units) or the name of a packaged robot (`cdsm list` shows "
+              "them); default: the paper's 3-joint prototype")
+
+
+def add_robot_option(p: argparse.ArgumentParser) -> None:
+    """The ``--robot`` option every command shares."""
+    p.add_argument("--robot", metavar="R.toml|NAME", help=ROBOT_HELP)
 
 
 def load_robot(path: Optional[str]):

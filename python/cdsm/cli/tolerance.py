@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from .registry import (UserError, check_out_file, load_robot, options, positive_int, seed_int,
+from .registry import (UserError, add_robot_option, check_out_file, load_robot, options, positive_int, seed_int,
                        subcommand)
 from typing import List
 
@@ -17,8 +17,7 @@ def _tolerance_args(p: argparse.ArgumentParser) -> None:
                    help="tip position error budget |d(x, y)|, mm")
     p.add_argument("--percentile", metavar="P", type=float, default=95.0,
                    help="percentile of |d(x, y)| pooled over the region (default: 95)")
-    p.add_argument("--robot", metavar="R.toml", help="robot description (TOML, SI units); "
-                   "default: the paper's 3-joint prototype")
+    add_robot_option(p)
     p.add_argument("--region", metavar="SPEC", default=None,
                    help="configurations where the errors are applied: grid:LO_DEG:HI_DEG:STEP_DEG[:N] "
                         "(every joint; a grid of more than 20000 points, or N given, is "
@@ -91,8 +90,8 @@ def _tolerance_run(args) -> int:
     print("hole height tolerance (mm, per disk):         "
           + ", ".join(f"±{v * 1e3:.4f}" for v in a.hole_height_tol_m))
     print(f"achieved P{args.percentile:g} |d(x, y)| = {a.achieved_m * 1e3:.4f} mm "
-          f"(target {args.target_mm:g} mm; bin-edge bound, +{tolerance.HIST_RESOLUTION * 100:.1f} % "
-          f"resolution; interpolated {out['achieved_interpolated_mm']:.4f} mm); "
+          f"(target {args.target_mm:g} mm; within ±{tolerance.HIST_RESOLUTION * 100:.1f} % of the sample quantile; "
+          f"interpolated {out['achieved_interpolated_mm']:.4f} mm); "
           f"with every tolerance x1.25: {a.achieved_1p25_m * 1e3:.4f} mm")
     print(f"linear estimate {a.linear_m * 1e3:.4f} mm; failed solves {a.failed}; "
           f"done in {time.perf_counter() - t0:.1f} s")
@@ -149,8 +148,8 @@ def _spatial_run(args, robot, t0: float, region: str, theta, desc: str, weights,
     print(f"hole tolerance (mm, every coordinate of each cable's holes, cables 1..{cables}): "
           + ", ".join(f"±{v * 1e3:.4f}" for v in a.hole_tol_m))
     print(f"achieved P{args.percentile:g} |d(x, y, z)| = {a.achieved_m * 1e3:.4f} mm "
-          f"(target {args.target_mm:g} mm; bin-edge bound, +{tolerance.HIST_RESOLUTION * 100:.1f} % "
-          f"resolution; interpolated {out['achieved_interpolated_mm']:.4f} mm); "
+          f"(target {args.target_mm:g} mm; within ±{tolerance.HIST_RESOLUTION * 100:.1f} % of the sample quantile; "
+          f"interpolated {out['achieved_interpolated_mm']:.4f} mm); "
           f"with every tolerance x1.25: {a.achieved_1p25_m * 1e3:.4f} mm")
     print(f"linear estimate {a.linear_m * 1e3:.4f} mm ({len(a.history)} Monte-Carlo evaluations); failed solves "
           f"{a.failed}; done in {time.perf_counter() - t0:.1f} s")

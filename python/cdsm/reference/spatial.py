@@ -469,14 +469,15 @@ def log_so3(R) -> np.ndarray:
 # --------------------------------------------------------------------------
 # Forward kinematics
 # --------------------------------------------------------------------------
-def _theta(robot: SpatialRobot, theta) -> np.ndarray:
+def as_theta(robot: SpatialRobot, theta) -> np.ndarray:
+    """``theta`` as a float ``(N, n)`` array (rad); ValueError otherwise."""
     th = np.asarray(theta, dtype=float)
     if th.ndim != 2 or th.shape[1] != robot.n:
         raise ValueError(f"theta must have shape (N, {robot.n}), got {th.shape}")
     return th
 
 
-def _chain(robot: SpatialRobot, theta: np.ndarray) -> dict:
+def chain_frames(robot: SpatialRobot, theta: np.ndarray) -> dict:
     """The frames of the chain for ``theta (N, n)`` rad.
 
     Returns rotation ``Ra, Rb (N, K+1, 3, 3)`` and origins ``ta, tb (N, K+1, 3)``
@@ -510,7 +511,7 @@ def _chain(robot: SpatialRobot, theta: np.ndarray) -> dict:
 
 def fk_matrix(robot: SpatialRobot, theta) -> np.ndarray:
     """End frame ``F_Kb`` (distal face of the last disk) ``(N, 4, 4)``, translation in m."""
-    ch = _chain(robot, _theta(robot, theta))
+    ch = chain_frames(robot, as_theta(robot, theta))
     N = ch["tb"].shape[0]
     T = np.zeros((N, 4, 4))
     T[:, :3, :3] = ch["Rb"][:, -1]
@@ -521,7 +522,7 @@ def fk_matrix(robot: SpatialRobot, theta) -> np.ndarray:
 
 def fk(robot: SpatialRobot, theta) -> np.ndarray:
     """Task vector ``(N, 6)``: ``[x, y, z]`` m of ``F_Kb`` and its rotation vector ``[rx, ry, rz]`` rad."""
-    ch = _chain(robot, _theta(robot, theta))
+    ch = chain_frames(robot, as_theta(robot, theta))
     return np.concatenate([ch["tb"][:, -1], log_so3(ch["Rb"][:, -1])], axis=1)
 
 
@@ -529,13 +530,13 @@ def disk_frames(robot: SpatialRobot, theta) -> dict:
     """Face frames of every disk: ``Ra, Rb (N, K+1, 3, 3)`` rotations and ``ta, tb (N, K+1, 3)``
     m origins of ``F_ka`` (proximal) and ``F_kb`` (distal); index 0 is the base face
     (the identity, also stored as ``Ra[:, 0]``, ``ta[:, 0]``)."""
-    ch = _chain(robot, _theta(robot, theta))
+    ch = chain_frames(robot, as_theta(robot, theta))
     return {key: ch[key] for key in ("Ra", "ta", "Rb", "tb")}
 
 
 def joint_positions_axes(robot: SpatialRobot, theta):
     """Joint origins ``p (N, n, 3)`` m and unit world axes ``w (N, n, 3)``."""
-    ch = _chain(robot, _theta(robot, theta))
+    ch = chain_frames(robot, as_theta(robot, theta))
     return ch["p"], ch["w"]
 
 
@@ -549,7 +550,7 @@ def _point_jacobian(robot: SpatialRobot, ch: dict, q: np.ndarray, disk: int) -> 
 def geometric_jacobian(robot: SpatialRobot, theta) -> np.ndarray:
     """Geometric Jacobian ``(N, 6, n)`` of the end frame: rows 0-2 the linear velocity
     of its origin (m/rad), rows 3-5 the angular velocity (rad/rad), base frame."""
-    ch = _chain(robot, _theta(robot, theta))
+    ch = chain_frames(robot, as_theta(robot, theta))
     tip = ch["tb"][:, -1]
     lin = np.cross(ch["w"], tip[:, None, :] - ch["p"])  # (N, n, 3)
     return np.concatenate([np.swapaxes(lin, 1, 2), np.swapaxes(ch["w"], 1, 2)], axis=1)
@@ -575,7 +576,7 @@ def _cable_points(robot: SpatialRobot, ch: dict) -> list:
 def cable_points(robot: SpatialRobot, theta) -> list:
     """World points of every hole: a list (one per cable, file order) of ``(N, 2 e_c + 1, 3)``
     m arrays ``[B_0, A_1, B_1, ..., A_e, B_e]``."""
-    return _cable_points(robot, _chain(robot, _theta(robot, theta)))
+    return _cable_points(robot, chain_frames(robot, as_theta(robot, theta)))
 
 
 def cable_lengths(robot: SpatialRobot, theta) -> np.ndarray:
@@ -599,8 +600,8 @@ def cable_jacobian(robot: SpatialRobot, theta) -> np.ndarray:
     """Analytic ``dL/dtheta (N, m, n)`` m/rad of every cable (file order):
     ``sum_k u_k . (dA_k/dtheta_j - dB_(k-1)/dtheta_j)``, ``u_k`` the unit segment
     ``B_(k-1) -> A_k`` (a zero-length segment contributes 0)."""
-    th = _theta(robot, theta)
-    ch = _chain(robot, th)
+    th = as_theta(robot, theta)
+    ch = chain_frames(robot, th)
     pts = _cable_points(robot, ch)
     J = np.zeros((th.shape[0], robot.m, robot.n))
     for c, P in enumerate(pts):
@@ -692,7 +693,7 @@ def solve_cables(robot: SpatialRobot, lengths_pos, seed=None, tol=1e-12, max_ite
         J = cable_jacobian(robot, th)[:, pos, :]
         Jt = np.swapaxes(J, 1, 2)
         A = Jt @ J + lam[:, None, None] * np.eye(robot.n)
-        return -_solve(A, (Jt @ r[..., None])[..., 0])
+        return -solve_batched(A, (Jt @ r[..., None])[..., 0])
 
     stall = _STALL if pos.size > robot.n else None
     sol = _levenberg_marquardt(residual, step, theta, tol, max_iter, lambda0=0.0, stall=stall)
@@ -700,7 +701,7 @@ def solve_cables(robot: SpatialRobot, lengths_pos, seed=None, tol=1e-12, max_ite
     return sol
 
 
-def _solve(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+def solve_batched(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Row-wise ``A x = b`` (``A (k, n, n)``); a singular row gives NaN (its trial is rejected)."""
     x = np.full(b.shape, np.nan)
     for i in range(A.shape[0]):
@@ -722,7 +723,7 @@ def _damped_min_norm_step(J: np.ndarray, r: np.ndarray, lam: np.ndarray) -> np.n
 
 
 def _ik_residual_jacobian(robot: SpatialRobot, theta, target_p, target_R, mask: str, jacobian: bool):
-    ch = _chain(robot, theta)
+    ch = chain_frames(robot, theta)
     p, R = ch["tb"][:, -1], ch["Rb"][:, -1]
     rows = [p - target_p]
     if mask == "pointing":
@@ -785,8 +786,8 @@ def moment_matrices(robot: SpatialRobot, theta) -> np.ndarray:
     Balance: ``M T + tau = 0`` with :func:`external_moments` ``tau``; virtual work
     makes ``M = -(dL/dtheta)^T``.
     """
-    th = _theta(robot, theta)
-    ch = _chain(robot, th)
+    th = as_theta(robot, theta)
+    ch = chain_frames(robot, th)
     pts = _cable_points(robot, ch)
     M = np.zeros((th.shape[0], robot.n, robot.m))
     for c, P in enumerate(pts):
@@ -805,8 +806,8 @@ def external_moments(robot: SpatialRobot, theta, tip_wrench=None) -> np.ndarray:
     of it -- gravity ``mass_b g`` at every disk's centre of mass (disks ``b >= k``) and
     the tip wrench ``[F (N), M (N m)]`` ``(6,)`` or ``(N, 6)`` (base frame, at the origin
     of ``F_Kb``)."""
-    th = _theta(robot, theta)
-    ch = _chain(robot, th)
+    th = as_theta(robot, theta)
+    ch = chain_frames(robot, th)
     N = th.shape[0]
     tau = np.zeros((N, robot.n))
     g = np.asarray(robot.gravity, dtype=float)
@@ -882,7 +883,7 @@ def tensions(robot: SpatialRobot, theta, min_tension=0.0, tip_wrench=None):
     Returns ``T (N, m_pos)`` N (order of :func:`position_cables`; NaN where no
     such tension set exists) and ``feasible (N,)`` bool.
     """
-    th = _theta(robot, theta)
+    th = as_theta(robot, theta)
     M = moment_matrices(robot, th)
     tau = external_moments(robot, th, tip_wrench)
     pos, frc = position_cables(robot), force_cables(robot)

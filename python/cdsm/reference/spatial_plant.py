@@ -271,7 +271,7 @@ def bend_shifts(robot, p, theta) -> tuple:
     ``sb, sa (N, K+1, 3)`` m (index 0 unused, zero)."""
     arm = plant_arm(robot, p)
     q = plant_params(robot, p)
-    return _bend(sp._chain(arm, sp._theta(arm, theta)), arm.disks, q["cl"], q["w"])
+    return _bend(sp.chain_frames(arm, sp.as_theta(arm, theta)), arm.disks, q["cl"], q["w"])
 
 
 def _arm_lengths(arm, ch: dict, cl: float, w: float) -> np.ndarray:
@@ -298,7 +298,7 @@ def arm_lengths(robot, p, theta) -> np.ndarray:
     (``docs/model.md``, "The arm"); with ``cl = 0`` the nominal lengths of :func:`plant_arm`."""
     arm = plant_arm(robot, p)
     q = plant_params(robot, p)
-    return _arm_lengths(arm, sp._chain(arm, sp._theta(arm, theta)), q["cl"], q["w"])
+    return _arm_lengths(arm, sp.chain_frames(arm, sp.as_theta(arm, theta)), q["cl"], q["w"])
 
 
 # --------------------------------------------------------------------------
@@ -384,7 +384,7 @@ def plant_tensions(robot, p, theta) -> np.ndarray:
     arm = plant_arm(robot, p)
     if _pos(arm).size != arm.n:
         raise ValueError("plant_tensions: the statics fix the tensions only with as many position cables as joints")
-    return _square_tensions(arm, sp._theta(arm, theta))
+    return _square_tensions(arm, sp.as_theta(arm, theta))
 
 
 def _residual_function(robot, arm, q, L):
@@ -416,11 +416,11 @@ def _residual_function(robot, arm, q, L):
     scale = np.linalg.norm(sp.cable_jacobian(arm, np.zeros((1, arm.n)))[0, pos])
 
     def strain(th, idx):
-        La = _arm_lengths(arm, sp._chain(arm, th), cl, w)
+        La = _arm_lengths(arm, sp.chain_frames(arm, th), cl, w)
         return (La + Lr) / (L[idx] + Lr) - 1.0
 
     def F(th, idx, taut=None):
-        ch = sp._chain(arm, th)
+        ch = sp.chain_frames(arm, th)
         La = _arm_lengths(arm, ch, cl, w)
         Li = L[idx]
         if square:
@@ -447,7 +447,7 @@ def _residual_function(robot, arm, q, L):
         La = sp.cable_lengths(arm, th)  # unshifted holes: only used with cl = 0
         Li = L[idx]
         s = (La[:, pos] + Lr) / (Li + Lr) - 1.0
-        ch = sp._chain(arm, th)
+        ch = sp.chain_frames(arm, th)
         V = np.zeros(th.shape[0])
         for b in range(1, arm.disks + 1):
             centre = np.einsum("nij,j->ni", ch["Ra"][:, b], arm.com[b - 1]) + ch["ta"][:, b]
@@ -466,7 +466,7 @@ def settling_residual(robot, p, realised, theta) -> np.ndarray:
     arm = plant_arm(robot, p)
     q = plant_params(robot, p)
     L = np.asarray(realised, dtype=float)
-    th = sp._theta(arm, theta)
+    th = sp.as_theta(arm, theta)
     return _residual_function(robot, arm, q, L)(th, np.arange(th.shape[0]))
 
 
@@ -507,7 +507,7 @@ def _damped_newton(F, theta, target, max_iter, h):
         idx = np.flatnonzero(active)
         Jt = np.swapaxes(J[idx], 1, 2)
         A = Jt @ J[idx] + lam[idx, None, None] * np.eye(n)
-        delta = -sp._solve(A, (Jt @ r[idx, :, None])[..., 0])
+        delta = -sp.solve_batched(A, (Jt @ r[idx, :, None])[..., 0])
         trial = theta[idx] + delta
         with np.errstate(all="ignore"):
             r_trial = F(trial, idx)
@@ -570,7 +570,7 @@ def _energy_descent(F, theta, switch, max_iter, h):
         A = H[idx] + (lam[idx] * mu)[:, None, None] * np.eye(n)
         with np.errstate(all="ignore"):
             pd = np.linalg.eigvalsh(A).min(1) > 0.0
-            delta = -sp._solve(A, g[idx])
+            delta = -sp.solve_batched(A, g[idx])
             trial = theta[idx] + delta
             e_trial = E(trial, idx)
         trials[idx] += 1
@@ -629,7 +629,7 @@ def observe(robot, p, theta) -> np.ndarray:
     """
     arm = plant_arm(robot, p)
     q = plant_params(robot, p)
-    ch = sp._chain(arm, sp._theta(arm, theta))
+    ch = sp.chain_frames(arm, sp.as_theta(arm, theta))
     p_end, R_end = ch["tb"][:, -1], ch["Rb"][:, -1]
     E = sp.exp_so3(q["rho"])
     point = p_end + R_end @ q["tip"]

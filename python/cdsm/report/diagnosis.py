@@ -16,18 +16,21 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from typing import Dict, List, Tuple
 
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 
 from .. import __version__
 from ..calibration import diagnosis as diagnose
 from ..calibration import stats
 from ..files import begin_run, finish_run, write_csv, write_json, write_text
-from .document import Document
-from .figures import BLUE, GREEN, RED, new_figure, save
+from .document import HEADLINE, Document
+from .figures import BLUE, GREEN, RED, new_figure, place, report_style, save
 
-__all__ = ["write", "findings", "summary", "param_rows"]
+__all__ = ["write", "findings", "summary", "param_rows", "headline_items", "next_steps", "figures",
+           "residual_map_figure", "residual_bars_figure", "candidates_figure", "features_figure"]
 
 # words for the rank correlation of a feature with the residual size:
 # (meaning when rho > 0, meaning when rho < 0)
@@ -250,10 +253,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
                   "not named: it does not beat the identity frame significantly."))
         out["answer"].append(reg)
     if d.outliers:
-        w = d.verdict_without_outliers
-        out["answer"].append(
-            f"Outliers (residual beyond 5σ after the fit): {', '.join(names[i] for i in d.outliers)}. "
-            + (f"Without them the verdict is **{w.verdict}**." if w is not None else ""))
+        out["answer"].append(outlier_note(d, names))
 
     # -- where the gap lies --------------------------------------------
     order = [i for i in np.argsort(-np.nan_to_num(size_b, nan=-1.0)) if np.isfinite(size_b[i])]
@@ -377,208 +377,441 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     return out
 
 
-def summary(d: diagnose.Diagnosis) -> List[str]:
-    """A few lines for the command line."""
-    b, f = d.baseline.heldout_rms, d.final().heldout_rms
-    lines = [f"best: {d.best}  (verdict: {d.verdict})",
-             f"held-out RMS: nominal {b * 1e6:.1f} µm -> final {f * 1e6:.1f} µm "
-             f"({100 * (1 - f / b):.0f} % smaller); noise floor {d.noise_floor * 1e6:.1f} µm "
-             f"(noise {d.noise * 1e6:.3g} µm per axis, {d.noise_estimate.source})",
-             f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
-             f"{d.folds}-fold cross-validation"]
+def outlier_note(d: diagnose.Diagnosis, names: List[str]) -> str:
+    """The outliers, said against the noise they were judged by: a noise
+    that was assumed, not estimated, is called so, and when every row is
+    beyond it the assumption is what fails."""
+    w = d.verdict_without_outliers
+    ne = d.noise_estimate.source
+    against = (f"beyond 5σ of the **assumed** noise ({_um(d.noise)} per axis; no repeats to estimate it)"
+               if ne == "assumed" else f"beyond 5σ of the noise ({_um(d.noise)} per axis, {ne})")
+    text = f"Rows with a residual {against} after the fit: {', '.join(names[i] for i in d.outliers)}."
+    if ne == "assumed" and len(d.outliers) >= max(3, int(d.prep.usable.sum()) // 2):
+        text += (" So many rows cannot all be outliers: the assumed noise is too small for these data, or the "
+                 "model misses an effect; give the noise (`--noise`) or repeat some commands to estimate it.")
+    elif w is not None:
+        text += f" Without them the verdict is **{w.verdict}**."
+    return text
+
+
+def _plain(markdown: str) -> str:
+    """A Markdown line for the terminal: no emphasis, code marks or links."""
+    text = re.sub(r" — see \[[^\]]*\]\(#[^)]*\)", "", markdown)
+    text = re.sub(r"\[([^\]]*)\]\([^)]*\)", r"\1", text)
+    return text.replace("**", "").replace("`", "")
+
+
+def summary(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
+    """The headline for the command line: the verdict and why, the effect,
+    how far the gap shrinks, the largest gaps, the next measurements; then
+    the rows used and the flagged ones."""
+    lines = [_plain(item) for item in headline_items(d, suggestion)]
+    lines.append(f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
+                 f"{d.folds}-fold cross-validation")
     if d.prep.flags:
         lines.append(f"flagged rows: {', '.join(str(i + 1) for i in sorted(d.prep.flags))} (see the report)")
-    if d.ties:
-        lines.append(f"ties with {d.singles[0].name}: {', '.join(d.ties)}")
+    if d.outliers:
+        lines.append(_plain(outlier_note(d, _row_names(d))))
     return lines
 
 
 # ---------------------------------------------------------------------------
 # figures
 # ---------------------------------------------------------------------------
-def _quiver_figure(d: diagnose.Diagnosis):
-    fig = new_figure(11.0, 4.8)
+def _short_name(name: str, i: int) -> str:
+    """A row's label on a figure: its point label, else its number."""
+    return name.split(" ")[-1].strip("()") if "point" in name else str(i + 1)
+
+
+def _clusters(xy: np.ndarray, link: float) -> List[np.ndarray]:
+    """Groups (index arrays, 2 or more rows) of the finite points ``xy``
+    (N, 2) chained by distances below ``link`` (single linkage), largest
+    first (ties: the lowest index first)."""
+    fin = np.flatnonzero(np.isfinite(xy).all(1))
+    label = {int(i): int(i) for i in fin}
+
+    def root(a):
+        while label[a] != a:
+            a = label[a]
+        return a
+
+    for a_i, a in enumerate(fin):
+        for b in fin[a_i + 1:]:
+            if np.hypot(*(xy[a] - xy[b])) < link:
+                ra, rb = root(int(a)), root(int(b))
+                label[max(ra, rb)] = min(ra, rb)
+    groups: Dict[int, List[int]] = {}
+    for i in fin:
+        groups.setdefault(root(int(i)), []).append(int(i))
+    out = [np.array(g) for g in groups.values() if len(g) >= 2]
+    return sorted(out, key=lambda g: (-len(g), int(g[0])))
+
+
+def _away_offsets(xy: np.ndarray, points: float = 7.0) -> np.ndarray:
+    """(N, 2) label offsets in points: away from each point's nearest
+    neighbour (up-right when it has none), so close labels part."""
+    out = np.tile([points * 0.7, points * 0.7], (len(xy), 1))
+    fin = np.flatnonzero(np.isfinite(xy).all(1))
+    for i in fin:
+        others = [j for j in fin if j != i]
+        if not others:
+            continue
+        d = xy[i] - xy[others]
+        j = int(np.argmin(np.hypot(d[:, 0], d[:, 1])))
+        v = d[j]
+        nv = float(np.hypot(*v))
+        if nv > 0:
+            out[i] = v / nv * points
+    return out
+
+
+def _arrow_panel(ax, xy, g, k, names, usable, labels=None, window=None, ref=None, title=""):
+    """Arrows of the gap ``g`` (N, 2) m at ``xy`` (N, 2) mm, ``k`` mm of plot
+    per m; the rows ``labels`` (N,) bool labelled (parted from their nearest
+    neighbour); square ``window`` (centre (2,), half width) in mm; a
+    reference arrow of ``ref`` m."""
+    ok = np.isfinite(g).all(1) & np.isfinite(xy).all(1)
+    ax.scatter(xy[:, 0], xy[:, 1], s=12, c="#888888", zorder=2)
+    q = ax.quiver(xy[ok, 0], xy[ok, 1], g[ok, 0] * k, g[ok, 1] * k, angles="xy", scale_units="xy", scale=1,
+                  color=RED, width=0.006, zorder=3)
+    bad = ~usable & np.isfinite(xy).all(1)
+    if bad.any():
+        ax.scatter(xy[bad, 0], xy[bad, 1], marker="x", s=50, c="k", zorder=4, label="flagged row")
+        ax.legend(loc="lower right", fontsize=8)
+    if labels is not None and labels.any():
+        off = _away_offsets(xy)
+        for i in np.flatnonzero(labels):
+            ax.annotate(_short_name(names[i], i), xy[i], fontsize=8, xytext=tuple(off[i]), textcoords="offset points",
+                        ha="center", va="center", color="#333333")
+    if ref is not None and ref > 0:
+        ax.quiverkey(q, 0.1, 0.05, ref * k, f"{ref * 1e6:g} µm", labelpos="E", coordinates="axes",
+                     fontproperties={"size": 8})
+    (cx, cy), half = window
+    ax.set_xlim(cx - half, cx + half)
+    ax.set_ylim(cy - half, cy + half)
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel("commanded tip X (mm)")
+    ax.grid(True)
+    ax.set_title(title, loc="left", fontsize=9.5)
+
+
+def _window(pts: np.ndarray, pad: float):
+    fin = pts[np.isfinite(pts).all(1)]
+    if not len(fin):
+        return (np.zeros(2), 1.0)
+    lo, hi = fin.min(0), fin.max(0)
+    return ((lo + hi) / 2, float(max(hi - lo)) / 2 + pad)
+
+
+def _ref_arrow(gmax: float) -> float:
+    """The largest 1, 2 or 5 times a power of ten not above ``gmax`` (m):
+    the length of the reference arrow."""
+    e = 10 ** math.floor(math.log10(max(gmax, 1e-12)))
+    return max(m * e for m in (1, 2, 5) if m * e <= max(gmax, 1e-12) * (1 + 1e-9))
+
+
+def residual_map_figure(d: diagnose.Diagnosis):
+    """The gap (measured − model) as arrows at the commanded tips: the
+    nominal model, the chosen model (only when one is chosen: the same arrow
+    scale), and a zoom on the densest group of close rows with its own scale
+    and each row's label beside it."""
     xy = _commanded_xy(d) * 1e3
     g_b, g_f = _gaps(d)
     names = _row_names(d)
-    mag = np.linalg.norm(g_b, axis=1)
-    gmax = float(np.nanmax(mag)) if np.isfinite(mag).any() else 1.0
-    span = float(np.nanmax(np.ptp(xy[np.isfinite(xy).all(1)], axis=0))) if np.isfinite(xy).all(1).sum() > 1 else 1.0
+    fin = np.isfinite(xy).all(1)
+    span = float(np.nanmax(np.ptp(xy[fin], axis=0))) if fin.sum() > 1 else 1.0
     span = span if span > 0 else 1.0
+    panels = [(g_b, "nominal model")] + ([(g_f, f"chosen model: {d.best}")] if d.chosen is not None else [])
+    groups = _clusters(xy, 0.07 * span) if fin.sum() <= 60 else []
+    zoom = groups[0] if groups and len(groups[0]) >= 2 else None
+    cols = len(panels) + (zoom is not None)
+    mag = np.linalg.norm(np.concatenate([g for g, _ in panels]), axis=1)
+    gmax = float(np.nanmax(mag)) if np.isfinite(mag).any() else 1.0
     k = 0.15 * span / max(gmax, 1e-300)  # mm of plot per m of gap
-    ref = 10 ** math.floor(math.log10(max(gmax, 1e-12)))
-    axes = fig.subplots(1, 2)
-    fin = xy[np.isfinite(xy).all(1)]
-    lo, hi = (fin.min(0), fin.max(0)) if len(fin) else (np.zeros(2), np.ones(2))
-    pad = 0.12 * span + 1e-3
-    for ax, g, title in ((axes[0], g_b, "nominal model"), (axes[1], g_f, f"final model: {d.best}")):
-        ok = np.isfinite(g).all(1)
-        ax.scatter(xy[:, 0], xy[:, 1], s=12, c="#999999", zorder=1)
-        q = ax.quiver(xy[ok, 0], xy[ok, 1], g[ok, 0] * k, g[ok, 1] * k, angles="xy", scale_units="xy", scale=1,
-                      color=RED, width=0.006, zorder=3)
-        bad = ~d.prep.usable & np.isfinite(xy).all(1)
-        if bad.any():
-            ax.scatter(xy[bad, 0], xy[bad, 1], marker="x", s=50, c="k", zorder=4, label="flagged row")
-            ax.legend(loc="best")
-        if len(xy) <= 30:
-            for i in range(len(xy)):
-                if np.isfinite(xy[i]).all():
-                    ax.annotate(names[i].split(" ")[-1].strip("()") if "point" in names[i] else str(i + 1),
-                                xy[i], fontsize=7, xytext=(3, 3), textcoords="offset points", color="#555555")
-        ax.quiverkey(q, 0.08, 0.05, ref * k, f"{ref * 1e6:g} µm", labelpos="E", coordinates="axes")
-        rms = float(np.sqrt(np.nanmean(np.sum(g[ok] ** 2, 1)))) if ok.any() else float("nan")
-        ax.set_title(f"{title} (fit RMS {_um(rms)})", loc="left")
-        ax.set_xlabel("commanded tip X (mm)")
-        mid, half = (lo + hi) / 2, span / 2 + pad  # square window: arrows keep their direction
-        ax.set_xlim(mid[0] - half, mid[0] + half)
-        ax.set_ylim(mid[1] - half, mid[1] + half)
-        ax.set_aspect("equal", adjustable="box")
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel("commanded tip Y (mm)")
-    fig.tight_layout()
+    window = _window(xy, 0.12 * span + 1e-3)
+    show = np.isfinite(xy).all(1) & (len(xy) <= 30)
+    if zoom is not None:
+        show[zoom] = False
+    with report_style():
+        fig = new_figure(min(3.45 * cols + 0.3, 10.4), 3.95)
+        axes = np.atleast_1d(fig.subplots(1, cols))
+        for ax, (g, title) in zip(axes, panels):
+            rms = float(np.sqrt(np.nanmean(np.sum(g[np.isfinite(g).all(1)] ** 2, 1)))) if np.isfinite(g).any() \
+                else float("nan")
+            _arrow_panel(ax, xy, g, k, names, d.prep.usable, labels=show, window=window, ref=_ref_arrow(gmax),
+                         title=f"{title} (fit RMS {_um(rms)})")
+        axes[0].set_ylabel("commanded tip Y (mm)")
+        if zoom is not None:
+            from matplotlib.patches import Rectangle
+
+            (cx, cy), half = _window(xy[zoom], 0.0)
+            half = max(half * 1.35, 0.01 * span)
+            for ax in axes[:len(panels)]:
+                ax.add_patch(Rectangle((cx - half, cy - half), 2 * half, 2 * half, fill=False, ec="k", ls="--",
+                                       lw=0.8, zorder=1))
+                ax.annotate("zoom →", (cx + half, cy + half), fontsize=7.5, xytext=(2, 2), textcoords="offset points")
+            g = panels[-1][0]
+            zm = np.linalg.norm(g[zoom], axis=1)
+            zmax = float(np.nanmax(zm)) if np.isfinite(zm).any() else 1.0
+            kz = 0.3 * half / max(zmax, 1e-300)
+            ax = axes[-1]
+            _arrow_panel(ax, xy, g, kz, names, d.prep.usable, window=((cx, cy), half),
+                         ref=_ref_arrow(zmax), title=f"zoom on rows {', '.join(_short_name(names[i], i) for i in zoom)}"
+                         f"\n({panels[-1][1]}, own arrow scale)")
+            # labels in a column right of the window, leader lines to their points
+            order = sorted(zoom, key=lambda i: -xy[i, 1])
+            for r, i in enumerate(order):
+                yy = 0.92 - r * min(0.84 / max(len(order) - 1, 1), 0.14)
+                ax.annotate(_short_name(names[i], i), xy[i], xytext=(1.04, yy), textcoords="axes fraction",
+                            fontsize=8, va="center", color="#333333",
+                            arrowprops=dict(arrowstyle="-", color="0.55", lw=0.6, shrinkA=0, shrinkB=3))
+        place(fig, 1, cols, left=0.7, right=0.45 if zoom is not None else 0.15, bottom=0.5, top=0.5, wgap=0.55)
     return fig
 
 
-def _bars_figure(d: diagnose.Diagnosis):
+def residual_bars_figure(d: diagnose.Diagnosis):
     N = len(d.prep.meas)
-    fig = new_figure(max(7.0, min(16.0, 0.22 * N + 4)), 5.2)
     g_b, g_f = _gaps(d)
-    axes = fig.subplots(2, 1, sharex=True)
-    x = np.arange(N)
-    for ax, j, lab, col in ((axes[0], 0, "dX", RED), (axes[1], 1, "dY", BLUE)):
-        ax.axhspan(-d.noise * 1e6, d.noise * 1e6, color="#2ca02c", alpha=0.15, label="± noise (1 σ)")
-        ax.bar(x - 0.2, g_b[:, j] * 1e6, 0.4, color=col, alpha=0.35, label="nominal model")
-        ax.bar(x + 0.2, g_f[:, j] * 1e6, 0.4, color=col, label=f"final: {d.best}")
-        for i in np.flatnonzero(~d.prep.usable):
-            ax.axvline(i, color="k", ls=":", lw=1)
-        ax.axhline(0, color="k", lw=0.6)
-        ax.set_ylabel(f"gap {lab} (µm)")
-        ax.grid(alpha=0.3, axis="y")
-    axes[0].legend(loc="best", fontsize=8)
-    axes[1].set_xlabel("row (dotted: flagged)")
-    if N <= 40:
-        axes[1].set_xticks(x)
-        axes[1].set_xticklabels([str(i + 1) for i in x], fontsize=8)
-    fig.tight_layout()
+    chosen = d.chosen is not None
+    with report_style():
+        fig = new_figure(max(7.0, min(10.4, 0.22 * N + 4)), 5.0)
+        axes = fig.subplots(2, 1, sharex=True)
+        x = np.arange(N)
+        w = 0.4 if chosen else 0.6
+        for ax, j, lab, col in ((axes[0], 0, "dX", RED), (axes[1], 1, "dY", BLUE)):
+            ax.axhspan(-d.noise * 1e6, d.noise * 1e6, color=GREEN, alpha=0.15, label="± noise (1 σ)")
+            ax.bar(x - (0.2 if chosen else 0.0), g_b[:, j] * 1e6, w, color=col, alpha=0.45 if chosen else 0.9,
+                   label="nominal model")
+            if chosen:
+                ax.bar(x + 0.2, g_f[:, j] * 1e6, w, color=col, label=f"chosen: {d.best}")
+            for i in np.flatnonzero(~d.prep.usable):
+                ax.axvline(i, color="k", ls=":", lw=1)
+            ax.axhline(0, color="k", lw=0.6)
+            ax.set_ylabel(f"gap {lab} (µm)")
+            ax.grid(True, axis="y")
+        axes[0].legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+        axes[1].set_xlabel("row (dotted: flagged)")
+        if N <= 40:
+            axes[1].set_xticks(x)
+            axes[1].set_xticklabels([str(i + 1) for i in x], fontsize=8)
+        place(fig, 2, 1, left=0.8, right=1.9, bottom=0.55, top=0.2, hgap=0.25)
     return fig
 
 
-def _candidates_figure(d: diagnose.Diagnosis):
+def candidates_figure(d: diagnose.Diagnosis):
     cands = list(d.singles) + [c for c in d.steps if len(c.effects) > 1]
     cands.sort(key=lambda c: c.heldout_rms)
-    fig = new_figure(8.0, max(3.0, 0.35 * (len(cands) + 1) + 1.2))
-    ax = fig.subplots()
-    vals = [c.heldout_rms * 1e6 for c in cands] + [d.baseline.heldout_rms * 1e6]
-    labels = [c.name for c in cands] + ["none (nominal)"]
-    cols = [RED if c.name == d.best else BLUE for c in cands] + ["#888888"]
-    y = np.arange(len(vals))[::-1]
-    ax.barh(y, vals, color=cols)
-    ax.set_yticks(y)
-    ax.set_yticklabels(labels, fontsize=8)
-    ax.axvline(d.noise_floor * 1e6, color=GREEN, ls="--", label=f"noise floor {d.noise_floor * 1e6:.1f} µm")
-    ax.axvline(d.baseline.heldout_rms * 1e6, color="#555555", ls=":",
-               label=f"nominal {d.baseline.heldout_rms * 1e6:.1f} µm")
-    fin = [v for v in vals if np.isfinite(v) and v > 0]
-    if fin and max(fin) / min(fin + [d.noise_floor * 1e6]) > 20:
-        ax.set_xscale("log")
-    ax.set_xlabel("held-out RMS position error (µm)")
-    ax.set_title(f"candidates ({d.folds}-fold cross-validation; red: chosen)", loc="left")
-    ax.legend(loc="lower right", fontsize=8)
-    ax.grid(alpha=0.3, axis="x")
-    fig.tight_layout()
+    chosen = d.chosen is not None
+    with report_style():
+        fig = new_figure(8.0, max(3.0, 0.3 * (len(cands) + 1) + 1.6))
+        ax = fig.subplots()
+        vals = [c.heldout_rms * 1e6 for c in cands] + [d.baseline.heldout_rms * 1e6]
+        labels = [c.name for c in cands] + ["none (nominal)"]
+        cols = [RED if chosen and c.name == d.best else BLUE for c in cands] + ["#888888"]
+        y = np.arange(len(vals))[::-1]
+        ax.barh(y, vals, color=cols)
+        ax.set_yticks(y)
+        ax.set_yticklabels(labels, fontsize=8)
+        ax.axvline(d.noise_floor * 1e6, color=GREEN, ls="--", label=f"noise floor {d.noise_floor * 1e6:.1f} µm")
+        ax.axvline(d.baseline.heldout_rms * 1e6, color="#555555", ls=":",
+                   label=f"nominal {d.baseline.heldout_rms * 1e6:.1f} µm")
+        fin = [v for v in vals if np.isfinite(v) and v > 0]
+        if fin and max(fin) / min(fin + [d.noise_floor * 1e6]) > 20:
+            ax.set_xscale("log")
+        ax.set_xlabel("held-out RMS position error (µm)")
+        what = f"red: chosen ({d.best})" if chosen else "no effect chosen"
+        ax.set_title(f"candidates ({d.folds}-fold cross-validation; {what})", loc="left", fontsize=9.5)
+        # the legend below the axes: inside it covered the nominal bar
+        ax.grid(True, axis="x")
+        place(fig, 1, 1, left=2.0, right=0.3, bottom=0.95, top=0.35)
+        ah = fig.get_size_inches()[1] - 0.95 - 0.35  # axes height, in
+        ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.55 / ah), ncol=2, fontsize=8, frameon=False)
     return fig
 
 
-def _features_figure(d: diagnose.Diagnosis, k: int = 4):
+def features_figure(d: diagnose.Diagnosis, k: int = 4):
     g_b, g_f = _gaps(d)
     sb, sf = np.linalg.norm(g_b, axis=1), np.linalg.norm(g_f, axis=1)
     feats = [(n, r) for n, r in _ranked_features(d, sb) if np.isfinite(r)][:k]
     if not feats:
         return None
-    fig = new_figure(4.0 * len(feats), 3.8)
-    axes = np.atleast_1d(fig.subplots(1, len(feats), sharey=True))
-    for ax, (name, rho) in zip(axes, feats):
-        v = np.asarray(d.features[name], float)
-        ax.scatter(v, sb * 1e6, facecolors="none", edgecolors=BLUE, label="nominal model")
-        ax.scatter(v, sf * 1e6, c=RED, s=14, label=f"final: {d.best}")
-        ax.axhline(d.noise_floor * 1e6, color=GREEN, ls="--", lw=1)
-        ax.set_xlabel(name)
-        ax.set_title(f"ρ = {rho:+.2f}", loc="left")
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel("|gap| (µm)")
-    axes[0].legend(loc="best", fontsize=8)
-    fig.tight_layout()
+    with report_style():
+        fig = new_figure(min(2.6 * len(feats) + 0.9, 10.4), 3.6)
+        axes = np.atleast_1d(fig.subplots(1, len(feats), sharey=True))
+        for ax, (name, rho) in zip(axes, feats):
+            v = np.asarray(d.features[name], float)
+            ax.scatter(v, sb * 1e6, facecolors="none", edgecolors=BLUE, label="nominal model")
+            if d.chosen is not None:
+                ax.scatter(v, sf * 1e6, c=RED, s=14, label=f"chosen: {d.best}")
+            ax.axhline(d.noise_floor * 1e6, color=GREEN, ls="--", lw=1)
+            ax.set_xlabel(name, fontsize=8.5)
+            ax.set_title(f"ρ = {rho:+.2f}", loc="left", fontsize=9.5)
+            ax.grid(True)
+            ax.xaxis.set_major_locator(MaxNLocator(4))
+        axes[0].set_ylabel("|gap| (µm)")
+        axes[0].legend(loc="best", fontsize=8)
+        place(fig, 1, len(feats), left=0.75, right=0.15, bottom=0.6, top=0.35, wgap=0.25)
     return fig
 
 
 def figures(d: diagnose.Diagnosis, figdir: str) -> Dict[str, str]:
     """Write the figures as PNG into ``figdir``; returns {name: path}."""
     out = {}
-    for name, make in (("residual_map", _quiver_figure), ("residual_bars", _bars_figure),
-                       ("candidates", _candidates_figure), ("features", _features_figure)):
+    for name, make in (("residual_map", residual_map_figure), ("residual_bars", residual_bars_figure),
+                       ("candidates", candidates_figure), ("features", features_figure)):
         fig = make(d)
         if fig is not None:
             out[name] = save(fig, os.path.join(figdir, f"{name}.png"))
     return out
 
 
-_CAPTIONS = {
-    "residual_map": "Gap (measured − model) as arrows at the commanded tip positions, nominal model (left) and "
-                    "final model fitted on all usable rows (right), same arrow scale. Crosses: flagged rows.",
-    "residual_bars": "Per-row gap in X and Y (µm): nominal model (light) and final model (dark); green band: "
-                     "± measurement noise; dotted: flagged rows.",
-    "candidates": "Held-out RMS position error of every candidate effect and of the chosen combination, with "
-                  "the noise floor (green) and the nominal model (grey).",
-    "features": "|gap| per row against the configuration features with the strongest rank correlation "
-                "(ρ with the nominal model's |gap|).",
-}
+def _captions(d: diagnose.Diagnosis) -> Dict[str, str]:
+    chosen = d.chosen is not None
+    return {
+        "residual_map": "Gap (measured − model) as arrows at the commanded tip positions: the nominal model"
+                        + (f" and the chosen model `{d.best}` (fitted on all usable rows), same arrow scale"
+                           if chosen else " (no model is chosen)")
+                        + "; the dashed square is zoomed on the right with its own arrow scale. Crosses: flagged "
+                          "rows.",
+        "residual_bars": "Per-row gap in X and Y (µm): the nominal model" + (" (light) and the chosen model (dark)"
+                                                                            if chosen else "")
+                         + "; green band: ± measurement noise; dotted: flagged rows.",
+        "candidates": "Held-out RMS position error of every candidate effect"
+                      + (" and of the chosen combination (red)" if chosen else "")
+                      + ", with the noise floor (green) and the nominal model (grey).",
+        "features": "|gap| per row against the configuration features with the strongest rank correlation "
+                    "(ρ with the nominal model's |gap|).",
+    }
 
 
 # ---------------------------------------------------------------------------
 # the report
 # ---------------------------------------------------------------------------
-def _build(d: diagnose.Diagnosis, pngs: Dict[str, str]) -> Document:
+def next_steps(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
+    """The next measurements, in words, from the diagnosis (and the
+    suggested configurations when given)."""
+    out = []
+    if d.noise_estimate.source == "assumed":
+        out.append("Repeat some commands (approached from the same side) to measure the noise: it is assumed "
+                   f"({_um(d.noise)}), and the verdict depends on it.")
+    if d.ties and d.singles:
+        out.append(f"Measure where `{d.singles[0].name}` and its ties ({', '.join(d.ties)}) predict differently"
+                   + (": the suggested configurations below." if suggestion is not None else
+                      " (`cdsm diagnose DATA --suggest K` proposes the configurations)."))
+    elif d.verdict == "unexplained":
+        out.append("Move other cables and in both directions: rows that differ from these are what tell the "
+                   "candidate effects apart" + (" (the suggested configurations below)." if suggestion is not None
+                                                else " (`--suggest K`)."))
+    if d.verdict in ("explained", "partly explained") and d.chosen is not None:
+        out.append(f"Check `{d.best}` on new rows, not used in the fit (`--save-model`, then `cdsm compensate`).")
+    if d.verdict == "no gap":
+        out.append("None needed to explain the data; more rows would tighten the noise estimate.")
+    if suggestion is not None:
+        out.append(f"{len(suggestion)} suggested configurations ({suggestion.criterion}) are in `suggested.csv`.")
+    return out
+
+
+def headline_items(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
+    """The answers of the diagnosis, in numbers: verdict, effect, how far
+    the gap shrinks, where it lies, the next measurements."""
+    b, f = d.baseline.heldout_rms, d.final().heldout_rms
+    items = [f"**Verdict: {d.verdict}** — " + {
+        "no gap": "the nominal model is within the measurement noise.",
+        "explained": "one effect of the library explains the gap down to the noise.",
+        "partly explained": "an effect explains part of the gap; the rest is more than noise.",
+    }.get(d.verdict, "no effect of the library reduces the gap significantly.")]
+    if d.chosen is not None:
+        items.append(f"**Effect: `{d.best}`** — " + "; ".join(f"{lab} = {txt}" for _, lab, txt, _, _ in
+                                                                param_rows(d, d.chosen)) + ".")
+    elif d.singles:
+        t = d.singles[0]
+        items.append(f"**Effect: none.** The best single candidate, `{t.name}`, reaches {_um(t.heldout_rms)} "
+                     f"held-out, not significantly better than the nominal model"
+                     + (f"; it ties with {', '.join(d.ties)}." if d.ties else "."))
+    floor = (f"noise floor {_um(d.noise_floor)} "
+             f"({'estimated from repeats' if d.noise_estimate.source == 'repeats' else d.noise_estimate.source})")
+    if d.chosen is not None:
+        shrink = 100.0 * (1.0 - f / b) if b > 0 else 0.0
+        items.append(f"**How far the gap shrinks**: held-out RMS position error {_um(b)} (nominal) → {_um(f)} with "
+                     f"`{d.best}` ({shrink:.0f} % smaller); {floor}.")
+    else:
+        t = d.singles[0] if d.singles else None
+        items.append(f"**How far the gap shrinks**: it does not — held-out RMS position error {_um(b)} with the "
+                     "nominal model" + (f"; the best candidate would give {_um(t.heldout_rms)} "
+                                        f"({100.0 * (1.0 - t.heldout_rms / b):.0f} % smaller), not a significant "
+                                        "difference on these rows" if t is not None and b > 0 else "")
+                     + f"; {floor}.")
+    g_b, _ = _gaps(d)
+    size = np.linalg.norm(g_b, axis=1)
+    names = _row_names(d)
+    top = [i for i in np.argsort(-np.nan_to_num(size, nan=-1.0)) if np.isfinite(size[i])][:3]
+    if top:
+        items.append("**Largest gaps**: " + "; ".join(f"{names[i]} {_um(size[i])}" for i in top)
+                     + " — see [where the gap lies](#where).")
+    steps = next_steps(d, suggestion)
+    if steps:
+        items.append("**Next measurements**: " + " ".join(steps).rstrip(".") + " — see [next](#next).")
+    return items
+
+
+def _build(d: diagnose.Diagnosis, pngs: Dict[str, str], suggestion=None) -> Document:
     prep = d.prep
     f = findings(d)
     names = _row_names(d)
-    doc = Document()
-    doc.h(1, "Sim-to-real gap diagnosis")
-    src = prep.meas.source or "measurements"
+    caps = _captions(d)
+    doc = Document("Sim-to-real gap diagnosis")
+
+    def fig(name):
+        if name in pngs:
+            doc.fig(name, caps.get(name, name))
+
+    doc.section(HEADLINE, "Headline")
+    src = os.path.basename(prep.meas.source) if prep.meas.source else "measurements"
+    ne = d.noise_estimate.source
     doc.p(f"Data: `{src}` — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
-          f"usable); robot **{prep.robot.name}** ({prep.robot.n} joints); measurement noise assumed "
-          f"{_um(d.noise)} per axis; {d.folds}-fold cross-validation; candidate library: "
-          f"{', '.join(c.name for c in d.singles) or 'empty'}. cdsm {__version__}. The diagnosis was not told "
-          "which effect is in the data.")
-    doc.h(2, "Answer")
+          f"usable); robot **{prep.robot.name}** ({prep.robot.n} joints); measurement noise "
+          f"{'assumed ' if ne == 'assumed' else ''}{_um(d.noise)} per axis"
+          f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation; "
+          f"candidate library: {', '.join(c.name for c in d.singles) or 'empty'}. cdsm {__version__}. The "
+          "diagnosis was not told which effect is in the data.")
+    doc.ul(headline_items(d, suggestion))
+    doc.section("answer", "Answer")
     for t in f["answer"]:
         doc.p(t)
-    doc.h(2, "Where the gap lies")
+    doc.section("where", "Where the gap lies")
     for t in f["where"]:
         doc.p(t)
     g_b, g_f = _gaps(d)
     hb, hf = _heldout_full(d, d.baseline), _heldout_full(d, d.final())
     xy = _commanded_xy(d)
     order = np.argsort(-np.nan_to_num(np.linalg.norm(g_b, axis=1), nan=np.inf))
+    chosen = d.chosen is not None
     rows = []
     for i in order[:min(len(order), 12)]:
-        rows.append([names[i], f"{xy[i, 0] * 1e3:.1f}, {xy[i, 1] * 1e3:.1f}",
-                     f"{g_b[i, 0] * 1e6:+.1f}, {g_b[i, 1] * 1e6:+.1f}", f"{hb[i] * 1e6:.1f}",
-                     f"{g_f[i, 0] * 1e6:+.1f}, {g_f[i, 1] * 1e6:+.1f}", f"{hf[i] * 1e6:.1f}",
-                     prep.flags.get(int(i), "")])
-    doc.table(["row", "commanded X, Y (mm)", "gap nominal dX, dY (µm)", "held-out |e| nominal (µm)",
-               f"gap final ({d.best}) dX, dY (µm)", f"held-out |e| final ({d.best}) (µm)", "flag"], rows)
-    doc.table(["feature", "Spearman ρ with |gap| (nominal)", "with |gap| (final)"],
-              [[k, f"{rho:+.2f}" if np.isfinite(rho) else "constant",
-                (lambda r: f"{r:+.2f}" if np.isfinite(r) else "constant")(
-                    dict(_ranked_features(d, np.linalg.norm(g_f, axis=1))).get(k, float("nan")))]
-               for k, rho in _ranked_features(d, np.linalg.norm(g_b, axis=1))])
-    doc.h(2, "Which effect explains it")
+        row = [names[i], f"{xy[i, 0] * 1e3:.1f}, {xy[i, 1] * 1e3:.1f}" if np.isfinite(xy[i]).all() else "—",
+               _pair_um(g_b[i]), _f1(hb[i] * 1e6)]
+        if chosen:
+            row += [_pair_um(g_f[i]), _f1(hf[i] * 1e6)]
+        rows.append(row + [prep.flags.get(int(i), "")])
+    doc.table(["row", "commanded X, Y (mm)", "gap nominal dX, dY (µm)", "held-out |e| nominal (µm)"]
+              + ([f"gap with {d.best} dX, dY (µm)", f"held-out |e| with {d.best} (µm)"] if chosen else []) + ["flag"],
+              rows)
+    fig("residual_map")
+    fig("residual_bars")
+    fb = _ranked_features(d, np.linalg.norm(g_b, axis=1))
+    ff = dict(_ranked_features(d, np.linalg.norm(g_f, axis=1)))
+    doc.table(["feature", "Spearman ρ with |gap| (nominal)"] + (["with |gap| (chosen)"] if chosen else []),
+              [[k, f"{rho:+.2f}" if np.isfinite(rho) else "constant"]
+               + ([f"{ff.get(k, float('nan')):+.2f}" if np.isfinite(ff.get(k, float("nan"))) else "constant"]
+                  if chosen else []) for k, rho in fb])
+    fig("features")
+    doc.section("which", "Which effect explains it")
     for t in f["which"]:
         doc.p(t)
     if d.chosen is not None:
         doc.table(["effect", "parameter", "value ± std"], [[e, lab, txt] for e, lab, txt, _, _ in
                                                            param_rows(d, d.chosen)])
-    doc.h(2, "How far it shrinks")
+    doc.section("shrink", "How far it shrinks")
     for t in f["shrink"]:
         doc.p(t)
     cands = list(d.singles) + [c for c in d.steps if len(c.effects) > 1]
@@ -588,27 +821,41 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, str]) -> Document:
                "parameters"],
               [["none (nominal)", f"{b.heldout_rms * 1e6:.1f}", "—", f"{b.heldout_rms / d.noise_floor:.2f}",
                 f"{b.fit.rms * 1e6:.1f}", "0", "—"]] +
-              [[("**" + c.name + "**") if c.name == d.best else c.name, f"{c.heldout_rms * 1e6:.1f}",
+              [[("**" + c.name + "**") if chosen and c.name == d.best else c.name, f"{c.heldout_rms * 1e6:.1f}",
                 f"{100 * (c.heldout_rms / b.heldout_rms - 1):+.0f} %", f"{c.heldout_rms / d.noise_floor:.2f}",
                 f"{c.fit.rms * 1e6:.1f}", f"{c.fit.bic - b.fit.bic:+.1f}",
                 "; ".join(f"{lab} {txt}" for _, lab, txt, _, _ in param_rows(d, c))] for c in cands])
-    doc.h(2, "Identifiability")
+    fig("candidates")
+    doc.section("identifiability", "Identifiability")
     for t in f["identifiability"]:
         doc.p(t)
-    doc.h(2, "Flagged rows")
-    doc.ul(f["flagged"][1:]) if prep.flags else doc.p(f["flagged"][0])
+    doc.section("next", "Next measurements")
+    doc.ul(next_steps(d, suggestion) or ["None proposed."])
+    if suggestion is not None:
+        lines = [ln.strip() for ln in suggestion.summary().splitlines() if ln.strip()]
+        doc.ul(lines)
+    doc.section("flagged", "Flagged rows")
     if prep.flags:
+        doc.ul(f["flagged"][1:])
         doc.p(f["flagged"][0])
-    doc.h(2, "Figures")
-    for name in pngs:
-        doc.fig(name, _CAPTIONS.get(name, name))
-    doc.h(2, "Files")
+    else:
+        doc.p(f["flagged"][0])
+    doc.section("files", "Files")
     doc.ul(["`diagnosis.json` — the diagnosis (SI units; keys `best`, `baseline.heldout_rms_m`, `effects` best "
             "first with `name`, `params`, `heldout_rms_m`)",
             "`residuals.csv` — per row: commanded tip, gap of the nominal and final model, held-out errors, "
-            "features, flag (SI units)",
-            "`figures/*.png` — the figures of this report"])
+            "features, flag (SI units)"]
+           + (["`suggested.csv` — the suggested configurations"] if suggestion is not None else [])
+           + ["`figures/*.png` — the figures of this report"])
     return doc
+
+
+def _f1(v: float) -> str:
+    return f"{v:.1f}" if np.isfinite(v) else "—"
+
+
+def _pair_um(g) -> str:
+    return f"{g[0] * 1e6:+.1f}, {g[1] * 1e6:+.1f}" if np.isfinite(g[:2]).all() else "—"
 
 
 def _residual_rows(d: diagnose.Diagnosis) -> List[dict]:
@@ -641,11 +888,11 @@ def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None)
     os.makedirs(figdir, exist_ok=True)
     begin_run(out, "cdsm diagnose")
     pngs = figures(d, figdir)
-    doc = _build(d, pngs)
+    doc = _build(d, pngs, suggestion)
     paths = {"figures": figdir}
-    paths["report_md"] = write_text(os.path.join(out, "report.md"), doc.markdown("figures"), "report")
-    paths["report_html"] = write_text(os.path.join(out, "report.html"),
-                                      doc.html(pngs, f"cdsm diagnose — {d.prep.meas.source or 'measurements'}"),
+    paths["report_md"] = write_text(os.path.join(out, "report.md"), doc.markdown("figures", pngs), "report")
+    name = os.path.basename(d.prep.meas.source or "") or "measurements"
+    paths["report_html"] = write_text(os.path.join(out, "report.html"), doc.html(pngs, f"cdsm diagnose — {name}"),
                                       "report")
     paths["json"] = write_json(os.path.join(out, "diagnosis.json"), d.to_json(), "diagnosis")
     paths["csv"] = write_csv(os.path.join(out, "residuals.csv"), _residual_rows(d), "residuals")

@@ -1,42 +1,95 @@
 """A small document model rendered to Markdown and to a self-contained HTML
-page (figures embedded as base64, inline CSS), shared by every report."""
+page (figures embedded as base64, inline CSS), shared by every report.
+
+A document is a title and a list of sections. The first section is the
+headline (``id="headline"``): the page opens with it — in HTML it is the
+first element of the body and holds the title (``<h1>``) and the answers —
+then comes a table of contents linking every other section by its anchor.
+Inline text knows ``**bold**``, ```code``` and ``[text](#anchor)``.
+Nothing here knows a study: the reports fill it.
+"""
 
 from __future__ import annotations
 
 import base64
 import html
-from typing import Dict, List
+import re
+from typing import Dict, List, Optional
 
 from ..files import read_bytes
 
-__all__ = ["Document"]
+__all__ = ["Document", "HEADLINE"]
+
+#: The id of the section every report opens with.
+HEADLINE = "headline"
+
+_LINK = re.compile(r"\[([^\]]+)\]\(#([A-Za-z0-9_-]+)\)")
 
 
 class Document:
-    """Headings, paragraphs, lists, tables and figures, in order."""
+    """A titled document: :meth:`section` starts a section (the first one
+    should be :data:`HEADLINE`); headings, paragraphs, lists, tables and
+    figures go into the current one, in order."""
 
-    def __init__(self):
-        self.blocks: List[tuple] = []
+    def __init__(self, title: str):
+        self.title = title
+        self.sections: List[dict] = []
+
+    def section(self, sid: str, title: str) -> None:
+        """Start section ``sid`` (an anchor: letters, digits, ``-``, ``_``) titled ``title``."""
+        if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]*", sid):
+            raise ValueError(f"section id {sid!r}: letters, digits, - and _ only")
+        if any(s["id"] == sid for s in self.sections):
+            raise ValueError(f"section id {sid!r} used twice")
+        self.sections.append(dict(id=sid, title=title, blocks=[]))
+
+    def _add(self, block: tuple) -> None:
+        if not self.sections:
+            raise ValueError("start a section first")
+        self.sections[-1]["blocks"].append(block)
 
     def h(self, level: int, text: str):
-        self.blocks.append(("h", level, text))
+        """A sub-heading (level 3 or deeper) in the current section."""
+        self._add(("h", max(int(level), 3), text))
 
     def p(self, text: str):
-        self.blocks.append(("p", text))
+        self._add(("p", text))
 
     def ul(self, items: List[str]):
-        self.blocks.append(("ul", items))
+        self._add(("ul", list(items)))
 
     def table(self, header: List[str], rows: List[List[str]]):
-        self.blocks.append(("table", header, rows))
+        self._add(("table", header, rows))
 
     def fig(self, name: str, caption: str):
-        self.blocks.append(("fig", name, caption))
+        """Figure ``name`` (a key of the ``pngs`` given to the renderers;
+        left out when it was not drawn)."""
+        self._add(("fig", name, caption))
+
+    def _contents(self) -> List[dict]:
+        return [s for s in self.sections if s["id"] != HEADLINE]
 
     # -- renderers --
-    def markdown(self, figdir: str) -> str:
+    def markdown(self, figdir: str, pngs: Optional[Dict[str, str]] = None) -> str:
+        """Markdown text: the title, the headline's blocks, the contents, then
+        every section under ``<a id>`` anchors. Figures link to
+        ``figdir/<name>.png`` (only those in ``pngs`` when given)."""
+        out = [f"# {self.title}"]
+        for s in self.sections:
+            if s["id"] == HEADLINE:
+                out += self._md_blocks(s["blocks"], figdir, pngs)
+        if self._contents():
+            out.append("## Contents")
+            out.append("\n".join(f"{i + 1}. [{s['title']}](#{s['id']})" for i, s in enumerate(self._contents())))
+        for s in self._contents():
+            out.append(f"<a id=\"{s['id']}\"></a>\n\n## {s['title']}")
+            out += self._md_blocks(s["blocks"], figdir, pngs)
+        return "\n\n".join(out) + "\n"
+
+    @staticmethod
+    def _md_blocks(blocks, figdir: str, pngs) -> List[str]:
         out = []
-        for b in self.blocks:
+        for b in blocks:
             if b[0] == "h":
                 out.append("#" * b[1] + " " + b[2])
             elif b[0] == "p":
@@ -48,43 +101,67 @@ class Document:
                 lines = ["| " + " | ".join(str(h).replace("|", "\\|") for h in hdr) + " |", "|" + "---|" * len(hdr)]
                 lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
                 out.append("\n".join(lines))
-            elif b[0] == "fig":
+            elif b[0] == "fig" and (pngs is None or b[1] in pngs):
                 out.append(f"![{b[2]}]({figdir}/{b[1]}.png)\n\n*{b[2]}*")
-        return "\n\n".join(out) + "\n"
+        return out
 
     def html(self, pngs: Dict[str, str], title: str) -> str:
+        """A self-contained HTML page titled ``title``: the body's first
+        element is the headline section (with the ``<h1>``), then the
+        contents (``<nav id="contents">``), then each section; figures
+        embedded from the PNG files ``pngs`` ({name: path})."""
         def inline(t: str) -> str:
             t = html.escape(t)
-            # **bold** and `code`
             parts = t.split("**")
             t = "".join(f"<b>{s}</b>" if i % 2 else s for i, s in enumerate(parts))
             parts = t.split("`")
-            return "".join(f"<code>{s}</code>" if i % 2 else s for i, s in enumerate(parts))
+            t = "".join(f"<code>{s}</code>" if i % 2 else s for i, s in enumerate(parts))
+            return _LINK.sub(r"<a href='#\2'>\1</a>", t)
 
-        body = []
-        for b in self.blocks:
-            if b[0] == "h":
-                body.append(f"<h{b[1]}>{inline(b[2])}</h{b[1]}>")
-            elif b[0] == "p":
-                body.append(f"<p>{inline(b[1])}</p>")
-            elif b[0] == "ul":
-                body.append("<ul>" + "".join(f"<li>{inline(i)}</li>" for i in b[1]) + "</ul>")
-            elif b[0] == "table":
-                hdr = "".join(f"<th>{inline(h)}</th>" for h in b[1])
-                rows = "".join("<tr>" + "".join(f"<td>{inline(str(c))}</td>" for c in r) + "</tr>"
-                               for r in b[2])
-                body.append(f"<div class='tw'><table><thead><tr>{hdr}</tr></thead><tbody>{rows}</tbody></table></div>")
-            elif b[0] == "fig":
-                path = pngs.get(b[1])
-                if path is None:
-                    continue
-                data = base64.b64encode(read_bytes(path, "figure")).decode("ascii")
-                body.append(f"<figure><img alt='{html.escape(b[2], quote=True)}' "
-                            f"src='data:image/png;base64,{data}'><figcaption>{inline(b[2])}</figcaption></figure>")
+        def blocks(bs) -> List[str]:
+            body = []
+            for b in bs:
+                if b[0] == "h":
+                    body.append(f"<h{b[1]}>{inline(b[2])}</h{b[1]}>")
+                elif b[0] == "p":
+                    body.append(f"<p>{inline(b[1])}</p>")
+                elif b[0] == "ul":
+                    body.append("<ul>" + "".join(f"<li>{inline(i)}</li>" for i in b[1]) + "</ul>")
+                elif b[0] == "table":
+                    hdr = "".join(f"<th>{inline(str(h))}</th>" for h in b[1])
+                    rows = "".join("<tr>" + "".join(f"<td>{inline(str(c))}</td>" for c in r) + "</tr>"
+                                   for r in b[2])
+                    body.append(f"<div class='tw'><table><thead><tr>{hdr}</tr></thead><tbody>{rows}</tbody>"
+                                "</table></div>")
+                elif b[0] == "fig":
+                    path = pngs.get(b[1])
+                    if path is None:
+                        continue
+                    data = base64.b64encode(read_bytes(path, "figure")).decode("ascii")
+                    body.append(f"<figure id='fig-{html.escape(b[1], quote=True)}'><img alt='"
+                                f"{html.escape(b[2], quote=True)}' src='data:image/png;base64,{data}'>"
+                                f"<figcaption>{inline(b[2])}</figcaption></figure>")
+            return body
+
+        out = []
+        for s in self.sections:
+            if s["id"] == HEADLINE:
+                out.append(f"<section id='{HEADLINE}'><h1>{inline(self.title)}</h1>\n"
+                           + "\n".join(blocks(s["blocks"])) + "\n</section>")
+        if self._contents():
+            out.append("<nav id='contents'><h2>Contents</h2><ol>" + "".join(
+                f"<li><a href='#{s['id']}'>{inline(s['title'])}</a></li>" for s in self._contents()) + "</ol></nav>")
+        for s in self._contents():
+            out.append(f"<section id='{s['id']}'><h2>{inline(s['title'])}</h2>\n" + "\n".join(blocks(s["blocks"]))
+                       + "\n</section>")
         css = """
-body{font-family:-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:1200px;margin:2em auto;
+body{font-family:-apple-system,Segoe UI,Helvetica,Arial,sans-serif;max-width:1200px;margin:1.2em auto;
 padding:0 1.2em;color:#222;line-height:1.5}
-h1{border-bottom:2px solid #1f5fbf;padding-bottom:.3em}h2{margin-top:2em;border-bottom:1px solid #ccc}
+h1{border-bottom:2px solid #1f5fbf;padding-bottom:.3em;margin-top:.2em;font-size:1.7em}
+h2{margin-top:2em;border-bottom:1px solid #ccc}
+#headline{background:#f4f7fc;border:1px solid #c9d6ee;border-radius:6px;padding:.2em 1.2em .6em}
+#headline li{margin:.25em 0}
+nav#contents ol{columns:2;column-gap:2em;margin:.3em 0}nav#contents h2{margin-top:1em}
 table{border-collapse:collapse;margin:1em 0;font-size:.88em}th,td{border:1px solid #ccc;padding:.3em .6em;
 text-align:left;vertical-align:top}th{background:#eef3fb}tr:nth-child(even) td{background:#fafafa}
 .tw{overflow-x:auto}figure{margin:1.5em 0}img{max-width:100%;border:1px solid #ddd}
@@ -92,5 +169,5 @@ figcaption{font-size:.9em;color:#444;margin-top:.3em}code{background:#f3f3f3;pad
 """
         return (f"<!DOCTYPE html>\n<html lang='en'><head><meta charset='utf-8'>"
                 f"<meta name='viewport' content='width=device-width, initial-scale=1'>"
-                f"<title>{html.escape(title)}</title><style>{css}</style></head><body>\n"
-                + "\n".join(body) + "\n</body></html>\n")
+                f"<title>{html.escape(title)}</title><style>{css}</style></head><body>"
+                + "\n".join(out) + "\n</body></html>\n")

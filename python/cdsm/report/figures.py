@@ -1,6 +1,16 @@
 """Figure helpers shared by the reports (matplotlib, Agg, no pyplot global
-state): a figure with the report style, saving, colour maps, and the arm
-drawn in mm. Colours follow the paper: X red, Y blue, phi green.
+state): a figure with the report style, a fixed layout, saving, colour maps,
+and the arm drawn in mm. Colours follow the paper: X red, Y blue, phi green.
+
+Every report figure is at most :data:`MAX_WIDTH_IN` wide, so the HTML page
+(its text column is about 1160 px) shows it at full size: nothing is shrunk
+below the size its labels were set for. Layouts are fixed margins in inches
+(:func:`place`), never measured from a figure's text, so equal inputs give
+byte-identical PNGs whatever process draws them and in whatever order.
+Maps never draw a value white on the white page: the diverging maps pass
+through a light grey at zero (:func:`hue_cmap`), the sequential ones start
+darker than the page (:func:`seq_cmap`), and unreachable configurations are
+drawn as small crosses (:func:`mark_missing`), not as a colour.
 """
 
 from __future__ import annotations
@@ -21,49 +31,52 @@ from ..inputs import CdsmInputError
 from ..progress import Progress
 from ..robot import Robot
 
-__all__ = ["DPI", "RED", "BLUE", "GREEN", "HUES", "new_figure", "report_style", "save", "hue_cmap",
-           "sym_norm", "chain_points", "draw_arm", "file_key", "tight", "few_ticks", "colour_bar", "render_jobs",
-           "FigureJob"]
+__all__ = ["DPI", "MAX_WIDTH_IN", "RED", "BLUE", "GREEN", "HUES", "NEGATIVE", "ZERO", "new_figure", "report_style",
+           "save", "hue_cmap", "seq_cmap", "tension_cmap", "sym_norm", "chain_points", "draw_arm", "file_key",
+           "place", "few_ticks", "colour_bar", "mark_missing", "render_jobs", "FigureJob"]
 
 DPI = 110
+#: Widest report figure, inches: MAX_WIDTH_IN * DPI = 1144 px fit the HTML text column unscaled.
+MAX_WIDTH_IN = 10.4
 RED, BLUE, GREEN = "#d62728", "#1f5fbf", "#2ca02c"
 HUES = (RED, BLUE, GREEN)
+#: The negative end of every diverging map (a hue no quantity uses) and its middle (zero: not the page's white).
+NEGATIVE, ZERO = "#3f007d", "#c8c8c8"
 # ``axes.titley`` fixed: titles sit just above the axes (no labels there),
 # and matplotlib skips measuring every axis at each draw to place them
 FONT = {"font.size": 10, "axes.titlesize": 10.5, "axes.labelsize": 10,
         "xtick.labelsize": 9, "ytick.labelsize": 9, "legend.fontsize": 9,
-        "axes.titley": 1.0}
+        "axes.titley": 1.0,
+        # solid light grid lines: thin translucent ones vanished in the 256-colour PNGs but at their crossings
+        "grid.color": "0.86", "grid.linewidth": 0.6, "grid.alpha": 1.0}
 
 
 def new_figure(w: float, h: float) -> Figure:
-    """A new Figure with an Agg canvas (no pyplot state)."""
+    """A new Figure ``w`` x ``h`` inches with an Agg canvas (no pyplot
+    state); ``w`` at most :data:`MAX_WIDTH_IN`."""
+    if w > MAX_WIDTH_IN + 1e-9:
+        raise ValueError(f"report figures are at most {MAX_WIDTH_IN} in wide, got {w}")
     with report_style():
         fig = Figure(figsize=(w, h), dpi=DPI)
     FigureCanvasAgg(fig)
     return fig
 
 
-# subplot parameters of tight layouts, per family of figures that share a structure
-_LAYOUTS: dict = {}
-
-
-def tight(fig: Figure, family: Optional[str] = None) -> None:
-    """``fig.tight_layout()``; with ``family``, computed for the first figure
-    of a family (same size, same number of axes and colour bars: e.g. the 24
-    scenario maps) and reused for the others — measuring every tick label is
-    the costliest step of a report figure."""
-    if family is None:
-        fig.tight_layout()
-        return
-    key = (family, tuple(np.round(fig.get_size_inches(), 3)), len(fig.axes))
-    pars = _LAYOUTS.get(key)
-    if pars is None:
-        fig.tight_layout()
-        sp = fig.subplotpars
-        _LAYOUTS[key] = dict(left=sp.left, right=sp.right, bottom=sp.bottom, top=sp.top, wspace=sp.wspace,
-                             hspace=sp.hspace)
-    else:
-        fig.subplots_adjust(**pars)
+def place(fig: Figure, rows: int, cols: int, left: float = 0.75, right: float = 0.15, bottom: float = 0.55,
+          top: float = 0.75, wgap: float = 0.9, hgap: float = 0.7) -> None:
+    """Lay the ``rows`` x ``cols`` grid of ``fig`` out with fixed margins in
+    inches: ``left``, ``right``, ``bottom``, ``top`` (the figure title's
+    room) and the gaps between panels ``wgap``, ``hgap`` (room for a panel's
+    colour bar and tick labels). Deterministic and free, unlike
+    ``tight_layout``, which measures every label (and, cached per family,
+    made a figure depend on which one was drawn first)."""
+    w, h = fig.get_size_inches()
+    aw = (w - left - right - (cols - 1) * wgap) / cols
+    ah = (h - bottom - top - (rows - 1) * hgap) / rows
+    if aw <= 0 or ah <= 0:
+        raise ValueError(f"place: no room for a {rows} x {cols} grid in a {w} x {h} in figure")
+    fig.subplots_adjust(left=left / w, right=1 - right / w, bottom=bottom / h, top=1 - top / h,
+                        wspace=wgap / aw, hspace=hgap / ah)
 
 
 def few_ticks(ax, n: int = 5) -> None:
@@ -123,8 +136,32 @@ def save(fig: Figure, path: "str | os.PathLike[str]", dpi: int = DPI) -> str:
 
 
 def hue_cmap(color: str) -> LinearSegmentedColormap:
-    """Diverging map: negative dark grey, zero white, positive ``color``."""
-    return LinearSegmentedColormap.from_list(f"div_{color}", ["#3a3a3a", "#f7f7f7", color])
+    """Diverging map: negative :data:`NEGATIVE` (purple), zero :data:`ZERO`
+    (light grey, visible on the white page), positive ``color``."""
+    return LinearSegmentedColormap.from_list(f"div_{color}", [NEGATIVE, ZERO, color])
+
+
+def tension_cmap() -> LinearSegmentedColormap:
+    """Diverging map of tensions: negative (a cable would have to push) red,
+    zero light grey, positive blue."""
+    return LinearSegmentedColormap.from_list("tension", [RED, ZERO, BLUE])
+
+
+def seq_cmap(name: str, start: float = 0.15) -> LinearSegmentedColormap:
+    """The matplotlib map ``name`` without its first ``start`` of the range
+    (``magma_r`` starts near white: its smallest values vanished on the page)."""
+    import matplotlib
+
+    base = matplotlib.colormaps[name]
+    return LinearSegmentedColormap.from_list(f"{name}_from{start:g}", base(np.linspace(start, 1.0, 256)))
+
+
+def mark_missing(ax, xy: np.ndarray, label: Optional[str] = None, size: float = 9.0) -> None:
+    """Configurations without a value (unreachable, unsolved) at ``xy`` (K,
+    2): small grey crosses under the map, never a colour of it."""
+    if len(xy):
+        ax.scatter(xy[:, 0], xy[:, 1], s=size, c="0.45", marker="x", linewidths=0.5, zorder=0, label=label,
+                   rasterized=True)
 
 
 def sym_norm(v: np.ndarray) -> Normalize:
