@@ -900,6 +900,7 @@ pub fn r_factor(jac: &[f64], m: usize, n: usize) -> Vec<f64> {
 /// the stack for n <= 6 (the pivots' reciprocals formed once, so the
 /// substitutions only multiply), faer's Cholesky beyond. Returns `false` if
 /// `a` is not positive definite (a pivot not > 0, or not finite).
+#[inline(never)]
 pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
     /// [`ldlt_solve`] of a constant size (its loops unrolled).
     fn fixed<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {

@@ -204,12 +204,6 @@ impl<S: Simd, const K: usize> Mask<S, K> {
             .any(|m| self.simd.first_true_m64s(*m) < S::F64_LANES)
     }
 
-    /// Whether every lane is set.
-    #[inline(always)]
-    pub fn all(self) -> bool {
-        !(!self).any()
-    }
-
     /// Every lane set.
     #[inline(always)]
     pub fn all_set(simd: S) -> Self {

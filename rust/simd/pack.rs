@@ -12,7 +12,6 @@
 //! that `f64`'s [`Lane::cos_sin`] also runs, so lane `i` of every result
 //! has the bits of the same operations on the `f64`s of row `i`.
 
-use super::lanes::Lanes;
 use super::math::sin_cos_quick;
 use crate::real::{Arith, Lane};
 use std::ops::{Add, AddAssign, BitAnd, BitOr, Div, Mul, MulAssign, Neg, Not, Sub, SubAssign};
@@ -154,8 +153,8 @@ impl<const W: usize> Not for PackMask<W> {
 /// `(cos, sin)` of the lanes of `x` by the lane kernel.
 #[inline(always)]
 fn cos_sin_pack<const W: usize>(x: Pack<W>) -> (Pack<W>, Pack<W>) {
-    let (s, c) = sin_cos_quick(Lanes::<pulp::Scalar, W>::new(pulp::Scalar::new(), x.0));
-    (Pack(c.v), Pack(s.v))
+    let (s, c) = sin_cos_quick(x.0);
+    (Pack(c), Pack(s))
 }
 
 impl<const W: usize> Arith for Pack<W> {
