@@ -904,9 +904,13 @@ pub fn r_factor(jac: &[f64], m: usize, n: usize) -> Vec<f64> {
 pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
     /// [`ldlt_solve`] of a constant size (its loops unrolled).
     fn fixed<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
-        let mut f = [[0.0; N]; N];
+        // the lower triangle, element by element (the factorisation reads
+        // no more; a whole-matrix copy would be a call to memcpy)
+        let a = &a[..N * N];
+        let mut f: [[f64; N]; N] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| if j <= i { a[i * N + j] } else { 0.0 })
+        });
         let f = f.as_flattened_mut();
-        f.copy_from_slice(&a[..N * N]);
         let x = &mut x[..N];
         x.copy_from_slice(&b[..N]);
         ldlt_solve(N, f, x) && x.iter().all(|v| v.is_finite())
