@@ -1095,6 +1095,77 @@ mod tests {
         }
     }
 
+    #[test]
+    fn lane_solves_match_faer_lane_by_lane() {
+        use crate::simd::pack::Pack;
+        // four systems per pack (n = 8): random, one with a zero leading
+        // entry (it must pivot), one singular (its lane comes back false);
+        // each lane equals faer's LU (and, SPD, its Cholesky) to 1e-12 and
+        // has the bits of the same solve of its own row in f64
+        let mut seed = 11u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let n = 8;
+        let mut a = vec![Pack::<4>::splat(0.0); n * n];
+        let mut b = vec![Pack::<4>::splat(0.0); n];
+        for v in a.iter_mut().chain(b.iter_mut()) {
+            *v = Pack([rnd(), rnd(), rnd(), rnd()]);
+        }
+        a[0].0[1] = 0.0;
+        for j in 0..n {
+            // lane 3: row 5 = 2 row 2
+            let v = a[2 * n + j].0[3];
+            a[5 * n + j].0[3] = 2.0 * v;
+        }
+        let lane = |m: &[Pack<4>], i: usize| m.iter().map(|p| p.0[i]).collect::<Vec<f64>>();
+        let close = |x: &[f64], want: &Mat<f64>| {
+            (0..n).all(|i| (x[i] - want[(i, 0)]).abs() < 1e-12 * (1.0 + want[(i, 0)].abs()))
+        };
+        let (mut lu, mut x) = (a.clone(), b.clone());
+        let ok = lu_solve(n, &mut lu, &mut x);
+        for i in 0..4 {
+            let (ai, bi) = (lane(&a, i), lane(&b, i));
+            let (mut a1, mut x1) = (ai.clone(), bi.clone());
+            let ok1 = lu_solve(n, &mut a1, &mut x1);
+            assert_eq!(Pack::lane_set(ok, i), ok1, "lane {i}");
+            assert_eq!(ok1, i != 3, "lane {i}");
+            if i == 3 {
+                continue;
+            }
+            assert_eq!(lane(&x, i), x1, "lane {i}: the bits of its own row");
+            let fa = Mat::<f64>::from_fn(n, n, |r, c| ai[r * n + c]);
+            let fb = Mat::<f64>::from_fn(n, 1, |r, _| bi[r]);
+            assert!(close(&x1, &fa.partial_piv_lu().solve(&fb)), "lane {i}");
+        }
+        // L D L^T of a^T a + 0.1 I
+        let mut spd = vec![Pack::<4>::splat(0.0); n * n];
+        for r in 0..n {
+            for c in 0..n {
+                let mut v = Pack::splat(if r == c { 0.1 } else { 0.0 });
+                for k in 0..n {
+                    v += a[k * n + r] * a[k * n + c];
+                }
+                spd[r * n + c] = v;
+            }
+        }
+        let (mut f, mut x) = (spd.clone(), b.clone());
+        assert!(Pack::all(ldlt_solve(n, &mut f, &mut x)));
+        for i in 0..4 {
+            let (si, bi) = (lane(&spd, i), lane(&b, i));
+            let (mut f1, mut x1) = (si.clone(), bi.clone());
+            assert!(ldlt_solve(n, &mut f1, &mut x1));
+            assert_eq!(lane(&x, i), x1, "lane {i}: the bits of its own row");
+            let fa = Mat::<f64>::from_fn(n, n, |r, c| si[r * n + c]);
+            let fb = Mat::<f64>::from_fn(n, 1, |r, _| bi[r]);
+            let want = fa.llt(faer::Side::Lower).unwrap().solve(&fb);
+            assert!(close(&x1, &want), "lane {i}");
+        }
+    }
+
     /// x = 1 and x = -1 at once: no root; the best is x = 0 with |r| = 1.
     struct NoRoot;
     impl Problem for NoRoot {
