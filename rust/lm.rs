@@ -627,10 +627,24 @@ fn normal_equations_f64(
     a: &mut [f64],
     g: &mut [f64],
 ) {
-    normal_equations(jac, r, m, n, lambda, damping, a, g)
+    normal_equations(jac, r, m, n, None, lambda, damping, a, g)
 }
 
-/// `a = J^T J + lambda D` (n x n) and `g = -J^T r`, lane by lane.
+/// `sum f(i)` over `rows`, in order, from 0.
+#[inline(always)]
+fn sum_over<L: Lane>(rows: impl Iterator<Item = usize>, f: impl Fn(usize) -> L) -> L {
+    let mut v = L::cst(0.0);
+    for i in rows {
+        v += f(i);
+    }
+    v
+}
+
+/// `a = J^T J + lambda D` (n x n) and `g = -J^T r`, lane by lane. With
+/// `rows`, `rows[k]` lists (ascending) the rows that may be non-zero in
+/// column `k` of `J` (`m x n`): every other entry of the column must be an
+/// exact zero, whose products the sums skip — the same bits, fewer
+/// operations (a long arm's cables reach only the joints before their end).
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub fn normal_equations<L: Lane>(
@@ -638,25 +652,27 @@ pub fn normal_equations<L: Lane>(
     r: &[L],
     m: usize,
     n: usize,
+    rows: Option<&[Vec<usize>]>,
     lambda: L,
     damping: Damping,
     a: &mut [L],
     g: &mut [L],
 ) {
-    let zero = L::cst(0.0);
     for k in 0..n {
         for l in 0..=k {
-            let mut v = zero;
-            for i in 0..m {
-                v += jac[i * n + k] * jac[i * n + l];
-            }
+            let f = |i: usize| jac[i * n + k] * jac[i * n + l];
+            let v = match rows {
+                Some(rs) => sum_over(rs[k].iter().copied(), f),
+                None => sum_over(0..m, f),
+            };
             a[k * n + l] = v;
             a[l * n + k] = v;
         }
-        let mut v = zero;
-        for i in 0..m {
-            v += jac[i * n + k] * r[i];
-        }
+        let f = |i: usize| jac[i * n + k] * r[i];
+        let v = match rows {
+            Some(rs) => sum_over(rs[k].iter().copied(), f),
+            None => sum_over(0..m, f),
+        };
         g[k] = -v;
     }
     for k in 0..n {
@@ -1163,6 +1179,68 @@ mod tests {
             let fb = Mat::<f64>::from_fn(n, 1, |r, _| bi[r]);
             let want = fa.llt(faer::Side::Lower).unwrap().solve(&fb);
             assert!(close(&x1, &want), "lane {i}");
+        }
+    }
+
+    #[test]
+    fn normal_equations_skip_only_zero_products() {
+        // J (5 x 3) whose column k is zero above row k (a cable reaching
+        // only the joints before its end): the sums over the rows that
+        // reach each column have the bits of the full sums
+        let (m, n) = (5, 3);
+        let jac: Vec<f64> = (0..m * n)
+            .map(|ij| {
+                let (i, k) = (ij / n, ij % n);
+                if i < k {
+                    0.0
+                } else {
+                    ((ij as f64) * 0.37).sin() - 0.1
+                }
+            })
+            .collect();
+        let r: Vec<f64> = (0..m).map(|i| (i as f64 * 1.3).cos()).collect();
+        let rows: Vec<Vec<usize>> = (0..n).map(|k| (k..m).collect()).collect();
+        let (mut a0, mut g0, mut a1, mut g1) =
+            (vec![0.0; 9], vec![0.0; 3], vec![0.0; 9], vec![0.0; 3]);
+        normal_equations(
+            &jac,
+            &r,
+            m,
+            n,
+            None,
+            0.5,
+            Damping::Marquardt,
+            &mut a0,
+            &mut g0,
+        );
+        normal_equations(
+            &jac,
+            &r,
+            m,
+            n,
+            Some(&rows),
+            0.5,
+            Damping::Marquardt,
+            &mut a1,
+            &mut g1,
+        );
+        assert_eq!(
+            a0.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            a1.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        assert_eq!(
+            g0.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            g1.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        // against the definition, J^T J + 0.5 diag(J^T J) and -J^T r
+        for k in 0..n {
+            let gk: f64 = -(0..m).map(|i| jac[i * n + k] * r[i]).sum::<f64>();
+            assert!((g1[k] - gk).abs() < 1e-15);
+            for l in 0..n {
+                let v: f64 = (0..m).map(|i| jac[i * n + k] * jac[i * n + l]).sum();
+                let want = if k == l { 1.5 * v } else { v };
+                assert!((a1[k * n + l] - want).abs() < 1e-14, "{k} {l}");
+            }
         }
     }
 

@@ -695,6 +695,10 @@ impl<L: Lane> NewtonOutcome<L> {
 pub struct CableNewton<L: Lane, F: Frame<L>> {
     cables: Vec<usize>,
     blocks: Option<Blocks>,
+    /// Per joint, the position cables (rows) that reach it: those ending
+    /// at its disk or past it (the other rows of its Jacobian column are
+    /// exact zeros).
+    reach: Vec<Vec<usize>>,
     tol: f64,
     max_iter: u32,
     limits: Option<Vec<[L; 2]>>,
@@ -732,8 +736,20 @@ impl<L: Lane, F: Frame<L>> CableNewton<L, F> {
         let cables = model.position_cables();
         let (m, n) = (cables.len(), model.n());
         let z = L::cst(0.0);
+        let reach = model
+            .disks
+            .iter()
+            .enumerate()
+            .flat_map(|(d, disk)| disk.joints.clone().map(move |_| d))
+            .map(|d| {
+                (0..m)
+                    .filter(|&i| model.cables[cables[i]].end > d)
+                    .collect()
+            })
+            .collect();
         CableNewton {
             blocks: cable_blocks(model, &cables),
+            reach,
             cables,
             tol: opts.tol,
             max_iter: opts.max_iter,
@@ -763,8 +779,24 @@ impl<L: Lane, F: Frame<L>> CableNewton<L, F> {
     /// unspecified).
     #[inline(always)]
     pub fn run<N: Numbers<L>>(&mut self, model: &Model, nums: &N) -> NewtonOutcome<L> {
+        // one loop per case (each compiled without the other's steps)
+        if self.cables.len() > model.n() {
+            self.phase::<N, true>(model, nums)
+        } else {
+            self.phase::<N, false>(model, nums)
+        }
+    }
+
+    /// [`CableNewton::run`] with as many cables as joints, or more
+    /// (`LEAST_SQUARES`).
+    #[inline(always)]
+    fn phase<N: Numbers<L>, const LEAST_SQUARES: bool>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+    ) -> NewtonOutcome<L> {
         let (m, n) = (self.cables.len(), model.n());
-        let least_squares = m > n;
+        let least_squares = LEAST_SQUARES;
         let zero = L::cst(0.0);
         cable_residuals(
             model,
@@ -795,9 +827,9 @@ impl<L: Lane, F: Frame<L>> CableNewton<L, F> {
             let ok = if least_squares {
                 // a column of zeros is held out of the damped solver's step
                 let mut blind = L::mask(false);
-                for k in 0..n {
+                for (k, rows) in self.reach.iter().enumerate() {
                     let mut zero_col = L::mask(true);
-                    for i in 0..m {
+                    for &i in rows {
                         zero_col = zero_col & self.jac[i * n + k].eq(zero);
                     }
                     blind = blind | zero_col;
@@ -807,6 +839,7 @@ impl<L: Lane, F: Frame<L>> CableNewton<L, F> {
                     &self.r,
                     m,
                     n,
+                    Some(&self.reach),
                     lambda,
                     Damping::Levenberg,
                     &mut self.a,
