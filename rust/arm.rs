@@ -7,15 +7,20 @@
 
 use crate::accuracy::McStats;
 use crate::batch::{self, rows_exactly, rows_of, seeds, split_rows, BatchSolution};
-use crate::chain::Chain;
+use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
 use crate::ik::{IkMethod, SpatialIk, SpatialMask, TaskMask};
 use crate::kinds::{log_so3, Frame, Kind, Planar, Se3, Spatial, Vector};
 use crate::lm::Reason;
 use crate::model::{self, Model};
 use crate::qp::min_norm_active;
-use crate::solve::{CableMethod, CableSolve, SolveOptions};
+use crate::real::Lane;
+use crate::simd::pack::Pack;
+use crate::solve::{CableMethod, CableNewton, CableSolve, SolveOptions};
 use crate::tension::{Balance, Wrench};
+use pulp::{Simd, WithSimd};
+use std::marker::PhantomData;
+use std::ops::Range;
 
 /// A row-wise map over `theta (N, n)` producing `width` values per row from
 /// the chain of the configuration (after [`Chain::at`] and [`Chain::world`]).
@@ -198,7 +203,14 @@ fn solve_cables_by_kind(
     solve_cables_general::<Spatial>(model, lengths, seed, opts, threads)
 }
 
-/// The general cable solve of a batch (any kind).
+/// Rows per pack of the general cable solve's Newton phase on lanes.
+pub const PACK: usize = 4;
+type P = Pack<PACK>;
+
+/// The general cable solve of a batch (any kind): packs of [`PACK`] rows
+/// through the Newton phase on lanes ([`CableNewton`], compiled for the
+/// machine's instruction set by `pulp`'s dispatch), the rows that leave it
+/// through [`CableSolve`] from their seeds.
 pub fn solve_cables_general<K: Kind>(
     model: &Model,
     lengths: &[f64],
@@ -210,21 +222,89 @@ pub fn solve_cables_general<K: Kind>(
     let rows = rows_of("lengths", lengths, m)?;
     let seed = seeds(seed, rows, n)?;
     batch::check_options(opts)?;
+    let mut traverse = Vec::new();
+    Broadcast::traversals(model, model, &model.position_cables(), &mut traverse);
+    let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
-        let mut out = BatchSolution::with_capacity(r.len(), n);
-        let mut solver = CableSolve::<K::Frame<f64>>::new(model, *opts);
-        let mut th = vec![0.0; n];
-        for i in r {
-            match seed {
-                Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
-                None => th.fill(0.0),
-            }
-            let st = solver.solve(model, model, &lengths[i * m..(i + 1) * m], &mut th);
-            out.push_row(&th, st, within_limits_of(model, &th));
-        }
-        out
+        arch.dispatch(SolveRows::<K> {
+            model,
+            traverse: &traverse,
+            lengths,
+            seed,
+            opts,
+            rows: r,
+            kind: PhantomData,
+        })
     });
     Ok(BatchSolution::concat(parts))
+}
+
+/// The rows `rows` of [`solve_cables_general`], in packs.
+struct SolveRows<'a, K> {
+    model: &'a Model,
+    traverse: &'a [f64],
+    lengths: &'a [f64],
+    seed: Option<&'a [f64]>,
+    opts: &'a SolveOptions,
+    rows: Range<usize>,
+    kind: PhantomData<K>,
+}
+
+impl<K: Kind> WithSimd for SolveRows<'_, K> {
+    type Output = BatchSolution;
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, _simd: S) -> BatchSolution {
+        let SolveRows {
+            model,
+            traverse,
+            lengths,
+            seed,
+            opts,
+            rows,
+            ..
+        } = self;
+        let (n, m) = (model.n(), model.position_cables().len());
+        let arm = Broadcast::new(model, traverse);
+        let mut out = BatchSolution::with_capacity(rows.len(), n);
+        let mut lanes = CableNewton::<P, K::Frame<P>>::new(model, *opts);
+        let mut solver = CableSolve::<K::Frame<f64>>::new(model, *opts);
+        let mut th = vec![0.0; n];
+        let seed_of = |i: usize, k: usize| seed.map_or(0.0, |s| s[i * n + k]);
+        for start in rows.clone().step_by(PACK) {
+            let count = PACK.min(rows.end - start);
+            // a short pack repeats its last row in the spare lanes
+            for b in 0..PACK {
+                let i = start + b.min(count - 1);
+                for (k, x) in lanes.x.iter_mut().enumerate() {
+                    x.0[b] = seed_of(i, k);
+                }
+                for (k, t) in lanes.target.iter_mut().enumerate() {
+                    t.0[b] = lengths[i * m + k];
+                }
+            }
+            let o = lanes.run(model, &arm);
+            for b in 0..count {
+                let i = start + b;
+                let st = match o.status(b) {
+                    Some(st) => {
+                        for (t, x) in th.iter_mut().zip(&lanes.x) {
+                            *t = x.0[b];
+                        }
+                        st
+                    }
+                    None => {
+                        for (k, t) in th.iter_mut().enumerate() {
+                            *t = seed_of(i, k);
+                        }
+                        solver.solve(model, model, &lengths[i * m..(i + 1) * m], &mut th)
+                    }
+                };
+                out.push_row(&th, st, within_limits_of(model, &th));
+            }
+        }
+        out
+    }
 }
 
 /// What the pose IK matches: planar weights over `x, y, phi`, or a spatial mask.
@@ -480,60 +560,164 @@ pub fn monte_carlo(
         }
     };
     let model_of = |s: usize| models.get(s).unwrap_or(model);
+    // every arm's traversals once (the nominal one's when no hole moves)
+    let pos = model.position_cables();
+    let traverse: Vec<Vec<f64>> = (0..samples.min(models.len()).max(1))
+        .map(|s| {
+            let mut t = Vec::new();
+            Broadcast::traversals(model_of(s), model_of(s), &pos, &mut t);
+            t
+        })
+        .collect();
+    let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
-        let mut stats = McStats::with_quantities(r.len(), SPATIAL_QUANTITIES);
-        let mut solver = CableSolve::<Se3<f64>>::new(model, *opts);
-        let mut chain = Chain::<f64, Se3<f64>>::new(model);
-        let (mut l0, mut target, mut th) = (vec![0.0; m], vec![0.0; m], vec![0.0; n]);
-        let mut bal = Balance::<f64>::new(model);
-        let mut t = vec![0.0; m];
-        let pos = model.position_cables();
-        for (j, i) in r.enumerate() {
-            let t0 = &theta0[i * n..(i + 1) * n];
-            chain.at(model, model, t0);
-            chain.world(model, model);
-            for (k, &c) in pos.iter().enumerate() {
-                l0[k] = chain.cable_length(model, model, c, None);
-            }
-            let end0 = *chain.end();
-            for s in 0..samples {
-                for k in 0..m {
-                    target[k] = l0[k] + dl[s * m + k];
-                }
-                th.copy_from_slice(t0);
-                let ms = model_of(s);
-                if !solver.solve(ms, ms, &target, &mut th).converged {
-                    stats.failed[j] += 1;
-                    continue;
-                }
-                solver.chain.world(ms, ms);
-                let end = solver.chain.end();
-                let d = end.t.sub(end0.t);
-                let rel: [[f64; 3]; 3] = std::array::from_fn(|a| {
-                    std::array::from_fn(|b| (0..3).map(|k| end0.r[k][a] * end.r[k][b]).sum())
-                });
-                let angle = log_so3(&rel).norm();
-                stats.add_values(j, &[d[0], d[1], d[2], d.norm(), angle]);
-                if check_slack {
-                    let zero = [0.0; 3];
-                    let wrench = Wrench {
-                        force: zero,
-                        couple: &zero,
-                    };
-                    bal.at(ms, ms, &mut solver.chain, ms.gravity, wrench);
-                    if !held(&mut bal, 0.0, &mut t) {
-                        stats.slack[j] += 1;
-                    }
-                }
-            }
-        }
-        stats
+        arch.dispatch(McRows {
+            model,
+            models: &models,
+            traverse: &traverse,
+            theta0,
+            dl,
+            opts,
+            check_slack,
+            rows: r,
+        })
     });
     let mut out = McStats::with_quantities(0, SPATIAL_QUANTITIES);
     for p in parts {
         out.extend(p);
     }
     Ok(out)
+}
+
+/// The configurations `rows` of [`monte_carlo`]: packs of [`PACK`]
+/// configurations, each sample's solves of a pack in lanes (sharing the
+/// sample's arm), the lanes that leave the Newton phase through
+/// [`CableSolve`]; every configuration gets its samples in sample order.
+struct McRows<'a> {
+    model: &'a Model,
+    /// the samples' arms (empty: every sample the nominal one)
+    models: &'a [Model],
+    traverse: &'a [Vec<f64>],
+    theta0: &'a [f64],
+    dl: &'a [f64],
+    opts: &'a SolveOptions,
+    check_slack: bool,
+    rows: Range<usize>,
+}
+
+/// Lane `b` of a pack of frames.
+fn lane_frame(f: &Se3<P>, b: usize) -> Se3<f64> {
+    Se3 {
+        r: std::array::from_fn(|i| std::array::from_fn(|k| f.r[i][k].0[b])),
+        t: std::array::from_fn(|i| f.t[i].0[b]),
+    }
+}
+
+/// A Monte-Carlo sample's quantities: the end frame `end` against the
+/// nominal `end0`: dX, dY, dZ, |dXYZ| (m) and the rotation angle (rad).
+fn deviation(end0: &Se3<f64>, end: &Se3<f64>) -> [f64; SPATIAL_QUANTITIES] {
+    let d = end.t.sub(end0.t);
+    let rel: [[f64; 3]; 3] = std::array::from_fn(|a| {
+        std::array::from_fn(|b| (0..3).map(|k| end0.r[k][a] * end.r[k][b]).sum())
+    });
+    [d[0], d[1], d[2], d.norm(), log_so3(&rel).norm()]
+}
+
+impl WithSimd for McRows<'_> {
+    type Output = McStats;
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, _simd: S) -> McStats {
+        let McRows {
+            model,
+            models,
+            traverse,
+            theta0,
+            dl,
+            opts,
+            check_slack,
+            rows: r,
+        } = self;
+        let (n, pos) = (model.n(), model.position_cables());
+        let m = pos.len();
+        let samples = dl.len() / m;
+        let model_of = |s: usize| models.get(s).unwrap_or(model);
+        let mut stats = McStats::with_quantities(r.len(), SPATIAL_QUANTITIES);
+        let mut lanes = CableNewton::<P, Se3<P>>::new(model, *opts);
+        let mut solver = CableSolve::<Se3<f64>>::new(model, *opts);
+        let mut chain = Chain::<f64, Se3<f64>>::new(model);
+        let (mut l0, mut end0) = (vec![0.0; PACK * m], [Se3::<f64>::identity(); PACK]);
+        let (mut target, mut th) = (vec![0.0; m], vec![0.0; n]);
+        let mut bal = Balance::<f64>::new(model);
+        let mut t = vec![0.0; m];
+        let zero = [0.0; 3];
+        for start in r.clone().step_by(PACK) {
+            let count = PACK.min(r.end - start);
+            for b in 0..count {
+                let t0 = &theta0[(start + b) * n..(start + b + 1) * n];
+                chain.at(model, model, t0);
+                chain.world(model, model);
+                for (k, &c) in pos.iter().enumerate() {
+                    l0[b * m + k] = chain.cable_length(model, model, c, None);
+                }
+                end0[b] = *chain.end();
+            }
+            for s in 0..samples {
+                let ms = model_of(s);
+                let arm = Broadcast::new(ms, &traverse[s.min(traverse.len() - 1)]);
+                let ds = &dl[s * m..(s + 1) * m];
+                // a short pack repeats its last configuration in the spare lanes
+                for b in 0..PACK {
+                    let (i, bb) = (start + b.min(count - 1), b.min(count - 1));
+                    for (k, x) in lanes.x.iter_mut().enumerate() {
+                        x.0[b] = theta0[i * n + k];
+                    }
+                    for (k, tk) in lanes.target.iter_mut().enumerate() {
+                        tk.0[b] = l0[bb * m + k] + ds[k];
+                    }
+                }
+                let o = lanes.run(ms, &arm);
+                if P::any(o.converged) {
+                    lanes.chain.world(ms, &arm);
+                }
+                for b in 0..count {
+                    let (i, j) = (start + b, start + b - r.start);
+                    let end = if o.status(b).is_some() {
+                        for (tk, x) in th.iter_mut().zip(&lanes.x) {
+                            *tk = x.0[b];
+                        }
+                        lane_frame(lanes.chain.end(), b)
+                    } else {
+                        for (k, tk) in target.iter_mut().enumerate() {
+                            *tk = l0[b * m + k] + ds[k];
+                        }
+                        th.copy_from_slice(&theta0[i * n..(i + 1) * n]);
+                        if !solver.solve(ms, ms, &target, &mut th).converged {
+                            stats.failed[j] += 1;
+                            continue;
+                        }
+                        f64::cos_sin(&th, &mut chain.cs);
+                        chain.at_cs(ms, ms, &th);
+                        chain.world(ms, ms);
+                        *chain.end()
+                    };
+                    stats.add_values(j, &deviation(&end0[b], &end));
+                    if check_slack {
+                        let wrench = Wrench {
+                            force: zero,
+                            couple: &zero,
+                        };
+                        chain.at(ms, ms, &th);
+                        bal.at(ms, ms, &mut chain, ms.gravity, wrench);
+                        if !held(&mut bal, 0.0, &mut t) {
+                            stats.slack[j] += 1;
+                        }
+                    }
+                }
+            }
+        }
+        stats
+    }
 }
 
 /// Quantities of a spatial Monte-Carlo sample: dX, dY, dZ, |dXYZ| (m),

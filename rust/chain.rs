@@ -1,5 +1,5 @@
 //! The geometry of the one arm model, written once over the arm's kind (its
-//! [`Frame`]) and any [`Real`] scalar (`docs/model.md`, "The arm model"):
+//! [`Frame`]) and any [`Arith`] scalar (`docs/model.md`, "The arm model"):
 //! the motion across each disk's joints, the chain of frames, cable lengths
 //! and their Jacobian, the end frame, the geometric Jacobian and the
 //! moments of gravity and of a tip wrench about the joint axes.
@@ -23,11 +23,11 @@
 
 use crate::kinds::{Frame, Vector};
 use crate::model::Model;
-use crate::real::Real;
+use crate::real::Arith;
 
 /// The numbers of an arm in a scalar (m; unit axes): the model's own, or a
 /// perturbed copy ([`ArmNumbers`], the plant's arm).
-pub trait Numbers<S: Real> {
+pub trait Numbers<S: Arith> {
     /// Unit axis of joint `j` in its frame.
     fn axis(&self, j: usize) -> [S; 3];
     /// Offset of joint `j` from the previous frame, in that frame.
@@ -55,11 +55,11 @@ pub trait Numbers<S: Real> {
 }
 
 #[inline]
-fn cst3<S: Real>(v: &[f64; 3]) -> [S; 3] {
+fn cst3<S: Arith>(v: &[f64; 3]) -> [S; 3] {
     [S::cst(v[0]), S::cst(v[1]), S::cst(v[2])]
 }
 
-impl<S: Real> Numbers<S> for Model {
+impl<S: Arith> Numbers<S> for Model {
     #[inline]
     fn axis(&self, j: usize) -> [S; 3] {
         cst3(&self.joints[j].axis)
@@ -102,7 +102,7 @@ pub struct ArmNumbers<S> {
     traverse: Vec<S>,
 }
 
-impl<S: Real> ArmNumbers<S> {
+impl<S: Arith> ArmNumbers<S> {
     /// The model's numbers as constants.
     pub fn of(model: &Model) -> Self {
         let mut a = ArmNumbers {
@@ -132,7 +132,7 @@ impl<S: Real> ArmNumbers<S> {
     }
 }
 
-impl<S: Real> Numbers<S> for ArmNumbers<S> {
+impl<S: Arith> Numbers<S> for ArmNumbers<S> {
     #[inline]
     fn axis(&self, j: usize) -> [S; 3] {
         self.axis[j]
@@ -173,11 +173,73 @@ impl<S: Real> Numbers<S> for ArmNumbers<S> {
     }
 }
 
+/// An arm's `f64` numbers as the numbers of any scalar (a pack's lanes all
+/// hold the same arm), with the traversals ([`Numbers::traverse`]) given,
+/// computed once per arm ([`Broadcast::traversals`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Broadcast<'a, N> {
+    pub nums: &'a N,
+    traverse: &'a [f64],
+}
+
+impl<'a, N: Numbers<f64>> Broadcast<'a, N> {
+    /// `traverse`: [`Broadcast::traversals`] of `nums`.
+    pub fn new(nums: &'a N, traverse: &'a [f64]) -> Self {
+        Broadcast { nums, traverse }
+    }
+
+    /// The traversal sums of the arm `nums` (m) of the cables `cables`
+    /// into `out`, indexed by cable (the others NaN: not to be read).
+    pub fn traversals(model: &Model, nums: &N, cables: &[usize], out: &mut Vec<f64>) {
+        out.clear();
+        out.resize(model.cables.len(), f64::NAN);
+        for &c in cables {
+            out[c] = nums.traverse(model, c);
+        }
+    }
+}
+
+#[inline(always)]
+fn splat3<S: Arith>(v: [f64; 3]) -> [S; 3] {
+    [S::cst(v[0]), S::cst(v[1]), S::cst(v[2])]
+}
+
+impl<S: Arith, N: Numbers<f64>> Numbers<S> for Broadcast<'_, N> {
+    #[inline(always)]
+    fn axis(&self, j: usize) -> [S; 3] {
+        splat3(self.nums.axis(j))
+    }
+    #[inline(always)]
+    fn offset(&self, j: usize) -> [S; 3] {
+        splat3(self.nums.offset(j))
+    }
+    #[inline(always)]
+    fn link_after(&self, d: usize) -> [S; 3] {
+        splat3(self.nums.link_after(d))
+    }
+    #[inline(always)]
+    fn thickness(&self, d: usize) -> S {
+        S::cst(self.nums.thickness(d))
+    }
+    #[inline(always)]
+    fn hole(&self, c: usize, i: usize) -> [S; 3] {
+        splat3(self.nums.hole(c, i))
+    }
+    #[inline(always)]
+    fn com(&self, d: usize) -> [S; 3] {
+        splat3(self.nums.com(d))
+    }
+    #[inline(always)]
+    fn traverse(&self, _model: &Model, c: usize) -> S {
+        S::cst(self.traverse[c])
+    }
+}
+
 /// The frames of one configuration: the motion across every disk's joints
 /// (local), the joints within it, and (after [`Chain::world`]) every frame
 /// in the base frame. Buffers sized once per model.
 #[derive(Debug, Clone)]
-pub struct Chain<S: Real, F: Frame<S>> {
+pub struct Chain<S: Arith, F: Frame<S>> {
     /// `T_k` per disk (index `k - 1`): face `b` of disk `k - 1` -> face `a` of disk `k`.
     pub local: Vec<F>,
     /// Origin and axis of every joint in the frame of face `b` of the disk before it.
@@ -195,7 +257,7 @@ pub struct Chain<S: Real, F: Frame<S>> {
     world_done: bool,
 }
 
-impl<S: Real, F: Frame<S>> Chain<S, F> {
+impl<S: Arith, F: Frame<S>> Chain<S, F> {
     pub fn new(model: &Model) -> Self {
         let (n, k) = (model.n(), model.disks.len());
         let id = F::identity();
@@ -220,19 +282,28 @@ impl<S: Real, F: Frame<S>> Chain<S, F> {
             let (s, c) = t.sin_cos();
             *cs = (c, s);
         }
+        self.at_cs(model, nums, theta);
+    }
+
+    /// [`Chain::at`] with the `(cos, sin)` of `theta` already in
+    /// [`Chain::cs`] (the solves compute them with their lanes' kernel).
+    #[inline(always)]
+    pub fn at_cs<N: Numbers<S>>(&mut self, model: &Model, nums: &N, theta: &[S]) {
         for (d, disk) in model.disks.iter().enumerate() {
             let mut g = F::identity();
             for j in disk.joints.clone() {
                 let a = nums.axis(j);
                 let o = F::V::of(nums.offset(j));
-                g = if j == disk.joints.start {
-                    F::at(o)
+                if j == disk.joints.start {
+                    self.joint_p[j] = o;
+                    self.joint_w[j] = F::base_axis(a);
+                    g = F::at_turned(o, a, theta[j], self.cs[j]);
                 } else {
-                    g.translated(o)
-                };
-                self.joint_p[j] = g.origin();
-                self.joint_w[j] = g.axis(a);
-                g = g.turned(a, theta[j], self.cs[j]);
+                    g = g.translated(o);
+                    self.joint_p[j] = g.origin();
+                    self.joint_w[j] = g.axis(a);
+                    g = g.turned(a, theta[j], self.cs[j]);
+                }
             }
             self.local[d] = g.translated(F::V::of(nums.link_after(d)));
         }
@@ -278,7 +349,7 @@ impl<S: Real, F: Frame<S>> Chain<S, F> {
     /// Segment `k` (1-based disk) of cable `c` in the frame of face `b` of
     /// disk `k - 1`: `(A_k, B_{k-1})` with its holes moved by `shift`
     /// (`(on face b, on face a)`, as [`Frame::bend_shift`]).
-    #[inline]
+    #[inline(always)]
     fn segment<N: Numbers<S>>(
         &self,
         nums: &N,
@@ -348,6 +419,7 @@ impl<S: Real, F: Frame<S>> Chain<S, F> {
 
     /// The length of cable `c` (m, the model's own holes) and its row of
     /// the cable Jacobian (as [`Chain::cable_jacobian_row`]) in one pass.
+    #[inline(always)]
     pub fn cable_length_and_row<N: Numbers<S>>(
         &self,
         model: &Model,
@@ -362,10 +434,7 @@ impl<S: Real, F: Frame<S>> Chain<S, F> {
             let v = a.sub(b);
             let l = v.norm();
             len += l;
-            if l.val() == 0.0 {
-                continue;
-            }
-            let inv = S::cst(1.0) / l;
+            let inv = l.recip_or_zero();
             for j in model.disks[k - 1].joints.clone() {
                 row[j] = v.dot(F::rate(self.joint_w[j], self.joint_p[j], a)) * inv;
             }

@@ -305,7 +305,7 @@ impl Segment<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::real::Dual;
+    use crate::real::{Arith, Dual};
 
     #[test]
     fn pqr_form_equals_the_vector_length() {

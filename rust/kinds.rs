@@ -6,10 +6,10 @@
 //! over [`Frame`]; the planar kind is the case whose frames carry one angle
 //! and a 2-D origin, so its algorithms cost what the plane costs.
 
-use crate::real::Real;
+use crate::real::{Arith, Real};
 
 /// A vector of the arm's space: `[S; 2]` in the plane, `[S; 3]` in space.
-pub trait Vector<S: Real>: Copy + std::fmt::Debug {
+pub trait Vector<S: Arith>: Copy + std::fmt::Debug {
     fn zero() -> Self;
     /// From a 3-D vector (the plane keeps `x`, `y`: a planar model has `z = 0`).
     fn of(v: [S; 3]) -> Self;
@@ -19,77 +19,77 @@ pub trait Vector<S: Real>: Copy + std::fmt::Debug {
     fn sub(self, o: Self) -> Self;
     fn scale(self, k: S) -> Self;
     fn dot(self, o: Self) -> S;
-    #[inline]
+    #[inline(always)]
     fn norm(self) -> S {
         self.dot(self).sqrt()
     }
 }
 
-impl<S: Real> Vector<S> for [S; 2] {
-    #[inline]
+impl<S: Arith> Vector<S> for [S; 2] {
+    #[inline(always)]
     fn zero() -> Self {
         [S::cst(0.0); 2]
     }
-    #[inline]
+    #[inline(always)]
     fn of(v: [S; 3]) -> Self {
         [v[0], v[1]]
     }
-    #[inline]
+    #[inline(always)]
     fn to3(self) -> [S; 3] {
         [self[0], self[1], S::cst(0.0)]
     }
-    #[inline]
+    #[inline(always)]
     fn add(self, o: Self) -> Self {
         [self[0] + o[0], self[1] + o[1]]
     }
-    #[inline]
+    #[inline(always)]
     fn sub(self, o: Self) -> Self {
         [self[0] - o[0], self[1] - o[1]]
     }
-    #[inline]
+    #[inline(always)]
     fn scale(self, k: S) -> Self {
         [self[0] * k, self[1] * k]
     }
-    #[inline]
+    #[inline(always)]
     fn dot(self, o: Self) -> S {
         self[0] * o[0] + self[1] * o[1]
     }
 }
 
-impl<S: Real> Vector<S> for [S; 3] {
-    #[inline]
+impl<S: Arith> Vector<S> for [S; 3] {
+    #[inline(always)]
     fn zero() -> Self {
         [S::cst(0.0); 3]
     }
-    #[inline]
+    #[inline(always)]
     fn of(v: [S; 3]) -> Self {
         v
     }
-    #[inline]
+    #[inline(always)]
     fn to3(self) -> [S; 3] {
         self
     }
-    #[inline]
+    #[inline(always)]
     fn add(self, o: Self) -> Self {
         [self[0] + o[0], self[1] + o[1], self[2] + o[2]]
     }
-    #[inline]
+    #[inline(always)]
     fn sub(self, o: Self) -> Self {
         [self[0] - o[0], self[1] - o[1], self[2] - o[2]]
     }
-    #[inline]
+    #[inline(always)]
     fn scale(self, k: S) -> Self {
         [self[0] * k, self[1] * k, self[2] * k]
     }
-    #[inline]
+    #[inline(always)]
     fn dot(self, o: Self) -> S {
         self[0] * o[0] + self[1] * o[1] + self[2] * o[2]
     }
 }
 
 /// `a × b` in 3-D.
-#[inline]
-pub fn cross<S: Real>(a: [S; 3], b: [S; 3]) -> [S; 3] {
+#[inline(always)]
+pub fn cross<S: Arith>(a: [S; 3], b: [S; 3]) -> [S; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -98,7 +98,7 @@ pub fn cross<S: Real>(a: [S; 3], b: [S; 3]) -> [S; 3] {
 }
 
 /// A rigid frame of an arm (its rotation and origin in a parent frame).
-pub trait Frame<S: Real>: Copy + std::fmt::Debug {
+pub trait Frame<S: Arith>: Copy + std::fmt::Debug {
     /// Points and vectors of the arm's space.
     type V: Vector<S>;
     /// A joint axis in a parent frame: nothing in the plane (always `z`),
@@ -120,6 +120,17 @@ pub trait Frame<S: Real>: Copy + std::fmt::Debug {
     /// `self · Rot(axis, theta)` for a joint at angle `theta` with `(cos,
     /// sin)` `cs` (the plane ignores `axis`: its joints turn about `z`).
     fn turned(&self, axis: [S; 3], theta: S, cs: (S, S)) -> Self;
+    /// `Trans(v) · Rot(axis, theta)`: [`Frame::at`] then
+    /// [`Frame::turned`], without turning the identity.
+    #[inline(always)]
+    fn at_turned(v: Self::V, axis: [S; 3], theta: S, cs: (S, S)) -> Self {
+        Self::at(v).turned(axis, theta, cs)
+    }
+    /// The unit axis `local` of the identity frame ([`Frame::axis`]).
+    #[inline(always)]
+    fn base_axis(local: [S; 3]) -> Self::Axis {
+        Self::identity().axis(local)
+    }
     /// `self · o`.
     fn compose(&self, o: &Self) -> Self;
     /// A point given in this frame, in the parent frame.
@@ -147,16 +158,22 @@ pub trait Frame<S: Real>: Copy + std::fmt::Debug {
     /// The task vector (`TASK` values): the origin, then the attitude
     /// (planar: the angle, unwrapped; spatial: the rotation vector, angle in
     /// `[0, pi]`).
-    fn task(&self, out: &mut [S]);
+    fn task(&self, out: &mut [S])
+    where
+        S: Real;
     /// The instrument frame of the parameters `e` (`INSTRUMENT` values).
-    fn instrument(e: &[S]) -> Self;
+    fn instrument(e: &[S]) -> Self
+    where
+        S: Real;
     /// Hole clearance across a bend (`docs/model.md`, "The plant"): with
     /// this frame the motion from a disk's distal face to the next disk's
     /// proximal face, the shifts of a cable's two holes beside the bend,
     /// each in its own face frame, of magnitude `cl tanh(phi / w)` toward
     /// the bend (`phi` the bend angle): `(shift on the proximal face b,
     /// shift on the distal face a)`.
-    fn bend_shift(&self, cl: S, w: S) -> (Self::V, Self::V);
+    fn bend_shift(&self, cl: S, w: S) -> (Self::V, Self::V)
+    where
+        S: Real;
 }
 
 /// A rigid motion of the plane: rotation by `angle` (kept unwrapped, with
@@ -170,14 +187,14 @@ pub struct Se2<S> {
     pub y: S,
 }
 
-impl<S: Real> Frame<S> for Se2<S> {
+impl<S: Arith> Frame<S> for Se2<S> {
     type V = [S; 2];
     type Axis = ();
     const TASK: usize = 3;
     const INSTRUMENT: usize = 3;
     const DIM: usize = 2;
 
-    #[inline]
+    #[inline(always)]
     fn identity() -> Self {
         let z = S::cst(0.0);
         Se2 {
@@ -188,7 +205,7 @@ impl<S: Real> Frame<S> for Se2<S> {
             y: z,
         }
     }
-    #[inline]
+    #[inline(always)]
     fn at(v: [S; 2]) -> Self {
         Se2 {
             x: v[0],
@@ -196,7 +213,7 @@ impl<S: Real> Frame<S> for Se2<S> {
             ..Self::identity()
         }
     }
-    #[inline]
+    #[inline(always)]
     fn translated(&self, v: [S; 2]) -> Self {
         Se2 {
             x: self.x + self.c * v[0] - self.s * v[1],
@@ -204,7 +221,7 @@ impl<S: Real> Frame<S> for Se2<S> {
             ..*self
         }
     }
-    #[inline]
+    #[inline(always)]
     fn turned(&self, _axis: [S; 3], theta: S, (c, s): (S, S)) -> Self {
         Se2 {
             angle: self.angle + theta,
@@ -213,7 +230,7 @@ impl<S: Real> Frame<S> for Se2<S> {
             ..*self
         }
     }
-    #[inline]
+    #[inline(always)]
     fn compose(&self, o: &Self) -> Self {
         let p = self.point([o.x, o.y]);
         Se2 {
@@ -224,59 +241,68 @@ impl<S: Real> Frame<S> for Se2<S> {
             y: p[1],
         }
     }
-    #[inline]
+    #[inline(always)]
     fn point(&self, p: [S; 2]) -> [S; 2] {
         [
             self.x + self.c * p[0] - self.s * p[1],
             self.y + self.s * p[0] + self.c * p[1],
         ]
     }
-    #[inline]
+    #[inline(always)]
     fn dir(&self, v: [S; 2]) -> [S; 2] {
         [self.c * v[0] - self.s * v[1], self.s * v[0] + self.c * v[1]]
     }
-    #[inline]
+    #[inline(always)]
     fn dir_inv(&self, v: [S; 2]) -> [S; 2] {
         [self.c * v[0] + self.s * v[1], self.c * v[1] - self.s * v[0]]
     }
-    #[inline]
+    #[inline(always)]
     fn origin(&self) -> [S; 2] {
         [self.x, self.y]
     }
-    #[inline]
+    #[inline(always)]
     fn axis(&self, _local: [S; 3]) {}
-    #[inline]
+    #[inline(always)]
     fn map_axis(&self, _a: ()) {}
-    #[inline]
+    #[inline(always)]
     fn rate(_axis: (), p: [S; 2], q: [S; 2]) -> [S; 2] {
         [p[1] - q[1], q[0] - p[0]]
     }
-    #[inline]
+    #[inline(always)]
     fn moment(_axis: (), arm: [S; 2], f: [S; 2]) -> S {
         arm[0] * f[1] - arm[1] * f[0]
     }
-    #[inline]
+    #[inline(always)]
     fn couple(_axis: (), couple: &[S]) -> S {
         couple[0]
     }
-    #[inline]
+    #[inline(always)]
     fn angular(_axis: (), out: &mut [S]) {
         out[0] = S::cst(1.0);
     }
     #[inline]
-    fn task(&self, out: &mut [S]) {
+    fn task(&self, out: &mut [S])
+    where
+        S: Real,
+    {
         out[0] = self.x;
         out[1] = self.y;
         out[2] = self.angle;
     }
     #[inline]
-    fn bend_shift(&self, cl: S, w: S) -> ([S; 2], [S; 2]) {
+    fn bend_shift(&self, cl: S, w: S) -> ([S; 2], [S; 2])
+    where
+        S: Real,
+    {
         let d = cl * (self.angle / w).tanh();
         let z = S::cst(0.0);
         ([z, d], [z, d])
     }
     #[inline]
-    fn instrument(e: &[S]) -> Self {
+    fn instrument(e: &[S]) -> Self
+    where
+        S: Real,
+    {
         let (s, c) = e[0].sin_cos();
         Se2 {
             angle: e[0],
@@ -296,23 +322,28 @@ pub struct Se3<S> {
 }
 
 /// `m v` for a row-major 3x3 matrix.
-#[inline]
-fn mul_v<S: Real>(m: &[[S; 3]; 3], v: [S; 3]) -> [S; 3] {
+#[inline(always)]
+fn mul_v<S: Arith>(m: &[[S; 3]; 3], v: [S; 3]) -> [S; 3] {
     [m[0].dot(v), m[1].dot(v), m[2].dot(v)]
 }
 
 /// `a b` for row-major 3x3 matrices.
-#[inline]
-fn mul_m<S: Real>(a: &[[S; 3]; 3], b: &[[S; 3]; 3]) -> [[S; 3]; 3] {
-    std::array::from_fn(|i| {
-        std::array::from_fn(|j| a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j])
-    })
+#[inline(always)]
+fn mul_m<S: Arith>(a: &[[S; 3]; 3], b: &[[S; 3]; 3]) -> [[S; 3]; 3] {
+    let row = |r: &[S; 3]| {
+        [
+            r[0] * b[0][0] + r[1] * b[1][0] + r[2] * b[2][0],
+            r[0] * b[0][1] + r[1] * b[1][1] + r[2] * b[2][1],
+            r[0] * b[0][2] + r[1] * b[1][2] + r[2] * b[2][2],
+        ]
+    };
+    [row(&a[0]), row(&a[1]), row(&a[2])]
 }
 
 /// The rotation by the angle with `(cos, sin)` `cs` about the unit `axis`
 /// (Rodrigues: `I + s [a]x + (1 - c) [a]x^2`).
-#[inline]
-pub fn rotation<S: Real>(a: [S; 3], (c, s): (S, S)) -> [[S; 3]; 3] {
+#[inline(always)]
+pub fn rotation<S: Arith>(a: [S; 3], (c, s): (S, S)) -> [[S; 3]; 3] {
     let one = S::cst(1.0);
     let v = one - c;
     let (x, y, z) = (a[0], a[1], a[2]);
@@ -454,14 +485,14 @@ pub fn log_so3<S: Real>(r: &[[S; 3]; 3]) -> [S; 3] {
     [x * factor, y * factor, z * factor]
 }
 
-impl<S: Real> Frame<S> for Se3<S> {
+impl<S: Arith> Frame<S> for Se3<S> {
     type V = [S; 3];
     type Axis = [S; 3];
     const TASK: usize = 6;
     const INSTRUMENT: usize = 6;
     const DIM: usize = 3;
 
-    #[inline]
+    #[inline(always)]
     fn identity() -> Self {
         let (z, o) = (S::cst(0.0), S::cst(1.0));
         Se3 {
@@ -469,43 +500,54 @@ impl<S: Real> Frame<S> for Se3<S> {
             t: [z; 3],
         }
     }
-    #[inline]
+    #[inline(always)]
     fn at(v: [S; 3]) -> Self {
         Se3 {
             t: v,
             ..Self::identity()
         }
     }
-    #[inline]
+    #[inline(always)]
     fn translated(&self, v: [S; 3]) -> Self {
         Se3 {
             r: self.r,
             t: self.t.add(mul_v(&self.r, v)),
         }
     }
-    #[inline]
+    #[inline(always)]
     fn turned(&self, axis: [S; 3], _theta: S, cs: (S, S)) -> Self {
         Se3 {
             r: mul_m(&self.r, &rotation(axis, cs)),
             t: self.t,
         }
     }
-    #[inline]
+    #[inline(always)]
+    fn at_turned(v: [S; 3], axis: [S; 3], _theta: S, cs: (S, S)) -> Self {
+        Se3 {
+            r: rotation(axis, cs),
+            t: v,
+        }
+    }
+    #[inline(always)]
+    fn base_axis(local: [S; 3]) -> [S; 3] {
+        local
+    }
+    #[inline(always)]
     fn compose(&self, o: &Self) -> Self {
         Se3 {
             r: mul_m(&self.r, &o.r),
             t: self.point(o.t),
         }
     }
-    #[inline]
+    #[inline(always)]
     fn point(&self, p: [S; 3]) -> [S; 3] {
         self.t.add(mul_v(&self.r, p))
     }
-    #[inline]
+    #[inline(always)]
     fn dir(&self, v: [S; 3]) -> [S; 3] {
         mul_v(&self.r, v)
     }
-    #[inline]
+    #[inline(always)]
     fn dir_inv(&self, v: [S; 3]) -> [S; 3] {
         let r = &self.r;
         [
@@ -514,40 +556,46 @@ impl<S: Real> Frame<S> for Se3<S> {
             r[0][2] * v[0] + r[1][2] * v[1] + r[2][2] * v[2],
         ]
     }
-    #[inline]
+    #[inline(always)]
     fn origin(&self) -> [S; 3] {
         self.t
     }
-    #[inline]
+    #[inline(always)]
     fn axis(&self, local: [S; 3]) -> [S; 3] {
         mul_v(&self.r, local)
     }
-    #[inline]
+    #[inline(always)]
     fn map_axis(&self, a: [S; 3]) -> [S; 3] {
         mul_v(&self.r, a)
     }
-    #[inline]
+    #[inline(always)]
     fn rate(w: [S; 3], p: [S; 3], q: [S; 3]) -> [S; 3] {
         cross(w, q.sub(p))
     }
-    #[inline]
+    #[inline(always)]
     fn moment(w: [S; 3], arm: [S; 3], f: [S; 3]) -> S {
         w.dot(cross(arm, f))
     }
-    #[inline]
+    #[inline(always)]
     fn couple(w: [S; 3], couple: &[S]) -> S {
         w[0] * couple[0] + w[1] * couple[1] + w[2] * couple[2]
     }
-    #[inline]
+    #[inline(always)]
     fn angular(w: [S; 3], out: &mut [S]) {
         out[..3].copy_from_slice(&w);
     }
     #[inline]
-    fn task(&self, out: &mut [S]) {
+    fn task(&self, out: &mut [S])
+    where
+        S: Real,
+    {
         out[..3].copy_from_slice(&self.t);
         out[3..6].copy_from_slice(&log_so3(&self.r));
     }
-    fn bend_shift(&self, cl: S, w: S) -> ([S; 3], [S; 3]) {
+    fn bend_shift(&self, cl: S, w: S) -> ([S; 3], [S; 3])
+    where
+        S: Real,
+    {
         // n: the distal normal in the proximal face; m: the proximal normal
         // in the distal face; |(n_y, n_z)| = |(m_y, m_z)| = sin(phi)
         let r = &self.r;
@@ -566,7 +614,10 @@ impl<S: Real> Frame<S> for Se3<S> {
         ([z, ny * k, nz * k], [z, -my * k, -mz * k])
     }
     #[inline]
-    fn instrument(e: &[S]) -> Self {
+    fn instrument(e: &[S]) -> Self
+    where
+        S: Real,
+    {
         Se3 {
             r: exp_so3([e[0], e[1], e[2]]),
             t: [e[3], e[4], e[5]],
@@ -576,7 +627,7 @@ impl<S: Real> Frame<S> for Se3<S> {
 
 /// An arm kind as a type: its frames in any scalar.
 pub trait Kind: Copy + Send + Sync + std::fmt::Debug + 'static {
-    type Frame<S: Real>: Frame<S>;
+    type Frame<S: Arith>: Frame<S>;
 }
 
 /// The planar kind: SE(2) frames.
@@ -587,10 +638,10 @@ pub struct Planar;
 pub struct Spatial;
 
 impl Kind for Planar {
-    type Frame<S: Real> = Se2<S>;
+    type Frame<S: Arith> = Se2<S>;
 }
 impl Kind for Spatial {
-    type Frame<S: Real> = Se3<S>;
+    type Frame<S: Arith> = Se3<S>;
 }
 
 #[cfg(test)]

@@ -10,10 +10,15 @@
 //! accepted step lowers the cost by less than that fraction, or when no step
 //! lowers it at all (the damping passes 1e12). The step:
 //!
-//! * [`Step::Triangular`]: square lower-triangular `J` (the cable solves):
-//!   forward substitution `J delta = -r` (Gauss–Newton; the diagonal's
-//!   reciprocals formed first) while `lambda <= 1e-12` (it may start at 0),
-//!   the damped normal equations otherwise;
+//! * [`Step::Triangular`]: square lower-triangular `J` (the planar cable
+//!   solves): forward substitution `J delta = -r` (Gauss–Newton; the
+//!   diagonal's reciprocals formed first) while `lambda <= 1e-12` (it may
+//!   start at 0), the damped normal equations otherwise;
+//! * [`Step::Square`]: square `J` (the general cable solve): the Newton step
+//!   `J delta = -r` while `lambda <= 1e-12` — block by block when the
+//!   problem gives `J`'s block lower-triangular structure
+//!   ([`Problem::blocks`], [`block_solve`]), else by LU with partial
+//!   pivoting ([`lu_solve`]) — and the damped normal equations otherwise;
 //! * [`Step::Normal`]: `(J^T J + lambda D) delta = -J^T r` by Cholesky;
 //! * [`Step::MinNorm`]: `delta = -J^T (J J^T + lambda I)^-1 r` (more unknowns
 //!   than residuals: the pose IK of redundant arms);
@@ -23,8 +28,12 @@
 //! `D` is the identity ([`Damping::Levenberg`]) or `diag(J^T J)`
 //! ([`Damping::Marquardt`]). The solver allocates nothing per solve once its
 //! [`Workspace`] has seen the problem's size (Cholesky and LU of more than 6
-//! unknowns and the QR step allocate in faer).
+//! unknowns and the QR step allocate in faer). The square Newton step, the
+//! normal equations and the `L D L^T` solve are written over
+//! [`crate::real::Lane`], so the general cable solve's lanes
+//! ([`crate::solve`]) take the same steps with the same operations.
 
+use crate::real::Lane;
 use faer::linalg::solvers::{Solve, SolveLstsq};
 use faer::Mat;
 
@@ -32,6 +41,7 @@ use faer::Mat;
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Step {
     Triangular,
+    Square,
     Normal,
     MinNorm,
     Qr,
@@ -154,6 +164,11 @@ pub trait Problem {
     /// tol ends the solve without [`Problem::jacobian`] being asked for it.
     fn answer_jacobian(&self) -> bool {
         true
+    }
+    /// The block lower-triangular structure of a square `J`, if it has
+    /// one (the square step then solves block by block); by default none.
+    fn blocks(&self) -> Option<&Blocks> {
+        None
     }
     /// Moves a trial into the feasible set (bounds); by default none.
     fn project(&self, _x: &mut [f64]) {}
@@ -412,6 +427,8 @@ fn iterate<P: Problem + ?Sized>(
         // every other step in `step`
         let ok = if lm.step == Step::Triangular && lambda <= LAMBDA_MIN && m == n {
             forward_substitution(jac, cur.r, n, g, delta)
+        } else if lm.step == Step::Square && lambda <= LAMBDA_MIN && m == n {
+            square_step(jac, cur.r, n, problem.blocks(), a, delta)
         } else {
             step(lm, jac, cur.r, m, n, lambda, a, g, delta)
         };
@@ -536,8 +553,8 @@ fn step(
     delta: &mut [f64],
 ) -> bool {
     match lm.step {
-        Step::Triangular | Step::Normal => {
-            normal_equations(jac, r, m, n, lambda, lm.damping, a, g);
+        Step::Triangular | Step::Square | Step::Normal => {
+            normal_equations_f64(jac, r, m, n, lambda, lm.damping, a, g);
             solve_spd(n, &a[..n * n], &g[..n], delta)
         }
         Step::MinNorm => {
@@ -584,9 +601,23 @@ fn step(
     }
 }
 
-/// `a = J^T J + lambda D` (n x n) and `g = -J^T r`.
+/// [`newton_step`] on one row, out of line (the solver's loop stays small).
+#[inline(never)]
+fn square_step(
+    jac: &[f64],
+    r: &[f64],
+    n: usize,
+    blocks: Option<&Blocks>,
+    a: &mut [f64],
+    delta: &mut [f64],
+) -> bool {
+    newton_step(jac, r, n, blocks, a, delta) && delta.iter().all(|d| d.is_finite())
+}
+
+/// [`normal_equations`] on one row, out of line.
 #[allow(clippy::too_many_arguments)]
-fn normal_equations(
+#[inline(never)]
+fn normal_equations_f64(
     jac: &[f64],
     r: &[f64],
     m: usize,
@@ -596,21 +627,229 @@ fn normal_equations(
     a: &mut [f64],
     g: &mut [f64],
 ) {
+    normal_equations(jac, r, m, n, None, lambda, damping, a, g)
+}
+
+/// `sum f(i)` over `rows`, in order, from 0.
+#[inline(always)]
+fn sum_over<L: Lane>(rows: impl Iterator<Item = usize>, f: impl Fn(usize) -> L) -> L {
+    let mut v = L::cst(0.0);
+    for i in rows {
+        v += f(i);
+    }
+    v
+}
+
+/// `a = J^T J + lambda D` (n x n) and `g = -J^T r`, lane by lane. With
+/// `rows`, `rows[k]` lists (ascending) the rows that may be non-zero in
+/// column `k` of `J` (`m x n`): every other entry of the column must be an
+/// exact zero, whose products the sums skip — the same bits, fewer
+/// operations (a long arm's cables reach only the joints before their end).
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub fn normal_equations<L: Lane>(
+    jac: &[L],
+    r: &[L],
+    m: usize,
+    n: usize,
+    rows: Option<&[Vec<usize>]>,
+    lambda: L,
+    damping: Damping,
+    a: &mut [L],
+    g: &mut [L],
+) {
     for k in 0..n {
         for l in 0..=k {
-            let v: f64 = (0..m).map(|i| jac[i * n + k] * jac[i * n + l]).sum();
+            let f = |i: usize| jac[i * n + k] * jac[i * n + l];
+            let v = match rows {
+                Some(rs) => sum_over(rs[k].iter().copied(), f),
+                None => sum_over(0..m, f),
+            };
             a[k * n + l] = v;
             a[l * n + k] = v;
         }
-        g[k] = -(0..m).map(|i| jac[i * n + k] * r[i]).sum::<f64>();
+        let f = |i: usize| jac[i * n + k] * r[i];
+        let v = match rows {
+            Some(rs) => sum_over(rs[k].iter().copied(), f),
+            None => sum_over(0..m, f),
+        };
+        g[k] = -v;
     }
     for k in 0..n {
         let d = match damping {
-            Damping::Levenberg => 1.0,
-            Damping::Marquardt => a[k * n + k].max(1e-300),
+            Damping::Levenberg => L::cst(1.0),
+            Damping::Marquardt => a[k * n + k].max(L::cst(1e-300)),
         };
         a[k * n + k] += lambda * d;
     }
+}
+
+/// The undamped square step into `delta`: the Newton step `J delta = -r`
+/// (`J` `n x n`), lane by lane, by [`block_solve`] with `blocks`, else by
+/// [`lu_solve`] of `J` copied into `a` (`n x n` scratch). The lanes where
+/// `J` (a diagonal block) is singular come back false.
+#[inline(always)]
+pub fn newton_step<L: Lane>(
+    jac: &[L],
+    r: &[L],
+    n: usize,
+    blocks: Option<&Blocks>,
+    a: &mut [L],
+    delta: &mut [L],
+) -> L::Mask {
+    if let Some(b) = blocks {
+        return block_solve(n, jac, r, b, a, delta);
+    }
+    let a = &mut a[..n * n];
+    a.copy_from_slice(&jac[..n * n]);
+    for (d, ri) in delta.iter_mut().zip(r) {
+        *d = -*ri;
+    }
+    lu_solve(n, a, delta)
+}
+
+/// The block lower-triangular structure of a square `n x n` matrix: a
+/// permutation of its rows and consecutive ranges of its columns, the
+/// blocks, such that the rows of block `b` (`rows[cols_b]`, as many as its
+/// columns `cols_b`) vanish in the columns of every later block. (The
+/// general cable solve's Jacobian when as many position cables end at each
+/// disk as it has joints: a cable does not depend on the joints past its
+/// end.)
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Blocks {
+    /// The rows, block by block.
+    pub rows: Vec<usize>,
+    /// The columns of each block, in order, covering `0..n`.
+    pub cols: Vec<std::ops::Range<usize>>,
+}
+
+/// Solves `J delta = -r` (`J` `n x n` row-major with the structure
+/// `blocks`) by block forward substitution, lane by lane: for each block in
+/// order its rows' right-hand side less the columns already solved, then
+/// [`lu_solve`] of its square diagonal block (copied into `a`). The lanes
+/// where a diagonal block is singular come back false.
+#[inline(always)]
+pub fn block_solve<L: Lane>(
+    n: usize,
+    jac: &[L],
+    r: &[L],
+    blocks: &Blocks,
+    a: &mut [L],
+    delta: &mut [L],
+) -> L::Mask {
+    let mut ok = L::mask(true);
+    for cols in &blocks.cols {
+        let (c0, k) = (cols.start, cols.len());
+        for (bi, &i) in blocks.rows[cols.clone()].iter().enumerate() {
+            let row = &jac[i * n..(i + 1) * n];
+            let mut v = -r[i];
+            for (j, d) in row[..c0].iter().zip(&delta[..c0]) {
+                v -= *j * *d;
+            }
+            delta[c0 + bi] = v;
+            a[bi * k..(bi + 1) * k].copy_from_slice(&row[cols.clone()]);
+        }
+        ok = ok & lu_solve(k, &mut a[..k * k], &mut delta[cols.clone()]);
+    }
+    ok
+}
+
+/// Solves the square `a x = b` (`n x n` row-major `a`, overwritten by its
+/// factors; `b` overwritten by `x`) by Gaussian elimination with partial
+/// pivoting (in each column the entry of largest magnitude, the last of
+/// equals), lane by lane: each lane pivots on its own rows (a jet on its
+/// values). The lanes whose pivot is zero or not finite (a singular matrix)
+/// come back false, their `x` unspecified. The LU of the square Newton
+/// step, of its lanes, and of the statics' square balance
+/// ([`crate::tension::Balance::solve_square`]).
+#[inline(always)]
+pub fn lu_solve<L: Lane>(n: usize, a: &mut [L], b: &mut [L]) -> L::Mask {
+    let mut ok = L::mask(true);
+    for k in 0..n {
+        let mut best = a[k * n + k].abs();
+        let mut piv = L::cst(k as f64);
+        for i in k + 1..n {
+            let v = a[i * n + k].abs();
+            let m = best.le(v);
+            best = L::select(m, v, best);
+            piv = L::select(m, L::cst(i as f64), piv);
+        }
+        ok = ok & L::cst(0.0).lt(best) & best.finite();
+        // rows k and piv swap in the lanes that pivot on row i (selects
+        // without a branch: which rows pivot varies from lane to lane)
+        for i in k + 1..n {
+            let m = piv.eq(L::cst(i as f64));
+            for j in k..n {
+                let (x, y) = (a[k * n + j], a[i * n + j]);
+                a[k * n + j] = L::select(m, y, x);
+                a[i * n + j] = L::select(m, x, y);
+            }
+            let (x, y) = (b[k], b[i]);
+            b[k] = L::select(m, y, x);
+            b[i] = L::select(m, x, y);
+        }
+        let inv = L::cst(1.0) / a[k * n + k];
+        for i in k + 1..n {
+            let f = a[i * n + k] * inv;
+            for j in k + 1..n {
+                let v = a[k * n + j];
+                a[i * n + j] -= f * v;
+            }
+            let v = b[k];
+            b[i] -= f * v;
+        }
+    }
+    for k in (0..n).rev() {
+        let mut v = b[k];
+        for j in k + 1..n {
+            v -= a[k * n + j] * b[j];
+        }
+        b[k] = v / a[k * n + k];
+    }
+    ok
+}
+
+/// Solves the symmetric positive-definite `a x = b` (`n x n` row-major; its
+/// lower triangle read, `a` overwritten; `b` overwritten by `x`) by the
+/// square-root-free `L D L^T` in place (`L` below the diagonal, `L D` above
+/// it, the pivots' reciprocals on it), lane by lane. The lanes whose pivot
+/// is not > 0 or not finite come back false.
+#[inline(always)]
+pub fn ldlt_solve<L: Lane>(n: usize, a: &mut [L], b: &mut [L]) -> L::Mask {
+    let mut ok = L::mask(true);
+    for j in 0..n {
+        let mut d = a[j * n + j];
+        for k in 0..j {
+            d -= a[j * n + k] * a[k * n + j];
+        }
+        ok = ok & L::cst(0.0).lt(d) & d.finite();
+        let dinv = L::cst(1.0) / d;
+        a[j * n + j] = dinv;
+        for i in j + 1..n {
+            let mut v = a[i * n + j];
+            for k in 0..j {
+                // l[i][k] w[j][k]: l below the diagonal, w = L D above it
+                v -= a[i * n + k] * a[k * n + j];
+            }
+            a[j * n + i] = v;
+            a[i * n + j] = v * dinv;
+        }
+    }
+    for i in 0..n {
+        let mut v = b[i];
+        for k in 0..i {
+            v -= a[i * n + k] * b[k];
+        }
+        b[i] = v;
+    }
+    for i in (0..n).rev() {
+        let mut v = b[i] * a[i * n + i];
+        for k in i + 1..n {
+            v -= a[k * n + i] * b[k];
+        }
+        b[i] = v;
+    }
+    ok
 }
 
 /// The damped least-squares step by Householder QR (faer).
@@ -673,78 +912,46 @@ pub fn r_factor(jac: &[f64], m: usize, n: usize) -> Vec<f64> {
 }
 
 /// Solves the symmetric positive-definite `n x n` system `a x = b` (`a`
-/// row-major): a square-root-free `L D L^T` on the stack for n <= 6 (the
-/// pivots' reciprocals formed once, so the substitutions only multiply),
-/// faer's Cholesky beyond. Returns `false` if `a` is not positive definite
-/// (a pivot not > 0, or not finite).
+/// row-major): the square-root-free `L D L^T` of [`ldlt_solve`] on a copy on
+/// the stack for n <= 6 (the pivots' reciprocals formed once, so the
+/// substitutions only multiply), faer's Cholesky beyond. Returns `false` if
+/// `a` is not positive definite (a pivot not > 0, or not finite).
+#[inline(never)]
 pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+    /// [`ldlt_solve`] of a constant size (its loops unrolled).
+    fn fixed<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+        // the lower triangle, element by element (the factorisation reads
+        // no more; a whole-matrix copy would be a call to memcpy)
+        let a = &a[..N * N];
+        let mut f: [[f64; N]; N] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| if j <= i { a[i * N + j] } else { 0.0 })
+        });
+        let f = f.as_flattened_mut();
+        let x = &mut x[..N];
+        x.copy_from_slice(&b[..N]);
+        ldlt_solve(N, f, x) && x.iter().all(|v| v.is_finite())
+    }
     match n {
-        1 => ldlt::<1>(a, b, x),
-        2 => ldlt::<2>(a, b, x),
-        3 => ldlt::<3>(a, b, x),
-        4 => ldlt::<4>(a, b, x),
-        5 => ldlt::<5>(a, b, x),
-        6 => ldlt::<6>(a, b, x),
-        _ => {
-            let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
-            let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
-            match m.llt(faer::Side::Lower) {
-                Ok(ch) => {
-                    let sol = ch.solve(&rhs);
-                    for (i, xi) in x.iter_mut().enumerate() {
-                        *xi = sol[(i, 0)];
-                    }
-                    true
-                }
-                Err(_) => false,
+        1 => return fixed::<1>(a, b, x),
+        2 => return fixed::<2>(a, b, x),
+        3 => return fixed::<3>(a, b, x),
+        4 => return fixed::<4>(a, b, x),
+        5 => return fixed::<5>(a, b, x),
+        6 => return fixed::<6>(a, b, x),
+        _ => {}
+    }
+    let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
+    let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
+    match m.llt(faer::Side::Lower) {
+        Ok(ch) => {
+            let sol = ch.solve(&rhs);
+            for (i, xi) in x.iter_mut().enumerate() {
+                *xi = sol[(i, 0)];
             }
+            true
         }
+        Err(_) => false,
     }
-}
-
-/// `a = L D L^T` (unit lower `L`, the lower triangle of `a` read) and the
-/// solve of `a x = b`, `N x N` on the stack.
-#[inline]
-fn ldlt<const N: usize>(a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
-    let mut l = [[0.0f64; N]; N];
-    // w[i][k] = L[i][k] d[k]
-    let mut w = [[0.0f64; N]; N];
-    let mut dinv = [0.0f64; N];
-    for j in 0..N {
-        let mut d = a[j * N + j];
-        for k in 0..j {
-            d -= l[j][k] * w[j][k];
-        }
-        // not > 0 also catches NaN
-        if !(d > 0.0 && d.is_finite()) {
-            return false;
-        }
-        dinv[j] = 1.0 / d;
-        for i in j + 1..N {
-            let mut v = a[i * N + j];
-            for k in 0..j {
-                v -= l[i][k] * w[j][k];
-            }
-            w[i][j] = v;
-            l[i][j] = v * dinv[j];
-        }
-    }
-    let mut y = [0.0f64; N];
-    for i in 0..N {
-        let mut v = b[i];
-        for k in 0..i {
-            v -= l[i][k] * y[k];
-        }
-        y[i] = v;
-    }
-    for i in (0..N).rev() {
-        let mut v = y[i] * dinv[i];
-        for k in i + 1..N {
-            v -= l[k][i] * x[k];
-        }
-        x[i] = v;
-    }
-    x[..N].iter().all(|v| v.is_finite())
 }
 
 /// Solves the general `n x n` system `a x = b` by LU (nalgebra for n <= 6,
@@ -901,6 +1108,139 @@ mod tests {
             assert!(!solve_spd(n, &bad, &b, &mut x), "n={n}");
             bad[0] = f64::NAN;
             assert!(!solve_spd(n, &bad, &b, &mut x), "n={n}");
+        }
+    }
+
+    #[test]
+    fn lane_solves_match_faer_lane_by_lane() {
+        use crate::simd::pack::Pack;
+        // four systems per pack (n = 8): random, one with a zero leading
+        // entry (it must pivot), one singular (its lane comes back false);
+        // each lane equals faer's LU (and, SPD, its Cholesky) to 1e-12 and
+        // has the bits of the same solve of its own row in f64
+        let mut seed = 11u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let n = 8;
+        let mut a = vec![Pack::<4>::splat(0.0); n * n];
+        let mut b = vec![Pack::<4>::splat(0.0); n];
+        for v in a.iter_mut().chain(b.iter_mut()) {
+            *v = Pack([rnd(), rnd(), rnd(), rnd()]);
+        }
+        a[0].0[1] = 0.0;
+        for j in 0..n {
+            // lane 3: row 5 = 2 row 2
+            let v = a[2 * n + j].0[3];
+            a[5 * n + j].0[3] = 2.0 * v;
+        }
+        let lane = |m: &[Pack<4>], i: usize| m.iter().map(|p| p.0[i]).collect::<Vec<f64>>();
+        let close = |x: &[f64], want: &Mat<f64>| {
+            (0..n).all(|i| (x[i] - want[(i, 0)]).abs() < 1e-12 * (1.0 + want[(i, 0)].abs()))
+        };
+        let (mut lu, mut x) = (a.clone(), b.clone());
+        let ok = lu_solve(n, &mut lu, &mut x);
+        for i in 0..4 {
+            let (ai, bi) = (lane(&a, i), lane(&b, i));
+            let (mut a1, mut x1) = (ai.clone(), bi.clone());
+            let ok1 = lu_solve(n, &mut a1, &mut x1);
+            assert_eq!(Pack::lane_set(ok, i), ok1, "lane {i}");
+            assert_eq!(ok1, i != 3, "lane {i}");
+            if i == 3 {
+                continue;
+            }
+            assert_eq!(lane(&x, i), x1, "lane {i}: the bits of its own row");
+            let fa = Mat::<f64>::from_fn(n, n, |r, c| ai[r * n + c]);
+            let fb = Mat::<f64>::from_fn(n, 1, |r, _| bi[r]);
+            assert!(close(&x1, &fa.partial_piv_lu().solve(&fb)), "lane {i}");
+        }
+        // L D L^T of a^T a + 0.1 I
+        let mut spd = vec![Pack::<4>::splat(0.0); n * n];
+        for r in 0..n {
+            for c in 0..n {
+                let mut v = Pack::splat(if r == c { 0.1 } else { 0.0 });
+                for k in 0..n {
+                    v += a[k * n + r] * a[k * n + c];
+                }
+                spd[r * n + c] = v;
+            }
+        }
+        let (mut f, mut x) = (spd.clone(), b.clone());
+        assert!(Pack::all(ldlt_solve(n, &mut f, &mut x)));
+        for i in 0..4 {
+            let (si, bi) = (lane(&spd, i), lane(&b, i));
+            let (mut f1, mut x1) = (si.clone(), bi.clone());
+            assert!(ldlt_solve(n, &mut f1, &mut x1));
+            assert_eq!(lane(&x, i), x1, "lane {i}: the bits of its own row");
+            let fa = Mat::<f64>::from_fn(n, n, |r, c| si[r * n + c]);
+            let fb = Mat::<f64>::from_fn(n, 1, |r, _| bi[r]);
+            let want = fa.llt(faer::Side::Lower).unwrap().solve(&fb);
+            assert!(close(&x1, &want), "lane {i}");
+        }
+    }
+
+    #[test]
+    fn normal_equations_skip_only_zero_products() {
+        // J (5 x 3) whose column k is zero above row k (a cable reaching
+        // only the joints before its end): the sums over the rows that
+        // reach each column have the bits of the full sums
+        let (m, n) = (5, 3);
+        let jac: Vec<f64> = (0..m * n)
+            .map(|ij| {
+                let (i, k) = (ij / n, ij % n);
+                if i < k {
+                    0.0
+                } else {
+                    ((ij as f64) * 0.37).sin() - 0.1
+                }
+            })
+            .collect();
+        let r: Vec<f64> = (0..m).map(|i| (i as f64 * 1.3).cos()).collect();
+        let rows: Vec<Vec<usize>> = (0..n).map(|k| (k..m).collect()).collect();
+        let (mut a0, mut g0, mut a1, mut g1) =
+            (vec![0.0; 9], vec![0.0; 3], vec![0.0; 9], vec![0.0; 3]);
+        normal_equations(
+            &jac,
+            &r,
+            m,
+            n,
+            None,
+            0.5,
+            Damping::Marquardt,
+            &mut a0,
+            &mut g0,
+        );
+        normal_equations(
+            &jac,
+            &r,
+            m,
+            n,
+            Some(&rows),
+            0.5,
+            Damping::Marquardt,
+            &mut a1,
+            &mut g1,
+        );
+        assert_eq!(
+            a0.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            a1.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        assert_eq!(
+            g0.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            g1.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        // against the definition, J^T J + 0.5 diag(J^T J) and -J^T r
+        for k in 0..n {
+            let gk: f64 = -(0..m).map(|i| jac[i * n + k] * r[i]).sum::<f64>();
+            assert!((g1[k] - gk).abs() < 1e-15);
+            for l in 0..n {
+                let v: f64 = (0..m).map(|i| jac[i * n + k] * jac[i * n + l]).sum();
+                let want = if k == l { 1.5 * v } else { v };
+                assert!((a1[k * n + l] - want).abs() < 1e-14, "{k} {l}");
+            }
         }
     }
 

@@ -24,7 +24,7 @@ use crate::fit::FitModel;
 use crate::kinds::{Frame, Kind, Planar, Spatial, Vector};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
 use crate::model::{self, Mode, Model};
-use crate::real::{Jet, Real};
+use crate::real::{Arith, Jet, Real};
 use crate::robot::Robot;
 use crate::solve::CableSolve;
 use crate::solve::{CableMethod, CableSolver, SolveOptions};

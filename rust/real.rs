@@ -1,12 +1,16 @@
-//! Scalars the models are written over: `f64`, and [`Jet`]s that carry
-//! derivatives along `K` directions (forward mode; [`Dual`] is `Jet<1>`). The plant, the statics
-//! and the cable geometry are generic over [`Real`], so one code path gives
-//! values and exact derivatives (no finite differences).
+//! Scalars the models are written over: `f64`, [`Jet`]s that carry
+//! derivatives along `K` directions (forward mode; [`Dual`] is `Jet<1>`),
+//! and lane packs of several rows at once ([`crate::simd::pack::Pack`]).
+//! The plant, the statics and the cable geometry are generic over [`Real`],
+//! so one code path gives values and exact derivatives (no finite
+//! differences); the geometry of a configuration (frames, cable lengths and
+//! their Jacobian) only needs [`Arith`], so it also runs on lanes ([`Lane`]:
+//! `f64` is the one-lane case).
 
-use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
+use std::ops::{Add, AddAssign, BitAnd, BitOr, Div, Mul, MulAssign, Neg, Not, Sub, SubAssign};
 
-/// What the models need of a scalar.
-pub trait Real:
+/// The arithmetic the geometry of a configuration needs of a scalar.
+pub trait Arith:
     Copy
     + std::fmt::Debug
     + Add<Output = Self>
@@ -22,12 +26,20 @@ pub trait Real:
     + Mul<f64, Output = Self>
     + Div<f64, Output = Self>
 {
-    /// A constant (zero derivative).
+    /// A constant (zero derivative; every lane).
     fn cst(v: f64) -> Self;
-    /// The value (derivative dropped).
-    fn val(self) -> f64;
     fn sqrt(self) -> Self;
     fn sin_cos(self) -> (Self, Self);
+    /// `1 / self`, or 0 where `self` is 0 (a zero-length segment's
+    /// direction contributes nothing).
+    fn recip_or_zero(self) -> Self;
+}
+
+/// What the models need of a scalar: one value to branch on (a lane of
+/// its own: [`Lane`]'s comparisons are on the value).
+pub trait Real: Lane<Mask = bool> {
+    /// The value (derivative dropped).
+    fn val(self) -> f64;
     fn tanh(self) -> Self;
     fn atan2(self, x: Self) -> Self;
     /// Whether the value carries a derivative (always false for `f64`).
@@ -50,14 +62,49 @@ pub trait Real:
     }
 }
 
-impl Real for f64 {
+/// A scalar of one or several rows in lockstep (lanes), with per-lane
+/// comparisons: the solves written over it run one row (`f64`, or a jet,
+/// compared by its value) or several (a pack) with the same operations,
+/// lane by lane.
+pub trait Lane: Arith {
+    /// Per-lane booleans.
+    type Mask: Copy
+        + std::fmt::Debug
+        + BitAnd<Output = Self::Mask>
+        + BitOr<Output = Self::Mask>
+        + Not<Output = Self::Mask>;
+    /// Lanes.
+    const LANES: usize;
+    fn abs(self) -> Self;
+    fn max(self, o: Self) -> Self;
+    fn min(self, o: Self) -> Self;
+    fn lt(self, o: Self) -> Self::Mask;
+    fn le(self, o: Self) -> Self::Mask;
+    fn eq(self, o: Self) -> Self::Mask;
+    /// Lanes whose value is finite.
+    fn finite(self) -> Self::Mask;
+    /// Per lane: `a` where `m` is set, `b` elsewhere.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// A mask of every lane `b`.
+    fn mask(b: bool) -> Self::Mask;
+    fn any(m: Self::Mask) -> bool;
+    fn all(m: Self::Mask) -> bool;
+    /// Lane `i`.
+    fn lane(self, i: usize) -> f64;
+    /// Lane `i` of a mask.
+    fn lane_set(m: Self::Mask, i: usize) -> bool;
+    /// `v` in lane `i`.
+    fn set_lane(&mut self, i: usize, v: f64);
+    /// `(cos, sin)` of every element of `x` into `cs`: for `f64` and packs
+    /// the SIMD kernel of [`crate::simd::math`] (within 1 ulp; lane by lane
+    /// the same bits for every pack width), for jets their `sin_cos`.
+    fn cos_sin(x: &[Self], cs: &mut [(Self, Self)]);
+}
+
+impl Arith for f64 {
     #[inline]
     fn cst(v: f64) -> f64 {
         v
-    }
-    #[inline]
-    fn val(self) -> f64 {
-        self
     }
     #[inline]
     fn sqrt(self) -> f64 {
@@ -68,12 +115,96 @@ impl Real for f64 {
         f64::sin_cos(self)
     }
     #[inline]
+    fn recip_or_zero(self) -> f64 {
+        if self == 0.0 {
+            0.0
+        } else {
+            1.0 / self
+        }
+    }
+}
+
+impl Real for f64 {
+    #[inline]
+    fn val(self) -> f64 {
+        self
+    }
+    #[inline]
     fn tanh(self) -> f64 {
         f64::tanh(self)
     }
     #[inline]
     fn atan2(self, x: f64) -> f64 {
         f64::atan2(self, x)
+    }
+}
+
+impl Lane for f64 {
+    type Mask = bool;
+    const LANES: usize = 1;
+    #[inline(always)]
+    fn abs(self) -> f64 {
+        f64::abs(self)
+    }
+    #[inline(always)]
+    fn max(self, o: f64) -> f64 {
+        f64::max(self, o)
+    }
+    #[inline(always)]
+    fn min(self, o: f64) -> f64 {
+        f64::min(self, o)
+    }
+    #[inline(always)]
+    fn lt(self, o: f64) -> bool {
+        self < o
+    }
+    #[inline(always)]
+    fn le(self, o: f64) -> bool {
+        self <= o
+    }
+    #[inline(always)]
+    fn eq(self, o: f64) -> bool {
+        self == o
+    }
+    #[inline(always)]
+    fn finite(self) -> bool {
+        self.is_finite()
+    }
+    #[inline(always)]
+    fn select(m: bool, a: f64, b: f64) -> f64 {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn mask(b: bool) -> bool {
+        b
+    }
+    #[inline(always)]
+    fn any(m: bool) -> bool {
+        m
+    }
+    #[inline(always)]
+    fn all(m: bool) -> bool {
+        m
+    }
+    #[inline(always)]
+    fn lane(self, _i: usize) -> f64 {
+        self
+    }
+    #[inline(always)]
+    fn lane_set(m: bool, _i: usize) -> bool {
+        m
+    }
+    #[inline(always)]
+    fn set_lane(&mut self, _i: usize, v: f64) {
+        *self = v;
+    }
+    #[inline(always)]
+    fn cos_sin(x: &[f64], cs: &mut [(f64, f64)]) {
+        crate::simd::math::cos_sin_short(x, cs);
     }
 }
 
@@ -246,18 +377,10 @@ impl<const K: usize> Div<f64> for Jet<K> {
     }
 }
 
-impl<const K: usize> Real for Jet<K> {
+impl<const K: usize> Arith for Jet<K> {
     #[inline]
     fn cst(v: f64) -> Self {
         Jet { v, d: [0.0; K] }
-    }
-    #[inline]
-    fn is_variable(self) -> bool {
-        self.d.iter().any(|x| *x != 0.0)
-    }
-    #[inline]
-    fn val(self) -> f64 {
-        self.v
     }
     #[inline]
     fn sqrt(self) -> Self {
@@ -269,6 +392,110 @@ impl<const K: usize> Real for Jet<K> {
     fn sin_cos(self) -> (Self, Self) {
         let (s, c) = self.v.sin_cos();
         (self.chain(s, c), self.chain(c, -s))
+    }
+    #[inline]
+    fn recip_or_zero(self) -> Self {
+        if self.v == 0.0 {
+            Self::cst(0.0)
+        } else {
+            Self::cst(1.0) / self
+        }
+    }
+}
+
+/// A jet is one lane whose comparisons are on its value (pivots, limits);
+/// a selection takes the whole jet, derivatives with it.
+impl<const K: usize> Lane for Jet<K> {
+    type Mask = bool;
+    const LANES: usize = 1;
+    #[inline]
+    fn abs(self) -> Self {
+        if self.v < 0.0 {
+            -self
+        } else {
+            self
+        }
+    }
+    #[inline]
+    fn max(self, o: Self) -> Self {
+        if o.v > self.v || self.v.is_nan() {
+            o
+        } else {
+            self
+        }
+    }
+    #[inline]
+    fn min(self, o: Self) -> Self {
+        if o.v < self.v || self.v.is_nan() {
+            o
+        } else {
+            self
+        }
+    }
+    #[inline]
+    fn lt(self, o: Self) -> bool {
+        self.v < o.v
+    }
+    #[inline]
+    fn le(self, o: Self) -> bool {
+        self.v <= o.v
+    }
+    #[inline]
+    fn eq(self, o: Self) -> bool {
+        self.v == o.v
+    }
+    #[inline]
+    fn finite(self) -> bool {
+        self.v.is_finite()
+    }
+    #[inline]
+    fn select(m: bool, a: Self, b: Self) -> Self {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+    #[inline]
+    fn mask(b: bool) -> bool {
+        b
+    }
+    #[inline]
+    fn any(m: bool) -> bool {
+        m
+    }
+    #[inline]
+    fn all(m: bool) -> bool {
+        m
+    }
+    #[inline]
+    fn lane(self, _i: usize) -> f64 {
+        self.v
+    }
+    #[inline]
+    fn lane_set(m: bool, _i: usize) -> bool {
+        m
+    }
+    #[inline]
+    fn set_lane(&mut self, _i: usize, v: f64) {
+        *self = Self::cst(v);
+    }
+    fn cos_sin(x: &[Self], cs: &mut [(Self, Self)]) {
+        for (t, o) in x.iter().zip(cs.iter_mut()) {
+            let (s, c) = t.sin_cos();
+            *o = (c, s);
+        }
+    }
+}
+
+impl<const K: usize> Real for Jet<K> {
+    #[inline]
+    fn is_variable(self) -> bool {
+        self.d.iter().any(|x| *x != 0.0)
+    }
+    #[inline]
+    fn val(self) -> f64 {
+        self.v
     }
     #[inline]
     fn tanh(self) -> Self {
@@ -320,7 +547,7 @@ mod tests {
                 x,
             );
             check(
-                |v| Real::sqrt(v * v + 3.0) - v * 2.0,
+                |v| Arith::sqrt(v * v + 3.0) - v * 2.0,
                 |v| (v * v + 3.0).sqrt() - 2.0 * v,
                 x,
             );
@@ -342,7 +569,7 @@ mod tests {
         // f(x, y, z) = atan2(x y + 0.3, z) sqrt(1 + z^2) tanh(x) / (2 + sin y)
         fn f<S: Real>(x: S, y: S, z: S) -> S {
             let (s, _) = y.sin_cos();
-            Real::atan2(x * y + 0.3, z) * Real::sqrt(z * z + 1.0) * x.tanh() / (s + 2.0)
+            Real::atan2(x * y + 0.3, z) * Arith::sqrt(z * z + 1.0) * x.tanh() / (s + 2.0)
         }
         let p = [0.7, -1.1, 0.4];
         let j: Jet<3> = f(

@@ -7,12 +7,13 @@
 //! `docs/model.md`.
 
 use crate::cables::CableGeometry;
-use crate::chain::{Chain, Numbers};
+use crate::chain::{Broadcast, Chain, Numbers};
 use crate::geometry::ArmGeometry;
 use crate::kinds::Frame;
 use crate::kinematics::within_limits;
-use crate::lm::{self, Lm, Problem, Reason, Step, Workspace};
+use crate::lm::{self, Blocks, Damping, Lm, Problem, Reason, Step, Workspace};
 use crate::model::Model;
+use crate::real::Lane;
 use crate::robot::Robot;
 use crate::simd::math::cos_sin_short;
 
@@ -465,13 +466,41 @@ pub fn solve_cables(
     CableSolver::new(robot, method, *opts).solve(geom, target, theta)
 }
 
+/// The position cables' residuals `r = L(x) - target` (m) and their
+/// Jacobian `jac` (`(m, n)` row-major, m/rad) at `x` (rad): the chain at
+/// `x` (the `(cos, sin)` by the lane kernel), then each cable's length and
+/// row in one pass. Written once over the lane scalar: the damped solver's
+/// problem ([`GeneralProblem`], `f64`) and the Newton phase on lanes
+/// ([`CableNewton`]) evaluate with the same operations.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn cable_residuals<L: Lane, F: Frame<L>, N: Numbers<L>>(
+    model: &Model,
+    nums: &N,
+    cables: &[usize],
+    chain: &mut Chain<L, F>,
+    x: &[L],
+    target: &[L],
+    r: &mut [L],
+    jac: &mut [L],
+) {
+    let n = x.len();
+    L::cos_sin(x, &mut chain.cs);
+    chain.at_cs(model, nums, x);
+    for (i, &c) in cables.iter().enumerate() {
+        let row = &mut jac[i * n..(i + 1) * n];
+        r[i] = chain.cable_length_and_row(model, nums, c, row) - target[i];
+    }
+}
+
+/// The general cable solve as a problem of the damped solver.
 struct GeneralProblem<'a, F: Frame<f64>, N> {
     model: &'a Model,
     nums: &'a N,
     cables: &'a [usize],
     target: &'a [f64],
     chain: &'a mut Chain<f64, F>,
-    row: &'a mut [f64],
+    blocks: Option<&'a Blocks>,
     limits: Option<&'a [[f64; 2]]>,
 }
 
@@ -480,18 +509,31 @@ impl<F: Frame<f64>, N: Numbers<f64>> Problem for GeneralProblem<'_, F, N> {
         (self.cables.len(), self.model.n())
     }
 
-    fn eval(&mut self, x: &[f64], r: &mut [f64], mut jac: Option<&mut [f64]>) -> bool {
-        let n = x.len();
-        self.chain.at(self.model, self.nums, x);
-        for (i, &c) in self.cables.iter().enumerate() {
-            r[i] = self.chain.cable_length(self.model, self.nums, c, None) - self.target[i];
-            if let Some(j) = jac.as_deref_mut() {
-                self.chain
-                    .cable_jacobian_row(self.model, self.nums, c, self.row);
-                j[i * n..(i + 1) * n].copy_from_slice(self.row);
+    fn eval(&mut self, x: &[f64], r: &mut [f64], jac: Option<&mut [f64]>) -> bool {
+        match jac {
+            Some(jac) => cable_residuals(
+                self.model,
+                self.nums,
+                self.cables,
+                self.chain,
+                x,
+                self.target,
+                r,
+                jac,
+            ),
+            None => {
+                f64::cos_sin(x, &mut self.chain.cs);
+                self.chain.at_cs(self.model, self.nums, x);
+                for (i, &c) in self.cables.iter().enumerate() {
+                    r[i] = self.chain.cable_length(self.model, self.nums, c, None) - self.target[i];
+                }
             }
         }
         r.iter().all(|v| v.is_finite())
+    }
+
+    fn blocks(&self) -> Option<&Blocks> {
+        self.blocks
     }
 
     fn project(&self, x: &mut [f64]) {
@@ -506,31 +548,81 @@ impl<F: Frame<f64>, N: Numbers<f64>> Problem for GeneralProblem<'_, F, N> {
     }
 }
 
+/// The block lower-triangular structure of the position cables' Jacobian
+/// (rows: the position cables `cables`; columns: the joints) when as many
+/// of them end at each disk as it has joints: a cable's length does not
+/// depend on the joints past the disk it ends at, so the cables ending at
+/// disk `k` and the joints of disk `k` form the diagonal blocks. `None`
+/// otherwise.
+pub fn cable_blocks(model: &Model, cables: &[usize]) -> Option<Blocks> {
+    let mut rows = Vec::with_capacity(cables.len());
+    let mut cols = Vec::with_capacity(model.disks.len());
+    for (d, disk) in model.disks.iter().enumerate() {
+        let ending = cables
+            .iter()
+            .enumerate()
+            .filter(|(_, &c)| model.cables[c].end == d + 1)
+            .map(|(i, _)| i);
+        let before = rows.len();
+        rows.extend(ending);
+        if rows.len() - before != disk.joints.len() {
+            return None;
+        }
+        cols.push(disk.joints.clone());
+    }
+    Some(Blocks { rows, cols })
+}
+
+/// The least-squares stop of the general cable solve with more cables than
+/// joints: converged when an accepted step lowers `|r|^2` by less than this
+/// fraction of itself.
+pub const MIN_DECREASE: f64 = 1e-12;
+
+/// The damped solver's settings of the general cable solve of `m` cables
+/// and `n` joints: undamped first; as many cables as joints, the square
+/// Newton step ([`Step::Square`]); more, Gauss–Newton on the normal
+/// equations, least squares.
+fn general_lm(m: usize, n: usize, opts: &SolveOptions) -> Lm {
+    let step = if m == n { Step::Square } else { Step::Normal };
+    Lm {
+        lambda0: 0.0,
+        min_decrease: if m > n { MIN_DECREASE } else { 0.0 },
+        ..Lm::equations(step, opts.tol, opts.max_iter)
+    }
+}
+
 /// The general cable solve (`docs/model.md`, "Solves"): the lengths of the
 /// position-controlled cables to the joint angles through the shared solver
 /// on the chain of either kind and any numbers (the model's own, or a
-/// plant's moved arm). As many cables as joints: damped Newton; more: least
+/// plant's moved arm). As many cables as joints: Newton on the square cable
+/// Jacobian (LU), damped when a step does not lower `|r|^2`; more: least
 /// squares (converged when an accepted step lowers the squared misfit by
-/// less than `1e-12` of itself). With its buffers, reused across solves and
-/// across arms of the model's structure with other numbers.
+/// less than [`MIN_DECREASE`] of itself). With its buffers, reused across
+/// solves and across arms of the model's structure with other numbers (no
+/// allocation per solve). Batches run the Newton phase on lanes first
+/// ([`CableNewton`]) and come here for the rows that leave it.
 pub struct CableSolve<F: Frame<f64>> {
     cables: Vec<usize>,
+    blocks: Option<Blocks>,
     opts: SolveOptions,
     limits: Vec<[f64; 2]>,
     ws: Workspace,
-    row: Vec<f64>,
-    /// The chain at the last evaluation (the answer's when the solve converged).
+    traverse: Vec<f64>,
+    /// The chain at the last evaluation (the answer's when the solve
+    /// converged by `tol`).
     pub chain: Chain<f64, F>,
 }
 
 impl<F: Frame<f64>> CableSolve<F> {
     pub fn new(model: &Model, opts: SolveOptions) -> Self {
+        let cables = model.position_cables();
         CableSolve {
-            cables: model.position_cables(),
+            blocks: cable_blocks(model, &cables),
+            cables,
             opts,
             limits: model.joints.iter().map(|j| j.limits).collect(),
             ws: Workspace::default(),
-            row: vec![0.0; model.n()],
+            traverse: Vec::with_capacity(model.cables.len()),
             chain: Chain::new(model),
         }
     }
@@ -544,22 +636,281 @@ impl<F: Frame<f64>> CableSolve<F> {
         target: &[f64],
         theta: &mut [f64],
     ) -> Status {
+        Broadcast::traversals(model, nums, &self.cables, &mut self.traverse);
+        let arm = Broadcast::new(nums, &self.traverse);
         let (m, n) = (self.cables.len(), model.n());
         let mut p = GeneralProblem {
             model,
-            nums,
+            nums: &arm,
             cables: &self.cables,
             target,
             chain: &mut self.chain,
-            row: &mut self.row,
+            blocks: self.blocks.as_ref(),
             limits: self.opts.enforce_limits.then_some(&self.limits[..]),
         };
-        let lm = Lm {
-            lambda0: 0.0,
-            min_decrease: if m > n { 1e-12 } else { 0.0 },
-            ..Lm::equations(Step::Normal, self.opts.tol, self.opts.max_iter)
-        };
-        lm::solve(&mut p, theta, &lm, &mut self.ws)
+        lm::solve(&mut p, theta, &general_lm(m, n, &self.opts), &mut self.ws)
+    }
+}
+
+/// What the Newton phase of the general cable solve ([`CableNewton::run`])
+/// decided on each lane.
+#[derive(Debug, Clone, Copy)]
+pub struct NewtonOutcome<L: Lane> {
+    /// Lanes that converged (their status is [`NewtonOutcome::status`]).
+    pub converged: L::Mask,
+    /// Trial steps taken (per lane).
+    pub iterations: L,
+    /// `max |r|` and `|r|^2` at the answer (m, m^2).
+    pub residual: L,
+    pub cost: L,
+}
+
+impl<L: Lane> NewtonOutcome<L> {
+    /// The status of lane `i` when it converged; `None` when it left the
+    /// Newton phase (the damped solver decides it).
+    pub fn status(&self, i: usize) -> Option<Status> {
+        L::lane_set(self.converged, i).then(|| Status {
+            converged: true,
+            iterations: self.iterations.lane(i) as u32,
+            residual: self.residual.lane(i),
+            cost: self.cost.lane(i),
+            reason: Reason::Converged,
+        })
+    }
+}
+
+/// The general cable solve's Newton phase on a lane scalar `L` (a pack of
+/// rows; `f64` for one): the steps [`CableSolve`]'s damped solver takes
+/// while it takes no damping — Newton on the square cable Jacobian (LU,
+/// [`lm::lu_solve`]), or with more cables than joints Gauss–Newton on the
+/// normal equations (the damping `0`, then `1e-12`, [`lm::ldlt_solve`]) —
+/// with the same evaluations and the same stops (`max|r| <= tol`; least
+/// squares also a step lowering `|r|^2` by less than [`MIN_DECREASE`] of
+/// itself), every lane on its own rows. A lane leaves the phase where the
+/// damped solver would do something else: a step that does not lower
+/// `|r|^2`, a singular Jacobian or a non-finite step, a residual that is
+/// not finite, the iteration limit, or (least squares) a column of zeros;
+/// [`CableSolve`] then solves that row from its seed (`docs/model.md`,
+/// "Solves": the fast path). Buffers reused across solves.
+pub struct CableNewton<L: Lane, F: Frame<L>> {
+    cables: Vec<usize>,
+    blocks: Option<Blocks>,
+    /// Per joint, the position cables (rows) that reach it: those ending
+    /// at its disk or past it (the other rows of its Jacobian column are
+    /// exact zeros).
+    reach: Vec<Vec<usize>>,
+    tol: f64,
+    max_iter: u32,
+    limits: Option<Vec<[L; 2]>>,
+    /// The seeds on entry, the answers on exit (`n`, rad).
+    pub x: Vec<L>,
+    /// The position cables' target lengths (`m`, m).
+    pub target: Vec<L>,
+    r: Vec<L>,
+    jac: Vec<L>,
+    xt: Vec<L>,
+    rt: Vec<L>,
+    jact: Vec<L>,
+    a: Vec<L>,
+    delta: Vec<L>,
+    /// The chain at the last evaluation: every converged lane's answer.
+    pub chain: Chain<L, F>,
+}
+
+/// `sum r_i^2` and `max |r_i|` and whether every `r_i` is finite, per lane.
+#[inline(always)]
+fn norms<L: Lane>(r: &[L]) -> (L, L, L::Mask) {
+    let mut cost = L::cst(0.0);
+    let mut res = L::cst(0.0);
+    let mut finite = L::mask(true);
+    for v in r {
+        cost += *v * *v;
+        res = res.max(v.abs());
+        finite = finite & v.finite();
+    }
+    (cost, res, finite)
+}
+
+impl<L: Lane, F: Frame<L>> CableNewton<L, F> {
+    pub fn new(model: &Model, opts: SolveOptions) -> Self {
+        let cables = model.position_cables();
+        let (m, n) = (cables.len(), model.n());
+        let z = L::cst(0.0);
+        let reach = model
+            .disks
+            .iter()
+            .enumerate()
+            .flat_map(|(d, disk)| disk.joints.clone().map(move |_| d))
+            .map(|d| {
+                (0..m)
+                    .filter(|&i| model.cables[cables[i]].end > d)
+                    .collect()
+            })
+            .collect();
+        CableNewton {
+            blocks: cable_blocks(model, &cables),
+            reach,
+            cables,
+            tol: opts.tol,
+            max_iter: opts.max_iter,
+            limits: opts.enforce_limits.then(|| {
+                model
+                    .joints
+                    .iter()
+                    .map(|j| [L::cst(j.limits[0]), L::cst(j.limits[1])])
+                    .collect()
+            }),
+            x: vec![z; n],
+            target: vec![z; m],
+            r: vec![z; m],
+            jac: vec![z; m * n],
+            xt: vec![z; n],
+            rt: vec![z; m],
+            jact: vec![z; m * n],
+            a: vec![z; n * n],
+            delta: vec![z; n],
+            chain: Chain::new(model),
+        }
+    }
+
+    /// The Newton phase from the seeds [`CableNewton::x`] to the lengths
+    /// [`CableNewton::target`] of the arm `nums` (a [`Broadcast`] of its
+    /// numbers); the answers in `x` (those of lanes that left are
+    /// unspecified).
+    #[inline(always)]
+    pub fn run<N: Numbers<L>>(&mut self, model: &Model, nums: &N) -> NewtonOutcome<L> {
+        // one loop per case (each compiled without the other's steps)
+        if self.cables.len() > model.n() {
+            self.phase::<N, true>(model, nums)
+        } else {
+            self.phase::<N, false>(model, nums)
+        }
+    }
+
+    /// [`CableNewton::run`] with as many cables as joints, or more
+    /// (`LEAST_SQUARES`).
+    #[inline(always)]
+    fn phase<N: Numbers<L>, const LEAST_SQUARES: bool>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+    ) -> NewtonOutcome<L> {
+        let (m, n) = (self.cables.len(), model.n());
+        let least_squares = LEAST_SQUARES;
+        let zero = L::cst(0.0);
+        cable_residuals(
+            model,
+            nums,
+            &self.cables,
+            &mut self.chain,
+            &self.x,
+            &self.target,
+            &mut self.r,
+            &mut self.jac,
+        );
+        let (mut cost, mut res, finite) = norms(&self.r);
+        let mut converged = L::mask(false);
+        // a lane whose residual cannot be evaluated leaves at once
+        let mut done = !finite;
+        let mut iterations = zero;
+        let mut lambda = zero;
+        let (tol, max_iter) = (L::cst(self.tol), L::cst(self.max_iter as f64));
+        loop {
+            let hit = !done & res.le(tol);
+            converged = converged | hit;
+            done = done | hit | !res.finite() | max_iter.le(iterations);
+            if L::all(done) {
+                break;
+            }
+            let mut live = !done;
+            iterations += L::select(live, L::cst(1.0), zero);
+            let ok = if least_squares {
+                // a column of zeros is held out of the damped solver's step
+                let mut blind = L::mask(false);
+                for (k, rows) in self.reach.iter().enumerate() {
+                    let mut zero_col = L::mask(true);
+                    for &i in rows {
+                        zero_col = zero_col & self.jac[i * n + k].eq(zero);
+                    }
+                    blind = blind | zero_col;
+                }
+                lm::normal_equations(
+                    &self.jac,
+                    &self.r,
+                    m,
+                    n,
+                    Some(&self.reach),
+                    lambda,
+                    Damping::Levenberg,
+                    &mut self.a,
+                    &mut self.delta,
+                );
+                !blind & lm::ldlt_solve(n, &mut self.a, &mut self.delta)
+            } else {
+                lm::newton_step(
+                    &self.jac,
+                    &self.r,
+                    n,
+                    self.blocks.as_ref(),
+                    &mut self.a,
+                    &mut self.delta,
+                )
+            };
+            let mut step_finite = L::mask(true);
+            for d in &self.delta {
+                step_finite = step_finite & d.finite();
+            }
+            let failed = live & !(ok & step_finite);
+            done = done | failed;
+            live = live & !failed;
+            // the trial; lanes not stepping stay where they are
+            for (k, (t, (x, d))) in self
+                .xt
+                .iter_mut()
+                .zip(self.x.iter().zip(&self.delta))
+                .enumerate()
+            {
+                let mut v = *x + *d;
+                if let Some(l) = &self.limits {
+                    // f64::clamp
+                    let [lo, hi] = l[k];
+                    v = L::select(v.lt(lo), lo, L::select(hi.lt(v), hi, v));
+                }
+                *t = L::select(live, v, *x);
+            }
+            cable_residuals(
+                model,
+                nums,
+                &self.cables,
+                &mut self.chain,
+                &self.xt,
+                &self.target,
+                &mut self.rt,
+                &mut self.jact,
+            );
+            let (c, res_t, finite_t) = norms(&self.rt);
+            let accept = live & finite_t & c.lt(cost);
+            done = done | (live & !accept);
+            if least_squares {
+                let small = accept & (cost - c).le(cost * MIN_DECREASE);
+                converged = converged | small;
+                done = done | small;
+                lambda = L::select(accept, L::cst(lm::LAMBDA_MIN), lambda);
+            }
+            // every lane not stepping was evaluated where it stands: the
+            // trial buffers hold every lane's current point
+            std::mem::swap(&mut self.x, &mut self.xt);
+            std::mem::swap(&mut self.r, &mut self.rt);
+            std::mem::swap(&mut self.jac, &mut self.jact);
+            cost = L::select(accept, c, cost);
+            res = res_t;
+        }
+        NewtonOutcome {
+            converged,
+            iterations,
+            residual: res,
+            cost,
+        }
     }
 }
 

@@ -129,62 +129,15 @@ impl<S: Real> Balance<S> {
         debug_assert_eq!(self.n, self.m);
         self.lu.copy_from_slice(&self.a);
         out.copy_from_slice(&self.b);
-        solve_dense(self.n, &mut self.lu, out)
+        crate::lm::lu_solve(self.n, &mut self.lu, out)
     }
-}
-
-/// Solves `a x = b` in place (`a` `(n, n)` row-major, overwritten; `b`
-/// becomes `x`) by Gaussian elimination with partial pivoting on the
-/// values; false when a pivot is zero or not finite.
-pub fn solve_dense<S: Real>(n: usize, a: &mut [S], b: &mut [S]) -> bool {
-    for k in 0..n {
-        let p = (k..n)
-            .max_by(|&i, &j| {
-                a[i * n + k]
-                    .val()
-                    .abs()
-                    .total_cmp(&a[j * n + k].val().abs())
-            })
-            .unwrap_or(k);
-        let piv = a[p * n + k].val();
-        if piv == 0.0 || !piv.is_finite() {
-            return false;
-        }
-        if p != k {
-            for c in 0..n {
-                a.swap(k * n + c, p * n + c);
-            }
-            b.swap(k, p);
-        }
-        let inv = S::cst(1.0) / a[k * n + k];
-        for i in k + 1..n {
-            let f = a[i * n + k] * inv;
-            if f.val() == 0.0 && !f.is_variable() {
-                continue;
-            }
-            for c in k + 1..n {
-                let v = a[k * n + c];
-                a[i * n + c] -= f * v;
-            }
-            let v = b[k];
-            b[i] -= f * v;
-        }
-    }
-    for k in (0..n).rev() {
-        let mut s = b[k];
-        for c in k + 1..n {
-            s -= a[k * n + c] * b[c];
-        }
-        b[k] = s / a[k * n + k];
-    }
-    true
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::kinds::{Se2, Se3};
-    use crate::real::Dual;
+    use crate::real::{Arith, Dual};
     use crate::robot::Robot;
 
     #[test]

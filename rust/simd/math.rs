@@ -477,24 +477,32 @@ pub fn sin_cos_slice(x: &[f64], sin: &mut [f64], cos: &mut [f64]) {
 #[inline(always)]
 pub fn cos_sin_short(x: &[f64], cs: &mut [(f64, f64)]) {
     assert_eq!(x.len(), cs.len(), "cos_sin_short: lengths differ");
-    let simd = pulp::Scalar::new();
     for (xc, cc) in x.chunks(4).zip(cs.chunks_mut(4)) {
         let mut v = [0.0; 4];
         v[..xc.len()].copy_from_slice(xc);
-        let x = L::<pulp::Scalar, 4>::new(simd, v);
-        let (s, c) = if v.iter().all(|t| t.abs() < core::f64::consts::FRAC_PI_4) {
-            // quadrant 0 needs no reduction (the reduction gives y0 = x,
-            // y1 = 0 there): the same bits as `sin_cos_lanes`
-            let zero = L::splat(simd, 0.0);
-            let s = kernel_sin(x, zero);
-            (x.eq_c(0.0).select(x, s), kernel_cos(x, zero))
-        } else {
-            sin_cos_lanes(x)
-        };
+        let (s, c) = sin_cos_quick(v);
         for (k, o) in cc.iter_mut().enumerate() {
-            *o = (c.v[k], s.v[k]);
+            *o = (c[k], s[k]);
         }
     }
+}
+
+/// `(sin, cos)` of `K` values by [`sin_cos_lanes`] on scalars, without the
+/// range reduction when every value lies in quadrant 0 (|x| < pi/4: the
+/// reduction gives y0 = x, y1 = 0 there, so the same bits): joint angles
+/// mostly do.
+#[inline(always)]
+pub fn sin_cos_quick<const K: usize>(v: [f64; K]) -> ([f64; K], [f64; K]) {
+    let simd = pulp::Scalar::new();
+    let x = L::<pulp::Scalar, K>::new(simd, v);
+    let (s, c) = if v.iter().all(|t| t.abs() < core::f64::consts::FRAC_PI_4) {
+        let zero = L::splat(simd, 0.0);
+        let s = kernel_sin(x, zero);
+        (x.eq_c(0.0).select(x, s), kernel_cos(x, zero))
+    } else {
+        sin_cos_lanes(x)
+    };
+    (s.v, c.v)
 }
 
 /// `atan2(y, x)` of every pair (see [`atan2`]), with run-time dispatch.

@@ -13,6 +13,9 @@
 //! * [`ik`]: the closed-form pose IK of 3-joint arms across rows.
 //! * [`lanes`]: `K` vectors in lockstep with arithmetic operators, the
 //!   building block of both.
+//! * [`pack`]: `W` rows as one scalar of the code written over
+//!   [`crate::real::Arith`] (the chain, the general cable solve's Newton
+//!   phase), vectorised by the compiler inside a dispatch.
 //!
 //! The kernels use no fused multiply-add, so every instruction set (and the
 //! scalar fallback) gives the same bits.
@@ -21,6 +24,7 @@ pub mod cables;
 pub mod ik;
 pub mod lanes;
 pub mod math;
+pub mod pack;
 
 pub use cables::{
     closed_form_lanes, closed_form_lanes_x, solve_cables_closed_form_batch,

@@ -218,6 +218,13 @@ def chunk_sizes(samples: int, chunk: int):
     return (min(chunk, total - start) for start in range(0, total, chunk))
 
 
+def _counts(a: np.ndarray) -> np.ndarray:
+    """The core's unsigned 64-bit counts as int64 without a copy (a count
+    never reaches 2**63): the histograms are millions of counts."""
+    a = np.ascontiguousarray(a)
+    return a.view(np.int64) if a.dtype == np.uint64 else a.astype(np.int64)
+
+
 def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: int, size: int,
                       dl_tol: np.ndarray, dh_tol: np.ndarray, method: str = "auto",
                       threads: Optional[int] = None, check_slack: bool = False) -> MonteCarlo:
@@ -239,7 +246,7 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     return MonteCarlo(theta0=theta0, count=st.count.astype(np.int64), failed=st.failed.astype(np.int64),
                       sum=st.sum.reshape(-1, q), sum_sq=st.sum_sq.reshape(-1, q),
                       min=st.min.reshape(-1, q), max=st.max.reshape(-1, q),
-                      hist=st.hist.reshape(-1, _cdsm.HIST_BINS).astype(np.int64),
+                      hist=_counts(st.hist).reshape(-1, _cdsm.HIST_BINS),
                       slack=st.slack.astype(np.int64) if check_slack else None, quantities=names)
 
 
