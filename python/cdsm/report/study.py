@@ -552,7 +552,14 @@ class StudyReport:
                        for r in srows])
         for para in self.single_findings():
             doc.p(para)
+        many = len({r.scenario.key for r in st.scenarios}) > study_figures.MAX_SCENARIO_FIGURES
         for p in st.workspaces:
+            if many:
+                self.fig(doc, f"overview_{p}", f"Every single error, the largest and the RMS {q} over the "
+                         f"configurations — {_pname(p)}; one cell per single error, one row per position cable.")
+                self.fig(doc, f"rotation_{p}", "Every single error, the largest and the RMS rotation angle of the end "
+                         f"frame — {_pname(p)}.")
+                continue
             self.fig(doc, f"overview_{p}", f"Every single error, {q} over the configurations — {_pname(p)}; each "
                      "thumbnail on its own scale (its max in the title); black rings: jump points.")
             self.fig(doc, f"rotation_{p}", f"Every single error, the end frame's rotation angle — {_pname(p)}; each "

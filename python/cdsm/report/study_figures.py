@@ -254,6 +254,8 @@ def overview_figure(study, protocol: str, quantity: str = "position") -> Figure:
     points ringed; unreachable configurations as crosses."""
     keys = _overview_keys(study)
     rows, cols = len(keys), len(keys[0])
+    if rows * cols > MAX_SCENARIO_FIGURES:
+        return _overview_matrix(study, protocol, quantity, keys)
     pts = _tips(study, protocol)
     plane = _plane(study, protocol)
     ws = study.workspaces[protocol]
@@ -300,6 +302,42 @@ def overview_figure(study, protocol: str, quantity: str = "position") -> Figure:
                     "rows: position cables; columns: ±1 mm length, ±0.35 mm holes radial, along the normal")
         fig.suptitle(f"Single errors, {what} — {_title(study, protocol)}\n{cols_txt}; black rings: jump points"
                      + ("; crosses: unreachable" if ws.n_unreachable else ""), fontsize=10)
+    return fig
+
+
+def _overview_matrix(study, protocol: str, quantity: str, keys: List[List[str]]) -> Figure:
+    """The overview of a long arm's single errors (more than
+    :data:`MAX_SCENARIO_FIGURES`, too many for a thumbnail each): the largest
+    and the RMS |d position| (mm) or rotation (deg) over the configurations,
+    one cell per single error, one row per position cable."""
+    unit = "mm" if quantity == "position" else "deg"
+    what = "|d(X, Y, Z)|" if quantity == "position" else "rotation angle"
+    rows, cols = len(keys), len(keys[0])
+    stats = np.full((2, rows, cols), np.nan)
+    for r, row in enumerate(keys):
+        for c, key in enumerate(row):
+            res = study.result(key, protocol)
+            v = res.position * 1e3 if quantity == "position" else np.degrees(res.rotation)
+            if np.isfinite(v).any():
+                stats[0, r, c] = np.nanmax(v)
+                stats[1, r, c] = np.sqrt(np.nanmean(v ** 2))
+    labels = [f"{kind} {sign}" for kind, sign in SCENARIO_COLUMNS]
+    cables = [str(c + 1) for c in study.robot.position_cables]
+    with report_style():
+        fig = new_figure(W, min(0.16 * rows + 1.6, 11.0))
+        axs = fig.subplots(1, 2, sharey=True)
+        for ax, m, name in zip(axs, stats, ("largest", "RMS")):
+            top = _nanmax(m)
+            im = ax.imshow(m, aspect="auto", cmap=seq_cmap("viridis", 0.0),
+                           norm=Normalize(0, top if np.isfinite(top) and top > 0 else 1.0), interpolation="nearest")
+            ax.set_xticks(range(cols), labels, rotation=40, ha="right", fontsize=7.5)
+            ax.set_yticks(range(rows), cables, fontsize=6.5 if rows > 20 else 8)
+            ax.set_title(f"{name} {what} ({unit}) over the configurations", fontsize=9)
+            fig.colorbar(im, ax=ax, fraction=0.06, pad=0.02).set_label(unit)
+        axs[0].set_ylabel("position cable")
+        fig.suptitle(f"Single errors, {what} — {_title(study, protocol)}\nrows: position cables; columns: ±1 mm "
+                     "length, ±0.35 mm holes radial, along the normal", fontsize=10)
+        fig.subplots_adjust(left=0.09, right=0.97, bottom=0.12, top=0.9, wspace=0.25)
     return fig
 
 
