@@ -38,6 +38,8 @@ pub struct Balance<S> {
     row: Vec<S>,
     /// Scratch of the square solve.
     lu: Vec<S>,
+    /// The disk (0-based) of every joint.
+    joint_disk: Vec<usize>,
 }
 
 /// A tip wrench in a scalar: force (N) and couple (N m, `[Mz]` planar,
@@ -59,6 +61,12 @@ impl<S: Real> Balance<S> {
             lengths: vec![S::cst(0.0); model.cables.len()],
             row: vec![S::cst(0.0); n],
             lu: vec![S::cst(0.0); n * m],
+            joint_disk: model
+                .disks
+                .iter()
+                .enumerate()
+                .flat_map(|(d, disk)| disk.joints.clone().map(move |_| d))
+                .collect(),
         }
     }
 
@@ -87,7 +95,41 @@ impl<S: Real> Balance<S> {
         wrench: Wrench<S>,
         force: Option<&[f64]>,
     ) {
+        self.fill(model, nums, chain, g, wrench, force, None);
+    }
+
+    /// [`Balance::at_with`] with friction in the holes (`docs/model.md`,
+    /// "Friction in the holes"): `gap[c * K + d]` is cable `c`'s tension in
+    /// the gap before disk `d + 1` over its routing tension (`K` disks), so
+    /// the cable's entry of every joint of that disk is scaled by it; the
+    /// position tensions solved are the routing's.
+    #[allow(clippy::too_many_arguments)]
+    pub fn at_friction<F: Frame<S>, N: Numbers<S>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        chain: &mut Chain<S, F>,
+        g: [f64; 3],
+        wrench: Wrench<S>,
+        force: Option<&[f64]>,
+        gap: &[S],
+    ) {
+        self.fill(model, nums, chain, g, wrench, force, Some(gap));
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fill<F: Frame<S>, N: Numbers<S>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        chain: &mut Chain<S, F>,
+        g: [f64; 3],
+        wrench: Wrench<S>,
+        force: Option<&[f64]>,
+        gap: Option<&[S]>,
+    ) {
         let n = self.n;
+        let disks = model.disks.len();
         let loaded = g.iter().any(|v| *v != 0.0)
             || wrench
                 .force
@@ -104,6 +146,11 @@ impl<S: Real> Balance<S> {
         let (mut i, mut f) = (0, 0);
         for (c, cable) in model.cables.iter().enumerate() {
             self.lengths[c] = chain.cable_length_and_row(model, nums, c, &mut self.row);
+            if let Some(gap) = gap {
+                for (j, r) in self.row.iter_mut().enumerate() {
+                    *r *= gap[c * disks + self.joint_disk[j]];
+                }
+            }
             match cable.mode {
                 Mode::Position => {
                     for j in 0..n {
