@@ -312,7 +312,7 @@ def test_cli_json_keys_and_flagged_unreachable_row(mods, robot, tmp_path, capsys
                            "--quiet"])
     assert rc == 0
     text = capsys.readouterr().out
-    assert "best: actuation_scale" in text and "noise floor" in text and "flagged rows: 6" in text
+    assert "Effect: actuation_scale" in text and "noise floor" in text and "flagged rows: 6" in text
     j = json.load(open(out))
     assert j["best"] == "actuation_scale" and j["verdict"] == "explained" and j["explained"] is True
     assert j["noise_source"] == "given" and j["noise_m"] == 1e-5

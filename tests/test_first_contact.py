@@ -39,7 +39,7 @@ def test_list_names_every_packaged_robot_and_table(cdsm, capsys):
 
 def test_a_packaged_table_is_data_by_name_and_a_file_wins(cdsm, capsys, tmp_path, monkeypatch):
     rc, out, _ = _cli(capsys, ["diagnose", "table3", "--quiet"])
-    assert rc == 0 and "verdict: unexplained" in out
+    assert rc == 0 and "Verdict: unexplained" in out
     rc, _, err = _cli(capsys, ["diagnose", "table4", "--quiet"])
     assert rc == 2 and "table4" in err and "table3" in err
     # a file named like a packaged table is read as the file
@@ -104,3 +104,14 @@ def test_the_diagnosis_progress_counts_its_steps(cdsm, monkeypatch):
     monkeypatch.setattr(diagnosis, "Progress", Spy)
     diagnosis.diagnose(cdsm.Robot.paper(), measurements.packaged("table3"))
     assert seen and all(b.done == b.total for b in seen)
+
+
+def test_the_terminal_says_the_verdicts_reason_the_next_step_and_the_assumed_noise(cdsm, capsys):
+    rc, out, _ = _cli(capsys, ["diagnose", "table3", "--quiet"])
+    lines = out.splitlines()
+    # the answer first, with its reason; the next measurements; no Markdown marks
+    assert lines[0].startswith("Verdict: unexplained — no effect of the library reduces the gap")
+    assert any(ln.startswith("Next measurements: Repeat some commands") for ln in lines)
+    assert "**" not in out and "`" not in out and "](#" not in out
+    # nine rows beyond 5 sigma of a noise nobody measured: the assumption is what fails
+    assert "assumed noise" in out and "cannot all be outliers" in out

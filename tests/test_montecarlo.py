@@ -27,3 +27,29 @@ def test_closed_form_lanes_and_newton_rows_give_the_same_statistics(cdsm):
     np.testing.assert_allclose(auto.sum_sq, newton.sum_sq, rtol=0, atol=40 * 1e-10)
     # the histogram of |dXY| may move a sample only across a bin edge
     assert np.abs(auto.hist - newton.hist).sum() <= 2
+
+
+def test_percentiles_are_the_sample_quantiles_within_their_bound(cdsm):
+    """Issue 23: a Monte-Carlo percentile is within QUANTILE_BOUND (0.498 %)
+    of the sample quantile (the smallest sample with at least p % at or
+    below it) of the stored samples: here every sample's deviation is
+    recomputed by a separate batch solve of its cable lengths."""
+    from cdsm.accuracy import montecarlo
+
+    r = cdsm.Robot.paper()
+    theta = np.array([[0.3, -0.2, 0.1], [-0.5, 0.4, 0.3], [0.55, -0.55, 0.2]])
+    S = 4000
+    mc = montecarlo.monte_carlo(r, theta, samples=S, seed=3, chunk=1000, dh_tol=0.0, progress=False)
+    assert (mc.count == S).all()
+    dl = np.concatenate([montecarlo.sample_errors(3, 1000, 3, c, np.full(3, 1e-3), np.zeros(3))[0]
+                         for c in range(4)])
+    for j, t in enumerate(theta):
+        sol = r.solve_cables(r.upper_lengths(t) + dl, seed=np.tile(t, (S, 1)))
+        d = np.sort(np.hypot(*(r.fk(sol.theta)[:, :2] - r.fk(t)[:2]).T))
+        for p in (5.0, 50.0, 90.0, 95.0, 99.0, 99.9, 100.0):
+            exact = d[int(np.ceil(p / 100 * S)) - 1]
+            assert abs(mc.percentile(p)[j] / exact - 1) <= montecarlo.QUANTILE_BOUND, (j, p)
+    # the pooled percentile of one configuration is its own
+    from cdsm.accuracy.tolerance import pooled_percentile
+
+    assert pooled_percentile(mc, 95.0, rows=[1]) == mc.percentile(95.0)[1]

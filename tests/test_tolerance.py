@@ -111,7 +111,8 @@ def test_pooled_percentile_merges_histograms(paper):
     p = tolerance.pooled_percentile(mc, 95)
     per = mc.percentile(95)
     assert per.min() <= p <= per.max()
-    assert tolerance.pooled_percentile(mc, 95, interpolate=True) <= p
+    # the interpolated estimate lies in the same bin as the bin's middle
+    assert abs(tolerance.pooled_percentile(mc, 95, interpolate=True) / p - 1) <= 2.01 * tolerance.HIST_RESOLUTION
 
 
 def test_allocation_holds_and_is_not_loose(paper):

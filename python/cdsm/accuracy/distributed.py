@@ -41,8 +41,9 @@ at most ``window`` results plus the running total.
 
 Available statistics per configuration: count, failed, mean, std, min, max
 (and max |.|) of dX, dY (m), dphi (rad) and |d(X, Y)| (m); percentiles of
-|d(X, Y)| from the exact log-spaced histogram (60 bins per decade, reported at
-the upper bin edge: at most 3.9 % high). Percentiles of dX, dY, dphi would
+|d(X, Y)| from the exact log-spaced histogram (232 bins per decade, reported
+at the bin's geometric middle: within 0.498 % of the sample quantile; the
+counts add, so local and cluster runs agree bitwise). Percentiles of dX, dY, dphi would
 need their own histograms in the Rust kernel (not computed).
 """
 

@@ -24,7 +24,8 @@ from ..robot import Robot
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 from ..display import ShortRepr
 
-__all__ = ["MonteCarlo", "monte_carlo", "monte_carlo_chunk", "chunk_sizes", "sample_errors",
+__all__ = ["QUANTILE_BOUND", "hist_quantile", "MonteCarlo", "monte_carlo", "monte_carlo_chunk", "chunk_sizes",
+           "sample_errors",
            "QUANTITY_NAMES", "QUANTITY_UNITS", "SPATIAL_QUANTITY_NAMES", "SPATIAL_QUANTITY_UNITS",
            "DEFAULT_PERCENTILES", "error_widths",
            "summary", "save_npz", "load_npz"]
@@ -90,17 +91,14 @@ class MonteCarlo(ShortRepr):
         return _cdsm.hist_edges()
 
     def percentile(self, p: float) -> np.ndarray:
-        """(N,) p-th percentile (0–100) of |d(X, Y)|, m, to the bin resolution
-        (upper bin edge: conservative, at most 3.9 % high)."""
-        if not 0.0 <= p <= 100.0:
-            raise CdsmInputError(f"`p`: must be within [0, 100], got {p}")
-        edges = self.hist_edges()
-        upper = np.append(edges, np.inf)
-        cum = np.cumsum(self.hist, axis=1)
-        need = np.ceil(p / 100.0 * self.count).astype(np.int64)
-        idx = np.argmax(cum >= np.maximum(need, 1)[:, None], axis=1)
-        out = upper[np.minimum(idx, len(upper) - 1)]
-        return np.where(self.count > 0, out, np.nan)
+        """(N,) p-th percentile (0–100) of the position-error norm (|d(X, Y)|;
+        spatial |d(X, Y, Z)|), m, over each configuration's converged samples:
+        the sample quantile (the smallest sample with at least p % of them at
+        or below it) to within :data:`QUANTILE_BOUND` (0.498 %) — the
+        geometric middle of its histogram bin. Below 1 nm or above 10 m (the
+        histogram's ends) the bound does not hold: the end is returned. NaN
+        for a configuration without samples."""
+        return hist_quantile(self.hist, p)
 
     def merge(self, other: "MonteCarlo") -> None:
         """Adds the samples of ``other`` (same configurations) to this one."""
@@ -158,6 +156,49 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     out.params = dict(samples=total, seed=seed, chunk=chunk, dl_tol_m=dlt.tolist(),
                       dh_tol_m=dht.tolist(), method=method, check_slack=bool(check_slack))
     return out
+
+
+#: Relative bound of every Monte-Carlo quantile (:meth:`MonteCarlo.percentile`):
+#: half a histogram bin in log space, ``sqrt(10**(1/HIST_PER_DECADE)) - 1``.
+QUANTILE_BOUND = float(np.sqrt(10.0 ** (1.0 / _cdsm.HIST_PER_DECADE)) - 1.0)
+
+
+def hist_quantile(hist: np.ndarray, p: float, above: Optional[np.ndarray] = None,
+                  interpolate: bool = False) -> np.ndarray:
+    """The p-th percentile (0–100, m) of the samples each row of ``hist``
+    (N, HIST_BINS) counts, plus ``above`` (N,) samples counted above every
+    bin (failed solves, say: inf when they reach the percentile): the
+    smallest sample with at least p % at or below it lies in one bin; its
+    geometric middle is returned (within :data:`QUANTILE_BOUND`), or with
+    ``interpolate`` a log-linear interpolation by rank inside the bin (an
+    estimate within the bin, 1 % at worst). The underflow and overflow bins
+    return their edge; NaN for a row without samples."""
+    if not 0.0 <= float(p) <= 100.0:
+        raise CdsmInputError(f"`p`: must be within [0, 100], got {p}")
+    h = np.atleast_2d(hist).astype(np.int64)
+    extra = np.zeros(len(h), np.int64) if above is None else np.asarray(above, np.int64)
+    total = h.sum(axis=1) + extra
+    need = np.maximum(np.ceil(float(p) / 100.0 * total).astype(np.int64), 1)
+    cum = np.cumsum(h, axis=1)
+    inside = cum[:, -1] >= need
+    idx = np.where(inside, np.argmax(cum >= need[:, None], axis=1), h.shape[1])
+    edges = MonteCarlo.hist_edges()
+    last = len(edges)  # the overflow bin
+    out = np.full(len(h), np.inf)
+    reg = inside & (idx >= 1) & (idx < last)
+    k = np.clip(idx, 1, last - 1)  # a regular bin's index (the others are set below)
+    lo, hi = edges[k - 1], edges[k]
+    if interpolate:
+        rows = np.arange(len(h))
+        below = np.where(idx >= 1, cum[rows, np.maximum(idx - 1, 0)], 0)
+        frac = (need - below) / np.maximum(h[rows, np.minimum(idx, h.shape[1] - 1)], 1)
+        est = lo * (hi / lo) ** np.clip(frac, 0.0, 1.0)
+    else:
+        est = np.sqrt(lo * hi)
+    out[reg] = est[reg]
+    out[inside & (idx == 0)] = edges[0]
+    out[inside & (idx == last)] = edges[-1]
+    return np.where(total > 0, out, np.nan)
 
 
 def error_widths(robot) -> Tuple[int, int]:

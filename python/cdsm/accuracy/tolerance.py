@@ -28,9 +28,10 @@ one model); Monte Carlo then brackets and bisects ``alpha``
 the tips spread most.
 
 The pooled percentile over a region merges the per-configuration histograms
-of the Monte-Carlo study (:attr:`cdsm.accuracy.MonteCarlo.hist`; 60 log bins
-per decade, the percentile is the upper edge of its bin: conservative, at
-most 3.9 % high). Failed solves count as errors above every bin.
+of the Monte-Carlo study (:attr:`cdsm.accuracy.MonteCarlo.hist`; 232 log
+bins per decade, the percentile is the geometric middle of its bin: within
+0.498 % of the sample quantile). Failed solves count as errors above every
+bin.
 """
 
 from __future__ import annotations
@@ -42,11 +43,10 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .. import _cdsm
 from ..files import read_table, read_text, table_column
 from ..inputs import CdsmInputError, as_batch, as_tolerances
 from ..robot import Robot
-from .montecarlo import MonteCarlo, monte_carlo
+from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 from .sensitivity import error_matrix, linear_percentile, sensitivities, tolerance_vector
 from .sampling import sample_configurations
@@ -56,35 +56,23 @@ __all__ = ["HIST_RESOLUTION", "pooled_percentile", "Allocation", "allocate", "di
            "region_cells", "load_tolerances", "parse_region", "SpatialAllocation", "hole_tolerances",
            "spatial_tolerances", "load_spatial_tolerances", "SPATIAL_REGION_DEFAULT"]
 
-#: Relative width of a histogram bin of the Monte-Carlo study (10**(1/60) - 1).
-HIST_RESOLUTION = 10.0 ** (1.0 / _cdsm.HIST_PER_DECADE) - 1.0
+#: Relative bound of the Monte-Carlo quantiles the allocation reads
+#: (:data:`cdsm.accuracy.montecarlo.QUANTILE_BOUND`, 0.498 %).
+HIST_RESOLUTION = QUANTILE_BOUND
 
 
 def pooled_percentile(mc: MonteCarlo, p: float, rows=None, interpolate: bool = False) -> float:
-    """p-th percentile (m) of |d(x, y)| pooled over the configurations ``rows``
-    (default all) of a Monte-Carlo study: the per-configuration histograms are
-    summed; failed solves count as above every bin (inf if they reach the
-    percentile). Upper bin edge: at most :data:`HIST_RESOLUTION` high; with
-    ``interpolate`` a log-linear interpolation inside the bin (an estimate, not
-    a bound)."""
+    """p-th percentile (m) of the position error pooled over the
+    configurations ``rows`` (default all) of a Monte-Carlo study: the
+    per-configuration histograms are summed; failed solves count as above
+    every bin (inf if they reach the percentile). Within
+    :data:`HIST_RESOLUTION` of the pooled sample quantile
+    (:func:`~cdsm.accuracy.montecarlo.hist_quantile`); with ``interpolate``
+    a log-linear interpolation inside the bin (an estimate, not a bound)."""
     sel = slice(None) if rows is None else rows
-    hist = mc.hist[sel].sum(axis=0).astype(np.int64)
-    hist[-1] += int(mc.failed[sel].sum())
-    total = int(hist.sum())
-    if total == 0:
-        return float("nan")
-    need = max(int(np.ceil(p / 100.0 * total)), 1)
-    cum = np.cumsum(hist)
-    idx = int(np.argmax(cum >= need))
-    edges = MonteCarlo.hist_edges()
-    upper = np.append(edges, np.inf)
-    hi = float(upper[min(idx, len(upper) - 1)])
-    if not interpolate or idx == 0 or not np.isfinite(hi):
-        return hi
-    lo = float(edges[idx - 1])
-    below = cum[idx - 1]
-    frac = (need - below) / max(hist[idx], 1)
-    return float(lo * (hi / lo) ** frac)
+    hist = mc.hist[sel].sum(axis=0)
+    failed = int(mc.failed[sel].sum())
+    return float(hist_quantile(hist[None], p, np.array([failed]), interpolate=interpolate)[0])
 
 
 # ---------------------------------------------------------------------------

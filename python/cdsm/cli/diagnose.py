@@ -88,13 +88,14 @@ def _diagnose_run(args) -> int:
     d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
                           frame=args.frame,
                           progress=show)
-    for line in diagnose_report.summary(d):
-        print(line)
     suggestion = None
     if args.suggest is not None:
         from ..calibration.experiment import suggest
 
         suggestion = suggest(d, args.suggest)
+    for line in diagnose_report.summary(d, suggestion):
+        print(line)
+    if suggestion is not None:
         print(suggestion.summary())
     if args.json is not None:
         write_json(args.json, d.to_json(), "--json")

@@ -90,8 +90,8 @@ def _tolerance_run(args) -> int:
     print("hole height tolerance (mm, per disk):         "
           + ", ".join(f"±{v * 1e3:.4f}" for v in a.hole_height_tol_m))
     print(f"achieved P{args.percentile:g} |d(x, y)| = {a.achieved_m * 1e3:.4f} mm "
-          f"(target {args.target_mm:g} mm; bin-edge bound, +{tolerance.HIST_RESOLUTION * 100:.1f} % "
-          f"resolution; interpolated {out['achieved_interpolated_mm']:.4f} mm); "
+          f"(target {args.target_mm:g} mm; within ±{tolerance.HIST_RESOLUTION * 100:.1f} % of the sample quantile; "
+          f"interpolated {out['achieved_interpolated_mm']:.4f} mm); "
           f"with every tolerance x1.25: {a.achieved_1p25_m * 1e3:.4f} mm")
     print(f"linear estimate {a.linear_m * 1e3:.4f} mm; failed solves {a.failed}; "
           f"done in {time.perf_counter() - t0:.1f} s")
@@ -148,8 +148,8 @@ def _spatial_run(args, robot, t0: float, region: str, theta, desc: str, weights,
     print(f"hole tolerance (mm, every coordinate of each cable's holes, cables 1..{cables}): "
           + ", ".join(f"±{v * 1e3:.4f}" for v in a.hole_tol_m))
     print(f"achieved P{args.percentile:g} |d(x, y, z)| = {a.achieved_m * 1e3:.4f} mm "
-          f"(target {args.target_mm:g} mm; bin-edge bound, +{tolerance.HIST_RESOLUTION * 100:.1f} % "
-          f"resolution; interpolated {out['achieved_interpolated_mm']:.4f} mm); "
+          f"(target {args.target_mm:g} mm; within ±{tolerance.HIST_RESOLUTION * 100:.1f} % of the sample quantile; "
+          f"interpolated {out['achieved_interpolated_mm']:.4f} mm); "
           f"with every tolerance x1.25: {a.achieved_1p25_m * 1e3:.4f} mm")
     print(f"linear estimate {a.linear_m * 1e3:.4f} mm ({len(a.history)} Monte-Carlo evaluations); failed solves "
           f"{a.failed}; done in {time.perf_counter() - t0:.1f} s")

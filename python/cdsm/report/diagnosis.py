@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from typing import Dict, List, Tuple
 
 import numpy as np
@@ -252,10 +253,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
                   "not named: it does not beat the identity frame significantly."))
         out["answer"].append(reg)
     if d.outliers:
-        w = d.verdict_without_outliers
-        out["answer"].append(
-            f"Outliers (residual beyond 5σ after the fit): {', '.join(names[i] for i in d.outliers)}. "
-            + (f"Without them the verdict is **{w.verdict}**." if w is not None else ""))
+        out["answer"].append(outlier_note(d, names))
 
     # -- where the gap lies --------------------------------------------
     order = [i for i in np.argsort(-np.nan_to_num(size_b, nan=-1.0)) if np.isfinite(size_b[i])]
@@ -379,19 +377,41 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     return out
 
 
-def summary(d: diagnose.Diagnosis) -> List[str]:
-    """A few lines for the command line."""
-    b, f = d.baseline.heldout_rms, d.final().heldout_rms
-    lines = [f"best: {d.best}  (verdict: {d.verdict})",
-             f"held-out RMS: nominal {b * 1e6:.1f} µm -> final {f * 1e6:.1f} µm "
-             f"({100 * (1 - f / b):.0f} % smaller); noise floor {d.noise_floor * 1e6:.1f} µm "
-             f"(noise {d.noise * 1e6:.3g} µm per axis, {d.noise_estimate.source})",
-             f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
-             f"{d.folds}-fold cross-validation"]
+def outlier_note(d: diagnose.Diagnosis, names: List[str]) -> str:
+    """The outliers, said against the noise they were judged by: a noise
+    that was assumed, not estimated, is called so, and when every row is
+    beyond it the assumption is what fails."""
+    w = d.verdict_without_outliers
+    ne = d.noise_estimate.source
+    against = (f"beyond 5σ of the **assumed** noise ({_um(d.noise)} per axis; no repeats to estimate it)"
+               if ne == "assumed" else f"beyond 5σ of the noise ({_um(d.noise)} per axis, {ne})")
+    text = f"Rows with a residual {against} after the fit: {', '.join(names[i] for i in d.outliers)}."
+    if ne == "assumed" and len(d.outliers) >= max(3, int(d.prep.usable.sum()) // 2):
+        text += (" So many rows cannot all be outliers: the assumed noise is too small for these data, or the "
+                 "model misses an effect; give the noise (`--noise`) or repeat some commands to estimate it.")
+    elif w is not None:
+        text += f" Without them the verdict is **{w.verdict}**."
+    return text
+
+
+def _plain(markdown: str) -> str:
+    """A Markdown line for the terminal: no emphasis, code marks or links."""
+    text = re.sub(r" — see \[[^\]]*\]\(#[^)]*\)", "", markdown)
+    text = re.sub(r"\[([^\]]*)\]\([^)]*\)", r"\1", text)
+    return text.replace("**", "").replace("`", "")
+
+
+def summary(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
+    """The headline for the command line: the verdict and why, the effect,
+    how far the gap shrinks, the largest gaps, the next measurements; then
+    the rows used and the flagged ones."""
+    lines = [_plain(item) for item in headline_items(d, suggestion)]
+    lines.append(f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
+                 f"{d.folds}-fold cross-validation")
     if d.prep.flags:
         lines.append(f"flagged rows: {', '.join(str(i + 1) for i in sorted(d.prep.flags))} (see the report)")
-    if d.ties:
-        lines.append(f"ties with {d.singles[0].name}: {', '.join(d.ties)}")
+    if d.outliers:
+        lines.append(_plain(outlier_note(d, _row_names(d))))
     return lines
 
 

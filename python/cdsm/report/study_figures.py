@@ -386,7 +386,7 @@ def _mc_subtitle(study, protocol: str) -> str:
             "configurations (red rings)" if failed else "no failed solves")
     return (f"Monte Carlo: {p.get('samples')} composite errors per configuration, uniform ±"
             f"{max(p['dl_tol_m']) * 1e3:g} mm {cables} and ±{max(p['dh_tol_m']) * 1e3:g} mm {holes}, seed "
-            f"{p.get('seed')}\n{_title(study, protocol)}; {fail}; percentiles to the histogram bin (≤ 3.9 % high)")
+            f"{p.get('seed')}\n{_title(study, protocol)}; {fail}; percentiles within 0.5 % of the sample quantiles")
 
 
 def _pooled_hist(mc: MonteCarlo) -> Tuple[np.ndarray, np.ndarray]:
