@@ -16,8 +16,10 @@
 use faer::Mat;
 
 use crate::chain::{Chain, Numbers};
+use crate::error::{CdsmError, Result};
 use crate::kinds::{cross, Frame, Kind, Vector};
 use crate::model::{Mode, Model};
+use crate::plant::MAX_FRICTION;
 use crate::real::Real;
 use crate::tension::{Balance, Wrench};
 
@@ -266,12 +268,16 @@ impl Motion {
     }
 }
 
+/// A change of a distal length (m) at or below which a hole without a
+/// band counts as still: the round-off of lengths that did not move.
+pub const STILL: f64 = 1e-12;
+
 /// The mobilisation of every hole after each command of `motion` (`(R,
 /// H)`), for friction `mu` and compliance `kappa` (1/N), from the start
 /// state (every hole at `z = +1` at the straight pose): per command and
 /// hole, with `Δd` the change of its distal length and `w = kappa T d
 /// sinh(mu beta)` its band's half-width, `z <- clamp(z - Δd / w, -1, 1)`
-/// (`w > 0`), `z <- -sign(Δd)` (`w = 0`, `Δd != 0`), else unchanged.
+/// (`w > 0`), `z <- -sign(Δd)` (`w = 0`, `|Δd| >` [`STILL`]), else unchanged.
 pub fn mobilisation<S: Real>(motion: &Motion, mu: S, kappa: S) -> Vec<S> {
     let h = motion.holes.total;
     let rows = motion.len();
@@ -294,7 +300,7 @@ pub fn mobilisation<S: Real>(motion: &Motion, mu: S, kappa: S) -> Vec<S> {
                 } else {
                     t
                 };
-            } else if step != 0.0 {
+            } else if step.abs() > STILL {
                 z[i] = S::cst(-step.signum());
             }
             out.push(z[i]);
@@ -315,6 +321,46 @@ pub struct Sliding {
 }
 
 impl Sliding {
+    /// Pulling: the actuators haul the arm against the force cables
+    /// (position cables' holes at `z = +1`, force cables' at `-1`).
+    pub fn pulling(mu: f64) -> Sliding {
+        Sliding {
+            mu,
+            position: 1.0,
+            force: -1.0,
+        }
+    }
+
+    /// Releasing: the opposite state (`z = -1` and `+1`).
+    pub fn releasing(mu: f64) -> Sliding {
+        Sliding {
+            mu,
+            position: -1.0,
+            force: 1.0,
+        }
+    }
+
+    /// An error naming `friction` unless `0 <= mu <= MAX_FRICTION` and the
+    /// mobilisations are within `[-1, 1]`.
+    pub fn check(&self) -> Result<()> {
+        if !(self.mu >= 0.0 && self.mu <= MAX_FRICTION) {
+            return Err(CdsmError::Option {
+                name: "friction".into(),
+                problem: format!(
+                    "the friction coefficient must be within [0, {MAX_FRICTION}], got {}",
+                    self.mu
+                ),
+            });
+        }
+        if !(self.position.abs() <= 1.0 && self.force.abs() <= 1.0) {
+            return Err(CdsmError::Option {
+                name: "sliding".into(),
+                problem: "mobilisations must be within [-1, 1]".into(),
+            });
+        }
+        Ok(())
+    }
+
     /// The mobilisation of every hole (per hole, [`Holes`]).
     pub fn mobilisations(&self, model: &Model, holes: &Holes) -> Vec<f64> {
         let mut z = vec![0.0; holes.total];
@@ -354,7 +400,12 @@ mod tests {
         let (mut pa, mut pb) = (Profile::<f64>::new(&m), Profile::<f64>::new(&s));
         pa.at(&m, &m, &a, &holes, &z, 0.2, 0.05);
         pb.at(&s, &s, &b, &holes, &z, 0.2, 0.05);
-        for (x, y) in pa.gap.iter().zip(&pb.gap).chain(pa.mean.iter().zip(&pb.mean)) {
+        for (x, y) in pa
+            .gap
+            .iter()
+            .zip(&pb.gap)
+            .chain(pa.mean.iter().zip(&pb.mean))
+        {
             assert!((x - y).abs() < 1e-14, "{x} vs {y}");
         }
         // at mu = 0 every factor is 1

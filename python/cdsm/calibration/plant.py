@@ -19,6 +19,9 @@ hole_clearance         1 + 1        c >= 0 (m): holes shift c·tanh(theta / w) t
 frame_misalignment     3            instrument frame: rotation (rad), x, y (m)
 tip_offset             2            measured point offset in the end frame, x, y (m)
 backlash               n            dead-band half-width of each upper cable, m
+cable_friction         1            Coulomb friction mu of every cable in every hole
+                                    (1; it moves the arm through the cables' stretch,
+                                    so with cable_elasticity)
 =====================  ===========  ================================================
 
 Rows run in sequence (backlash has memory): give them in execution order.
@@ -51,13 +54,15 @@ __all__ = ["EFFECTS", "BLOCKS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layo
 #: The planar plant's parameter blocks, in the order of its flat vector (the
 #: Rust core's layout: :func:`layout` gives any robot's).
 BLOCKS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_height", "link_length", "cable_elasticity",
-                           "hole_clearance", "frame_misalignment", "tip_offset", "backlash", "clearance_width")
+                           "hole_clearance", "frame_misalignment", "tip_offset", "backlash", "clearance_width",
+                           "cable_friction")
 
 #: The blocks an effect of the library fits (default: the block of its name).
 EFFECT_BLOCKS: Dict[str, Tuple[str, ...]] = {"hole_clearance": ("hole_clearance", "clearance_width")}
 
 #: The effects of the diagnosis library of planar arms.
-EFFECTS: Tuple[str, ...] = tuple(b for b in BLOCKS if not any(b in v[1:] for v in EFFECT_BLOCKS.values()))
+EFFECTS: Tuple[str, ...] = tuple(b for b in BLOCKS if not any(b in v[1:] for v in EFFECT_BLOCKS.values())
+                                 and b != "cable_friction")
 
 #: The effects of the diagnosis library of spatial arms (``hole_position``
 #: in 3-D where a planar arm has ``hole_height``; ``joint_axis``: each
@@ -70,11 +75,13 @@ SPATIAL_EFFECTS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_pos
 # in, and the size of generated test effects): 2 % actuation error, 0.2 mm
 # offsets and holes, 0.3 mm links, a polymer-like compliance (E A ~ 50 N),
 # 0.15 mm clearance and a 10 mrad transition, 5 mrad / 5 mm frame, 1 mm tip
-# offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt.
+# offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt, friction
+# 0.15 (greased steel on metal, docs/model.md "Friction in the holes").
 TYPICAL: Dict[str, float] = {
     "actuation_scale": 0.02, "cable_offset": 2e-4, "hole_height": 2e-4, "hole_position": 2e-4,
     "link_length": 3e-4, "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "clearance_width": 0.01,
     "frame_misalignment": 5e-3, "tip_offset": 1e-3, "backlash": 3e-5, "joint_axis": 1e-2,
+    "cable_friction": 0.15,
 }
 assert set(BLOCKS) | set(SPATIAL_EFFECTS) <= set(TYPICAL), "a typical size per parameter block"
 

@@ -428,7 +428,8 @@ def friction_factors(arm, theta, z, mu: float):
     return gap, ebar
 
 
-def _hole_count(robot) -> int:
+def _friction_holes(robot) -> int:
+    """Every cable's turning holes, ``2 e_c`` each (friction's mobilisations)."""
     return int(sum(2 * int(e) for e in robot.cable_end))
 
 
@@ -461,7 +462,7 @@ def _residual_function(robot, arm, q, L, z=None):
     scale = np.linalg.norm(sp.cable_jacobian(arm, np.zeros((1, arm.n)))[0, pos])
     friction = mu > 0.0 and kappa > 0.0
     if friction:
-        z = np.ones((L.shape[0], _hole_count(arm))) if z is None else np.asarray(z, float)
+        z = np.ones((L.shape[0], _friction_holes(arm))) if z is None else np.asarray(z, float)
 
     def factors(th, idx):
         """Gap factors (k, n, m_all) and ebar (k, m_all); ones without friction."""
