@@ -268,8 +268,10 @@ impl Motion {
     }
 }
 
-/// A change of a distal length (m) at or below which a hole without a
-/// band counts as still: the round-off of lengths that did not move.
+/// A change of a distal length (m) at or below which a hole counts as
+/// still: the round-off of lengths that did not move (a hole straight at
+/// the nominal configuration has a band of round-off width, so it would
+/// otherwise take the sign of the round-off).
 pub const STILL: f64 = 1e-12;
 
 /// The mobilisation of every hole after each command of `motion` (`(R,
@@ -277,7 +279,7 @@ pub const STILL: f64 = 1e-12;
 /// state (every hole at `z = +1` at the straight pose): per command and
 /// hole, with `Δd` the change of its distal length and `w = kappa T d
 /// sinh(mu beta)` its band's half-width, `z <- clamp(z - Δd / w, -1, 1)`
-/// (`w > 0`), `z <- -sign(Δd)` (`w = 0`, `|Δd| >` [`STILL`]), else unchanged.
+/// (`w > 0`), `z <- -sign(Δd)` (`w = 0`); unchanged where `|Δd| <=` [`STILL`].
 pub fn mobilisation<S: Real>(motion: &Motion, mu: S, kappa: S) -> Vec<S> {
     let h = motion.holes.total;
     let rows = motion.len();
@@ -291,7 +293,9 @@ pub fn mobilisation<S: Real>(motion: &Motion, mu: S, kappa: S) -> Vec<S> {
             let d = motion.d[k];
             let step = d - prev[i];
             let w = kappa * (motion.tension[k] * d) * sinh(mu * motion.beta[k]);
-            if w.val() > 0.0 {
+            if step.abs() <= STILL {
+                // round-off of a length that did not move: the hole holds
+            } else if w.val() > 0.0 {
                 let t = z[i] - S::cst(step) / w;
                 z[i] = if t.val() > 1.0 {
                     one
@@ -300,7 +304,7 @@ pub fn mobilisation<S: Real>(motion: &Motion, mu: S, kappa: S) -> Vec<S> {
                 } else {
                     t
                 };
-            } else if step.abs() > STILL {
+            } else {
                 z[i] = S::cst(-step.signum());
             }
             out.push(z[i]);

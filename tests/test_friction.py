@@ -300,3 +300,29 @@ def test_hysteresis_matches_the_reference(cdsm, ref):
     assert ok.all() and ok_ref.all()
     assert np.abs(obs - want).max() < 1e-10
     assert _loop_width(obs, path) > 1e-6
+
+
+# --------------------------------------------------------------------------
+# The study's friction map
+# --------------------------------------------------------------------------
+def test_friction_map_loops_match_the_reference(cdsm, ref):
+    """The hysteresis map's loop widths (the robot file's steel cable, mu = 0.15)
+    against the reference plant on the same cycles; none without friction."""
+    from cdsm.accuracy import statics
+
+    r = cdsm.Robot.packaged("paper_vertical")
+    th = np.array([[0.3, -0.2, 0.25], [0.0, 0.0, 0.0], [-0.4, 0.3, 0.1]])
+    fm = statics.friction_map(r, th)
+    theta_cmd, dL = statics.hysteresis_cycles(3, 3, th)
+    p = np.zeros(ref.plant_size(3))
+    lay = ref.plant_layout(3)
+    p[lay["cable_elasticity"]], p[lay["cable_friction"]] = 1.0 / r.axial_stiffness, statics.FRICTION
+    obs, ok = ref.plant_predict(r, p, theta_cmd, dL, np.array(["absolute"] * len(theta_cmd)))
+    assert ok.all()
+    xy = obs[:, :2].reshape(3, 3, 5, 2)
+    want = np.linalg.norm(xy[:, :, 2] - xy[:, :, 4], axis=-1)
+    assert np.abs(fm.loop - want).max() < 1e-12
+    assert fm.width.max() > 1e-6 and fm.width.max() < 1e-4  # steel: micrometres
+    assert np.array_equal(fm.width, fm.loop.max(axis=1))
+    assert (statics.friction_map(r, th, mu=0.0).loop == 0.0).all()
+    assert np.array_equal(fm.pull, r.tensions(th, friction=0.15, sliding="pull"))

@@ -20,8 +20,8 @@ import numpy as np
 __all__ = ["segments", "wrap_angles", "profile", "mean_factor", "distal_lengths", "band", "mobilisation_scan",
            "PULL", "RELEASE", "STILL"]
 
-#: A change of a distal length (m) at or below which a hole without a band counts
-#: as still (the round-off of a length that did not move).
+#: A change of a distal length (m) at or below which a hole counts as still (the
+#: round-off of a length that did not move).
 STILL = 1e-12
 
 #: The mobilisations of the two bounding states of the statics: (position cables, force cables).
@@ -91,7 +91,7 @@ def mobilisation_scan(d: np.ndarray, w: np.ndarray, d0: np.ndarray) -> np.ndarra
     m the band half-widths there, ``d0 (H,)`` those of the start (the straight
     pose), where every hole starts at ``z = +1``.  Per command and hole:
     ``z <- clip(z - (d - d_prev) / w, -1, 1)`` when ``w > 0``, ``-sign(d - d_prev)``
-    when ``w = 0`` and ``d`` changed by more than :data:`STILL`, unchanged otherwise."""
+    when ``w = 0``; unchanged when ``|d - d_prev| <=`` :data:`STILL`."""
     z = np.ones(d.shape[1])
     prev = np.asarray(d0, float)
     out = np.empty_like(d)
@@ -99,7 +99,8 @@ def mobilisation_scan(d: np.ndarray, w: np.ndarray, d0: np.ndarray) -> np.ndarra
         step = d[j] - prev
         with np.errstate(divide="ignore", invalid="ignore"):
             banded = np.clip(z - step / np.where(w[j] > 0.0, w[j], 1.0), -1.0, 1.0)
-        z = np.where(w[j] > 0.0, banded, np.where(np.abs(step) > STILL, -np.sign(step), z))
+        moved = np.where(w[j] > 0.0, banded, -np.sign(step))
+        z = np.where(np.abs(step) > STILL, moved, z)
         out[j] = z
         prev = d[j]
     return out

@@ -339,6 +339,7 @@ class PaperReport(StudyReport):
         if st.readings:
             tables["readings.csv"] = _readings_rows(st)
         tables["configurations.csv"] = out["configurations.csv"]
+        tables["friction.csv"] = out["friction.csv"]
         return tables
 
     def file_notes(self) -> List[str]:
