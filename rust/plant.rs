@@ -249,6 +249,10 @@ struct Params<S> {
     backlash: Vec<S>,
     /// Friction coefficient in the holes (1).
     mu: S,
+    /// The compliance of the robot file's cable, `1 / (E A)` (1/N): the
+    /// change friction makes to the tensions stretches the cables at
+    /// `kappa + kc` (`docs/model.md`, "Friction in the holes").
+    kc: f64,
     /// The plant's arm: the model's numbers, moved.
     arm: ArmNumbers<S>,
 }
@@ -331,6 +335,7 @@ impl<S: Real> Params<S> {
             tip: span(Effect::TipOffset),
             backlash: span(Effect::Backlash),
             mu: one(Effect::CableFriction),
+            kc: model.cable.compliance(),
             arm,
         }
     }
@@ -343,10 +348,15 @@ impl<S: Real> Params<S> {
         self.clearance.val() != 0.0 || self.clearance.is_variable()
     }
 
-    /// Friction in the holes moves the arm (it needs stretch): with `mu = 0`
-    /// the equations are the frictionless ones, the same code path.
+    /// Friction in the holes: with `mu = 0` the equations are the
+    /// frictionless ones, the same code path.
     fn friction(&self) -> bool {
-        (self.mu.val() != 0.0 || self.mu.is_variable()) && self.elastic()
+        self.mu.val() != 0.0 || self.mu.is_variable()
+    }
+
+    /// The compliance friction's change of the tensions stretches at (1/N).
+    fn friction_compliance(&self) -> S {
+        self.kappa + self.kc
     }
 }
 
@@ -612,6 +622,8 @@ struct Buffers<S: Real, F: Frame<S>> {
     lengths: Vec<S>,
     tension: Vec<S>,
     bal: Balance<S>,
+    /// The frictionless tensions (friction's change).
+    tension0: Vec<S>,
     row: Vec<S>,
     /// Position and force cables of the model.
     pos: Vec<usize>,
@@ -630,6 +642,7 @@ impl<S: Real, F: Frame<S>> Buffers<S, F> {
             lengths: vec![z; pos.len()],
             tension: vec![z; pos.len()],
             bal: Balance::new(model),
+            tension0: vec![z; pos.len()],
             row: vec![z; model.n()],
             pos,
             profile: Profile::new(model),
@@ -667,8 +680,9 @@ fn equations<S: Real, F: Frame<S>>(
     let clear = prm.clear();
     let elastic = prm.elastic();
     let friction = prm.friction();
+    let statics = elastic || friction;
     let z = S::cst(0.0);
-    if elastic {
+    if statics {
         // the statics: the moment balance (its cable lengths are the holes'
         // own, without clearance)
         let w: [S; 6] = std::array::from_fn(|i| S::cst(loads.wrench[i]));
@@ -696,6 +710,10 @@ fn equations<S: Real, F: Frame<S>>(
                 loads.force.as_deref(),
                 &b.profile.gap,
             );
+            // the frictionless tensions: the stretch friction changes
+            if m == n && !b.bal.solve_square_frictionless(&mut b.tension0) {
+                b.tension0.fill(S::cst(f64::NAN));
+            }
         } else {
             b.bal.at_with(
                 model,
@@ -713,7 +731,7 @@ fn equations<S: Real, F: Frame<S>>(
         }
     }
     for (l, &c) in b.lengths.iter_mut().zip(&b.pos) {
-        *l = if elastic && !clear {
+        *l = if statics && !clear {
             b.bal.lengths[c]
         } else {
             b.chain
@@ -722,12 +740,15 @@ fn equations<S: Real, F: Frame<S>>(
     }
     let route = S::cst(model.cable.routing_length);
     if m == n {
-        if elastic && !b.bal.solve_square(&mut b.tension) {
+        if statics && !b.bal.solve_square(&mut b.tension) {
             b.tension.fill(S::cst(f64::NAN));
         }
         for i in 0..n {
             let stretch = if friction {
-                (real[i] + route) * prm.kappa * b.tension[i] * b.profile.mean[b.pos[i]]
+                // kappa T ebar + kc (T ebar - T*): the frictionless stretch at
+                // kappa, friction's change of it at kappa + kc
+                let t = b.tension[i] * b.profile.mean[b.pos[i]];
+                (real[i] + route) * (prm.kappa * t + (t - b.tension0[i]) * prm.kc)
             } else if elastic {
                 (real[i] + route) * prm.kappa * b.tension[i]
             } else {
@@ -912,7 +933,24 @@ impl<'a, K: Kind> Plant<'a, K> {
     /// (`(commands, H)`, [`Holes`]; empty without friction).
     pub fn mobilisation(&self, seq: &Sequence) -> Vec<f64> {
         if self.prm.friction() {
-            mobilisation(seq.motion::<K>(self.model), self.prm.mu, self.prm.kappa)
+            mobilisation(
+                seq.motion::<K>(self.model),
+                self.prm.mu,
+                self.prm.friction_compliance(),
+            )
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// The mobilisation of every hole (`(R, H)`, [`Holes`]) along the
+    /// nominal configurations `configs` (`(R, n)`, rad) in order, from the
+    /// start state at the straight pose (empty without friction): the
+    /// sliding state a motion through them leaves at each.
+    pub fn mobilisation_along(&self, configs: &[f64]) -> Vec<f64> {
+        if self.prm.friction() {
+            let motion = Motion::new::<K>(self.model, configs);
+            mobilisation(&motion, self.prm.mu, self.prm.friction_compliance())
         } else {
             Vec::new()
         }
@@ -985,7 +1023,7 @@ impl<'a, K: Kind> Plant<'a, K> {
             _ => work.general.solve(self.model, &self.prm.arm, real, theta),
         };
         let clear = self.prm.clear();
-        if !self.prm.elastic() && !clear {
+        if !self.prm.elastic() && !clear && !self.prm.friction() {
             return rigid;
         }
         if !rigid.converged {
@@ -1000,7 +1038,11 @@ impl<'a, K: Kind> Plant<'a, K> {
         };
         // with as many cables as joints and no stretch, cable i crosses the
         // joints of the disks up to its end: planar dE/dtheta is lower triangular
-        let step = if m == n && !self.prm.elastic() && self.model.kind == model::Kind::Planar {
+        let step = if m == n
+            && !self.prm.elastic()
+            && !self.prm.friction()
+            && self.model.kind == model::Kind::Planar
+        {
             Step::Triangular
         } else {
             Step::Normal
@@ -1438,7 +1480,7 @@ fn command_derivatives<K: Kind>(
             });
             let real = realised(seq, &prm, &plant.l_ref);
             let mobil = if prm.friction() {
-                mobilisation(seq.motion::<K>(model), prm.mu, prm.kappa)
+                mobilisation(seq.motion::<K>(model), prm.mu, prm.friction_compliance())
             } else {
                 Vec::new()
             };

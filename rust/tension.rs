@@ -40,6 +40,9 @@ pub struct Balance<S> {
     lu: Vec<S>,
     /// The disk (0-based) of every joint.
     joint_disk: Vec<usize>,
+    /// The frictionless `a`, `b` of the last [`Balance::at_friction`].
+    a0: Vec<S>,
+    b0: Vec<S>,
 }
 
 /// A tip wrench in a scalar: force (N) and couple (N m, `[Mz]` planar,
@@ -61,6 +64,8 @@ impl<S: Real> Balance<S> {
             lengths: vec![S::cst(0.0); model.cables.len()],
             row: vec![S::cst(0.0); n],
             lu: vec![S::cst(0.0); n * m],
+            a0: Vec::new(),
+            b0: Vec::new(),
             joint_disk: model
                 .disks
                 .iter()
@@ -102,7 +107,8 @@ impl<S: Real> Balance<S> {
     /// "Friction in the holes"): `gap[c * K + d]` is cable `c`'s tension in
     /// the gap before disk `d + 1` over its routing tension (`K` disks), so
     /// the cable's entry of every joint of that disk is scaled by it; the
-    /// position tensions solved are the routing's.
+    /// position tensions solved are the routing's. The frictionless balance
+    /// is kept too ([`Balance::solve_square_frictionless`]).
     #[allow(clippy::too_many_arguments)]
     pub fn at_friction<F: Frame<S>, N: Numbers<S>>(
         &mut self,
@@ -143,10 +149,27 @@ impl<S: Real> Balance<S> {
         } else {
             self.b.fill(S::cst(0.0));
         }
+        if gap.is_some() {
+            self.a0.resize(self.a.len(), S::cst(0.0));
+            self.b0.clone_from(&self.b);
+        }
         let (mut i, mut f) = (0, 0);
         for (c, cable) in model.cables.iter().enumerate() {
             self.lengths[c] = chain.cable_length_and_row(model, nums, c, &mut self.row);
             if let Some(gap) = gap {
+                match cable.mode {
+                    Mode::Position => {
+                        for j in 0..n {
+                            self.a0[j * self.m + i] = self.row[j];
+                        }
+                    }
+                    Mode::Force => {
+                        let t = S::cst(force.map_or(cable.tension, |v| v[f]));
+                        for j in 0..n {
+                            self.b0[j] -= self.row[j] * t;
+                        }
+                    }
+                }
                 for (j, r) in self.row.iter_mut().enumerate() {
                     *r *= gap[c * disks + self.joint_disk[j]];
                 }
@@ -176,6 +199,15 @@ impl<S: Real> Balance<S> {
         debug_assert_eq!(self.n, self.m);
         self.lu.copy_from_slice(&self.a);
         out.copy_from_slice(&self.b);
+        solve_dense(self.n, &mut self.lu, out)
+    }
+
+    /// [`Balance::solve_square`] of the frictionless balance of the last
+    /// [`Balance::at_friction`].
+    pub fn solve_square_frictionless(&mut self, out: &mut [S]) -> bool {
+        debug_assert_eq!(self.n, self.m);
+        self.lu.copy_from_slice(&self.a0);
+        out.copy_from_slice(&self.b0);
         solve_dense(self.n, &mut self.lu, out)
     }
 }

@@ -142,9 +142,10 @@ class FrictionMap(ShortRepr):
     * ``loop`` (N, m_pos): the hysteresis of each position cable, m — the
       distance between the tip positions at the commanded configuration reached
       after ``+amplitude`` and after ``-amplitude`` on that cable (a
-      ``0, +a, 0, -a, 0`` cycle), the arm's cables of the robot file's
-      stiffness ``E A`` (and routing length); NaN where a command did not
-      settle. ``width`` (N,): the largest over the cables."""
+      ``0, +a, 0, -a, 0`` cycle), through the plant with friction ``mu`` and
+      no other effect (friction's change of the tensions stretches the cables
+      at the robot file's ``1 / (E A)``, over the routing length too); NaN
+      where a command did not settle. ``width`` (N,): the largest over the cables."""
 
     theta: np.ndarray
     pose: np.ndarray
@@ -184,7 +185,7 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
     """:class:`FrictionMap` of ``robot`` over ``theta`` (N, n) rad (rows with NaN
     are left NaN): statics with friction ``mu`` (1) pulling and releasing, and
     the hysteresis of a ``+-amplitude`` (m) cycle of every position cable
-    through the plant with the robot file's cable stiffness and ``mu``
+    through the plant with friction ``mu`` (the robot file's cable stiffness)
     (:func:`hysteresis_cycles`; :mod:`cdsm.calibration.plant`)."""
     from ..calibration import plant
 
@@ -200,7 +201,7 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
         release[ok] = robot.tensions(t, friction=mu, sliding="release", min_tension=min_tension)
         fp[ok] = robot.feasible(t, friction=mu, sliding="pull", min_tension=min_tension)
         fr[ok] = robot.feasible(t, friction=mu, sliding="release", min_tension=min_tension)
-        p = plant.params(robot, {"cable_elasticity": [1.0 / robot.axial_stiffness], "cable_friction": [mu]})
+        p = plant.params(robot, {"cable_friction": [mu]})
         theta_cmd, dL = hysteresis_cycles(robot.n, m, t, amplitude)
         obs, conv = plant.predict(robot, p, theta_cmd, dL, "absolute")
         d = plant.dims(robot)

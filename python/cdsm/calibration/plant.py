@@ -20,11 +20,12 @@ frame_misalignment     3            instrument frame: rotation (rad), x, y (m)
 tip_offset             2            measured point offset in the end frame, x, y (m)
 backlash               n            dead-band half-width of each upper cable, m
 cable_friction         1            Coulomb friction mu of every cable in every hole
-                                    (1; it moves the arm through the cables' stretch,
-                                    so with cable_elasticity)
+                                    (1; its change of the tensions stretches the
+                                    cables at the robot file's 1/(E A) plus any
+                                    cable_elasticity; memory like backlash)
 =====================  ===========  ================================================
 
-Rows run in sequence (backlash has memory): give them in execution order.
+Rows run in sequence (backlash and friction have memory): give them in execution order.
 
 Spatial arms (``robot.kind == "spatial"``, ``docs/spatial.md``) have their own
 plant in the Rust core with the effects that carry over (:data:`SPATIAL_EFFECTS`:
@@ -47,7 +48,7 @@ from ..inputs import CdsmInputError, as_array, as_batch, as_finite, as_iteration
 from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
 
-__all__ = ["EFFECTS", "BLOCKS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size", "params",
+__all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size", "params",
            "effect_indices", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
            "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths"]
 
@@ -61,15 +62,18 @@ BLOCKS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_height", "li
 EFFECT_BLOCKS: Dict[str, Tuple[str, ...]] = {"hole_clearance": ("hole_clearance", "clearance_width")}
 
 #: The effects of the diagnosis library of planar arms.
-EFFECTS: Tuple[str, ...] = tuple(b for b in BLOCKS if not any(b in v[1:] for v in EFFECT_BLOCKS.values())
-                                 and b != "cable_friction")
+EFFECTS: Tuple[str, ...] = tuple(b for b in BLOCKS if not any(b in v[1:] for v in EFFECT_BLOCKS.values()))
+
+#: The effects with memory: what a row shows depends on the direction the
+#: cables moved before it (backlash's dead band, friction's sliding state).
+MEMORY_EFFECTS: Tuple[str, ...] = ("backlash", "cable_friction")
 
 #: The effects of the diagnosis library of spatial arms (``hole_position``
 #: in 3-D where a planar arm has ``hole_height``; ``joint_axis``: each
 #: joint's axis tilted by two angles).
 SPATIAL_EFFECTS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_position", "link_length",
                                     "cable_elasticity", "frame_misalignment", "tip_offset", "backlash",
-                                    "hole_clearance", "joint_axis")
+                                    "hole_clearance", "joint_axis", "cable_friction")
 
 # A magnitude a real prototype could have, per block (the unit the fit works
 # in, and the size of generated test effects): 2 % actuation error, 0.2 mm

@@ -79,6 +79,7 @@ __all__ = [
     "friction_motion",
     "mobilisation",
     "friction_factors",
+    "cable_compliance",
 ]
 
 #: Base transition width of the hole clearance, rad (``w = 0.01 + dw``).
@@ -167,6 +168,16 @@ def _robot_gravity(robot) -> np.ndarray:
 def _robot_routing(robot) -> float:
     r = getattr(robot, "routing_length", None)
     return 0.0 if r is None else float(r)
+
+
+def cable_compliance(robot) -> float:
+    """``kappa_c = 1 / (E A)``, ``A = pi d^2 / 4`` (1/N), of the robot's cable
+    (``youngs_modulus`` Pa, ``cable_diameter`` m; default the paper's steel,
+    1.8e11 Pa and 0.18 mm): friction's change of the tensions stretches the
+    cables at ``kappa + kappa_c``."""
+    E = float(getattr(robot, "youngs_modulus", 1.8e11))
+    d = float(getattr(robot, "cable_diameter", 0.18e-3))
+    return 1.0 / (E * np.pi * d * d / 4.0)
 
 
 def plant_arm(robot, p) -> SimpleRobot:
@@ -336,10 +347,12 @@ def _hole_count(n: int) -> int:
 
 def _settling_F(robot, arm, q, L, theta, lower, z=None):
     """``F = L_arm(theta) - (L + L_route)(1 + kappa T(theta)) + L_route`` (m);
-    with friction ``F = L_arm - L - (L + L_route) kappa T_0 ebar`` (``T_0`` from
-    the balance with the capstan gap factors of the mobilisations ``z (N, H)``)."""
+    with friction ``F = L_arm - L - (L + L_route) (kappa T_0 ebar + kappa_c (T_0 ebar
+    - T*))`` (``T_0`` from the balance with the capstan gap factors of the
+    mobilisations ``z (N, H)``, ``T*`` the frictionless balance's,
+    ``kappa_c`` :func:`cable_compliance`)."""
     La = _arm_upper_lengths(arm, theta, q["cl"], q["w"])
-    if q["kappa"] == 0.0:
+    if q["kappa"] == 0.0 and q["mu"] == 0.0:
         return La - L
     Lr = arm.routing_length
     g = arm.gravity
@@ -348,8 +361,9 @@ def _settling_F(robot, arm, q, L, theta, lower, z=None):
         T = tensions(arm, theta, lower=lower, **grav)
         return La - (L + Lr) * (1.0 + q["kappa"] * T) + Lr
     gap, ebar = friction_factors(arm, theta, z, q["mu"])
-    T = tensions(arm, theta, lower=lower, gap=gap, **grav)
-    return La - L - (L + Lr) * q["kappa"] * T * ebar[:, 0::2]
+    T = tensions(arm, theta, lower=lower, gap=gap, **grav) * ebar[:, 0::2]
+    T0 = tensions(arm, theta, lower=lower, **grav)
+    return La - L - (L + Lr) * (q["kappa"] * T + cable_compliance(robot) * (T - T0))
 
 
 def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
@@ -364,7 +378,7 @@ def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
     q = plant_params(p, arm.n)
     L = batch_array(realised, arm.n, "realised")
     theta = batch_array(theta, arm.n, "theta")
-    lower = None if q["kappa"] == 0.0 else np.broadcast_to(
+    lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
         np.asarray(robot.lower_tension, dtype=float), L.shape)
     z = np.ones((L.shape[0], _hole_count(arm.n))) if z is None else np.asarray(z, float)
     return _settling_F(robot, arm, q, L, theta, lower, z)
@@ -393,11 +407,11 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6
         raise ValueError(f"theta_seed must have shape {L.shape}, got {seed.shape}")
 
     rigid = solve_cables_closed_form(arm, L, seed=seed)
-    if q["kappa"] == 0.0 and q["cl"] == 0.0:
+    if q["kappa"] == 0.0 and q["cl"] == 0.0 and q["mu"] == 0.0:
         return rigid["theta"], rigid["converged"]
 
     theta = np.where(rigid["converged"][:, None], rigid["theta"], seed)
-    lower = None if q["kappa"] == 0.0 else np.broadcast_to(
+    lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
         np.asarray(robot.lower_tension, dtype=float), L.shape)
     z = np.ones((L.shape[0], _hole_count(n))) if z is None else np.asarray(z, float)
 
@@ -524,10 +538,11 @@ def friction_motion(robot, commands, seeds, first) -> tuple:
 def mobilisation(robot, p, commands, seeds, first) -> np.ndarray:
     """``z (R, H)``: every hole's mobilisation after each command of the sequence
     (:func:`friction_motion`, :func:`.friction.mobilisation_scan` with the bands
-    ``kappa T_hat d sinh(mu beta)`` of the plant ``p``)."""
+    ``(kappa + kappa_c) T_hat d sinh(mu beta)`` of the plant ``p``, :func:`cable_compliance`)."""
     q = plant_params(p, int(robot.n))
     d, beta, ten, d0 = friction_motion(robot, commands, seeds, first)
-    return fr.mobilisation_scan(d, fr.band(q["kappa"], q["mu"], ten, d, beta), d0)
+    kf = q["kappa"] + cable_compliance(robot)
+    return fr.mobilisation_scan(d, fr.band(kf, q["mu"], ten, d, beta), d0)
 
 
 def plant_predict(robot, p, theta_cmd, dL, kind):

@@ -460,7 +460,8 @@ def _residual_function(robot, arm, q, L, z=None):
     kappa, cl, w, mu = q["kappa"], q["cl"], q["w"], q["mu"]
     square = pos.size == arm.n
     scale = np.linalg.norm(sp.cable_jacobian(arm, np.zeros((1, arm.n)))[0, pos])
-    friction = mu > 0.0 and kappa > 0.0
+    friction = mu > 0.0 and (square or kappa > 0.0)  # a rigid redundant arm: no stretch to change
+    kc = 1.0 / (float(arm.youngs_modulus) * np.pi * float(arm.diameter) ** 2 / 4.0)
     if friction:
         z = np.ones((L.shape[0], _friction_holes(arm))) if z is None else np.asarray(z, float)
 
@@ -479,7 +480,7 @@ def _residual_function(robot, arm, q, L, z=None):
         La = _arm_lengths(arm, ch, cl, w)
         Li = L[idx]
         if square:
-            if kappa == 0.0:
+            if kappa == 0.0 and not friction:
                 return La - Li
             if not friction:
                 T = _square_tensions(arm, th)
@@ -487,8 +488,9 @@ def _residual_function(robot, arm, q, L, z=None):
             gap, ebar = factors(th, idx)
             M = sp.moment_matrices(arm, th) * gap
             rhs = -(sp.external_moments(arm, th) + M[:, :, frc] @ arm.cable_tension[frc])
-            T = np.linalg.solve(M[:, :, pos], rhs[..., None])[..., 0]
-            return La - Li - (Li + Lr) * kappa * T * ebar[:, pos]
+            T = np.linalg.solve(M[:, :, pos], rhs[..., None])[..., 0] * ebar[:, pos]
+            T0 = _square_tensions(arm, th)
+            return La - Li - (Li + Lr) * (kappa * T + kc * (T - T0))
         J = sp.cable_jacobian(arm, th)  # (k, m_all, n), unshifted holes
         if kappa == 0.0:
             return np.einsum("kij,ki->kj", J[:, pos, :], La - Li) / scale
@@ -744,10 +746,12 @@ def friction_motion(robot, commands, seeds, first) -> tuple:
 
 def mobilisation(robot, p, commands, seeds, first) -> np.ndarray:
     """``z (R, H)``: every hole's mobilisation after each command (:func:`friction_motion`,
-    :func:`.friction.mobilisation_scan`, bands ``kappa T_hat d sinh(mu beta)`` of ``p``)."""
+    :func:`.friction.mobilisation_scan`, bands ``(kappa + kappa_c) T_hat d sinh(mu beta)`` of
+    ``p``, ``kappa_c = 1 / (E A)`` of the robot file's cable)."""
     q = plant_params(robot, p)
     d, beta, ten, d0 = friction_motion(robot, commands, seeds, first)
-    return fr.mobilisation_scan(d, fr.band(q["kappa"], q["mu"], ten, d, beta), d0)
+    kf = q["kappa"] + 1.0 / (float(robot.youngs_modulus) * np.pi * float(robot.diameter) ** 2 / 4.0)
+    return fr.mobilisation_scan(d, fr.band(kf, q["mu"], ten, d, beta), d0)
 
 
 def predict(robot, p, theta_cmd, dL, kind, tol=1e-12):
