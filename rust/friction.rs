@@ -44,11 +44,23 @@ impl Holes {
 }
 
 /// The angle (rad, in `[0, pi]`) between two direction vectors:
-/// `atan2(|u × w|, u · w)`.
+/// `atan2(|u × w|, u · w)` (in the plane `|u × w| = |u_x w_y - u_y w_x|`).
 #[inline]
 pub fn angle<S: Real, V: Vector<S>>(u: V, w: V) -> S {
-    let c = cross(u.to3(), w.to3());
-    c.dot(c).sqrt().atan2(u.dot(w))
+    let (a, b) = (u.to3(), w.to3());
+    let planar = |x: S| x.val() == 0.0 && !x.is_variable();
+    let sin = if planar(a[2]) && planar(b[2]) {
+        let z = a[0] * b[1] - a[1] * b[0];
+        if z.val() < 0.0 {
+            -z
+        } else {
+            z
+        }
+    } else {
+        let c = cross(a, b);
+        c.dot(c).sqrt()
+    };
+    sin.atan2(u.dot(w))
 }
 
 /// `sinh(x)`.
