@@ -55,6 +55,14 @@ nominal model (registered frame) and of the final model (µm; the effect is
 "visible" when the first is well above the 14.1 µm floor), and the median
 wall time of one diagnosis.
 
+``--pairs``: every two-effect mixture of the kind's library as a cell (36
+planar, 45 spatial) instead of the four above; ``--robot two_universal`` (or
+any spatial robot file): the same cells on a spatial arm (library effects at
+1-2x their typical size; tracker frame rotated 25-35° about a random axis,
+1.3-1.5 m away; the out-of-library effects are planar only). A mixture the
+data cannot tell from another (``UNRESOLVABLE``, each with its reason) counts
+as *tied* when the diagnosis' search lists the true pair among its ties.
+
 Everything is seeded (``--seed``, default 20240601): the hidden parameters,
 commands, noise and tracker frame of data set i of a case come from
 ``SeedSequence([seed, crc32(case), rows, i])``, so results do not depend on
@@ -66,6 +74,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import itertools
 import math
 import multiprocessing as mp
 import os
@@ -91,6 +100,9 @@ FRAMES = ("base", "tracker")
 SEED = 20240601
 MIXTURES = (("hole_height", "actuation_scale"), ("backlash", "cable_offset"),
             ("link_length", "tip_offset"), ("hole_clearance", "cable_elasticity"))
+#: Two-effect mixtures whose data a rival explains equally well, and why: a
+#: tie (the search's) that contains the true pair is the right answer there.
+UNRESOLVABLE: Dict[frozenset, str] = {}
 VERDICTS = ("no gap", "explained", "partly explained", "unexplained")
 Z95 = 1.959963984540054
 
@@ -109,11 +121,14 @@ class Case:
         return "no gap" if self.kind == "nominal" else "explained"
 
 
-def cases() -> List[Case]:
-    out = [Case(e, "library", (e,)) for e in plant.EFFECTS]
-    out += [Case("+".join(m), "library", m) for m in MIXTURES]
+def cases(robot_kind: str = "planar", pairs: bool = False) -> List[Case]:
+    library = plant.SPATIAL_EFFECTS if robot_kind == "spatial" else plant.EFFECTS
+    out = [] if pairs else [Case(e, "library", (e,)) for e in library]
+    mixtures = list(itertools.combinations(library, 2)) if pairs or robot_kind == "spatial" else MIXTURES
+    out += [Case("+".join(m), "library", tuple(m)) for m in mixtures]
     out.append(Case("nominal (no effect)", "nominal"))
-    out += [Case(name, "ool") for name in ool.EFFECTS]
+    if robot_kind == "planar":
+        out += [Case(name, "ool") for name in ool.EFFECTS]
     return out
 
 
@@ -127,7 +142,10 @@ def library_effects(robot: Robot, truth: Sequence[str], rng: np.random.Generator
     lay = plant.layout(robot)
     hidden = {}
     for e in truth:
-        v = np.asarray(plant.EXAMPLES_N3[e][e], float)
+        if robot.kind == "planar" and robot.n == 3:
+            v = np.asarray(plant.EXAMPLES_N3[e][e], float)
+        else:  # 1-2x the typical size of every parameter of the effect's block
+            v = np.full(lay[e].stop - lay[e].start, plant.TYPICAL[e])
         nonneg = bool(np.all(lower[lay[e]][: v.size] >= 0.0))
         sign = np.ones(v.size) if nonneg else rng.choice([-1.0, 1.0], v.size)
         hidden[e] = np.abs(v) * rng.uniform(1.0, 2.0, v.size) * sign
@@ -139,6 +157,18 @@ def tracker_frame(rng: np.random.Generator) -> Tuple[float, float, float]:
     alpha = np.radians(rng.uniform(25.0, 35.0)) * rng.choice([-1.0, 1.0])
     dist, direction = rng.uniform(1.3, 1.5), rng.uniform(0.0, 2.0 * np.pi)
     return float(alpha), float(dist * np.cos(direction)), float(dist * np.sin(direction))
+
+
+def tracker_frame_3d(rng: np.random.Generator) -> Tuple[np.ndarray, np.ndarray]:
+    """A tracker frame in 3-D: rotation 25-35° about a random axis, translation
+    1.3-1.5 m in a random direction; (R (3, 3), t (3,))."""
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    angle = np.radians(rng.uniform(25.0, 35.0))
+    k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    rot = np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+    t = rng.normal(size=3)
+    return rot, t / np.linalg.norm(t) * rng.uniform(1.3, 1.5)
 
 
 def datasets(robot: Robot, case: Case, rows: int, i: int, seed: int):
@@ -162,7 +192,12 @@ def datasets(robot: Robot, case: Case, rows: int, i: int, seed: int):
                                             seed=noise_seed)
                 th, dl = vp.random_commands(rows, seed=cmd_seed)
                 base = vp.measure(th, dl)
-                tracker = measurements.Measurements(base.kind, base.n, base.dL, ool.to_frame(base.measured, frame),
+                if robot.kind == "spatial":
+                    rot, t = tracker_frame_3d(r_frame)
+                    seen = base.measured @ rot.T + t
+                else:
+                    seen = ool.to_frame(base.measured, frame)
+                tracker = measurements.Measurements(base.kind, base.n, base.dL, seen,
                                                     theta=base.theta, source=base.source + " (tracker frame)")
             return base, tracker, retries
         except Exception as exc:  # a command that does not settle: regenerate, counted
@@ -178,7 +213,14 @@ def named_right(best: str, truth: Sequence[str], frame: str) -> bool:
     names = [] if best == "none" else best.split("+")
     if sorted(names) == sorted(truth):
         return True
-    return frame == "tracker" and names[:1] == ["frame_misalignment"] and sorted(names[1:]) == sorted(truth)
+    # a hidden frame error merges with the tracker's frame: named once, first
+    rest = [e for e in truth if e != "frame_misalignment"]
+    return frame == "tracker" and names[:1] == ["frame_misalignment"] and sorted(names[1:]) == sorted(rest)
+
+
+def tied_right(ties: Sequence[str], truth: Sequence[str]) -> bool:
+    """Whether the true mixture is among the search's ties (any order)."""
+    return any(sorted(t.split("+")) == sorted(truth) for t in ties)
 
 
 def wilson(k: int, n: int, z: float = Z95) -> Tuple[float, float]:
@@ -203,17 +245,19 @@ def rate(k: int, n: int) -> str:
 # workers
 # ---------------------------------------------------------------------------
 _ROBOT: Optional[Robot] = None
+_CASES: List[Case] = []
 
 
-def _init(threads: int) -> None:
-    global _ROBOT
-    _ROBOT = Robot.paper()
+def _init(threads: int, robot: str, pairs: bool) -> None:
+    global _ROBOT, _CASES
+    _ROBOT = Robot.paper() if robot == "paper" else Robot.from_toml(robot)
     _ROBOT.threads = threads
+    _CASES = cases(_ROBOT.kind, pairs)
 
 
 def _task(args) -> List[dict]:
     ci, rows, i, seed = args
-    case = cases()[ci]
+    case = _CASES[ci]
     robot = _ROBOT
     base, tracker, retries = datasets(robot, case, rows, i, seed)
     out = []
@@ -224,11 +268,15 @@ def _task(args) -> List[dict]:
             d = diagnosis.diagnose(robot, meas, noise=NOISE)
         except Exception as exc:  # reported, counted as wrong
             rec.update(time=time.perf_counter() - t0, error=f"{type(exc).__name__}: {exc}", best="(error)",
-                       verdict="(error)", right=False, usable=0, nominal_rms=np.nan, final_rms=np.nan)
+                       verdict="(error)", right=False, tied=False, searched=False, usable=0, nominal_rms=np.nan,
+                       final_rms=np.nan)
             out.append(rec)
             continue
-        rec.update(time=time.perf_counter() - t0, best=d.best, verdict=d.verdict,
-                   right=named_right(d.best, case.truth, frame), usable=int(d.prep.usable.sum()),
+        right = named_right(d.best, case.truth, frame)
+        tied = (not right and frozenset(case.truth) in UNRESOLVABLE and d.search is not None
+                and tied_right(d.search.ties, case.truth))
+        rec.update(time=time.perf_counter() - t0, best=d.best, verdict=d.verdict, right=right or tied, tied=tied,
+                   searched=d.search is not None, usable=int(d.prep.usable.sum()),
                    nominal_rms=d.baseline.heldout_rms, final_rms=d.final().heldout_rms)
         out.append(rec)
     return out
@@ -249,13 +297,16 @@ def _cell_rows(recs: List[dict], case: Case) -> List[str]:
     t = float(np.median([r["time"] for r in recs]))
     errors = n - len(ok)
     flagged = sum(r["rows"] - r["usable"] for r in ok)
-    return [rate(right, n) if case.kind != "ool" else "n/a", rate(hit, n), verdicts, f"`{best}` ({kbest})",
-            f"{med('nominal_rms'):.0f} → {med('final_rms'):.0f}", f"{t:.2f}",
+    tied = sum(r["tied"] for r in recs)
+    searched = sum(r["searched"] for r in recs)
+    return [(rate(right, n) + (f" ({tied} by a tie)" if tied else "")) if case.kind != "ool" else "n/a",
+            rate(hit, n), verdicts, f"`{best}` ({kbest})",
+            f"{med('nominal_rms'):.0f} → {med('final_rms'):.0f}", str(searched), f"{t:.2f}",
             str(errors) + (f" ({flagged} rows flagged)" if flagged else "")]
 
 
-def report(records: List[dict], args, elapsed: float) -> str:
-    all_cases = cases()
+def report(records: List[dict], args, elapsed: float, kind: str) -> str:
+    all_cases = cases(kind, args.pairs)
     by = collections.defaultdict(list)
     for r in records:
         by[(r["case"], r["rows"], r["frame"])].append(r)
@@ -268,34 +319,39 @@ def report(records: List[dict], args, elapsed: float) -> str:
     opts += "" if args.seed == SEED else f" --seed {args.seed}"
     opts += "" if tuple(args.rows) == ROWS else f" --rows {','.join(map(str, args.rows))}"
     opts += "" if args.only is None else f" --only {args.only}"
+    opts += " --pairs" if args.pairs else ""
+    opts += "" if args.robot == "paper" else f" --robot {args.robot}"
     lines = [
         "## Error rates of the diagnosis" + (" (quick smoke run — not for the README)" if args.quick else ""),
         "",
         f"`python benches/bench_error_rates.py {opts}` "
         f"(commit {commit}, seed {args.seed}): {args.datasets} data sets per cell; rows ±30° per joint, "
         f"±1 mm cable extra; noise {NOISE * 1e6:.0f} µm per axis (passed to `diagnose`; floor "
-        f"{math.sqrt(2) * NOISE * 1e6:.1f} µm); whole library, 10-fold CV, frame registered. "
+        f"{math.sqrt(3 if kind == 'spatial' else 2) * NOISE * 1e6:.1f} µm); robot `{args.robot}`; whole "
+        "library, 10-fold CV, frame rule `auto` (the default: base-frame data are taken in the base frame with "
+        "the frame a candidate, tracker data registered). "
         "Tracker frame: the same readings rotated 25-35° and moved 1.3-1.5 m. Rates: k/N = % "
         "[Wilson 95 % interval]. Verdicts: no gap / explained / partly explained / unexplained. "
-        "RMS: median held-out RMS of the nominal → the final model (µm). Time: median s per diagnosis "
+        "RMS: median held-out RMS of the nominal → the final model (µm). Search: data sets where the search "
+        "beyond forward selection ran. Time: median s per diagnosis "
         f"({args.jobs} process(es), robot.threads = {args.threads}). Errors: diagnoses that raised; rows "
         "flagged: rows the diagnosis left out (e.g. a slack cable), summed over the data sets. "
         f"Total {elapsed / 60:.1f} min.",
         "",
     ]
     head = ("| case | rows | frame | right effect named | {target} | verdicts NG / E / P / U | most frequent `best` | "
-            "RMS (µm) | time (s) | errors |")
-    sep = "|---|---:|---|---|---|---|---|---|---:|---|"
+            "RMS (µm) | search | time (s) | errors |")
+    sep = "|---|---:|---|---|---|---|---|---|---:|---:|---|"
     sections = (("library", "Library effects (goal: right effect named, verdict explained)", "explained"),
                 ("nominal", "Nominal data (goal: best none, verdict no gap)", "no gap"),
                 ("ool", "Effects outside the library (goal: never explained)", "explained (goal 0)"))
     pooled = []
-    for kind, title, target in sections:
-        if not any(all_cases[ci].kind == kind for ci, _, _ in by):
+    for group, title, target in sections:
+        if not any(all_cases[ci].kind == group for ci, _, _ in by):
             continue
         lines += [f"### {title}", "", head.format(target=target), sep]
         for ci, case in enumerate(all_cases):
-            if case.kind != kind:
+            if case.kind != group:
                 continue
             for rows in args.rows:
                 for frame in FRAMES:
@@ -303,21 +359,21 @@ def report(records: List[dict], args, elapsed: float) -> str:
                     if not recs:
                         continue
                     lines.append(f"| {case.name} | {rows} | {frame} | " + " | ".join(_cell_rows(recs, case)) + " |")
-        if kind == "library" and any(all_cases[ci].name == "frame_misalignment" for ci, _, _ in by):
-            lines += ["", "With the frame registered (the default), a hidden `frame_misalignment` is absorbed by "
-                      "the registration: the diagnosis names it but, no effect being chosen, its verdict is "
+        if group == "library" and any(all_cases[ci].name == "frame_misalignment" for ci, _, _ in by):
+            lines += ["", "In a tracker frame (registered), a hidden `frame_misalignment` is absorbed by the "
+                      "registration: the diagnosis names it but, no effect being chosen, its verdict is "
                       "`no gap`, never `explained`."]
         lines.append("")
         for rows in args.rows:
             for frame in FRAMES:
-                recs = [r for (ci, ro, fr), v in by.items() if all_cases[ci].kind == kind and ro == rows
+                recs = [r for (ci, ro, fr), v in by.items() if all_cases[ci].kind == group and ro == rows
                         and fr == frame for r in v]
                 if not recs:
                     continue
                 hit = sum(r["verdict"] == all_cases[r["case"]].target for r in recs)
                 right = sum(r["right"] for r in recs)
-                what = "explained" if kind == "ool" else f"right effect {rate(right, len(recs))}; {target}"
-                pooled.append(f"| {kind} | {rows} | {frame} | {what} {rate(hit, len(recs))} |")
+                what = "explained" if group == "ool" else f"right effect {rate(right, len(recs))}; {target}"
+                pooled.append(f"| {group} | {rows} | {frame} | {what} {rate(hit, len(recs))} |")
     lines += ["### Pooled over cases", "", "| cases | rows | frame | rates |", "|---|---:|---|---|", *pooled, ""]
     retried = collections.Counter()
     for r in records:
@@ -345,13 +401,16 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=SEED)
     ap.add_argument("--rows", default=",".join(map(str, ROWS)), help="row counts (default 60,15)")
     ap.add_argument("--only", default=None, help="only cases whose name contains this text")
+    ap.add_argument("--pairs", action="store_true", help="every two-effect mixture of the library as a cell")
+    ap.add_argument("--robot", default="paper", help="'paper' (default), a packaged robot name or a robot file")
     args = ap.parse_args()
     if args.datasets is None:
         args.datasets = 3 if args.quick else 30
     if args.datasets < 1 or args.jobs < 1:
         ap.error("--datasets and --jobs must be positive")
     args.rows = [int(r) for r in args.rows.split(",") if r.strip()]
-    all_cases = cases()
+    kind = (Robot.paper() if args.robot == "paper" else Robot.from_toml(args.robot)).kind
+    all_cases = cases(kind, args.pairs)
     chosen = [ci for ci, c in enumerate(all_cases) if args.only is None or args.only in c.name]
     # the longest work first (60 rows, library mixtures), for load balance
     tasks = [(ci, rows, i, args.seed) for rows in sorted(args.rows, reverse=True) for ci in chosen
@@ -362,11 +421,12 @@ def main() -> None:
     t0 = time.perf_counter()
     records: List[dict] = []
     if args.jobs == 1:
-        _init(args.threads)
+        _init(args.threads, args.robot, args.pairs)
         results = map(_task, tasks)
         pool = None
     else:
-        pool = mp.get_context("spawn").Pool(args.jobs, initializer=_init, initargs=(args.threads,))
+        pool = mp.get_context("spawn").Pool(args.jobs, initializer=_init,
+                                            initargs=(args.threads, args.robot, args.pairs))
         results = pool.imap_unordered(_task, tasks, chunksize=1)
     step = max(1, len(tasks) // 20)
     for k, res in enumerate(results, 1):
@@ -379,7 +439,7 @@ def main() -> None:
         pool.close()
         pool.join()
     records.sort(key=lambda r: (r["case"], -r["rows"], r["frame"], r["i"]))
-    text = report(records, args, time.perf_counter() - t0)
+    text = report(records, args, time.perf_counter() - t0, kind)
     print(text)
     os.makedirs(os.path.dirname(os.path.abspath(args.out)) or ".", exist_ok=True)
     with open(args.out, "w", encoding="utf-8") as fh:

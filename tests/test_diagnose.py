@@ -180,7 +180,7 @@ def test_a_tracker_frame_metres_away_is_registered(mods, robot):
 def test_registered_data_already_in_the_base_frame_do_not_name_the_frame(mods, robot):
     plant = mods["plant"]
     meas = _data(plant, robot, {"actuation_scale": [0.02]}, 32, rows=40)
-    d = mods["diagnose"].diagnose(robot, meas, folds=FOLDS, noise=NOISE)
+    d = mods["diagnose"].diagnose(robot, meas, folds=FOLDS, noise=NOISE, frame="register")
     assert d.prep.registered and not d.registration_named
     assert d.best == "actuation_scale"
 

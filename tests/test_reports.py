@@ -223,3 +223,23 @@ def test_the_paper_keeps_its_1000_samples_and_large_grids_get_fewer(cdsm, redund
     n = study.configuration_count(redundant, study.choose_protocols(redundant)[0])
     assert n == 11 ** 4 and study.default_samples(redundant, n) == study.DEFAULT_SOLVES // n
     assert study.default_samples(cdsm.Robot.packaged("two_universal"), 1000) == 200
+
+
+def test_a_long_arm_draws_maps_for_its_worst_single_errors_only(cdsm):
+    """Past 24 single errors a map each would bury the report: the 12 with
+    the largest position error get one (every drawn error is at least as
+    large as every one left to the overview), in the study's order."""
+    from types import SimpleNamespace as NS
+
+    from cdsm.report import study_figures as sf
+
+    rng = np.random.default_rng(5)
+    worst = rng.permutation(40) * 1e-4
+    results = [NS(scenario=NS(key=f"s{i}"), position=np.array([np.nan, w, 0.5 * w])) for i, w in enumerate(worst)]
+    keys = sf.detailed_scenarios(NS(scenarios=results))
+    assert len(keys) == sf.DETAILED_SCENARIOS
+    drawn = {int(k[1:]) for k in keys}
+    assert min(worst[i] for i in drawn) > max(worst[i] for i in range(40) if i not in drawn)
+    assert keys == sorted(keys, key=lambda k: int(k[1:]))
+    few = results[:sf.MAX_SCENARIO_FIGURES]
+    assert sf.detailed_scenarios(NS(scenarios=few)) == [r.scenario.key for r in few]

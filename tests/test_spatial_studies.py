@@ -1,7 +1,8 @@
 """Issue 14: the paper's accuracy methods on spatial arms.
 
 Facts stated: the Sobol sequence's published first points (Joe & Kuo
-direction numbers) and its stratification, kept by scrambling; a straight
+direction numbers) and its stratification, kept by scrambling; nearest
+neighbours equal a brute-force search (ties: equal distances); a straight
 serial arm is singular for the tip position; ``paper_spatial`` is the planar
 prototype built in 3-D, so its single-error deviations equal the planar
 arm's, out of the plane nothing moves; the jump detector flags a step and
@@ -35,6 +36,69 @@ def test_sobol_puts_one_point_in_each_dyadic_interval(cdsm, scramble):
     assert ((u >= 0) & (u < 1)).all()
     for d in range(6):
         np.testing.assert_array_equal(np.bincount(np.floor(u[:, d] * 64).astype(int), minlength=64), 1)
+
+
+def test_sobol_max_dim_is_scipys(cdsm):
+    from scipy.stats import qmc
+
+    from cdsm.accuracy import sampling
+
+    assert sampling.SOBOL_MAX_DIM == qmc.Sobol.MAXDIM
+    assert sampling.sobol(2, sampling.SOBOL_MAX_DIM).shape == (2, sampling.SOBOL_MAX_DIM)
+    with pytest.raises(cdsm.CdsmInputError, match="dim"):
+        sampling.sobol(2, sampling.SOBOL_MAX_DIM + 1)
+
+
+def test_sobol_skip_and_seed(cdsm):
+    from cdsm.accuracy import sampling
+
+    # point i is the same whether drawn from the start or after skipping; equal seeds give equal points
+    whole = sampling.sobol(100, 5, scramble=True, seed=3)
+    np.testing.assert_array_equal(sampling.sobol(63, 5, scramble=True, seed=3, skip=37), whole[37:])
+    np.testing.assert_array_equal(sampling.sobol(100, 5, scramble=True, seed=3), whole)
+    assert not np.array_equal(sampling.sobol(100, 5, scramble=True, seed=4), whole)
+
+
+def brute_neighbours(t, k):
+    """Each row's k nearest other rows by explicit Euclidean distances, nearest first."""
+    d = np.linalg.norm(t[:, None, :] - t[None, :, :], axis=2)
+    np.fill_diagonal(d, np.inf)
+    return np.argsort(d, axis=1, kind="stable")[:, :k], d
+
+
+@pytest.mark.parametrize("n", [2, 4, 8, 12, 13, 24])
+def test_nearest_neighbours_equal_brute_force(cdsm, n):
+    from cdsm.accuracy import sampling
+
+    t = np.random.default_rng(n).uniform(-1.0, 1.0, (300, n))
+    want, _ = brute_neighbours(t, 6)
+    np.testing.assert_array_equal(sampling.nearest_neighbours(t, 6), want)
+
+
+@pytest.mark.parametrize("pad", [0, 12])
+def test_nearest_neighbours_with_ties_and_repeats(cdsm, pad):
+    from cdsm.accuracy import sampling
+
+    # pad: zero joints added, so the search of more than TREE_MAX_JOINTS joints is tested too
+    assert 2 <= sampling.TREE_MAX_JOINTS < 2 + 12
+    # an integer grid: many equal distances, exact in floating point; any tied choice has the brute-force distances
+    g = np.stack(np.meshgrid(np.arange(6.0), np.arange(5.0)), axis=-1).reshape(-1, 2)
+    g = np.hstack([g, np.zeros((len(g), pad))])
+    nb = sampling.nearest_neighbours(g, 5)
+    want, d = brute_neighbours(g, 5)
+    rows = np.arange(len(g))[:, None]
+    np.testing.assert_array_equal(d[rows, nb], d[rows, want])
+    assert (nb != rows).all() and all(len(set(r)) == 5 for r in nb)
+    # a configuration repeated: its copies are its nearest neighbours, never itself
+    t = np.array([[0.0, 0.0]] * 4 + [[1.0, 0.0], [0.0, 2.0]])
+    t = np.hstack([t, np.zeros((len(t), pad))])
+    nb = sampling.nearest_neighbours(t, 3)
+    for i in range(4):
+        assert sorted(nb[i]) == sorted(set(range(4)) - {i})
+    nb = sampling.nearest_neighbours(t, 2)
+    assert all(i not in nb[i] and set(nb[i]) < set(range(4)) for i in range(4))
+    with pytest.raises(cdsm.CdsmInputError, match="theta"):
+        sampling.nearest_neighbours(np.array([[0.0, np.nan], [1.0, 0.0], [0.0, 1.0]]), 1)
 
 
 def test_configurations_stay_in_the_joint_box(cdsm):

@@ -1,7 +1,8 @@
 """Sampled configurations of an arm and what is judged on them: a Sobol
-sequence (NumPy, up to 32 dimensions), seeded random and Sobol samples of
-the joint box, neighbour-based jump detection, and the singular measure of
-the position Jacobian. SI units: m, rad.
+sequence (``scipy.stats.qmc.Sobol``), seeded random and Sobol samples of
+the joint box, neighbour-based jump detection (nearest neighbours from
+``scipy.spatial.KDTree`` up to 12 joints), and the singular measure of the position
+Jacobian. SI units: m, rad.
 
 A full joint grid is impossible past a few joints (13 values per joint and 8
 joints are 8e8 configurations); a study of a spatial arm samples its joint
@@ -9,21 +10,21 @@ box instead, and judges jumps against each configuration's nearest
 neighbours in joint space rather than along grid lines
 (:func:`cdsm.accuracy.workspace.jump_points`).
 
-**Sobol sequence.** Gray-code order, 32-bit direction numbers: dimension 1
-is the van der Corput sequence, dimensions 2..32 use the primitive
-polynomials and initial direction numbers of S. Joe and F. Y. Kuo,
-"Constructing Sobol sequences with better two-dimensional projections",
-SIAM J. Sci. Comput. 30 (2008) 2635-2654 (their file
-``new-joe-kuo-6.21201``, rows d = 2..32). Unscrambled, point 0 is the
-origin. Scrambled: a random linear matrix scramble (a lower-triangular
-binary matrix with unit diagonal per dimension, applied to the direction
-numbers) and a random digital shift, both seeded — it keeps the
-stratification of every power-of-two prefix (each 1-D projection of the
-first 2**m points has exactly one point in each interval [k/2**m, (k+1)/2**m)).
+**Sobol sequence.** SciPy's Sobol sequence, 32-bit: Gray-code order, the
+primitive polynomials and initial direction numbers of S. Joe and F. Y.
+Kuo, "Constructing Sobol sequences with better two-dimensional
+projections", SIAM J. Sci. Comput. 30 (2008) 2635-2654 (their file
+``new-joe-kuo-6.21201``; dimension 1 is the van der Corput sequence).
+Unscrambled, point 0 is the origin. Scrambled: a random linear matrix
+scramble and a random digital shift (SciPy's LMS + shift), seeded — it
+keeps the stratification of every power-of-two prefix (each 1-D projection
+of the first 2**m points has exactly one point in each interval
+[k/2**m, (k+1)/2**m)).
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Optional
 
@@ -31,8 +32,9 @@ import numpy as np
 
 from ..inputs import CdsmInputError, as_batch
 
-__all__ = ["SOBOL_MAX_DIM", "sobol", "sample_configurations", "sampling_limits", "nearest_neighbours",
-           "SampledJumps", "jump_points", "singular_measure", "position_singular_values", "METHODS"]
+__all__ = ["SOBOL_MAX_DIM", "TREE_MAX_JOINTS", "sobol", "sample_configurations", "sampling_limits",
+           "nearest_neighbours", "SampledJumps", "jump_points", "singular_measure", "position_singular_values",
+           "METHODS"]
 
 #: Sampling methods of :func:`sample_configurations`.
 METHODS = ("sobol", "random")
@@ -40,102 +42,53 @@ METHODS = ("sobol", "random")
 #: Bits of the Sobol integers (points are multiples of 2**-32).
 _BITS = 32
 
-#: Joe–Kuo ``new-joe-kuo-6.21201``, dimensions 2..32: (degree s, polynomial a, m_1..m_s).
-_JOE_KUO = (
-    (1, 0, (1,)),
-    (2, 1, (1, 3)),
-    (3, 1, (1, 3, 1)),
-    (3, 2, (1, 1, 1)),
-    (4, 1, (1, 1, 3, 3)),
-    (4, 4, (1, 3, 5, 13)),
-    (5, 2, (1, 1, 5, 5, 17)),
-    (5, 4, (1, 1, 5, 5, 5)),
-    (5, 7, (1, 1, 7, 11, 19)),
-    (5, 11, (1, 1, 5, 1, 1)),
-    (5, 13, (1, 1, 1, 3, 11)),
-    (5, 14, (1, 3, 5, 5, 31)),
-    (6, 1, (1, 3, 3, 9, 7, 49)),
-    (6, 13, (1, 1, 1, 15, 21, 21)),
-    (6, 16, (1, 3, 1, 13, 27, 49)),
-    (6, 19, (1, 1, 1, 15, 7, 5)),
-    (6, 22, (1, 3, 1, 15, 13, 25)),
-    (6, 25, (1, 1, 5, 5, 19, 61)),
-    (7, 1, (1, 3, 7, 11, 23, 15, 103)),
-    (7, 4, (1, 3, 7, 13, 13, 15, 69)),
-    (7, 7, (1, 1, 3, 13, 7, 35, 63)),
-    (7, 8, (1, 3, 5, 9, 1, 25, 53)),
-    (7, 14, (1, 3, 1, 13, 9, 35, 107)),
-    (7, 19, (1, 3, 1, 5, 27, 61, 31)),
-    (7, 21, (1, 1, 5, 11, 19, 41, 61)),
-    (7, 28, (1, 3, 5, 3, 3, 13, 69)),
-    (7, 31, (1, 1, 7, 13, 1, 19, 1)),
-    (7, 32, (1, 3, 7, 5, 13, 19, 59)),
-    (7, 37, (1, 1, 3, 9, 25, 29, 41)),
-    (7, 41, (1, 3, 5, 13, 23, 1, 55)),
-    (7, 42, (1, 3, 7, 3, 13, 59, 17)),
-)
+#: Largest dimension of :func:`sobol`: the rows of SciPy's Joe–Kuo table
+#: (``scipy.stats.qmc.Sobol.MAXDIM``, a test; SciPy is imported on first use:
+#: ``scipy.stats`` takes 0.5-0.8 s to import, once per process).
+SOBOL_MAX_DIM = 21201
 
-#: Largest dimension of :func:`sobol`.
-SOBOL_MAX_DIM = len(_JOE_KUO) + 1
+#: Leaf size of the neighbour search tree: 32-64 points per leaf is about
+#: twice as fast as SciPy's default 16 from 8 joints up (benches/bench_sampling.py).
+_LEAF = 64
+
+#: Most joints for which :func:`nearest_neighbours` searches a k-d tree. In
+#: more dimensions a tree visits nearly every leaf of uniform samples and is
+#: 1.2-1.6x slower than comparing every pair by matrix products (4000
+#: configurations, 14-24 joints; benches/bench_sampling.py); up to 12 joints
+#: it is 1.3-10x faster.
+TREE_MAX_JOINTS = 12
 
 
-def _direction_numbers(dim: int) -> np.ndarray:
-    """(dim, 32) direction numbers V_1..V_32 (scaled by 2**32) as uint64."""
-    v = np.zeros((dim, _BITS), dtype=np.uint64)
-    v[0] = [1 << (_BITS - 1 - i) for i in range(_BITS)]
-    for j in range(1, dim):
-        s, a, m = _JOE_KUO[j - 1]
-        row = [0] * (_BITS + 1)  # 1-based
-        for i in range(1, s + 1):
-            row[i] = m[i - 1] << (_BITS - i)
-        for i in range(s + 1, _BITS + 1):
-            x = row[i - s] ^ (row[i - s] >> s)
-            for k in range(1, s):
-                if (a >> (s - 1 - k)) & 1:
-                    x ^= row[i - k]
-            row[i] = x
-        v[j] = row[1:]
-    return v
+def _sobol_engine(dim: int, scramble: bool, rng: np.random.Generator):
+    """SciPy's 32-bit Sobol engine (``scipy.stats.qmc.Sobol``) drawing its
+    scramble from ``rng``."""
+    from scipy.stats import qmc
 
-
-def _scramble(v: np.ndarray, rng: np.random.Generator) -> tuple:
-    """Linear matrix scramble of the direction numbers ``v`` (dim, 32) and a
-    digital shift (dim,): both uint64, from ``rng``."""
-    dim = v.shape[0]
-    weights = np.uint64(1) << np.arange(_BITS - 1, -1, -1, dtype=np.uint64)  # bit 0 = most significant
-    bits = ((v[:, :, None] >> np.arange(_BITS - 1, -1, -1, dtype=np.uint64)) & np.uint64(1)).astype(np.int64)
-    low = np.tril(rng.integers(0, 2, (dim, _BITS, _BITS)), -1) + np.eye(_BITS, dtype=np.int64)
-    # new bit i of V_k = XOR over l <= i of L[i, l] * bit l of V_k
-    new = np.einsum("dil,dkl->dki", low, bits) & 1
-    scrambled = (new.astype(np.uint64) * weights).sum(axis=2, dtype=np.uint64)
-    shift = rng.integers(0, 1 << _BITS, dim, dtype=np.uint64)
-    return scrambled, shift
+    try:
+        return qmc.Sobol(dim, scramble=scramble, bits=_BITS, rng=rng)
+    except TypeError:  # SciPy < 1.15 names the generator `seed`
+        return qmc.Sobol(dim, scramble=scramble, bits=_BITS, seed=rng)
 
 
 def sobol(count: int, dim: int, scramble: bool = False, seed: int = 0, skip: int = 0) -> np.ndarray:
     """The points ``skip .. skip + count - 1`` of the ``dim``-dimensional Sobol
-    sequence (Joe–Kuo direction numbers, Gray-code order), (count, dim) in
-    [0, 1). ``scramble``: linear matrix scramble and digital shift from
-    ``seed`` (see the module doc). Balance holds for power-of-two prefixes."""
+    sequence (Joe–Kuo direction numbers, Gray-code order; SciPy's
+    ``qmc.Sobol``, 32 bits), (count, dim) in [0, 1). ``scramble``: linear
+    matrix scramble and digital shift from ``seed`` (see the module doc).
+    Balance holds for power-of-two prefixes."""
     count, dim, skip = int(count), int(dim), int(skip)
     if not 1 <= dim <= SOBOL_MAX_DIM:
         raise CdsmInputError(f"`dim`: the Sobol sequence has 1..{SOBOL_MAX_DIM} dimensions, got {dim} "
                              "(use method='random' for more joints)")
     if count < 0 or skip < 0 or skip + count > 1 << _BITS:
         raise CdsmInputError(f"`count`, `skip`: need 0 <= skip and skip + count <= 2**32, got {count}, {skip}")
-    v = _direction_numbers(dim)
-    shift = np.zeros(dim, dtype=np.uint64)
-    if scramble:
-        v, shift = _scramble(v, np.random.default_rng([int(seed), 0x50B0]))
-    i = np.arange(skip, skip + count, dtype=np.uint64)
-    gray = i ^ (i >> np.uint64(1))
-    x = np.broadcast_to(shift, (count, dim)).copy()
-    for k in range(_BITS):
-        bit = ((gray >> np.uint64(k)) & np.uint64(1)).astype(bool)
-        if not bit.any():
-            break
-        x[bit] ^= v[:, k]
-    return x.astype(np.float64) / float(1 << _BITS)
+    engine = _sobol_engine(dim, scramble, np.random.default_rng([int(seed), 0x50B0]))
+    if skip:
+        engine.fast_forward(skip)
+    with warnings.catch_warnings():
+        # SciPy warns on any count that is not a power of two; the docstring says where balance holds
+        warnings.filterwarnings("ignore", message="The balance properties of Sobol", category=UserWarning)
+        return np.ascontiguousarray(engine.random(count), dtype=np.float64)
 
 
 def sampling_limits(robot, margin: float = 1.0, limits=None) -> np.ndarray:
@@ -161,8 +114,9 @@ def sample_configurations(robot, count: int, method: str = "sobol", seed: int = 
     width about the centre; ``limits`` (n, 2) rad replaces the robot's).
 
     ``method``: ``"sobol"`` (scrambled with ``seed`` unless ``scramble`` is
-    False — then point 0 is the box's lower corner; n <= 32) or ``"random"``
-    (uniform, seeded). Equal arguments give equal samples."""
+    False — then point 0 is the box's lower corner; n <= :data:`SOBOL_MAX_DIM`
+    = 21201) or ``"random"`` (uniform, seeded). Equal arguments give equal
+    samples."""
     count = int(count)
     if count < 1:
         raise CdsmInputError(f"`count`: must be >= 1, got {count}")
@@ -179,22 +133,43 @@ def sample_configurations(robot, count: int, method: str = "sobol", seed: int = 
 # ---------------------------------------------------------------------------
 # neighbours and jumps
 # ---------------------------------------------------------------------------
-def nearest_neighbours(theta, k: int = 6, block: int = 1024) -> np.ndarray:
+def nearest_neighbours(theta, k: int = 6) -> np.ndarray:
     """(N, k) indices of each configuration's ``k`` nearest other
     configurations of ``theta`` (N, n) rad, Euclidean in joint space, nearest
-    first (brute force in blocks of ``block`` rows: fine up to a few
-    thousand configurations)."""
+    first. Exact: ``scipy.spatial.KDTree`` up to :data:`TREE_MAX_JOINTS`
+    joints, beyond every pair compared (squared distances by one matrix
+    product per block of 1024 rows; faster there). Equal distances: any one
+    of the tied configurations; a configuration repeated in ``theta`` is its
+    copy's nearest neighbour (distance 0), never its own."""
     t = np.asarray(theta, dtype=np.float64)
     if t.ndim != 2:
         raise CdsmInputError(f"`theta`: expected shape (N, n), got {t.shape}")
+    if not np.isfinite(t).all():
+        raise CdsmInputError("`theta`: every angle must be finite")
     n_pts = len(t)
     k = int(k)
     if not 1 <= k < n_pts:
         raise CdsmInputError(f"`k`: need 1 <= k < N = {n_pts}, got {k}")
+    if t.shape[1] > TREE_MAX_JOINTS:
+        return _neighbours_by_blocks(t, k)
+    from scipy.spatial import KDTree
+
+    _, idx = KDTree(t, leafsize=_LEAF).query(t, k + 1)
+    # drop each configuration itself; where k + 1 copies tie at distance 0 it may be left out: drop the last
+    own = idx == np.arange(n_pts)[:, None]
+    drop = np.where(own.any(axis=1), own.argmax(axis=1), k)
+    keep = np.ones(idx.shape, bool)
+    keep[np.arange(n_pts), drop] = False
+    return idx[keep].reshape(n_pts, k).astype(np.int64)
+
+
+def _neighbours_by_blocks(t: np.ndarray, k: int, block: int = 1024) -> np.ndarray:
+    """:func:`nearest_neighbours` of ``t`` (N, n) by every pair's squared
+    distance, ``block`` rows at a time."""
     sq = (t * t).sum(axis=1)
-    out = np.empty((n_pts, k), dtype=np.int64)
-    for s in range(0, n_pts, block):
-        rows = slice(s, min(s + block, n_pts))
+    out = np.empty((len(t), k), dtype=np.int64)
+    for s in range(0, len(t), block):
+        rows = slice(s, min(s + block, len(t)))
         d = sq[rows, None] + sq[None, :] - 2.0 * t[rows] @ t.T
         d[np.arange(rows.stop - rows.start), np.arange(rows.start, rows.stop)] = np.inf
         part = np.argpartition(d, k - 1, axis=1)[:, :k]

@@ -13,6 +13,15 @@ Pipeline (FIGAROH-like):
    frame (rotation and translation) starts from a closed-form (Kabsch) fit of
    the nominal predictions to the measurements and is fitted with every
    candidate; ``frame="base"`` says the data are in the robot's base frame.
+   By default (``frame="auto"``) registration is a hypothesis tested like any
+   effect: absolute data whose RMS distance from the nominal predictions is
+   within :data:`NEAR_FRACTION` of the arm's straight length are taken in the
+   base frame, with ``frame_misalignment`` a candidate effect; data farther
+   away (an instrument's own frame) are registered. No parameter of the
+   library trades exactly with the frame: the base-to-first-joint link
+   changes the cable routes and with them the joint angles, so it is not a
+   translation (docs/model.md, "Registration"); an effect the frame makes
+   redundant is dropped by the backward elimination of step 3.
 2. **Candidates**: every effect of :mod:`cdsm.calibration.plant` is fitted in
    the Rust core (exact Jacobians, the physical domain as bounds; a fit that
    cannot stay physical fails for that candidate only) and scored by k-fold
@@ -25,7 +34,23 @@ Pipeline (FIGAROH-like):
    **Bonferroni-corrected for the number of candidates compared at that
    step** (family ``alpha = 0.025``) — and BIC agrees. The held-out RMS of the chosen model
    comes from the same folds; the correction of the test is what keeps the
-   choice honest. BIC weights sit beside every candidate.
+   choice honest. BIC weights sit beside every candidate. **Backward
+   elimination** then drops, one at a time, an effect of the chosen
+   combination that it does not need (the combination does not beat the one
+   without it at the first step's level, or BIC disagrees). Where selection
+   ends with a model that is not adequate, with no model while the nominal
+   one is not adequate, or with a model whose first effect ties with other
+   single effects, a **search** goes beyond greedy: every pair of effects
+   and every triple among the :data:`SEARCH_TOP` best single effects
+   (only combinations no larger than an adequate greedy model). All are
+   screened by the held-out RMS of the plant linearised at the start (same
+   folds); the :data:`SEARCH_FULL` best are fitted in full, each required to
+   beat the nominal model and each of its sub-combinations one effect
+   smaller under the same test, Bonferroni-corrected for the whole family.
+   The adequate model with the fewest effects (then the lowest held-out
+   RMS) is chosen, or the lowest held-out RMS when none is adequate;
+   combinations of its size the held-out errors cannot tell from it are
+   reported as ties.
 4. **Verdict**: the noise comes from repeated commands approached from the
    same direction (pure error, with a 95 % interval), from the user
    (``noise=``), or is assumed (10 µm per axis and reading). A model is
@@ -46,6 +71,7 @@ for displacement rows, ``sigma`` the noise of one reading per axis.
 
 from __future__ import annotations
 
+import itertools
 import warnings
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -59,17 +85,33 @@ from ..inputs import CdsmDataWarning, CdsmInputError
 from ..progress import Progress
 from ..robot import Robot
 from . import plant, stats
-from .fit import Fit, fit_folds
+from .fit import Fit, fit_folds, free_parameters
 from .measurements import KIND_CODES, Measurements
 from ..display import ShortRepr
 
-__all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "features",
-           "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES"]
+__all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "Search", "features",
+           "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES", "NEAR_FRACTION",
+           "SEARCH_TOP", "SEARCH_FULL"]
 
 #: Measurement noise assumed when none is given: 10 µm per axis and reading.
 DEFAULT_NOISE = 10e-6
-#: How absolute data relate to the robot's base frame.
-FRAMES = ("register", "base")
+#: How absolute data relate to the robot's base frame: decided from the data
+#: (``"auto"``), an instrument frame to register, or the base frame.
+FRAMES = ("auto", "register", "base")
+#: ``frame="auto"``: absolute data whose RMS distance from the nominal
+#: predictions is at most this fraction of the arm's straight length are taken
+#: in the base frame (5 %: 15 mm on the paper's arm, ten times the largest gap
+#: the library's effects make at their typical size), farther ones registered.
+NEAR_FRACTION = 0.05
+#: The search beyond greedy tries triples among this many best single effects.
+SEARCH_TOP = 5
+#: The search fits in full the combinations with the lowest held-out RMS of
+#: the plant linearised at the start (the same folds), this many of them.
+SEARCH_FULL = 8
+#: When the greedy model is adequate, only combinations whose linearised
+#: held-out RMS is within this factor of the adequacy bound (1.5x the noise
+#: floor) are fitted in full: no other could replace it.
+SCREEN_MARGIN = 1.25
 #: Outlier threshold, in noise standard deviations.
 OUTLIER_SIGMA = 5.0
 #: Family-wise level of the one-sided selection test at each step.
@@ -85,7 +127,8 @@ class Prepared(ShortRepr):
     usable (N,) rows scored; flags {row: reason} for rows left out (never
     silently); order (N,) execution order; registered: the measuring frame is
     fitted; start (P,) the parameters every fit starts from (the Kabsch
-    frame when registered)."""
+    frame when registered); frame, offset: the frame rule and the data's
+    RMS distance from the nominal predictions (m)."""
 
     robot: Robot
     meas: Measurements
@@ -98,6 +141,13 @@ class Prepared(ShortRepr):
     order: np.ndarray
     registered: bool = False
     start: Optional[np.ndarray] = None
+    #: the frame rule asked for (one of :data:`FRAMES`)
+    frame: str = "auto"
+    #: RMS distance (m) of the measured positions from the nominal
+    #: predictions, usable absolute rows (NaN for displacement data)
+    offset: float = float("nan")
+    #: the plant linearised at the fits' start (computed on first use)
+    linear: Optional[tuple] = None
 
     @property
     def kind(self) -> str:
@@ -135,11 +185,13 @@ def kabsch_frame(predicted: np.ndarray, measured: np.ndarray) -> np.ndarray:
     return np.concatenate([rotation_vectors(r), t])
 
 
-def prepare(robot: Robot, meas: Measurements, frame: str = "register") -> Prepared:
+def prepare(robot: Robot, meas: Measurements, frame: str = "auto") -> Prepared:
     """Solve each row's commanded configuration (theta_i given, or the nominal
     pose IK of (x_cmd, y_cmd, phi_cmd) from the paper's seed), check the rows
     against the nominal model and the data's scale, and set up the frame
-    registration of absolute data (``frame``: ``"register"`` or ``"base"``)."""
+    registration of absolute data (``frame``: one of :data:`FRAMES`; ``"auto"``
+    registers data farther than :data:`NEAR_FRACTION` of the arm's straight
+    length from the nominal predictions, RMS over the usable rows)."""
     if meas.n != robot.n:
         raise CdsmInputError(f"measurements are for n = {meas.n} joints, the robot has {robot.n}")
     if frame not in FRAMES:
@@ -187,13 +239,43 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "register") -> Prepar
     measured[~usable] = np.nan
     if usable.sum() >= 2:
         _check_scale(meas, pred[usable, :k], measured[usable, :k])
-    registered = meas.kind == "absolute" and frame == "register"
+    offset = float("nan")
+    if meas.kind == "absolute" and usable.any():
+        offset = float(np.sqrt(np.mean(np.sum((pred[usable, :k] - measured[usable, :k]) ** 2, axis=1))))
+    near = offset <= NEAR_FRACTION * robot.straight_length
+    registered = meas.kind == "absolute" and (frame == "register" or (frame == "auto" and not near))
     start = nominal.copy()
     if registered and usable.sum() >= 2:
         start[plant.effect_indices(robot, "frame_misalignment")] = kabsch_frame(pred[usable, :k],
                                                                                 measured[usable, :k])
     return Prepared(robot, meas, theta, np.asarray(meas.dL, float), kinds, measured, usable, flags, order,
-                    registered, start)
+                    registered, start, frame, offset)
+
+
+def _linearised(prep: Prepared) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Dict[int, int]]:
+    """The plant linearised at the fits' start on the usable rows (cached):
+    the rows (file order) whose Jacobian is finite, their position
+    Jacobian (R, d, P) with respect to every parameter of the library and
+    the frame, their residuals measured - predicted (R, d), and each flat
+    index's column."""
+    if prep.linear is not None:
+        return prep.linear
+    robot = prep.robot
+    free = np.concatenate([plant.effect_indices(robot, "frame_misalignment")]
+                          + [plant.effect_indices(robot, e) for e in plant.effects_of(robot)
+                             if e != "frame_misalignment"])
+    start = prep.start if prep.registered else np.zeros(plant.size(robot))
+    o, rows, k = prep.order, prep.rows, plant.dims(robot)
+    obs, conv, jac = plant.linearise(robot, start, free, prep.theta_cmd[o], prep.dL[o], prep.kinds[o])
+    J, y = np.empty_like(jac), np.empty_like(obs)
+    J[o], y[o] = jac, obs
+    ok = np.zeros(len(prep.theta_cmd), bool)
+    ok[o] = conv
+    r = rows[ok[rows]]
+    J, res = J[r, :k, :], prep.measured[r, :k] - y[r, :k]
+    good = np.isfinite(J).all(axis=(1, 2)) & np.isfinite(res).all(axis=1)
+    prep.linear = (r[good], J[good], res[good], {int(i): j for j, i in enumerate(free)})
+    return prep.linear
 
 
 def _too_few_rows(robot: Robot, meas: Measurements, prep: Prepared) -> str:
@@ -402,6 +484,36 @@ class Verdict(ShortRepr):
 
 
 @dataclass(repr=False)
+class Search(ShortRepr):
+    """The search beyond greedy forward selection: why it ran, the family
+    it searched (every pair, triples among the best single effects), the
+    per-comparison level, the linearised held-out RMS (m) of every member of
+    the family (the screen), the combinations fitted in full (``tried``)
+    with whether each is supported
+    (beats the nominal model and each sub-combination one effect smaller,
+    by the corrected test and BIC) and adequate, the one picked, whether it
+    replaced the greedy choice, and the combinations tied with it."""
+
+    reason: str
+    family: int
+    alpha: float
+    screened: Dict[str, float]
+    tried: List[Candidate]
+    supported: List[str]
+    adequate: List[str]
+    picked: Optional[str]
+    replaced: bool
+    ties: List[str]
+
+    def to_json(self) -> dict:
+        return dict(reason=self.reason, family=self.family, alpha=self.alpha, picked=self.picked,
+                    replaced_greedy=self.replaced, ties=self.ties, linearised_heldout_rms_m=self.screened,
+                    tried=[dict(name=c.name, heldout_rms_m=c.heldout_rms, bic=c.fit.bic,
+                                supported=c.name in self.supported, adequate=c.name in self.adequate)
+                           for c in self.tried])
+
+
+@dataclass(repr=False)
 class Diagnosis(ShortRepr):
     """The answer: ``best`` (an effect, a '+'-joined combination, or 'none'),
     the ``verdict``, the baseline, every candidate (best first), the chosen
@@ -429,6 +541,9 @@ class Diagnosis(ShortRepr):
     unidentifiable: List[str] = field(default_factory=list)
     folds: int = 10
     alphas: List[float] = field(default_factory=list)
+    search: Optional[Search] = None
+    #: effects forward selection took and backward elimination dropped
+    dropped: List[str] = field(default_factory=list)
 
     def __repr__(self) -> str:
         return (f"Diagnosis(verdict={self.verdict!r}, best={self.best!r}, held-out RMS "
@@ -477,11 +592,14 @@ class Diagnosis(ShortRepr):
                         noise_needed_m=v.noise_needed)
 
         ne = self.noise_estimate
+        prep = self.prep
         reg = None
-        if self.prep.registered:
+        if prep.kind == "absolute":
+            reg = dict(rule=prep.frame, fitted=bool(prep.registered), named=self.registration_named,
+                       offset_m=prep.offset, near_m=NEAR_FRACTION * robot.straight_length)
+        if prep.registered:
             ind = plant.effect_indices(robot, "frame_misalignment")
-            reg = dict(fitted=True, named=self.registration_named,
-                       frame=self.final().fit.p[ind].tolist(), start=self.prep.start[ind].tolist(),
+            reg.update(frame=self.final().fit.p[ind].tolist(), start=prep.start[ind].tolist(),
                        identity_heldout_rms_m=self.identity.heldout_rms if self.identity else None,
                        registered_heldout_rms_m=self.final().heldout_rms)
         return dict(
@@ -500,6 +618,7 @@ class Diagnosis(ShortRepr):
             outliers=[int(i) + 1 for i in self.outliers],
             verdict_without_outliers=verdict(self.verdict_without_outliers),
             registration=reg,
+            search=self.search.to_json() if self.search else None, dropped=self.dropped,
             kind=self.prep.kind, rows=int(len(self.prep.meas)), rows_used=int(self.prep.usable.sum()),
             flagged_rows={str(k + 1): v for k, v in self.prep.flags.items()},
             failures={c.name: c.failures for c in [self.baseline] + self.singles + self.steps if c.failures},
@@ -574,29 +693,34 @@ def _residual_xy(prep: Prepared, f: Fit, rows: np.ndarray) -> np.ndarray:
     return f.prediction[rows, :k] - prep.measured[rows, :k]
 
 
+def _lack_of_fit(prep: Prepared, noise: NoiseEstimate, c: Candidate, rows: np.ndarray):
+    """The lack-of-fit test of ``c`` on ``rows``: (test, statistic, dof,
+    p-value, ssr, residual dof)."""
+    res = _residual_xy(prep, c.fit, rows)
+    ssr = float(np.nansum(res ** 2))
+    k = len(c.fit.names)
+    dof = int(np.isfinite(res).sum()) - k
+    if noise.source == "repeats" and noise.dof_pure >= 1 and dof - noise.dof_pure >= 1:
+        ss_lof, df_lof = ssr - noise.ss_pure, dof - noise.dof_pure
+        f = (max(ss_lof, 0.0) / df_lof) / (noise.ss_pure / noise.dof_pure)
+        return "F", f, (df_lof, noise.dof_pure), stats.f_sf(f, df_lof, noise.dof_pure), ssr, dof
+    chi = ssr / (prep.readings * noise.sigma) ** 2
+    return "chi2", chi, (max(dof, 1),), stats.chi2_sf(chi, max(dof, 1)), ssr, dof
+
+
+def _adequate(prep: Prepared, noise: NoiseEstimate, c: Candidate, rows: np.ndarray, floor: float):
+    """Whether ``c`` is adequate on ``rows`` (held-out RMS within 1.5x the
+    floor and lack of fit not rejected at p = 0.01), and its test."""
+    t = _lack_of_fit(prep, noise, c, rows)
+    return (c.heldout_rms <= 1.5 * floor and t[3] >= 0.01), t
+
+
 def _verdict(prep: Prepared, noise: NoiseEstimate, base: Candidate, final: Candidate, beats: bool,
              rows: np.ndarray, floor: float) -> Verdict:
     """Adequacy of the nominal and the final model on ``rows`` and the verdict."""
     r = prep.readings
-
-    def lack_of_fit(c: Candidate):
-        res = _residual_xy(prep, c.fit, rows)
-        ssr = float(np.nansum(res ** 2))
-        k = len(c.fit.names)
-        dof = int(np.isfinite(res).sum()) - k
-        if noise.source == "repeats" and noise.dof_pure >= 1 and dof - noise.dof_pure >= 1:
-            ss_lof, df_lof = ssr - noise.ss_pure, dof - noise.dof_pure
-            f = (max(ss_lof, 0.0) / df_lof) / (noise.ss_pure / noise.dof_pure)
-            return "F", f, (df_lof, noise.dof_pure), stats.f_sf(f, df_lof, noise.dof_pure), ssr, dof
-        chi = ssr / (r * noise.sigma) ** 2
-        return "chi2", chi, (max(dof, 1),), stats.chi2_sf(chi, max(dof, 1)), ssr, dof
-
-    def adequate(c: Candidate):
-        t = lack_of_fit(c)
-        return (c.heldout_rms <= 1.5 * floor and t[3] >= 0.01), t
-
-    nom_ok, _ = adequate(base)
-    fin_ok, t = adequate(final)
+    nom_ok, _ = _adequate(prep, noise, base, rows, floor)
+    fin_ok, t = _adequate(prep, noise, final, rows, floor)
     if beats:
         verdict = "explained" if fin_ok else "partly explained"
     else:
@@ -609,9 +733,113 @@ def _verdict(prep: Prepared, noise: NoiseEstimate, base: Candidate, final: Candi
                    float(t[3]), float(need))
 
 
+def _evaluated(scorer: "_Scorer", known: Dict[frozenset, Candidate], effects: Sequence[str]) -> Candidate:
+    """The candidate of ``effects`` (any order), evaluated once."""
+    key = frozenset(effects)
+    if key not in known:
+        known[key] = scorer.evaluate("+".join(effects), list(effects))
+    return known[key]
+
+
+def _prune(scorer: "_Scorer", known: Dict[frozenset, Candidate], chosen: Optional[Candidate],
+           alpha: float) -> Tuple[Optional[Candidate], List[str]]:
+    """Backward elimination of the chosen combination: while one of its
+    effects is not needed (the combination does not beat the one without it
+    by the selection test at ``alpha`` and BIC), drop the effect whose loss
+    hurts least. Returns the model kept and the effects dropped."""
+    dropped: List[str] = []
+    while chosen is not None and len(chosen.effects) >= 2:
+        subs = [_evaluated(scorer, known, [x for x in chosen.effects if x != e]) for e in chosen.effects]
+        weak = [(e, c) for e, c in zip(chosen.effects, subs)
+                if not (stats.better(chosen.heldout, c.heldout, alpha) and chosen.fit.bic < c.fit.bic)]
+        if not weak:
+            break
+        e, chosen = min(weak, key=lambda t: t[1].heldout_rms)
+        dropped.append(e)
+    return chosen, dropped
+
+
+def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate], noise: NoiseEstimate,
+            rows: np.ndarray, floor: float, base: Candidate, singles: List[Candidate],
+            chosen: Optional[Candidate], ties: List[str], max_combination: int) -> Optional[Search]:
+    """The search beyond greedy (module doc, step 3): runs where forward
+    selection ends with a model that is not adequate, with none while the
+    nominal model is not adequate, or with a model whose first effect ties
+    with other single effects."""
+    if len(singles) < 2 or max_combination < 2:
+        return None
+    chosen_ok = chosen is not None and _adequate(prep, noise, chosen, rows, floor)[0]
+    if chosen is not None and not chosen_ok:
+        reason = "forward selection ended with a model that is not adequate"
+    elif chosen is None and not _adequate(prep, noise, base, rows, floor)[0]:
+        reason = "forward selection chose no effect and the nominal model is not adequate"
+    elif chosen is not None and ties:
+        reason = f"single effects tie with `{singles[0].name}`: {', '.join(ties)}"
+    else:
+        return None
+    order = [c.name for c in singles]
+    combos = list(itertools.combinations(order, 2))
+    # an adequate greedy model is replaced only by an adequate one no larger
+    if max_combination >= 3 and not (chosen_ok and len(chosen.effects) < 3):
+        combos += list(itertools.combinations(order[:SEARCH_TOP], 3))
+    a = ALPHA / len(combos)
+    screen = _screen(prep, scorer, combos)
+    ranked = [combos[i] for i in np.argsort(screen, kind="stable")
+              if not chosen_ok or screen[i] <= SCREEN_MARGIN * 1.5 * floor]
+    fresh = [c for c in ranked if frozenset(c) not in known][:SEARCH_FULL]
+    tried = [_evaluated(scorer, known, c) for c in ranked if frozenset(c) in known or c in fresh]
+
+    def beats(c: Candidate, other: Candidate) -> bool:
+        return stats.better(c.heldout, other.heldout, a) and c.fit.bic < other.fit.bic
+
+    # every effect of a supported combination is needed: it beats the nominal
+    # model and each combination one effect smaller, under the family's level
+    supported = [c for c in tried if beats(c, base) and all(
+        beats(c, _evaluated(scorer, known, sub)) for sub in itertools.combinations(c.effects, len(c.effects) - 1))]
+    adequate = [c for c in supported if _adequate(prep, noise, c, rows, floor)[0]]
+    if adequate or chosen_ok:
+        # the adequate model with the fewest effects, then the lowest held-out RMS
+        pool = adequate + ([chosen] if chosen_ok else [])
+        pick = min(pool, key=lambda c: (len(c.effects), c.heldout_rms))
+        rivals = adequate
+    else:
+        pool = supported + ([chosen] if chosen is not None else [])
+        pick = min(pool, key=lambda c: c.heldout_rms) if pool else None
+        rivals = supported
+    tie = [] if pick is None else [c.name for c in rivals if c is not pick and len(c.effects) == len(pick.effects)
+                                   and not stats.better(pick.heldout, c.heldout, ALPHA)]
+    return Search(reason, len(combos), float(a), {"+".join(c): float(v) for c, v in zip(combos, screen)}, tried,
+                  [c.name for c in supported], [c.name for c in adequate],
+                  pick.name if pick is not None else None, pick is not None and pick is not chosen, tie)
+
+
+def _screen(prep: Prepared, scorer: "_Scorer", combos: Sequence[Tuple[str, ...]]) -> np.ndarray:
+    """Held-out RMS (m) of each combination's linear least-squares fit of the
+    plant linearised at the start (the scorer's folds; the frame fitted as in
+    the full fits). Orders the search only."""
+    rows, J, res, col = _linearised(prep)
+    where = {int(i): j for j, i in enumerate(rows)}
+    tests = [np.array([where[int(i)] for i in t if int(i) in where], int) for t in scorer.tests]
+    out = np.full(len(combos), np.inf)
+    for n, combo in enumerate(combos):
+        fitted = list(combo) + (["frame_misalignment"] if prep.registered and "frame_misalignment" not in combo
+                                else [])
+        idx, scale, _ = free_parameters(prep.robot, fitted)
+        A = J[:, :, [col[int(i)] for i in idx]] * scale
+        err = np.full(len(rows), np.nan)
+        for t in tests:
+            train = np.ones(len(rows), bool)
+            train[t] = False
+            x, *_ = np.linalg.lstsq(A[train].reshape(-1, len(idx)), res[train].reshape(-1), rcond=None)
+            err[t] = np.linalg.norm(res[t] - A[t] @ x, axis=1)
+        if np.isfinite(err).any():
+            out[n] = float(np.sqrt(np.nanmean(err ** 2)))
+    return out
+
+
 def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] = None,
              folds: int = 10, noise: Optional[float] = None, max_combination: int = 3,
-             frame: str = "register", progress: bool = False) -> Diagnosis:
+             frame: str = "auto", progress: bool = False) -> Diagnosis:
     """Diagnose the gap between ``robot`` and ``meas`` (see the module doc).
 
     effects: the candidate library (default: every effect of
@@ -619,8 +847,11 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     always fitted and named only when it beats the identity frame). noise:
     measurement noise per axis and reading (m); default: estimated from
     repeats, else assumed (:data:`DEFAULT_NOISE`). max_combination: the
-    largest combination forward selection may build. frame: ``"register"``
-    (absolute data are in an instrument frame) or ``"base"``.
+    largest combination forward selection and the search may build. frame:
+    ``"auto"`` (absolute data near the nominal predictions are taken in the
+    base frame with ``frame_misalignment`` a candidate, farther ones
+    registered; :data:`NEAR_FRACTION`), ``"register"`` (an instrument frame,
+    fitted with every candidate) or ``"base"`` (the base frame).
     """
     library = plant.check_effects(robot, plant.effects_of(robot) if effects is None else effects)
     if noise is not None and not (np.isfinite(noise) and noise > 0):
@@ -665,6 +896,15 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
             steps.append(nxt)
         else:
             break
+    known: Dict[frozenset, Candidate] = {frozenset(c.effects): c for c in singles + steps}
+    chosen, dropped = _prune(scorer, known, chosen, alphas[0]) if alphas else (chosen, [])
+    ne = _noise(prep, noise)
+    floor = float(np.sqrt(plant.dims(robot)) * prep.readings * ne.sigma)
+    ties = [c.name for c in singles[1:] if not stats.better(top.heldout, c.heldout, ALPHA)
+            and c.heldout_rms < base.heldout_rms] if top is not None else []
+    search = _search(prep, scorer, known, ne, rows, floor, base, singles, chosen, ties, max_combination)
+    if search is not None and search.replaced:
+        chosen = next(c for c in search.tried if c.name == search.picked)
     # the registration is named only when it beats the identity frame for the
     # chosen model, on held-out rows and by BIC, like any effect
     identity = None
@@ -680,16 +920,16 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     names = list(chosen.effects) if chosen else []
     if named:
         names = ["frame_misalignment"] + names
-    ne = _noise(prep, noise)
     d = Diagnosis("+".join(names) or "none", base, singles, chosen, steps, ne, prep, identity=identity,
-                  registration_named=named, folds=int(scorer.k), alphas=[float(a) for a in alphas])
+                  registration_named=named, folds=int(scorer.k), alphas=[float(a) for a in alphas],
+                  search=search, dropped=dropped)
     pool = [base] + singles + [c for c in steps if len(c.effects) > 1]
+    if chosen is not None and all(c is not chosen for c in pool):
+        pool.append(chosen)
     for c, w in zip(pool, stats.model_weights([c.fit.bic for c in pool])):
         c.weight = float(w)
-    if top is not None:
-        # candidates the held-out errors cannot tell from the best one (pairwise, alpha 0.025)
-        d.ties = [c.name for c in singles[1:] if not stats.better(top.heldout, c.heldout, ALPHA)
-                  and c.heldout_rms < base.heldout_rms]
+    # single effects the held-out errors cannot tell from the best one (pairwise, alpha 0.025)
+    d.ties = ties
     final = d.final()
     if final.fit.corr.size:
         c = final.fit.corr

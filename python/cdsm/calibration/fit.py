@@ -67,16 +67,9 @@ class Fit(ShortRepr):
 def free_parameters(robot: Robot, effects: Sequence[str]):
     """Indices (k,) into the flat plant vector of the parameters of
     ``effects``, their typical sizes (k,) (the fit's unit) and names."""
-    lay = plant.layout(robot)
-    idx, scale, names = [], [], []
-    for e in effects:
-        ind = plant.effect_indices(robot, e)
-        idx.extend(ind.tolist())
-        for i in ind:
-            block = next(b for b, sl in lay.items() if sl.start <= i < sl.stop)
-            scale.append(plant.TYPICAL[block])
-            w = lay[block].stop - lay[block].start
-            names.append(f"{block}[{i - lay[block].start}]" if w > 1 else block)
+    idx = [int(i) for e in effects for i in plant.effect_indices(robot, e)]
+    names = plant.parameter_names(robot, idx)
+    scale = [plant.TYPICAL[n.split("[", 1)[0]] for n in names]
     return np.array(idx, dtype=int), np.array(scale, dtype=float), names
 
 

@@ -48,8 +48,9 @@ from ..inputs import CdsmInputError, as_array, as_batch, as_finite, as_iteration
 from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
 
-__all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size", "params",
-           "effect_indices", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
+__all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
+           "params", "effect_indices", "parameter_names", "bounds", "kind_codes", "predict", "linearise", "settle",
+           "VirtualPrototype",
            "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
@@ -158,6 +159,17 @@ def layout(robot: Robot) -> Dict[str, slice]:
 def size(robot: Robot) -> int:
     """Length of the flat parameter vector."""
     return sum(s for _, s in robot.core.plant_effects())
+
+
+def parameter_names(robot: Robot, indices: Sequence[int]) -> List[str]:
+    """Names of flat parameters: the block, with the element in brackets
+    for blocks of more than one (``link_length[0]``)."""
+    lay = layout(robot)
+    out = []
+    for i in indices:
+        block, sl = next((b, sl) for b, sl in lay.items() if sl.start <= int(i) < sl.stop)
+        out.append(f"{block}[{int(i) - sl.start}]" if sl.stop - sl.start > 1 else block)
+    return out
 
 
 def bounds(robot: Robot) -> Tuple[np.ndarray, np.ndarray]:

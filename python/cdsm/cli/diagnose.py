@@ -42,7 +42,7 @@ def _effect_list(text: str) -> List[str]:
 
 
 def _diagnose_args(p: argparse.ArgumentParser) -> None:
-    from ..calibration.diagnosis import DEFAULT_NOISE
+    from ..calibration.diagnosis import DEFAULT_NOISE, FRAMES, NEAR_FRACTION
 
     p.add_argument("data", metavar="DATA.csv|NAME",
                    help="measurement table (CSV, SI units; see cdsm.calibration.measurements), or the name of a "
@@ -55,9 +55,12 @@ def _diagnose_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--noise", metavar="SIGMA_M", type=_noise_m, default=None,
                    help="measurement noise per axis and reading, m (default: estimated from repeated "
                         f"commands in the data, else assumed {DEFAULT_NOISE:g})")
-    p.add_argument("--frame", choices=("register", "base"), default="register",
-                   help="absolute data: 'register' fits the measuring frame with every candidate "
-                        "(default: a tracker's own frame); 'base' says the data are in the robot's base frame")
+    p.add_argument("--frame", choices=FRAMES, default="auto",
+                   help="absolute data: 'auto' (default) takes data within "
+                        f"{NEAR_FRACTION * 100:.0f} %% of the arm's length of the nominal predictions in the "
+                        "base frame (the frame a candidate effect) and registers farther ones; 'register' fits the "
+                        "measuring frame with every candidate (a tracker's own frame); 'base' says the data "
+                        "are in the robot's base frame")
     p.add_argument("--folds", metavar="K", type=_folds, default=10,
                    help="cross-validation folds (default: 10; leave-one-out when fewer rows)")
     p.add_argument("--save-model", metavar="MODEL.json", help="save the diagnosed model (cdsm.calibration.model)")

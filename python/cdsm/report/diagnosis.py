@@ -160,7 +160,7 @@ def _heldout_full(d: diagnose.Diagnosis, cand: diagnose.Candidate) -> np.ndarray
 def _strength(rho: float, n: int) -> str:
     a = abs(rho)
     word = "strong" if a >= 0.7 else "moderate" if a >= 0.4 else "weak"
-    thr = 1.96 / math.sqrt(max(n - 1, 1))
+    thr = stats.normal_isf(0.025) / math.sqrt(max(n - 1, 1))
     return word + ("" if a > thr else f", within chance for {n} rows (|ρ| < {thr:.2f})")
 
 
@@ -251,7 +251,32 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
                f"frame {_um(d.identity.heldout_rms)}, registered {_um(d.final().heldout_rms)}: the frame is "
                + ("named (`frame_misalignment`): it beats the identity frame." if d.registration_named else
                   "not named: it does not beat the identity frame significantly."))
+        if prep.frame == "auto":
+            reg += (f" (The data lie {_um(prep.offset)} RMS from the nominal predictions, beyond 5 % of the arm's "
+                    "length: an instrument's own frame.)")
         out["answer"].append(reg)
+    elif prep.kind == "absolute" and prep.frame == "auto":
+        out["answer"].append(f"The data lie {_um(prep.offset)} RMS from the nominal predictions, within 5 % of the "
+                             "arm's length: taken in the robot's base frame, with `frame_misalignment` a candidate "
+                             "effect like any other.")
+    if d.dropped:
+        out["answer"].append("Backward elimination dropped " + ", ".join(f"`{e}`" for e in d.dropped)
+                             + ": with the other effects in, the model does not need it.")
+    if d.search is not None:
+        s = d.search
+        fitted = len(s.tried)
+        txt = (f"Search beyond forward selection ({s.reason}): {s.family} combinations (every pair, triples "
+               f"among the best five) screened on the linearised plant, {fitted} fitted in full, each tested "
+               f"at {s.alpha:.2g} against the nominal model and every smaller combination.")
+        if s.picked is None:
+            txt += " None is supported."
+        elif s.replaced:
+            txt += f" It found `{s.picked}`, which replaces forward selection's answer."
+        else:
+            txt += f" It confirms `{s.picked}`."
+        if s.ties:
+            txt += f" Tied with it (the held-out errors cannot tell them apart): {', '.join(s.ties)}."
+        out["answer"].append(txt)
     if d.outliers:
         out["answer"].append(outlier_note(d, names))
 
@@ -425,43 +450,47 @@ def _short_name(name: str, i: int) -> str:
 
 def _clusters(xy: np.ndarray, link: float) -> List[np.ndarray]:
     """Groups (index arrays, 2 or more rows) of the finite points ``xy``
-    (N, 2) chained by distances below ``link`` (single linkage), largest
-    first (ties: the lowest index first)."""
+    (N, 2) chained by distances below ``link`` (single linkage: the
+    connected components of ``scipy.sparse.csgraph`` over the pairs of
+    ``scipy.spatial.KDTree``), largest first (ties: the lowest index first)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import KDTree
+
     fin = np.flatnonzero(np.isfinite(xy).all(1))
-    label = {int(i): int(i) for i in fin}
-
-    def root(a):
-        while label[a] != a:
-            a = label[a]
-        return a
-
-    for a_i, a in enumerate(fin):
-        for b in fin[a_i + 1:]:
-            if np.hypot(*(xy[a] - xy[b])) < link:
-                ra, rb = root(int(a)), root(int(b))
-                label[max(ra, rb)] = min(ra, rb)
+    if len(fin) < 2:
+        return []
+    pts = xy[fin]
+    # a margin for the tree's own rounding, then the rule itself on each pair
+    pairs = KDTree(pts).query_pairs(link * (1.0 + 1e-9), output_type="ndarray")
+    pairs = pairs[np.hypot(*(pts[pairs[:, 0]] - pts[pairs[:, 1]]).T) < link]
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(fin), len(fin)))
+    _, label = connected_components(graph, directed=False)
     groups: Dict[int, List[int]] = {}
-    for i in fin:
-        groups.setdefault(root(int(i)), []).append(int(i))
+    for i, lab in zip(fin, label):
+        groups.setdefault(int(lab), []).append(int(i))
     out = [np.array(g) for g in groups.values() if len(g) >= 2]
     return sorted(out, key=lambda g: (-len(g), int(g[0])))
 
 
 def _away_offsets(xy: np.ndarray, points: float = 7.0) -> np.ndarray:
     """(N, 2) label offsets in points: away from each point's nearest
-    neighbour (up-right when it has none), so close labels part."""
+    neighbour (``scipy.spatial.KDTree``; equally near ones: any one of them;
+    up-right when it has none or sits on it), so close labels part."""
     out = np.tile([points * 0.7, points * 0.7], (len(xy), 1))
+    from scipy.spatial import KDTree
+
     fin = np.flatnonzero(np.isfinite(xy).all(1))
-    for i in fin:
-        others = [j for j in fin if j != i]
-        if not others:
-            continue
-        d = xy[i] - xy[others]
-        j = int(np.argmin(np.hypot(d[:, 0], d[:, 1])))
-        v = d[j]
-        nv = float(np.hypot(*v))
-        if nv > 0:
-            out[i] = v / nv * points
+    if len(fin) < 2:
+        return out
+    pts = xy[fin]
+    dist, idx = KDTree(pts).query(pts, 2)
+    # the nearest other point: the second hit, or the first where a copy came before the point itself
+    other = np.where(idx[:, 0] == np.arange(len(fin)), idx[:, 1], idx[:, 0])
+    v = pts - pts[other]
+    nv = np.hypot(v[:, 0], v[:, 1])
+    ok = nv > 0
+    out[fin[ok]] = v[ok] / nv[ok, None] * points
     return out
 
 

@@ -598,6 +598,11 @@ class StudyReport:
         if not self.detail:
             doc.p("The one-figure-per-scenario maps were left out (`--no-scenario-figures`); the overviews above "
                   "map every scenario.")
+        elif len(study_figures.detailed_scenarios(st)) < len({r.scenario.key for r in st.scenarios}):
+            doc.p(f"One map each for the {study_figures.DETAILED_SCENARIOS} single errors with the largest position "
+                  f"error of the {len({r.scenario.key for r in st.scenarios})} (past "
+                  f"{study_figures.MAX_SCENARIO_FIGURES} scenarios a map each would bury the report); the overviews "
+                  "above map every scenario, and the table lists them all.")
 
     def single_findings(self) -> List[str]:
         """Paragraphs on what the single errors show (main protocol)."""

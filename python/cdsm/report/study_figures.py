@@ -33,8 +33,8 @@ from .figures import (BLUE, GREEN, HUES, MAX_WIDTH_IN, RED, FigureJob, colour_ba
                       tension_cmap)
 
 __all__ = ["AXES", "PLANES", "SCENARIO_COLUMNS", "main_plane", "phi0_tips", "workspace_figure", "overview_figure",
-           "scenario_figure", "monte_carlo_figure", "singular_figure", "feasibility_figure", "hysteresis_figure",
-           "amplification_figure",
+           "scenario_figure", "detailed_scenarios", "MAX_SCENARIO_FIGURES", "DETAILED_SCENARIOS",
+           "monte_carlo_figure", "singular_figure", "feasibility_figure", "hysteresis_figure", "amplification_figure",
            "amplification_titles", "figure_jobs", "all_figures", "PROTOCOL_SHORT"]
 
 AXES = ("x", "y", "z")
@@ -621,12 +621,36 @@ def amplification_figure(study, protocol: str) -> Figure:
 # ---------------------------------------------------------------------------
 # everything
 # ---------------------------------------------------------------------------
+#: Single errors a study draws one map each for: all of them up to this many,
+#: else the :data:`DETAILED_SCENARIOS` with the largest errors (the overview
+#: figures map every scenario, the tables list them all).
+MAX_SCENARIO_FIGURES = 24
+DETAILED_SCENARIOS = 12
+
+
+def detailed_scenarios(study) -> List[str]:
+    """Keys of the single errors that get a map of their own, in the study's
+    order: every one when there are at most :data:`MAX_SCENARIO_FIGURES`,
+    else the :data:`DETAILED_SCENARIOS` with the largest position error over
+    the configurations (any protocol)."""
+    keys = list(dict.fromkeys(r.scenario.key for r in study.scenarios))
+    if len(keys) <= MAX_SCENARIO_FIGURES:
+        return keys
+    worst: Dict[str, float] = {}
+    for r in study.scenarios:
+        v = r.position
+        m = float(np.nanmax(v)) if np.isfinite(v).any() else -1.0
+        worst[r.scenario.key] = max(worst.get(r.scenario.key, -1.0), m)
+    top = set(sorted(keys, key=lambda k: -worst[k])[:DETAILED_SCENARIOS])
+    return [k for k in keys if k in top]
+
+
 def figure_jobs(study, detail: bool = True, overlay: Optional[Callable] = None) -> List[FigureJob]:
     """The study's figures as jobs ``(name, make)``, costliest first:
     ``overview_<protocol>`` (and ``rotation_<protocol>`` for spatial arms),
     ``montecarlo_<protocol>``, ``amplification_<protocol>``, ``singular``,
     ``feasibility``, ``hysteresis``, ``workspace`` (with ``overlay``) and, with ``detail``,
-    ``scenario_<key>`` for every single error."""
+    ``scenario_<key>`` for the single errors of :func:`detailed_scenarios`."""
     jobs: List[FigureJob] = []
 
     def one(name, make):
@@ -646,7 +670,7 @@ def figure_jobs(study, detail: bool = True, overlay: Optional[Callable] = None) 
         one("hysteresis", lambda: hysteresis_figure(study))
     one("workspace", lambda: workspace_figure(study, overlay))
     if detail:
-        for k in dict.fromkeys(r.scenario.key for r in study.scenarios):
+        for k in detailed_scenarios(study):
             one(f"scenario_{file_key(k)}", lambda k=k: scenario_figure(study, k))
     return jobs
 
