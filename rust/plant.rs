@@ -90,7 +90,7 @@ pub const CLEARANCE_WIDTH: f64 = 0.01;
 
 /// The largest friction coefficient of the physical domain (a fit at it
 /// says friction alone does not explain the data).
-pub const MAX_FRICTION: f64 = 2.0;
+pub const MAX_FRICTION: f64 = 1.0;
 
 /// The flat parameter vector of a model's plant: its effects in order, each
 /// with its offset and size.

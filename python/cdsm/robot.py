@@ -651,8 +651,8 @@ class Robot:
             raise CdsmInputError(f"`sliding`: expected 'pull' or 'release', got {sliding!r}")
         if friction is not None:
             friction = as_finite("friction", friction)
-            if not 0.0 <= friction <= 2.0:
-                raise CdsmInputError(f"`friction`: the coefficient must be within [0, 2], got {friction}")
+            if not 0.0 <= friction <= 1.0:
+                raise CdsmInputError(f"`friction`: the coefficient must be within [0, 1], got {friction}")
         rows = t.shape[0]
 
         def rowed(name, value, width):
@@ -695,7 +695,7 @@ class Robot:
         NaN where a cable has no moment arm; more: the minimum-norm set at or
         above ``min_tension`` (N), NaN rows where none exists.
 
-        ``friction``: Coulomb friction ``mu`` (1, within [0, 2]) of every cable in
+        ``friction``: Coulomb friction ``mu`` (1, within [0, 1]) of every cable in
         every hole (``docs/model.md``, "Friction in the holes"), in the bounding
         sliding state ``sliding``: ``"pull"`` (the actuators haul the arm, the
         position cables slide toward them, the force cables away) or
