@@ -85,13 +85,18 @@ def main() -> None:
     print("2. one effect hidden (typical size), base-frame data, registered, 10-fold")
     for rows in [int(r) for r in args.singles.split(",") if r]:
         total = 0.0
+        hidden = [e for e in plant.EFFECTS if e in plant.EXAMPLES_N3]
         for k, effect in enumerate(plant.EFFECTS):
+            if effect not in plant.EXAMPLES_N3:
+                # cable_friction: with the paper's steel cable its loops are micrometres (docs/model.md)
+                print(f"  {effect:<44s} not hidden: no example size for the paper's steel cable")
+                continue
             meas = dataset(robot, rows, plant.EXAMPLES_N3[effect], seed=100 + k)
             dt, d = timed(robot, meas)
             total += dt
             line(f"  {effect}", rows, dt, d)
-        print(f"  all {len(plant.EFFECTS)} effects at {rows} rows: {total:.1f} s, "
-              f"{len(plant.EFFECTS) * rows / total:.0f} rows/s", flush=True)
+        print(f"  all {len(hidden)} hidden effects at {rows} rows: {total:.1f} s, "
+              f"{len(hidden) * rows / total:.0f} rows/s", flush=True)
     print("3. Table 3")
     meas = measurements.packaged("table3")
     dt, d = timed(robot, meas)

@@ -142,7 +142,7 @@ def library_effects(robot: Robot, truth: Sequence[str], rng: np.random.Generator
     lay = plant.layout(robot)
     hidden = {}
     for e in truth:
-        if robot.kind == "planar" and robot.n == 3:
+        if robot.kind == "planar" and robot.n == 3 and e in plant.EXAMPLES_N3:
             v = np.asarray(plant.EXAMPLES_N3[e][e], float)
         else:  # 1-2x the typical size of every parameter of the effect's block
             v = np.full(lay[e].stop - lay[e].start, plant.TYPICAL[e])

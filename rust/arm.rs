@@ -9,6 +9,7 @@ use crate::accuracy::McStats;
 use crate::batch::{self, rows_exactly, rows_of, seeds, split_rows, BatchSolution};
 use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
+use crate::friction::{Holes, Profile, Sliding};
 use crate::ik::{IkMethod, SpatialIk, SpatialMask, TaskMask};
 use crate::kinds::{log_so3, Frame, Kind, Planar, Se3, Spatial, Vector};
 use crate::lm::Reason;
@@ -422,9 +423,26 @@ pub fn tensions(
     floor: f64,
     threads: usize,
 ) -> Result<(Vec<f64>, Vec<bool>)> {
+    tensions_sliding(model, theta, loads, floor, None, threads)
+}
+
+/// [`tensions`] with friction in the holes in a bounding sliding state
+/// (`docs/model.md`, "Friction in the holes"; `None`: frictionless): the
+/// tensions are the routing's (at the actuators).
+pub fn tensions_sliding(
+    model: &Model,
+    theta: &[f64],
+    loads: &Loads,
+    floor: f64,
+    sliding: Option<Sliding>,
+    threads: usize,
+) -> Result<(Vec<f64>, Vec<bool>)> {
+    if let Some(s) = sliding {
+        s.check()?;
+    }
     match model.kind {
-        model::Kind::Planar => tensions_k::<Planar>(model, theta, loads, floor, threads),
-        model::Kind::Spatial => tensions_k::<Spatial>(model, theta, loads, floor, threads),
+        model::Kind::Planar => tensions_k::<Planar>(model, theta, loads, floor, sliding, threads),
+        model::Kind::Spatial => tensions_k::<Spatial>(model, theta, loads, floor, sliding, threads),
     }
 }
 
@@ -433,6 +451,7 @@ fn tensions_k<K: Kind>(
     theta: &[f64],
     loads: &Loads,
     floor: f64,
+    sliding: Option<Sliding>,
     threads: usize,
 ) -> Result<(Vec<f64>, Vec<bool>)> {
     if !floor.is_finite() {
@@ -457,20 +476,32 @@ fn tensions_k<K: Kind>(
         let mut bal = Balance::<f64>::new(model);
         let mut t = vec![0.0; m];
         let mut out = (Vec::with_capacity(r.len() * m), Vec::with_capacity(r.len()));
+        let holes = Holes::of(model);
+        let mut profile = Profile::<f64>::new(model);
+        let mobil = sliding.map(|s| s.mobilisations(model, &holes));
         for i in r {
             chain.at(model, model, &theta[i * n..(i + 1) * n]);
             let w = row_of(wrench, 3 + couple, i).unwrap_or(&[0.0; 6][..3 + couple]);
-            bal.at_with(
-                model,
-                model,
-                &mut chain,
-                g,
-                Wrench {
-                    force: [w[0], w[1], w[2]],
-                    couple: &w[3..],
-                },
-                row_of(force, nf, i),
-            );
+            let wrench = Wrench {
+                force: [w[0], w[1], w[2]],
+                couple: &w[3..],
+            };
+            match (sliding, &mobil) {
+                (Some(s), Some(z)) => {
+                    let route = model.cable.routing_length;
+                    profile.at(model, model, &chain, &holes, z, s.mu, route);
+                    bal.at_friction(
+                        model,
+                        model,
+                        &mut chain,
+                        g,
+                        wrench,
+                        row_of(force, nf, i),
+                        &profile.gap,
+                    );
+                }
+                _ => bal.at_with(model, model, &mut chain, g, wrench, row_of(force, nf, i)),
+            }
             let ok = held(&mut bal, floor, &mut t);
             out.0.extend_from_slice(&t);
             out.1.push(ok);

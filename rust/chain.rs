@@ -366,6 +366,26 @@ impl<S: Arith, F: Frame<S>> Chain<S, F> {
         (self.local[k - 1].point(a), b)
     }
 
+    /// Gap `k` (1-based disk) of cable `c` as a vector (m), from its hole on
+    /// face `b` of disk `k - 1` to its hole on face `a` of disk `k`, in the
+    /// frame of face `b` of disk `k - 1` (the model's own holes).
+    #[inline]
+    pub fn gap<N: Numbers<S>>(&self, nums: &N, c: usize, k: usize) -> F::V {
+        let (a, b) = self.segment(nums, c, k, None);
+        a.sub(b)
+    }
+
+    /// The traversal of disk `k` (1-based) by cable `c` as a vector (m),
+    /// from its hole on face `a` to its hole on face `b`, in the frame of
+    /// face `a` (the model's own holes).
+    #[inline]
+    pub fn traversal<N: Numbers<S>>(&self, nums: &N, c: usize, k: usize) -> F::V {
+        let z = S::cst(0.0);
+        F::V::of([nums.thickness(k - 1), z, z])
+            .add(F::V::of(nums.hole(c, 2 * k)))
+            .sub(F::V::of(nums.hole(c, 2 * k - 1)))
+    }
+
     /// Length of cable `c` (m) at the configuration of [`Chain::at`]; with
     /// `shift` (per disk, [`Frame::bend_shift`] of its motion), the holes
     /// beside every bend moved (hole clearance; the end disk's face-`b`

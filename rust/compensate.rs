@@ -10,7 +10,11 @@
 //! length); the Jacobian is exact (implicit function theorem through the
 //! settle). The targets are then run in order through the backlash: a cable
 //! whose delivered length must grow is commanded `r + b`, one that must
-//! shrink `r - b`, one that stays is not moved.
+//! shrink `r - b`, one that stays is not moved. With friction in the holes
+//! every target is solved in the sliding state the nominal motion through
+//! the targets in order leaves there (`docs/model.md`, "Compensation with
+//! friction"), so a target approached from the other side gets other
+//! commands.
 
 use crate::batch::{rows_exactly, split_rows};
 use crate::chain::Chain;
@@ -200,6 +204,9 @@ fn compensate_k<K: Kind>(model: &Model, args: Args) -> Result<Compensation> {
         nominal.extend(position_lengths(model, &theta_cmd[i * n..(i + 1) * n]));
     }
     let lm = Lm::equations(Step::levenberg(active.len(), m), tol, max_iter);
+    // friction: the holes' sliding state at every target, in order
+    let mobil = plant.mobilisation_along(theta_cmd);
+    let h = mobil.len() / rows.max(1);
     // every target's delivered lengths (independent of the order)
     let parts = split_rows(rows, threads, |range| {
         let mut ws = Workspace::default();
@@ -218,6 +225,7 @@ fn compensate_k<K: Kind>(model: &Model, args: Args) -> Result<Compensation> {
                 seen: vec![0.0; task],
                 dseen: vec![0.0; task * m],
             };
+            prob.work.mobil = mobil[i * h..(i + 1) * h].to_vec();
             let mut r = nominal[i * m..(i + 1) * m].to_vec();
             let st = lm::solve(&mut prob, &mut r, &lm, &mut ws);
             let settled = prob.settle(&r);
@@ -250,6 +258,8 @@ fn compensate_k<K: Kind>(model: &Model, args: Args) -> Result<Compensation> {
     for i in 0..rows {
         plant.realise_one(&nominal[i * m..(i + 1) * m], &mut state, &mut real);
         th.copy_from_slice(&theta_cmd[i * n..(i + 1) * n]);
+        work.mobil.clear();
+        work.mobil.extend_from_slice(&mobil[i * h..(i + 1) * h]);
         if plant.settle(&real, &mut th, &mut work) {
             plant.observe(&th, &mut chain, &mut seen);
         } else {

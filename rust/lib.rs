@@ -12,6 +12,7 @@ pub mod chain;
 pub mod compensate;
 pub mod error;
 pub mod fit;
+pub mod friction;
 pub mod geometry;
 pub mod ik;
 pub mod kinds;

@@ -21,6 +21,7 @@ use crate::cables::CableGeometry;
 use crate::chain::{ArmNumbers, Chain};
 use crate::error::{CdsmError, Result};
 use crate::fit::FitModel;
+use crate::friction::{mobilisation, Holes, Motion, Profile};
 use crate::kinds::{Frame, Kind, Planar, Spatial, Vector};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
 use crate::model::{self, Mode, Model};
@@ -59,6 +60,9 @@ pub enum Effect {
     Backlash,
     /// Spatial: every joint axis tilted by two angles (rad).
     JointAxis,
+    /// Coulomb friction `mu` of every cable in every hole (1;
+    /// `docs/model.md`, "Friction in the holes", [`crate::friction`]).
+    CableFriction,
 }
 
 impl Effect {
@@ -76,12 +80,17 @@ impl Effect {
             Effect::TipOffset => "tip_offset",
             Effect::Backlash => "backlash",
             Effect::JointAxis => "joint_axis",
+            Effect::CableFriction => "cable_friction",
         }
     }
 }
 
 /// The clearance's transition width at `clearance_width = 0` (rad).
 pub const CLEARANCE_WIDTH: f64 = 0.01;
+
+/// The largest friction coefficient of the physical domain (a fit at it
+/// says friction alone does not explain the data).
+pub const MAX_FRICTION: f64 = 1.0;
 
 /// The flat parameter vector of a model's plant: its effects in order, each
 /// with its offset and size.
@@ -117,6 +126,7 @@ pub fn layout(model: &Model) -> Layout {
             (Effect::TipOffset, 2),
             (Effect::Backlash, m),
             (Effect::ClearanceWidth, 1),
+            (Effect::CableFriction, 1),
         ],
         model::Kind::Spatial => {
             let holes: usize = model
@@ -136,6 +146,7 @@ pub fn layout(model: &Model) -> Layout {
                 (Effect::HoleClearance, 1),
                 (Effect::ClearanceWidth, 1),
                 (Effect::JointAxis, 2 * n),
+                (Effect::CableFriction, 1),
             ]
         }
     };
@@ -162,7 +173,8 @@ fn least_hole_radius(model: &Model) -> f64 {
 /// The physical domain of each parameter as `[lower, upper]` bounds (SI):
 /// actuator gain above a tenth of nominal, non-negative compliance, clearance
 /// and backlash, a clearance below the least hole radius, a transition width
-/// in `[1e-4, 1]` rad, planar links above a tenth of their nominal length.
+/// in `[1e-4, 1]` rad, planar links above a tenth of their nominal length,
+/// friction in `[0, MAX_FRICTION]`.
 pub fn bounds(model: &Model) -> (Vec<f64>, Vec<f64>) {
     let lay = layout(model);
     let mut lo = vec![f64::NEG_INFINITY; lay.total];
@@ -183,6 +195,10 @@ pub fn bounds(model: &Model) -> (Vec<f64>, Vec<f64>) {
                 hi[o] = 1.0 - CLEARANCE_WIDTH;
             }
             Effect::Backlash => lo[o..o + s].fill(0.0),
+            Effect::CableFriction => {
+                lo[o] = 0.0;
+                hi[o] = MAX_FRICTION;
+            }
             Effect::LinkLength if model.kind == model::Kind::Planar => {
                 lo[o] = -0.9 * model.joints[0].offset[0];
                 for (i, d) in model.disks.iter().enumerate() {
@@ -231,6 +247,12 @@ struct Params<S> {
     instrument: Vec<S>,
     tip: Vec<S>,
     backlash: Vec<S>,
+    /// Friction coefficient in the holes (1).
+    mu: S,
+    /// The compliance of the robot file's cable, `1 / (E A)` (1/N): the
+    /// change friction makes to the tensions stretches the cables at
+    /// `kappa + kc` (`docs/model.md`, "Friction in the holes").
+    kc: f64,
     /// The plant's arm: the model's numbers, moved.
     arm: ArmNumbers<S>,
 }
@@ -312,6 +334,8 @@ impl<S: Real> Params<S> {
             instrument: span(Effect::FrameMisalignment),
             tip: span(Effect::TipOffset),
             backlash: span(Effect::Backlash),
+            mu: one(Effect::CableFriction),
+            kc: model.cable.compliance(),
             arm,
         }
     }
@@ -322,6 +346,17 @@ impl<S: Real> Params<S> {
 
     fn clear(&self) -> bool {
         self.clearance.val() != 0.0 || self.clearance.is_variable()
+    }
+
+    /// Friction in the holes: with `mu = 0` the equations are the
+    /// frictionless ones, the same code path.
+    fn friction(&self) -> bool {
+        self.mu.val() != 0.0 || self.mu.is_variable()
+    }
+
+    /// The compliance friction's change of the tensions stretches at (1/N).
+    fn friction_compliance(&self) -> S {
+        self.kappa + self.kc
     }
 }
 
@@ -375,6 +410,9 @@ pub struct Sequence {
     span: Vec<[usize; 2]>,
     kind: Vec<RowKind>,
     theta_cmd: Vec<f64>,
+    /// The nominal motion the friction's sliding directions follow, made
+    /// the first time a plant with friction settles the sequence.
+    motion: std::sync::OnceLock<Motion>,
 }
 
 /// The lengths of `model`'s position cables at `theta` (rad), m.
@@ -456,6 +494,7 @@ impl Sequence {
             span: Vec::with_capacity(rows),
             kind: data.kind.to_vec(),
             theta_cmd: data.theta_cmd.to_vec(),
+            motion: std::sync::OnceLock::new(),
         };
         let mut lengths = Lengths::new(model);
         for i in 0..rows {
@@ -486,6 +525,39 @@ impl Sequence {
     /// Number of rows.
     pub fn rows(&self) -> usize {
         self.rows
+    }
+
+    /// The nominal motion of the commands (`docs/model.md`, "Sliding
+    /// directions and the sticking band"): every command's nominal
+    /// configuration, the rigid cable solve of its nominal lengths from its
+    /// row's `theta_cmd` (a displacement row's first command: `theta_cmd`
+    /// itself; `theta_cmd` where the solve fails).
+    pub fn motion<K: Kind>(&self, model: &Model) -> &Motion {
+        self.motion.get_or_init(|| {
+            let n = self.n;
+            let nominal = Plant::<K>::new(model, &vec![0.0; layout(model).total])
+                .expect("the nominal plant is physical");
+            let mut work = SettleWork::new(&nominal, SolveOptions::default());
+            let mut configs = Vec::with_capacity(self.len() * n);
+            let mut th = vec![0.0; n];
+            for j in 0..self.len() {
+                let row = self.row[j];
+                let seed = &self.theta_cmd[row * n..(row + 1) * n];
+                th.copy_from_slice(seed);
+                let first = self.kind[row] == RowKind::Displacement && self.span[row][0] == j;
+                if !first
+                    && !nominal.settle(
+                        &self.command[j * self.m..(j + 1) * self.m],
+                        &mut th,
+                        &mut work,
+                    )
+                {
+                    th.copy_from_slice(seed);
+                }
+                configs.extend_from_slice(&th);
+            }
+            Motion::new::<K>(model, &configs)
+        })
     }
 }
 
@@ -550,9 +622,14 @@ struct Buffers<S: Real, F: Frame<S>> {
     lengths: Vec<S>,
     tension: Vec<S>,
     bal: Balance<S>,
+    /// The frictionless tensions (friction's change).
+    tension0: Vec<S>,
     row: Vec<S>,
     /// Position and force cables of the model.
     pos: Vec<usize>,
+    /// The capstan profile (friction) and where every cable's holes sit.
+    profile: Profile<S>,
+    holes: Holes,
 }
 
 impl<S: Real, F: Frame<S>> Buffers<S, F> {
@@ -565,8 +642,11 @@ impl<S: Real, F: Frame<S>> Buffers<S, F> {
             lengths: vec![z; pos.len()],
             tension: vec![z; pos.len()],
             bal: Balance::new(model),
+            tension0: vec![z; pos.len()],
             row: vec![z; model.n()],
             pos,
+            profile: Profile::new(model),
+            holes: Holes::of(model),
         }
     }
 }
@@ -578,12 +658,18 @@ impl<S: Real, F: Frame<S>> Buffers<S, F> {
 /// rigid, `sum_i dL_i/dtheta_j (L_arm,i - L_i)` (the least-squares
 /// condition), elastic, `sum_i dL_i/dtheta_j max(0, s_i) - kappa (tau_j -
 /// sum_f dL_f/dtheta_j T_f)` with the strains `s_i = (L_arm,i + L_route) /
-/// (L_i + L_route) - 1` (m per rad).
+/// (L_i + L_route) - 1` (m per rad). With friction (`docs/model.md`,
+/// "Friction in the holes"; `mobil` the command's mobilisation of every
+/// hole, [`Holes`], missing ones at `+1`) the balance takes each cable's
+/// tension in the gap of each joint and the stretch the capstan profile's
+/// mean `ebar`: `(L_i + L_route) kappa T_i ebar_i`, `max(0, s_i) / ebar_i`.
+#[allow(clippy::too_many_arguments)]
 fn equations<S: Real, F: Frame<S>>(
     model: &Model,
     prm: &Params<S>,
     loads: &Loads,
     real: &[S],
+    mobil: &[S],
     theta: &[S],
     b: &mut Buffers<S, F>,
     out: &mut [S],
@@ -593,23 +679,51 @@ fn equations<S: Real, F: Frame<S>>(
     b.chain.at(model, arm, theta);
     let clear = prm.clear();
     let elastic = prm.elastic();
+    let friction = prm.friction();
+    let statics = elastic || friction;
     let z = S::cst(0.0);
-    if elastic {
+    if statics {
         // the statics: the moment balance (its cable lengths are the holes'
         // own, without clearance)
         let w: [S; 6] = std::array::from_fn(|i| S::cst(loads.wrench[i]));
         let couple = model.kind.task() - model.kind.dim();
-        b.bal.at_with(
-            model,
-            arm,
-            &mut b.chain,
-            loads.gravity,
-            Wrench {
-                force: [w[0], w[1], w[2]],
-                couple: &w[3..3 + couple],
-            },
-            loads.force.as_deref(),
-        );
+        let wrench = Wrench {
+            force: [w[0], w[1], w[2]],
+            couple: &w[3..3 + couple],
+        };
+        if friction {
+            b.profile.at(
+                model,
+                arm,
+                &b.chain,
+                &b.holes,
+                mobil,
+                prm.mu,
+                model.cable.routing_length,
+            );
+            b.bal.at_friction(
+                model,
+                arm,
+                &mut b.chain,
+                loads.gravity,
+                wrench,
+                loads.force.as_deref(),
+                &b.profile.gap,
+            );
+            // the frictionless tensions: the stretch friction changes
+            if m == n && !b.bal.solve_square_frictionless(&mut b.tension0) {
+                b.tension0.fill(S::cst(f64::NAN));
+            }
+        } else {
+            b.bal.at_with(
+                model,
+                arm,
+                &mut b.chain,
+                loads.gravity,
+                wrench,
+                loads.force.as_deref(),
+            );
+        }
     }
     if clear {
         for (s, f) in b.shift.iter_mut().zip(&b.chain.local) {
@@ -617,7 +731,7 @@ fn equations<S: Real, F: Frame<S>>(
         }
     }
     for (l, &c) in b.lengths.iter_mut().zip(&b.pos) {
-        *l = if elastic && !clear {
+        *l = if statics && !clear {
             b.bal.lengths[c]
         } else {
             b.chain
@@ -626,11 +740,16 @@ fn equations<S: Real, F: Frame<S>>(
     }
     let route = S::cst(model.cable.routing_length);
     if m == n {
-        if elastic && !b.bal.solve_square(&mut b.tension) {
+        if statics && !b.bal.solve_square(&mut b.tension) {
             b.tension.fill(S::cst(f64::NAN));
         }
         for i in 0..n {
-            let stretch = if elastic {
+            let stretch = if friction {
+                // kappa T ebar + kc (T ebar - T*): the frictionless stretch at
+                // kappa, friction's change of it at kappa + kc
+                let t = b.tension[i] * b.profile.mean[b.pos[i]];
+                (real[i] + route) * (prm.kappa * t + (t - b.tension0[i]) * prm.kc)
+            } else if elastic {
                 (real[i] + route) * prm.kappa * b.tension[i]
             } else {
                 z
@@ -645,7 +764,10 @@ fn equations<S: Real, F: Frame<S>>(
             *o = -(prm.kappa * *bj);
         }
         for (i, l) in b.lengths.iter().enumerate() {
-            let f = taut_strain((*l + route) / (real[i] + route) - 1.0);
+            let mut f = taut_strain((*l + route) / (real[i] + route) - 1.0);
+            if friction {
+                f = f / b.profile.mean[b.pos[i]];
+            }
             for (j, o) in out[..n].iter_mut().enumerate() {
                 *o += b.bal.a[j * m + i] * f;
             }
@@ -807,6 +929,38 @@ impl<'a, K: Kind> Plant<'a, K> {
         realised(seq, &self.prm, &self.l_ref)
     }
 
+    /// The mobilisation of every hole after every command of `seq`
+    /// (`(commands, H)`, [`Holes`]; empty without friction).
+    pub fn mobilisation(&self, seq: &Sequence) -> Vec<f64> {
+        if self.prm.friction() {
+            mobilisation(
+                seq.motion::<K>(self.model),
+                self.prm.mu,
+                self.prm.friction_compliance(),
+            )
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// The mobilisation of every hole (`(R, H)`, [`Holes`]) along the
+    /// nominal configurations `configs` (`(R, n)`, rad) in order, from the
+    /// start state at the straight pose (empty without friction): the
+    /// sliding state a motion through them leaves at each.
+    pub fn mobilisation_along(&self, configs: &[f64]) -> Vec<f64> {
+        if self.prm.friction() {
+            let motion = Motion::new::<K>(self.model, configs);
+            mobilisation(&motion, self.prm.mu, self.prm.friction_compliance())
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// The friction coefficient in the holes (1).
+    pub fn friction(&self) -> f64 {
+        self.prm.mu
+    }
+
     /// The lengths the screws deliver and the actuators realise for one
     /// command `cmd` from the backlash state `state` (updated), m.
     pub fn realise_one(&self, cmd: &[f64], state: &mut [f64], out: &mut [f64]) {
@@ -869,7 +1023,7 @@ impl<'a, K: Kind> Plant<'a, K> {
             _ => work.general.solve(self.model, &self.prm.arm, real, theta),
         };
         let clear = self.prm.clear();
-        if !self.prm.elastic() && !clear {
+        if !self.prm.elastic() && !clear && !self.prm.friction() {
             return rigid;
         }
         if !rigid.converged {
@@ -879,11 +1033,16 @@ impl<'a, K: Kind> Plant<'a, K> {
             plant: self,
             loads: &work.loads,
             real,
+            mobil: &work.mobil,
             work: &mut work.jet,
         };
         // with as many cables as joints and no stretch, cable i crosses the
         // joints of the disks up to its end: planar dE/dtheta is lower triangular
-        let step = if m == n && !self.prm.elastic() && self.model.kind == model::Kind::Planar {
+        let step = if m == n
+            && !self.prm.elastic()
+            && !self.prm.friction()
+            && self.model.kind == model::Kind::Planar
+        {
             Step::Triangular
         } else {
             Step::Normal
@@ -920,6 +1079,7 @@ impl<'a, K: Kind> Plant<'a, K> {
                     .collect()
             })
             .collect();
+        let mobil: Vec<J> = work.mobil.iter().map(|v| J::cst(*v)).collect();
         implicit_derivatives(
             self.model,
             theta,
@@ -927,6 +1087,7 @@ impl<'a, K: Kind> Plant<'a, K> {
             |c| Chunk {
                 prm: &self.cprm,
                 real: &reals[c],
+                mobil: &mobil,
             },
             &mut work.jet,
             jac,
@@ -947,6 +1108,9 @@ pub struct SettleWork<'a, K: Kind> {
     start: Vec<f64>,
     jet: JetWork<K>,
     ws: Workspace,
+    /// The mobilisation of every hole ([`Holes`]) at the command settled
+    /// (friction; missing entries count as `+1`, the start state).
+    pub mobil: Vec<f64>,
 }
 
 impl<'a, K: Kind> SettleWork<'a, K> {
@@ -965,6 +1129,7 @@ impl<'a, K: Kind> SettleWork<'a, K> {
             start: vec![0.0; model.n()],
             jet: JetWork::new(model),
             ws: Workspace::default(),
+            mobil: Vec::new(),
         }
     }
 }
@@ -975,6 +1140,7 @@ struct SettleProblem<'a, 'b, K: Kind> {
     plant: &'a Plant<'a, K>,
     loads: &'b Loads,
     real: &'a [f64],
+    mobil: &'b [f64],
     work: &'b mut JetWork<K>,
 }
 
@@ -991,6 +1157,7 @@ impl<K: Kind> Problem for SettleProblem<'_, '_, K> {
             &p.prm,
             self.loads,
             self.real,
+            self.mobil,
             x,
             &mut self.work.fbuf,
             r,
@@ -1000,13 +1167,17 @@ impl<K: Kind> Problem for SettleProblem<'_, '_, K> {
             for (d, v) in self.work.real.iter_mut().zip(self.real) {
                 *d = J::cst(*v);
             }
+            self.work.mobil.clear();
+            self.work
+                .mobil
+                .extend(self.mobil.iter().map(|v| J::cst(*v)));
             for c in 0..n.div_ceil(JET) {
                 for (l, d) in self.work.theta.iter_mut().enumerate() {
                     *d = J::seeded(x[l], l.wrapping_sub(c * JET));
                 }
                 let w = &mut *self.work;
                 equations(
-                    p.model, &p.cprm, self.loads, &w.real, &w.theta, &mut w.buf, &mut w.f,
+                    p.model, &p.cprm, self.loads, &w.real, &w.mobil, &w.theta, &mut w.buf, &mut w.f,
                 );
                 for s in 0..JET.min(n - c * JET) {
                     for i in 0..n {
@@ -1027,6 +1198,7 @@ pub struct JetWork<K: Kind> {
     buf: Buffers<J, K::Frame<J>>,
     theta: Vec<J>,
     real: Vec<J>,
+    mobil: Vec<J>,
     f: Vec<J>,
     obs: Vec<J>,
     /// `(n, dirs)` equation and `(TASK, dirs)` observation derivatives.
@@ -1049,6 +1221,7 @@ impl<K: Kind> JetWork<K> {
             buf: Buffers::new(model),
             theta: vec![J::default(); n],
             real: vec![J::default(); m],
+            mobil: Vec::new(),
             f: vec![J::default(); n],
             obs: vec![J::default(); task],
             df: Vec::new(),
@@ -1066,6 +1239,7 @@ impl<K: Kind> JetWork<K> {
 struct Chunk<'a> {
     prm: &'a Params<J>,
     real: &'a [J],
+    mobil: &'a [J],
 }
 
 /// The derivatives of one settled command's observation along `dirs` input
@@ -1092,7 +1266,7 @@ fn implicit_derivatives<'c, K: Kind>(
             *d = J::seeded(theta[l], l.wrapping_sub(c * JET));
         }
         equations(
-            model, ch.prm, &w.loads, ch.real, &w.theta, &mut w.buf, &mut w.f,
+            model, ch.prm, &w.loads, ch.real, ch.mobil, &w.theta, &mut w.buf, &mut w.f,
         );
         observe_at(model, ch.prm, &mut w.buf.chain, &mut w.obs);
         for s in 0..JET.min(total - c * JET) {
@@ -1163,6 +1337,8 @@ fn settle_all<K: Kind>(
     let m = seq.m;
     let task = <K::Frame<f64> as Frame<f64>>::TASK;
     let real = plant.realised(seq);
+    let mobil = plant.mobilisation(seq);
+    let h = mobil.len() / seq.len().max(1);
     let parts = split_rows(seq.len(), threads, |range| {
         let mut work = SettleWork::new(plant, *opts);
         let mut chain = Chain::new(plant.model);
@@ -1176,6 +1352,8 @@ fn settle_all<K: Kind>(
         for j in range {
             let row = seq.row[j];
             th.copy_from_slice(&seq.theta_cmd[row * n..(row + 1) * n]);
+            work.mobil.clear();
+            work.mobil.extend_from_slice(&mobil[j * h..(j + 1) * h]);
             let ok = plant.settle(&real[j * m..(j + 1) * m], &mut th, &mut work);
             out.theta.extend_from_slice(&th);
             if ok {
@@ -1288,7 +1466,7 @@ fn command_derivatives<K: Kind>(
     let task = <K::Frame<f64> as Frame<f64>>::TASK;
     let kf = free.len();
     // chunk c carries directions c*JET.. of theta_0..theta_{n-1}, free_0..free_{k-1}
-    let chunks: Vec<(Params<J>, Vec<J>)> = (0..(n + kf).div_ceil(JET))
+    let chunks: Vec<(Params<J>, Vec<J>, Vec<J>)> = (0..(n + kf).div_ceil(JET))
         .map(|c| {
             let prm = Params::<J>::unpack(model, &plant.lay, &plant.p, |i, v| {
                 let mut d = [0.0; JET];
@@ -1301,9 +1479,15 @@ fn command_derivatives<K: Kind>(
                 J::with(v, d)
             });
             let real = realised(seq, &prm, &plant.l_ref);
-            (prm, real)
+            let mobil = if prm.friction() {
+                mobilisation(seq.motion::<K>(model), prm.mu, prm.friction_compliance())
+            } else {
+                Vec::new()
+            };
+            (prm, real, mobil)
         })
         .collect();
+    let h = chunks[0].2.len() / seq.len().max(1);
     let parts = split_rows(seq.len(), threads, |range| {
         let mut out = vec![f64::NAN; range.len() * task * kf];
         let mut w = JetWork::<K>::new(model);
@@ -1320,6 +1504,7 @@ fn command_derivatives<K: Kind>(
                 |c| Chunk {
                     prm: &chunks[c].0,
                     real: &chunks[c].1[j * m..(j + 1) * m],
+                    mobil: chunks[c].2.get(j * h..(j + 1) * h).unwrap_or(&[]),
                 },
                 &mut w,
                 dst,
@@ -1727,6 +1912,7 @@ mod tests {
                         Effect::TipOffset => 5e-4,
                         Effect::Backlash => 3e-5,
                         Effect::JointAxis => 4e-3,
+                        Effect::CableFriction => 0.2,
                     };
             }
         }

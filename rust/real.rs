@@ -42,6 +42,7 @@ pub trait Real: Lane<Mask = bool> {
     fn val(self) -> f64;
     fn tanh(self) -> Self;
     fn atan2(self, x: Self) -> Self;
+    fn exp(self) -> Self;
     /// Whether the value carries a derivative (always false for `f64`).
     #[inline]
     fn is_variable(self) -> bool {
@@ -136,6 +137,10 @@ impl Real for f64 {
     #[inline]
     fn atan2(self, x: f64) -> f64 {
         f64::atan2(self, x)
+    }
+    #[inline]
+    fn exp(self) -> f64 {
+        f64::exp(self)
     }
 }
 
@@ -503,6 +508,11 @@ impl<const K: usize> Real for Jet<K> {
         self.chain(t, 1.0 - t * t)
     }
     #[inline]
+    fn exp(self) -> Self {
+        let e = self.v.exp();
+        self.chain(e, e)
+    }
+    #[inline]
     fn atan2(self, x: Self) -> Self {
         let r2 = self.v * self.v + x.v * x.v;
         let (a, b) = if r2 > 0.0 {
@@ -554,6 +564,11 @@ mod tests {
             check(
                 |v| Real::atan2(v * 0.5 + 0.1, Dual::cst(0.7) - v),
                 |v| (0.5 * v + 0.1).atan2(0.7 - v),
+                x,
+            );
+            check(
+                |v| Real::exp(v * 0.7 - 0.2) * v,
+                |v| (0.7 * v - 0.2).exp() * v,
                 x,
             );
             check(

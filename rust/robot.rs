@@ -25,6 +25,11 @@ pub struct CableMaterial {
 }
 
 impl CableMaterial {
+    /// The compliance of the cable, `1 / (E A)` with `A = pi d^2 / 4` (1/N).
+    pub fn compliance(&self) -> f64 {
+        1.0 / (self.youngs_modulus * std::f64::consts::PI * self.diameter * self.diameter / 4.0)
+    }
+
     /// Checks that the numbers are physical (positive modulus and diameter,
     /// a routing length `>= 0`), naming the field.
     pub fn validate(&self) -> Result<()> {

@@ -38,6 +38,11 @@ pub struct Balance<S> {
     row: Vec<S>,
     /// Scratch of the square solve.
     lu: Vec<S>,
+    /// The disk (0-based) of every joint.
+    joint_disk: Vec<usize>,
+    /// The frictionless `a`, `b` of the last [`Balance::at_friction`].
+    a0: Vec<S>,
+    b0: Vec<S>,
 }
 
 /// A tip wrench in a scalar: force (N) and couple (N m, `[Mz]` planar,
@@ -59,6 +64,14 @@ impl<S: Real> Balance<S> {
             lengths: vec![S::cst(0.0); model.cables.len()],
             row: vec![S::cst(0.0); n],
             lu: vec![S::cst(0.0); n * m],
+            a0: Vec::new(),
+            b0: Vec::new(),
+            joint_disk: model
+                .disks
+                .iter()
+                .enumerate()
+                .flat_map(|(d, disk)| disk.joints.clone().map(move |_| d))
+                .collect(),
         }
     }
 
@@ -87,7 +100,42 @@ impl<S: Real> Balance<S> {
         wrench: Wrench<S>,
         force: Option<&[f64]>,
     ) {
+        self.fill(model, nums, chain, g, wrench, force, None);
+    }
+
+    /// [`Balance::at_with`] with friction in the holes (`docs/model.md`,
+    /// "Friction in the holes"): `gap[c * K + d]` is cable `c`'s tension in
+    /// the gap before disk `d + 1` over its routing tension (`K` disks), so
+    /// the cable's entry of every joint of that disk is scaled by it; the
+    /// position tensions solved are the routing's. The frictionless balance
+    /// is kept too ([`Balance::solve_square_frictionless`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn at_friction<F: Frame<S>, N: Numbers<S>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        chain: &mut Chain<S, F>,
+        g: [f64; 3],
+        wrench: Wrench<S>,
+        force: Option<&[f64]>,
+        gap: &[S],
+    ) {
+        self.fill(model, nums, chain, g, wrench, force, Some(gap));
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fill<F: Frame<S>, N: Numbers<S>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        chain: &mut Chain<S, F>,
+        g: [f64; 3],
+        wrench: Wrench<S>,
+        force: Option<&[f64]>,
+        gap: Option<&[S]>,
+    ) {
         let n = self.n;
+        let disks = model.disks.len();
         let loaded = g.iter().any(|v| *v != 0.0)
             || wrench
                 .force
@@ -101,9 +149,31 @@ impl<S: Real> Balance<S> {
         } else {
             self.b.fill(S::cst(0.0));
         }
+        if gap.is_some() {
+            self.a0.resize(self.a.len(), S::cst(0.0));
+            self.b0.clone_from(&self.b);
+        }
         let (mut i, mut f) = (0, 0);
         for (c, cable) in model.cables.iter().enumerate() {
             self.lengths[c] = chain.cable_length_and_row(model, nums, c, &mut self.row);
+            if let Some(gap) = gap {
+                match cable.mode {
+                    Mode::Position => {
+                        for j in 0..n {
+                            self.a0[j * self.m + i] = self.row[j];
+                        }
+                    }
+                    Mode::Force => {
+                        let t = S::cst(force.map_or(cable.tension, |v| v[f]));
+                        for j in 0..n {
+                            self.b0[j] -= self.row[j] * t;
+                        }
+                    }
+                }
+                for (j, r) in self.row.iter_mut().enumerate() {
+                    *r *= gap[c * disks + self.joint_disk[j]];
+                }
+            }
             match cable.mode {
                 Mode::Position => {
                     for j in 0..n {
@@ -130,6 +200,15 @@ impl<S: Real> Balance<S> {
         self.lu.copy_from_slice(&self.a);
         out.copy_from_slice(&self.b);
         crate::lm::lu_solve(self.n, &mut self.lu, out)
+    }
+
+    /// [`Balance::solve_square`] of the frictionless balance of the last
+    /// [`Balance::at_friction`].
+    pub fn solve_square_frictionless(&mut self, out: &mut [S]) -> bool {
+        debug_assert_eq!(self.n, self.m);
+        self.lu.copy_from_slice(&self.a0);
+        out.copy_from_slice(&self.b0);
+        solve_dense(self.n, &mut self.lu, out)
     }
 }
 

@@ -78,8 +78,11 @@ def test_every_effect_is_named_first_and_explained(mods, robot, effect):
 
 
 def test_library_is_covered(mods):
-    """The parametrised list above is the whole library."""
-    assert set(mods["plant"].EFFECTS) == set(LIBRARY)
+    """The parametrised list above is the whole library but ``cable_friction``:
+    at the paper's steel cable (E A = 4.6 kN) its typical mu moves the tip by
+    micrometres, below this noise; it is named and fitted on a compliant cable
+    in ``tests/test_friction.py``."""
+    assert set(mods["plant"].EFFECTS) == set(LIBRARY) | {"cable_friction"}
 
 
 def test_no_effect_answers_no_gap(mods, robot):

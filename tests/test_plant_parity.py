@@ -12,9 +12,9 @@ import pytest
 BLOCK_SCALE = {  # a magnitude per parameter block (SI), signs drawn at random
     "actuation_scale": 0.03, "cable_offset": 3e-4, "hole_height": 3e-4, "link_length": 4e-4,
     "cable_elasticity": 0.03, "hole_clearance": 2e-4, "frame_misalignment": 5e-3, "tip_offset": 1e-3,
-    "backlash": 6e-5, "clearance_width": 0.006,
+    "backlash": 6e-5, "clearance_width": 0.006, "cable_friction": 0.3,
 }
-NON_NEGATIVE = ("cable_elasticity", "hole_clearance", "backlash")
+NON_NEGATIVE = ("cable_elasticity", "hole_clearance", "backlash", "cable_friction")
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +47,7 @@ def _rows(n, rows, seed):
 
 
 ALL = ["actuation_scale", "cable_offset", "hole_height", "link_length", "cable_elasticity", "hole_clearance",
-       "frame_misalignment", "tip_offset", "backlash", "clearance_width"]
+       "frame_misalignment", "tip_offset", "backlash", "clearance_width", "cable_friction"]
 
 
 @pytest.mark.parametrize("blocks", [[b] for b in ALL] + [ALL], ids=ALL + ["all"])

@@ -49,24 +49,24 @@ def test_layout(ref, n):
     names = [name for name, _ in ref.PLANT_EFFECTS]
     assert names == ["actuation_scale", "cable_offset", "hole_height", "link_length",
                      "cable_elasticity", "hole_clearance", "frame_misalignment",
-                     "tip_offset", "backlash", "clearance_width"]
+                     "tip_offset", "backlash", "clearance_width", "cable_friction"]
     lay = ref.plant_layout(n)
-    sizes = [1, n, n, n + 1, 1, 1, 3, 2, n, 1]
+    sizes = [1, n, n, n + 1, 1, 1, 3, 2, n, 1, 1]
     assert [lay[k].stop - lay[k].start for k in names] == sizes
     assert lay["actuation_scale"].start == 0
     for a, b in zip(names, names[1:]):
         assert lay[a].stop == lay[b].start
-    assert ref.plant_size(n) == 4 * n + 10 == lay["clearance_width"].stop
+    assert ref.plant_size(n) == 4 * n + 11 == lay["cable_friction"].stop
 
 
 def test_parameter_checks(ref):
     n = 3
     for bad in [dict(cable_elasticity=-1e-6), dict(hole_clearance=-1e-4),
-                dict(backlash=[0, -1e-5, 0]), dict(clearance_width=-0.01)]:
+                dict(backlash=[0, -1e-5, 0]), dict(clearance_width=-0.01), dict(cable_friction=-0.1)]:
         with pytest.raises(ValueError):
             ref.plant_params(_p(ref, n, **bad), n)
     with pytest.raises(ValueError):
-        ref.plant_params(np.zeros(4 * n + 9), n)
+        ref.plant_params(np.zeros(4 * n + 10), n)
 
 
 # --------------------------------------------------------------------------

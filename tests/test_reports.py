@@ -211,8 +211,8 @@ def test_cli_study_of_a_two_joint_arm(cdsm, tmp_path, capsys, report_page):
     assert "joint: worst single-error" in printed and "failed solves 0" in printed and "claims" not in printed
     md = report_page(out)
     assert "fewer than the 3 coordinates of its pose" in md and "joint-space protocol" in md
-    assert sorted(p.name for p in out.glob("*.csv")) == ["configurations.csv", "jumps.csv", "montecarlo.csv",
-                                                          "scenarios.csv"]
+    assert sorted(p.name for p in out.glob("*.csv")) == ["configurations.csv", "friction.csv", "jumps.csv",
+                                                          "montecarlo.csv", "scenarios.csv"]
 
 
 def test_the_paper_keeps_its_1000_samples_and_large_grids_get_fewer(cdsm, redundant):

@@ -29,7 +29,7 @@ from conftest import ROOT, reference
 spp = reference.spatial_plant
 sp = reference.spatial
 ROBOTS = ROOT / "python" / "cdsm" / "robots"
-NON_NEGATIVE = ("cable_elasticity", "hole_clearance", "backlash")
+NON_NEGATIVE = ("cable_elasticity", "hole_clearance", "backlash", "cable_friction")
 KINDS = ["absolute", "displacement", "unmeasured"]
 
 
@@ -112,7 +112,8 @@ def test_layout_matches_the_core(cdsm, two, eight):
     # two_universal: m = 4 position cables with 3 + 3 + 5 + 5 holes, n = 4 joints, K = 2 disks
     assert dict(spp.block_sizes(two[1])) == dict(
         actuation_scale=1, cable_offset=4, hole_position=48, link_length=18, cable_elasticity=1,
-        frame_misalignment=6, tip_offset=3, backlash=4, hole_clearance=1, clearance_width=1, joint_axis=8)
+        frame_misalignment=6, tip_offset=3, backlash=4, hole_clearance=1, clearance_width=1, joint_axis=8,
+        cable_friction=1)
 
 
 # --------------------------------------------------------------------------

@@ -644,8 +644,15 @@ class Robot:
         return Solution.from_core(res, self.n, single, self)
 
     # ---- statics ------------------------------------------------------
-    def _statics(self, theta, min_tension, tip_wrench, force, gravity, force_name="force"):
+    def _statics(self, theta, min_tension, tip_wrench, force, gravity, force_name="force", friction=None,
+                 sliding="pull"):
         t, single = as_batch("theta", theta, self.n)
+        if sliding not in ("pull", "release"):
+            raise CdsmInputError(f"`sliding`: expected 'pull' or 'release', got {sliding!r}")
+        if friction is not None:
+            friction = as_finite("friction", friction)
+            if not 0.0 <= friction <= 1.0:
+                raise CdsmInputError(f"`friction`: the coefficient must be within [0, 1], got {friction}")
         rows = t.shape[0]
 
         def rowed(name, value, width):
@@ -667,11 +674,12 @@ class Robot:
             g = [float(v) for v in as_vector("gravity", gravity, 2 if self.kind == "planar" else 3)]
             g = g + [0.0] if self.kind == "planar" else g
         res = self.core.tensions(t, None if f is None else f.reshape(-1), None if w is None else w.reshape(-1),
-                                 g, as_finite("min_tension", min_tension), self.threads)
+                                 g, as_finite("min_tension", min_tension), self.threads, friction,
+                                 sliding == "pull")
         return res, single
 
     def tensions(self, theta, tip_wrench=None, min_tension: float = 0.0, force=None, gravity=None,
-                 lower=None) -> np.ndarray:
+                 lower=None, friction: Optional[float] = None, sliding: str = "pull") -> np.ndarray:
         """Tensions of the position-controlled cables, N: (N, n) -> (N, m_pos).
 
         The moment balance about every (frictionless) joint of the part
@@ -685,9 +693,17 @@ class Robot:
         task)). As many position cables as joints (a planar arm): the
         balance's one solution, negative where a cable would have to push,
         NaN where a cable has no moment arm; more: the minimum-norm set at or
-        above ``min_tension`` (N), NaN rows where none exists."""
+        above ``min_tension`` (N), NaN rows where none exists.
+
+        ``friction``: Coulomb friction ``mu`` (1, within [0, 1]) of every cable in
+        every hole (``docs/model.md``, "Friction in the holes"), in the bounding
+        sliding state ``sliding``: ``"pull"`` (the actuators haul the arm, the
+        position cables slide toward them, the force cables away) or
+        ``"release"`` (the opposite); the tensions are then those at the
+        actuators (the routing's), each hole multiplying a cable's tension by
+        ``exp(-mu z beta)`` toward its end."""
         force, name = self._force(force, lower)
-        res, single = self._statics(theta, min_tension, tip_wrench, force, gravity, name)
+        res, single = self._statics(theta, min_tension, tip_wrench, force, gravity, name, friction, sliding)
         return self._out(res.tension, (len(self.position_cables),), single)
 
     @staticmethod
@@ -700,12 +716,14 @@ class Robot:
         return lower, "lower"
 
     def feasible(self, theta, min_tension: float = 0.0, tip_wrench=None, force=None, gravity=None,
-                 lower=None) -> np.ndarray:
+                 lower=None, friction: Optional[float] = None, sliding: str = "pull") -> np.ndarray:
         """Whether the position cables hold the arm, every tension above
         ``min_tension`` (N): (N, n) -> (N,) bool (False: a cable would have to
-        go slack). Loads as :meth:`tensions`."""
+        go slack). Loads, ``friction`` and ``sliding`` as :meth:`tensions`
+        (the slack check with friction: releasing is the state where a
+        cable goes slack first)."""
         force, name = self._force(force, lower)
-        res, single = self._statics(theta, min_tension, tip_wrench, force, gravity, name)
+        res, single = self._statics(theta, min_tension, tip_wrench, force, gravity, name, friction, sliding)
         ok = np.asarray(res.feasible, bool)
         return ok[0] if single else ok
 

@@ -12,6 +12,11 @@ report (:mod:`cdsm.report`) converts to mm and degrees.
   slack cable;
 * the singular measure, the statics (position-cable tensions, slack), the
   first-order amplification maps;
+* friction in the holes (:func:`cdsm.accuracy.statics.friction_map`,
+  ``mu`` = :data:`cdsm.accuracy.statics.FRICTION`): the tensions pulling and
+  releasing, the slack check in both states, and the hysteresis of a ±1 mm
+  cycle of every position cable through the plant with the robot file's
+  cable stiffness;
 
 and, on the main protocol, the linear error budget and tolerance guesses
 (:func:`cdsm.accuracy.sensitivity.error_budget`). Where the errors are
@@ -351,6 +356,7 @@ class Study(ShortRepr):
     amplification: {protocol: amplification maps}. budget: the linear error
     budget on the main protocol (the first). protocol_reason: why these
     protocols (words). params: samples, seed, configurations, tolerances...
+    friction: {protocol: friction in the holes at the initial configurations}.
     """
 
     robot: Robot
@@ -363,6 +369,7 @@ class Study(ShortRepr):
     amplification: Dict[str, dict] = field(default_factory=dict)
     budget: Optional[sensitivity.ErrorBudget] = None
     protocol_reason: str = ""
+    friction: Dict[str, statics.FrictionMap] = field(default_factory=dict)
 
     @property
     def kind(self) -> str:
@@ -458,6 +465,7 @@ def run(robot: Optional[Robot] = None, samples: Optional[int] = None, seed: int 
     for p, ws in spaces.items():
         study.feasibility[p] = statics.feasibility_map(robot, _initial(ws))
         study.amplification[p] = sensitivity.amplification_maps(robot, p, ws)
+        study.friction[p] = statics.friction_map(robot, np.where(ws.reachable[:, None], ws.theta0, np.nan))
     th = main.theta0[main.reachable]
     if len(th):
         study.budget = sensitivity.error_budget(robot, th, mc0.params["dl_tol_m"], mc0.params["dh_tol_m"],

@@ -15,6 +15,7 @@ use super::results::{
 use crate::accuracy::{self, HoleErrors};
 use crate::arm::{self, Loads, Task};
 use crate::error::CdsmError;
+use crate::friction::Sliding;
 use crate::ik::{SpatialMask, TaskMask};
 use crate::model::{Mode, Model};
 use crate::robot::{CableMaterial, Robot};
@@ -587,7 +588,10 @@ impl CoreRobot {
     /// balance under gravity (`gravity` (3,), default the file's), the force
     /// cables' tensions (`force`, default the file's) and the tip wrench
     /// (`[F, M]`: 4 planar `Fx, Fy, Fz, Mz`, 6 spatial), shared or per row.
-    #[pyo3(signature = (theta, force, tip_wrench, gravity, min_tension, threads))]
+    /// With `friction` (the coefficient in the holes) the balance of the
+    /// bounding sliding state, pulling (`pulling`) or releasing, and the
+    /// routing's tensions (`docs/model.md`, "Friction in the holes").
+    #[pyo3(signature = (theta, force, tip_wrench, gravity, min_tension, threads, friction=None, pulling=true))]
     #[allow(clippy::too_many_arguments)]
     fn tensions(
         &self,
@@ -598,6 +602,8 @@ impl CoreRobot {
         gravity: Option<Vec<f64>>,
         min_tension: f64,
         threads: usize,
+        friction: Option<f64>,
+        pulling: bool,
     ) -> PyResult<TensionResult> {
         let t = slice("theta", &theta)?;
         let gravity = match gravity {
@@ -615,7 +621,16 @@ impl CoreRobot {
             wrench: opt_slice("tip_wrench", &tip_wrench)?,
         };
         let (tension, feasible) = py
-            .detach(|| arm::tensions(&self.model, t, &loads, min_tension, threads))
+            .detach(|| {
+                let sliding = friction.map(|mu| {
+                    if pulling {
+                        Sliding::pulling(mu)
+                    } else {
+                        Sliding::releasing(mu)
+                    }
+                });
+                arm::tensions_sliding(&self.model, t, &loads, min_tension, sliding, threads)
+            })
             .map_err(err)?;
         Ok(TensionResult::new(py, tension, feasible))
     }

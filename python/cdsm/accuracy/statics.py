@@ -18,10 +18,16 @@ from .workspace import joint_grid
 from ..display import ShortRepr
 
 __all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation", "load_readings", "Reading",
-           "reading_maps", "STANDARD_GRAVITY"]
+           "reading_maps", "STANDARD_GRAVITY", "FrictionMap", "friction_map", "hysteresis_cycles", "FRICTION",
+           "CYCLE_AMPLITUDE"]
 
 #: Standard gravity, m/s^2.
 STANDARD_GRAVITY = 9.80665
+#: The typical friction coefficient of a cable in a hole (oiled or greased steel
+#: on metal; ``docs/model.md``, "Friction in the holes").
+FRICTION = 0.15
+#: The amplitude of the cable cycle of the hysteresis map, m.
+CYCLE_AMPLITUDE = 1e-3
 
 
 @dataclass(frozen=True, repr=False)
@@ -122,3 +128,87 @@ def reading_maps(robot: Robot, theta=None) -> Dict[str, Reading]:
         el[~fm.feasible] = np.nan
         out[name] = Reading(r, fm, el)
     return out
+
+
+@dataclass(frozen=True, repr=False)
+class FrictionMap(ShortRepr):
+    """Friction in the holes over configurations ``theta`` (N, n) rad
+    (``docs/model.md``, "Friction in the holes"), coefficient ``mu``:
+
+    * ``pull`` / ``release`` (N, m_pos): the position cables' tensions at the
+      actuators, N, in the two bounding sliding states (the actuators hauling
+      the arm against the force cables, or paying out);
+      ``feasible_pull`` / ``feasible_release`` (N,): every one above ``min_tension``;
+    * ``loop`` (N, m_pos): the hysteresis of each position cable, m — the
+      distance between the tip positions at the commanded configuration reached
+      after ``+amplitude`` and after ``-amplitude`` on that cable (a
+      ``0, +a, 0, -a, 0`` cycle), through the plant with friction ``mu`` and
+      no other effect (friction's change of the tensions stretches the cables
+      at the robot file's ``1 / (E A)``, over the routing length too); NaN
+      where a command did not settle. ``width`` (N,): the largest over the cables."""
+
+    theta: np.ndarray
+    pose: np.ndarray
+    pull: np.ndarray
+    release: np.ndarray
+    feasible_pull: np.ndarray
+    feasible_release: np.ndarray
+    loop: np.ndarray
+    mu: float
+    amplitude: float
+    min_tension: float
+
+    @property
+    def width(self) -> np.ndarray:
+        """(N,) the largest loop width over the position cables, m (NaN where any is NaN)."""
+        return self.loop.max(axis=1) if self.loop.shape[1] else np.full(len(self.loop), np.nan)
+
+
+def hysteresis_cycles(n: int, m: int, theta, amplitude: float = CYCLE_AMPLITUDE):
+    """The commands of the hysteresis map: for every configuration ``theta``
+    (N, n) rad and position cable ``c < m``, ``0, +a, 0, -a, 0`` on that cable
+    (m), absolute rows in this order. Returns ``theta_cmd (5 N m, n)``, ``dL (5
+    N m, m)``; the rows of configuration ``i`` and cable ``c`` start at ``5 (i m + c)``."""
+    th = np.atleast_2d(np.asarray(theta, dtype=float))
+    path = np.array([0.0, amplitude, 0.0, -amplitude, 0.0])
+    N = th.shape[0]
+    theta_cmd = np.repeat(th, 5 * m, axis=0)
+    dL = np.zeros((5 * N * m, m))
+    for i in range(N):
+        for c in range(m):
+            dL[5 * (i * m + c):5 * (i * m + c + 1), c] = path
+    return theta_cmd, dL
+
+
+def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = CYCLE_AMPLITUDE,
+                 min_tension: float = 0.0) -> FrictionMap:
+    """:class:`FrictionMap` of ``robot`` over ``theta`` (N, n) rad (rows with NaN
+    are left NaN): statics with friction ``mu`` (1) pulling and releasing, and
+    the hysteresis of a ``+-amplitude`` (m) cycle of every position cable
+    through the plant with friction ``mu`` (the robot file's cable stiffness)
+    (:func:`hysteresis_cycles`; :mod:`cdsm.calibration.plant`)."""
+    from ..calibration import plant
+
+    th = np.atleast_2d(np.asarray(theta, dtype=float))
+    N, m = th.shape[0], len(robot.position_cables)
+    ok = np.isfinite(th).all(axis=1)
+    nan = np.full((N, m), np.nan)
+    pull, release, loop = nan.copy(), nan.copy(), nan.copy()
+    fp, fr = np.zeros(N, bool), np.zeros(N, bool)
+    if ok.any():
+        t = th[ok]
+        pull[ok] = robot.tensions(t, friction=mu, sliding="pull", min_tension=min_tension)
+        release[ok] = robot.tensions(t, friction=mu, sliding="release", min_tension=min_tension)
+        fp[ok] = robot.feasible(t, friction=mu, sliding="pull", min_tension=min_tension)
+        fr[ok] = robot.feasible(t, friction=mu, sliding="release", min_tension=min_tension)
+        p = plant.params(robot, {"cable_friction": [mu]})
+        theta_cmd, dL = hysteresis_cycles(robot.n, m, t, amplitude)
+        obs, conv = plant.predict(robot, p, theta_cmd, dL, "absolute")
+        d = plant.dims(robot)
+        k = t.shape[0] * m
+        pos = obs[:, :d].reshape(k, 5, d)
+        good = conv.reshape(k, 5).all(axis=1)
+        w = np.linalg.norm(pos[:, 2] - pos[:, 4], axis=1)
+        loop[ok] = np.where(good, w, np.nan).reshape(t.shape[0], m)
+    return FrictionMap(th, robot.fk(np.where(ok[:, None], th, 0.0)), pull, release, fp, fr, loop, float(mu),
+                       float(amplitude), float(min_tension))

@@ -30,8 +30,9 @@ kept only when every position cable stays taut (:meth:`Robot.feasible`) at the
 commanded configuration and at the nominal one with dL, and when every
 candidate model predicts the row.
 
-Backlash. When a candidate model has backlash (memory), what a row shows
-depends on the direction each cable last moved. Each candidate then comes
+Backlash and friction. When a candidate model has backlash or
+``cable_friction`` (memory), what a row shows depends on the direction each
+cable last moved (a dead band; the holes' sliding state). Each candidate then comes
 as two *units*, one per approach side: an unmeasured approach row that
 commands every upper cable ``approach`` (m, default ``dl``) beyond the row's
 command — above (+) or below (−) — then the measured row. The approach
@@ -40,7 +41,9 @@ a unit's prediction does not depend on the order of the suggestions; moves
 in both directions (with and against the approach) are then on offer, and
 the criterion picks the ones that separate backlash from the effects it
 ties with (a dead band costs a fixed length per reversal, an actuation
-scale error a fixed fraction of every move).
+scale error a fixed fraction of every move) and friction from both (a
+loading/unloading cycle: friction's lost motion grows with the tension and
+the wrap angles of the pose, elasticity's has no direction).
 
 Suggestion CSV (:meth:`Suggestion.to_csv`): a measurement table
 (:mod:`cdsm.calibration.measurements`) without measured columns: ``point``
@@ -344,7 +347,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
         models = [(c.name, list(c.effects), np.array(c.fit.p))]
     criterion = "discrimination" if len(models) >= 2 else "d-optimal"
     app = None
-    if any("backlash" in eff for _, eff, _ in models):
+    if any(e in eff for _, eff, _ in models for e in plant.MEMORY_EFFECTS):
         # one unit per approach side: (approach row, measured row)
         a = float(dl if approach is None else approach)
         if not (np.isfinite(a) and a > 0):

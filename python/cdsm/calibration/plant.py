@@ -19,9 +19,13 @@ hole_clearance         1 + 1        c >= 0 (m): holes shift c·tanh(theta / w) t
 frame_misalignment     3            instrument frame: rotation (rad), x, y (m)
 tip_offset             2            measured point offset in the end frame, x, y (m)
 backlash               n            dead-band half-width of each upper cable, m
+cable_friction         1            Coulomb friction mu of every cable in every hole
+                                    (1; its change of the tensions stretches the
+                                    cables at the robot file's 1/(E A) plus any
+                                    cable_elasticity; memory like backlash)
 =====================  ===========  ================================================
 
-Rows run in sequence (backlash has memory): give them in execution order.
+Rows run in sequence (backlash and friction have memory): give them in execution order.
 
 Spatial arms (``robot.kind == "spatial"``, ``docs/spatial.md``) have their own
 plant in the Rust core with the effects that carry over (:data:`SPATIAL_EFFECTS`:
@@ -44,15 +48,16 @@ from ..inputs import CdsmInputError, as_array, as_batch, as_finite, as_iteration
 from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
 
-__all__ = ["EFFECTS", "BLOCKS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size", "params",
-           "effect_indices", "parameter_names", "bounds", "kind_codes", "predict", "linearise", "settle",
+__all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
+           "params", "effect_indices", "parameter_names", "bounds", "kind_codes", "predict", "linearise", "settle",
            "VirtualPrototype",
            "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
 #: Rust core's layout: :func:`layout` gives any robot's).
 BLOCKS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_height", "link_length", "cable_elasticity",
-                           "hole_clearance", "frame_misalignment", "tip_offset", "backlash", "clearance_width")
+                           "hole_clearance", "frame_misalignment", "tip_offset", "backlash", "clearance_width",
+                           "cable_friction")
 
 #: The blocks an effect of the library fits (default: the block of its name).
 EFFECT_BLOCKS: Dict[str, Tuple[str, ...]] = {"hole_clearance": ("hole_clearance", "clearance_width")}
@@ -60,22 +65,28 @@ EFFECT_BLOCKS: Dict[str, Tuple[str, ...]] = {"hole_clearance": ("hole_clearance"
 #: The effects of the diagnosis library of planar arms.
 EFFECTS: Tuple[str, ...] = tuple(b for b in BLOCKS if not any(b in v[1:] for v in EFFECT_BLOCKS.values()))
 
+#: The effects with memory: what a row shows depends on the direction the
+#: cables moved before it (backlash's dead band, friction's sliding state).
+MEMORY_EFFECTS: Tuple[str, ...] = ("backlash", "cable_friction")
+
 #: The effects of the diagnosis library of spatial arms (``hole_position``
 #: in 3-D where a planar arm has ``hole_height``; ``joint_axis``: each
 #: joint's axis tilted by two angles).
 SPATIAL_EFFECTS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_position", "link_length",
                                     "cable_elasticity", "frame_misalignment", "tip_offset", "backlash",
-                                    "hole_clearance", "joint_axis")
+                                    "hole_clearance", "joint_axis", "cable_friction")
 
 # A magnitude a real prototype could have, per block (the unit the fit works
 # in, and the size of generated test effects): 2 % actuation error, 0.2 mm
 # offsets and holes, 0.3 mm links, a polymer-like compliance (E A ~ 50 N),
 # 0.15 mm clearance and a 10 mrad transition, 5 mrad / 5 mm frame, 1 mm tip
-# offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt.
+# offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt, friction
+# 0.15 (greased steel on metal, docs/model.md "Friction in the holes").
 TYPICAL: Dict[str, float] = {
     "actuation_scale": 0.02, "cable_offset": 2e-4, "hole_height": 2e-4, "hole_position": 2e-4,
     "link_length": 3e-4, "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "clearance_width": 0.01,
     "frame_misalignment": 5e-3, "tip_offset": 1e-3, "backlash": 3e-5, "joint_axis": 1e-2,
+    "cable_friction": 0.15,
 }
 assert set(BLOCKS) | set(SPATIAL_EFFECTS) <= set(TYPICAL), "a typical size per parameter block"
 

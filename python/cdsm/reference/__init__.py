@@ -4,7 +4,10 @@ written from the document alone; the tests check the Rust core against it.
 ``kinematics``: forward kinematics, cable lengths, Jacobians, solves, error
 scenarios, statics, elasticity and sensitivities of the planar arm.
 ``plant``: the plant, nominal model plus unmodelled effects (backlash,
-actuation, hole clearance, elastic settling, observation).
+actuation, hole clearance, elastic settling, friction in the holes,
+observation).
+``friction``: Coulomb friction of the cables in the holes (capstan profile,
+wrap angles, sticking bands, the mobilisation scan), shared by both plants.
 ``spatial``: the spatial arms of ``docs/spatial.md`` (robot files, kinematics,
 cables, solves, statics); a submodule only (``reference.spatial.fk``), as its
 names would shadow the planar ones.
@@ -17,6 +20,7 @@ from .kinematics import *  # noqa: F401,F403
 from .kinematics import __all__ as _kinematics_all
 from .plant import *  # noqa: F401,F403
 from .plant import __all__ as _plant_all
+from . import friction  # noqa: F401
 from . import spatial  # noqa: F401
 from . import spatial_plant  # noqa: F401
 

@@ -53,6 +53,7 @@ __all__ = [
     "solve_cables_closed_form",
     "deviation",
     "hole_height_error",
+    "hole_points",
 ]
 
 #: Joint limit of the paper prototype, rad (35 deg).
@@ -819,13 +820,38 @@ def _external_moments(g: _Geometry, fr, mass, gravity, tip_wrench) -> np.ndarray
     return tau
 
 
-def tensions(robot, theta, lower=None, tip_wrench=None, gravity=None, mass=None) -> np.ndarray:
+def hole_points(robot, theta) -> list:
+    """Base-frame points of every cable's holes at ``theta (N, n)`` rad: a list
+    (cable ``c = 0..2n-1``) of ``(N, 2e + 1, 2)`` m arrays ``[B_0, A_1, B_1, ...,
+    A_e, B_e]`` (``e`` the cable's pair; ``B_k`` on face b of disk ``k``, ``A_k`` on
+    face a)."""
+    g = read_geometry(robot)
+    theta = batch_array(theta, g.n, "theta")
+    fr = _frames(g, theta)
+    ex = np.stack([np.cos(fr["alpha"]), np.sin(fr["alpha"])], -1)
+    face_b = fr["face_a"] + g.t[None, :, None] * ex
+    out = []
+    for c in range(2 * g.n):
+        e = c // 2 + 1
+        P = np.empty((theta.shape[0], 2 * e + 1, 2))
+        P[:, 0] = g.holes[c, 0, 1]
+        for k in range(1, e + 1):
+            P[:, 2 * k - 1] = fr["face_a"][:, k - 1] + _rot(fr["alpha"][:, k - 1], g.holes[c, k, 0])
+            P[:, 2 * k] = face_b[:, k - 1] + _rot(fr["alpha"][:, k - 1], g.holes[c, k, 1])
+        out.append(P)
+    return out
+
+
+def tensions(robot, theta, lower=None, tip_wrench=None, gravity=None, mass=None, gap=None) -> np.ndarray:
     """Upper-cable tensions (N) ``(N, n)`` from the moment balance at every joint.
 
     ``lower``: lower-cable tensions ``(n,)`` or ``(N, n)`` N (default
     ``robot.lower_tension``); ``tip_wrench``: ``[Fx N, Fy N, Mz N m]`` at the
     tip, base frame, ``(3,)`` or ``(N, 3)``; ``gravity``: ``(2,)`` m/s^2 in the
     base frame (default none); ``mass``: ``(n,)`` kg (default ``robot.mass``).
+    ``gap``: optional ``(N, 2n, n)`` factors of each cable's tension in the gap
+    of each joint over its routing tension (friction in the holes; the upper
+    tensions returned are then the routing's, the lower ones given are too).
     Positive = taut.  NaN where an upper cable has no moment about its joint.
     """
     g = read_geometry(robot)
@@ -838,6 +864,8 @@ def tensions(robot, theta, lower=None, tip_wrench=None, gravity=None, mass=None)
         mass = robot.mass
     fr = _frames(g, theta)
     M = _cable_moments(g, fr)  # (N, 2n, n)
+    if gap is not None:
+        M = M * np.asarray(gap, dtype=float)
     tau = _external_moments(g, fr, mass, gravity, tip_wrench)
     # sum_c T_c M[c, k] + tau_k = 0  ->  Mu^T T_up = -(tau + Ml^T T_low)
     Mu, Ml = M[:, 0::2, :], M[:, 1::2, :]  # (N, pair, joint)

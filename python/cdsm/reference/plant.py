@@ -31,15 +31,22 @@ effect                   size      symbols                                unit
 ``tip_offset``           2         ``tx, ty``                             m
 ``backlash``             n         ``b_1..b_n >= 0`` (half-widths)        m
 ``clearance_width``      1         ``dw`` (``w = 0.01 + dw > 0``)         rad
+``cable_friction``       1         ``mu >= 0`` (every cable, every hole)  1
 =======================  ========  =====================================  ==========
+
+Friction (``mu > 0``, :mod:`.friction`): every hole's mobilisation ``z`` runs
+over the command sequence from the straight pose (:func:`friction_motion`,
+:func:`mobilisation`) and the settled state uses the capstan tension profile.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import friction as fr
 from .kinematics import (
     SimpleRobot,
+    hole_points,
     batch_array,
     batched_solve,
     read_geometry,
@@ -69,6 +76,10 @@ __all__ = [
     "observe",
     "plant_commands",
     "plant_predict",
+    "friction_motion",
+    "mobilisation",
+    "friction_factors",
+    "cable_compliance",
 ]
 
 #: Base transition width of the hole clearance, rad (``w = 0.01 + dw``).
@@ -87,11 +98,12 @@ PLANT_EFFECTS = [
     ("tip_offset", lambda n: 2),
     ("backlash", lambda n: n),
     ("clearance_width", lambda n: 1),
+    ("cable_friction", lambda n: 1),
 ]
 
 
 def plant_size(n: int) -> int:
-    """Length of the flat parameter vector for ``n`` joints (``4 n + 10``)."""
+    """Length of the flat parameter vector for ``n`` joints (``4 n + 11``)."""
     return sum(size(n) for _, size in PLANT_EFFECTS)
 
 
@@ -106,12 +118,12 @@ def plant_layout(n: int) -> dict:
 
 
 def plant_params(p, n: int) -> dict:
-    """Split and check the flat vector ``p`` (``(4n+10,)``, SI) into named arrays.
+    """Split and check the flat vector ``p`` (``(4n+11,)``, SI) into named arrays.
 
     Keys: ``s`` (float), ``o (n,)`` m, ``dh (n,)`` m, ``dl (n+1,)`` m, ``kappa``
     1/N, ``cl`` m, ``alpha`` rad, ``f (2,)`` m, ``t (2,)`` m, ``b (n,)`` m,
-    ``w`` rad (``0.01 + dw``).  Raises ``ValueError`` on a wrong size or when
-    ``kappa < 0``, ``cl < 0``, some ``b_i < 0`` or ``w <= 0``.
+    ``w`` rad (``0.01 + dw``), ``mu`` (1).  Raises ``ValueError`` on a wrong size
+    or when ``kappa < 0``, ``cl < 0``, some ``b_i < 0``, ``w <= 0`` or ``mu < 0``.
     """
     p = np.asarray(p, dtype=float).reshape(-1)
     if p.size != plant_size(n):
@@ -130,6 +142,7 @@ def plant_params(p, n: int) -> dict:
         t=p[lay["tip_offset"]].copy(),
         b=p[lay["backlash"]].copy(),
         w=CLEARANCE_WIDTH_0 + float(p[lay["clearance_width"]][0]),
+        mu=float(p[lay["cable_friction"]][0]),
     )
     if not q["kappa"] >= 0.0:
         raise ValueError(f"cable_elasticity kappa must be >= 0, got {q['kappa']}")
@@ -139,6 +152,8 @@ def plant_params(p, n: int) -> dict:
         raise ValueError(f"backlash half-widths must be >= 0, got {q['b']}")
     if not q["w"] > 0.0:
         raise ValueError(f"clearance width w = 0.01 + dw must be > 0, got {q['w']}")
+    if not q["mu"] >= 0.0:
+        raise ValueError(f"cable_friction mu must be >= 0, got {q['mu']}")
     return q
 
 
@@ -153,6 +168,16 @@ def _robot_gravity(robot) -> np.ndarray:
 def _robot_routing(robot) -> float:
     r = getattr(robot, "routing_length", None)
     return 0.0 if r is None else float(r)
+
+
+def cable_compliance(robot) -> float:
+    """``kappa_c = 1 / (E A)``, ``A = pi d^2 / 4`` (1/N), of the robot's cable
+    (``youngs_modulus`` Pa, ``cable_diameter`` m; default the paper's steel,
+    1.8e11 Pa and 0.18 mm): friction's change of the tensions stretches the
+    cables at ``kappa + kappa_c``."""
+    E = float(getattr(robot, "youngs_modulus", 1.8e11))
+    d = float(getattr(robot, "cable_diameter", 0.18e-3))
+    return 1.0 / (E * np.pi * d * d / 4.0)
 
 
 def plant_arm(robot, p) -> SimpleRobot:
@@ -293,24 +318,59 @@ def plant_tensions(robot, p, theta) -> np.ndarray:
     return tensions(arm, theta, lower=robot.lower_tension)
 
 
-def _settling_F(robot, arm, q, L, theta, lower):
-    """``F = L_arm(theta) - (L + L_route)(1 + kappa T(theta)) + L_route`` (m)."""
+def friction_factors(arm, theta, z, mu: float):
+    """The capstan profile of every cable of ``arm`` at ``theta (N, n)`` rad with
+    the mobilisations ``z (N, H)`` (holes cable by cable, ``2 e`` each): the gap
+    factors ``(N, 2n, n)`` (tension in the gap before disk ``k`` over the
+    routing's, 0 where the cable does not cross it) and ``ebar (N, 2n)`` (the
+    length-weighted mean factor with the routing, ``docs/model.md``)."""
+    theta = batch_array(theta, int(arm.n), "theta")
+    n, N = int(arm.n), theta.shape[0]
+    pts = hole_points(arm, theta)
+    gap = np.zeros((N, 2 * n, n))
+    ebar = np.empty((N, 2 * n))
+    start = 0
+    for c, P in enumerate(pts):
+        e = c // 2 + 1
+        beta = fr.wrap_angles(P)
+        g, _ = fr.segments(P)
+        E = fr.profile(beta, z[:, start:start + 2 * e], mu)
+        start += 2 * e
+        gap[:, c, :e] = E[:, 1::2]  # segment 2k - 1: the gap before disk k
+        ebar[:, c] = fr.mean_factor(g, E, _robot_routing(arm))
+    return gap, ebar
+
+
+def _hole_count(n: int) -> int:
+    return sum(2 * (c // 2 + 1) for c in range(2 * n))
+
+
+def _settling_F(robot, arm, q, L, theta, lower, z=None):
+    """``F = L_arm(theta) - (L + L_route)(1 + kappa T(theta)) + L_route`` (m);
+    with friction ``F = L_arm - L - (L + L_route) (kappa T_0 ebar + kappa_c (T_0 ebar
+    - T*))`` (``T_0`` from the balance with the capstan gap factors of the
+    mobilisations ``z (N, H)``, ``T*`` the frictionless balance's,
+    ``kappa_c`` :func:`cable_compliance`)."""
     La = _arm_upper_lengths(arm, theta, q["cl"], q["w"])
-    if q["kappa"] == 0.0:
+    if q["kappa"] == 0.0 and q["mu"] == 0.0:
         return La - L
     Lr = arm.routing_length
     g = arm.gravity
-    if np.any(g != 0.0):
-        T = tensions(arm, theta, lower=lower, gravity=g, mass=robot.mass)
-    else:
-        T = tensions(arm, theta, lower=lower)
-    return La - (L + Lr) * (1.0 + q["kappa"] * T) + Lr
+    grav = dict(gravity=g, mass=robot.mass) if np.any(g != 0.0) else {}
+    if q["mu"] == 0.0:
+        T = tensions(arm, theta, lower=lower, **grav)
+        return La - (L + Lr) * (1.0 + q["kappa"] * T) + Lr
+    gap, ebar = friction_factors(arm, theta, z, q["mu"])
+    T = tensions(arm, theta, lower=lower, gap=gap, **grav) * ebar[:, 0::2]
+    T0 = tensions(arm, theta, lower=lower, **grav)
+    return La - L - (L + Lr) * (q["kappa"] * T + cable_compliance(robot) * (T - T0))
 
 
-def settling_residual(robot, p, realised, theta) -> np.ndarray:
+def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
     """``F(theta) = L_arm(theta) - (L + L_route)(1 + kappa T(theta)) + L_route``, m, ``(N, n)``.
 
-    ``realised``: ``L (N, n)`` m; ``theta (N, n)`` rad.  Zero at the settled
+    ``realised``: ``L (N, n)`` m; ``theta (N, n)`` rad; ``z (N, H)`` the
+    mobilisations (friction; default every hole at +1).  Zero at the settled
     configuration.  With ``kappa = 0`` it is ``L_arm(theta) - L`` (the
     tensions are not evaluated).
     """
@@ -318,12 +378,13 @@ def settling_residual(robot, p, realised, theta) -> np.ndarray:
     q = plant_params(p, arm.n)
     L = batch_array(realised, arm.n, "realised")
     theta = batch_array(theta, arm.n, "theta")
-    lower = None if q["kappa"] == 0.0 else np.broadcast_to(
+    lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
         np.asarray(robot.lower_tension, dtype=float), L.shape)
-    return _settling_F(robot, arm, q, L, theta, lower)
+    z = np.ones((L.shape[0], _hole_count(arm.n))) if z is None else np.asarray(z, float)
+    return _settling_F(robot, arm, q, L, theta, lower, z)
 
 
-def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6):
+def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6, z=None):
     """Joint angles at which the plant's arm settles, per row.
 
     Solves ``L_arm,i(theta) = (L_i + L_route)(1 + kappa T_i(theta)) - L_route``
@@ -346,15 +407,16 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6
         raise ValueError(f"theta_seed must have shape {L.shape}, got {seed.shape}")
 
     rigid = solve_cables_closed_form(arm, L, seed=seed)
-    if q["kappa"] == 0.0 and q["cl"] == 0.0:
+    if q["kappa"] == 0.0 and q["cl"] == 0.0 and q["mu"] == 0.0:
         return rigid["theta"], rigid["converged"]
 
     theta = np.where(rigid["converged"][:, None], rigid["theta"], seed)
-    lower = None if q["kappa"] == 0.0 else np.broadcast_to(
+    lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
         np.asarray(robot.lower_tension, dtype=float), L.shape)
+    z = np.ones((L.shape[0], _hole_count(n))) if z is None else np.asarray(z, float)
 
     def F(th, idx):
-        return _settling_F(robot, arm, q, L[idx], th, None if lower is None else lower[idx])
+        return _settling_F(robot, arm, q, L[idx], th, None if lower is None else lower[idx], z[idx])
 
     def residual(th, idx):
         return -F(th, idx)
@@ -434,6 +496,55 @@ def plant_commands(robot, theta_cmd, dL, kind):
     return commands, rows, theta_cmd[rows]
 
 
+def friction_motion(robot, commands, seeds, first) -> tuple:
+    """What the friction scan needs of the nominal motion (``docs/model.md``,
+    "Sliding directions and the sticking band").
+
+    ``commands (R, n)`` m, ``seeds (R, n)`` rad (each command's row
+    ``theta_cmd``), ``first (R,)`` bool (a displacement row's first command:
+    its configuration is the seed itself).  The nominal configuration of every
+    other command is the closed-form cable solve of the nominal robot from the
+    seed (the seed where it fails).  Returns ``d (R, H)`` m the distal lengths,
+    ``beta (R, H)`` rad the wrap angles, ``tension (R, H)`` N the cable's
+    frictionless tension ``T_hat`` at every hole (upper: the balance's, 0 where
+    negative or undefined; lower: its set tension) and ``d0 (H,)`` the straight
+    pose's distal lengths; holes cable by cable (``2 e`` each)."""
+    n = int(robot.n)
+    commands = batch_array(commands, n, "commands")
+    seeds = batch_array(seeds, n, "seeds")
+    sol = solve_cables_closed_form(robot, commands, seed=seeds)
+    theta = np.where(sol["converged"][:, None] & ~np.asarray(first, bool)[:, None], sol["theta"], seeds)
+    g = _robot_gravity(robot)
+    grav = dict(gravity=g, mass=robot.mass) if np.any(g != 0.0) else {}
+    T = tensions(robot, theta, lower=robot.lower_tension, **grav)
+    T = np.where(np.isfinite(T) & (T > 0.0), T, 0.0)
+    lower = np.asarray(robot.lower_tension, dtype=float)
+
+    def holes(th, Tup):
+        d, beta, ten = [], [], []
+        for c, P in enumerate(hole_points(robot, th)):
+            gseg, _ = fr.segments(P)
+            d.append(fr.distal_lengths(gseg))
+            beta.append(fr.wrap_angles(P))
+            tc = Tup[:, c // 2] if c % 2 == 0 else np.full(th.shape[0], lower[c // 2])
+            ten.append(np.repeat(tc[:, None], gseg.shape[1], axis=1))
+        return np.concatenate(d, 1), np.concatenate(beta, 1), np.concatenate(ten, 1)
+
+    d, beta, ten = holes(theta, T)
+    d0, _, _ = holes(np.zeros((1, n)), np.zeros((1, n)))
+    return d, beta, ten, d0[0]
+
+
+def mobilisation(robot, p, commands, seeds, first) -> np.ndarray:
+    """``z (R, H)``: every hole's mobilisation after each command of the sequence
+    (:func:`friction_motion`, :func:`.friction.mobilisation_scan` with the bands
+    ``(kappa + kappa_c) T_hat d sinh(mu beta)`` of the plant ``p``, :func:`cable_compliance`)."""
+    q = plant_params(p, int(robot.n))
+    d, beta, ten, d0 = friction_motion(robot, commands, seeds, first)
+    kf = q["kappa"] + cable_compliance(robot)
+    return fr.mobilisation_scan(d, fr.band(kf, q["mu"], ten, d, beta), d0)
+
+
 def plant_predict(robot, p, theta_cmd, dL, kind):
     """Observations of a data set under the plant ``p``.
 
@@ -451,7 +562,10 @@ def plant_predict(robot, p, theta_cmd, dL, kind):
     N = len(kind)
     r = backlash_scan(robot, p, commands)
     L = realised_lengths(robot, p, r)
-    theta, ok = settle(robot, p, L, seeds)
+    first = np.zeros(len(rows), bool)
+    first[:-1] = rows[1:] == rows[:-1]  # the earlier of a displacement row's two commands
+    z = mobilisation(robot, p, commands, seeds, first) if plant_params(p, int(robot.n))["mu"] > 0.0 else None
+    theta, ok = settle(robot, p, L, seeds, z=z)
     seen = observe(robot, p, theta)
 
     obs = np.full((N, 3), np.nan)

@@ -40,7 +40,14 @@ block                   size        meaning                                     
 ``hole_clearance``      1           ``cl >= 0``                                 m
 ``clearance_width``     1           ``dw`` (``w = 0.01 + dw``)                  rad
 ``joint_axis``          2n          ``(d1, d2)`` tilt of each joint's axis      rad
+``cable_friction``      1           ``mu >= 0``: friction in every hole         1
 ======================  ==========  ==========================================  =========
+
+Friction (``mu > 0``, :mod:`.friction`, ``docs/model.md`` "Friction in the
+holes"): every hole of every cable has a mobilisation ``z`` scanned over the
+command sequence on the nominal motion (:func:`friction_motion`,
+:func:`mobilisation`); the balance takes each cable's tension in the gap of
+each joint and the stretch the length-weighted profile.
 
 Readings where the docs leave a choice (each checked against the core by the
 parity tests):
@@ -65,6 +72,7 @@ import dataclasses
 
 import numpy as np
 
+from . import friction as fr
 from . import spatial as sp
 
 __all__ = [
@@ -89,11 +97,15 @@ __all__ = [
     "settle",
     "observe",
     "predict",
+    "friction_factors",
+    "friction_motion",
+    "mobilisation",
 ]
 
 #: The parameter blocks of a spatial arm's plant, in the order of the flat vector.
 BLOCKS = ("actuation_scale", "cable_offset", "hole_position", "link_length", "cable_elasticity",
-          "frame_misalignment", "tip_offset", "backlash", "hole_clearance", "clearance_width", "joint_axis")
+          "frame_misalignment", "tip_offset", "backlash", "hole_clearance", "clearance_width", "joint_axis",
+          "cable_friction")
 
 #: Base transition width of the hole clearance, rad (``w = 0.01 + dw``).
 CLEARANCE_WIDTH_0 = 0.01
@@ -122,7 +134,7 @@ def block_sizes(robot) -> list:
     n, K, m, H = robot.n, robot.disks, int(_pos(robot).size), _hole_count(robot)
     sizes = dict(actuation_scale=1, cable_offset=m, hole_position=3 * H, link_length=3 * (n + K),
                  cable_elasticity=1, frame_misalignment=6, tip_offset=3, backlash=m, hole_clearance=1,
-                 clearance_width=1, joint_axis=2 * n)
+                 clearance_width=1, joint_axis=2 * n, cable_friction=1)
     return [(b, sizes[b]) for b in BLOCKS]
 
 
@@ -136,7 +148,7 @@ def layout(robot) -> dict:
 
 
 def size(robot) -> int:
-    """Length of the flat parameter vector, ``2m + 3H + 3(n + K) + 2n + 13``."""
+    """Length of the flat parameter vector, ``2m + 3H + 3(n + K) + 2n + 14``."""
     return sum(k for _, k in block_sizes(robot))
 
 
@@ -146,8 +158,8 @@ def plant_params(robot, p) -> dict:
     Keys: ``s`` (float), ``o (m,)`` m, ``dholes`` (tuple, one ``(2 e_c + 1, 3)`` m
     array per position cable), ``doffset (n, 3)`` m, ``dlink_after (K, 3)`` m,
     ``kappa`` 1/N, ``rho (3,)`` rad, ``t (3,)`` m, ``tip (3,)`` m, ``b (m,)`` m,
-    ``cl`` m, ``w`` rad (``0.01 + dw``), ``tilt (n, 2)`` rad.  ``ValueError`` on a
-    wrong size or outside the physical domain of ``docs/model.md`` (``kappa < 0``,
+    ``cl`` m, ``w`` rad (``0.01 + dw``), ``tilt (n, 2)`` rad, ``mu`` (1).  ``ValueError`` on a
+    wrong size or outside the physical domain of ``docs/model.md`` (``kappa < 0``, ``mu < 0``,
     ``cl < 0``, some ``b < 0``, ``w`` outside ``[1e-4, 1]``, ``1 + s <= 0.1``; the
     upper bound of ``cl``, "the least hole radius", is not checked).
     """
@@ -178,6 +190,7 @@ def plant_params(robot, p) -> dict:
         cl=float(p[lay["hole_clearance"]][0]),
         w=CLEARANCE_WIDTH_0 + float(p[lay["clearance_width"]][0]),
         tilt=p[lay["joint_axis"]].reshape(n, 2).copy(),
+        mu=float(p[lay["cable_friction"]][0]),
     )
     if not q["kappa"] >= 0.0:
         raise ValueError(f"cable_elasticity kappa must be >= 0, got {q['kappa']}")
@@ -187,6 +200,8 @@ def plant_params(robot, p) -> dict:
         raise ValueError(f"backlash half-widths must be >= 0, got {q['b']}")
     if not 1e-4 <= q["w"] <= 1.0:
         raise ValueError(f"clearance width w = 0.01 + dw must be within [1e-4, 1] rad, got {q['w']}")
+    if not q["mu"] >= 0.0:
+        raise ValueError(f"cable_friction mu must be >= 0, got {q['mu']}")
     if not 1.0 + q["s"] > 0.1:
         raise ValueError(f"actuator gain 1 + s must be above 0.1, got {1.0 + q['s']}")
     return q
@@ -387,7 +402,38 @@ def plant_tensions(robot, p, theta) -> np.ndarray:
     return _square_tensions(arm, sp.as_theta(arm, theta))
 
 
-def _residual_function(robot, arm, q, L):
+def friction_factors(arm, theta, z, mu: float):
+    """The capstan profile of every cable of ``arm`` at ``theta (N, n)`` rad with the
+    mobilisations ``z (N, H)`` (every cable's holes, file order, ``2 e_c`` each): the
+    factor of each cable's tension in the gap of each joint over its routing
+    tension ``(N, n, m_all)`` (1 where the cable does not cross the joint: its
+    moment there is 0 anyway) and ``ebar (N, m_all)``, the length-weighted mean
+    factor with the routing (``docs/model.md``)."""
+    th = sp.as_theta(arm, theta)
+    N = th.shape[0]
+    gap = np.ones((N, arm.n, arm.m))
+    ebar = np.empty((N, arm.m))
+    start = 0
+    for c, P in enumerate(sp.cable_points(arm, th)):
+        e = int(arm.cable_end[c])
+        beta = fr.wrap_angles(P)
+        g, _ = fr.segments(P)
+        E = fr.profile(beta, z[:, start:start + 2 * e], mu)
+        start += 2 * e
+        for j in range(arm.n):
+            k = int(arm.joint_disk[j])
+            if k <= e:
+                gap[:, j, c] = E[:, 2 * k - 1]
+        ebar[:, c] = fr.mean_factor(g, E, float(arm.routing_length))
+    return gap, ebar
+
+
+def _friction_holes(robot) -> int:
+    """Every cable's turning holes, ``2 e_c`` each (friction's mobilisations)."""
+    return int(sum(2 * int(e) for e in robot.cable_end))
+
+
+def _residual_function(robot, arm, q, L, z=None):
     """``F(theta, idx, taut=None) -> (k, n)`` of the settled state for the rows ``idx`` of ``L (R, m)``.
 
     * ``m = n``: ``L_arm(theta) - (L + L_r)(1 + kappa T(theta)) + L_r`` (m);
@@ -411,9 +457,19 @@ def _residual_function(robot, arm, q, L):
     """
     pos, frc = _pos(arm), sp.force_cables(arm)
     Lr = float(arm.routing_length)
-    kappa, cl, w = q["kappa"], q["cl"], q["w"]
+    kappa, cl, w, mu = q["kappa"], q["cl"], q["w"], q["mu"]
     square = pos.size == arm.n
     scale = np.linalg.norm(sp.cable_jacobian(arm, np.zeros((1, arm.n)))[0, pos])
+    friction = mu > 0.0 and (square or kappa > 0.0)  # a rigid redundant arm: no stretch to change
+    kc = 1.0 / (float(arm.youngs_modulus) * np.pi * float(arm.diameter) ** 2 / 4.0)
+    if friction:
+        z = np.ones((L.shape[0], _friction_holes(arm))) if z is None else np.asarray(z, float)
+
+    def factors(th, idx):
+        """Gap factors (k, n, m_all) and ebar (k, m_all); ones without friction."""
+        if not friction:
+            return np.ones((th.shape[0], arm.n, arm.m)), np.ones((th.shape[0], arm.m))
+        return friction_factors(arm, th, z[idx], mu)
 
     def strain(th, idx):
         La = _arm_lengths(arm, sp.chain_frames(arm, th), cl, w)
@@ -424,19 +480,28 @@ def _residual_function(robot, arm, q, L):
         La = _arm_lengths(arm, ch, cl, w)
         Li = L[idx]
         if square:
-            if kappa == 0.0:
+            if kappa == 0.0 and not friction:
                 return La - Li
-            T = _square_tensions(arm, th)
-            return La - (Li + Lr) * (1.0 + kappa * T) + Lr
+            if not friction:
+                T = _square_tensions(arm, th)
+                return La - (Li + Lr) * (1.0 + kappa * T) + Lr
+            gap, ebar = factors(th, idx)
+            M = sp.moment_matrices(arm, th) * gap
+            rhs = -(sp.external_moments(arm, th) + M[:, :, frc] @ arm.cable_tension[frc])
+            T = np.linalg.solve(M[:, :, pos], rhs[..., None])[..., 0] * ebar[:, pos]
+            T0 = _square_tensions(arm, th)
+            return La - Li - (Li + Lr) * (kappa * T + kc * (T - T0))
         J = sp.cable_jacobian(arm, th)  # (k, m_all, n), unshifted holes
-        Jp = J[:, pos, :]
         if kappa == 0.0:
-            return np.einsum("kij,ki->kj", Jp, La - Li) / scale
+            return np.einsum("kij,ki->kj", J[:, pos, :], La - Li) / scale
+        gap, ebar = factors(th, idx)
+        J = J * np.swapaxes(gap, 1, 2)  # each cable's entry of joint j scaled by its gap's factor
+        Jp = J[:, pos, :]
         s = (La + Lr) / (Li + Lr) - 1.0
         pull = np.maximum(0.0, s) if taut is None else np.where(taut, s, 0.0)
         tau = sp.external_moments(arm, th)
         force = np.einsum("kij,i->kj", J[:, frc, :], arm.cable_tension[frc])
-        return np.einsum("kij,ki->kj", Jp, pull) - kappa * (tau - force)
+        return np.einsum("kij,ki->kj", Jp, pull / ebar[:, pos]) - kappa * (tau - force)
 
     def taut(th, idx):
         if square or kappa == 0.0:
@@ -456,18 +521,19 @@ def _residual_function(robot, arm, q, L):
         return 0.5 * ((Li + Lr) * np.maximum(0.0, s) ** 2).sum(1) + kappa * (V + work)
 
     F.taut = taut
-    F.energy = energy if (not square and kappa > 0.0 and cl == 0.0) else None
+    F.energy = energy if (not square and kappa > 0.0 and cl == 0.0 and not friction) else None
     return F
 
 
-def settling_residual(robot, p, realised, theta) -> np.ndarray:
+def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
     """The equations ``F (R, n)`` (m) of the settled state at ``theta (R, n)`` rad for the
-    realised lengths ``realised (R, m)`` m (:func:`_residual_function`); zero when settled."""
+    realised lengths ``realised (R, m)`` m (:func:`_residual_function`; ``z (R, H)`` the
+    mobilisations with friction, default +1); zero when settled."""
     arm = plant_arm(robot, p)
     q = plant_params(robot, p)
     L = np.asarray(realised, dtype=float)
     th = sp.as_theta(arm, theta)
-    return _residual_function(robot, arm, q, L)(th, np.arange(th.shape[0]))
+    return _residual_function(robot, arm, q, L, z)(th, np.arange(th.shape[0]))
 
 
 def _damped_newton(F, theta, target, max_iter, h):
@@ -586,7 +652,7 @@ def _energy_descent(F, theta, switch, max_iter, h):
     return theta
 
 
-def settle(robot, p, realised, theta_seed, tol=1e-12, target=1e-15, max_iter=200, fd_step=1e-6):
+def settle(robot, p, realised, theta_seed, tol=1e-12, target=1e-15, max_iter=200, fd_step=1e-6, z=None):
     """Joint angles at which the plant's arm settles, per command.
 
     ``realised``: ``L (R, m)`` m; ``theta_seed (R, n)`` rad (the row's ``theta_cmd``).
@@ -598,7 +664,8 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, target=1e-15, max_iter=200
     (:func:`settling_residual`: elasticity, clearance, the redundant arm's least
     squares or elastic equilibrium) from the rigid answer (from the seed where the
     rigid solve failed), iterated down to ``max|F| <= target`` m where round-off
-    allows.  A command has settled when ``max|F| <= tol`` m.
+    allows.  A command has settled when ``max|F| <= tol`` m.  ``z (R, H)``: every
+    hole's mobilisation (friction).
 
     Returns ``theta (R, n)`` rad and ``converged (R,)`` bool.
     """
@@ -608,10 +675,11 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, target=1e-15, max_iter=200
     seed = np.array(theta_seed, dtype=float).reshape(L.shape[0], arm.n)
     rigid = sp.solve_cables(arm, L, seed=seed)
     theta = np.where(np.isfinite(rigid["theta"]).all(1, keepdims=True), rigid["theta"], seed)
-    F = _residual_function(robot, arm, q, L)
+    F = _residual_function(robot, arm, q, L, z)
     if arm.n < _pos(arm).size and q["kappa"] > 0.0:
-        # the redundant elastic arm: minimise its energy (without clearance) first
-        F0 = _residual_function(robot, arm, dict(q, cl=0.0), L)
+        # the redundant elastic arm: minimise its energy (without clearance and
+        # friction, which has none) first
+        F0 = _residual_function(robot, arm, dict(q, cl=0.0, mu=0.0), L)
         theta = _energy_descent(F0, theta, 1e-13, max_iter, fd_step)
     theta, res = _damped_newton(F, theta, target, max_iter, fd_step)
     return theta, res <= tol
@@ -637,6 +705,55 @@ def observe(robot, p, theta) -> np.ndarray:
     return np.concatenate([seen, sp.log_so3(E @ R_end)], axis=1)
 
 
+def friction_motion(robot, commands, seeds, first) -> tuple:
+    """What the friction scan needs of the nominal motion (``docs/model.md``, "Sliding
+    directions and the sticking band"): the nominal configuration of each command
+    ``commands (R, m)`` m -- ``seeds (R, n)`` rad itself for a displacement row's first
+    command (``first (R,)``), else the rigid cable solve of the nominal robot from the
+    seed (the seed where it fails) -- and there, per hole of every cable (file order,
+    ``2 e_c`` each): ``d (R, H)`` m the distal lengths, ``beta (R, H)`` rad the wrap
+    angles, ``tension (R, H)`` N the cable's frictionless tension ``T_hat`` (force
+    cables their set tension; position cables the square balance's, or with more
+    position cables than joints the minimum-norm set at or above 0; 0 where negative
+    or undefined); and ``d0 (H,)`` the straight pose's distal lengths."""
+    seeds = np.asarray(seeds, dtype=float).reshape(-1, robot.n)
+    sol = sp.solve_cables(robot, np.asarray(commands, dtype=float), seed=seeds)
+    good = np.isfinite(sol["theta"]).all(1) & np.asarray(sol["converged"], bool) & ~np.asarray(first, bool)
+    theta = np.where(good[:, None], sol["theta"], seeds)
+    pos, frc = _pos(robot), sp.force_cables(robot)
+
+    def holes(th):
+        if pos.size == robot.n:
+            Tp = _square_tensions(robot, th)
+        else:
+            M = sp.moment_matrices(robot, th)
+            b = -(sp.external_moments(robot, th) + M[:, :, frc] @ robot.cable_tension[frc])
+            Tp, _ = sp.min_norm_tensions(M[:, :, pos], b, 0.0)
+        T = np.tile(np.asarray(robot.cable_tension, float), (th.shape[0], 1))
+        T[:, pos] = np.where(np.isfinite(Tp) & (Tp > 0.0), Tp, 0.0)
+        d, beta, ten = [], [], []
+        for c, P in enumerate(sp.cable_points(robot, th)):
+            g, _ = fr.segments(P)
+            d.append(fr.distal_lengths(g))
+            beta.append(fr.wrap_angles(P))
+            ten.append(np.repeat(T[:, c:c + 1], g.shape[1], axis=1))
+        return np.concatenate(d, 1), np.concatenate(beta, 1), np.concatenate(ten, 1)
+
+    d, beta, ten = holes(theta)
+    d0, _, _ = holes(np.zeros((1, robot.n)))
+    return d, beta, ten, d0[0]
+
+
+def mobilisation(robot, p, commands, seeds, first) -> np.ndarray:
+    """``z (R, H)``: every hole's mobilisation after each command (:func:`friction_motion`,
+    :func:`.friction.mobilisation_scan`, bands ``(kappa + kappa_c) T_hat d sinh(mu beta)`` of
+    ``p``, ``kappa_c = 1 / (E A)`` of the robot file's cable)."""
+    q = plant_params(robot, p)
+    d, beta, ten, d0 = friction_motion(robot, commands, seeds, first)
+    kf = q["kappa"] + 1.0 / (float(robot.youngs_modulus) * np.pi * float(robot.diameter) ** 2 / 4.0)
+    return fr.mobilisation_scan(d, fr.band(kf, q["mu"], ten, d, beta), d0)
+
+
 def predict(robot, p, theta_cmd, dL, kind, tol=1e-12):
     """Observations of a data set under the plant ``p`` (``(size(robot),)``, SI).
 
@@ -654,7 +771,10 @@ def predict(robot, p, theta_cmd, dL, kind, tol=1e-12):
     N = len(kind)
     r = backlash_scan(robot, p, commands)
     L = realised_lengths(robot, p, r)
-    theta, ok = settle(robot, p, L, seeds, tol=tol)
+    first = np.zeros(len(rows), bool)
+    first[:-1] = rows[1:] == rows[:-1]  # the earlier of a displacement row's two commands
+    z = mobilisation(robot, p, commands, seeds, first) if plant_params(robot, p)["mu"] > 0.0 else None
+    theta, ok = settle(robot, p, L, seeds, tol=tol, z=z)
     seen = observe(robot, p, theta)
     obs = np.full((N, 6), np.nan)
     converged = np.ones(N, dtype=bool)

@@ -260,6 +260,32 @@ def configuration_rows(study) -> List[dict]:
     return rows
 
 
+def friction_rows(study) -> List[dict]:
+    """``friction.csv``: one row per protocol and reachable configuration:
+    angles (rad), the position cables' tensions at the actuators with friction
+    pulling and releasing (N), whether each state holds every cable taut, the
+    hysteresis loop width of each position cable's ±1 mm cycle and the
+    largest (m); ``mu`` the coefficient."""
+    rows = []
+    cables = study.robot.position_cables
+    for p, ws in study.workspaces.items():
+        fm = study.friction.get(p)
+        if fm is None:
+            continue
+        for i in np.flatnonzero(ws.reachable):
+            r = dict(protocol=p, mu=fm.mu)
+            r.update({f"theta{k + 1}_rad": float(v) for k, v in enumerate(ws.theta0[i])})
+            for c, tp, tr in zip(cables, fm.pull[i], fm.release[i]):
+                r[f"pull_cable{c + 1}_n"] = float(tp)
+                r[f"release_cable{c + 1}_n"] = float(tr)
+            r.update(feasible_pull=bool(fm.feasible_pull[i]), feasible_release=bool(fm.feasible_release[i]))
+            for c, w in zip(cables, fm.loop[i]):
+                r[f"loop_cable{c + 1}_m"] = float(w)
+            r["loop_width_m"] = float(fm.width[i])
+            rows.append(r)
+    return rows
+
+
 def headline(study) -> Dict[str, object]:
     """The headline numbers (SI) of the study, for the report's first
     section and the command line: per protocol ``p`` the unreachable count,
@@ -358,7 +384,8 @@ class StudyReport:
                                   for r in srows],
                 "jumps.csv": jump_rows(self.study),
                 "montecarlo.csv": montecarlo_rows(self.study),
-                "configurations.csv": configuration_rows(self.study)}
+                "configurations.csv": configuration_rows(self.study),
+                "friction.csv": friction_rows(self.study)}
 
     def file_notes(self) -> List[str]:
         q = "|d(X, Y, Z)|" if self.study.kind == "spatial" else "|d(X, Y)|"
@@ -367,6 +394,9 @@ class StudyReport:
                 "`jumps.csv` — jump points per scenario and protocol (grid protocols by reason)",
                 f"`montecarlo.csv` — per protocol and configuration: joint angles (rad), tip (m), Monte-Carlo mean, "
                 f"95th percentile and max of {q} (m), failed solves",
+                "`friction.csv` — per protocol and reachable configuration: the position tensions with friction "
+                "pulling and releasing (N), taut in each state, the hysteresis loop width of every position cable's "
+                "±1 mm cycle (m)",
                 "`configurations.csv` — per protocol and configuration: joint angles, pose, singular measure, "
                 "position-cable tensions (N), the worst single error and the Monte Carlo's 95th percentile (m), "
                 "failed and slack samples",
@@ -445,6 +475,7 @@ class StudyReport:
                 ("jumps", "Jump points and singular states", self.jumps_section),
                 ("montecarlo", "Monte Carlo", self.montecarlo_section),
                 ("statics", "Statics: slack cables", self.statics_section),
+                ("friction", "Friction in the holes", self.friction_section),
                 ("sensitivity", "Sensitivities and tolerances", self.sensitivity_section),
                 ("limits", "What this study does not cover", self.limits_section),
                 ("files", "Files", self.files_section)]
@@ -803,6 +834,50 @@ class StudyReport:
                      f"{np.median(least):.3g} N)." if least.size else "."))
         self.fig(doc, "feasibility", "Statics: the smallest position-cable tension at each configuration (negative "
                  "red: a cable would have to push; zero grey); rings: a slack cable is needed.")
+
+    def friction_section(self, doc: Document) -> None:
+        st, r = self.study, self.robot
+        if not st.friction:
+            doc.p("Not computed.")
+            return
+        fm0 = next(iter(st.friction.values()))
+        ea = r.axial_stiffness
+        doc.p(f"Coulomb friction of every cable in every hole, mu = {fm0.mu:g} (oiled or greased steel on metal; "
+              "published coefficients in `docs/model.md`, \"Friction in the holes\"): across a turn of angle beta "
+              "a cable's tension changes by exp(±mu beta), the sign set by the direction it slides. Two bounding "
+              "states of the statics: *pulling* (the actuators haul the arm, the position cables slide toward "
+              "them, the force cables away) and *releasing* (the opposite); the tensions are those at the "
+              "actuators. The hysteresis: each position cable in turn runs 0, +1, 0, −1, 0 mm at the commanded "
+              f"configuration, through the plant with the robot file's cable (E·A = {ea:.4g} N, routing length "
+              f"{r.routing_length:g} m) and this mu; the loop width is the distance between the tip positions "
+              "at 0 reached from +1 mm and from −1 mm (the largest over the cables).")
+        for p, ws in st.workspaces.items():
+            fm = st.friction.get(p)
+            if fm is None:
+                continue
+            ok = ws.reachable
+            free = st.feasibility[p].feasible & ok
+            w = fm.width[ok]
+            fin = w[np.isfinite(w)]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                ratio = (fm.pull / fm.release)[ok & fm.feasible_release & fm.feasible_pull]
+            ratio = ratio[np.isfinite(ratio)]
+            words = (f"{_pname(p)}: held taut at {int(free.sum())} of {int(ok.sum())} configurations without "
+                     f"friction, {int((fm.feasible_pull & ok).sum())} pulling, "
+                     f"{int((fm.feasible_release & ok).sum())} releasing")
+            if ratio.size:
+                words += (f"; pulling over releasing tension, median {np.median(ratio):.3g}, "
+                          f"range {ratio.min():.3g}–{ratio.max():.3g}")
+            if fin.size:
+                words += (f"; hysteresis loop width median {np.median(fin) * 1e6:.3g} µm, max "
+                          f"{fin.max() * 1e6:.3g} µm ({int(w.size - fin.size)} configurations where a command did "
+                          "not settle)")
+            doc.p(words + ".")
+        doc.p("With a steel cable the stretch under the loads is micrometres, so is the loop: friction in the holes "
+              "alone cannot make a lost motion of tens of micrometres per millimetre unless the cable is far more "
+              "compliant than the robot file's (every number per configuration is in `friction.csv`).")
+        self.fig(doc, "hysteresis", "Friction in the holes: the tip's hysteresis loop width (µm) over a ±1 mm "
+                 "cycle of each position cable (the largest), robot file's cable stiffness.")
 
     def sensitivity_section(self, doc: Document) -> None:
         st = self.study

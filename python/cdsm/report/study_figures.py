@@ -34,7 +34,7 @@ from .figures import (BLUE, GREEN, HUES, MAX_WIDTH_IN, RED, FigureJob, colour_ba
 
 __all__ = ["AXES", "PLANES", "SCENARIO_COLUMNS", "main_plane", "phi0_tips", "workspace_figure", "overview_figure",
            "scenario_figure", "detailed_scenarios", "MAX_SCENARIO_FIGURES", "DETAILED_SCENARIOS",
-           "monte_carlo_figure", "singular_figure", "feasibility_figure", "amplification_figure",
+           "monte_carlo_figure", "singular_figure", "feasibility_figure", "hysteresis_figure", "amplification_figure",
            "amplification_titles", "figure_jobs", "all_figures", "PROTOCOL_SHORT"]
 
 AXES = ("x", "y", "z")
@@ -592,6 +592,34 @@ def feasibility_figure(study) -> Figure:
     return fig
 
 
+def hysteresis_figure(study) -> Figure:
+    """Friction in the holes: the tip's hysteresis loop width (µm, the
+    largest over the position cables' ±1 mm cycles) at each configuration
+    (:func:`cdsm.accuracy.statics.friction_map`); grey: not reachable or a
+    command did not settle."""
+    spatial = _spatial(study)
+    with report_style():
+        fig, axs, panels = _row_figure(study)
+        for ax, (p, plane) in zip(axs, panels):
+            ws, fm = study.workspaces[p], study.friction[p]
+            pts = _tips(study, p)
+            w = np.where(ws.reachable, fm.width, np.nan) * 1e6
+            lim = _nanmax(w)
+            lim = lim if np.isfinite(lim) and lim > 0 else 1.0
+            _missing(ax, pts, ~np.isfinite(w), plane, size=5)
+            last = (not spatial) or plane == PLANES[-1]
+            _map(fig, ax, pts, w, "viridis", Normalize(0.0, lim), "loop width (µm)", plane=plane, size=5,
+                 order=True, bar=last, bar_ticks=5)
+            ax.set_title((f"{AXES[plane[0]]}–{AXES[plane[1]]} projection" if spatial else PROTOCOL_SHORT.get(p, p))
+                         + f": max {lim:.3g} µm", fontsize=9.5)
+            _axes(ax, plane, equal=spatial, ticks=3 if spatial else 4)
+        fm0 = next(iter(study.friction.values()))
+        fig.suptitle(f"Friction in the holes (mu = {fm0.mu:g}): tip hysteresis over a ±1 mm cycle of each position "
+                     f"cable, E·A = {study.robot.axial_stiffness:.3g} N", fontsize=10)
+        place(fig, 1, len(panels), left=0.7, right=0.85, bottom=0.5, top=0.45, wgap=1.05 if spatial else 1.3)
+    return fig
+
+
 def amplification_titles(study) -> dict:
     """Panel titles of :func:`amplification_figure` by map key."""
     holes = "every coordinate of every hole" if _spatial(study) else "every disk's hole height"
@@ -659,7 +687,7 @@ def figure_jobs(study, detail: bool = True, overlay: Optional[Callable] = None) 
     """The study's figures as jobs ``(name, make)``, costliest first:
     ``overview_<protocol>`` (and ``rotation_<protocol>`` for spatial arms),
     ``montecarlo_<protocol>``, ``amplification_<protocol>``, ``singular``,
-    ``feasibility``, ``workspace`` (with ``overlay``) and, with ``detail``,
+    ``feasibility``, ``hysteresis``, ``workspace`` (with ``overlay``) and, with ``detail``,
     ``scenario_<key>`` for the single errors of :func:`detailed_scenarios`."""
     jobs: List[FigureJob] = []
 
@@ -676,6 +704,8 @@ def figure_jobs(study, detail: bool = True, overlay: Optional[Callable] = None) 
         one(f"amplification_{p}", lambda p=p: amplification_figure(study, p))
     one("singular", lambda: singular_figure(study))
     one("feasibility", lambda: feasibility_figure(study))
+    if study.friction:
+        one("hysteresis", lambda: hysteresis_figure(study))
     one("workspace", lambda: workspace_figure(study, overlay))
     if detail:
         for k in detailed_scenarios(study):
