@@ -208,7 +208,7 @@ impl<S: Real> Balance<S> {
         debug_assert_eq!(self.n, self.m);
         self.lu.copy_from_slice(&self.a0);
         out.copy_from_slice(&self.b0);
-        solve_dense(self.n, &mut self.lu, out)
+        crate::lm::lu_solve(self.n, &mut self.lu, out)
     }
 }
 
