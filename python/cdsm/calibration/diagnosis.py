@@ -91,7 +91,8 @@ from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "Search", "features",
            "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES", "NEAR_FRACTION",
-           "SEARCH_TOP", "SEARCH_FULL"]
+           "SEARCH_TOP", "SEARCH_FULL",
+           "MAX_PARAMETER_SHARE"]
 
 #: Measurement noise assumed when none is given: 10 µm per axis and reading.
 DEFAULT_NOISE = 10e-6
@@ -112,6 +113,10 @@ SEARCH_FULL = 8
 #: held-out RMS is within this factor of the adequacy bound (1.5x the noise
 #: floor) are fitted in full: no other could replace it.
 SCREEN_MARGIN = 1.25
+#: The search fits in full only combinations with at most this many free
+#: parameters per position component of the rows (more would interpolate
+#: the data: the held-out test cannot support them).
+MAX_PARAMETER_SHARE = 0.5
 #: Outlier threshold, in noise standard deviations.
 OUTLIER_SIGMA = 5.0
 #: Family-wise level of the one-sided selection test at each step.
@@ -784,8 +789,14 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
         combos += list(itertools.combinations(order[:SEARCH_TOP], 3))
     a = ALPHA / len(combos)
     screen = _screen(prep, scorer, combos)
+    # a combination with more free parameters than half the position
+    # components of the rows is not fitted in full: it would interpolate them
+    observed = len(rows) * plant.dims(prep.robot)
+    size = {c: len(free_parameters(prep.robot, list(c) + (["frame_misalignment"] if prep.registered else []))[0])
+            for c in combos}
     ranked = [combos[i] for i in np.argsort(screen, kind="stable")
-              if not chosen_ok or screen[i] <= SCREEN_MARGIN * 1.5 * floor]
+              if (not chosen_ok or screen[i] <= SCREEN_MARGIN * 1.5 * floor)
+              and size[combos[i]] <= MAX_PARAMETER_SHARE * observed]
     fresh = [c for c in ranked if frozenset(c) not in known][:SEARCH_FULL]
     tried = [_evaluated(scorer, known, c) for c in ranked if frozenset(c) in known or c in fresh]
 
