@@ -75,6 +75,7 @@ def main() -> None:
     robot = Robot.paper()
     robot.threads = args.threads
     print(f"cores visible: {os.cpu_count()}, robot.threads = {robot.threads}")
+    timed(robot, dataset(robot, 12, seed=1))  # warm-up, untimed: imports (SciPy's statistics load on first use)
     print("1. hole_height + actuation_scale hidden, whole library, 10-fold")
     for rows in [int(r) for r in args.rows.split(",") if r]:
         for tracker in (False, True):
