@@ -330,6 +330,24 @@ def test_friction_map_loops_match_the_reference(cdsm, ref):
     assert np.array_equal(fm.pull, r.tensions(th, friction=0.15, sliding="pull"))
 
 
+def test_a_friction_map_over_a_cycle_budget_cycles_evenly_spread_configurations(cdsm):
+    """With fewer cycles allowed than configurations, the cycled ones are
+    evenly spread, their loops are those of the full map (each cycle is
+    independent of the others), the rest NaN and flagged; the statics still
+    cover every configuration."""
+    from cdsm.accuracy import statics
+
+    r = cdsm.Robot.packaged("paper_vertical")
+    th = np.random.default_rng(4).uniform(-0.4, 0.4, (10, 3))
+    full = statics.friction_map(r, th)
+    part = statics.friction_map(r, th, cycle_work=4 * 3 * 3)  # four configurations' worth
+    assert full.cycled.all() and part.cycled.sum() == 4
+    assert np.flatnonzero(part.cycled).tolist() == [0, 3, 6, 9]
+    np.testing.assert_array_equal(part.loop[part.cycled], full.loop[part.cycled])
+    assert np.isnan(part.loop[~part.cycled]).all()
+    np.testing.assert_array_equal(part.pull, full.pull)
+
+
 # --------------------------------------------------------------------------
 # The library effect cable_friction: the fit, compensation, --suggest
 # --------------------------------------------------------------------------

@@ -215,14 +215,22 @@ def test_cli_study_of_a_two_joint_arm(cdsm, tmp_path, capsys, report_page):
                                                           "montecarlo.csv", "scenarios.csv"]
 
 
-def test_the_paper_keeps_its_1000_samples_and_large_grids_get_fewer(cdsm, redundant):
+def test_the_paper_keeps_its_1000_samples_and_large_grids_and_arms_get_fewer(cdsm, redundant):
     from cdsm import study
 
     paper = cdsm.Robot.paper()
     assert study.default_samples(paper, study.configuration_count(paper, study.choose_protocols(paper)[0])) == 1000
     n = study.configuration_count(redundant, study.choose_protocols(redundant)[0])
-    assert n == 11 ** 4 and study.default_samples(redundant, n) == study.DEFAULT_SOLVES // n
+    assert n == 11 ** 4
+    # the budget counts a solve by its size against the paper's 3 joints x 3 position cables:
+    # the most samples that fit it
+    size = redundant.n * len(redundant.position_cables) / 9.0
+    s = study.default_samples(redundant, n)
+    assert study.MIN_SAMPLES <= s < 1000
+    assert s * n * size <= study.DEFAULT_SOLVES < (s + 1) * n * size
     assert study.default_samples(cdsm.Robot.packaged("two_universal"), 1000) == 200
+    # the SJTU snake (24 joints, 36 position cables) takes the floor
+    assert study.default_samples(cdsm.Robot.packaged("sjtu_snake"), 1000) == study.MIN_SAMPLES
 
 
 def test_a_long_arm_draws_maps_for_its_worst_single_errors_only(cdsm):

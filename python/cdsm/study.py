@@ -78,8 +78,9 @@ KINDS = ("cable", "radial", "normal")
 DEFAULT_CONFIGURATIONS = 1000
 #: Monte-Carlo samples per configuration (default, at most), by kind: the paper's 1000; 200 over sampled 3-D arms.
 DEFAULT_SAMPLES = {"planar": 1000, "spatial": 200}
-#: Monte-Carlo solves of a study by default, at most (fewer samples per configuration over large grids, not fewer
-#: than :data:`MIN_SAMPLES`): the paper's 1000 samples over its two grids stay.
+#: Monte-Carlo solves of a study by default, at most, counted as solves of the paper's arm (fewer samples per
+#: configuration over large grids or large arms, not fewer than :data:`MIN_SAMPLES`): the paper's 1000 samples over
+#: its two grids stay.
 DEFAULT_SOLVES = 5_000_000
 MIN_SAMPLES = 100
 #: Error bounds: per position cable's length and per hole error (m).
@@ -94,9 +95,12 @@ NEAR_SINGULAR = 0.02
 def default_samples(robot: Robot, configurations: int = 0) -> int:
     """Monte-Carlo samples per configuration by default: the kind's
     :data:`DEFAULT_SAMPLES`, fewer where ``configurations`` (over every
-    protocol) would need more than :data:`DEFAULT_SOLVES` solves, but not
-    fewer than :data:`MIN_SAMPLES`."""
-    cap = DEFAULT_SOLVES // max(int(configurations), 1)
+    protocol) would need more than :data:`DEFAULT_SOLVES` solves of the
+    paper's arm — a solve counted by its size, joints x position cables,
+    against the paper's 3 x 3 (the SJTU snake's 24 x 36 costs 96 of them) —
+    but not fewer than :data:`MIN_SAMPLES`."""
+    size = robot.n * len(robot.position_cables) / 9.0
+    cap = int(DEFAULT_SOLVES / max(size, 1.0)) // max(int(configurations), 1)
     return int(min(DEFAULT_SAMPLES[robot.kind], max(MIN_SAMPLES, cap)))
 
 

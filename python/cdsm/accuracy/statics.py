@@ -28,6 +28,12 @@ STANDARD_GRAVITY = 9.80665
 FRICTION = 0.15
 #: The amplitude of the cable cycle of the hysteresis map, m.
 CYCLE_AMPLITUDE = 1e-3
+#: The hysteresis cycles of a friction map run at evenly spread
+#: configurations, at most this many (configurations x position cables x
+#: joints) in all: every configuration of the paper's arm and of
+#: ``two_universal``, 57 of the SJTU snake's 1000 (each cycle settles a
+#: 24-joint arm five times per cable).
+CYCLE_WORK = 50_000
 
 
 @dataclass(frozen=True, repr=False)
@@ -145,7 +151,9 @@ class FrictionMap(ShortRepr):
       ``0, +a, 0, -a, 0`` cycle), through the plant with friction ``mu`` and
       no other effect (friction's change of the tensions stretches the cables
       at the robot file's ``1 / (E A)``, over the routing length too); NaN
-      where a command did not settle. ``width`` (N,): the largest over the cables."""
+      where a command did not settle or the configuration was not cycled.
+      ``width`` (N,): the largest over the cables; ``cycled`` (N,): the
+      configurations whose cycles were run (:data:`CYCLE_WORK`)."""
 
     theta: np.ndarray
     pose: np.ndarray
@@ -157,6 +165,7 @@ class FrictionMap(ShortRepr):
     mu: float
     amplitude: float
     min_tension: float
+    cycled: np.ndarray = None
 
     @property
     def width(self) -> np.ndarray:
@@ -181,12 +190,14 @@ def hysteresis_cycles(n: int, m: int, theta, amplitude: float = CYCLE_AMPLITUDE)
 
 
 def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = CYCLE_AMPLITUDE,
-                 min_tension: float = 0.0) -> FrictionMap:
+                 min_tension: float = 0.0, cycle_work: int = CYCLE_WORK) -> FrictionMap:
     """:class:`FrictionMap` of ``robot`` over ``theta`` (N, n) rad (rows with NaN
     are left NaN): statics with friction ``mu`` (1) pulling and releasing, and
     the hysteresis of a ``+-amplitude`` (m) cycle of every position cable
     through the plant with friction ``mu`` (the robot file's cable stiffness)
-    (:func:`hysteresis_cycles`; :mod:`cdsm.calibration.plant`)."""
+    (:func:`hysteresis_cycles`; :mod:`cdsm.calibration.plant`) at evenly
+    spread configurations, at most ``cycle_work`` configurations x position
+    cables x joints."""
     from ..calibration import plant
 
     th = np.atleast_2d(np.asarray(theta, dtype=float))
@@ -194,7 +205,7 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
     ok = np.isfinite(th).all(axis=1)
     nan = np.full((N, m), np.nan)
     pull, release, loop = nan.copy(), nan.copy(), nan.copy()
-    fp, fr = np.zeros(N, bool), np.zeros(N, bool)
+    fp, fr, cycled = np.zeros(N, bool), np.zeros(N, bool), np.zeros(N, bool)
     if ok.any():
         t = th[ok]
         pull[ok] = robot.tensions(t, friction=mu, sliding="pull", min_tension=min_tension)
@@ -202,13 +213,18 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
         fp[ok] = robot.feasible(t, friction=mu, sliding="pull", min_tension=min_tension)
         fr[ok] = robot.feasible(t, friction=mu, sliding="release", min_tension=min_tension)
         p = plant.params(robot, {"cable_friction": [mu]})
-        theta_cmd, dL = hysteresis_cycles(robot.n, m, t, amplitude)
+        rows = np.flatnonzero(ok)
+        most = max(1, int(cycle_work) // max(m * robot.n, 1))
+        if len(rows) > most:
+            rows = rows[np.unique(np.linspace(0, len(rows) - 1, most).round().astype(int))]
+        theta_cmd, dL = hysteresis_cycles(robot.n, m, th[rows], amplitude)
         obs, conv = plant.predict(robot, p, theta_cmd, dL, "absolute")
         d = plant.dims(robot)
-        k = t.shape[0] * m
+        k = len(rows) * m
         pos = obs[:, :d].reshape(k, 5, d)
         good = conv.reshape(k, 5).all(axis=1)
         w = np.linalg.norm(pos[:, 2] - pos[:, 4], axis=1)
-        loop[ok] = np.where(good, w, np.nan).reshape(t.shape[0], m)
+        loop[rows] = np.where(good, w, np.nan).reshape(len(rows), m)
+        cycled[rows] = True
     return FrictionMap(th, robot.fk(np.where(ok[:, None], th, 0.0)), pull, release, fp, fr, loop, float(mu),
-                       float(amplitude), float(min_tension))
+                       float(amplitude), float(min_tension), cycled)

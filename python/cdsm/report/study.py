@@ -868,10 +868,14 @@ class StudyReport:
             if ratio.size:
                 words += (f"; pulling over releasing tension, median {np.median(ratio):.3g}, "
                           f"range {ratio.min():.3g}–{ratio.max():.3g}")
+            cyc = fm.cycled[ok] if fm.cycled is not None else np.ones(int(ok.sum()), bool)
             if fin.size:
                 words += (f"; hysteresis loop width median {np.median(fin) * 1e6:.3g} µm, max "
-                          f"{fin.max() * 1e6:.3g} µm ({int(w.size - fin.size)} configurations where a command did "
+                          f"{fin.max() * 1e6:.3g} µm ({int(cyc.sum() - fin.size)} configurations where a command did "
                           "not settle)")
+            if not cyc.all():
+                words += (f"; the cycles ran at {int(cyc.sum())} evenly spread of the {cyc.size} configurations "
+                          "(each settles the whole arm five times per cable)")
             doc.p(words + ".")
         doc.p("With a steel cable the stretch under the loads is micrometres, so is the loop: friction in the holes "
               "alone cannot make a lost motion of tens of micrometres per millimetre unless the cable is far more "

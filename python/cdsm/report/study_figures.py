@@ -595,15 +595,16 @@ def feasibility_figure(study) -> Figure:
 def hysteresis_figure(study) -> Figure:
     """Friction in the holes: the tip's hysteresis loop width (µm, the
     largest over the position cables' ±1 mm cycles) at each configuration
-    (:func:`cdsm.accuracy.statics.friction_map`); grey: not reachable or a
-    command did not settle."""
+    (:func:`cdsm.accuracy.statics.friction_map`; the configurations it
+    cycled); grey: not reachable or a command did not settle."""
     spatial = _spatial(study)
     with report_style():
         fig, axs, panels = _row_figure(study)
         for ax, (p, plane) in zip(axs, panels):
             ws, fm = study.workspaces[p], study.friction[p]
-            pts = _tips(study, p)
-            w = np.where(ws.reachable, fm.width, np.nan) * 1e6
+            cycled = fm.cycled if fm.cycled is not None else np.ones(len(fm.width), bool)
+            pts = _tips(study, p)[cycled]
+            w = np.where(ws.reachable, fm.width, np.nan)[cycled] * 1e6
             lim = _nanmax(w)
             lim = lim if np.isfinite(lim) and lim > 0 else 1.0
             _missing(ax, pts, ~np.isfinite(w), plane, size=5)
