@@ -29,9 +29,10 @@ Cases:
   hole_clearance, backlash — stay non-negative).
 * **nominal**: no effect.
 * **out of library** (``benches/out_of_library.py``): quadratic and cubic
-  actuators, a periodic lead-screw error, capstan-like friction in the holes
-  (a direction-dependent loss growing with the wrap angle, with memory) and a
-  linear tracker drift in time. None can be represented by the library.
+  actuators, a periodic lead-screw error, a thermal drift of the cable
+  lengths in time and a linear tracker drift in time. None can be
+  represented by the library (friction in the holes left this set when
+  ``cable_friction`` joined the library).
 
 What counts as right
 --------------------
