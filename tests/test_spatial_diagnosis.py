@@ -227,3 +227,25 @@ def test_cli_compensate_spatial_targets(cdsm, arm, tmp_path, capsys):
     t.write_text("x,y,z,rx\n0,0,0.3,0\n")
     assert main(["compensate", str(t), "--model", str(tmp_path / "m.json"), "--out", str(out)]) == 2
     assert "rx" in capsys.readouterr().err
+
+
+def test_a_rank_deficient_fit_gives_correlations_not_overflow_warnings(cdsm):
+    """hole_position of two_universal (every hole coordinate) fitted on 8
+    rows: far more parameters than the rows determine. No RuntimeWarning
+    reaches the user; every correlation is within [-1, 1] or undetermined
+    (NaN), and the undetermined parameters say so (NaN standard deviation)."""
+    import warnings
+
+    from cdsm.calibration import diagnosis, plant
+    from cdsm.calibration.fit import fit
+
+    robot = cdsm.Robot.from_toml("two_universal")
+    vp = plant.VirtualPrototype(robot, {"actuation_scale": [0.02]}, noise=10e-6, seed=3)
+    th, dl = vp.random_commands(8, limit=0.3)
+    prep = diagnosis.prepare(robot, vp.measure(th, dl), frame="base")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        f = fit(prep, ["hole_position", "actuation_scale"])
+    c = f.corr[np.isfinite(f.corr)]
+    assert c.size and np.abs(c).max() <= 1.0
+    assert np.isnan(f.std).any()

@@ -121,14 +121,22 @@ def _summary(effects, idx, scale, names, r, order, width: int) -> Fit:
     if k and m and J.size and np.isfinite(J).all() and np.isfinite(cost):
         sigma2 = cost / max(m - k, 1)
         col = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
-        _, sv, vt = np.linalg.svd(J / col, full_matrices=False)
+        # full V: with fewer rows than parameters the directions beyond the
+        # rank are the data's blind ones too
+        _, sv, vt = np.linalg.svd(J / col, full_matrices=True)
         cov_z = np.linalg.pinv(J.T @ J) * sigma2
         std = np.sqrt(np.maximum(np.diag(cov_z), 0.0)) * scale
-        null = vt[sv < 1e-8 * max(sv[0], 1e-300)] if len(sv) else np.zeros((0, k))
+        null = np.vstack([vt[:len(sv)][sv < 1e-8 * max(sv[0], 1e-300)] if len(sv) else np.zeros((0, k)),
+                          vt[len(sv):]])
         blind = (np.linalg.norm(J, axis=0) == 0) | ((null ** 2).sum(axis=0) > 1e-2)
         std[blind] = np.nan
         d = np.sqrt(np.maximum(np.diag(cov_z), 1e-300))
-        corr = cov_z / d[:, None] / d[None, :]  # |cov_ij| <= d_i d_j: no overflow
+        # |cov_ij| <= d_i d_j in exact arithmetic; the pseudo-inverse of a
+        # rank-deficient fit can break it by rounding where d is ~0: such a
+        # correlation is undetermined (NaN), not an overflow
+        with np.errstate(over="ignore", invalid="ignore"):
+            corr = cov_z / d[:, None] / d[None, :]
+        corr = np.where(np.abs(corr) <= 1.0 + 1e-9, np.clip(corr, -1.0, 1.0), np.nan)
     elif k and m:
         sv, std, corr = np.zeros(0), np.full(k, np.nan), np.full((k, k), np.nan)
     else:
