@@ -134,7 +134,6 @@ impl<S: Real> Balance<S> {
         force: Option<&[f64]>,
         gap: Option<&[S]>,
     ) {
-        let n = self.n;
         let disks = model.disks.len();
         let loaded = g.iter().any(|v| *v != 0.0)
             || wrench
@@ -156,37 +155,38 @@ impl<S: Real> Balance<S> {
         let (mut i, mut f) = (0, 0);
         for (c, cable) in model.cables.iter().enumerate() {
             self.lengths[c] = chain.cable_length_and_row(model, nums, c, &mut self.row);
+            // a position cable's column, or a force cable's set tension
+            let entry = match cable.mode {
+                Mode::Position => Ok(i),
+                Mode::Force => Err(S::cst(force.map_or(cable.tension, |v| v[f]))),
+            };
             if let Some(gap) = gap {
-                match cable.mode {
-                    Mode::Position => {
-                        for j in 0..n {
-                            self.a0[j * self.m + i] = self.row[j];
-                        }
-                    }
-                    Mode::Force => {
-                        let t = S::cst(force.map_or(cable.tension, |v| v[f]));
-                        for j in 0..n {
-                            self.b0[j] -= self.row[j] * t;
-                        }
-                    }
-                }
+                Self::enter(&self.row, &mut self.a0, &mut self.b0, self.m, entry);
                 for (j, r) in self.row.iter_mut().enumerate() {
                     *r *= gap[c * disks + self.joint_disk[j]];
                 }
             }
-            match cable.mode {
-                Mode::Position => {
-                    for j in 0..n {
-                        self.a[j * self.m + i] = self.row[j];
-                    }
-                    i += 1;
+            Self::enter(&self.row, &mut self.a, &mut self.b, self.m, entry);
+            match entry {
+                Ok(_) => i += 1,
+                Err(_) => f += 1,
+            }
+        }
+    }
+
+    /// One cable's moment-arm `row` into a balance: column `i` of `a`
+    /// (`entry = Ok(i)`, a position cable) or, at its tension `t`, out of
+    /// the right-hand side `b` (`Err(t)`, a force cable).
+    fn enter(row: &[S], a: &mut [S], b: &mut [S], m: usize, entry: std::result::Result<usize, S>) {
+        match entry {
+            Ok(i) => {
+                for (j, r) in row.iter().enumerate() {
+                    a[j * m + i] = *r;
                 }
-                Mode::Force => {
-                    let t = S::cst(force.map_or(cable.tension, |v| v[f]));
-                    f += 1;
-                    for j in 0..n {
-                        self.b[j] -= self.row[j] * t;
-                    }
+            }
+            Err(t) => {
+                for (bj, r) in b.iter_mut().zip(row) {
+                    *bj -= *r * t;
                 }
             }
         }
@@ -196,19 +196,20 @@ impl<S: Real> Balance<S> {
     /// balance solved exactly (Gaussian elimination with partial pivoting);
     /// false where it is singular (a cable without a moment arm).
     pub fn solve_square(&mut self, out: &mut [S]) -> bool {
-        debug_assert_eq!(self.n, self.m);
-        self.lu.copy_from_slice(&self.a);
-        out.copy_from_slice(&self.b);
-        crate::lm::lu_solve(self.n, &mut self.lu, out)
+        Self::solve_into(self.n, &self.a, &self.b, &mut self.lu, out)
     }
 
     /// [`Balance::solve_square`] of the frictionless balance of the last
     /// [`Balance::at_friction`].
     pub fn solve_square_frictionless(&mut self, out: &mut [S]) -> bool {
-        debug_assert_eq!(self.n, self.m);
-        self.lu.copy_from_slice(&self.a0);
-        out.copy_from_slice(&self.b0);
-        crate::lm::lu_solve(self.n, &mut self.lu, out)
+        Self::solve_into(self.n, &self.a0, &self.b0, &mut self.lu, out)
+    }
+
+    fn solve_into(n: usize, a: &[S], b: &[S], lu: &mut [S], out: &mut [S]) -> bool {
+        debug_assert_eq!(a.len(), n * n);
+        lu.copy_from_slice(a);
+        out.copy_from_slice(b);
+        crate::lm::lu_solve(n, lu, out)
     }
 }
 

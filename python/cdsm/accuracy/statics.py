@@ -165,7 +165,7 @@ class FrictionMap(ShortRepr):
     mu: float
     amplitude: float
     min_tension: float
-    cycled: np.ndarray = None
+    cycled: np.ndarray
 
     @property
     def width(self) -> np.ndarray:

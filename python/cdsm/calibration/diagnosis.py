@@ -434,6 +434,12 @@ def _folds(n_rows: int, k: int, seed: int = 0) -> List[np.ndarray]:
     return [np.sort(order[i::k]) for i in range(k)]
 
 
+def _fitted(prep: Prepared, effects: Sequence[str]) -> List[str]:
+    """The effects a candidate fits: its own, and the frame when the data are registered."""
+    return list(effects) + (["frame_misalignment"] if prep.registered and "frame_misalignment" not in effects
+                            else [])
+
+
 class _Scorer:
     """Fits and cross-validates candidates on one set of rows."""
 
@@ -453,8 +459,7 @@ class _Scorer:
 
     def evaluate(self, name: str, effects: Sequence[str]) -> Candidate:
         prep = self.prep
-        fitted = list(effects) + (["frame_misalignment"] if prep.registered
-                                  and "frame_misalignment" not in effects else [])
+        fitted = _fitted(prep, effects)
         start = prep.start if prep.registered else np.zeros(plant.size(prep.robot))
         fits = fit_folds(prep, fitted, self.scored, start)
         held = np.full(len(prep.theta_cmd), np.nan)
@@ -788,15 +793,14 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     if max_combination >= 3 and not (chosen_ok and len(chosen.effects) < 3):
         combos += list(itertools.combinations(order[:SEARCH_TOP], 3))
     a = ALPHA / len(combos)
-    screen = _screen(prep, scorer, combos)
+    free = [free_parameters(prep.robot, _fitted(prep, c))[:2] for c in combos]
+    screen = _screen(prep, scorer, free)
     # a combination with more free parameters than half the position
     # components of the rows is not fitted in full: it would interpolate them
     observed = len(rows) * plant.dims(prep.robot)
-    size = {c: len(free_parameters(prep.robot, list(c) + (["frame_misalignment"] if prep.registered else []))[0])
-            for c in combos}
     ranked = [combos[i] for i in np.argsort(screen, kind="stable")
               if (not chosen_ok or screen[i] <= SCREEN_MARGIN * 1.5 * floor)
-              and size[combos[i]] <= MAX_PARAMETER_SHARE * observed]
+              and len(free[i][0]) <= MAX_PARAMETER_SHARE * observed]
     fresh = [c for c in ranked if frozenset(c) not in known][:SEARCH_FULL]
     tried = [_evaluated(scorer, known, c) for c in ranked if frozenset(c) in known or c in fresh]
 
@@ -824,18 +828,16 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
                   pick.name if pick is not None else None, pick is not None and pick is not chosen, tie)
 
 
-def _screen(prep: Prepared, scorer: "_Scorer", combos: Sequence[Tuple[str, ...]]) -> np.ndarray:
-    """Held-out RMS (m) of each combination's linear least-squares fit of the
-    plant linearised at the start (the scorer's folds; the frame fitted as in
-    the full fits). Orders the search only."""
+def _screen(prep: Prepared, scorer: "_Scorer", free: Sequence[Tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+    """Held-out RMS (m) of a linear least-squares fit of the plant linearised
+    at the start, for each combination's free parameters ``free`` (indices,
+    typical sizes: :func:`free_parameters` of what it fits), on the scorer's
+    folds. Orders the search only."""
     rows, J, res, col = _linearised(prep)
     where = {int(i): j for j, i in enumerate(rows)}
     tests = [np.array([where[int(i)] for i in t if int(i) in where], int) for t in scorer.tests]
-    out = np.full(len(combos), np.inf)
-    for n, combo in enumerate(combos):
-        fitted = list(combo) + (["frame_misalignment"] if prep.registered and "frame_misalignment" not in combo
-                                else [])
-        idx, scale, _ = free_parameters(prep.robot, fitted)
+    out = np.full(len(free), np.inf)
+    for n, (idx, scale) in enumerate(free):
         A = J[:, :, [col[int(i)] for i in idx]] * scale
         err = np.full(len(rows), np.nan)
         for t in tests:

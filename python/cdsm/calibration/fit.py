@@ -69,7 +69,7 @@ def free_parameters(robot: Robot, effects: Sequence[str]):
     ``effects``, their typical sizes (k,) (the fit's unit) and names."""
     idx = [int(i) for e in effects for i in plant.effect_indices(robot, e)]
     names = plant.parameter_names(robot, idx)
-    scale = [plant.TYPICAL[n.split("[", 1)[0]] for n in names]
+    scale = [plant.TYPICAL[b] for b, _ in plant.parameter_blocks(robot, idx)]
     return np.array(idx, dtype=int), np.array(scale, dtype=float), names
 
 

@@ -49,8 +49,8 @@ from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
-           "params", "effect_indices", "parameter_names", "bounds", "kind_codes", "predict", "linearise", "settle",
-           "VirtualPrototype",
+           "params", "effect_indices", "parameter_blocks", "parameter_names", "bounds", "kind_codes", "predict",
+           "linearise", "settle", "VirtualPrototype",
            "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
@@ -161,15 +161,17 @@ def size(robot: Robot) -> int:
     return sum(s for _, s in robot.core.plant_effects())
 
 
+def parameter_blocks(robot: Robot, indices: Sequence[int]) -> List[Tuple[str, slice]]:
+    """The block (name, slice of the flat vector) of each flat parameter."""
+    lay = layout(robot)
+    return [next((b, sl) for b, sl in lay.items() if sl.start <= int(i) < sl.stop) for i in indices]
+
+
 def parameter_names(robot: Robot, indices: Sequence[int]) -> List[str]:
     """Names of flat parameters: the block, with the element in brackets
     for blocks of more than one (``link_length[0]``)."""
-    lay = layout(robot)
-    out = []
-    for i in indices:
-        block, sl = next((b, sl) for b, sl in lay.items() if sl.start <= int(i) < sl.stop)
-        out.append(f"{block}[{int(i) - sl.start}]" if sl.stop - sl.start > 1 else block)
-    return out
+    return [f"{b}[{int(i) - sl.start}]" if sl.stop - sl.start > 1 else b
+            for i, (b, sl) in zip(indices, parameter_blocks(robot, indices))]
 
 
 def bounds(robot: Robot) -> Tuple[np.ndarray, np.ndarray]:

@@ -868,7 +868,7 @@ class StudyReport:
             if ratio.size:
                 words += (f"; pulling over releasing tension, median {np.median(ratio):.3g}, "
                           f"range {ratio.min():.3g}–{ratio.max():.3g}")
-            cyc = fm.cycled[ok] if fm.cycled is not None else np.ones(int(ok.sum()), bool)
+            cyc = fm.cycled[ok]
             if fin.size:
                 words += (f"; hysteresis loop width median {np.median(fin) * 1e6:.3g} µm, max "
                           f"{fin.max() * 1e6:.3g} µm ({int(cyc.sum() - fin.size)} configurations where a command did "

@@ -602,9 +602,8 @@ def hysteresis_figure(study) -> Figure:
         fig, axs, panels = _row_figure(study)
         for ax, (p, plane) in zip(axs, panels):
             ws, fm = study.workspaces[p], study.friction[p]
-            cycled = fm.cycled if fm.cycled is not None else np.ones(len(fm.width), bool)
-            pts = _tips(study, p)[cycled]
-            w = np.where(ws.reachable, fm.width, np.nan)[cycled] * 1e6
+            pts = _tips(study, p)[fm.cycled]
+            w = np.where(ws.reachable, fm.width, np.nan)[fm.cycled] * 1e6
             lim = _nanmax(w)
             lim = lim if np.isfinite(lim) and lim > 0 else 1.0
             _missing(ax, pts, ~np.isfinite(w), plane, size=5)
