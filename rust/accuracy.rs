@@ -147,6 +147,21 @@ pub fn hist_bin(v: f64) -> usize {
     b
 }
 
+/// The number of samples of one Monte-Carlo call, checked: the histogram
+/// counts them in 32 bits (a study of more samples runs in chunks).
+pub fn check_samples(samples: usize) -> Result<usize> {
+    if samples > u32::MAX as usize {
+        return Err(CdsmError::Option {
+            name: "dl".into(),
+            problem: format!(
+                "{samples} samples in one call; at most {} (run the study in chunks)",
+                u32::MAX
+            ),
+        });
+    }
+    Ok(samples)
+}
+
 /// Per-configuration statistics of a Monte-Carlo study, mergeable across
 /// chunks: `quantities` values per sample (planar: dX, dY, dphi, |dXY|;
 /// spatial: dX, dY, dZ, |dXYZ|, rotation angle), the histogram over the
@@ -164,11 +179,44 @@ pub struct McStats {
     pub sum_sq: Vec<f64>,
     pub min: Vec<f64>,
     pub max: Vec<f64>,
-    /// `(N, HIST_BINS)` counts of the position-error norm per log-spaced bin.
-    pub hist: Vec<u64>,
+    /// Per configuration, the counts of the position-error norm per
+    /// log-spaced bin ([`hist_bin`]), held as the window of bins it reached
+    /// (filled while its block is open: [`McStats::open`]).
+    pub hist: Vec<BinWindow>,
+    open: OpenRows,
     /// Converged samples whose perturbed configuration needs a slack upper
     /// cable (counted only when asked), per configuration.
     pub slack: Vec<u64>,
+}
+
+/// The histogram of one configuration: the counts of bins
+/// `lo..lo + counts.len()` (of [`HIST_BINS`]; every other bin is empty), from
+/// its first to its last non-empty bin: a study holds the few hundred bins its
+/// errors reach rather than every bin of every configuration.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct BinWindow {
+    pub lo: usize,
+    pub counts: Vec<u32>,
+}
+
+impl BinWindow {
+    /// The bins `a..b` from the first to past the last non-empty one, or None.
+    pub fn occupied(&self) -> Option<(usize, usize)> {
+        (!self.counts.is_empty()).then(|| (self.lo, self.lo + self.counts.len()))
+    }
+}
+
+/// The histograms of the configurations being filled, one dense row of
+/// every bin each (in cache while a block of configurations takes its
+/// samples), each row taken out as its [`BinWindow`] when the block is done.
+#[derive(Debug, Clone, PartialEq, Default)]
+struct OpenRows {
+    /// the first configuration of the block
+    base: usize,
+    /// `(rows, HIST_BINS)` counts
+    counts: Vec<u32>,
+    /// per row, the first and past the last non-empty bin (`lo > hi`: none)
+    used: Vec<(usize, usize)>,
 }
 
 /// Index of the position-error norm among the quantities of both kinds.
@@ -191,7 +239,8 @@ impl McStats {
             sum_sq: vec![0.0; configs * quantities],
             min: vec![f64::INFINITY; configs * quantities],
             max: vec![f64::NEG_INFINITY; configs * quantities],
-            hist: vec![0; configs * HIST_BINS],
+            hist: vec![BinWindow::default(); configs],
+            open: OpenRows::default(),
         }
     }
 
@@ -208,10 +257,67 @@ impl McStats {
         self.add_to_hist(j, v[NORM]);
     }
 
-    /// Counts a position-error norm `norm` (m) of configuration `j` in its bin.
+    /// Opens the histograms of the configurations `base..base + rows` (of
+    /// this one's): their samples may be added until [`McStats::close`].
+    pub fn open(&mut self, base: usize, rows: usize) {
+        let o = &mut self.open;
+        o.base = base;
+        o.counts.resize(rows * HIST_BINS, 0);
+        o.used.clear();
+        o.used.resize(rows, (usize::MAX, 0));
+    }
+
+    /// Counts a position-error norm `norm` (m) of configuration `j` (of the
+    /// open block) in its bin.
     #[inline(always)]
     fn add_to_hist(&mut self, j: usize, norm: f64) {
-        self.hist[j * HIST_BINS + hist_bin(norm)] += 1;
+        let (o, bin) = (&mut self.open, hist_bin(norm));
+        let r = j - o.base;
+        o.counts[r * HIST_BINS + bin] += 1;
+        o.used[r] = (o.used[r].0.min(bin), o.used[r].1.max(bin + 1));
+    }
+
+    /// Closes the open block: each configuration keeps the window of bins
+    /// its samples reached (the block's rows are left empty for the next).
+    pub fn close(&mut self) {
+        let o = &mut self.open;
+        for (r, (lo, hi)) in o.used.iter().enumerate() {
+            if lo < hi {
+                let row = &mut o.counts[r * HIST_BINS + lo..r * HIST_BINS + hi];
+                self.hist[o.base + r] = BinWindow {
+                    lo: *lo,
+                    counts: row.to_vec(),
+                };
+                row.fill(0);
+            }
+        }
+        o.used.clear();
+    }
+
+    /// The histograms of every configuration in one common window of bins:
+    /// `(lo, width, counts)`, counts `(N, width)` row-major of bins
+    /// `lo..lo + width` (every bin outside is empty; `width` 0 when no
+    /// configuration has a sample).
+    pub fn hist_window(&self) -> (usize, usize, Vec<u32>) {
+        let used = self.hist.iter().filter_map(BinWindow::occupied);
+        let (lo, hi) = used.fold((usize::MAX, 0), |(lo, hi), (a, b)| (lo.min(a), hi.max(b)));
+        if lo > hi {
+            return (0, 0, Vec::new());
+        }
+        let width = hi - lo;
+        // written once, row by row (no zero-fill first)
+        let mut counts = Vec::with_capacity(self.hist.len() * width);
+        for w in &self.hist {
+            match w.occupied() {
+                Some((a, b)) => {
+                    counts.resize(counts.len() + (a - lo), 0);
+                    counts.extend_from_slice(&w.counts);
+                    counts.resize(counts.len() + (hi - b), 0);
+                }
+                None => counts.resize(counts.len() + width, 0),
+            }
+        }
+        (lo, width, counts)
     }
 
     /// Appends the configurations of `other` after those of `self`.
@@ -225,6 +331,7 @@ impl McStats {
         self.min.extend(other.min);
         self.max.extend(other.max);
         self.hist.extend(other.hist);
+        debug_assert!(self.open.used.is_empty() && other.open.used.is_empty());
     }
 }
 
@@ -249,7 +356,7 @@ pub fn monte_carlo(
 ) -> Result<McStats> {
     let n = robot.n();
     let rows = rows_of("theta0", theta0, n)?;
-    let samples = rows_of("dl", dl, n)?;
+    let samples = check_samples(rows_of("dl", dl, n)?)?;
     let hole_len = robot.holes.len();
     match holes {
         HoleErrors::None => {}
@@ -331,6 +438,7 @@ pub fn monte_carlo(
                 }
             }
             acc.clear();
+            stats.open(start - first, lanes);
             for s in 0..samples {
                 let geom = geom_of(s);
                 let mut taken = [false; BLOCK_ROWS];
@@ -394,6 +502,7 @@ pub fn monte_carlo(
                 }
             }
             acc.store(&mut stats, start - first, lanes);
+            stats.close();
         }
         stats
     });
@@ -707,6 +816,53 @@ mod tests {
             assert_eq!(st.count[j] + st.failed[j], 2);
         }
         assert_eq!(st.count, [1, 2]);
+    }
+
+    #[test]
+    fn bin_windows_count_as_a_dense_histogram() {
+        // two blocks; bins in no order, one repeated; the third configuration empty
+        let bins = [900, 905, 2, HIST_BINS - 1, 0, 1500, 905, 37];
+        let mut dense = vec![0u64; HIST_BINS];
+        let mut st = McStats::new(4);
+        st.open(0, 3);
+        for (i, b) in bins.iter().enumerate() {
+            dense[*b] += 1;
+            st.add_to_hist(
+                i % 2,
+                hist_edges()[b.max(&1) - 1] * if *b == 0 { 0.5 } else { 1.0 },
+            );
+        }
+        st.close();
+        st.open(3, 1);
+        st.add_to_hist(3, hist_edges()[699]);
+        st.close();
+        dense[700] += 1;
+        let (lo, width, counts) = st.hist_window();
+        assert_eq!((lo, width), (0, HIST_BINS));
+        let mut summed = vec![0u64; HIST_BINS];
+        for row in counts.chunks_exact(width) {
+            for (s, c) in summed[lo..].iter_mut().zip(row) {
+                *s += u64::from(*c);
+            }
+        }
+        assert_eq!(summed, dense);
+        assert!(counts[2 * width..3 * width].iter().all(|c| *c == 0));
+        assert_eq!(
+            st.hist[3],
+            BinWindow {
+                lo: 700,
+                counts: vec![1]
+            }
+        );
+        let mut one = McStats::new(2);
+        one.open(0, 2);
+        one.add_to_hist(1, hist_edges()[699]);
+        one.add_to_hist(1, hist_edges()[701]);
+        one.close();
+        assert_eq!(one.hist_window(), (700, 3, vec![0, 0, 0, 1, 0, 1]));
+        assert_eq!(McStats::new(2).hist_window(), (0, 0, Vec::new()));
+        assert!(check_samples(u32::MAX as usize).is_ok());
+        assert!(check_samples(u32::MAX as usize + 1).is_err());
     }
 
     #[test]

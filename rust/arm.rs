@@ -570,7 +570,7 @@ pub fn monte_carlo(
     let n = model.n();
     let m = model.position_cables().len();
     let rows = rows_of("theta0", theta0, n)?;
-    let samples = rows_of("dl", dl, m)?;
+    let samples = crate::accuracy::check_samples(rows_of("dl", dl, m)?)?;
     batch::check_options(opts)?;
     let nominal_holes = model.flat_holes();
     let h = nominal_holes.len();
@@ -693,6 +693,7 @@ impl WithSimd for McRows<'_> {
                 }
                 end0[b] = *chain.end();
             }
+            stats.open(start - r.start, count);
             for s in 0..samples {
                 let ms = model_of(s);
                 let arm = Broadcast::new(ms, &traverse[s.min(traverse.len() - 1)]);
@@ -746,6 +747,7 @@ impl WithSimd for McRows<'_> {
                     }
                 }
             }
+            stats.close();
         }
         stats
     }

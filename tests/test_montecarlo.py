@@ -26,7 +26,30 @@ def test_closed_form_lanes_and_newton_rows_give_the_same_statistics(cdsm):
     np.testing.assert_allclose(auto.sum, newton.sum, rtol=0, atol=40 * 1e-9)
     np.testing.assert_allclose(auto.sum_sq, newton.sum_sq, rtol=0, atol=40 * 1e-10)
     # the histogram of |dXY| may move a sample only across a bin edge
-    assert np.abs(auto.hist - newton.hist).sum() <= 2
+    assert np.abs(auto.dense_hist() - newton.dense_hist()).sum() <= 2
+
+
+def test_merged_chunks_count_every_bin_of_their_parts(cdsm):
+    """Each chunk's histogram holds only the window of bins its samples
+    reach (uint32); a merged study holds the union (int64): the same counts
+    in every bin as the chunks' full histograms added up."""
+    from cdsm.accuracy import montecarlo
+
+    r = cdsm.Robot.paper()
+    # near straight (small errors) and bent: the chunks' windows differ
+    theta = np.ascontiguousarray([[0.0, 0.0, 0.01], [0.5, -0.5, 0.5], [-0.2, 0.3, 0.0]])
+    tol = (np.full(3, 1e-3), np.full(3, 0.35e-3))
+    for chunk in (60, 7, 1):
+        mc = montecarlo.monte_carlo(r, theta, samples=60, seed=5, chunk=chunk, progress=False)
+        parts = [montecarlo.monte_carlo_chunk(r, theta, 5, c, m, *tol)
+                 for c, m in enumerate(montecarlo.chunk_sizes(60, chunk))]
+        assert all(p.hist.dtype == np.uint32 and 0 < p.hist.shape[1] < cdsm._cdsm.HIST_BINS for p in parts)
+        full = np.zeros((3, cdsm._cdsm.HIST_BINS), np.int64)
+        for p in parts:
+            full[:, p.hist_lo:p.hist_lo + p.hist.shape[1]] += p.hist
+        assert full.sum() == 180
+        np.testing.assert_array_equal(mc.dense_hist(), full)
+        assert mc.hist.dtype == (np.uint32 if chunk == 60 else np.int64)
 
 
 def test_percentiles_are_the_sample_quantiles_within_their_bound(cdsm):

@@ -50,7 +50,9 @@ class MonteCarloStats:
     sum_sq: F64
     min: F64
     max: F64
-    hist: U64
+    hist: U32  # (N * hist_width,) bins hist_lo .. hist_lo + hist_width
+    hist_lo: int
+    hist_width: int
     slack: U64
 
 class SensitivityResult:

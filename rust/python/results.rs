@@ -83,12 +83,16 @@ pub struct MonteCarloStats {
     pub sum_sq: A<f64>,
     pub min: A<f64>,
     pub max: A<f64>,
-    pub hist: A<u64>,
+    /// `(N * hist_width)` counts of the histogram bins `hist_lo..hist_lo + hist_width`
+    pub hist: A<u32>,
+    pub hist_lo: usize,
+    pub hist_width: usize,
     pub slack: A<u64>,
 }
 
 impl MonteCarloStats {
     pub fn new(py: Python<'_>, s: McStats) -> MonteCarloStats {
+        let (hist_lo, hist_width, hist) = s.hist_window();
         MonteCarloStats {
             quantities: s.quantities,
             count: arr(py, s.count),
@@ -97,7 +101,9 @@ impl MonteCarloStats {
             sum_sq: arr(py, s.sum_sq),
             min: arr(py, s.min),
             max: arr(py, s.max),
-            hist: arr(py, s.hist),
+            hist: arr(py, hist),
+            hist_lo,
+            hist_width,
             slack: arr(py, s.slack),
         }
     }

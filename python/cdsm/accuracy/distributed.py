@@ -56,7 +56,6 @@ from typing import Callable, Dict, Optional
 
 import numpy as np
 
-from .. import _cdsm
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
@@ -144,28 +143,25 @@ class OrderedMerge:
 
 
 def pack(part: MonteCarlo) -> dict:
-    """A chunk result for the wire: the histogram trimmed to its occupied
-    columns and stored as uint32 (counts of one chunk), the rest as is."""
-    cols = np.flatnonzero(part.hist.any(axis=0))
-    lo, hi = (int(cols[0]), int(cols[-1]) + 1) if len(cols) else (0, 0)
-    small = part.hist[:, lo:hi]
-    hist = small.astype(np.uint32) if small.size == 0 or small.max() < 2 ** 32 else small
+    """A chunk result for the wire: the histogram's window (its occupied
+    bins) as uint32 (counts of one chunk), the rest as is."""
+    hist = part.hist
+    if hist.dtype != np.uint32 and (hist.size == 0 or hist.max() < 2 ** 32):
+        hist = hist.astype(np.uint32)
     return dict(count=part.count, failed=part.failed, sum=part.sum, sum_sq=part.sum_sq,
-                min=part.min, max=part.max, hist_lo=lo, hist=np.ascontiguousarray(hist))
+                min=part.min, max=part.max, hist_lo=int(part.hist_lo), hist=np.ascontiguousarray(hist))
 
 
 def unpack(obj, theta0: Optional[np.ndarray] = None) -> MonteCarlo:
     if isinstance(obj, MonteCarlo):
         return obj
     n_cfg = len(obj["count"])
-    hist = np.zeros((n_cfg, _cdsm.HIST_BINS), dtype=np.int64)
-    lo = int(obj["hist_lo"])
-    hist[:, lo:lo + obj["hist"].shape[1]] = obj["hist"]
     return MonteCarlo(theta0=theta0 if theta0 is not None else np.zeros((n_cfg, 0)),
                       count=np.asarray(obj["count"], np.int64).copy(),
                       failed=np.asarray(obj["failed"], np.int64).copy(),
                       sum=np.array(obj["sum"]), sum_sq=np.array(obj["sum_sq"]),
-                      min=np.array(obj["min"]), max=np.array(obj["max"]), hist=hist)
+                      min=np.array(obj["min"]), max=np.array(obj["max"]),
+                      hist=np.array(obj["hist"]), hist_lo=int(obj["hist_lo"]))
 
 
 # ---------------------------------------------------------------------------

@@ -46,8 +46,12 @@ class MonteCarlo(ShortRepr):
 
     Columns of the (N, Q) arrays (``quantities``): planar dX (m), dY (m),
     dphi (rad), |d(X, Y)| (m); spatial dX, dY, dZ, |d(X, Y, Z)| (m) and the
-    rotation angle of the end frame (rad). ``hist`` (N, bins) counts the
-    position-error norm in log-spaced bins (:attr:`hist_edges`).
+    rotation angle of the end frame (rad). ``hist`` (N, W) counts the
+    position-error norm in the log-spaced bins ``hist_lo .. hist_lo + W`` of
+    the histogram (:attr:`hist_edges`; every bin outside that window is
+    empty): the window a study's errors reach, a few hundred of the
+    ``HIST_BINS`` bins (:meth:`dense_hist` gives all of them); uint32
+    counts from one chunk, int64 once chunks are merged.
     ``feasible0`` (N,): every upper cable taut at the initial configuration.
     ``slack`` (N,): converged samples whose configuration needs a slack
     position cable — no taut set of position tensions holds it under the
@@ -62,6 +66,7 @@ class MonteCarlo(ShortRepr):
     min: np.ndarray
     max: np.ndarray
     hist: np.ndarray
+    hist_lo: int = 0
     params: dict = field(default_factory=dict)
     feasible0: Optional[np.ndarray] = None
     slack: Optional[np.ndarray] = None
@@ -98,7 +103,21 @@ class MonteCarlo(ShortRepr):
         geometric middle of its histogram bin. Below 1 nm or above 10 m (the
         histogram's ends) the bound does not hold: the end is returned. NaN
         for a configuration without samples."""
-        return hist_quantile(self.hist, p)
+        return hist_quantile(self.hist, p, lo=self.hist_lo)
+
+    def dense_hist(self) -> np.ndarray:
+        """(N, HIST_BINS) counts of every bin of the histogram."""
+        out = np.zeros((len(self.count), _cdsm.HIST_BINS), np.int64)
+        out[:, self.hist_lo:self.hist_lo + self.hist.shape[1]] = self.hist
+        return out
+
+    def pooled_hist(self, rows=None) -> np.ndarray:
+        """(HIST_BINS,) counts of every bin summed over the configurations
+        ``rows`` (an index or mask of the N; default all)."""
+        sel = slice(None) if rows is None else rows
+        out = np.zeros(_cdsm.HIST_BINS, np.int64)
+        out[self.hist_lo:self.hist_lo + self.hist.shape[1]] = self.hist[sel].sum(axis=0)
+        return out
 
     def merge(self, other: "MonteCarlo") -> None:
         """Adds the samples of ``other`` (same configurations) to this one."""
@@ -108,7 +127,16 @@ class MonteCarlo(ShortRepr):
         self.sum_sq += other.sum_sq
         np.minimum(self.min, other.min, out=self.min)
         np.maximum(self.max, other.max, out=self.max)
-        self.hist += other.hist
+        # the union of the two windows, counted in int64
+        windows = [(h.hist_lo, h.hist_lo + h.hist.shape[1]) for h in (self, other) if h.hist.shape[1]]
+        lo, hi = (min(w[0] for w in windows), max(w[1] for w in windows)) if windows else (0, 0)
+        if (lo, hi) != (self.hist_lo, self.hist_lo + self.hist.shape[1]) or self.hist.dtype != np.int64:
+            wide = np.zeros((len(self.count), hi - lo), np.int64)
+            if self.hist.shape[1]:
+                wide[:, self.hist_lo - lo:self.hist_lo - lo + self.hist.shape[1]] = self.hist
+            self.hist, self.hist_lo = wide, lo
+        if other.hist.shape[1]:
+            self.hist[:, other.hist_lo - lo:other.hist_lo - lo + other.hist.shape[1]] += other.hist
         if self.slack is not None and other.slack is not None:
             self.slack += other.slack
         else:
@@ -164,9 +192,9 @@ QUANTILE_BOUND = float(np.sqrt(10.0 ** (1.0 / _cdsm.HIST_PER_DECADE)) - 1.0)
 
 
 def hist_quantile(hist: np.ndarray, p: float, above: Optional[np.ndarray] = None,
-                  interpolate: bool = False) -> np.ndarray:
+                  interpolate: bool = False, lo: int = 0) -> np.ndarray:
     """The p-th percentile (0–100, m) of the samples each row of ``hist``
-    (N, HIST_BINS) counts, plus ``above`` (N,) samples counted above every
+    (N, W) counts in the histogram's bins ``lo .. lo + W``, plus ``above`` (N,) samples counted above every
     bin (failed solves, say: inf when they reach the percentile): the
     smallest sample with at least p % at or below it lies in one bin; its
     geometric middle is returned (within :data:`QUANTILE_BOUND`), or with
@@ -176,25 +204,28 @@ def hist_quantile(hist: np.ndarray, p: float, above: Optional[np.ndarray] = None
     if not 0.0 <= float(p) <= 100.0:
         raise CdsmInputError(f"`p`: must be within [0, 100], got {p}")
     h = np.atleast_2d(hist).astype(np.int64)
+    if h.shape[1] == 0:  # no sample in any bin
+        h = np.zeros((len(h), 1), np.int64)
     extra = np.zeros(len(h), np.int64) if above is None else np.asarray(above, np.int64)
     total = h.sum(axis=1) + extra
     need = np.maximum(np.ceil(float(p) / 100.0 * total).astype(np.int64), 1)
     cum = np.cumsum(h, axis=1)
     inside = cum[:, -1] >= need
-    idx = np.where(inside, np.argmax(cum >= need[:, None], axis=1), h.shape[1])
+    i = np.argmax(cum >= need[:, None], axis=1)  # the bin in the window
+    idx = np.where(inside, i + int(lo), _cdsm.HIST_BINS)  # ... in the histogram
     edges = MonteCarlo.hist_edges()
     last = len(edges)  # the overflow bin
     out = np.full(len(h), np.inf)
     reg = inside & (idx >= 1) & (idx < last)
     k = np.clip(idx, 1, last - 1)  # a regular bin's index (the others are set below)
-    lo, hi = edges[k - 1], edges[k]
+    e0, e1 = edges[k - 1], edges[k]
     if interpolate:
         rows = np.arange(len(h))
-        below = np.where(idx >= 1, cum[rows, np.maximum(idx - 1, 0)], 0)
-        frac = (need - below) / np.maximum(h[rows, np.minimum(idx, h.shape[1] - 1)], 1)
-        est = lo * (hi / lo) ** np.clip(frac, 0.0, 1.0)
+        below = np.where(i >= 1, cum[rows, np.maximum(i - 1, 0)], 0)
+        frac = (need - below) / np.maximum(h[rows, i], 1)
+        est = e0 * (e1 / e0) ** np.clip(frac, 0.0, 1.0)
     else:
-        est = np.sqrt(lo * hi)
+        est = np.sqrt(e0 * e1)
     out[reg] = est[reg]
     out[inside & (idx == 0)] = edges[0]
     out[inside & (idx == last)] = edges[-1]
@@ -218,13 +249,6 @@ def chunk_sizes(samples: int, chunk: int):
     return (min(chunk, total - start) for start in range(0, total, chunk))
 
 
-def _counts(a: np.ndarray) -> np.ndarray:
-    """The core's unsigned 64-bit counts as int64 without a copy (a count
-    never reaches 2**63): the histograms are millions of counts."""
-    a = np.ascontiguousarray(a)
-    return a.view(np.int64) if a.dtype == np.uint64 else a.astype(np.int64)
-
-
 def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: int, size: int,
                       dl_tol: np.ndarray, dh_tol: np.ndarray, method: str = "auto",
                       threads: Optional[int] = None, check_slack: bool = False) -> MonteCarlo:
@@ -246,7 +270,7 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     return MonteCarlo(theta0=theta0, count=st.count.astype(np.int64), failed=st.failed.astype(np.int64),
                       sum=st.sum.reshape(-1, q), sum_sq=st.sum_sq.reshape(-1, q),
                       min=st.min.reshape(-1, q), max=st.max.reshape(-1, q),
-                      hist=_counts(st.hist).reshape(-1, _cdsm.HIST_BINS),
+                      hist=st.hist.reshape(len(st.count), st.hist_width), hist_lo=st.hist_lo,
                       slack=st.slack.astype(np.int64) if check_slack else None, quantities=names)
 
 
@@ -267,7 +291,7 @@ def summary(mc: MonteCarlo, percentiles: Sequence[float] = DEFAULT_PERCENTILES) 
     pct = np.asarray([float(p) for p in percentiles], dtype=np.float64)
     out = dict(theta0=mc.theta0, count=mc.count, failed=mc.failed, mean=mc.mean, std=mc.std,
                min=mc.min, max=mc.max, max_abs=mc.max_abs, sum=mc.sum, sum_sq=mc.sum_sq,
-               hist=mc.hist, hist_edges=mc.hist_edges(), percentiles=pct,
+               hist=mc.dense_hist(), hist_edges=mc.hist_edges(), percentiles=pct,
                quantities=np.array(mc.quantities),
                units=np.array(SPATIAL_QUANTITY_UNITS if mc.quantities == SPATIAL_QUANTITY_NAMES else QUANTITY_UNITS))
     cols = [mc.percentile(p) for p in pct]

@@ -70,7 +70,7 @@ def pooled_percentile(mc: MonteCarlo, p: float, rows=None, interpolate: bool = F
     (:func:`~cdsm.accuracy.montecarlo.hist_quantile`); with ``interpolate``
     a log-linear interpolation inside the bin (an estimate, not a bound)."""
     sel = slice(None) if rows is None else rows
-    hist = mc.hist[sel].sum(axis=0)
+    hist = mc.pooled_hist(rows)
     failed = int(mc.failed[sel].sum())
     return float(hist_quantile(hist[None], p, np.array([failed]), interpolate=interpolate)[0])
 

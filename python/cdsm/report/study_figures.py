@@ -431,7 +431,7 @@ def _mc_subtitle(study, protocol: str) -> str:
 def _pooled_hist(mc: MonteCarlo) -> Tuple[np.ndarray, np.ndarray]:
     """(edges (B + 1,) m, counts (B,)) of the position error over every
     converged sample, on the study's log bins (the open end bins dropped)."""
-    return MonteCarlo.hist_edges(), mc.hist.sum(axis=0)[1:-1]
+    return MonteCarlo.hist_edges(), mc.pooled_hist()[1:-1]
 
 
 def monte_carlo_figure(study, protocol: str) -> Figure:
