@@ -304,6 +304,112 @@ pub fn solve<P: Problem + ?Sized>(
     st
 }
 
+/// [`solve`] of a square problem of `N` unknowns known at compile time
+/// (`N > 0`) with the triangular step, unbounded, starting undamped: its
+/// undamped steps run first on arrays of `N` (no workspace, constant trip
+/// counts), the same operations in the same order as [`solve`], so while
+/// every step is accepted the iterates, the answer and its [`Status`] are
+/// [`solve`]'s bit for bit. At the first step [`solve`] would damp (or any
+/// other case) [`solve`] runs from the seed and repeats the same steps.
+#[inline]
+pub fn solve_undamped_first<P: Problem + ?Sized, const N: usize>(
+    problem: &mut P,
+    x: &mut [f64],
+    lm: &Lm,
+    ws: &mut Workspace,
+) -> Status {
+    // the damped solve, kept out of the undamped phase's code
+    #[cold]
+    #[inline(never)]
+    fn damped<P: Problem + ?Sized>(
+        p: &mut P,
+        x: &mut [f64],
+        lm: &Lm,
+        ws: &mut Workspace,
+    ) -> Status {
+        solve(p, x, lm, ws)
+    }
+    let fits = N > 0
+        && problem.dims() == (N, N)
+        && lm.step == Step::Triangular
+        && lm.lambda0 <= LAMBDA_MIN
+        && lm.min_decrease == 0.0
+        && !problem.bounded();
+    if fits {
+        if let Some(st) = undamped::<P, N>(problem, x, lm) {
+            return st;
+        }
+    }
+    damped(problem, x, lm, ws)
+}
+
+/// The undamped phase of [`solve_undamped_first`]: the converged status
+/// (answer into `x`), or None at the first step [`solve`] would not take
+/// undamped.
+#[inline(always)]
+fn undamped<P: Problem + ?Sized, const N: usize>(
+    problem: &mut P,
+    x: &mut [f64],
+    lm: &Lm,
+) -> Option<Status> {
+    let (mut cx, mut cr, mut cj) = ([0.0; N], [0.0; N], [[0.0; N]; N]);
+    let (mut tx, mut tr, mut tj) = ([0.0; N], [0.0; N], [[0.0; N]; N]);
+    let (mut inv, mut delta) = ([0.0; N], [0.0; N]);
+    cx.copy_from_slice(&x[..N]);
+    if !problem.eval(&cx, &mut cr, Some(cj.as_flattened_mut())) {
+        return None;
+    }
+    let mut cost = sum_sq(&cr);
+    let mut iterations = 0;
+    let joint = problem.jacobian_with_residual();
+    loop {
+        let res = max_abs(&cr);
+        if res <= lm.tol {
+            x[..N].copy_from_slice(&cx);
+            return Some(Status {
+                converged: true,
+                iterations,
+                residual: res,
+                cost: sum_sq(&cr),
+                reason: Reason::Converged,
+            });
+        }
+        if !res.is_finite() || iterations >= lm.max_iter {
+            return None;
+        }
+        iterations += 1;
+        let ok = forward_substitution(cj.as_flattened(), &cr, N, &mut inv, &mut delta);
+        if !ok || !delta.iter().all(|d| d.is_finite()) {
+            return None;
+        }
+        for ((t, xk), d) in tx.iter_mut().zip(&cx).zip(&delta) {
+            *t = xk + d;
+        }
+        problem.project(&mut tx);
+        let evaluated = if joint {
+            problem.eval(&tx, &mut tr, Some(tj.as_flattened_mut()))
+        } else {
+            problem.eval(&tx, &mut tr, None)
+        };
+        let c = if evaluated {
+            sum_sq(&tr)
+        } else {
+            f64::INFINITY
+        };
+        let accept = c < cost
+            && (joint
+                || (!problem.answer_jacobian() && max_abs(&tr) <= lm.tol)
+                || problem.jacobian(&tx, tj.as_flattened_mut()));
+        if !accept {
+            return None;
+        }
+        std::mem::swap(&mut cx, &mut tx);
+        std::mem::swap(&mut cr, &mut tr);
+        std::mem::swap(&mut cj, &mut tj);
+        cost = c;
+    }
+}
+
 /// A point of the solve: `x`, `r(x)`, `J(x)`, views of exact length into
 /// the workspace (an accepted trial swaps the views, not the buffers).
 struct Point<'w> {
