@@ -44,6 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import friction as fr
+from . import sequence as sq
 from .kinematics import (
     SimpleRobot,
     hole_points,
@@ -558,27 +559,9 @@ def plant_predict(robot, p, theta_cmd, dL, kind):
     command of the row settled (also for unmeasured rows).
     """
     commands, rows, seeds = plant_commands(robot, theta_cmd, dL, kind)
-    kind = list(kind)
-    N = len(kind)
     r = backlash_scan(robot, p, commands)
     L = realised_lengths(robot, p, r)
-    first = np.zeros(len(rows), bool)
-    first[:-1] = rows[1:] == rows[:-1]  # the earlier of a displacement row's two commands
+    first = sq.first_of_pairs(rows)
     z = mobilisation(robot, p, commands, seeds, first) if plant_params(p, int(robot.n))["mu"] > 0.0 else None
     theta, ok = settle(robot, p, L, seeds, z=z)
-    seen = observe(robot, p, theta)
-
-    obs = np.full((N, 3), np.nan)
-    converged = np.ones(N, dtype=bool)
-    np.logical_and.at(converged, rows, ok)
-    j = 0
-    for i, k in enumerate(kind):
-        if k == "displacement":
-            obs[i] = seen[j + 1] - seen[j]
-            j += 2
-        else:
-            if k == "absolute":
-                obs[i] = seen[j]
-            j += 1
-    obs[~converged] = np.nan
-    return obs, converged
+    return sq.observations(observe(robot, p, theta), rows, ok, kind)

@@ -73,6 +73,7 @@ import dataclasses
 import numpy as np
 
 from . import friction as fr
+from . import sequence as sq
 from . import spatial as sp
 
 __all__ = [
@@ -767,26 +768,9 @@ def predict(robot, p, theta_cmd, dL, kind, tol=1e-12):
     is True when every command of the row settled.
     """
     commands, rows, seeds = plant_commands(robot, theta_cmd, dL, kind)
-    kind = list(kind)
-    N = len(kind)
     r = backlash_scan(robot, p, commands)
     L = realised_lengths(robot, p, r)
-    first = np.zeros(len(rows), bool)
-    first[:-1] = rows[1:] == rows[:-1]  # the earlier of a displacement row's two commands
+    first = sq.first_of_pairs(rows)
     z = mobilisation(robot, p, commands, seeds, first) if plant_params(robot, p)["mu"] > 0.0 else None
     theta, ok = settle(robot, p, L, seeds, tol=tol, z=z)
-    seen = observe(robot, p, theta)
-    obs = np.full((N, 6), np.nan)
-    converged = np.ones(N, dtype=bool)
-    np.logical_and.at(converged, rows, ok)
-    j = 0
-    for i, k in enumerate(kind):
-        if k == "displacement":
-            obs[i] = seen[j + 1] - seen[j]
-            j += 2
-        else:
-            if k == "absolute":
-                obs[i] = seen[j]
-            j += 1
-    obs[~converged] = np.nan
-    return obs, converged
+    return sq.observations(observe(robot, p, theta), rows, ok, kind)
