@@ -118,8 +118,11 @@ pub fn hist_edges() -> &'static [f64] {
     })
 }
 
-/// Bin of a position-error norm (m), exact against [`hist_edges`]: a cheap
-/// log estimate from the float's exponent and mantissa, corrected by the edges.
+/// Bin of a position-error norm (m), exact against [`hist_edges`]: a log
+/// estimate from the float's exponent and mantissa within 0.7 bins, so the
+/// bin is the estimate's or a neighbour, chosen by two comparisons with the
+/// edges without branches (the walk after them never runs: it keeps the
+/// answer exact whatever the estimate).
 #[inline(always)]
 pub fn hist_bin(v: f64) -> usize {
     let edges = hist_edges();
@@ -130,19 +133,18 @@ pub fn hist_bin(v: f64) -> usize {
     if v >= edges[last - 1] {
         return last;
     }
-    let bits = v.to_bits();
-    let e = ((bits >> 52) & 0x7ff) as f64 - 1023.0;
-    let m = f64::from_bits((bits & ((1u64 << 52) - 1)) | (1023u64 << 52)) - 1.0;
-    let log2 = e + m * (1.3465 - 0.3465 * m); // |error| < 0.01
-    let per_log2 = HIST_PER_DECADE as f64 * std::f64::consts::LOG10_2;
-    // truncation, not floor (a libm call): the walks below correct the guess
-    let est = ((log2 - HIST_LO.log2()) * per_log2) as isize + 1;
-    let mut b = est.clamp(1, last as isize - 1) as usize;
-    while b > 1 && v < edges[b - 1] {
-        b -= 1;
-    }
-    while b < last - 1 && v >= edges[b] {
-        b += 1;
+    let b0 = bin_estimate(v);
+    // edges[0] <= v < edges[last - 1]: at b0 = 1 `down` is 0, at last - 1 `up` is
+    let down = usize::from(v < edges[b0 - 1]);
+    let up = usize::from(v >= edges[b0]);
+    let mut b = b0 + up - down;
+    if !(edges[b - 1] <= v && v < edges[b]) {
+        while v < edges[b - 1] {
+            b -= 1;
+        }
+        while v >= edges[b] {
+            b += 1;
+        }
     }
     b
 }
@@ -160,6 +162,21 @@ pub fn check_samples(samples: usize) -> Result<usize> {
         });
     }
     Ok(samples)
+}
+
+/// The regular bin (`1..HIST_BINS - 1`) of a norm within the regular bins'
+/// range (m) from its float's exponent and mantissa: log2 to within 0.01,
+/// 0.7 bins, so the true bin is this one or a neighbour.
+#[inline(always)]
+fn bin_estimate(v: f64) -> usize {
+    let bits = v.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as f64 - 1023.0;
+    let m = f64::from_bits((bits & ((1u64 << 52) - 1)) | (1023u64 << 52)) - 1.0;
+    let log2 = e + m * (1.3465 - 0.3465 * m);
+    let per_log2 = HIST_PER_DECADE as f64 * std::f64::consts::LOG10_2;
+    // truncation, not floor (a libm call): the caller corrects the guess
+    let est = ((log2 - HIST_LO.log2()) * per_log2) as isize + 1;
+    est.clamp(1, HIST_BINS as isize - 2) as usize
 }
 
 /// Per-configuration statistics of a Monte-Carlo study, mergeable across
@@ -873,6 +890,16 @@ mod tests {
         assert_eq!(hist_bin(1e-9), 1);
         assert_eq!(hist_bin(10.0), HIST_BINS - 1);
         for (k, w) in e.windows(2).enumerate() {
+            // the estimate is the bin or a neighbour (one comparison each way
+            // corrects it), at the edges and inside the bin
+            for v in [
+                w[0],
+                w[1] * (1.0 - 1e-15),
+                w[0] * 0.7 + w[1] * 0.3,
+                w[0] * 0.2 + w[1] * 0.8,
+            ] {
+                assert!(bin_estimate(v).abs_diff(k + 1) <= 1, "{v}: bin {}", k + 1);
+            }
             // every edge starts its bin; just below it is the previous bin
             assert_eq!(hist_bin(w[0]), k + 1);
             assert_eq!(hist_bin(w[1] * (1.0 - 1e-15)), k + 1);
