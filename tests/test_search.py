@@ -171,3 +171,39 @@ def test_the_search_does_not_explain_an_effect_outside_the_library(mods, robot):
     meas = mods["measurements"].Measurements("absolute", robot.n, dl, real.measured, theta=th, source="quadratic")
     d = diagnosis.diagnose(robot, meas, noise=NOISE)
     assert d.search is not None and not d.explained
+
+
+@pytest.fixture(scope="module")
+def spatial(cdsm):
+    return cdsm.Robot.from_toml("two_universal")
+
+
+def test_hole_positions_contain_the_actuation_scale_and_the_cable_offsets(mods, spatial, robot):
+    """On a spatial arm the 48 hole coordinates reproduce, to first order, an
+    actuation scale (every hole moved radially scales every moment arm) and
+    a cable's length offset (the hole it is anchored in moved along its
+    disk): the data cannot tell those effects from hole positions, and no
+    other pair of the library is nested so. The planar paper arm has no
+    such pair."""
+    plant, diagnosis = mods["plant"], mods["diagnosis"]
+    for arm, want in ((spatial, {("hole_position", "actuation_scale"), ("hole_position", "cable_offset")}),
+                      (robot, set())):
+        prep = diagnosis.prepare(arm, _data(plant, arm, {}, 1, 60))
+        library = list(plant.effects_of(arm))
+        got = {pair for e in library for pair in diagnosis.nested(prep, [e], library, NOISE)}
+        assert got == want
+
+
+def test_the_search_runs_when_the_greedy_model_holds_a_containing_effect(mods, spatial):
+    """60 rows of an actuation scale and hole clearance on a spatial arm:
+    forward selection takes the hole positions first (48 parameters that
+    contain the scale) and stops, adequate, at hole positions + clearance.
+    The search compares the combinations built on the contained effect and
+    picks the hidden pair (3 parameters, lower held-out RMS)."""
+    plant, diagnosis = mods["plant"], mods["diagnosis"]
+    meas = _data(plant, spatial, {"actuation_scale": [0.03], "hole_clearance": [2e-4]}, 1, 60)
+    d = diagnosis.diagnose(spatial, meas, effects=["actuation_scale", "hole_position", "hole_clearance", "tip_offset"],
+                           noise=NOISE)
+    assert [c.name for c in d.steps][0] == "hole_position"
+    assert d.search is not None and "`hole_position` contains `actuation_scale`" in d.search.reason
+    assert set(d.best.split("+")) == {"actuation_scale", "hole_clearance"} and d.verdict == "explained"

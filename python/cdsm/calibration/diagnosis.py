@@ -91,7 +91,7 @@ from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "Search", "features",
            "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES", "NEAR_FRACTION",
-           "SEARCH_TOP", "SEARCH_FULL",
+           "SEARCH_TOP", "SEARCH_FULL", "nested",
            "MAX_PARAMETER_SHARE"]
 
 #: Measurement noise assumed when none is given: 10 µm per axis and reading.
@@ -785,6 +785,10 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
         reason = "forward selection chose no effect and the nominal model is not adequate"
     elif chosen is not None and ties:
         reason = f"single effects tie with `{singles[0].name}`: {', '.join(ties)}"
+    elif chosen is not None and (nest := nested(prep, chosen.effects, [c.name for c in singles],
+                                                prep.readings * noise.sigma)):
+        reason = ("an effect of the chosen model contains another in the data (its change beside it stays "
+                  "below the noise): " + ", ".join(f"`{big}` contains `{small}`" for big, small in nest))
     else:
         return None
     order = [c.name for c in singles]
@@ -826,6 +830,44 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     return Search(reason, len(combos), float(a), {"+".join(c): float(v) for c, v in zip(combos, screen)}, tried,
                   [c.name for c in supported], [c.name for c in adequate],
                   pick.name if pick is not None else None, pick is not None and pick is not chosen, tie)
+
+
+def nested(prep: Prepared, effects: Sequence[str], library: Sequence[str], sigma: float) -> List[Tuple[str, str]]:
+    """Pairs ``(big, small)``: ``big`` one of ``effects``, ``small`` another
+    effect of ``library`` that the rows cannot tell from ``big`` — with the
+    plant linearised at the start, ``small`` changes the rows by more than
+    ``sigma`` (m, the noise of a row per axis) at its typical size, but no
+    such change leaves more than ``sigma`` beside ``big``: the largest
+    singular value of ``small``'s Jacobian (columns at their typical sizes)
+    is at least ``sigma``, with ``big``'s column space projected out below
+    it. The effects with memory (:data:`plant.MEMORY_EFFECTS`: backlash's
+    dead band, friction's sliding state) are not smooth at the start, so the
+    linearisation does not speak for them: never ``small``. Such a ``big`` can stand in for
+    ``small``, so forward selection may take it where ``small`` and a
+    smaller effect would do (on ``two_universal``: ``hole_position``
+    contains ``actuation_scale`` and ``cable_offset``)."""
+    rows, J, _, col = _linearised(prep)
+    if not len(rows):
+        return []
+    A = J.reshape(-1, J.shape[2])
+
+    def columns(e: str) -> np.ndarray:
+        idx, scale, _ = free_parameters(prep.robot, [e])
+        return A[:, [col[int(i)] for i in idx]] * scale
+
+    out = []
+    for big in effects:
+        u, s, _ = np.linalg.svd(columns(big), full_matrices=False)
+        u = u[:, s > s[0] * 1e-10] if s.size and s[0] > 0 else u[:, :0]
+        for small in library:
+            if small in effects or small == big or small in plant.MEMORY_EFFECTS:
+                continue
+            c = columns(small)
+            if not c.size or np.linalg.norm(c, 2) < sigma:
+                continue
+            if np.linalg.norm(c - u @ (u.T @ c), 2) < sigma:
+                out.append((big, small))
+    return out
 
 
 def _screen(prep: Prepared, scorer: "_Scorer", free: Sequence[Tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
