@@ -138,7 +138,10 @@ def main() -> None:
             print(lines[-1], file=sys.stderr, flush=True)
         lines.append("")
     if "hole_position" in library:
-        lines += ["### What reproduces the absorbed effects (60 rows, data set 0)", ""]
+        lines += ["### What reproduces the absorbed effects (60 rows, data set 0)", "",
+                  "`hole_position[3h + a]`: hole `h` in the order of docs/model.md (cable by cable, each "
+                  "cable's base face b, then faces a and b of each disk it passes), `a` = 0, 1, 2 for dx, dy, dz "
+                  "in the face's frame (x along the arm, y radial for the cables at 0°).", ""]
         for small in ("actuation_scale", "cable_offset"):
             lines += [f"- {s}" for s in absorbing(robot, small, "hole_position", 60, args.seed)]
         lines.append("")

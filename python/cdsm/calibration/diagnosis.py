@@ -39,8 +39,10 @@ Pipeline (FIGAROH-like):
    combination that it does not need (the combination does not beat the one
    without it at the first step's level, or BIC disagrees). Where selection
    ends with a model that is not adequate, with no model while the nominal
-   one is not adequate, or with a model whose first effect ties with other
-   single effects, a **search** goes beyond greedy: every pair of effects
+   one is not adequate, with a model whose first effect ties with other
+   single effects, or with a model holding an effect that contains another
+   library effect in the data (:func:`nested`: hole positions contain an
+   actuation scale), a **search** goes beyond greedy: every pair of effects
    and every triple among the :data:`SEARCH_TOP` best single effects
    (only combinations no larger than an adequate greedy model). All are
    screened by the held-out RMS of the plant linearised at the start (same
@@ -774,11 +776,13 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
             chosen: Optional[Candidate], ties: List[str], max_combination: int) -> Optional[Search]:
     """The search beyond greedy (module doc, step 3): runs where forward
     selection ends with a model that is not adequate, with none while the
-    nominal model is not adequate, or with a model whose first effect ties
-    with other single effects."""
+    nominal model is not adequate, with a model whose first effect ties
+    with other single effects, or with a model holding an effect that
+    contains another library effect (:func:`nested`)."""
     if len(singles) < 2 or max_combination < 2:
         return None
     chosen_ok = chosen is not None and _adequate(prep, noise, chosen, rows, floor)[0]
+    nest: List[Tuple[str, str]] = []
     if chosen is not None and not chosen_ok:
         reason = "forward selection ended with a model that is not adequate"
     elif chosen is None and not _adequate(prep, noise, base, rows, floor)[0]:
@@ -796,6 +800,10 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     # an adequate greedy model is replaced only by an adequate one no larger
     if max_combination >= 3 and not (chosen_ok and len(chosen.effects) < 3):
         combos += list(itertools.combinations(order[:SEARCH_TOP], 3))
+    if nest:  # the question is whether a model on the contained effect does instead of its container
+        combos = [c for c in combos if any(small in c and big not in c for big, small in nest)]
+    if not combos:
+        return None
     a = ALPHA / len(combos)
     free = [free_parameters(prep.robot, _fitted(prep, c))[:2] for c in combos]
     screen = _screen(prep, scorer, free)
