@@ -207,3 +207,18 @@ def test_the_search_runs_when_the_greedy_model_holds_a_containing_effect(mods, s
     assert [c.name for c in d.steps][0] == "hole_position"
     assert d.search is not None and "`hole_position` contains `actuation_scale`" in d.search.reason
     assert set(d.best.split("+")) == {"actuation_scale", "hole_clearance"} and d.verdict == "explained"
+
+
+def test_a_scale_and_offsets_are_not_named_as_the_hole_positions_that_contain_them(mods, spatial):
+    """60 rows of an actuation scale and cable offsets on a spatial arm: the
+    48 hole coordinates contain both, so hole positions alone are adequate
+    and forward selection stops there. One effect is no smaller than two
+    when it holds them: the search on the contained effects picks by BIC
+    the hidden pair (5 parameters against 48)."""
+    plant, diagnosis = mods["plant"], mods["diagnosis"]
+    hidden = {"actuation_scale": [0.027], "cable_offset": [2e-4, -3.3e-4, -3e-4, 3.1e-4]}
+    d = diagnosis.diagnose(spatial, _data(plant, spatial, hidden, 1, 60), noise=NOISE,
+                           effects=["actuation_scale", "cable_offset", "hole_position", "tip_offset"])
+    assert [c.name for c in d.steps] == ["hole_position"]
+    assert d.search is not None and d.search.replaced
+    assert set(d.best.split("+")) == {"actuation_scale", "cable_offset"} and d.verdict == "explained"

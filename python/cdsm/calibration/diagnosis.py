@@ -825,9 +825,12 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
         beats(c, _evaluated(scorer, known, sub)) for sub in itertools.combinations(c.effects, len(c.effects) - 1))]
     adequate = [c for c in supported if _adequate(prep, noise, c, rows, floor)[0]]
     if adequate or chosen_ok:
-        # the adequate model with the fewest effects, then the lowest held-out RMS
+        # the adequate model with the fewest effects, then the lowest held-out
+        # RMS; where an effect contains others the count of effects is no
+        # measure of size (48 hole coordinates contain a scale and four
+        # offsets): the lowest BIC, which counts the parameters
         pool = adequate + ([chosen] if chosen_ok else [])
-        pick = min(pool, key=lambda c: (len(c.effects), c.heldout_rms))
+        pick = min(pool, key=(lambda c: c.fit.bic) if nest else (lambda c: (len(c.effects), c.heldout_rms)))
         rivals = adequate
     else:
         pool = supported + ([chosen] if chosen is not None else [])
