@@ -821,8 +821,18 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
 
     # every effect of a supported combination is needed: it beats the nominal
     # model and each combination one effect smaller, under the family's level
-    supported = [c for c in tried if beats(c, base) and all(
-        beats(c, _evaluated(scorer, known, sub)) for sub in itertools.combinations(c.effects, len(c.effects) - 1))]
+    def needed(c: Candidate) -> bool:
+        return beats(c, base) and all(beats(c, _evaluated(scorer, known, sub))
+                                      for sub in itertools.combinations(c.effects, len(c.effects) - 1))
+
+    supported = [c for c in tried if needed(c)]
+    # a member of the family those checks fitted in full (a pair under a
+    # triple tried) is a candidate too: the linearised screen can rank it low
+    # where the gap is large and the plant far from linear over it
+    extra = [known[frozenset(c)] for c in ranked if frozenset(c) in known
+             and all(known[frozenset(c)] is not t for t in tried)]
+    tried = tried + extra
+    supported += [c for c in extra if needed(c)]
     adequate = [c for c in supported if _adequate(prep, noise, c, rows, floor)[0]]
     if adequate or chosen_ok:
         # the adequate model with the fewest effects, then the lowest held-out
