@@ -56,13 +56,29 @@ nominal model (registered frame) and of the final model (µm; the effect is
 "visible" when the first is well above the 14.1 µm floor), and the median
 wall time of one diagnosis.
 
-``--pairs``: every two-effect mixture of the kind's library as a cell (36
-planar, 45 spatial) instead of the four above; ``--robot two_universal`` (or
-any spatial robot file): the same cells on a spatial arm (library effects at
-1-2x their typical size; tracker frame rotated 25-35° about a random axis,
-1.3-1.5 m away; the out-of-library effects are planar only). A mixture the
-data cannot tell from another (``UNRESOLVABLE``, each with its reason) counts
-as *tied* when the diagnosis' search lists the true pair among its ties.
+``--pairs``: every two-effect mixture of the kind's library as a cell (45
+planar, 55 spatial, ``cable_friction`` included) instead of the four above;
+``--robot two_universal`` (or any spatial robot file): the same cells on a
+spatial arm (library effects at 1-2x their typical size; tracker frame
+rotated 25-35° about a random axis, 1.3-1.5 m away; the out-of-library
+effects are planar only). ``--robot benches/two_universal_nylon.toml``: the
+same arm strung with 0.3 mm nylon 6,6 (E A 177 N), where friction in the
+holes moves the tip by more than the noise (with steel's 4.6 kN it moves it
+by 2-6 µm at most: ``benches/identifiability.md``).
+
+What the data cannot show is not asked for, and the report says so:
+
+* a mixture the data cannot tell from one of its effects alone
+  (``UNRESOLVABLE``, each with its measured reason; on ``two_universal``
+  the hole positions contain an actuation scale and cable offsets) counts
+  as right when the diagnosis names that effect (``ABSORBED_BY``) or its
+  search lists the true pair among its ties;
+* per data set, a hidden effect with at least as many parameters as the
+  rows have position components (``hole_position``'s 48 against 15 rows'
+  45), or whose signal — the sum over the rows of |position with it −
+  without it|² / noise², every other hidden effect kept — is below the
+  1-dof chi-square quantile at the selection's first step (friction with
+  a steel cable) counts as right when the other true effects are named.
 
 Everything is seeded (``--seed``, default 20240601): the hidden parameters,
 commands, noise and tracker frame of data set i of a case come from
@@ -93,7 +109,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import out_of_library as ool  # noqa: E402  (benches/ is not a package)
 
 from cdsm import Robot  # noqa: E402
-from cdsm.calibration import diagnosis, measurements, plant  # noqa: E402
+from cdsm.calibration import diagnosis, measurements, plant, stats  # noqa: E402
 
 NOISE = 10e-6
 ROWS = (60, 15)
@@ -101,9 +117,24 @@ FRAMES = ("base", "tracker")
 SEED = 20240601
 MIXTURES = (("hole_height", "actuation_scale"), ("backlash", "cable_offset"),
             ("link_length", "tip_offset"), ("hole_clearance", "cable_elasticity"))
-#: Two-effect mixtures whose data a rival explains equally well, and why: a
-#: tie (the search's) that contains the true pair is the right answer there.
-UNRESOLVABLE: Dict[frozenset, str] = {}
+#: Two-effect mixtures the data cannot tell from one of their effects alone,
+#: and why (measured by ``benches/identifiability.py``, whose report
+#: ``benches/identifiability.md`` gives the numbers): the right answer there
+#: is the effect that explains the mixture alone (:data:`ABSORBED_BY`), or a
+#: tie of the search that contains the true pair.
+UNRESOLVABLE: Dict[frozenset, str] = {
+    frozenset({"actuation_scale", "hole_position"}): (
+        "`actuation_scale` lies in the column space of `hole_position`: every hole moved radially scales "
+        "every moment arm as a scale of the commands does; of the scale's change (600 σ over 60 rows, median) "
+        "less than 0.05 σ is left beside `hole_position` (relative residual 4e-14, linearised; σ = 10 µm)"),
+    frozenset({"cable_offset", "hole_position"}): (
+        "`cable_offset` lies in the column space of `hole_position`: the hole a cable is anchored in, moved "
+        "along its disk, lengthens the cable by a constant; of the offsets' change (510 σ over 60 rows, "
+        "median) less than 0.05 σ is left beside `hole_position` (relative residual 1e-15, linearised)"),
+}
+#: The effect of an :data:`UNRESOLVABLE` mixture that explains it alone.
+ABSORBED_BY: Dict[frozenset, str] = {frozenset({"actuation_scale", "hole_position"}): "hole_position",
+                                     frozenset({"cable_offset", "hole_position"}): "hole_position"}
 VERDICTS = ("no gap", "explained", "partly explained", "unexplained")
 Z95 = 1.959963984540054
 
@@ -174,14 +205,17 @@ def tracker_frame_3d(rng: np.random.Generator) -> Tuple[np.ndarray, np.ndarray]:
 
 def datasets(robot: Robot, case: Case, rows: int, i: int, seed: int):
     """The base-frame and tracker-frame Measurements of data set ``i`` (same
-    readings, the tracker's rotated and translated), and how many
-    generation attempts failed to settle (regenerated with the next seed)."""
+    readings, the tracker's rotated and translated), how many generation
+    attempts failed to settle (regenerated with the next seed), and the
+    hidden library effects ({effect: values}, SI; empty for nominal and
+    out-of-library data)."""
     retries = 0
     while True:
         ss = np.random.SeedSequence([seed, zlib.crc32(case.name.encode()), rows, i, retries])
         r_par, r_cmd, r_noise, r_frame = (np.random.default_rng(s) for s in ss.spawn(4))
         frame = tracker_frame(r_frame)
         cmd_seed, noise_seed = int(r_cmd.integers(2 ** 31)), int(r_noise.integers(2 ** 31))
+        hidden: Dict[str, np.ndarray] = {}
         try:
             if case.kind == "ool":
                 effect = ool.EFFECTS[case.name].sample(r_par, robot.n)
@@ -189,8 +223,8 @@ def datasets(robot: Robot, case: Case, rows: int, i: int, seed: int):
                 base = ool.measure(robot, effect, th, dl, NOISE, noise_seed)
                 tracker = ool.measure(robot, effect, th, dl, NOISE, noise_seed, frame=frame)
             else:
-                vp = plant.VirtualPrototype(robot, library_effects(robot, case.truth, r_par), noise=NOISE,
-                                            seed=noise_seed)
+                hidden = library_effects(robot, case.truth, r_par)
+                vp = plant.VirtualPrototype(robot, hidden, noise=NOISE, seed=noise_seed)
                 th, dl = vp.random_commands(rows, seed=cmd_seed)
                 base = vp.measure(th, dl)
                 if robot.kind == "spatial":
@@ -200,7 +234,7 @@ def datasets(robot: Robot, case: Case, rows: int, i: int, seed: int):
                     seen = ool.to_frame(base.measured, frame)
                 tracker = measurements.Measurements(base.kind, base.n, base.dL, seen,
                                                     theta=base.theta, source=base.source + " (tracker frame)")
-            return base, tracker, retries
+            return base, tracker, retries, hidden
         except Exception as exc:  # a command that does not settle: regenerate, counted
             if "settle" not in str(exc) or retries >= 10:
                 raise
@@ -217,6 +251,51 @@ def named_right(best: str, truth: Sequence[str], frame: str) -> bool:
     # a hidden frame error merges with the tracker's frame: named once, first
     rest = [e for e in truth if e != "frame_misalignment"]
     return frame == "tracker" and names[:1] == ["frame_misalignment"] and sorted(names[1:]) == sorted(rest)
+
+
+def detection_level(robot: Robot) -> float:
+    """The signal an effect needs to be seen at all: the 1-dof chi-square
+    quantile at the selection's first-step level (``diagnosis.ALPHA`` over
+    the library's size), in units of sum((change / noise)^2)."""
+    return stats.chi2_ppf(1.0 - diagnosis.ALPHA / len(plant.effects_of(robot)), 1)
+
+
+def signals(robot: Robot, hidden: Dict[str, np.ndarray], meas: measurements.Measurements) -> Dict[str, float]:
+    """Each hidden effect's signal in a data set: the sum over its rows of
+    |position with every hidden effect - position without this one|^2 over
+    the noise^2 (the noncentrality a test of the effect has at best)."""
+    k = plant.dims(robot)
+    full, _ = plant.predict(robot, plant.params(robot, hidden), meas.theta, meas.dL)
+    out = {}
+    for e in hidden:
+        rest, _ = plant.predict(robot, plant.params(robot, {x: v for x, v in hidden.items() if x != e}),
+                                meas.theta, meas.dL)
+        out[e] = float(np.nansum((full[:, :k] - rest[:, :k]) ** 2) / NOISE ** 2)
+    return out
+
+
+def unseen(robot: Robot, hidden: Dict[str, np.ndarray], meas: measurements.Measurements) -> Dict[str, str]:
+    """The hidden effects these data cannot show, each with the measured
+    reason: more parameters than the rows have position components, or a
+    signal below :func:`detection_level`."""
+    rows = len(meas) * plant.dims(robot)
+    level = detection_level(robot)
+    out = {}
+    for e, lam in signals(robot, hidden, meas).items():
+        p = len(plant.effect_indices(robot, e))
+        if p >= rows:
+            out[e] = f"{p} parameters, {rows} position components"
+        elif lam < level:
+            out[e] = f"signal sum((change/noise)^2) = {lam:.2g} < {level:.1f}"
+    return out
+
+
+def named_within(best: str, truth: Sequence[str], frame: str, hidden_from: Sequence[str]) -> bool:
+    """Whether ``best`` names what the data can show of ``truth``: the
+    true effects less those the data cannot show (``hidden_from``), at
+    least one of them named."""
+    seen = [e for e in truth if e not in hidden_from]
+    return bool(hidden_from) and bool(seen) and named_right(best, seen, frame)
 
 
 def tied_right(ties: Sequence[str], truth: Sequence[str]) -> bool:
@@ -251,7 +330,7 @@ _CASES: List[Case] = []
 
 def _init(threads: int, robot: str, pairs: bool) -> None:
     global _ROBOT, _CASES
-    _ROBOT = Robot.paper() if robot == "paper" else Robot.from_toml(robot)
+    _ROBOT = load_robot(robot)
     _ROBOT.threads = threads
     _CASES = cases(_ROBOT.kind, pairs)
 
@@ -260,10 +339,13 @@ def _task(args) -> List[dict]:
     ci, rows, i, seed = args
     case = _CASES[ci]
     robot = _ROBOT
-    base, tracker, retries = datasets(robot, case, rows, i, seed)
+    base, tracker, retries, hidden = datasets(robot, case, rows, i, seed)
+    missing = unseen(robot, hidden, base) if hidden else {}
+    absorber = ABSORBED_BY.get(frozenset(case.truth))
     out = []
     for frame, meas in zip(FRAMES, (base, tracker)):
-        rec = dict(case=ci, rows=rows, frame=frame, i=i, retries=retries, error=None)
+        rec = dict(case=ci, rows=rows, frame=frame, i=i, retries=retries, error=None, unseen=missing,
+                   within=False)
         t0 = time.perf_counter()
         try:
             d = diagnosis.diagnose(robot, meas, noise=NOISE)
@@ -276,7 +358,13 @@ def _task(args) -> List[dict]:
         right = named_right(d.best, case.truth, frame)
         tied = (not right and frozenset(case.truth) in UNRESOLVABLE and d.search is not None
                 and tied_right(d.search.ties, case.truth))
-        rec.update(time=time.perf_counter() - t0, best=d.best, verdict=d.verdict, right=right or tied, tied=tied,
+        # what the data can show: the effect that absorbs an unresolvable
+        # mixture, or the true effects less those the data cannot show
+        within = not (right or tied) and (
+            (absorber is not None and named_right(d.best, [absorber], frame))
+            or named_within(d.best, case.truth, frame, list(missing)))
+        rec.update(time=time.perf_counter() - t0, best=d.best, verdict=d.verdict, right=right or tied or within,
+                   tied=tied, within=within,
                    searched=d.search is not None, usable=int(d.prep.usable.sum()),
                    nominal_rms=d.baseline.heldout_rms, final_rms=d.final().heldout_rms)
         out.append(rec)
@@ -299,11 +387,54 @@ def _cell_rows(recs: List[dict], case: Case) -> List[str]:
     errors = n - len(ok)
     flagged = sum(r["rows"] - r["usable"] for r in ok)
     tied = sum(r["tied"] for r in recs)
+    within = sum(r["within"] for r in recs)
     searched = sum(r["searched"] for r in recs)
-    return [(rate(right, n) + (f" ({tied} by a tie)" if tied else "")) if case.kind != "ool" else "n/a",
+    how = [f"{tied} by a tie"] * bool(tied) + [f"{within} by what the data show"] * bool(within)
+    return [(rate(right, n) + (f" ({'; '.join(how)})" if how else "")) if case.kind != "ool" else "n/a",
             rate(hit, n), verdicts, f"`{best}` ({kbest})",
             f"{med('nominal_rms'):.0f} → {med('final_rms'):.0f}", str(searched), f"{t:.2f}",
             str(errors) + (f" ({flagged} rows flagged)" if flagged else "")]
+
+
+def _limits(records: List[dict], all_cases: List[Case], args) -> List[str]:
+    """The Markdown on what the data cannot show: the unresolvable mixtures
+    measured, with their reasons, and the hidden effects the data sets
+    could not show, counted per effect and row count with a reason."""
+    out = []
+    run = {frozenset(all_cases[r["case"]].truth) for r in records}
+    listed = [(m, why) for m, why in UNRESOLVABLE.items() if m in run]
+    if listed:
+        out += ["### Mixtures the data cannot resolve (`UNRESOLVABLE`)", "",
+                "Counted right when the diagnosis names the effect that explains the mixture alone, or when "
+                "the search's ties contain the true pair.", ""]
+        out += [f"- `{'+'.join(sorted(m))}` (explained alone by `{ABSORBED_BY[m]}`): {why}." for m, why in listed]
+        out.append("")
+    miss: Dict[Tuple[str, int], List[str]] = collections.defaultdict(list)
+    total: Dict[Tuple[str, int], int] = collections.Counter()
+    for r in records:
+        if r["frame"] != "base":
+            continue
+        for e in all_cases[r["case"]].truth:
+            total[(e, r["rows"])] += 1
+        for e, why in r["unseen"].items():
+            miss[(e, r["rows"])].append(why)
+    if miss:
+        out += ["### Hidden effects the data cannot show", "",
+                "Per data set, a hidden effect with at least as many parameters as the rows have position "
+                "components, or whose signal (the sum over the rows of |position with it − without it|² / "
+                f"noise², every other hidden effect kept) is below {detection_level(load_robot(args.robot)):.1f} "
+                "(the 1-dof chi-square quantile at the selection's first-step level), is not asked for: the "
+                "diagnosis is right there when it names the other true effects.", "",
+                "| effect | rows | data sets | reason (first) |", "|---|---:|---|---|"]
+        for (e, ro), whys in sorted(miss.items(), key=lambda t: (t[0][0], -t[0][1])):
+            out.append(f"| {e} | {ro} | {len(whys)} of {total[(e, ro)]} | {whys[0]} |")
+        out.append("")
+    return out
+
+
+def load_robot(name: str) -> Robot:
+    """The paper robot or a packaged robot name or robot file."""
+    return Robot.paper() if name == "paper" else Robot.from_toml(name)
 
 
 def report(records: List[dict], args, elapsed: float, kind: str) -> str:
@@ -376,6 +507,7 @@ def report(records: List[dict], args, elapsed: float, kind: str) -> str:
                 what = "explained" if group == "ool" else f"right effect {rate(right, len(recs))}; {target}"
                 pooled.append(f"| {group} | {rows} | {frame} | {what} {rate(hit, len(recs))} |")
     lines += ["### Pooled over cases", "", "| cases | rows | frame | rates |", "|---|---:|---|---|", *pooled, ""]
+    lines += _limits(records, all_cases, args)
     retried = collections.Counter()
     for r in records:
         if r["frame"] == "base" and r["retries"]:
@@ -401,7 +533,8 @@ def main() -> None:
     ap.add_argument("--threads", type=int, default=1, help="robot.threads in each worker (default 1)")
     ap.add_argument("--seed", type=int, default=SEED)
     ap.add_argument("--rows", default=",".join(map(str, ROWS)), help="row counts (default 60,15)")
-    ap.add_argument("--only", default=None, help="only cases whose name contains this text")
+    ap.add_argument("--only", default=None, help="only cases whose name contains this text (a comma-separated "
+                    "list: any of them)")
     ap.add_argument("--pairs", action="store_true", help="every two-effect mixture of the library as a cell")
     ap.add_argument("--robot", default="paper", help="'paper' (default), a packaged robot name or a robot file")
     args = ap.parse_args()
@@ -410,9 +543,10 @@ def main() -> None:
     if args.datasets < 1 or args.jobs < 1:
         ap.error("--datasets and --jobs must be positive")
     args.rows = [int(r) for r in args.rows.split(",") if r.strip()]
-    kind = (Robot.paper() if args.robot == "paper" else Robot.from_toml(args.robot)).kind
+    kind = load_robot(args.robot).kind
     all_cases = cases(kind, args.pairs)
-    chosen = [ci for ci, c in enumerate(all_cases) if args.only is None or args.only in c.name]
+    wanted = None if args.only is None else [w.strip() for w in args.only.split(",") if w.strip()]
+    chosen = [ci for ci, c in enumerate(all_cases) if wanted is None or any(w in c.name for w in wanted)]
     # the longest work first (60 rows, library mixtures), for load balance
     tasks = [(ci, rows, i, args.seed) for rows in sorted(args.rows, reverse=True) for ci in chosen
              for i in range(args.datasets)]

@@ -39,8 +39,10 @@ Pipeline (FIGAROH-like):
    combination that it does not need (the combination does not beat the one
    without it at the first step's level, or BIC disagrees). Where selection
    ends with a model that is not adequate, with no model while the nominal
-   one is not adequate, or with a model whose first effect ties with other
-   single effects, a **search** goes beyond greedy: every pair of effects
+   one is not adequate, with a model whose first effect ties with other
+   single effects, or with a model holding an effect that contains another
+   library effect in the data (:func:`nested`: hole positions contain an
+   actuation scale), a **search** goes beyond greedy: every pair of effects
    and every triple among the :data:`SEARCH_TOP` best single effects
    (only combinations no larger than an adequate greedy model). All are
    screened by the held-out RMS of the plant linearised at the start (same
@@ -91,7 +93,7 @@ from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "Search", "features",
            "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES", "NEAR_FRACTION",
-           "SEARCH_TOP", "SEARCH_FULL",
+           "SEARCH_TOP", "SEARCH_FULL", "nested",
            "MAX_PARAMETER_SHARE"]
 
 #: Measurement noise assumed when none is given: 10 µm per axis and reading.
@@ -774,17 +776,23 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
             chosen: Optional[Candidate], ties: List[str], max_combination: int) -> Optional[Search]:
     """The search beyond greedy (module doc, step 3): runs where forward
     selection ends with a model that is not adequate, with none while the
-    nominal model is not adequate, or with a model whose first effect ties
-    with other single effects."""
+    nominal model is not adequate, with a model whose first effect ties
+    with other single effects, or with a model holding an effect that
+    contains another library effect (:func:`nested`)."""
     if len(singles) < 2 or max_combination < 2:
         return None
     chosen_ok = chosen is not None and _adequate(prep, noise, chosen, rows, floor)[0]
+    nest: List[Tuple[str, str]] = []
     if chosen is not None and not chosen_ok:
         reason = "forward selection ended with a model that is not adequate"
     elif chosen is None and not _adequate(prep, noise, base, rows, floor)[0]:
         reason = "forward selection chose no effect and the nominal model is not adequate"
     elif chosen is not None and ties:
         reason = f"single effects tie with `{singles[0].name}`: {', '.join(ties)}"
+    elif chosen is not None and (nest := nested(prep, chosen.effects, [c.name for c in singles],
+                                                prep.readings * noise.sigma)):
+        reason = ("an effect of the chosen model contains another in the data (its change beside it stays "
+                  "below the noise): " + ", ".join(f"`{big}` contains `{small}`" for big, small in nest))
     else:
         return None
     order = [c.name for c in singles]
@@ -792,6 +800,10 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     # an adequate greedy model is replaced only by an adequate one no larger
     if max_combination >= 3 and not (chosen_ok and len(chosen.effects) < 3):
         combos += list(itertools.combinations(order[:SEARCH_TOP], 3))
+    if nest:  # the question is whether a model on the contained effect does instead of its container
+        combos = [c for c in combos if any(small in c and big not in c for big, small in nest)]
+    if not combos:
+        return None
     a = ALPHA / len(combos)
     free = [free_parameters(prep.robot, _fitted(prep, c))[:2] for c in combos]
     screen = _screen(prep, scorer, free)
@@ -809,13 +821,26 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
 
     # every effect of a supported combination is needed: it beats the nominal
     # model and each combination one effect smaller, under the family's level
-    supported = [c for c in tried if beats(c, base) and all(
-        beats(c, _evaluated(scorer, known, sub)) for sub in itertools.combinations(c.effects, len(c.effects) - 1))]
+    def needed(c: Candidate) -> bool:
+        return beats(c, base) and all(beats(c, _evaluated(scorer, known, sub))
+                                      for sub in itertools.combinations(c.effects, len(c.effects) - 1))
+
+    supported = [c for c in tried if needed(c)]
+    # a member of the family those checks fitted in full (a pair under a
+    # triple tried) is a candidate too: the linearised screen can rank it low
+    # where the gap is large and the plant far from linear over it
+    extra = [known[frozenset(c)] for c in ranked if frozenset(c) in known
+             and all(known[frozenset(c)] is not t for t in tried)]
+    tried = tried + extra
+    supported += [c for c in extra if needed(c)]
     adequate = [c for c in supported if _adequate(prep, noise, c, rows, floor)[0]]
     if adequate or chosen_ok:
-        # the adequate model with the fewest effects, then the lowest held-out RMS
+        # the adequate model with the fewest effects, then the lowest held-out
+        # RMS; where an effect contains others the count of effects is no
+        # measure of size (48 hole coordinates contain a scale and four
+        # offsets): the lowest BIC, which counts the parameters
         pool = adequate + ([chosen] if chosen_ok else [])
-        pick = min(pool, key=lambda c: (len(c.effects), c.heldout_rms))
+        pick = min(pool, key=(lambda c: c.fit.bic) if nest else (lambda c: (len(c.effects), c.heldout_rms)))
         rivals = adequate
     else:
         pool = supported + ([chosen] if chosen is not None else [])
@@ -826,6 +851,44 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     return Search(reason, len(combos), float(a), {"+".join(c): float(v) for c, v in zip(combos, screen)}, tried,
                   [c.name for c in supported], [c.name for c in adequate],
                   pick.name if pick is not None else None, pick is not None and pick is not chosen, tie)
+
+
+def nested(prep: Prepared, effects: Sequence[str], library: Sequence[str], sigma: float) -> List[Tuple[str, str]]:
+    """Pairs ``(big, small)``: ``big`` one of ``effects``, ``small`` another
+    effect of ``library`` that the rows cannot tell from ``big`` — with the
+    plant linearised at the start, ``small`` changes the rows by more than
+    ``sigma`` (m, the noise of a row per axis) at its typical size, but no
+    such change leaves more than ``sigma`` beside ``big``: the largest
+    singular value of ``small``'s Jacobian (columns at their typical sizes)
+    is at least ``sigma``, with ``big``'s column space projected out below
+    it. The effects with memory (:data:`plant.MEMORY_EFFECTS`: backlash's
+    dead band, friction's sliding state) are not smooth at the start, so the
+    linearisation does not speak for them: never ``small``. Such a ``big`` can stand in for
+    ``small``, so forward selection may take it where ``small`` and a
+    smaller effect would do (on ``two_universal``: ``hole_position``
+    contains ``actuation_scale`` and ``cable_offset``)."""
+    rows, J, _, col = _linearised(prep)
+    if not len(rows):
+        return []
+    A = J.reshape(-1, J.shape[2])
+
+    def columns(e: str) -> np.ndarray:
+        idx, scale, _ = free_parameters(prep.robot, [e])
+        return A[:, [col[int(i)] for i in idx]] * scale
+
+    out = []
+    for big in effects:
+        u, s, _ = np.linalg.svd(columns(big), full_matrices=False)
+        u = u[:, s > s[0] * 1e-10] if s.size and s[0] > 0 else u[:, :0]
+        for small in library:
+            if small in effects or small == big or small in plant.MEMORY_EFFECTS:
+                continue
+            c = columns(small)
+            if not c.size or np.linalg.norm(c, 2) < sigma:
+                continue
+            if np.linalg.norm(c - u @ (u.T @ c), 2) < sigma:
+                out.append((big, small))
+    return out
 
 
 def _screen(prep: Prepared, scorer: "_Scorer", free: Sequence[Tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
