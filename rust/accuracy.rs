@@ -134,7 +134,7 @@ pub fn hist_bin(v: f64) -> usize {
         return last;
     }
     let b0 = bin_estimate(v);
-    // edges[0] <= v < edges[last - 1]: at b0 = 1 `down` is 0, at last - 1 `up` is
+    // edges[0] <= v < edges[last - 1]: `down` is 0 at b0 = 1, `up` is 0 at b0 = last - 1
     let down = usize::from(v < edges[b0 - 1]);
     let up = usize::from(v >= edges[b0]);
     let mut b = b0 + up - down;
@@ -147,21 +147,6 @@ pub fn hist_bin(v: f64) -> usize {
         }
     }
     b
-}
-
-/// The number of samples of one Monte-Carlo call, checked: the histogram
-/// counts them in 32 bits (a study of more samples runs in chunks).
-pub fn check_samples(samples: usize) -> Result<usize> {
-    if samples > u32::MAX as usize {
-        return Err(CdsmError::Option {
-            name: "dl".into(),
-            problem: format!(
-                "{samples} samples in one call; at most {} (run the study in chunks)",
-                u32::MAX
-            ),
-        });
-    }
-    Ok(samples)
 }
 
 /// The regular bin (`1..HIST_BINS - 1`) of a norm within the regular bins'
@@ -177,6 +162,21 @@ fn bin_estimate(v: f64) -> usize {
     // truncation, not floor (a libm call): the caller corrects the guess
     let est = ((log2 - HIST_LO.log2()) * per_log2) as isize + 1;
     est.clamp(1, HIST_BINS as isize - 2) as usize
+}
+
+/// The number of samples of one Monte-Carlo call, checked: the histogram
+/// counts them in 32 bits (a study of more samples runs in chunks).
+pub fn check_samples(samples: usize) -> Result<usize> {
+    if samples > u32::MAX as usize {
+        return Err(CdsmError::Option {
+            name: "dl".into(),
+            problem: format!(
+                "{samples} samples in one call; at most {} (run the study in chunks)",
+                u32::MAX
+            ),
+        });
+    }
+    Ok(samples)
 }
 
 /// Per-configuration statistics of a Monte-Carlo study, mergeable across
