@@ -61,7 +61,8 @@ planar, 55 spatial, ``cable_friction`` included) instead of the four above;
 ``--robot two_universal`` (or any spatial robot file): the same cells on a
 spatial arm (library effects at 1-2x their typical size; tracker frame
 rotated 25-35° about a random axis, 1.3-1.5 m away; the out-of-library
-effects are planar only). ``--robot benches/two_universal_nylon.toml``: the
+effects act on the position-controlled cables and the tracker's three
+axes). ``--robot benches/two_universal_nylon.toml``: the
 same arm strung with 0.3 mm nylon 6,6 (E A 177 N), where friction in the
 holes moves the tip by more than the noise (with steel's 4.6 kN it moves it
 by 2-6 µm at most: ``benches/identifiability.md``).
@@ -159,8 +160,7 @@ def cases(robot_kind: str = "planar", pairs: bool = False) -> List[Case]:
     mixtures = list(itertools.combinations(library, 2)) if pairs or robot_kind == "spatial" else MIXTURES
     out += [Case("+".join(m), "library", tuple(m)) for m in mixtures]
     out.append(Case("nominal (no effect)", "nominal"))
-    if robot_kind == "planar":
-        out += [Case(name, "ool") for name in ool.EFFECTS]
+    out += [Case(name, "ool") for name in ool.EFFECTS]
     return out
 
 
@@ -218,8 +218,10 @@ def datasets(robot: Robot, case: Case, rows: int, i: int, seed: int):
         hidden: Dict[str, np.ndarray] = {}
         try:
             if case.kind == "ool":
-                effect = ool.EFFECTS[case.name].sample(r_par, robot.n)
+                effect = ool.EFFECTS[case.name].sample(r_par, robot)
                 th, dl = plant.VirtualPrototype(robot, {}).random_commands(rows, seed=cmd_seed)
+                if robot.kind == "spatial":
+                    frame = tracker_frame_3d(r_frame)
                 base = ool.measure(robot, effect, th, dl, NOISE, noise_seed)
                 tracker = ool.measure(robot, effect, th, dl, NOISE, noise_seed, frame=frame)
             else:

@@ -5,10 +5,13 @@ None of these is (or should become) an effect of
 :mod:`cdsm.calibration.plant`: a diagnosis that calls data made with one of
 them "explained" has wrongly claimed that its library accounts for the gap.
 
-Actuator-side effects map the *commanded* upper-cable lengths ``c`` (N, n) of
-the rows, run in order, to the lengths the screws *realise*; the nominal plant
-is then fed ``dL' = realised - L_upper,nom(theta_cmd)`` while the data keep
-the commanded ``dL`` (all the diagnosis sees). ``d = c - L_ref`` is the
+Actuator-side effects map the *commanded* lengths ``c`` (N, w) of the
+position-controlled cables (the n upper cables of a planar arm, every cable
+of a spatial one's position set) of the rows, run in order, to the lengths
+the screws *realise*; the nominal plant is then fed
+``dL' = realised - L_pos,nom(theta_cmd)`` while the data keep the commanded
+``dL`` (all the diagnosis sees). Every effect of :data:`EFFECTS` applies to
+both kinds of arm. ``d = c - L_ref`` is the
 commanded change from the straight-pose length ``L_ref`` (per cable). The
 instrument-side effect (tracker drift) acts on the measured positions.
 
@@ -37,7 +40,7 @@ lead screw's error is periodic in the commanded length; the drift is in time
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional, Sequence
+from typing import Optional
 
 import numpy as np
 
@@ -54,20 +57,25 @@ def _signs(rng: np.random.Generator, n: int) -> np.ndarray:
 
 
 class OutOfLibrary:
-    """An effect outside the library. ``realise`` maps commanded upper-cable
-    lengths (N, n) m, rows in execution order, to realised ones; ``observe``
-    maps measured positions (N, 2) m (instrument frame) to what is read."""
+    """An effect outside the library. ``realise`` maps commanded
+    position-controlled cable lengths (N, w) m (the n upper cables of a
+    planar arm), rows in execution order, to realised ones; ``observe`` maps
+    measured positions (N, k) m (instrument frame; k = 2 planar, 3 spatial)
+    to what is read."""
 
     name = "out_of_library"
 
     @classmethod
-    def sample(cls, rng: np.random.Generator, n: int) -> "OutOfLibrary":  # pragma: no cover - abstract
+    def sample(cls, rng: np.random.Generator, robot: Robot) -> "OutOfLibrary":  # pragma: no cover - abstract
+        """Random parameters for ``robot`` (one per commanded cable, or per
+        axis of the instrument)."""
         raise NotImplementedError
 
     def realise(self, robot: Robot, theta: np.ndarray, commanded: np.ndarray) -> np.ndarray:
         return commanded
 
     def observe(self, xy: np.ndarray) -> np.ndarray:
+        """Read positions (N, k) m, k = 2 planar, 3 spatial."""
         return xy
 
     def describe(self) -> str:
@@ -82,8 +90,9 @@ class QuadraticActuator(OutOfLibrary):
     name = "quadratic_actuator"
 
     @classmethod
-    def sample(cls, rng, n):
-        return cls(_signs(rng, n) * rng.uniform(0.3, 0.6, n))
+    def sample(cls, rng, robot):
+        w = plant.commands(robot)
+        return cls(_signs(rng, w) * rng.uniform(0.3, 0.6, w))
 
     def realise(self, robot, theta, commanded):
         ref = robot.upper_lengths(np.zeros(robot.n))
@@ -102,8 +111,9 @@ class CubicActuator(OutOfLibrary):
     name = "cubic_actuator"
 
     @classmethod
-    def sample(cls, rng, n):
-        return cls(_signs(rng, n) * rng.uniform(4.0, 8.0, n))
+    def sample(cls, rng, robot):
+        w = plant.commands(robot)
+        return cls(_signs(rng, w) * rng.uniform(4.0, 8.0, w))
 
     def realise(self, robot, theta, commanded):
         ref = robot.upper_lengths(np.zeros(robot.n))
@@ -124,8 +134,8 @@ class LeadScrew(OutOfLibrary):
     name = "lead_screw"
 
     @classmethod
-    def sample(cls, rng, n):
-        return cls(rng.uniform(20e-6, 40e-6, n), 1e-3)
+    def sample(cls, rng, robot):
+        return cls(rng.uniform(20e-6, 40e-6, plant.commands(robot)), 1e-3)
 
     def realise(self, robot, theta, commanded):
         ref = robot.upper_lengths(np.zeros(robot.n))
@@ -147,8 +157,8 @@ class HoleFriction(OutOfLibrary):
     name = "hole_friction"
 
     @classmethod
-    def sample(cls, rng, n):
-        return cls(rng.uniform(50e-6, 100e-6, n))
+    def sample(cls, rng, robot):
+        return cls(rng.uniform(50e-6, 100e-6, robot.n))
 
     def realise(self, robot, theta, commanded):
         wrap = np.cumsum(np.abs(theta), axis=1)  # cable i crosses joints 1..i
@@ -177,7 +187,7 @@ class ThermalDrift(OutOfLibrary):
     name = "thermal_drift"
 
     @classmethod
-    def sample(cls, rng, n):
+    def sample(cls, rng, robot):
         return cls(float(rng.uniform(1e-5, 2e-5)))
 
     def realise(self, robot, theta, commanded):
@@ -190,14 +200,16 @@ class ThermalDrift(OutOfLibrary):
 @dataclass
 class TrackerDrift(OutOfLibrary):
     """The instrument's reading drifts linearly in time: row ``j`` (execution
-    order) is read ``j · v`` off (v (2,) m per row, instrument frame)."""
+    order) is read ``j · v`` off (v (k,) m per row, instrument frame; about
+    5 µm per row on each axis)."""
 
     v: np.ndarray = field(default_factory=lambda: np.array([5e-6, 5e-6]))
     name = "tracker_drift"
 
     @classmethod
-    def sample(cls, rng, n):
-        return cls(_signs(rng, 2) * rng.uniform(4e-6, 6e-6, 2))
+    def sample(cls, rng, robot):
+        k = plant.dims(robot)
+        return cls(_signs(rng, k) * rng.uniform(4e-6, 6e-6, k))
 
     def observe(self, xy):
         return xy + np.arange(len(xy))[:, None] * self.v
@@ -212,26 +224,31 @@ class TrackerDrift(OutOfLibrary):
 EFFECTS = {c.name: c for c in (QuadraticActuator, CubicActuator, LeadScrew, ThermalDrift, TrackerDrift)}
 
 
-def to_frame(xy: np.ndarray, frame: Optional[Sequence[float]]) -> np.ndarray:
-    """Positions (N, 2) m seen in an instrument frame ``(alpha, tx, ty)``
-    (rad, m, m): ``Rot(alpha) p + t``; ``None``: unchanged."""
+def to_frame(xy: np.ndarray, frame) -> np.ndarray:
+    """Positions seen in an instrument frame: planar (N, 2) m with ``frame``
+    ``(alpha, tx, ty)`` (rad, m, m): ``Rot(alpha) p + t``; spatial (N, 3) m
+    with ``frame`` ``(R (3, 3), t (3,) m)``: ``R p + t``; ``None``:
+    unchanged."""
     if frame is None:
         return xy
+    if xy.shape[1] == 3:
+        rot, t = frame
+        return xy @ np.asarray(rot, float).T + np.asarray(t, float)
     a, tx, ty = frame
     c, s = np.cos(a), np.sin(a)
     return xy @ np.array([[c, s], [-s, c]]) + np.array([tx, ty])
 
 
 def measure(robot: Robot, effect: Optional[OutOfLibrary], theta: np.ndarray, dL: np.ndarray,
-            noise: float = 10e-6, seed: int = 0, frame: Optional[Sequence[float]] = None
-            ) -> measurements.Measurements:
+            noise: float = 10e-6, seed: int = 0, frame=None) -> measurements.Measurements:
     """Absolute measurements (SI) of the rows ``theta`` (N, n) rad, ``dL``
-    (N, n) m, run in order, on the nominal plant with ``effect`` (None:
+    (N, w) m, run in order, on the nominal plant with ``effect`` (None:
     nominal), Gaussian noise ``noise`` m per axis and reading (seeded), read
     in the instrument frame ``frame`` (see :func:`to_frame`; None: the base
     frame). The table carries the *commanded* dL."""
     theta = np.asarray(theta, float)
     dL = np.asarray(dL, float)
+    k = plant.dims(robot)
     nominal = robot.upper_lengths(theta)
     commanded = nominal + dL
     realised = commanded if effect is None else effect.realise(robot, theta, commanded)
@@ -239,7 +256,7 @@ def measure(robot: Robot, effect: Optional[OutOfLibrary], theta: np.ndarray, dL:
     if not np.all(ok):
         raise RuntimeError(f"{int((~ok).sum())} rows of {effect.name if effect else 'nominal'} do not settle")
     rng = np.random.default_rng(seed)
-    xy = to_frame(obs[:, :2] + rng.normal(0.0, noise, (len(theta), 2)), frame)
+    xy = to_frame(obs[:, :k] + rng.normal(0.0, noise, (len(theta), k)), frame)
     if effect is not None:
         xy = effect.observe(xy)
     return measurements.Measurements("absolute", robot.n, dL, xy, theta=theta,
