@@ -48,7 +48,9 @@ Pipeline (FIGAROH-like):
    screened by the held-out RMS of the plant linearised at the start (same
    folds); the :data:`SEARCH_FULL` best are fitted in full, each required to
    beat the nominal model and each of its sub-combinations one effect
-   smaller under the same test, Bonferroni-corrected for the whole family.
+   smaller under the same test, Bonferroni-corrected for the whole family;
+   where the greedy model holds a container, the members built from what it
+   contains are fitted in full too (docs/model.md, "Nested effects").
    The adequate model with the fewest effects (then the lowest held-out
    RMS) is chosen, or the lowest held-out RMS when none is adequate;
    combinations of its size the held-out errors cannot tell from it are
