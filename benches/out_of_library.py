@@ -21,18 +21,13 @@ effect                 realised length / measurement
 quadratic_actuator     L_ref + d + k2_i d²            (k2 ~ 0.3-0.6 1/m)
 cubic_actuator         L_ref + d + k3_i d³            (k3 ~ 4-8 1/m²)
 lead_screw             c + a_i sin(2π d / pitch)      (pitch 1 mm, a 20-40 µm)
-hole_friction          c - g_i W_i(θ) s_i             capstan-like loss: W_i = Σ_{k≤i} |θ_k|
-                                                      (the wrap angle of upper cable i, rad),
-                                                      g_i 50-100 µm/rad, s_i the sign of the
-                                                      cable's last move (memory per cable)
 thermal_drift          c (1 + j k)                    j the row (execution order), k ~ 1-2e-5
-tracker_drift          measured xy + (row index) v    v ~ 5 µm/row in x and y
+tracker_drift          measured p + (row index) v     v ~ 5 µm/row on each axis
 =====================  ======================================================
 
-The friction loss differs from the library's ``backlash`` (a constant dead
-band ``b_i``): it grows with the angle the cable wraps over the holes, so a
-constant dead band absorbs only its mean. The quadratic and cubic actuators
-differ from ``actuation_scale`` (linear) and ``cable_offset`` (constant); the
+A capstan-like friction loss in the holes was in this set until
+``cable_friction`` joined the library (issue 25). The quadratic and cubic
+actuators differ from ``actuation_scale`` (linear) and ``cable_offset`` (constant); the
 lead screw's error is periodic in the commanded length; the drift is in time
 (row order), not in the configuration.
 """
@@ -47,8 +42,7 @@ import numpy as np
 from cdsm import Robot
 from cdsm.calibration import measurements, plant
 
-__all__ = ["OutOfLibrary", "QuadraticActuator", "CubicActuator", "LeadScrew", "HoleFriction", "ThermalDrift",
-           "TrackerDrift",
+__all__ = ["OutOfLibrary", "QuadraticActuator", "CubicActuator", "LeadScrew", "ThermalDrift", "TrackerDrift",
            "EFFECTS", "to_frame", "measure"]
 
 
@@ -146,37 +140,6 @@ class LeadScrew(OutOfLibrary):
 
 
 @dataclass
-class HoleFriction(OutOfLibrary):
-    """Capstan-like friction in the holes: cable ``i`` loses
-    ``g_i · W_i(theta_cmd)`` of length in the direction of its last move,
-    ``W_i`` the summed |joint angle| over the joints it crosses (1..i), ``g``
-    (n,) m/rad. The direction is remembered per cable while its command does
-    not change (from the straight pose, no direction yet)."""
-
-    g: np.ndarray
-    name = "hole_friction"
-
-    @classmethod
-    def sample(cls, rng, robot):
-        return cls(rng.uniform(50e-6, 100e-6, robot.n))
-
-    def realise(self, robot, theta, commanded):
-        wrap = np.cumsum(np.abs(theta), axis=1)  # cable i crosses joints 1..i
-        prev = robot.upper_lengths(np.zeros(robot.n))
-        direction = np.zeros(robot.n)
-        out = np.empty_like(commanded)
-        for j, c in enumerate(commanded):
-            step = c - prev
-            direction = np.where(np.abs(step) > 1e-12, np.sign(step), direction)
-            out[j] = c - self.g * wrap[j] * direction
-            prev = c
-        return out
-
-    def describe(self):
-        return f"g·W·sign(last move), g = {np.array2string(self.g * 1e6, precision=0)} µm/rad"
-
-
-@dataclass
 class ThermalDrift(OutOfLibrary):
     """The cables warm over the run: row ``j`` (execution order) realises
     every commanded length ``c`` as ``c (1 + j k)`` (k ~ 1-2e-5 per row: a
@@ -218,9 +181,7 @@ class TrackerDrift(OutOfLibrary):
         return f"drift {np.array2string(self.v * 1e6, precision=1)} µm/row"
 
 
-#: The out-of-library effects, by name. ``HoleFriction`` left the set when
-#: ``cable_friction`` joined the library (issue 25): it stays here as a model
-#: of friction other than the library's, not counted as out of library.
+#: The out-of-library effects, by name.
 EFFECTS = {c.name: c for c in (QuadraticActuator, CubicActuator, LeadScrew, ThermalDrift, TrackerDrift)}
 
 
