@@ -49,8 +49,9 @@ Pipeline (FIGAROH-like):
    folds); the :data:`SEARCH_FULL` best are fitted in full, each required to
    beat the nominal model and each of its sub-combinations one effect
    smaller under the same test, Bonferroni-corrected for the whole family;
-   where the greedy model holds a container, the members built from what it
-   contains are fitted in full too (docs/model.md, "Nested effects").
+   where the greedy model holds a container, the :data:`SEARCH_TOP` best
+   members built from what it contains are fitted in full too, whatever
+   their screen (docs/model.md, "Nested effects").
    The adequate model with the fewest effects (then the lowest held-out
    RMS) is chosen, or the lowest held-out RMS when none is adequate;
    combinations of its size the held-out errors cannot tell from it are
@@ -793,7 +794,7 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     elif chosen is None and not _adequate(prep, noise, base, rows, floor)[0]:
         reason = "forward selection chose no effect and the nominal model is not adequate"
     elif chosen is not None and ties:
-        reason = f"single effects tie with `{singles[0].name}`: {', '.join(ties)}"
+        reason = f"single effects tie with `{singles[0].name}`: {', '.join(ties)}" + (f"; {contains}" if nest else "")
     elif nest:
         reason = contains
     else:
@@ -808,24 +809,28 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     if not combos:
         return None
     # the members of the family built in place of a container from what it
-    # contains (with the chosen model's other effects): the SEARCH_TOP best
-    # by the screen are fitted in full whatever their rank, since a container
-    # the fit cannot bring to the floor (48 hole coordinates from a 1 mm gap)
-    # says nothing of what it contains
+    # contains: the SEARCH_TOP best by the screen are fitted in full whatever
+    # their screen, which linearises the plant at the start and so misjudges
+    # a gap of millimetres (where a container is adequate, the whole family;
+    # where it is not, those built only from what it contains and the chosen
+    # model's other effects, since a container the fit cannot bring to the
+    # floor — 48 hole coordinates from a 1 mm gap — says nothing of the rest)
     parts = {small for _, small in nest} | (set(chosen.effects) - {big for big, _ in nest} if nest else set())
-    built = [c for c in combos if set(c) <= parts and any(small in c for _, small in nest)]
+    built = (combos if nest and chosen_ok else
+             [c for c in combos if set(c) <= parts and any(small in c for _, small in nest)])
     a = ALPHA / len(combos)
     free = [free_parameters(prep.robot, _fitted(prep, c))[:2] for c in combos]
     screen = _screen(prep, scorer, free)
     # a combination with more free parameters than half the position
     # components of the rows is not fitted in full: it would interpolate them
     observed = len(rows) * plant.dims(prep.robot)
-    ranked = [combos[i] for i in np.argsort(screen, kind="stable")
-              if (not chosen_ok or screen[i] <= SCREEN_MARGIN * 1.5 * floor)
-              and len(free[i][0]) <= MAX_PARAMETER_SHARE * observed]
+    fittable = [i for i in np.argsort(screen, kind="stable") if len(free[i][0]) <= MAX_PARAMETER_SHARE * observed]
+    ranked = [combos[i] for i in fittable if not chosen_ok or screen[i] <= SCREEN_MARGIN * 1.5 * floor]
     fresh = [c for c in ranked if frozenset(c) not in known][:SEARCH_FULL]
-    fresh += [c for c in ranked if c in built and c not in fresh and frozenset(c) not in known][:SEARCH_TOP]
+    fresh += [c for c in (combos[i] for i in fittable)
+              if c in built and c not in fresh and frozenset(c) not in known][:SEARCH_TOP]
     tried = [_evaluated(scorer, known, c) for c in ranked if frozenset(c) in known or c in fresh]
+    tried += [_evaluated(scorer, known, c) for c in fresh if c not in ranked]
 
     def beats(c: Candidate, other: Candidate) -> bool:
         return stats.better(c.heldout, other.heldout, a) and c.fit.bic < other.fit.bic
