@@ -76,46 +76,53 @@ class OutOfLibrary:
         return self.name
 
 
-@dataclass
-class QuadraticActuator(OutOfLibrary):
-    """Realised change ``d + k2 d²`` per cable (k2 (n,) 1/m)."""
+def _straight(robot: Robot) -> np.ndarray:
+    """The cables' upper lengths (m) at the straight pose, the reference of
+    the actuator errors."""
+    return robot.upper_lengths(np.zeros(robot.n))
 
-    k2: np.ndarray
+
+@dataclass
+class PowerActuator(OutOfLibrary):
+    """Realised change ``d + k d^p`` per cable, ``d`` the commanded change
+    (m) from the straight pose (k (w,) in m^(1-p)); subclasses set ``p``,
+    the range of |k| and how it is written."""
+
+    k: np.ndarray
+    power = 2
+    span = (0.0, 0.0)
+    symbol, unit, precision = "k", "", 2
+
+    @classmethod
+    def sample(cls, rng, robot):
+        w = plant.commands(robot)
+        return cls(_signs(rng, w) * rng.uniform(*cls.span, w))
+
+    def realise(self, robot, theta, commanded):
+        ref = _straight(robot)
+        d = commanded - ref
+        return ref + d + self.k * d ** self.power
+
+    def describe(self):
+        sup = {2: "²", 3: "³"}[self.power]
+        return (f"d + {self.symbol}·d{sup}, {self.symbol} = "
+                f"{np.array2string(self.k, precision=self.precision)} {self.unit}")
+
+
+class QuadraticActuator(PowerActuator):
+    """Realised change ``d + k2 d²`` per cable (k2 (w,) 1/m, 0.3-0.6)."""
+
     name = "quadratic_actuator"
-
-    @classmethod
-    def sample(cls, rng, robot):
-        w = plant.commands(robot)
-        return cls(_signs(rng, w) * rng.uniform(0.3, 0.6, w))
-
-    def realise(self, robot, theta, commanded):
-        ref = robot.upper_lengths(np.zeros(robot.n))
-        d = commanded - ref
-        return ref + d + self.k2 * d ** 2
-
-    def describe(self):
-        return f"d + k2·d², k2 = {np.array2string(self.k2, precision=2)} 1/m"
+    power, span = 2, (0.3, 0.6)
+    symbol, unit, precision = "k2", "1/m", 2
 
 
-@dataclass
-class CubicActuator(OutOfLibrary):
-    """Realised change ``d + k3 d³`` per cable (k3 (n,) 1/m²)."""
+class CubicActuator(PowerActuator):
+    """Realised change ``d + k3 d³`` per cable (k3 (w,) 1/m², 4-8)."""
 
-    k3: np.ndarray
     name = "cubic_actuator"
-
-    @classmethod
-    def sample(cls, rng, robot):
-        w = plant.commands(robot)
-        return cls(_signs(rng, w) * rng.uniform(4.0, 8.0, w))
-
-    def realise(self, robot, theta, commanded):
-        ref = robot.upper_lengths(np.zeros(robot.n))
-        d = commanded - ref
-        return ref + d + self.k3 * d ** 3
-
-    def describe(self):
-        return f"d + k3·d³, k3 = {np.array2string(self.k3, precision=1)} 1/m²"
+    power, span = 3, (4.0, 8.0)
+    symbol, unit, precision = "k3", "1/m²", 1
 
 
 @dataclass
@@ -132,7 +139,7 @@ class LeadScrew(OutOfLibrary):
         return cls(rng.uniform(20e-6, 40e-6, plant.commands(robot)), 1e-3)
 
     def realise(self, robot, theta, commanded):
-        ref = robot.upper_lengths(np.zeros(robot.n))
+        ref = _straight(robot)
         return commanded + self.a * np.sin(2.0 * np.pi * (commanded - ref) / self.pitch)
 
     def describe(self):
