@@ -47,24 +47,23 @@ from cdsm.calibration import plant  # noqa: E402
 def pair_jacobian(robot, a: str, b: str, rows: int, i: int, seed: int):
     """The position Jacobian of data set ``i`` of the benchmark's ``a+b``
     cell (base frame), linearised at the nominal model: columns ``a``'s
-    parameters then ``b``'s, one row per position component (m per SI unit);
-    with the hidden effects ({effect: values}, SI) and ``a``'s parameter count."""
+    parameters, one row per position component (m per SI unit), as
+    {effect: columns}; with the hidden effects ({effect: values}, SI)."""
     case = ber.Case(a + "+" + b, "library", (a, b))
     base, _, _, hidden = ber.datasets(robot, case, rows, i, seed)
     i_a, i_b = plant.effect_indices(robot, a), plant.effect_indices(robot, b)
     free = np.concatenate([i_a, i_b])
     _, _, jac = plant.linearise(robot, np.zeros(plant.size(robot)), free, base.theta, base.dL)
-    return jac[:, :plant.dims(robot), :].reshape(-1, len(free)), hidden, len(i_a)
+    J = jac[:, :plant.dims(robot), :].reshape(-1, len(free))
+    return {a: J[:, :len(i_a)], b: J[:, len(i_a):]}, hidden
 
 
 def pair_signals(robot, a: str, b: str, rows: int, i: int, seed: int):
     """(signal, signal beside the other) / sigma of ``a`` and of ``b`` in data set ``i``."""
-    J, hidden, n_a = pair_jacobian(robot, a, b, rows, i, seed)
-    idx = {e: plant.effect_indices(robot, e) for e in (a, b)}
-    cols = {a: J[:, :n_a], b: J[:, n_a:]}
+    cols, hidden = pair_jacobian(robot, a, b, rows, i, seed)
     out = {}
     for x, y in ((a, b), (b, a)):
-        v = plant.params(robot, {x: hidden[x]})[idx[x]]
+        v = plant.params(robot, {x: hidden[x]})[plant.effect_indices(robot, x)]
         sig = cols[x] @ v
         u, s, _ = np.linalg.svd(cols[y], full_matrices=False)
         u = u[:, s > s[0] * 1e-10]
@@ -77,13 +76,14 @@ def absorbing(robot, small: str, big: str, rows: int, seed: int):
     """The parameters of ``big`` that reproduce each parameter of ``small``
     (least squares on the linearised plant, data set 0): the three largest
     coefficients per column, in ``big``'s typical units."""
-    J, _, n_s = pair_jacobian(robot, small, big, rows, 0, seed)
+    cols, _ = pair_jacobian(robot, small, big, rows, 0, seed)
     names = plant.parameter_names(robot, plant.effect_indices(robot, big))
+    reach = cols[big] * plant.TYPICAL[big]
     out = []
     for j, name in enumerate(plant.parameter_names(robot, plant.effect_indices(robot, small))):
-        target = J[:, j] * plant.TYPICAL[small]
-        coef, *_ = np.linalg.lstsq(J[:, n_s:] * plant.TYPICAL[big], target, rcond=None)
-        left = np.linalg.norm(target - J[:, n_s:] * plant.TYPICAL[big] @ coef) / np.linalg.norm(target)
+        target = cols[small][:, j] * plant.TYPICAL[small]
+        coef, *_ = np.linalg.lstsq(reach, target, rcond=None)
+        left = np.linalg.norm(target - reach @ coef) / np.linalg.norm(target)
         top = np.argsort(-np.abs(coef))[:3]
         out.append(f"{name} (typical size) = " + " + ".join(f"{coef[k]:+.2f} {names[k]}" for k in top)
                    + f" + … (relative residual {left:.1e})")

@@ -787,18 +787,20 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     chosen_ok = chosen is not None and _adequate(prep, noise, chosen, rows, floor)[0]
     nest = [] if chosen is None else nested(prep, chosen.effects, [c.name for c in singles],
                                             prep.readings * noise.sigma)
-    contains = ("an effect of the chosen model contains another in the data (its change beside it stays "
-                "below the noise): " + ", ".join(f"`{big}` contains `{small}`" for big, small in nest))
     if chosen is not None and not chosen_ok:
-        reason = "forward selection ended with a model that is not adequate" + (f"; {contains}" if nest else "")
+        why = ["forward selection ended with a model that is not adequate"]
     elif chosen is None and not _adequate(prep, noise, base, rows, floor)[0]:
-        reason = "forward selection chose no effect and the nominal model is not adequate"
+        why = ["forward selection chose no effect and the nominal model is not adequate"]
     elif chosen is not None and ties:
-        reason = f"single effects tie with `{singles[0].name}`: {', '.join(ties)}" + (f"; {contains}" if nest else "")
-    elif nest:
-        reason = contains
+        why = [f"single effects tie with `{singles[0].name}`: {', '.join(ties)}"]
     else:
+        why = []
+    if nest:
+        why.append("an effect of the chosen model contains another in the data (its change beside it stays "
+                   "below the noise): " + ", ".join(f"`{big}` contains `{small}`" for big, small in nest))
+    if not why:
         return None
+    reason = "; ".join(why)
     order = [c.name for c in singles]
     combos = list(itertools.combinations(order, 2))
     # an adequate greedy model is replaced only by an adequate one no larger
@@ -815,9 +817,13 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     # where it is not, those built only from what it contains and the chosen
     # model's other effects, since a container the fit cannot bring to the
     # floor — 48 hole coordinates from a 1 mm gap — says nothing of the rest)
-    parts = {small for _, small in nest} | (set(chosen.effects) - {big for big, _ in nest} if nest else set())
-    built = (combos if nest and chosen_ok else
-             [c for c in combos if set(c) <= parts and any(small in c for _, small in nest)])
+    if not nest:
+        built = []
+    elif chosen_ok:
+        built = combos
+    else:
+        parts = {small for _, small in nest} | (set(chosen.effects) - {big for big, _ in nest})
+        built = [c for c in combos if set(c) <= parts and any(small in c for _, small in nest)]
     a = ALPHA / len(combos)
     free = [free_parameters(prep.robot, _fitted(prep, c))[:2] for c in combos]
     screen = _screen(prep, scorer, free)
