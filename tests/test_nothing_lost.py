@@ -201,7 +201,9 @@ def test_a_report_directory_is_marked_complete_only_at_its_end(cdsm, tmp_path, m
     def dies(*args, **kw):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(report, "write_json", dies)
+    from cdsm.files import Run
+
+    monkeypatch.setattr(Run, "write_json", dies)
     with pytest.raises(KeyboardInterrupt):
         report.write(d, out)
     assert not run_complete(out, verify=False)

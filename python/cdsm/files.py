@@ -4,12 +4,19 @@ JSON), CSV tables (measurements, targets, regions, report tables), JSON,
 is for (:class:`CdsmInputError`).
 
 Files are written whole or not at all: into a temporary file beside the
-target, then renamed into place (:func:`atomic_file`), so a killed run never
-leaves a truncated file at a final path. An output directory written by one
-run (a report) carries a manifest, ``cdsm-run.json``: it says
+target (``.<name>.<pid>.<random>.part``), then renamed into place
+(:func:`atomic_file`), so a killed run never leaves a truncated file at a
+final path. An empty path (an unset shell variable) is refused, never taken
+for the current directory (:func:`check_path`).
+
+An output directory written by one run (a report) is owned by that run while
+it writes (:func:`run_directory`): a second run into it is refused while the
+first holds it; a directory holding files of the run's names that no cdsm
+run wrote is refused unless asked to overwrite; a killed run's ``.part``
+files are removed. It carries a manifest, ``cdsm-run.json``: it says
 ``"complete": false`` from the moment the run starts writing there and
-``"complete": true`` with every file of the run and its SHA-256 only once
-the last one is in place (:func:`begin_run`, :func:`finish_run`,
+``"complete": true`` with every file the run wrote and the SHA-256 of the
+bytes it wrote only once the last one is in place (:class:`Run`,
 :func:`run_complete`).
 """
 
@@ -22,21 +29,32 @@ import io
 import json
 import math
 import os
+import re
 import tempfile
+import threading
 import zipfile
-from typing import Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
+from typing import AbstractSet, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ._cdsm import CdsmInputError
 
-__all__ = ["read_text", "write_text", "read_bytes", "sha256_of", "parse_table", "read_table", "table_column",
-           "write_csv", "write_json", "json_safe", "csv_cell", "write_npz", "read_npz", "atomic_file",
-           "RUN_MANIFEST", "begin_run", "finish_run", "run_complete"]
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: no advisory locks, runs into one directory are not kept apart
+    fcntl = None  # type: ignore[assignment]
+
+__all__ = ["read_text", "write_text", "write_bytes", "read_bytes", "sha256_of", "parse_table", "read_table",
+           "table_column", "write_csv", "csv_text", "write_json", "json_text", "json_safe", "csv_cell", "write_npz",
+           "read_npz", "atomic_file", "check_path", "same_file", "RUN_MANIFEST", "Run", "run_directory",
+           "run_complete"]
 
 #: The manifest of an output directory written by one run (see the module doc).
 RUN_MANIFEST = "cdsm-run.json"
 _RUN_FORMAT = "cdsm-run/1"
+
+# a temporary file of atomic_file: the target's name, the writing process's id, random letters
+_PART = re.compile(r"^\.(?P<name>.+)\.(?P<pid>[0-9]+)\.[^.]+\.part$")
 
 
 def read_text(path: "str | os.PathLike[str]", what: str) -> str:
@@ -56,17 +74,42 @@ def read_text(path: "str | os.PathLike[str]", what: str) -> str:
         raise CdsmInputError(f"{what} file {str(path)!r}: not UTF-8 text") from None
 
 
+def check_path(path: "str | os.PathLike[str]", what: str) -> str:
+    """``path`` as a string; :class:`CdsmInputError` naming ``what`` when it
+    is empty (an unset shell variable), which would otherwise name the
+    current directory."""
+    p = os.fspath(path)
+    if p in ("", b""):
+        raise CdsmInputError(f"{what}: empty path (an unset shell variable?); give a file or directory name")
+    return os.fsdecode(p)
+
+
+def same_file(a: "str | os.PathLike[str]", b: "str | os.PathLike[str]") -> bool:
+    """Whether paths ``a`` and ``b`` name one file: the same real path
+    (symbolic links resolved, ``./x`` and ``x`` alike, whether or not it
+    exists) or, both existing, the same file (hard links)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
 @contextlib.contextmanager
 def atomic_file(path: "str | os.PathLike[str]", what: str) -> Iterator[io.BufferedWriter]:
     """A binary file object whose bytes land at ``path`` whole or not at all:
-    written to a temporary file in the same directory, flushed to disk and
-    renamed over ``path`` when the ``with`` block ends without an error
-    (removed otherwise). :class:`CdsmInputError` naming the file when it
-    cannot be written."""
-    target = os.fspath(path)
+    written to a temporary file in the same directory
+    (``.<name>.<pid>.<random>.part``), flushed to disk and renamed over
+    ``path`` when the ``with`` block ends without an error (removed
+    otherwise). :class:`CdsmInputError` naming the file when it cannot be
+    written or ``path`` is empty. Temporaries of ``path`` that a process no
+    longer running left (a killed write) are removed first."""
+    target = check_path(path, f"{what} file")
     folder = os.path.dirname(os.path.abspath(target))
+    _remove_stale_parts(folder, {os.path.basename(target)})
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{os.path.basename(target)}.", suffix=".part", dir=folder)
+        fd, tmp = tempfile.mkstemp(prefix=f".{os.path.basename(target)}.{os.getpid()}.", suffix=".part", dir=folder)
     except OSError as exc:
         raise CdsmInputError(f"{what} file {target!r}: {exc.strerror}") from None
     try:
@@ -101,17 +144,27 @@ def _remove_quietly(path: str) -> None:
         pass
 
 
+def _utf8(text: str, path: "str | os.PathLike[str]", what: str) -> bytes:
+    try:
+        return text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise CdsmInputError(f"{what} file {str(path)!r}: text is not valid Unicode ({exc.reason})") from None
+
+
+def write_bytes(path: "str | os.PathLike[str]", data: bytes, what: str) -> str:
+    """Write ``data`` to ``path``, whole or not at all (:func:`atomic_file`);
+    :class:`CdsmInputError` naming the file when it cannot be written.
+    Returns the path."""
+    with atomic_file(path, what) as fh:
+        fh.write(data)
+    return str(path)
+
+
 def write_text(path: "str | os.PathLike[str]", text: str, what: str) -> str:
     """Write ``text`` (UTF-8, line endings as given) to ``path``, whole or
     not at all (:func:`atomic_file`); :class:`CdsmInputError` naming the file
     when it cannot be written. Returns the path."""
-    try:
-        data = text.encode("utf-8")
-    except UnicodeEncodeError as exc:
-        raise CdsmInputError(f"{what} file {str(path)!r}: text is not valid Unicode ({exc.reason})") from None
-    with atomic_file(path, what) as fh:
-        fh.write(data)
-    return str(path)
+    return write_bytes(path, _utf8(text, path, what), what)
 
 
 def read_bytes(path: "str | os.PathLike[str]", what: str) -> bytes:
@@ -136,7 +189,7 @@ def sha256_of(path: "str | os.PathLike[str]") -> Optional[str]:
 def write_npz(path: "str | os.PathLike[str]", arrays: Dict[str, np.ndarray], what: str) -> str:
     """Write arrays to a compressed ``.npz`` (the suffix added when missing,
     as NumPy does), whole or not at all; returns the path written."""
-    p = os.fspath(path)
+    p = check_path(path, f"{what} file")
     p = p if p.endswith(".npz") else p + ".npz"
     with atomic_file(p, what) as fh:
         np.savez_compressed(fh, **arrays)
@@ -234,8 +287,13 @@ def csv_cell(v):
 
 def write_csv(path: "str | os.PathLike[str]", rows: List[dict], what: str = "CSV",
               comments: Sequence[str] = ()) -> str:
-    """Write dict rows (one header from the first row's keys; floats by
-    ``repr``) with optional ``# `` comment lines first. Returns the path."""
+    """Write :func:`csv_text` of ``rows`` and ``comments``. Returns the path."""
+    return write_text(path, csv_text(rows, comments), what)
+
+
+def csv_text(rows: List[dict], comments: Sequence[str] = ()) -> str:
+    """CSV text of dict rows (one header from the first row's keys; floats
+    by ``repr``) with optional ``# `` comment lines first."""
     buf = io.StringIO()
     for c in comments:
         buf.write(f"# {c}\n")
@@ -246,7 +304,7 @@ def write_csv(path: "str | os.PathLike[str]", rows: List[dict], what: str = "CSV
         w.writeheader()
         for r in rows:
             w.writerow({k: csv_cell(v) for k, v in r.items()})
-    return write_text(path, buf.getvalue(), what)
+    return buf.getvalue()
 
 
 def json_safe(obj):
@@ -269,47 +327,277 @@ def json_safe(obj):
 
 
 def write_json(path: "str | os.PathLike[str]", obj, what: str = "JSON", indent: int = 1) -> str:
-    """Write :func:`json_safe` of ``obj`` as strict JSON. Returns the path."""
-    return write_text(path, json.dumps(json_safe(obj), indent=indent, allow_nan=False) + "\n", what)
+    """Write :func:`json_text` of ``obj``. Returns the path."""
+    return write_text(path, json_text(obj, indent), what)
+
+
+def json_text(obj, indent: int = 1) -> str:
+    """:func:`json_safe` of ``obj`` as strict JSON text (a final newline)."""
+    return json.dumps(json_safe(obj), indent=indent, allow_nan=False) + "\n"
 
 
 # ---------------------------------------------------------------------------
 # output directories of one run
 # ---------------------------------------------------------------------------
-def begin_run(out: "str | os.PathLike[str]", command: str) -> None:
-    """Mark the output directory ``out`` as being written by ``command``:
-    its manifest says ``"complete": false`` until :func:`finish_run`. Call it
-    before the first file of the run is written there."""
-    write_text(os.path.join(out, RUN_MANIFEST),
-               json.dumps({"format": _RUN_FORMAT, "command": command, "complete": False}, indent=1) + "\n",
-               "run manifest")
+# the output directories this process owns, by (device, inode): [owning thread, depth]
+_OWNED: Dict[Tuple[int, int], List[int]] = {}
+_OWNED_LOCK = threading.Lock()
 
 
-def finish_run(out: "str | os.PathLike[str]", command: str, files: Iterable["str | os.PathLike[str]"]) -> str:
-    """Mark ``out`` complete: the manifest lists every file of the run (paths
-    relative to ``out``, sorted) with its SHA-256. Returns the manifest's path."""
-    root = os.path.abspath(out)
-    listed = {}
-    for f in files:
-        rel = os.path.relpath(os.path.abspath(f), root).replace(os.sep, "/")
-        digest = sha256_of(f)
-        if digest is None:
-            raise CdsmInputError(f"run manifest: {str(f)!r} was not written")
-        listed[rel] = digest
-    body = {"format": _RUN_FORMAT, "command": command, "complete": True,
-            "files": {k: listed[k] for k in sorted(listed)}}
-    return write_text(os.path.join(out, RUN_MANIFEST), json.dumps(body, indent=1) + "\n", "run manifest")
+class Run:
+    """The files one run writes into its output directory ``out`` (made by
+    :func:`run_directory`). :meth:`write` (and :meth:`write_text`,
+    :meth:`write_csv`, :meth:`write_json`) puts a file in place whole and
+    records the SHA-256 of the bytes it wrote; ``name`` is one of the run's
+    ``names`` or ``<subdir>/<file>`` in one of its ``subdirs``. The first
+    write marks the directory incomplete; :meth:`finish` marks it complete,
+    listing exactly the files this run wrote."""
+
+    def __init__(self, out: str, command: str, names: Iterable[str], subdirs: Iterable[str]):
+        self.out, self.command = out, command
+        self.names, self.subdirs = frozenset(names), tuple(subdirs)
+        self._written: Dict[str, str] = {}
+        self._begun = False
+
+    def _target(self, name: str) -> str:
+        parts = name.split("/")
+        if not (name in self.names
+                or (len(parts) == 2 and parts[0] in self.subdirs and parts[1] not in ("", ".", ".."))):
+            raise ValueError(f"{name!r} is not a file of this run (its files: {', '.join(sorted(self.names))}, "
+                             f"{', '.join(d + '/*' for d in self.subdirs)})")
+        return os.path.join(self.out, *parts)
+
+    def write(self, name: str, data: bytes, what: str) -> str:
+        """Write ``data`` as ``out/name``; returns its path."""
+        target = self._target(name)
+        if not self._begun:
+            self._manifest({"complete": False})
+            self._begun = True
+        folder = os.path.dirname(target)
+        try:
+            os.makedirs(folder, exist_ok=True)
+        except OSError as exc:
+            raise CdsmInputError(f"{what} file {target!r}: cannot create {folder!r} ({exc.strerror})") from None
+        write_bytes(target, data, what)
+        self._written[name] = hashlib.sha256(data).hexdigest()
+        return target
+
+    def write_text(self, name: str, text: str, what: str) -> str:
+        """Write ``text`` (UTF-8) as ``out/name``; returns its path."""
+        return self.write(name, _utf8(text, os.path.join(self.out, name), what), what)
+
+    def write_csv(self, name: str, rows: List[dict], what: str = "CSV", comments: Sequence[str] = ()) -> str:
+        """Write :func:`csv_text` of ``rows`` as ``out/name``; returns its path."""
+        return self.write_text(name, csv_text(rows, comments), what)
+
+    def write_json(self, name: str, obj, what: str = "JSON", indent: int = 1) -> str:
+        """Write :func:`json_text` of ``obj`` as ``out/name``; returns its path."""
+        return self.write_text(name, json_text(obj, indent), what)
+
+    def finish(self) -> str:
+        """Mark the directory complete: its manifest lists every file this run
+        wrote (paths relative to ``out``, sorted) with the SHA-256 of the
+        bytes written. Returns the manifest's path."""
+        return self._manifest({"complete": True, "files": {k: self._written[k] for k in sorted(self._written)}})
+
+    def _manifest(self, body: dict) -> str:
+        text = json.dumps({"format": _RUN_FORMAT, "command": self.command, **body}, indent=1) + "\n"
+        return write_text(os.path.join(self.out, RUN_MANIFEST), text, "run manifest")
+
+
+@contextlib.contextmanager
+def run_directory(out: "str | os.PathLike[str]", command: str, names: Iterable[str],
+                  subdirs: Sequence[str] = ("figures",), overwrite: bool = False, what: str = "output directory",
+                  overwrite_hint: str = "overwrite=True") -> Iterator[Run]:
+    """Own the output directory ``out`` (created, with its parents, when
+    missing) for one run of ``command`` that writes the files ``names`` and
+    files in the directories ``subdirs`` there; yields the :class:`Run` that
+    writes them. Before anything is written, :class:`CdsmInputError` naming
+    ``what`` and ``out`` when
+
+    - ``out`` is empty, exists and is not a directory, or cannot be created or written;
+    - another run owns it: another process (an exclusive lock on the
+      directory, held until the ``with`` block ends and released by the
+      system however the process ends) or another thread of this one;
+    - one of ``names`` there is a directory, or one of ``subdirs`` exists and is not a directory;
+    - no cdsm run wrote there (no manifest) and it holds files of ``names`` (or the
+      manifest's name) or a non-empty subdirectory, unless ``overwrite``
+      (``overwrite_hint`` tells how to ask for it).
+
+    Then the ``.part`` files of ``names`` and in ``subdirs`` that processes no
+    longer running left there (a killed run) are removed, also those of
+    files this run will not write again. In the thread that
+    owns ``out`` already (a command that claimed it before computing, then
+    its report) the lock is shared and the checks were made. The owner
+    removes the directories this call created at its end when nothing was
+    written into them."""
+    path = check_path(out, what)
+    label = f"{what} {path!r}"
+    names = frozenset(names)
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise CdsmInputError(f"{label}: exists and is not a directory")
+    created = _missing_dirs(path)
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError as exc:
+        raise CdsmInputError(f"{label}: cannot create the directory ({exc.strerror})") from None
+    with _owned(path, label) as first:
+        try:
+            if first:
+                if not os.access(path, os.W_OK):
+                    raise CdsmInputError(f"{label}: directory is not writable")
+                _check_layout(path, label, names, subdirs, overwrite, overwrite_hint)
+                _remove_stale_parts(path, names | {RUN_MANIFEST})
+                for d in subdirs:
+                    _remove_stale_parts(os.path.join(path, d), None)
+            yield Run(path, command, names, subdirs)
+        finally:
+            # by the owner only, still holding it: a run refused beside the owner removes nothing
+            for d in reversed(created if first else []):
+                try:
+                    os.rmdir(d)  # only when empty: the run wrote nothing
+                except OSError:
+                    break
+
+
+def _missing_dirs(path: str) -> List[str]:
+    """The directories ``os.makedirs(path)`` would create, outermost first."""
+    out = []
+    p = os.path.abspath(path)
+    while not os.path.exists(p):
+        out.append(p)
+        parent = os.path.dirname(p)
+        if parent == p:
+            break
+        p = parent
+    return out[::-1]
+
+
+@contextlib.contextmanager
+def _owned(path: str, label: str) -> Iterator[bool]:
+    """Hold ``path`` for this thread: yields True for the first hold (the
+    lock taken), False for a nested one in the same thread."""
+    st = os.stat(path)
+    key, me = (st.st_dev, st.st_ino), threading.get_ident()
+    busy = (f"{label}: another cdsm run is writing into this directory now; wait for it to end or choose "
+            "another directory")
+    with _OWNED_LOCK:
+        held = _OWNED.get(key)
+        if held is not None and held[0] != me:
+            raise CdsmInputError(busy)
+        if held is not None:
+            held[1] += 1
+    if held is not None:
+        try:
+            yield False
+        finally:
+            with _OWNED_LOCK:
+                held[1] -= 1
+        return
+    fd = _lock(path, busy)
+    with _OWNED_LOCK:
+        _OWNED[key] = [me, 1]
+    try:
+        yield True
+    finally:
+        with _OWNED_LOCK:
+            del _OWNED[key]
+        if fd is not None:
+            os.close(fd)  # releases the lock
+
+
+def _lock(path: str, busy: str) -> Optional[int]:
+    """An exclusive lock on the directory ``path`` (``flock``, released when
+    its descriptor closes or the process ends); where the file system does
+    not lock directories, on a file ``.cdsm-run.lock`` in it. None where
+    the platform has no such locks."""
+    if fcntl is None:  # pragma: no cover - Windows
+        return None
+    for target, flags in ((path, os.O_RDONLY), (os.path.join(path, ".cdsm-run.lock"), os.O_RDWR | os.O_CREAT)):
+        try:
+            fd = os.open(target, flags, 0o666)
+        except OSError:
+            continue
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            raise CdsmInputError(busy) from None
+        except OSError:  # this file system does not lock directories (NFS): try the lock file
+            os.close(fd)
+            continue
+        return fd
+    return None
+
+
+def _check_layout(path: str, label: str, names: frozenset, subdirs: Sequence[str], overwrite: bool,
+                  hint: str) -> None:
+    for n in sorted(names):
+        if os.path.isdir(os.path.join(path, n)):
+            raise CdsmInputError(f"{label}: {n!r} in it is a directory, where this run writes a file; move it or "
+                                 "choose another directory")
+    for d in subdirs:
+        p = os.path.join(path, d)
+        if os.path.lexists(p) and not os.path.isdir(p):
+            raise CdsmInputError(f"{label}: {d!r} in it is a file, where this run writes its {d}/ directory; move "
+                                 "it or choose another directory")
+    if overwrite or _manifest_of(path) is not None:
+        return
+    found = [n for n in sorted(names | {RUN_MANIFEST}) if os.path.lexists(os.path.join(path, n))]
+    for d in subdirs:
+        try:
+            k = len([e for e in os.listdir(os.path.join(path, d)) if not _PART.match(e)])
+        except OSError:  # none there
+            k = 0
+        if k:
+            found.append(f"{d}/ ({k} file{'s' if k > 1 else ''})")
+    if found:
+        raise CdsmInputError(f"{label}: holds {', '.join(found)}, not written by a cdsm run (no {RUN_MANIFEST}), "
+                             f"which this run would replace; choose a new or empty directory, or pass {hint} to "
+                             "replace them")
+
+
+def _remove_stale_parts(folder: str, names: Optional[AbstractSet[str]]) -> None:
+    """Remove the temporaries (:func:`atomic_file`) in ``folder`` of the
+    files ``names`` (None: of any file) whose writing process no longer runs."""
+    try:
+        entries = os.listdir(folder)
+    except OSError:
+        return
+    for e in entries:
+        m = _PART.match(e)
+        if m and (names is None or m["name"] in names) and not _running(int(m["pid"])):
+            _remove_quietly(os.path.join(folder, e))
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` runs (on this machine); True when unsure."""
+    if os.name != "posix" or pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process
+        return True
+    return True
+
+
+def _manifest_of(out: str) -> Optional[dict]:
+    """The manifest of ``out`` when a cdsm run wrote one, else None."""
+    try:
+        man = json.loads(read_text(os.path.join(out, RUN_MANIFEST), "run manifest"))
+    except (CdsmInputError, ValueError):
+        return None
+    return man if isinstance(man, dict) and man.get("format") == _RUN_FORMAT else None
 
 
 def run_complete(out: "str | os.PathLike[str]", verify: bool = True) -> bool:
     """Whether ``out`` holds a finished run: its manifest says complete and
     (``verify``) every file it lists is there with the listed SHA-256. Files
     beside them that the manifest does not list are not part of the run."""
-    try:
-        man = json.loads(read_text(os.path.join(out, RUN_MANIFEST), "run manifest"))
-    except (CdsmInputError, ValueError):
-        return False
-    if not (isinstance(man, dict) and man.get("format") == _RUN_FORMAT and man.get("complete") is True):
+    man = _manifest_of(os.fspath(out))
+    if man is None or man.get("complete") is not True:
         return False
     files = man.get("files")
     if not isinstance(files, dict):

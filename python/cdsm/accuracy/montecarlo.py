@@ -17,7 +17,7 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import _cdsm
-from ..files import json_safe, read_npz, write_npz
+from ..files import check_path, json_safe, read_npz, write_npz
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
@@ -307,6 +307,7 @@ def save_npz(path: str, mc: MonteCarlo, poses: Optional[np.ndarray] = None,
     """Writes :func:`summary` (+ ``poses`` (N, 3) [x, y, phi] m, m, rad) to a
     compressed .npz; ``params`` (run parameters, merged over ``mc.params``) as
     a JSON string (0-d str array, key ``params``). Returns the arrays."""
+    check_path(path, "Monte-Carlo file")  # before the summary is computed
     arrays = summary(mc, percentiles)
     if poses is not None:
         arrays["poses"] = np.asarray(poses, dtype=np.float64)

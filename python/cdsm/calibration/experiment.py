@@ -129,8 +129,12 @@ class Suggestion(ShortRepr):
         return th, dl, np.tile([False, True], k)
 
     def to_csv(self, path: "str | os.PathLike[str]") -> str:
-        """Write the proposed commands as a measurement CSV without measured
-        columns (format in the module docstring). Returns the path."""
+        """Write :meth:`csv_text` to ``path``. Returns the path."""
+        return write_text(path, self.csv_text(), "suggestion")
+
+    def csv_text(self) -> str:
+        """The proposed commands as a measurement CSV without measured
+        columns (format in the module docstring)."""
         n, m = self.theta.shape[1], self.dL.shape[1]
         d = next(iter(self.predictions.values())).shape[1] if self.predictions else 2
         axes = "xyz"[:d]
@@ -154,7 +158,7 @@ class Suggestion(ShortRepr):
             i = j // 2 if self.approach is not None else j
             w.writerow([f"s{i + 1}" if seen[j] else f"s{i + 1} approach"] + [repr(float(v)) for v in th[j]]
                        + [repr(float(v)) for v in dl[j]] + [repr(float(v)) for v in pose[i]])
-        return write_text(path, buf.getvalue(), "suggestion")
+        return buf.getvalue()
 
     def summary(self) -> str:
         """A short human-readable account (units in the text)."""

@@ -11,6 +11,7 @@ import sys
 from typing import List, Optional
 
 from ..inputs import CdsmInputError
+from .paths import claimed
 from .registry import COMMANDS, PROG, UserError
 
 __all__ = ["main", "build_parser", "COMMANDS", "COMMAND_MODULES"]
@@ -49,7 +50,8 @@ def main(argv: Optional[List[str]] = None) -> int:
         return 2
 
     try:
-        return int(args._run(args) or 0)
+        with claimed(args):  # path options checked, output directories owned, before the command computes
+            return int(args._run(args) or 0)
     except (CdsmInputError, UserError) as exc:
         msg = " ".join(str(exc).split())
         print(f"{PROG}: error: {msg}", file=sys.stderr)

@@ -5,20 +5,21 @@ from __future__ import annotations
 import argparse
 import os
 
-from .registry import (UserError, check_out_file, options, subcommand)
+from .paths import add_path
+from .registry import (UserError, options, subcommand)
 
 
 # ---------------------------------------------------------------------------
 def _compensate_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("targets", metavar="TARGETS.csv", help="target poses: columns x, y (m) and optional "
-                   "phi (rad); spatial arms x, y, z (m) and optional rx, ry, rz (rotation vector, rad); "
-                   "'#' comment lines")
-    p.add_argument("--model", metavar="MODEL.json", required=True,
-                   help="fitted model (cdsm diagnose --save-model; format cdsm-model/2, also reads /1)")
-    p.add_argument("--out", metavar="COMMANDS.csv", required=True,
-                   help="output: cable length commands L_i (m) per target (planar: the upper cables; spatial: the "
-                        "position-controlled ones), converged, "
-                        "predicted tip error (m), flags")
+    add_path(p, "targets", role="input", metavar="TARGETS.csv", help="target poses: columns x, y (m) and optional "
+             "phi (rad); spatial arms x, y, z (m) and optional rx, ry, rz (rotation vector, rad); "
+             "'#' comment lines")
+    add_path(p, "--model", role="input", metavar="MODEL.json", required=True,
+             help="fitted model (cdsm diagnose --save-model; format cdsm-model/2, also reads /1)")
+    add_path(p, "--out", role="output", metavar="COMMANDS.csv", required=True,
+             help="output: cable length commands L_i (m) per target (planar: the upper cables; spatial: the "
+                  "position-controlled ones), converged, "
+                  "predicted tip error (m), flags")
     p.add_argument("--tol", metavar="M", type=float, default=1e-9,
                    help="tip residual tolerance of the compensation solve, m (default 1e-9)")
     p.add_argument("--enforce-limits", action="store_true",
@@ -34,7 +35,6 @@ def _compensate_run(args) -> int:
 
     if not (args.tol > 0 and args.tol < 1):
         raise UserError(f"--tol: expected a positive length in m, got {args.tol}")
-    check_out_file(args.out, "--out")
     model = Model.load(args.model)
     poses = read_targets(args.targets, model.robot.kind)
     res = model.compensate(poses, tol=args.tol, enforce_limits=args.enforce_limits)

@@ -6,7 +6,8 @@ import argparse
 import sys
 import time
 
-from .registry import (add_robot_option, check_out_file, load_robot, options, positive_int, prepare_dir, subcommand)
+from .paths import add_path
+from .registry import (add_robot_option, load_robot, options, positive_int, subcommand)
 from typing import List
 
 
@@ -41,17 +42,24 @@ def _effect_list(text: str) -> List[str]:
     return names
 
 
+def _report_files():
+    from ..report.diagnosis import FILES
+
+    return FILES
+
+
 def _diagnose_args(p: argparse.ArgumentParser) -> None:
     from ..calibration.diagnosis import DEFAULT_NOISE, FRAMES, NEAR_FRACTION
 
-    p.add_argument("data", metavar="DATA.csv|NAME",
-                   help="measurement table (CSV, SI units; see cdsm.calibration.measurements), or the name of a "
-                        "packaged table (`cdsm list data`: e.g. table3)")
+    add_path(p, "data", role="input", metavar="DATA.csv|NAME",
+             help="measurement table (CSV, SI units; see cdsm.calibration.measurements), or the name of a "
+                  "packaged table (`cdsm list data`: e.g. table3)")
     add_robot_option(p)
     p.add_argument("--effects", metavar="a,b,...", type=_effect_list, default=None,
                    help="candidate effects (comma list; default: the whole library)")
-    p.add_argument("--json", metavar="OUT", help="write the diagnosis as JSON (SI units)")
-    p.add_argument("--report", metavar="DIR", help="write report.md, report.html, figures and CSV into DIR")
+    add_path(p, "--json", role="output", metavar="OUT", help="write the diagnosis as JSON (SI units)")
+    add_path(p, "--report", role="directory", command="cdsm diagnose", files=_report_files, metavar="DIR",
+             help="write report.md, report.html, figures and CSV into DIR")
     p.add_argument("--noise", metavar="SIGMA_M", type=_noise_m, default=None,
                    help="measurement noise per axis and reading, m (default: estimated from repeated "
                         f"commands in the data, else assumed {DEFAULT_NOISE:g})")
@@ -63,7 +71,8 @@ def _diagnose_args(p: argparse.ArgumentParser) -> None:
                         "are in the robot's base frame")
     p.add_argument("--folds", metavar="K", type=_folds, default=10,
                    help="cross-validation folds (default: 10; leave-one-out when fewer rows)")
-    p.add_argument("--save-model", metavar="MODEL.json", help="save the diagnosed model (cdsm.calibration.model)")
+    add_path(p, "--save-model", role="output", metavar="MODEL.json",
+             help="save the diagnosed model (cdsm.calibration.model)")
     p.add_argument("--suggest", metavar="K", type=positive_int,
                    help="suggest K new measurement configurations (cdsm.calibration.experiment)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
@@ -85,9 +94,7 @@ def _diagnose_run(args) -> int:
 
         check_effects(robot, args.effects, "--effects")
     meas = read_for(robot, args.data)
-    report_dir = None if args.report is None else prepare_dir(args.report, "--report")
-    for opt, path in (("--json", args.json), ("--save-model", args.save_model)):
-        check_out_file(path, opt)
+    report_dir = args.report  # absolute, owned by this run (cdsm.cli.paths)
     d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
                           frame=args.frame,
                           progress=show)
@@ -104,7 +111,7 @@ def _diagnose_run(args) -> int:
         write_json(args.json, d.to_json(), "--json")
         print(f"json: {args.json}")
     if report_dir is not None:
-        paths = diagnose_report.write(d, report_dir, suggestion=suggestion)
+        paths = diagnose_report.write(d, report_dir, suggestion=suggestion, overwrite=args.overwrite)
         print(f"report: {paths['report_html']}")
         print(f"        {paths['report_md']}")
         if "suggested_csv" in paths:

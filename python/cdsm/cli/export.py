@@ -5,15 +5,16 @@ from __future__ import annotations
 import argparse
 import os
 
-from .registry import (UserError, add_robot_option, check_out_file, load_robot, options, subcommand)
+from .paths import add_path
+from .registry import (UserError, add_robot_option, load_robot, options, subcommand)
 
 
 def _export_args(p: argparse.ArgumentParser) -> None:
     add_robot_option(p)
-    p.add_argument("--mjcf", metavar="OUT.xml", help="write MuJoCo's MJCF: a body per disk, a hinge per "
-                   "joint in cdsm's order, a site per hole, a spatial tendon per cable, actuators")
-    p.add_argument("--urdf", metavar="OUT.urdf", help="write the URDF: revolute joints in cdsm's order, "
-                   "inertials, a link 'tip' at the end frame")
+    add_path(p, "--mjcf", role="output", metavar="OUT.xml", help="write MuJoCo's MJCF: a body per disk, a hinge per "
+             "joint in cdsm's order, a site per hole, a spatial tendon per cable, actuators")
+    add_path(p, "--urdf", role="output", metavar="OUT.urdf", help="write the URDF: revolute joints in cdsm's order, "
+             "inertials, a link 'tip' at the end frame")
 
 
 @subcommand("export", help="write the robot as MuJoCo MJCF and/or URDF")
@@ -23,11 +24,6 @@ def _export_run(args) -> int:
 
     if args.mjcf is None and args.urdf is None:
         raise UserError("export: give --mjcf OUT.xml and/or --urdf OUT.urdf")
-    if args.mjcf is not None and args.urdf is not None \
-            and os.path.abspath(args.mjcf) == os.path.abspath(args.urdf):
-        raise UserError(f"--mjcf, --urdf: both name {args.mjcf!r}")
-    check_out_file(args.mjcf, "--mjcf")
-    check_out_file(args.urdf, "--urdf")
     robot = load_robot(args.robot)
     # build both texts before writing either: a robot MuJoCo cannot take leaves no file behind
     texts = []

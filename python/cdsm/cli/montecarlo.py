@@ -6,8 +6,8 @@ import argparse
 import sys
 import time
 
-from .registry import (UserError, add_robot_option, check_out_file, load_robot, options, positive_int, seed_int,
-                       subcommand)
+from .paths import add_path
+from .registry import (UserError, add_robot_option, load_robot, options, positive_int, seed_int, subcommand)
 from typing import List
 
 
@@ -33,8 +33,8 @@ def _angle_deg(text: str) -> float:
 
 def _montecarlo_args(p: argparse.ArgumentParser) -> None:
     add_robot_option(p)
-    p.add_argument("--out", metavar="FILE.npz", required=True,
-                   help="output: per-configuration statistics as arrays, with the run's parameters")
+    add_path(p, "--out", role="output", suffix=".npz", metavar="FILE.npz", required=True,
+             help="output: per-configuration statistics as arrays, with the run's parameters")
     p.add_argument("--samples", metavar="N", type=positive_int, default=1000,
                    help="Monte-Carlo samples (default: 1000, as the paper)")
     p.add_argument("--seed", metavar="S", type=seed_int, default=0,
@@ -42,12 +42,12 @@ def _montecarlo_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--chunk", metavar="C", type=positive_int, default=100,
                    help="samples per chunk = per task (default: 100); results depend on S and C "
                         "only, not on where they run. On a cluster pick C so a chunk runs >= 1 s")
-    p.add_argument("--tolerances", metavar="TOL.json",
-                   help="error bounds from JSON (cable_length_tol_m per upper cable, "
-                        "hole_height_tol_m per disk; spatial robots: cable_length_tol_m per position-controlled "
-                        "cable and hole_tol_m per cable's holes or per hole coordinate; as `cdsm tolerance "
-                        "--json` writes); default: the paper's +-1 mm and +-0.35 mm (spatial: on every hole "
-                        "coordinate)")
+    add_path(p, "--tolerances", role="input", metavar="TOL.json",
+             help="error bounds from JSON (cable_length_tol_m per upper cable, "
+                  "hole_height_tol_m per disk; spatial robots: cable_length_tol_m per position-controlled "
+                  "cable and hole_tol_m per cable's holes or per hole coordinate; as `cdsm tolerance "
+                  "--json` writes); default: the paper's +-1 mm and +-0.35 mm (spatial: on every hole "
+                  "coordinate)")
     p.add_argument("--protocol", choices=("attitude0", "joint"), default=None,
                    help="initial configurations: the grid's tip positions at attitude 0 "
                         "(default, the paper) or the grid angles themselves (spatial robots: joint only)")
@@ -85,7 +85,6 @@ def _montecarlo_run(args) -> int:
     t0 = time.perf_counter()
     show = not args.quiet
     out = args.out
-    check_out_file(out, "--out")
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise UserError(f"--timeout: expected a positive number of seconds, got {args.timeout}")
     robot = load_robot(args.robot)

@@ -6,14 +6,21 @@ import argparse
 import sys
 import time
 
-from .registry import (DeprecatedOption, UserError, add_robot_option, load_robot, options, positive_int, prepare_dir,
-                       seed_int, subcommand)
+from .paths import add_path
+from .registry import (DeprecatedOption, UserError, add_robot_option, load_robot, options, positive_int, seed_int,
+                       subcommand)
+
+
+def _report_files():
+    from ..report.paper import PaperReport
+
+    return PaperReport.FILES  # the paper's report writes the most files
 
 
 def _paper_args(p: argparse.ArgumentParser) -> None:
     add_robot_option(p)
-    p.add_argument("--out-dir", metavar="DIR", default="cdsm-paper", dest="out_dir",
-                   help="output directory (default: ./cdsm-paper)")
+    add_path(p, "--out-dir", role="directory", command="cdsm paper", files=_report_files, metavar="DIR",
+             default="cdsm-paper", dest="out_dir", help="output directory (default: ./cdsm-paper)")
     p.add_argument("--out", metavar="DIR", dest="out_dir", action=DeprecatedOption, replacement="--out-dir",
                    help="deprecated spelling of --out-dir")
     p.add_argument("--samples", metavar="N", type=positive_int, default=None,
@@ -44,7 +51,7 @@ def _paper_run(args) -> int:
     configurations = study.DEFAULT_CONFIGURATIONS if args.configurations is None else args.configurations
     count = study.configuration_count(robot, protocols, configurations)
     samples = study.default_samples(robot, count) if args.samples is None else args.samples
-    out = prepare_dir(args.out_dir, "--out-dir")
+    out = args.out_dir  # absolute, owned by this run (cdsm.cli.paths)
     show = not args.quiet
     layer = paper.is_prototype(robot)
     if show:
@@ -56,7 +63,7 @@ def _paper_run(args) -> int:
     st = study.run(robot, samples=args.samples, seed=args.seed, progress=show, configurations=configurations)
     if layer and "attitude0" in st.workspaces:
         st = paper.extend(st)
-    paths = report.write(st, out, progress=show, detail=not args.no_scenario_figures)
+    paths = report.write(st, out, progress=show, detail=not args.no_scenario_figures, overwrite=args.overwrite)
     h = report.headline(st)
     print(f"report: {paths['report_html']}")
     print(f"        {paths['report_md']}")

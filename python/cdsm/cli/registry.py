@@ -1,5 +1,5 @@
 """The command registry and what the commands share: option types, the
-robot option, output files and directories, and the user-error type.
+robot option and the user-error type (path options: :mod:`cdsm.cli.paths`).
 
 A command is a module of :mod:`cdsm.cli` with one function that adds its
 options and one that runs it::
@@ -24,8 +24,10 @@ import os
 import sys
 from typing import Callable, Dict, Optional
 
+from .paths import add_path
+
 __all__ = ["PROG", "COMMANDS", "Command", "subcommand", "options", "UserError", "DeprecatedOption", "int_at_least",
-           "positive_int", "seed_int", "load_robot", "prepare_dir", "check_out_file", "ROBOT_HELP", "add_robot_option"]
+           "positive_int", "seed_int", "load_robot", "ROBOT_HELP", "add_robot_option"]
 
 PROG = "cdsm"
 
@@ -106,8 +108,8 @@ ROBOT_HELP = ("robot description: a TOML file (SI units) or the name of a packag
 
 
 def add_robot_option(p: argparse.ArgumentParser) -> None:
-    """The ``--robot`` option every command shares."""
-    p.add_argument("--robot", metavar="R.toml|NAME", help=ROBOT_HELP)
+    """The ``--robot`` option every command shares (an input path, :mod:`cdsm.cli.paths`)."""
+    add_path(p, "--robot", role="input", metavar="R.toml|NAME", help=ROBOT_HELP)
 
 
 def load_robot(path: Optional[str]):
@@ -127,34 +129,6 @@ def load_robot(path: Optional[str]):
         if path in msg:
             raise
         raise UserError(f"robot file {path!r}: {msg}") from None
-
-
-def prepare_dir(path: str, option: str) -> str:
-    """The output directory of ``option`` (created), absolute; a user error
-    naming the option when it cannot be."""
-    out = os.path.abspath(path)
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise UserError(f"{option} {path!r}: exists and is not a directory")
-    try:
-        os.makedirs(out, exist_ok=True)
-    except OSError as exc:
-        raise UserError(f"{option} {path!r}: cannot create the directory ({exc.strerror})") from None
-    if not os.access(out, os.W_OK):
-        raise UserError(f"{option} {path!r}: directory is not writable")
-    return out
-
-
-def check_out_file(path: Optional[str], option: str) -> None:
-    """An output file of ``option``: not a directory, in a writable directory."""
-    if path is None:
-        return
-    if os.path.isdir(path):
-        raise UserError(f"{option} {path!r}: is a directory")
-    parent = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(parent):
-        raise UserError(f"{option} {path!r}: directory {parent!r} does not exist")
-    if not os.access(parent, os.W_OK):
-        raise UserError(f"{option} {path!r}: directory {parent!r} is not writable")
 
 
 # ---------------------------------------------------------------------------

@@ -6,8 +6,8 @@ import argparse
 import sys
 import time
 
-from .registry import (UserError, add_robot_option, check_out_file, load_robot, options, positive_int, seed_int,
-                       subcommand)
+from .paths import add_path
+from .registry import (UserError, add_robot_option, load_robot, options, positive_int, seed_int, subcommand)
 from typing import List
 
 
@@ -18,13 +18,13 @@ def _tolerance_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--percentile", metavar="P", type=float, default=95.0,
                    help="percentile of |d(x, y)| pooled over the region (default: 95)")
     add_robot_option(p)
-    p.add_argument("--region", metavar="SPEC", default=None,
-                   help="configurations where the errors are applied: grid:LO_DEG:HI_DEG:STEP_DEG[:N] "
-                        "(every joint; a grid of more than 20000 points, or N given, is "
-                        "subsampled to N (default 2000) with --seed), joints:FILE.csv (joint "
-                        "angles, rad, one configuration per row), poses:FILE.csv (x m, y m, "
-                        "phi rad; pose IK with the paper seed; planar) or sobol:N (N configurations sampled "
-                        "in the joint box with --seed). Default grid:-30:30:5 (spatial robots: sobol:1000)")
+    add_path(p, "--region", role="input", path_of=_region_file, metavar="SPEC", default=None,
+             help="configurations where the errors are applied: grid:LO_DEG:HI_DEG:STEP_DEG[:N] "
+                  "(every joint; a grid of more than 20000 points, or N given, is "
+                  "subsampled to N (default 2000) with --seed), joints:FILE.csv (joint "
+                  "angles, rad, one configuration per row), poses:FILE.csv (x m, y m, "
+                  "phi rad; pose IK with the paper seed; planar) or sobol:N (N configurations sampled "
+                  "in the joint box with --seed). Default grid:-30:30:5 (spatial robots: sobol:1000)")
     p.add_argument("--weights", metavar="W", default=None,
                    help="relative tolerance weights: 'WC,WH' (cables, holes) or 2n numbers "
                         "(n cables then n disks; spatial robots: m position-controlled cables then every "
@@ -38,8 +38,14 @@ def _tolerance_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", metavar="S", type=seed_int, default=0, help="random seed (default: 0)")
     p.add_argument("--cells", metavar="K", type=positive_int, default=3,
                    help="per-region report: K x K cells over the nominal tip X, Y (default 3)")
-    p.add_argument("--json", metavar="OUT", help="write the answer as JSON to OUT")
+    add_path(p, "--json", role="output", metavar="OUT", help="write the answer as JSON to OUT")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
+def _region_file(spec: str):
+    """The file a ``--region`` spec reads (``joints:FILE``, ``poses:FILE``), else None."""
+    kind, _, rest = spec.partition(":")
+    return rest if kind in ("joints", "poses") else None
 
 
 def _float_list(name: str, text: str) -> List[float]:
@@ -104,7 +110,7 @@ def _tolerance_run(args) -> int:
 def _inputs(args, robot, default_region: str, width: int, what: str):
     """The options both kinds check alike: the region (``default_region``
     when not given), ``--weights`` (2 or ``width`` numbers, ``what`` says
-    which), ``--base-mm`` and the ``--json`` path. Returns region, theta,
+    which) and ``--base-mm``. Returns region, theta,
     its description, weights (or None) and base (mm)."""
     from ..accuracy import tolerance
 
@@ -117,7 +123,6 @@ def _inputs(args, robot, default_region: str, width: int, what: str):
     base = _float_list("--base-mm", args.base_mm)
     if len(base) != 2 or min(base) <= 0:
         raise UserError(f"--base-mm {args.base_mm!r}: expected two positive numbers C,H (mm)")
-    check_out_file(args.json, "--json")
     return region, theta, desc, weights, base
 
 

@@ -38,11 +38,13 @@ def report_for(study, detail: bool = True) -> "_study.StudyReport":
 
 
 def write(study, out: "str | os.PathLike[str]", progress: bool = False, detail: bool = True,
-          workers: Optional[int] = None) -> Dict[str, str]:
+          workers: Optional[int] = None, overwrite: bool = False) -> Dict[str, str]:
     """Write the report of ``study`` into ``out``: figures, CSV tables,
-    ``report.md`` and ``report.html`` (:meth:`cdsm.report.study.StudyReport.write`);
+    ``report.md`` and ``report.html`` (:meth:`cdsm.report.study.StudyReport.write`:
+    refused while another run writes there, or into a directory holding
+    files of these names that no cdsm run wrote unless ``overwrite``);
     ``detail``: also one figure per single error. Returns {name: path}."""
-    return report_for(study, detail).write(out, progress=progress, workers=workers)
+    return report_for(study, detail).write(out, progress=progress, workers=workers, overwrite=overwrite)
 
 
 def headline(study) -> Dict[str, object]:

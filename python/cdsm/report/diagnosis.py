@@ -25,12 +25,15 @@ from matplotlib.ticker import MaxNLocator
 from .. import __version__
 from ..calibration import diagnosis as diagnose
 from ..calibration import stats
-from ..files import begin_run, finish_run, write_csv, write_json, write_text
+from ..files import run_directory
 from .document import HEADLINE, Document
-from .figures import BLUE, GREEN, RED, new_figure, place, report_style, save
+from .figures import BLUE, GREEN, RED, new_figure, place, png_bytes, report_style
 
-__all__ = ["write", "findings", "summary", "param_rows", "headline_items", "next_steps", "figures",
+__all__ = ["FILES", "write", "findings", "summary", "param_rows", "headline_items", "next_steps", "figures",
            "residual_map_figure", "residual_bars_figure", "candidates_figure", "features_figure"]
+
+#: the files the report writes beside ``figures/`` (:func:`write`)
+FILES = ("report.md", "report.html", "diagnosis.json", "residuals.csv", "suggested.csv")
 
 # words for the rank correlation of a feature with the residual size:
 # (meaning when rho > 0, meaning when rho < 0)
@@ -683,14 +686,14 @@ def features_figure(d: diagnose.Diagnosis, k: int = 4):
     return fig
 
 
-def figures(d: diagnose.Diagnosis, figdir: str) -> Dict[str, str]:
-    """Write the figures as PNG into ``figdir``; returns {name: path}."""
+def figures(d: diagnose.Diagnosis) -> Dict[str, bytes]:
+    """The report's figures as PNG bytes ({name: PNG}; those that apply)."""
     out = {}
     for name, make in (("residual_map", residual_map_figure), ("residual_bars", residual_bars_figure),
                        ("candidates", candidates_figure), ("features", features_figure)):
         fig = make(d)
         if fig is not None:
-            out[name] = save(fig, os.path.join(figdir, f"{name}.png"))
+            out[name] = png_bytes(fig)
     return out
 
 
@@ -783,7 +786,7 @@ def headline_items(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
     return items
 
 
-def _build(d: diagnose.Diagnosis, pngs: Dict[str, str], suggestion=None) -> Document:
+def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Document:
     prep = d.prep
     f = findings(d)
     names = _row_names(d)
@@ -905,28 +908,29 @@ def _residual_rows(d: diagnose.Diagnosis) -> List[dict]:
     return out
 
 
-def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None) -> Dict[str, str]:
+def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None, overwrite: bool = False
+          ) -> Dict[str, str]:
     """Write ``report.md``, ``report.html`` (self-contained), ``diagnosis.json``,
     ``residuals.csv``, ``figures/*.png`` and, given a ``suggestion``
     (:func:`cdsm.calibration.experiment.suggest`), ``suggested.csv`` into
-    ``out`` (created). Returns {name: path} (``report_md``, ``report_html``,
-    ``json``, ``csv``, ``figures``, ``suggested_csv``, ``manifest``: see
-    :func:`cdsm.files.finish_run`)."""
-    out = os.fspath(out)
-    figdir = os.path.join(out, "figures")
-    os.makedirs(figdir, exist_ok=True)
-    begin_run(out, "cdsm diagnose")
-    pngs = figures(d, figdir)
-    doc = _build(d, pngs, suggestion)
-    paths = {"figures": figdir}
-    paths["report_md"] = write_text(os.path.join(out, "report.md"), doc.markdown("figures", pngs), "report")
-    name = os.path.basename(d.prep.meas.source or "") or "measurements"
-    paths["report_html"] = write_text(os.path.join(out, "report.html"), doc.html(pngs, f"cdsm diagnose — {name}"),
-                                      "report")
-    paths["json"] = write_json(os.path.join(out, "diagnosis.json"), d.to_json(), "diagnosis")
-    paths["csv"] = write_csv(os.path.join(out, "residuals.csv"), _residual_rows(d), "residuals")
-    if suggestion is not None:
-        paths["suggested_csv"] = suggestion.to_csv(os.path.join(out, "suggested.csv"))
-    paths["manifest"] = finish_run(out, "cdsm diagnose", [*pngs.values(), *(v for k, v in paths.items()
-                                                                           if k != "figures")])
+    ``out`` (created), owned by this run while it writes
+    (:func:`cdsm.files.run_directory`: refused while another run writes
+    there, or when it holds files of these names (:data:`FILES`) that no
+    cdsm run wrote, unless ``overwrite``). Returns {name: path}
+    (``report_md``, ``report_html``, ``json``, ``csv``, ``figures``,
+    ``suggested_csv``, ``manifest``: see :meth:`cdsm.files.Run.finish`)."""
+    with run_directory(out, "cdsm diagnose", FILES, overwrite=overwrite) as run:
+        pngs = figures(d)
+        paths = {"figures": os.path.join(run.out, "figures")}
+        for name, data in pngs.items():
+            run.write(f"figures/{name}.png", data, "figure")
+        doc = _build(d, pngs, suggestion)
+        paths["report_md"] = run.write_text("report.md", doc.markdown("figures", pngs), "report")
+        name = os.path.basename(d.prep.meas.source or "") or "measurements"
+        paths["report_html"] = run.write_text("report.html", doc.html(pngs, f"cdsm diagnose — {name}"), "report")
+        paths["json"] = run.write_json("diagnosis.json", d.to_json(), "diagnosis")
+        paths["csv"] = run.write_csv("residuals.csv", _residual_rows(d), "residuals")
+        if suggestion is not None:
+            paths["suggested_csv"] = run.write_text("suggested.csv", suggestion.csv_text(), "suggestion")
+        paths["manifest"] = run.finish()
     return paths

@@ -16,8 +16,6 @@ import html
 import re
 from typing import Dict, List, Optional
 
-from ..files import read_bytes
-
 __all__ = ["Document", "HEADLINE"]
 
 #: The id of the section every report opens with.
@@ -70,7 +68,7 @@ class Document:
         return [s for s in self.sections if s["id"] != HEADLINE]
 
     # -- renderers --
-    def markdown(self, figdir: str, pngs: Optional[Dict[str, str]] = None) -> str:
+    def markdown(self, figdir: str, pngs: Optional[Dict[str, bytes]] = None) -> str:
         """Markdown text: the title, the headline's blocks, the contents, then
         every section under ``<a id>`` anchors. Figures link to
         ``figdir/<name>.png`` (only those in ``pngs`` when given)."""
@@ -105,11 +103,12 @@ class Document:
                 out.append(f"![{b[2]}]({figdir}/{b[1]}.png)\n\n*{b[2]}*")
         return out
 
-    def html(self, pngs: Dict[str, str], title: str) -> str:
+    def html(self, pngs: Dict[str, bytes], title: str) -> str:
         """A self-contained HTML page titled ``title``: the body's first
         element is the headline section (with the ``<h1>``), then the
         contents (``<nav id="contents">``), then each section; figures
-        embedded from the PNG files ``pngs`` ({name: path})."""
+        embedded from ``pngs`` ({name: PNG bytes}, as the run drew them:
+        never read back from files another run may have replaced)."""
         def inline(t: str) -> str:
             t = html.escape(t)
             parts = t.split("**")
@@ -134,10 +133,10 @@ class Document:
                     body.append(f"<div class='tw'><table><thead><tr>{hdr}</tr></thead><tbody>{rows}</tbody>"
                                 "</table></div>")
                 elif b[0] == "fig":
-                    path = pngs.get(b[1])
-                    if path is None:
+                    png = pngs.get(b[1])
+                    if png is None:
                         continue
-                    data = base64.b64encode(read_bytes(path, "figure")).decode("ascii")
+                    data = base64.b64encode(png).decode("ascii")
                     body.append(f"<figure id='fig-{html.escape(b[1], quote=True)}'><img alt='"
                                 f"{html.escape(b[2], quote=True)}' src='data:image/png;base64,{data}'>"
                                 f"<figcaption>{inline(b[2])}</figcaption></figure>")

@@ -15,6 +15,7 @@ drawn as small crosses (:func:`mark_missing`), not as a colour.
 
 from __future__ import annotations
 
+import io
 import multiprocessing
 import os
 import sys
@@ -26,14 +27,15 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import LinearSegmentedColormap, LogNorm, Normalize
 from matplotlib.figure import Figure
 
-from ..files import atomic_file
+from ..files import check_path, write_bytes
 from ..inputs import CdsmInputError
 from ..progress import Progress
 from ..robot import Robot
 
 __all__ = ["DPI", "MAX_WIDTH_IN", "RED", "BLUE", "GREEN", "HUES", "NEGATIVE", "ZERO", "new_figure", "report_style",
            "save", "hue_cmap", "seq_cmap", "tension_cmap", "sym_norm", "chain_points", "draw_arm", "file_key",
-           "place", "few_ticks", "colour_bar", "mark_missing", "render_jobs", "FigureJob"]
+           "place", "few_ticks", "colour_bar", "mark_missing", "png_bytes", "render_pngs", "render_jobs",
+           "FigureJob"]
 
 DPI = 110
 #: Widest report figure, inches: MAX_WIDTH_IN * DPI = 1144 px fit the HTML text column unscaled.
@@ -117,22 +119,29 @@ def report_style():
     return matplotlib.rc_context(FONT)
 
 
-def save(fig: Figure, path: "str | os.PathLike[str]", dpi: int = DPI) -> str:
-    """Write ``fig`` as PNG at ``path`` (directories created), with an
-    adaptive palette of 256 colours: plots lose nothing visible and the files
-    (and the self-contained HTML reports that embed them) shrink about four
-    times. Written whole or not at all (:func:`cdsm.files.atomic_file`).
-    Returns the path."""
+def png_bytes(fig: Figure, dpi: int = DPI) -> bytes:
+    """``fig`` as PNG bytes with an adaptive palette of 256 colours: plots
+    lose nothing visible and the files (and the self-contained HTML reports
+    that embed them) shrink about four times. No metadata: equal figures
+    give equal bytes."""
     from PIL import Image  # matplotlib's own dependency
 
-    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     fig.set_dpi(dpi)
     fig.canvas.draw()
     w, h = fig.canvas.get_width_height(physical=True)
     img = Image.frombuffer("RGBA", (w, h), fig.canvas.buffer_rgba(), "raw", "RGBA", 0, 1).convert("RGB")
-    with atomic_file(path, "figure") as fh:
-        img.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE).save(fh, format="PNG")
-    return str(path)
+    buf = io.BytesIO()
+    img.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def save(fig: Figure, path: "str | os.PathLike[str]", dpi: int = DPI) -> str:
+    """Write ``fig`` as PNG (:func:`png_bytes`) at ``path`` (directories
+    created), whole or not at all (:func:`cdsm.files.atomic_file`).
+    Returns the path."""
+    path = check_path(path, "figure file")
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    return write_bytes(path, png_bytes(fig, dpi), "figure")
 
 
 def hue_cmap(color: str) -> LinearSegmentedColormap:
@@ -234,12 +243,12 @@ def file_key(key: str) -> str:
 #: One figure job: ``(name, make)``; ``make()`` returns ``[(file name, Figure)]``.
 FigureJob = Tuple[str, Callable[[], List[Tuple[str, Figure]]]]
 
-# what forked figure workers inherit: (jobs_of, study, outdir)
+# what forked figure workers inherit: (jobs_of, study)
 _FORKED: Optional[tuple] = None
 
 
-def _render(outdir: str, make) -> Dict[str, str]:
-    return {name: save(fig, os.path.join(outdir, f"{name}.png")) for name, fig in make()}
+def _render(make) -> Dict[str, bytes]:
+    return {name: png_bytes(fig) for name, fig in make()}
 
 
 def _die_with_parent(parent: int) -> None:
@@ -258,28 +267,27 @@ def _die_with_parent(parent: int) -> None:
         os._exit(1)
 
 
-def _render_forked(i: int) -> Dict[str, str]:
-    jobs_of, study, outdir = _FORKED
-    return _render(outdir, jobs_of(study)[i][1])
+def _render_forked(i: int) -> Dict[str, bytes]:
+    jobs_of, study = _FORKED
+    return _render(jobs_of(study)[i][1])
 
 
-def render_jobs(jobs_of: Callable[[object], List[FigureJob]], study, outdir: "str | os.PathLike[str]",
-                progress: bool = False, workers: Optional[int] = None) -> Dict[str, str]:
-    """Write the figures ``jobs_of(study)`` (a list of :data:`FigureJob`,
-    costliest first) as ``outdir/<name>.png``; returns {name: path} in job
-    order. ``workers`` processes render them (default: one per core; forked,
-    so only where the platform forks — elsewhere one; each worker rebuilds
-    the job list from the inherited study; they end with this process,
-    however it ends). Shows a progress line when ``progress``."""
+def render_pngs(jobs_of: Callable[[object], List[FigureJob]], study, progress: bool = False,
+                workers: Optional[int] = None) -> Dict[str, bytes]:
+    """Render the figures ``jobs_of(study)`` (a list of :data:`FigureJob`,
+    costliest first) to PNG bytes (:func:`png_bytes`); returns {name: PNG}
+    in job order. ``workers`` processes render them (default: one per core;
+    forked, so only where the platform forks — elsewhere one; each worker
+    rebuilds the job list from the inherited study; they end with this
+    process, however it ends). Shows a progress line when ``progress``."""
     global _FORKED
-    outdir = os.fspath(outdir)
     jobs = jobs_of(study)
     n = (os.cpu_count() or 1) if workers is None else int(workers)
     fork = "fork" in multiprocessing.get_all_start_methods() and sys.platform.startswith("linux")
     bar = Progress(len(jobs), "figures", progress)
-    out: Dict[str, Dict[str, str]] = {}
+    out: Dict[str, Dict[str, bytes]] = {}
     if n > 1 and fork and len(jobs) > 1:
-        _FORKED = (jobs_of, study, outdir)
+        _FORKED = (jobs_of, study)
         try:
             ctx = multiprocessing.get_context("fork")
             with ProcessPoolExecutor(min(n, len(jobs)), mp_context=ctx, initializer=_die_with_parent,
@@ -292,6 +300,19 @@ def render_jobs(jobs_of: Callable[[object], List[FigureJob]], study, outdir: "st
             _FORKED = None
     else:
         for name, make in jobs:
-            out[name] = _render(outdir, make)
+            out[name] = _render(make)
             bar.update(1)
     return {k: v for name, _ in jobs for k, v in out[name].items()}
+
+
+def render_jobs(jobs_of: Callable[[object], List[FigureJob]], study, outdir: "str | os.PathLike[str]",
+                progress: bool = False, workers: Optional[int] = None) -> Dict[str, str]:
+    """Write the figures ``jobs_of(study)`` (:func:`render_pngs`) as
+    ``outdir/<name>.png`` (created); returns {name: path} in job order."""
+    outdir = check_path(outdir, "figure directory")
+    try:
+        os.makedirs(outdir, exist_ok=True)
+    except OSError as exc:
+        raise CdsmInputError(f"figure directory {outdir!r}: cannot create it ({exc.strerror})") from None
+    return {name: write_bytes(os.path.join(outdir, f"{name}.png"), data, "figure")
+            for name, data in render_pngs(jobs_of, study, progress=progress, workers=workers).items()}

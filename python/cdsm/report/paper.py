@@ -366,6 +366,8 @@ def readings_section(doc: Document, study) -> None:
 class PaperReport(StudyReport):
     """The study's report with the paper's sections (module doc)."""
 
+    FILES = StudyReport.FILES + ("claims.csv", "table3.csv", "table2.csv", "readings.csv")
+
     def __init__(self, study, detail: bool = True):
         super().__init__(study, detail)
         self.numbers = paper_headline(study)
@@ -552,7 +554,7 @@ class PaperReport(StudyReport):
 
 
 def write(study, out: "str | os.PathLike[str]", progress: bool = False, detail: bool = True,
-          workers: Optional[int] = None) -> Dict[str, str]:
+          workers: Optional[int] = None, overwrite: bool = False) -> Dict[str, str]:
     """Write the paper's report of ``study`` (a :class:`cdsm.paper.PaperStudy`)
     into ``out`` (see :meth:`cdsm.report.study.StudyReport.write`)."""
-    return PaperReport(study, detail).write(out, progress=progress, workers=workers)
+    return PaperReport(study, detail).write(out, progress=progress, workers=workers, overwrite=overwrite)

@@ -22,11 +22,11 @@ import numpy as np
 from .. import __version__
 from ..accuracy.tolerance import pooled_percentile
 from ..accuracy.workspace import MIN_LINE, REASONS
-from ..files import begin_run, finish_run, write_csv, write_text
+from ..files import run_directory
 from ..study import DEFAULT_SAMPLES, DEFAULT_SOLVES, NEAR_SINGULAR, PROTOCOL_NAMES, finite_rms, worst_configurations
 from . import study_figures
 from .document import HEADLINE, Document
-from .figures import FigureJob, file_key, render_jobs
+from .figures import FigureJob, file_key, render_pngs
 
 __all__ = ["StudyReport", "write", "headline", "scenario_rows", "jump_rows", "mc_rows", "montecarlo_rows",
            "configuration_rows", "mm", "nanmax", "fmt", "sci"]
@@ -355,6 +355,9 @@ class StudyReport:
 
     #: the run manifest's command name
     command = "cdsm paper"
+    #: the files the report writes beside ``figures/`` (:meth:`tables`, then the report itself)
+    FILES = ("scenarios.csv", "jumps.csv", "montecarlo.csv", "configurations.csv", "friction.csv", "report.md",
+             "report.html")
 
     def __init__(self, study, detail: bool = True):
         self.study = study
@@ -480,7 +483,8 @@ class StudyReport:
                 ("limits", "What this study does not cover", self.limits_section),
                 ("files", "Files", self.files_section)]
 
-    def build(self, pngs: Dict[str, str]) -> Document:
+    def build(self, pngs: Dict[str, bytes]) -> Document:
+        """The document; ``pngs`` ({name: PNG bytes}) the figures drawn."""
         self.pngs = pngs
         doc = Document(self.title())
         doc.section(HEADLINE, "Headline")
@@ -943,33 +947,35 @@ class StudyReport:
 
     # -- writing ------------------------------------------------------------------
     def write(self, out: "str | os.PathLike[str]", progress: bool = False,
-              workers: Optional[int] = None) -> Dict[str, str]:
+              workers: Optional[int] = None, overwrite: bool = False) -> Dict[str, str]:
         """Write figures, the CSV tables, ``report.md`` and ``report.html``
-        into ``out``. Returns {name: path} (``report_md``, ``report_html``,
-        one ``<stem>_csv`` per table, ``figures``, ``manifest``). The
-        directory's manifest (:data:`cdsm.files.RUN_MANIFEST`) says
-        incomplete while it is written and lists every file once done."""
-        out = os.fspath(out)
-        figdir = os.path.join(out, "figures")
-        os.makedirs(figdir, exist_ok=True)
-        begin_run(out, self.command)
-        jobs = self.figure_jobs()
-        pngs = render_jobs(lambda _: jobs, self, figdir, progress=progress, workers=workers)
-        paths: Dict[str, str] = {"figures": figdir}
-        for name, rows in self.tables().items():
-            paths[f"{name[:-4]}_csv"] = write_csv(os.path.join(out, name), rows)
-        doc = self.build(pngs)
-        paths["report_md"] = write_text(os.path.join(out, "report.md"), doc.markdown("figures", pngs), "report")
-        paths["report_html"] = write_text(os.path.join(out, "report.html"), doc.html(pngs, self.html_title()),
-                                          "report")
-        paths["manifest"] = finish_run(out, self.command, [*pngs.values(), *(v for k, v in paths.items()
-                                                                               if k != "figures")])
+        into ``out``, owned by this run while it writes
+        (:func:`cdsm.files.run_directory`: refused while another run writes
+        there, or when it holds files of these names that no cdsm run wrote,
+        unless ``overwrite``). Returns {name: path} (``report_md``,
+        ``report_html``, one ``<stem>_csv`` per table, ``figures``,
+        ``manifest``). The directory's manifest
+        (:data:`cdsm.files.RUN_MANIFEST`) says incomplete while it is
+        written and lists every file this run wrote once done; the HTML
+        page embeds the figures as this run drew them."""
+        with run_directory(out, self.command, self.FILES, overwrite=overwrite) as run:
+            jobs = self.figure_jobs()
+            pngs = render_pngs(lambda _: jobs, self, progress=progress, workers=workers)
+            paths: Dict[str, str] = {"figures": os.path.join(run.out, "figures")}
+            for name, data in pngs.items():
+                run.write(f"figures/{name}.png", data, "figure")
+            for name, rows in self.tables().items():
+                paths[f"{name[:-4]}_csv"] = run.write_csv(name, rows)
+            doc = self.build(pngs)
+            paths["report_md"] = run.write_text("report.md", doc.markdown("figures", pngs), "report")
+            paths["report_html"] = run.write_text("report.html", doc.html(pngs, self.html_title()), "report")
+            paths["manifest"] = run.finish()
         return paths
 
 
 def write(study, out: "str | os.PathLike[str]", progress: bool = False, detail: bool = True,
-          workers: Optional[int] = None) -> Dict[str, str]:
+          workers: Optional[int] = None, overwrite: bool = False) -> Dict[str, str]:
     """Write the report of ``study`` (the general one; :func:`cdsm.report.write`
     adds the paper's sections for the paper's geometry) into ``out``;
     ``detail``: also one figure per scenario. See :meth:`StudyReport.write`."""
-    return StudyReport(study, detail).write(out, progress=progress, workers=workers)
+    return StudyReport(study, detail).write(out, progress=progress, workers=workers, overwrite=overwrite)
