@@ -390,3 +390,165 @@ def test_threads_must_be_a_non_negative_integer(cdsm, value):
     one = robot.cable_lengths(np.full((50, 3), 0.2))
     robot.threads = 0
     np.testing.assert_array_equal(one, robot.cable_lengths(np.full((50, 3), 0.2)))
+
+
+# ==========================================================================
+# issue 32, item 9: validation gaps
+# ==========================================================================
+def _model_file(cdsm, tmp_path):
+    from cdsm.calibration.model import Model
+
+    m = Model.from_effects(cdsm.Robot.paper(), {"cable_friction": [0.2], "backlash": [1e-5, 2e-5, 3e-5]},
+                           std={"cable_friction": [0.01], "backlash": [1e-6, 1e-6, 1e-6]})
+    path = tmp_path / "m.json"
+    m.save(path)
+    import json
+
+    return Model, json.loads(path.read_text(encoding="utf-8")), path
+
+
+@pytest.mark.parametrize("mu", [1.5, -0.1])
+def test_a_model_refuses_friction_outside_zero_to_one_on_input(cdsm, err, tmp_path, mu):
+    import json
+
+    Model, d, path = _model_file(cdsm, tmp_path)
+    with pytest.raises(err, match=r"`effects`: cable_friction must be within \[0, 1\]"):
+        Model.from_effects(cdsm.Robot.paper(), {"cable_friction": [mu]})
+    lay = d["params"]["layout"]["cable_friction"]
+    d["params"]["flat"][lay[0]] = mu
+    path.write_text(json.dumps(d), encoding="utf-8")
+    with pytest.raises(err, match=r"m\.json.*`params\.flat`: cable_friction must be within \[0, 1\]"):
+        Model.load(path)
+
+
+@pytest.mark.parametrize("where, value, match", [
+    ("std", {"backlash": None}, r"`std\['backlash'\]`: expected a list of 3"),
+    ("std", {"backlash": [-1e-6, 1e-6, 1e-6]}, r"`std\['backlash'\]`: .*>= 0"),
+    ("std", {"backlash": [1e-6, 1e-6, 1e-6, 1e-6]}, r"`std\['backlash'\]`: expected a list of 3"),
+    ("std", {"backlash": [1e-6, 1e-6, 1e-6], "hole_height": [1e-6, 1e-6, 1e-6]},
+     r"`std\['hole_height'\]`: 'hole_height' is not a fitted effect"),
+    ("std", {"cable_friction": [True]}, r"`std\['cable_friction'\]`: .*booleans"),
+    ("std", None, r"`params\.std`: expected an object"),
+    ("flat0", 1e308, r"`params\.flat`: actuation_scale must be within \[-0\.9, 1000\]"),
+    ("flat0", True, r"`params\.flat`: .*booleans"),
+    ("flat0", None, r"`params\.flat`: .*None"),
+])
+def test_a_model_file_is_refused_naming_the_field(cdsm, err, tmp_path, where, value, match):
+    import json
+
+    Model, d, path = _model_file(cdsm, tmp_path)
+    if where == "std":
+        d["params"]["std"] = value
+    else:
+        d["params"]["flat"][0] = value
+    path.write_text(json.dumps(d), encoding="utf-8")
+    with pytest.raises(err, match=match):
+        Model.load(path)
+
+
+def test_a_model_with_an_undetermined_parameter_saves_and_loads(cdsm, tmp_path):
+    """A fit's 1-sigma is NaN where the data do not determine a parameter:
+    the file says null and reads it back as NaN (saving used to raise
+    json's ValueError)."""
+    from cdsm.calibration.model import Model
+
+    m = Model.from_effects(cdsm.Robot.paper(), {"backlash": [1e-5, 2e-5, 3e-5]},
+                           std={"backlash": [float("nan"), 1e-6, 2e-6]})
+    m.save(tmp_path / "m.json")
+    assert '"backlash": [\n        null,' in (tmp_path / "m.json").read_text(encoding="utf-8")
+    back = Model.load(tmp_path / "m.json")
+    assert back == m and np.isnan(back.std["backlash"][0]) and back.std["backlash"][1:] == [1e-6, 2e-6]
+
+
+def test_booleans_are_not_numbers(robot, err):
+    theta = np.zeros((2, 3))
+    with pytest.raises(err, match="`friction`"):
+        robot.tensions(theta, friction=True)
+    with pytest.raises(err, match="`min_tension`"):
+        robot.feasible(theta, min_tension=np.True_)
+    with pytest.raises(err, match="`theta`.*booleans"):
+        robot.fk([[True, False, False]])
+    with pytest.raises(err, match="`theta`.*booleans"):
+        robot.fk([0.1, True, 0.0])  # NumPy alone would read [0.1, 1.0, 0.0]
+
+
+@pytest.mark.parametrize("sliding", [np.array(["pull", "release"]), np.array(["pull"]), ["pull"], 1])
+def test_sliding_is_one_state_named_clearly(robot, err, sliding):
+    with pytest.raises(err, match="`sliding`: expected 'pull' or 'release'"):
+        robot.tensions(np.zeros((2, 3)), friction=0.2, sliding=sliding)
+
+
+@pytest.mark.parametrize("kw, match", [
+    (dict(theta=np.zeros((2, 3), complex)), "`theta`: complex"),
+    (dict(theta=np.zeros((2, 2))), r"`theta`: expected shape \(N, 3\)"),
+    (dict(theta=np.zeros(4)), r"`theta`: expected shape \(N, 3\)"),
+    (dict(theta=np.zeros((2, 3, 1))), r"`theta`: expected shape \(N, 3\)"),
+    (dict(amplitude=-1e-3), "`amplitude`: .*positive"),
+    (dict(amplitude=0.0), "`amplitude`: .*positive"),
+    (dict(mu=True), "`mu`"),
+    (dict(mu=1.5), r"`mu`: .*\[0, 1\]"),
+    (dict(cycle_work=0), "`cycle_work`"),
+])
+def test_friction_map_checks_its_inputs(robot, err, kw, match):
+    import warnings
+
+    from cdsm.accuracy import statics
+
+    args = dict(theta=np.zeros((2, 3)))
+    args.update(kw)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning: a refusal
+        with pytest.raises(err, match=match):
+            statics.friction_map(robot, **args)
+
+
+def test_friction_map_leaves_rows_with_nan_nan(robot):
+    from cdsm.accuracy import statics
+
+    fm = statics.friction_map(robot, [[0.1, 0.0, 0.0], [np.nan, 0.0, 0.0]])
+    assert np.isfinite(fm.pull[0]).all() and np.isnan(fm.pull[1]).all() and fm.cycled.tolist() == [True, False]
+
+
+@pytest.mark.parametrize("args, match", [
+    ((3, -1e308, 1e308, 1.0), "too large"),
+    ((3, 0.0, 1.0, 1e-300), "too large"),
+    ((0, 0.0, 1.0, 0.1), "`n`"),
+    ((2.5, 0.0, 1.0, 0.1), "`n`"),
+    ((3, 0.0, np.inf, 0.1), "`hi`"),
+])
+def test_joint_grid_refuses_clearly(err, args, match):
+    from cdsm.accuracy.workspace import joint_grid
+
+    with pytest.raises(err, match=match):
+        joint_grid(*args)
+
+
+def test_percentiles_get_distinct_exact_keys(cdsm, err, tmp_path, capsys):
+    import cdsm.cli
+    from cdsm.accuracy import montecarlo
+
+    out = tmp_path / "mc.npz"
+    assert cdsm.cli.main(["montecarlo", "--out", str(out), "--samples", "20", "--step", "15",
+                          "--percentiles", "99.99999,100,50,99.9", "--quiet"]) == 0
+    z = np.load(out)
+    keys = sorted(k for k in z.files if re.fullmatch(r"p[0-9_e+-]+", k))
+    assert keys == ["p100", "p50", "p99_9", "p99_99999"]  # the ordinary keys as before
+    assert z["percentiles"].tolist() == [99.99999, 100.0, 50.0, 99.9]
+    assert "worst p99.99999" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        cdsm.cli.main(["montecarlo", "--out", str(tmp_path / "b.npz"), "--percentiles", "95,95.0", "--quiet"])
+    assert "more than once" in capsys.readouterr().err
+    mc = cdsm.accuracy.monte_carlo(cdsm.Robot.paper(), np.zeros((1, 3)), samples=5, progress=False)
+    with pytest.raises(err, match="`percentiles`: 95 is given more than once"):
+        montecarlo.summary(mc, [95, 95.0])
+    assert montecarlo.percentile_key(1e-5) == "p1e-05" and montecarlo.percentile_key(-0.0) == "p0"
+
+
+@pytest.mark.parametrize("fn", FORWARD + ["tensions"])
+def test_planar_angles_whose_sum_overflows_are_refused(robot, err, fn):
+    """A planar disk's angle is the running sum of the joint angles: 1e308 +
+    1e308 rad overflows (fk returned NaN and inf for finite input; found by
+    the property tests once they drew new examples)."""
+    with pytest.raises(err, match="`theta`: row 1: the joint angles add up past the largest float"):
+        getattr(robot, fn)(np.array([[0.1, 0.2, 0.3], [1e308, 1e308, 0.0]]))
+    assert np.isfinite(robot.fk([1e300, 1e10, 3.0])).all()  # large but summable: taken

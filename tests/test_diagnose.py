@@ -9,6 +9,7 @@ benchmarks ``benches/bench_diagnose.py`` and ``benches/bench_error_rates.py``.
 from __future__ import annotations
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -401,3 +402,78 @@ def test_cli_saves_a_model_that_loads_and_suggests_measurements(mods, robot, tmp
     assert m.effects == ["actuation_scale"] and abs(m.params_by_effect()["actuation_scale"][0] - 0.02) < 2e-3
     lines = [ln for ln in (rep / "suggested.csv").read_text().splitlines() if not ln.startswith("#")]
     assert len(lines) == 4 and lines[0].startswith("point,theta_1")
+
+
+# ---------------------------------------------------------------------------
+# copies of one reading are one observation (issue 32, item 5)
+# ---------------------------------------------------------------------------
+def _table3_lines(cdsm):
+    import os
+
+    with open(os.path.join(os.path.dirname(cdsm.__file__), "data", "table3.csv"), encoding="utf-8") as fh:
+        return [ln for ln in fh.read().splitlines() if ln and not ln.startswith("#")]
+
+
+def test_copies_of_one_table3_row_are_refused_like_the_row_alone(mods, robot, cdsm):
+    """Nine bit-identical copies of one Table 3 row are one observation: the
+    diagnosis refuses them as it refuses the row alone (it used to answer
+    `explained` from 9 "rows" and 9 folds, held-out RMS 0)."""
+    src = _table3_lines(cdsm)
+    with pytest.raises(cdsm.CdsmInputError, match="only 1 of 1 rows are usable"):
+        mods["diagnose"].diagnose(robot, mods["measurements"].parse_csv("\n".join(src[:2]), 3))
+    copies = mods["measurements"].parse_csv("\n".join([src[0]] + [src[1]] * 9), 3)
+    with pytest.warns(cdsm.CdsmDataWarning, match="bit for bit.*counted once"):
+        with pytest.raises(cdsm.CdsmInputError, match=r"only 1 of 9 rows are usable.*8 row\(s\): a copy"):
+            mods["diagnose"].diagnose(robot, copies)
+
+
+def test_sixty_copies_of_a_synthetic_row_are_refused(mods, robot, cdsm):
+    m = _data(mods["plant"], robot, {"tip_offset": [1e-3, -5e-4]}, 40, rows=1)
+    sixty = mods["measurements"].Measurements("absolute", 3, np.repeat(m.dL, 60, 0), np.repeat(m.measured, 60, 0),
+                                              theta=np.repeat(m.theta, 60, 0), source="sixty copies")
+    with pytest.warns(cdsm.CdsmDataWarning, match="59 row"):
+        with pytest.raises(cdsm.CdsmInputError, match="only 1 of 60 rows are usable"):
+            mods["diagnose"].diagnose(robot, sixty, folds=FOLDS, frame="base")
+    assert m.copy_of().tolist() == [-1] and sixty.copy_of().tolist() == [-1] + [0] * 59
+
+
+def test_copies_change_nothing_but_the_flags(mods, robot, cdsm):
+    """30 rows and a copy of each after them: the copies are flagged, not
+    rows nor folds nor repeats; every held-out figure is that of the 30 rows
+    alone (the copies run after them, so nothing they run changes them)."""
+    meas = _data(mods["plant"], robot, {"hole_height": [3e-4, -2e-4, 2e-4]}, 41)
+    twice = mods["measurements"].Measurements("absolute", 3, np.tile(meas.dL, (2, 1)),
+                                              np.tile(meas.measured, (2, 1)), theta=np.tile(meas.theta, (2, 1)))
+    alone = mods["diagnose"].diagnose(robot, meas, folds=FOLDS, frame="base")
+    with pytest.warns(cdsm.CdsmDataWarning, match="30 row"):
+        d = mods["diagnose"].diagnose(robot, twice, folds=FOLDS, frame="base")
+    j = d.to_json()
+    assert j["rows"] == 60 and j["rows_used"] == 30 and j["duplicate_rows"] == list(range(31, 61))
+    assert j["flagged_rows"]["31"].startswith("a copy of an earlier row") and "of row 1:" in j["flagged_rows"]["31"]
+    assert d.noise_estimate.source == "assumed" and d.noise_estimate.groups == 0
+    assert len(d.baseline.heldout) == 30 and d.folds == FOLDS
+    assert (d.best, d.verdict) == (alone.best, alone.verdict)
+    assert [c.heldout_rms for c in d.singles] == [c.heldout_rms for c in alone.singles]
+
+
+def test_repeats_with_readings_of_their_own_still_estimate_the_noise(mods, robot, cdsm):
+    """What is a copy: the whole row (command and reading) bit for bit, not
+    a label; a repeat with a reading of its own, or the same reading of
+    another command, is no copy."""
+    head = "point,theta_1,theta_2,theta_3,dL_1,dL_2,dL_3,x,y,phi\n"
+    m = mods["measurements"].parse_csv(head + "a,0.1,0,0,0,0,0,0.2,0.01,\n"
+                                       "b,0.1,-0.0,0,0,0,0,0.2,0.01,\n"  # a copy (another label, -0.0)
+                                       "c,0.1,0,0,0,0,0,0.2,0.01000001,\n"  # a repeat
+                                       "d,0.1,0,0,0.001,0,0,0.2,0.01,\n"  # another command
+                                       "e,0.1,0,0,0,0,0,0.2,0.01,0.001\n"  # another reading (phi)
+                                       "f,0.1,0,0,0,0,0,0.2,0.01,\n", 3)  # a copy of row a
+    assert m.copy_of().tolist() == [-1, 0, -1, -1, -1, 0]
+    plant = mods["plant"]
+    vp = plant.VirtualPrototype(robot, {"hole_height": [3e-4, -2e-4, 2e-4]}, noise=30e-6, seed=34)
+    th, dl = vp.random_commands(25)
+    meas = vp.measure(np.repeat(th, 2, axis=0), np.repeat(dl, 2, axis=0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cdsm.CdsmDataWarning)  # no copies here
+        d = mods["diagnose"].diagnose(robot, meas, folds=FOLDS, frame="base")
+    assert d.prep.copies == {} and int(d.prep.usable.sum()) == 50
+    assert d.noise_estimate.source == "repeats" and d.noise_estimate.groups == 25

@@ -316,13 +316,15 @@ def test_copied_rows_are_reported_and_do_not_estimate_the_noise(cdsm):
 
     with open(os.path.join(os.path.dirname(cdsm.__file__), "data", "table3.csv"), encoding="utf-8") as fh:
         src = [ln for ln in fh.read().splitlines() if ln and not ln.startswith("#")]
-    text = "\n".join([src[0]] + [src[1]] * 9)
+    # Table 3 with its first row copied eight times (issue 32 item 5: copies
+    # are one observation; nine copies alone are refused, tests/test_diagnose.py)
+    text = "\n".join([src[0]] + [src[1]] * 9 + src[2:])
     with pytest.warns(cdsm.CdsmDataWarning, match="bit for bit"):
         d = diagnosis.diagnose(cdsm.Robot.paper(), measurements.parse_csv(text, 3))
     # nothing is left to estimate the noise from: it is assumed, not 1e-19 m
     assert d.noise_estimate.source == "assumed" and d.noise == diagnosis.DEFAULT_NOISE
-    assert len(d.noise_estimate.duplicates) >= 7
-    assert d.to_json()["duplicate_rows"]
+    assert len(d.noise_estimate.duplicates) == 8
+    assert d.to_json()["duplicate_rows"] == list(range(2, 10)) and d.to_json()["rows_used"] == 9
 
 
 # ---------------------------------------------------------------------------

@@ -25,17 +25,33 @@ class CdsmDataWarning(UserWarning):
 MAX_ITERATIONS = 2**32 - 1
 
 
+def _cells(value):
+    """The scalars of nested lists and tuples (NumPy turns ``[0.1, True]``
+    into ``[0.1, 1.0]`` before its dtype could tell)."""
+    for v in value:
+        if isinstance(v, (list, tuple)):
+            yield from _cells(v)
+        else:
+            yield v
+
+
 def as_array(name: str, value) -> np.ndarray:
     """``value`` as a float64 array of any shape, taken whole: complex
-    values (NumPy would drop the imaginary part), text and other
-    non-numbers are refused naming ``name``."""
+    values (NumPy would drop the imaginary part), booleans (``True`` is no
+    1.0), ``None`` (no NaN), text and other non-numbers are refused naming
+    ``name``."""
     try:
         raw = np.asarray(value)
     except (TypeError, ValueError) as exc:
         raise CdsmInputError(f"`{name}`: not a numeric array ({exc})") from None
-    if np.iscomplexobj(raw) or (raw.dtype == object and any(isinstance(v, complex) for v in raw.ravel())):
+    cells = raw.ravel() if raw.dtype == object else tuple(_cells(value)) if isinstance(value, (list, tuple)) else ()
+    if np.iscomplexobj(raw) or any(isinstance(v, (complex, np.complexfloating)) for v in cells):
         raise CdsmInputError(f"`{name}`: complex values are not accepted (the imaginary part would be lost); "
                              "give real numbers")
+    if raw.dtype.kind == "b" or any(isinstance(v, (bool, np.bool_)) for v in cells):
+        raise CdsmInputError(f"`{name}`: expected numbers, got booleans (True is not 1.0)")
+    if any(v is None for v in cells):
+        raise CdsmInputError(f"`{name}`: expected numbers, got None")
     if raw.dtype.kind in "USV":
         raise CdsmInputError(f"`{name}`: expected numbers, got {raw.dtype.kind == 'V' and 'records' or 'text'}")
     try:
@@ -73,8 +89,10 @@ def as_vector(name: str, value, width: int) -> np.ndarray:
 
 
 def as_finite(name: str, value) -> float:
-    """``value`` as a finite float (a complex number is refused)."""
-    if isinstance(value, (complex, np.complexfloating)) or isinstance(value, (str, bytes)):
+    """``value`` as a finite float (a complex number, text and a boolean —
+    ``True`` is no 1.0 — are refused)."""
+    if (isinstance(value, (complex, np.complexfloating, str, bytes, bool, np.bool_))
+            or (isinstance(value, np.ndarray) and value.dtype.kind in "bcUS")):
         raise CdsmInputError(f"`{name}`: expected a real number, got {value!r}")
     try:
         v = float(value)

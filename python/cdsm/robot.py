@@ -533,8 +533,22 @@ class Robot:
             raise CdsmInputError(f"`seed`: expected shape ({rows}, {self.n}) or ({self.n},), got {s.shape}")
         return s
 
-    def _map(self, theta, method, shape):
+    def _theta(self, theta) -> Tuple[np.ndarray, bool]:
+        """``theta`` as a finite (N, n) batch (:func:`as_batch`); a planar
+        arm's disk angles are running sums of the joint angles, so a row
+        whose sum overflows a float (``1e308 + 1e308``) is refused too."""
         t, single = as_batch("theta", theta, self.n)
+        if self.kind == "planar":
+            with np.errstate(over="ignore"):
+                bad = ~np.isfinite(np.cumsum(t, axis=1)).all(axis=1)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise CdsmInputError(f"`theta`: row {i}: the joint angles add up past the largest float "
+                                     f"({t[i].tolist()} rad): no disk has such an angle")
+        return t, single
+
+    def _map(self, theta, method, shape):
+        t, single = self._theta(theta)
         return self._out(method(t, self.threads), shape, single)
 
     # ---- kinematics ---------------------------------------------------
@@ -646,9 +660,10 @@ class Robot:
     # ---- statics ------------------------------------------------------
     def _statics(self, theta, min_tension, tip_wrench, force, gravity, force_name="force", friction=None,
                  sliding="pull"):
-        t, single = as_batch("theta", theta, self.n)
-        if sliding not in ("pull", "release"):
-            raise CdsmInputError(f"`sliding`: expected 'pull' or 'release', got {sliding!r}")
+        t, single = self._theta(theta)
+        if not isinstance(sliding, str) or sliding not in ("pull", "release"):
+            raise CdsmInputError(f"`sliding`: expected 'pull' or 'release' (one sliding state for every row), "
+                                 f"got {sliding!r}")
         if friction is not None:
             friction = as_finite("friction", friction)
             if not 0.0 <= friction <= 1.0:

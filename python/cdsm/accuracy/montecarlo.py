@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import _cdsm
 from ..files import check_path, json_safe, read_npz, write_npz
-from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
+from ..inputs import CdsmInputError, as_batch, as_count, as_finite, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
@@ -27,7 +27,7 @@ from ..display import ShortRepr
 __all__ = ["QUANTILE_BOUND", "hist_quantile", "MonteCarlo", "monte_carlo", "monte_carlo_chunk", "chunk_sizes",
            "sample_errors",
            "QUANTITY_NAMES", "QUANTITY_UNITS", "SPATIAL_QUANTITY_NAMES", "SPATIAL_QUANTITY_UNITS",
-           "DEFAULT_PERCENTILES", "error_widths",
+           "DEFAULT_PERCENTILES", "percentile_key", "percentile_text", "error_widths",
            "summary", "save_npz", "load_npz"]
 
 DEFAULT_PERCENTILES = (50.0, 95.0, 99.0)
@@ -277,18 +277,35 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
 # ---------------------------------------------------------------------------
 # results as arrays
 # ---------------------------------------------------------------------------
-def _pkey(p: float) -> str:
-    return "p" + f"{p:g}".replace(".", "_")
+def percentile_text(p: float) -> str:
+    """A percentile written exactly and shortest: ``%g`` where that is
+    exact (``95``, ``99.9``), else every digit it needs (``99.99999``, which
+    ``%g`` rounds to ``100``)."""
+    v = float(p) + 0.0  # -0.0 is 0.0
+    text = f"{v:g}"
+    return text if float(text) == v else str(np.format_float_positional(v, unique=True, trim="-"))
+
+
+def percentile_key(p: float) -> str:
+    """The key of the ``p``-th percentile in :func:`summary`: ``p`` and
+    :func:`percentile_text`, ``.`` as ``_`` (``p95``, ``p99_9``,
+    ``p99_99999``): two percentiles never share a key."""
+    return "p" + percentile_text(p).replace(".", "_")
 
 
 def summary(mc: MonteCarlo, percentiles: Sequence[float] = DEFAULT_PERCENTILES) -> Dict[str, np.ndarray]:
     """Per-configuration arrays of a study (N configurations): ``count``,
     ``failed`` (N,); ``mean``, ``std``, ``min``, ``max``, ``max_abs``, ``sum``,
     ``sum_sq`` (N, 4) over [dX (m), dY (m), dphi (rad), |d(X, Y)| (m)];
-    ``p50``, ``p95``, ... (N,) percentiles of |d(X, Y)|, m (``p99_9`` for
-    99.9), also stacked as ``dxy_percentiles`` (N, P) with ``percentiles``
-    (P,); ``hist`` (N, bins) and ``hist_edges`` (bins - 1,) m."""
-    pct = np.asarray([float(p) for p in percentiles], dtype=np.float64)
+    ``p50``, ``p95``, ... (N,) percentiles of |d(X, Y)|, m (keys by
+    :func:`percentile_key`: ``p99_9`` for 99.9; each percentile once), also
+    stacked as ``dxy_percentiles`` (N, P) with ``percentiles`` (P,);
+    ``hist`` (N, bins) and ``hist_edges`` (bins - 1,) m."""
+    pct = np.asarray([as_finite("percentiles", p) for p in percentiles], dtype=np.float64)
+    keys = [percentile_key(p) for p in pct]
+    if len(set(keys)) < len(keys):
+        twice = next(p for p, k in zip(pct, keys) if keys.count(k) > 1)
+        raise CdsmInputError(f"`percentiles`: {percentile_text(twice)} is given more than once")
     out = dict(theta0=mc.theta0, count=mc.count, failed=mc.failed, mean=mc.mean, std=mc.std,
                min=mc.min, max=mc.max, max_abs=mc.max_abs, sum=mc.sum, sum_sq=mc.sum_sq,
                hist=mc.dense_hist(), hist_edges=mc.hist_edges(), percentiles=pct,
@@ -296,8 +313,8 @@ def summary(mc: MonteCarlo, percentiles: Sequence[float] = DEFAULT_PERCENTILES) 
                units=np.array(SPATIAL_QUANTITY_UNITS if mc.quantities == SPATIAL_QUANTITY_NAMES else QUANTITY_UNITS))
     cols = [mc.percentile(p) for p in pct]
     out["dxy_percentiles"] = np.stack(cols, axis=1) if cols else np.zeros((len(mc.count), 0))
-    for p, col in zip(pct, cols):
-        out[_pkey(p)] = col
+    for key, col in zip(keys, cols):
+        out[key] = col
     return out
 
 

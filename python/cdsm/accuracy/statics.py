@@ -13,6 +13,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
+from ..inputs import CdsmInputError, as_batch, as_count, as_finite
 from ..robot import Robot
 from .workspace import joint_grid
 from ..display import ShortRepr
@@ -62,7 +63,7 @@ def feasibility_map(robot: Robot, theta=None, lower=None, tip_wrench=None, gravi
     """Tensions (N) and the feasibility flag over ``theta`` (N, n) rad (default
     the paper's +-30 deg, 5 deg grid); ``min_tension`` in N; loads as in
     :meth:`cdsm.Robot.tensions`. Plot ``pose[:, :2]`` coloured by ``feasible``."""
-    th = joint_grid(robot.n) if theta is None else np.atleast_2d(np.asarray(theta, dtype=float))
+    th = joint_grid(robot.n) if theta is None else as_batch("theta", theta, robot.n)[0]
     T = robot.tensions(th, lower=lower, tip_wrench=tip_wrench, gravity=gravity, min_tension=min_tension)
     ok = np.asarray(robot.feasible(th, lower=lower, tip_wrench=tip_wrench, gravity=gravity,
                                    min_tension=min_tension), bool)
@@ -74,7 +75,7 @@ def elastic_tip_deviation(robot: Robot, theta, youngs_modulus: Optional[float] =
     """Tip deviation (N, 3) [dX m, dY m, dphi rad] when the rigid model's cable
     lengths at ``theta`` (N, n) rad are commanded to elastic cables (optionally of another
     material); NaN where the elastic solve did not converge."""
-    th = np.atleast_2d(np.asarray(theta, dtype=float))
+    th = as_batch("theta", theta, robot.n)[0]
     rob = robot.with_cable(youngs_modulus=youngs_modulus, diameter=diameter)
     sol = rob.solve_cables_elastic(rob.upper_lengths(th), seed=th, lower=lower)
     d = rob.fk(sol.theta) - rob.fk(th)
@@ -126,7 +127,7 @@ def reading_maps(robot: Robot, theta=None) -> Dict[str, Reading]:
     """:func:`feasibility_map` and :func:`elastic_tip_deviation` of every
     reading of :func:`load_readings` over ``theta`` (N, n) rad (default the
     paper's +-30 deg grid)."""
-    th = joint_grid(robot.n) if theta is None else np.atleast_2d(np.asarray(theta, dtype=float))
+    th = joint_grid(robot.n) if theta is None else as_batch("theta", theta, robot.n)[0]
     out = {}
     for name, r in load_readings(robot).items():
         fm = feasibility_map(r, th)
@@ -173,12 +174,22 @@ class FrictionMap(ShortRepr):
         return self.loop.max(axis=1) if self.loop.shape[1] else np.full(len(self.loop), np.nan)
 
 
+def _amplitude(value) -> float:
+    """A cycle amplitude (m): finite and positive."""
+    a = as_finite("amplitude", value)
+    if not a > 0.0:
+        raise CdsmInputError(f"`amplitude`: the cycle's amplitude must be a positive length (m), got {a}")
+    return a
+
+
 def hysteresis_cycles(n: int, m: int, theta, amplitude: float = CYCLE_AMPLITUDE):
     """The commands of the hysteresis map: for every configuration ``theta``
     (N, n) rad and position cable ``c < m``, ``0, +a, 0, -a, 0`` on that cable
     (m), absolute rows in this order. Returns ``theta_cmd (5 N m, n)``, ``dL (5
     N m, m)``; the rows of configuration ``i`` and cable ``c`` start at ``5 (i m + c)``."""
-    th = np.atleast_2d(np.asarray(theta, dtype=float))
+    n, m = as_count("n", n, 1), as_count("m", m, 0)
+    th, _ = as_batch("theta", theta, n, finite=False)
+    amplitude = _amplitude(amplitude)
     path = np.array([0.0, amplitude, 0.0, -amplitude, 0.0])
     N = th.shape[0]
     theta_cmd = np.repeat(th, 5 * m, axis=0)
@@ -200,7 +211,13 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
     cables x joints."""
     from ..calibration import plant
 
-    th = np.atleast_2d(np.asarray(theta, dtype=float))
+    th, _ = as_batch("theta", theta, robot.n, finite=False)  # rows with NaN are left NaN
+    mu = as_finite("mu", mu)
+    if not 0.0 <= mu <= 1.0:
+        raise CdsmInputError(f"`mu`: the friction coefficient must be within [0, 1], got {mu}")
+    amplitude = _amplitude(amplitude)
+    min_tension = as_finite("min_tension", min_tension)
+    cycle_work = as_count("cycle_work", cycle_work, 1)
     N, m = th.shape[0], len(robot.position_cables)
     ok = np.isfinite(th).all(axis=1)
     nan = np.full((N, m), np.nan)

@@ -22,15 +22,19 @@ from typing import Optional
 
 import numpy as np
 
-from ..inputs import CdsmInputError, as_batch
+from ..inputs import CdsmInputError, as_batch, as_count, as_finite
 from ..robot import Robot, Solution
 from ..display import ShortRepr
 from .sampling import nearest_neighbours, sample_configurations
 
 __all__ = [
     "joint_grid", "default_step", "grid_neighbours", "paper_ik_seed", "Workspace", "sweep", "sample",
-    "grid_values", "singular_values", "cable_fold_ratio", "jump_points", "Jumps", "REASONS", "MIN_LINE",
+    "grid_values", "singular_values", "cable_fold_ratio", "jump_points", "Jumps", "REASONS", "MIN_LINE", "GRID_LIMIT",
 ]
+
+
+#: The most configurations :func:`joint_grid` makes.
+GRID_LIMIT = 50_000_000
 
 
 def joint_grid(n: int, lo: float = np.radians(-30.0), hi: float = np.radians(30.0),
@@ -38,11 +42,17 @@ def joint_grid(n: int, lo: float = np.radians(-30.0), hi: float = np.radians(30.
     """Every combination of joint angles from ``lo`` to ``hi`` (rad) in ``step``
     (rad): (K**n, n), joint 1 slowest (the paper's nested loops). ±30° in 5° for
     n = 3 gives 2197 configurations."""
-    if not (np.isfinite([lo, hi, step]).all() and step > 0 and hi >= lo):
-        raise CdsmInputError(f"`lo`, `hi`, `step`: need finite lo <= hi and step > 0, got {lo}, {hi}, {step}")
-    k = int(np.floor((hi - lo) / step + 1e-9)) + 1
-    if k ** n > 50_000_000:
-        raise CdsmInputError(f"`step`: a grid of {k}**{n} configurations is too large")
+    n = as_count("n", n, 1)
+    lo, hi, step = as_finite("lo", lo), as_finite("hi", hi), as_finite("step", step)
+    if not (step > 0 and hi >= lo):
+        raise CdsmInputError(f"`lo`, `hi`, `step`: need lo <= hi and step > 0, got {lo}, {hi}, {step}")
+    span = (hi - lo) / step  # inf where hi - lo overflows a float
+    if not span < GRID_LIMIT:
+        raise CdsmInputError(f"`lo`, `hi`, `step`: (hi - lo) / step = {span:.3g} values per joint is too large "
+                             f"a grid (at most {GRID_LIMIT} configurations)")
+    k = int(np.floor(span + 1e-9)) + 1
+    if k ** n > GRID_LIMIT:
+        raise CdsmInputError(f"`step`: a grid of {k}**{n} configurations is too large (at most {GRID_LIMIT})")
     axis = lo + step * np.arange(k)
     mesh = np.meshgrid(*([axis] * n), indexing="ij")
     return np.stack(mesh, axis=-1).reshape(-1, n)

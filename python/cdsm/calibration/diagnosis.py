@@ -7,7 +7,10 @@ Pipeline (FIGAROH-like):
 
 1. **Prepare** the rows: commands in execution order (file order or the
    ``sequence`` column), the nominal pose IK for pose-commanded rows, rows the
-   nominal model cannot realise flagged (never dropped silently); data about
+   nominal model cannot realise flagged (never dropped silently), and so
+   are rows that copy an earlier row bit for bit (command and reading): one
+   observation, counted once — not as rows, folds or repeats
+   (docs/model.md, "Rows, repeats and copies"); data about
    a thousand times off the robot's scale (mm given for m) are refused with a
    message that says so. Absolute data are **registered**: the measuring
    frame (rotation and translation) starts from a closed-form (Kabsch) fit of
@@ -57,7 +60,8 @@ Pipeline (FIGAROH-like):
    combinations of its size the held-out errors cannot tell from it are
    reported as ties.
 4. **Verdict**: the noise comes from repeated commands approached from the
-   same direction (pure error, with a 95 % interval), from the user
+   same direction, each with a reading of its own (pure error, with a 95 %
+   interval), from the user
    (``noise=``), or is assumed (10 µm per axis and reading). A model is
    *adequate* when its held-out RMS is within 1.5x the noise floor and a
    lack-of-fit test does not reject it at p = 0.01 (chi-square against the
@@ -158,6 +162,9 @@ class Prepared(ShortRepr):
     offset: float = float("nan")
     #: the plant linearised at the fits' start (computed on first use)
     linear: Optional[tuple] = None
+    #: {row: the earlier row it copies bit for bit} (file order, 0-based;
+    #: :meth:`Measurements.copy_of`): counted once, never usable
+    copies: Dict[int, int] = field(default_factory=dict)
 
     @property
     def kind(self) -> str:
@@ -240,6 +247,22 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "auto") -> Prepared:
         flags[int(i)] = ("the nominal model needs a slack upper cable here under the robot's loads (lower "
                          "tensions, gravity): a taut-cable model cannot predict this row")
     usable = ok & settles & observed & taut
+    # a row that copies an earlier one bit for bit is that one observation
+    # again: counted once (not as a row, a held-out fold or a repeat)
+    copy_of = meas.copy_of()
+    copies = {int(i): int(copy_of[i]) for i in np.flatnonzero(copy_of >= 0)}
+    for i, j in copies.items():
+        if usable[i]:
+            flags[i] = f"a copy of an earlier row, bit for bit (of row {j + 1}: the same command and reading)"
+    usable &= copy_of < 0
+    if copies:
+        shown = sorted(copies)[:10]
+        warnings.warn(f"{meas.source or 'measurements'}: {len(copies)} row(s) copy an earlier row bit for bit, the "
+                      f"same command and the same reading (row(s) {', '.join(str(i + 1) for i in shown)}"
+                      f"{', ...' if len(copies) > 10 else ''}, of row(s) "
+                      f"{', '.join(str(j + 1) for j in sorted({copies[i] for i in shown}))}): one observation "
+                      "written more than once, counted once — not as rows, held-out folds or repeats (a repeat "
+                      "of a command has a reading of its own)", CdsmDataWarning, stacklevel=3)
     measured = np.full((N, w), np.nan)
     measured[:, :k] = meas.measured
     if meas.measured_phi is not None:
@@ -259,7 +282,7 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "auto") -> Prepared:
         start[plant.effect_indices(robot, "frame_misalignment")] = kabsch_frame(pred[usable, :k],
                                                                                 measured[usable, :k])
     return Prepared(robot, meas, theta, np.asarray(meas.dL, float), kinds, measured, usable, flags, order,
-                    registered, start, frame, offset)
+                    registered, start, frame, offset, copies=copies)
 
 
 def _linearised(prep: Prepared) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Dict[int, int]]:
@@ -368,39 +391,21 @@ class NoiseEstimate(ShortRepr):
     ss_pure: float = 0.0
     dof_pure: int = 0
     groups: int = 0
-    #: rows (file order, 0-based) whose readings are bit-identical to an
-    #: earlier repeat of the same command: copies, not repeats
+    #: rows (file order, 0-based) that copy an earlier row bit for bit
+    #: (:attr:`Prepared.copies`): copies, not repeats
     duplicates: Tuple[int, ...] = ()
 
 
 def _noise(prep: Prepared, given: Optional[float]) -> NoiseEstimate:
     k = plant.dims(prep.robot)
-    groups, copies = [], []
-    for g in repeat_groups(prep):
-        # a reading bit-identical to an earlier one of the group is a copy
-        # (a pasted row), not a second measurement: it carries no noise
-        seen: Dict[bytes, int] = {}
-        keep = []
-        for i in g:
-            key = prep.measured[i, :k].tobytes()
-            if key in seen:
-                copies.append(int(i))
-            else:
-                seen[key] = int(i)
-                keep.append(int(i))
-        if len(keep) >= 2:
-            groups.append(np.array(keep))
-    if copies:
-        warnings.warn(f"{prep.meas.source or 'measurements'}: {len(copies)} row(s) repeat an earlier reading of "
-                      f"the same command bit for bit (rows {', '.join(str(i + 1) for i in sorted(copies)[:10])}"
-                      f"{', ...' if len(copies) > 10 else ''}): taken as copies, not as repeats, so they do not "
-                      "estimate the noise", CdsmDataWarning, stacklevel=3)
+    # copies are not usable (prepare): every group holds readings of their own
+    groups = repeat_groups(prep)
     ss, dof = 0.0, 0
     for g in groups:
         y = prep.measured[g, :k]
         ss += float(((y - y.mean(axis=0)) ** 2).sum())
         dof += k * (len(g) - 1)
-    dup = tuple(sorted(copies))
+    dup = tuple(sorted(prep.copies))
     if given is not None:
         return NoiseEstimate(float(given), "given", None, ss, dof, len(groups), dup)
     if dof >= 2 and ss > 0:

@@ -83,6 +83,29 @@ class Measurements(ShortRepr):
         """(N,) uint8 plant row kinds: the data kind, unmeasured rows as such."""
         return np.where(self.observed, KIND_CODES[self.kind], KIND_CODES["unmeasured"]).astype(np.uint8)
 
+    def copy_of(self) -> np.ndarray:
+        """(N,) int: for each measured row that copies an earlier measured
+        row bit for bit — the same command (``theta`` or ``pose_cmd``, and
+        ``dL``) and the same reading (every measured column) — the index of
+        the first such row (file order, 0-based); -1 elsewhere. Labels and
+        ``sequence`` are not compared; -0.0 equals 0.0 and an empty cell an
+        empty cell. A copy is one observation written twice, not a repeat:
+        a repeat of a command has a reading of its own."""
+        cmd = self.theta if self.theta is not None else self.pose_cmd
+        cols = [a.reshape(len(self), -1) for a in (cmd, self.dL, self.measured, self.measured_phi,
+                                                  self.measured_rot) if a is not None]
+        key = np.concatenate(cols, axis=1).astype(np.float64) + 0.0  # -0.0 + 0.0 is 0.0
+        key[np.isnan(key)] = np.nan  # one NaN pattern for every empty cell
+        out = np.full(len(self), -1)
+        seen = np.flatnonzero(self.observed)
+        if not len(seen):
+            return out
+        rows = np.ascontiguousarray(key[seen]).view(np.dtype((np.void, key.itemsize * key.shape[1]))).ravel()
+        _, first, inverse = np.unique(rows, return_index=True, return_inverse=True)
+        orig = seen[first[inverse.reshape(-1)]]
+        out[seen] = np.where(orig != seen, orig, -1)
+        return out
+
 
 def _sequence(rows, source: str) -> np.ndarray:
     vals = table_column(rows, "sequence", source)

@@ -26,8 +26,8 @@ One JSON object; every number is a JSON float written by Python's ``repr``
                                                       #   effect in the flat vector
         "flat": [...],                    # (P,) the full plant parameter vector, SI
         "by_effect": {"hole_height": [...]},          # the fitted effects' values
-        "std": {"hole_height": [...]}     # their 1-sigma uncertainty (SI), may be {}
-      },
+        "std": {"hole_height": [...]}     # their 1-sigma uncertainty (SI, >= 0; null: not
+      },                                  #   determined by the data), may be {}
       "data": {                           # provenance (null when built by hand)
         "source": "table3.csv", "kind": "displacement",
         "rows": 9, "rows_used": 9,
@@ -45,6 +45,9 @@ One JSON object; every number is a JSON float written by Python's ``repr``
 followed by the little-endian float64 bytes of the commanded ``theta`` (N, n)
 or ``pose_cmd`` (N, 3), ``dL`` (N, n), ``measured`` (N, 2) and ``measured_phi``
 (N,) when present, in that order. Non-finite figures are written as ``null``.
+Every parameter is checked on reading (:func:`cdsm.calibration.plant.check_params`:
+the physical domain, e.g. ``cable_friction`` within [0, 1], and at most 1000 in
+size) and so is every 1-sigma list (one value per parameter of a fitted effect).
 Readers must ignore unknown keys; a new major format bumps the version.
 """
 
@@ -105,21 +108,12 @@ class Model:
                  std: Optional[Mapping[str, Sequence[float]]] = None, data: Optional[dict] = None,
                  heldout: Optional[dict] = None, robot_toml_text: Optional[str] = None):
         self.robot = robot
-        self.p = as_array("p", p).reshape(-1).copy()
-        if self.p.size != plant.size(robot) or not np.isfinite(self.p).all():
-            raise CdsmInputError(f"`p`: expected {plant.size(robot)} finite plant parameters, got {self.p.size}")
+        self.p = plant.check_params(robot, p, "p").copy()
         for e in effects:
             plant.effect_indices(robot, e)  # names the unknown ones
         self.effects = list(effects)
         self.name = name if name is not None else ("+".join(self.effects) or "none")
-        if std is not None and not isinstance(std, Mapping):
-            raise CdsmInputError(f"`std`: expected {{effect: [1-sigma values]}}, got {type(std).__name__}")
-        self.std = {}
-        for k, v in (std or {}).items():
-            arr = as_array(f"std[{k!r}]", v)
-            if arr.ndim > 1:
-                raise CdsmInputError(f"`std[{k!r}]`: expected a list of numbers, got shape {arr.shape}")
-            self.std[str(k)] = [float(x) for x in np.atleast_1d(arr)]
+        self.std = _check_std(robot, self.effects, std)
         self.data = data
         self.heldout = heldout
         self._toml = robot_toml_text if robot_toml_text is not None else robot.to_toml()
@@ -128,8 +122,9 @@ class Model:
     @classmethod
     def from_effects(cls, robot: Robot, effects: Mapping[str, Sequence[float]], **kw) -> "Model":
         """A model with given effect values ``{effect: values}`` (SI), e.g. a
-        virtual prototype's truth."""
-        return cls(robot, plant.params(robot, effects), list(effects), **kw)
+        virtual prototype's truth. Every value within its physical domain
+        (:func:`cdsm.calibration.plant.check_params`)."""
+        return cls(robot, plant.check_params(robot, plant.params(robot, effects), "effects"), list(effects), **kw)
 
     @classmethod
     def from_diagnosis(cls, diag) -> "Model":
@@ -149,7 +144,9 @@ class Model:
                        noise_floor_m=_finite_or_none(diag.noise_floor),
                        explained=bool(diag.explained), best=diag.best, ties=list(diag.ties),
                        candidates={c.name: _finite_or_none(c.heldout_rms) for c in diag.singles})
-        std = fin.fit.std_by_effect(robot) if fin.effects else {}
+        # a parameter the data do not determine has a non-finite 1-sigma: NaN (null in the file)
+        std = {e: [v if math.isfinite(v) else math.nan for v in vals]
+               for e, vals in fin.fit.std_by_effect(robot).items()} if fin.effects else {}
         return cls(robot, fin.fit.p, fin.effects, name=diag.best, std=std, data=data, heldout=heldout)
 
     # ---- file -------------------------------------------------------------
@@ -172,7 +169,7 @@ class Model:
                 "layout": {k: [s.start, s.stop] for k, s in lay.items()},
                 "flat": [float(x) for x in self.p],
                 "by_effect": self.params_by_effect(),
-                "std": {k: list(v) for k, v in self.std.items()},
+                "std": {k: [_finite_or_none(x) for x in v] for k, v in self.std.items()},
             },
             "data": self.data,
             "heldout": self.heldout,
@@ -210,10 +207,13 @@ class Model:
         except CdsmInputError as exc:
             raise CdsmInputError(f"model file {source!r}: {exc}") from None
         p = _remap(flat, par.get("layout"), lay, source)
-        if not np.isfinite(p).all():
-            raise CdsmInputError(f"model file {source!r}: params.flat holds non-finite numbers")
+        std = par.get("std", {})
+        if not isinstance(std, dict):
+            raise CdsmInputError(f"model file {source!r}: `params.std`: expected an object {{effect: [1-sigma "
+                                 f"values]}}, got {json.dumps(std)}")
         try:
-            return cls(robot, p, effects, name=d.get("name"), std=par.get("std"),
+            p = plant.check_params(robot, p, "params.flat")
+            return cls(robot, p, effects, name=d.get("name"), std=std,
                        data=d.get("data"), heldout=d.get("heldout"), robot_toml_text=toml)
         except CdsmInputError as exc:
             raise CdsmInputError(f"model file {source!r}: {exc}") from None
@@ -252,6 +252,36 @@ class Model:
         (the options and flags are documented there)."""
         return compensate(self, poses, tol=tol, max_iter=max_iter, min_tension=min_tension,
                           enforce_limits=enforce_limits, start=start)
+
+
+def _check_std(robot: Robot, effects: Sequence[str], std) -> Dict[str, List[float]]:
+    """``std`` ({effect: 1-sigma values}, SI) checked: only fitted effects,
+    each with one value >= 0 per parameter of the effect; ``None`` or NaN
+    for a parameter the data do not determine (NaN in memory, ``null`` in
+    the file). Refusals name ``std[effect]``."""
+    if std is None:
+        return {}
+    if not isinstance(std, Mapping):
+        raise CdsmInputError(f"`std`: expected {{effect: [1-sigma values]}}, got {type(std).__name__}")
+    out: Dict[str, List[float]] = {}
+    for k, v in std.items():
+        field = f"std[{k!r}]"
+        if k not in effects:
+            raise CdsmInputError(f"`{field}`: {k!r} is not a fitted effect of this model "
+                                 f"(effects: {', '.join(effects) or 'none'})")
+        want = len(plant.effect_indices(robot, k))
+        if not isinstance(v, (list, tuple, np.ndarray)):
+            raise CdsmInputError(f"`{field}`: expected a list of {want} 1-sigma values (SI), got {v!r}")
+        cells = [math.nan if x is None else x for x in np.asarray(v, dtype=object).ravel()]
+        arr = as_array(field, cells)
+        if np.ndim(v) != 1 or arr.size != want:
+            raise CdsmInputError(f"`{field}`: expected a list of {want} 1-sigma values (SI; one per parameter of "
+                                 f"{k}), got shape {np.shape(v)}")
+        if np.isinf(arr).any() or (arr < 0).any():
+            raise CdsmInputError(f"`{field}`: a 1-sigma value is finite and >= 0 (null: not determined), "
+                                 f"got {arr.tolist()}")
+        out[str(k)] = [float(x) for x in arr]
+    return out
 
 
 def _remap(flat: np.ndarray, file_layout, lay, source: str) -> np.ndarray:

@@ -49,8 +49,8 @@ from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
-           "params", "effect_indices", "parameter_blocks", "parameter_names", "bounds", "kind_codes", "predict",
-           "linearise", "settle", "VirtualPrototype",
+           "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
+           "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
            "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
@@ -89,6 +89,12 @@ TYPICAL: Dict[str, float] = {
     "cable_friction": 0.15,
 }
 assert set(BLOCKS) | set(SPATIAL_EFFECTS) <= set(TYPICAL), "a typical size per parameter block"
+
+#: The largest size of any plant parameter a model takes (SI): a kilometre
+#: of length (the robot file's limit), 1000 rad, a 1000-fold scale, a
+#: compliance of 1000 /N — beyond the typical sizes above by far more than
+#: any prototype (:func:`check_params`).
+MAX_PARAMETER = 1e3
 
 
 def effects_of(robot) -> Tuple[str, ...]:
@@ -177,6 +183,27 @@ def parameter_names(robot: Robot, indices: Sequence[int]) -> List[str]:
 def bounds(robot: Robot) -> Tuple[np.ndarray, np.ndarray]:
     """(P,) lower and upper bounds of the parameters: the physical domain."""
     return robot.core.plant_bounds()
+
+
+def check_params(robot: Robot, p, field: str = "p") -> np.ndarray:
+    """``p`` as the (P,) flat parameters of a physical plant of ``robot``:
+    finite, within the physical domain (:func:`bounds`: ``cable_friction``
+    within [0, 1], ``backlash`` >= 0, ...) and within ±:data:`MAX_PARAMETER`;
+    :class:`CdsmInputError` naming ``field``, the parameter, its value and
+    its bounds otherwise."""
+    arr = as_array(field, p).reshape(-1)
+    if arr.size != size(robot):
+        raise CdsmInputError(f"`{field}`: expected {size(robot)} plant parameters, got {arr.size}")
+    domain = bounds(robot)
+    lo, hi = np.maximum(domain[0], -MAX_PARAMETER), np.minimum(domain[1], MAX_PARAMETER)
+    bad = np.flatnonzero(~(np.isfinite(arr) & (arr >= lo) & (arr <= hi)))
+    if bad.size:
+        i = int(bad[0])
+        why = "its physical domain" + ("" if np.isfinite(domain[0][i]) and np.isfinite(domain[1][i]) else
+                                       f", at most {MAX_PARAMETER:g} in size: a kilometre of length")
+        raise CdsmInputError(f"`{field}`: {parameter_names(robot, [i])[0]} must be within [{lo[i]:g}, {hi[i]:g}] "
+                             f"(SI; {why}), got {float(arr[i])!r}")
+    return arr
 
 
 def effect_indices(robot: Robot, effect: str) -> np.ndarray:

@@ -18,6 +18,11 @@ def _percentile_list(text: str) -> List[float]:
         raise argparse.ArgumentTypeError(f"expected comma-separated percentiles, got {text!r}") from None
     if not vals or not all(0.0 <= v <= 100.0 for v in vals):
         raise argparse.ArgumentTypeError(f"expected percentiles within [0, 100], got {text!r}")
+    twice = [v for i, v in enumerate(vals) if v in vals[:i]]
+    if twice:
+        from ..accuracy.montecarlo import percentile_text
+
+        raise argparse.ArgumentTypeError(f"percentile {percentile_text(twice[0])} is given more than once in {text!r}")
     return vals
 
 
@@ -133,7 +138,8 @@ def _montecarlo_run(args) -> int:
     norm = "|dXYZ|" if spatial else "|dXY|"
     print(f"{written}: {len(mc.count)} configurations x {args.samples} samples, "
           f"{int(mc.failed.sum())} failed solves; max {norm} {worst * 1e3:.3f} mm; "
-          + ", ".join(f"worst p{p:g} {v * 1e3:.3f} mm" for p, v in zip(args.percentiles, pmax))
+          + ", ".join(f"worst p{montecarlo.percentile_text(p)} {v * 1e3:.3f} mm"
+                      for p, v in zip(args.percentiles, pmax))
           + f"; done in {time.perf_counter() - t0:.1f} s")
     return 0
 
