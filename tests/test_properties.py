@@ -701,29 +701,31 @@ def test_a_file_is_written_whole_or_not_at_all(tmp_path_factory, text, old, fail
                             min_size=1, max_size=6),
        data=st.data())
 def test_a_run_manifest_lists_every_file_with_its_hash(tmp_path_factory, tree, data):
-    """After ``begin_run``, files written and ``finish_run``: the manifest is
-    complete and lists exactly those files (sorted, '/'-separated) with
-    their SHA-256; a file of the run changed or removed makes it incomplete,
-    a file beside them does not."""
+    """A run (``files.run_directory``) that writes files and finishes: the
+    manifest is complete and lists exactly those files (sorted,
+    '/'-separated) with the SHA-256 of the bytes written; a file of the run
+    changed or removed makes it incomplete, a file beside them does not."""
     note(REPRODUCE)
     out = tmp_path_factory.mktemp("run")
-    # a path cannot be both a file and a folder: drop the files a longer path goes through
-    tree = {k: v for k, v in tree.items() if not any(o.startswith(k + "/") for o in tree)}
-    files.begin_run(out, "test")
-    assert not files.run_complete(out)
-    written = []
+    # a run's files are top-level names or <subdir>/<file>: fold deeper paths into one subdirectory level
+    flat = {}
     for rel, blob in tree.items():
-        (out / rel).parent.mkdir(parents=True, exist_ok=True)
-        with files.atomic_file(out / rel, "test") as fh:
-            fh.write(blob)
-        written.append(out / rel)
-    man = json.loads(open(files.finish_run(out, "test", written), encoding="utf-8").read())
-    assert man["complete"] is True and list(man["files"]) == sorted(tree)
-    assert all(man["files"][k] == hashlib.sha256(v).hexdigest() for k, v in tree.items())
+        parts = rel.split("/")
+        flat[parts[0] if len(parts) == 1 else parts[0] + "/" + "_".join(parts[1:])] = blob
+    flat = {k: v for k, v in flat.items() if not any(o.startswith(k + "/") for o in flat)}
+    names = [k for k in flat if "/" not in k]
+    subdirs = sorted({k.split("/")[0] for k in flat if "/" in k})
+    with files.run_directory(out, "test", names, subdirs=subdirs) as run:
+        for rel, blob in flat.items():
+            run.write(rel, blob, "test")
+        assert not files.run_complete(out)
+        man = json.loads(open(run.finish(), encoding="utf-8").read())
+    assert man["complete"] is True and list(man["files"]) == sorted(flat)
+    assert all(man["files"][k] == hashlib.sha256(v).hexdigest() for k, v in flat.items())
     assert files.run_complete(out)
     (out / "beside.txt").write_text("not the run's")
     assert files.run_complete(out)
-    victim = out / data.draw(st.sampled_from(sorted(tree)))
+    victim = out / data.draw(st.sampled_from(sorted(flat)))
     if data.draw(st.booleans()):
         victim.unlink()
     else:
