@@ -66,7 +66,7 @@ def line(label, rows, dt, d):
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--rows", default="60,600,6000", help="row counts of part 1")
     ap.add_argument("--singles", default="60,600", help="row counts of part 2 (empty: skip)")

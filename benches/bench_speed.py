@@ -74,7 +74,7 @@ def workload(robot, groups: int, seed: int = 0):
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--groups", type=int, default=200)
     ap.add_argument("--anchors", default=str(ROOT.parent / "shared" / "anchors"))
     ap.add_argument("--repeat", type=int, default=3)

@@ -115,3 +115,79 @@ def test_the_terminal_says_the_verdicts_reason_the_next_step_and_the_assumed_noi
     assert "**" not in out and "`" not in out and "](#" not in out
     # nine rows beyond 5 sigma of a noise nobody measured: the assumption is what fails
     assert "assumed noise" in out and "cannot all be outliers" in out
+
+
+def _long_options(parser):
+    return [o for a in parser._actions for o in a.option_strings if o.startswith("--")]
+
+
+def test_no_command_takes_an_abbreviated_option(cdsm):
+    """argparse's prefix matching is off on every parser (issue 32, item 13):
+    a shortened option is an unknown option, not another one."""
+    from cdsm import cli
+
+    parser = cli.build_parser()
+    commands = parser._subparsers._group_actions[0].choices
+    # the positionals and required options, so that only the abbreviation can fail
+    fillers = {"diagnose": ["d.csv"], "compensate": ["t.csv", "--model", "m.json", "--out", "c.csv"],
+               "tolerance": ["--target-mm", "1"], "montecarlo": ["--out", "mc.npz"]}
+    checked = 0
+    for name, sub in commands.items():
+        options = _long_options(sub)
+        for opt in options:
+            abbr = opt[:-1]
+            if len(abbr) < 4 or abbr in options:
+                continue
+            argv = [name, *fillers.get(name, []), abbr]
+            try:
+                _, extra = parser.parse_known_args(argv)
+            except SystemExit:  # an abbreviation that argparse took, then found incomplete or ambiguous
+                extra = None
+            assert extra == [abbr], (argv, extra)
+            checked += 1
+    assert checked > 40
+
+
+def test_a_shortened_option_is_refused_with_the_commands_usage(cdsm, capsys):
+    rc, _, err = _cli(capsys, ["paper", "--sample", "5", "--robot", "no_such_robot"])
+    assert rc == 2 and "usage: cdsm paper" in err and "unrecognized arguments: --sample 5" in err
+    rc, out, err = _cli(capsys, ["--vers"])
+    assert rc == 2 and "unrecognized arguments: --vers" in err and out == ""
+
+
+@pytest.mark.parametrize("script", sorted(p.name for p in EXAMPLES.glob("*.py")))
+def test_the_examples_take_no_abbreviated_option(script, capsys, monkeypatch):
+    import re
+    import runpy
+
+    path = EXAMPLES / script
+    option = re.search(r'add_argument\("(--[a-z-]+)"', path.read_text()).group(1)
+    # a value no option takes: an abbreviation taken as the option fails at once too
+    monkeypatch.setattr("sys.argv", [script, option[:-1], "x"])
+    with pytest.raises(SystemExit) as exc:
+        runpy.run_path(str(path), run_name="__main__")
+    assert exc.value.code == 2 and f"unrecognized arguments: {option[:-1]}" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name, suggestion", [("two_univresal", "two_universal"), ("serpentine", "serpentine8"),
+                                              ("two_universal.toml", "two_universal")])
+def test_a_misspelt_packaged_robot_gets_a_suggestion(cdsm, capsys, name, suggestion):
+    with pytest.raises(cdsm.CdsmInputError, match=f"did you mean '{suggestion}'"):
+        cdsm.Robot.from_toml(name)
+    with pytest.raises(cdsm.CdsmInputError, match=f"did you mean '{suggestion}'"):
+        cdsm.Robot.packaged(name)
+    rc, _, err = _cli(capsys, ["export", "--robot", name, "--urdf", "never.urdf"])
+    assert rc == 2 and f"did you mean '{suggestion}'?" in err
+    # nothing close: no guess, the list of names as before
+    with pytest.raises(cdsm.CdsmInputError, match="packaged: ") as exc:
+        cdsm.Robot.from_toml("qqqq")
+    assert "did you mean" not in str(exc.value)
+
+
+def test_a_misspelt_packaged_table_gets_a_suggestion(cdsm, capsys):
+    from cdsm.calibration import measurements
+
+    rc, _, err = _cli(capsys, ["diagnose", "tabel3", "--quiet"])
+    assert rc == 2 and "did you mean 'table3'" in err
+    with pytest.raises(cdsm.CdsmInputError, match="did you mean 'table3'"):
+        measurements.packaged("table_3")
