@@ -191,3 +191,49 @@ def test_a_misspelt_packaged_table_gets_a_suggestion(cdsm, capsys):
     assert rc == 2 and "did you mean 'table3'" in err
     with pytest.raises(cdsm.CdsmInputError, match="did you mean 'table3'"):
         measurements.packaged("table_3")
+
+
+BENCHES = EXAMPLES.parent / "benches"
+
+
+def _fresh_clone_benches(tmp_path):
+    """benches/ of a fresh clone: nothing beside the repository."""
+    import shutil
+
+    repo = tmp_path / "clone"
+    (repo / "benches").mkdir(parents=True)
+    shutil.copy(BENCHES / "bench_speed.py", repo / "benches")
+    if (BENCHES / "yardsticks").is_dir():
+        shutil.copytree(BENCHES / "yardsticks", repo / "benches" / "yardsticks")
+    return repo
+
+
+def test_bench_speed_runs_its_own_c_yardsticks_from_a_fresh_clone(tmp_path):
+    """issue 32, item 14: from a fresh clone every ratio was nan (the C
+    yardsticks were looked for outside the repository)."""
+    import subprocess
+    import sys
+
+    repo = _fresh_clone_benches(tmp_path)
+    done = subprocess.run([sys.executable, str(repo / "benches" / "bench_speed.py"), "--groups", "1", "--repeat", "1"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "nan" not in done.stdout
+    ratios = [ln for ln in done.stdout.splitlines() if ln.rstrip().endswith(("C Newton", "C closed form"))]
+    assert len(ratios) == 4 and all("x C " in ln for ln in ratios), done.stdout
+
+
+def test_bench_speed_fails_loudly_when_a_yardstick_cannot_be_built(tmp_path):
+    import subprocess
+    import sys
+
+    repo = _fresh_clone_benches(tmp_path)
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "c_newton.c").write_text("int main(void) { return undeclared; }\n")
+    for args in (["--yardsticks", str(broken)], ["--yardsticks", str(tmp_path / "nowhere")]):
+        done = subprocess.run([sys.executable, str(repo / "benches" / "bench_speed.py"), "--groups", "1",
+                               "--repeat", "1", *args], capture_output=True, text=True, timeout=300)
+        assert done.returncode != 0 and "nan" not in done.stdout
+        assert "c_newton.c" in done.stderr and "Traceback" not in done.stderr, done.stderr
+
