@@ -237,3 +237,40 @@ def test_bench_speed_fails_loudly_when_a_yardstick_cannot_be_built(tmp_path):
         assert done.returncode != 0 and "nan" not in done.stdout
         assert "c_newton.c" in done.stderr and "Traceback" not in done.stderr, done.stderr
 
+
+ROOT = EXAMPLES.parent
+
+
+def _readme_block_after(heading_words: str) -> str:
+    """The first code block after the README paragraph that starts with
+    ``heading_words``: one shell command (its lines joined)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    rest = text[text.index(heading_words):]
+    block = rest.split("```", 2)[1]
+    return " ".join(block.split())
+
+
+def _shell_words(text: str) -> str:
+    """A shell script's commands, comments dropped, whitespace normalised."""
+    lines = [ln for ln in text.splitlines() if not ln.lstrip().startswith("#")]
+    return " ".join(" ".join(lines).split())
+
+
+def test_the_readme_commands_start_in_a_virtual_environment_git_ignores():
+    """issue 32, item 13: the venv step was prose only, `.venv/` not ignored."""
+    venv = "python3 -m venv .venv && . .venv/bin/activate && pip install"
+    main = _readme_block_after("Run the main job")
+    tests = _readme_block_after("Run all tests")
+    assert main.startswith(venv) and "cdsm paper" in main
+    assert tests.startswith(venv)
+    assert ".venv/" in (ROOT / ".gitignore").read_text().split()
+    assert "`cdsm list`" in (ROOT / "README.md").read_text(encoding="utf-8").split("## What the paper study finds")[0]
+
+
+def test_ci_runs_the_readmes_test_command_and_it_builds_as_ci_does():
+    """`.ci/run` runs the README's test command as written, so the two cannot
+    drift; the command's cargo test builds without debug info."""
+    tests = _readme_block_after("Run all tests")
+    assert tests in _shell_words((ROOT / ".ci" / "run").read_text())
+    cargo = tests[tests.rindex("&&"):]
+    assert "CARGO_PROFILE_DEV_DEBUG=0" in cargo and "CARGO_PROFILE_TEST_DEBUG=0" in cargo and "cargo test" in cargo
