@@ -25,7 +25,8 @@ sentence it belongs to:
   deviation is smooth along each flagged pair (400 steps), and the count
   over the Sobol seeds 0 to ``--seeds`` - 1;
 - ``cpu``: solves per CPU second (``time.process_time``, median of 5, one
-  thread; less sensitive to other jobs than wall time) of the generated
+  thread; other jobs on the same cores slow CPU time too: at load 13-16 on
+  2 cores these rates came out at 40-65 % of an idle machine's) of the generated
   8-joint spatial arm of ``bench_scale.py`` (its cable-solve and
   Monte-Carlo workloads) and of the Monte Carlo of ``sjtu_snake`` (±1 mm
   on every position cable, ±0.35 mm on every hole coordinate, 200
