@@ -37,7 +37,7 @@ def rate(robot, theta0, samples, chunk, scheduler=None, **kw):
 def main():
     from distributed import LocalCluster
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--samples", type=int, default=2000)
     ap.add_argument("--chunk", type=int, default=200)
     args = ap.parse_args()

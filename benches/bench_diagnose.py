@@ -14,7 +14,8 @@ base frame or in a tracker frame (1.4 m and 30° away).
 4. Spatial arms, 60 rows, whole library, 10-fold, defaults: ``two_universal``
    (4 joints) and the 8-joint spatial arm of ``benches/bench_scale.py``, with
    hole positions + actuation scale hidden (issue 22: <= 3 s and <= 10 s on
-   2 cores).
+   2 cores); with ``--sjtu`` also the 24-joint ``sjtu_snake`` (about 3
+   minutes on 2 cores).
 
 Prints seconds, rows per second and the answer. Threads: ``--threads``
 (default 2; the robot's worker threads).
@@ -66,11 +67,12 @@ def line(label, rows, dt, d):
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--rows", default="60,600,6000", help="row counts of part 1")
     ap.add_argument("--singles", default="60,600", help="row counts of part 2 (empty: skip)")
     ap.add_argument("--spatial", default="60", help="row counts of part 4 (empty: skip)")
+    ap.add_argument("--sjtu", action="store_true", help="part 4 on sjtu_snake too (about 3 minutes)")
     args = ap.parse_args()
     robot = Robot.paper()
     robot.threads = args.threads
@@ -106,6 +108,8 @@ def main() -> None:
     print("4. spatial arms, hole_position + actuation_scale hidden, whole library, 10-fold, defaults")
     arms = (("two_universal (4 joints)", Robot.from_toml("two_universal")),
             ("bench_scale 8-joint spatial arm", Robot.from_toml_str(spatial_toml(4))))
+    if args.sjtu:
+        arms += (("sjtu_snake (24 joints)", Robot.packaged("sjtu_snake")),)
     for rows in [int(r) for r in args.spatial.split(",") if r]:
         for label, arm in arms:
             arm.threads = args.threads

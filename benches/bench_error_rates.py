@@ -525,7 +525,7 @@ def report(records: List[dict], args, elapsed: float, kind: str) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--datasets", type=int, default=None, help="data sets per case, row count and frame "
                     "(default 30, ~8 min on 2 cores; --quick: 3)")
     ap.add_argument("--quick", action="store_true", help="smoke run (~1 min): 3 data sets per cell")

@@ -46,7 +46,7 @@ def reference_rate(robot, theta0, samples, solver):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--samples", type=int, default=1000)
     ap.add_argument("--ref-samples", type=int, default=20)
     args = ap.parse_args()

@@ -47,7 +47,7 @@ def best(f, repeat: int) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--repeat", type=int, default=5)
     args = ap.parse_args()
     print(f"cores visible: {os.cpu_count()}, one thread")

@@ -119,7 +119,7 @@ def bench(label: str, robot, rows: int, repeat: int, mc_rows: int, mc_samples: i
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--rows", type=int, default=20000)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=None)

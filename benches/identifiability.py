@@ -103,7 +103,7 @@ def friction_signal(robot, rows: int, mu: float, seed: int = 3):
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--robot", default="two_universal")
     ap.add_argument("--datasets", type=int, default=3)
     ap.add_argument("--rows", default="60,15")

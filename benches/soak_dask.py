@@ -67,7 +67,7 @@ class PeakMemory:
 def main() -> int:
     from distributed import Client, LocalCluster
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--samples", type=int, default=456_000)
     ap.add_argument("--chunk", type=int, default=2000)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 2)

@@ -17,7 +17,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("robot", nargs="?", default=os.path.join(HERE, "two_section_arm.toml"))
     ap.add_argument("--step", type=float, default=15.0, help="joint grid step, degrees")
     args = ap.parse_args(argv)

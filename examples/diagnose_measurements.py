@@ -18,7 +18,7 @@ from cdsm.calibration import diagnosis, experiment, measurements, plant
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("data", nargs="?", help="measurement CSV (default: made by a virtual prototype)")
     ap.add_argument("--robot", help="robot TOML (default: the paper's prototype)")
     ap.add_argument("--rows", type=int, default=40, help="rows of the virtual data set")

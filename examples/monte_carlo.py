@@ -18,7 +18,7 @@ from cdsm.accuracy import montecarlo, workspace
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--samples", type=int, default=10_000, help="error samples per configuration")
     ap.add_argument("--chunk", type=int, default=1_000, help="samples per Rust call (memory bound)")
     ap.add_argument("--step", type=float, default=5.0, help="joint grid step, degrees")

@@ -13,7 +13,7 @@ from cdsm.accuracy import tolerance, workspace
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("--target-mm", type=float, default=1.0, help="tip error budget, mm")
     ap.add_argument("--samples", type=int, default=1000, help="Monte-Carlo samples per configuration")
     ap.add_argument("--step", type=float, default=5.0, help="joint grid step, degrees")

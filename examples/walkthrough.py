@@ -26,7 +26,7 @@ HERE = Path(__file__).resolve().parent
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0], allow_abbrev=False)
     ap.add_argument("robot", nargs="?", default=str(HERE / "two_section_arm.toml"), help="robot TOML")
     ap.add_argument("--out", default=None, help="directory for the drawing and the data (default: a temporary one)")
     ap.add_argument("--rows", type=int, default=40, help="measured rows")

@@ -115,3 +115,162 @@ def test_the_terminal_says_the_verdicts_reason_the_next_step_and_the_assumed_noi
     assert "**" not in out and "`" not in out and "](#" not in out
     # nine rows beyond 5 sigma of a noise nobody measured: the assumption is what fails
     assert "assumed noise" in out and "cannot all be outliers" in out
+
+
+def _long_options(parser):
+    return [o for a in parser._actions for o in a.option_strings if o.startswith("--")]
+
+
+def test_no_command_takes_an_abbreviated_option(cdsm):
+    """argparse's prefix matching is off on every parser (issue 32, item 13):
+    a shortened option is an unknown option, not another one."""
+    from cdsm import cli
+
+    parser = cli.build_parser()
+    commands = parser._subparsers._group_actions[0].choices
+    # the positionals and required options, so that only the abbreviation can fail
+    fillers = {"diagnose": ["d.csv"], "compensate": ["t.csv", "--model", "m.json", "--out", "c.csv"],
+               "tolerance": ["--target-mm", "1"], "montecarlo": ["--out", "mc.npz"]}
+    checked = 0
+    for name, sub in commands.items():
+        options = _long_options(sub)
+        for opt in options:
+            abbr = opt[:-1]
+            if len(abbr) < 4 or abbr in options:
+                continue
+            argv = [name, *fillers.get(name, []), abbr]
+            try:
+                _, extra = parser.parse_known_args(argv)
+            except SystemExit:  # an abbreviation that argparse took, then found incomplete or ambiguous
+                extra = None
+            assert extra == [abbr], (argv, extra)
+            checked += 1
+    assert checked > 40
+
+
+def test_a_shortened_option_is_refused_with_the_commands_usage(cdsm, capsys):
+    rc, _, err = _cli(capsys, ["paper", "--sample", "5", "--robot", "no_such_robot"])
+    assert rc == 2 and "usage: cdsm paper" in err and "unrecognized arguments: --sample 5" in err
+    rc, out, err = _cli(capsys, ["--vers"])
+    assert rc == 2 and "unrecognized arguments: --vers" in err and out == ""
+
+
+@pytest.mark.parametrize("script", sorted(p.name for p in EXAMPLES.glob("*.py")))
+def test_the_examples_take_no_abbreviated_option(script, capsys, monkeypatch):
+    import re
+    import runpy
+
+    path = EXAMPLES / script
+    option = re.search(r'add_argument\("(--[a-z-]+)"', path.read_text()).group(1)
+    # a value no option takes: an abbreviation taken as the option fails at once too
+    monkeypatch.setattr("sys.argv", [script, option[:-1], "x"])
+    with pytest.raises(SystemExit) as exc:
+        runpy.run_path(str(path), run_name="__main__")
+    assert exc.value.code == 2 and f"unrecognized arguments: {option[:-1]}" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("name, suggestion", [("two_univresal", "two_universal"), ("serpentine", "serpentine8"),
+                                              ("two_universal.toml", "two_universal")])
+def test_a_misspelt_packaged_robot_gets_a_suggestion(cdsm, capsys, name, suggestion):
+    with pytest.raises(cdsm.CdsmInputError, match=f"did you mean '{suggestion}'"):
+        cdsm.Robot.from_toml(name)
+    with pytest.raises(cdsm.CdsmInputError, match=f"did you mean '{suggestion}'"):
+        cdsm.Robot.packaged(name)
+    rc, _, err = _cli(capsys, ["export", "--robot", name, "--urdf", "never.urdf"])
+    assert rc == 2 and f"did you mean '{suggestion}'?" in err
+    # nothing close: no guess, the list of names as before
+    with pytest.raises(cdsm.CdsmInputError, match="packaged: ") as exc:
+        cdsm.Robot.from_toml("qqqq")
+    assert "did you mean" not in str(exc.value)
+
+
+def test_a_misspelt_packaged_table_gets_a_suggestion(cdsm, capsys):
+    from cdsm.calibration import measurements
+
+    rc, _, err = _cli(capsys, ["diagnose", "tabel3", "--quiet"])
+    assert rc == 2 and "did you mean 'table3'" in err
+    with pytest.raises(cdsm.CdsmInputError, match="did you mean 'table3'"):
+        measurements.packaged("table_3")
+
+
+BENCHES = EXAMPLES.parent / "benches"
+
+
+def _fresh_clone_benches(tmp_path):
+    """benches/ of a fresh clone: nothing beside the repository."""
+    import shutil
+
+    repo = tmp_path / "clone"
+    (repo / "benches").mkdir(parents=True)
+    shutil.copy(BENCHES / "bench_speed.py", repo / "benches")
+    if (BENCHES / "yardsticks").is_dir():
+        shutil.copytree(BENCHES / "yardsticks", repo / "benches" / "yardsticks")
+    return repo
+
+
+def test_bench_speed_runs_its_own_c_yardsticks_from_a_fresh_clone(tmp_path):
+    """issue 32, item 14: from a fresh clone every ratio was nan (the C
+    yardsticks were looked for outside the repository)."""
+    import subprocess
+    import sys
+
+    repo = _fresh_clone_benches(tmp_path)
+    done = subprocess.run([sys.executable, str(repo / "benches" / "bench_speed.py"), "--groups", "1", "--repeat", "1"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "nan" not in done.stdout
+    ratios = [ln for ln in done.stdout.splitlines() if ln.rstrip().endswith(("C Newton", "C closed form"))]
+    assert len(ratios) == 4 and all("x C " in ln for ln in ratios), done.stdout
+
+
+def test_bench_speed_fails_loudly_when_a_yardstick_cannot_be_built(tmp_path):
+    import subprocess
+    import sys
+
+    repo = _fresh_clone_benches(tmp_path)
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "c_newton.c").write_text("int main(void) { return undeclared; }\n")
+    for args in (["--yardsticks", str(broken)], ["--yardsticks", str(tmp_path / "nowhere")]):
+        done = subprocess.run([sys.executable, str(repo / "benches" / "bench_speed.py"), "--groups", "1",
+                               "--repeat", "1", *args], capture_output=True, text=True, timeout=300)
+        assert done.returncode != 0 and "nan" not in done.stdout
+        assert "c_newton.c" in done.stderr and "Traceback" not in done.stderr, done.stderr
+
+
+ROOT = EXAMPLES.parent
+
+
+def _readme_block_after(heading_words: str) -> str:
+    """The first code block after the README paragraph that starts with
+    ``heading_words``: one shell command (its lines joined)."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    rest = text[text.index(heading_words):]
+    block = rest.split("```", 2)[1]
+    return " ".join(block.split())
+
+
+def _shell_words(text: str) -> str:
+    """A shell script's commands, comments dropped, whitespace normalised."""
+    lines = [ln for ln in text.splitlines() if not ln.lstrip().startswith("#")]
+    return " ".join(" ".join(lines).split())
+
+
+def test_the_readme_commands_start_in_a_virtual_environment_git_ignores():
+    """issue 32, item 13: the venv step was prose only, `.venv/` not ignored."""
+    venv = "python3 -m venv .venv && . .venv/bin/activate && pip install"
+    main = _readme_block_after("Run the main job")
+    tests = _readme_block_after("Run all tests")
+    assert main.startswith(venv) and "cdsm paper" in main
+    assert tests.startswith(venv)
+    assert ".venv/" in (ROOT / ".gitignore").read_text().split()
+    assert "`cdsm list`" in (ROOT / "README.md").read_text(encoding="utf-8").split("## What the paper study finds")[0]
+
+
+def test_ci_runs_the_readmes_test_command_and_it_builds_as_ci_does():
+    """`.ci/run` runs the README's test command as written, so the two cannot
+    drift; the command's cargo test builds without debug info."""
+    tests = _readme_block_after("Run all tests")
+    assert tests in _shell_words((ROOT / ".ci" / "run").read_text())
+    cargo = tests[tests.rindex("&&"):]
+    assert "CARGO_PROFILE_DEV_DEBUG=0" in cargo and "CARGO_PROFILE_TEST_DEBUG=0" in cargo and "cargo test" in cargo

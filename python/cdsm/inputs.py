@@ -7,18 +7,27 @@ and the problem, and the Rust core receives C-contiguous float64 arrays.
 
 from __future__ import annotations
 
-from typing import Optional, Tuple
+import difflib
+from typing import Iterable, Optional, Tuple
 
 import numpy as np
 
 from ._cdsm import CdsmInputError
 
 __all__ = ["CdsmInputError", "CdsmDataWarning", "as_array", "as_batch", "as_vector", "as_finite", "as_count",
-           "as_iterations", "as_tolerances"]
+           "as_iterations", "as_tolerances", "did_you_mean"]
 
 class CdsmDataWarning(UserWarning):
     """Data cdsm takes but a person should look at (copied rows, say): the
     message names the rows and what was done with them."""
+
+
+def did_you_mean(name: str, choices: Iterable[str]) -> str:
+    """``"; did you mean 'x'?"`` naming the ``choices`` closest to a misspelt
+    ``name`` (:func:`difflib.get_close_matches`, at most three), or ``""``
+    when none is close: for the errors that refuse an unknown name."""
+    close = difflib.get_close_matches(str(name), list(choices), n=3)
+    return f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
 
 
 #: The largest iteration count the core takes (an unsigned 32-bit integer).

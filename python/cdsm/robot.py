@@ -19,7 +19,8 @@ import numpy as np
 
 from . import _cdsm
 from .files import read_text
-from .inputs import CdsmDataWarning, CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector
+from .inputs import (CdsmDataWarning, CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector,
+                     did_you_mean)
 from .display import ShortRepr
 
 __all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
@@ -144,7 +145,8 @@ class Robot:
         planar or spatial: see :func:`packaged_robots`."""
         names = packaged_robots()
         if name not in names:
-            raise CdsmInputError(f"`name`: no packaged robot {name!r}; packaged: {', '.join(names)}")
+            raise CdsmInputError(f"`name`: no packaged robot {name!r}{did_you_mean(name, names)} (packaged: "
+                                 f"{', '.join(names)})")
         return cls.from_toml_str(read_text(_ROBOTS / f"{name}.toml", "robot"))
 
     @classmethod
@@ -159,8 +161,8 @@ class Robot:
             name = os.fspath(path)
             if name in packaged_robots():
                 return cls.packaged(name)
-            raise CdsmInputError(f"robot file {name!r}: does not exist, and no packaged robot has that name "
-                                 f"(packaged: {', '.join(packaged_robots())})")
+            raise CdsmInputError(f"robot file {name!r}: does not exist, and no packaged robot has that name"
+                                 f"{did_you_mean(name, packaged_robots())} (packaged: {', '.join(packaged_robots())})")
         return cls.from_toml_str(read_text(path, "robot"))
 
     @classmethod

@@ -29,7 +29,7 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from ..files import parse_table, read_text, table_column
-from ..inputs import CdsmInputError
+from ..inputs import CdsmInputError, did_you_mean
 from ..display import ShortRepr
 
 __all__ = ["Measurements", "parse_csv", "read_csv", "read_for", "packaged", "packaged_names", "after_reversals",
@@ -221,8 +221,8 @@ def read_for(robot, path: "str | os.PathLike[str]") -> Measurements:
         text = resources.files("cdsm").joinpath("data", f"{path}.csv").read_text(encoding="utf-8")
         return parse_csv(text, robot.n, f"cdsm/data/{path}.csv", cables)
     if not os.path.exists(path):
-        raise CdsmInputError(f"measurement file {str(path)!r}: does not exist (packaged tables, usable by name: "
-                             f"{', '.join(packaged_names())})")
+        raise CdsmInputError(f"measurement file {str(path)!r}: does not exist{did_you_mean(path, packaged_names())} "
+                             f"(packaged tables, usable by name: {', '.join(packaged_names())})")
     return read_csv(path, robot.n, cables)
 
 
@@ -236,8 +236,8 @@ def packaged(name: str, n: int = 3) -> Measurements:
     """A table shipped with cdsm: ``"table3"`` (the paper's measurements) or
     ``"table3_theory"`` (the paper's simulated column)."""
     if name not in packaged_names():
-        raise CdsmInputError(f"`name`: no packaged measurement table {name!r}; packaged: "
-                             f"{', '.join(packaged_names())}")
+        raise CdsmInputError(f"`name`: no packaged measurement table {name!r}{did_you_mean(name, packaged_names())} "
+                             f"(packaged: {', '.join(packaged_names())})")
     text = resources.files("cdsm").joinpath("data", f"{name}.csv").read_text(encoding="utf-8")
     return parse_csv(text, n, f"cdsm/data/{name}.csv")
 

@@ -26,13 +26,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     for name in COMMAND_MODULES:
         importlib.import_module(f"{__name__}.{name}")
+    # allow_abbrev=False on every parser: an option is taken only as spelt
+    # (`--sample 5` is refused, not read as `--samples 5`)
     parser = argparse.ArgumentParser(
         prog=PROG, description="Kinematics and tip-positioning accuracy of cable-driven serpentine "
-                               "manipulators (SI units).")
+                               "manipulators (SI units).", allow_abbrev=False)
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for cmd in COMMANDS.values():
-        p = sub.add_parser(cmd.name, help=cmd.help, description=cmd.help)
+        p = sub.add_parser(cmd.name, help=cmd.help, description=cmd.help, allow_abbrev=False)
         cmd.add_args(p)
         p.set_defaults(_run=cmd.run, _parser=p)
     return parser
