@@ -171,12 +171,21 @@ class Robot:
         description whose straight arm is longer than
         :data:`PLAUSIBLE_LENGTH` (a file in mm read as m, most likely)
         raises a :class:`CdsmDataWarning`."""
-        robot = cls(_cdsm.CoreRobot.from_toml(text))
-        length = robot.straight_length
-        if length > PLAUSIBLE_LENGTH:
-            warnings.warn(f"robot {robot.name!r}: the straight arm is {length:.4g} m long; is the file in mm? cdsm "
-                          "reads SI units: metres (divide every length by 1000)", CdsmDataWarning, stacklevel=2)
-        return robot
+        return _plausible(cls(_cdsm.CoreRobot.from_toml(text)))
+
+    @classmethod
+    def from_data(cls, data: dict) -> "Robot":
+        """A robot from a robot file's data instead of its text: a dict of
+        the file's structure (tables as dicts, arrays as lists; str, float,
+        int, bool values; either kind, ``docs/model.md``,
+        ``docs/spatial.md``), checked as the file would be, errors naming
+        the field by the same path (``linkage[0].mass``). No text is
+        formatted in between, so no value (a name, say) can become another
+        setting. SI units. The same :class:`CdsmDataWarning` as
+        :meth:`from_toml_str`."""
+        if not isinstance(data, dict):
+            raise CdsmInputError(f"`data`: expected a dict of the robot file's structure, got {type(data).__name__}")
+        return _plausible(cls(_cdsm.CoreRobot.from_data(data)))
 
     @classmethod
     def from_caspr(cls, bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathLike[str]",
@@ -193,16 +202,18 @@ class Robot:
         consecutive attachments, as in CASPR. CASPR's vectors are turned by
         one constant rotation so that the links point along ``+x``
         (``docs/interop.md`` has the whole mapping;
-        :func:`cdsm.interop.caspr.caspr_toml` writes the robot file). What is
-        not kept (inertia tensors, cable force limits, names, ...) is said in
-        one ``UserWarning``; what cannot be represented (a cable that does
-        not start at the base, another joint type, a tree, ...) raises
-        :class:`CdsmInputError` naming the link or cable. SI units."""
-        from .interop.caspr import caspr_toml
+        :func:`cdsm.interop.caspr.caspr_robot_data` builds the robot file's
+        data, :meth:`from_data` the robot; :meth:`to_toml` writes it as a
+        robot file). What is not kept (inertia tensors, cable force limits,
+        names, ...) is said in one ``UserWarning``; what cannot be
+        represented (a cable that does not start at the base, another joint
+        type, a tree, ...) raises :class:`CdsmInputError` naming the link or
+        cable. SI units."""
+        from .interop.caspr import caspr_robot_data
 
-        text = caspr_toml(bodies_xml, cables_xml, cable_set)
+        data = caspr_robot_data(bodies_xml, cables_xml, cable_set)
         try:
-            return cls.from_toml_str(text)
+            return cls.from_data(data)
         except CdsmInputError as exc:
             raise CdsmInputError(f"CASPR model {os.fspath(bodies_xml)!r}: cdsm cannot represent it: {exc}") from None
 
@@ -829,3 +840,14 @@ class ElasticSolution(Solution):
 def _vec(v, digits: int) -> str:
     """A short vector for the summary tables."""
     return "[" + ", ".join(f"{x:.{digits}g}" for x in np.asarray(v, dtype=float)) + "]"
+
+
+def _plausible(robot: Robot) -> Robot:
+    """``robot``, with a :class:`CdsmDataWarning` when its straight arm is
+    longer than :data:`PLAUSIBLE_LENGTH` (a file in mm read as m, most
+    likely)."""
+    length = robot.straight_length
+    if length > PLAUSIBLE_LENGTH:
+        warnings.warn(f"robot {robot.name!r}: the straight arm is {length:.4g} m long; is the file in mm? cdsm "
+                      "reads SI units: metres (divide every length by 1000)", CdsmDataWarning, stacklevel=3)
+    return robot
