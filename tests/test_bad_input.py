@@ -394,7 +394,8 @@ def test_threads_must_be_a_non_negative_integer(cdsm, value):
 
 # ==========================================================================
 # issue 32, item 9: validation gaps
-# ===================================================================def _model_file(cdsm, tmp_path):
+# ==========================================================================
+def _model_file(cdsm, tmp_path):
     from cdsm.calibration.model import Model
 
     m = Model.from_effects(cdsm.Robot.paper(), {"cable_friction": [0.2], "backlash": [1e-5, 2e-5, 3e-5]},
