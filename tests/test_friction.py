@@ -381,14 +381,19 @@ def test_library_has_cable_friction(cdsm):
 
 def test_the_diagnosis_names_and_fits_friction(compliant, friction_data):
     """Hidden mu = 0.3 on 60 displacement rows: named, explained, mu within 2 sigma
-    of the truth (the jets' Jacobian through the sticking bands)."""
+    of the truth (the jets' Jacobian through the sticking bands); the command
+    line shows mu as the number it is (it showed 0.3 as "+300.000 ± ... mm")."""
     from cdsm.calibration import diagnosis, plant
+    from cdsm.report import diagnosis as report
 
     d = diagnosis.diagnose(compliant, friction_data)
     assert d.best == "cable_friction" and d.verdict == "explained"
     fit = d.final().fit
     mu = fit.p[plant.layout(compliant)["cable_friction"]][0]
     assert abs(mu - 0.3) < 2 * fit.std[0] + 1e-3, (mu, fit.std)
+    shown = f"μ (every cable, every hole) = {mu:+.4f} ± {fit.std[0]:.4f}"
+    effect = next(ln for ln in report.summary(d) if ln.startswith("Effect: "))
+    assert shown in effect and "mm" not in effect, effect
 
 
 def test_friction_is_not_taken_for_backlash_or_elasticity(compliant):
