@@ -20,7 +20,7 @@ import numpy as np
 from . import _cdsm
 from .files import read_text
 from .inputs import CdsmDataWarning, CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector
-from .display import ShortRepr
+from .display import ShortRepr, degrees
 
 __all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
            "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "PLAUSIBLE_LENGTH", "packaged_robots"]
@@ -427,10 +427,10 @@ class Robot:
         """The robot as tables of text (SI units in the headers): ``joints``,
         ``disks``, ``cables`` — each ``(header, rows)`` — for :meth:`__str__`
         and the notebook view."""
-        lim = np.degrees(self.joint_limits)
         joints = (["joint", "disk", "axis", "offset (m)", "limits (deg)"],
-                  [[str(j + 1), str(d), _vec(a, 3), _vec(o, 4), f"[{lo:.1f}, {hi:.1f}]"]
-                   for j, (d, a, o, (lo, hi)) in enumerate(zip(self.joint_disks, self.axes, self.offsets, lim))])
+                  [[str(j + 1), str(d), _vec(a, 3), _vec(o, 4), f"[{degrees(lo)}, {degrees(hi)}]"]
+                   for j, (d, a, o, (lo, hi)) in enumerate(zip(self.joint_disks, self.axes, self.offsets,
+                                                                self.joint_limits))])
         disks = (["disk", "link after (m)", "thickness (m)", "radius (m)", "mass (kg)"],
                  [[str(d + 1), _vec(la, 4), f"{t:.4g}", f"{r:.4g}", f"{m:.4g}"]
                   for d, (la, t, r, m) in enumerate(zip(self.disk_link_after, self.disk_thickness,
