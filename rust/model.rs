@@ -570,10 +570,11 @@ impl Model {
                 }
                 ("force", Some(t)) if t.is_finite() && t > 0.0 => (Mode::Force, t),
                 ("force", t) => {
+                    let got = t.map_or_else(|| "none".to_string(), |v| v.to_string());
                     return Err(bad(
                         field("tension"),
-                        format!("a force-controlled cable needs a positive tension (N), got {t:?}"),
-                    ))
+                        format!("a force-controlled cable needs a positive tension (N), got {got}"),
+                    ));
                 }
                 (m, _) => {
                     return Err(bad(

@@ -266,3 +266,33 @@ def report_page():
 def report_text():
     """:func:`check_report_text`: the checks of a report's text."""
     return check_report_text
+
+
+def parameter_table(robot, values, std):
+    """The diagnosis report's parameter rows ``{(effect, label): text}`` (in
+    order) and its at-a-bound sentences for a fit of the effects ``values``
+    ({effect: values}, SI) with standard deviations ``std`` (the same keys),
+    made as the fit reports one."""
+    from types import SimpleNamespace
+
+    from cdsm.calibration import plant
+    from cdsm.calibration.fit import Fit
+    from cdsm.report import diagnosis as report
+
+    effects = list(values)
+    p = plant.params(robot, values)
+    idx = np.concatenate([plant.effect_indices(robot, e) for e in effects])
+    sd = np.concatenate([np.atleast_1d(np.asarray(std[e], float)) for e in effects])
+    k = len(idx)
+    fit = Fit(effects, p, plant.parameter_names(robot, idx), p[idx], sd, np.eye(k), np.ones(k), 1e-5, 1e-9, 10,
+              0.0, 0.0, True, 3)
+    d, cand = SimpleNamespace(prep=SimpleNamespace(robot=robot)), SimpleNamespace(fit=fit, effects=effects)
+    rows = report.param_rows(d, cand)
+    assert len({(e, lab) for e, lab, *_ in rows}) == len(rows), "a label repeats"
+    return {(e, lab): txt for e, lab, txt, _, _ in rows}, report.bound_notes(d, cand)
+
+
+@pytest.fixture(name="parameter_table", scope="session")
+def parameter_table_fixture():
+    """:func:`parameter_table`."""
+    return parameter_table

@@ -340,6 +340,19 @@ def test_bad_mass_and_tension(err, field, value):
     _raises_naming(err, _toml(**{field: value}), field)
 
 
+@pytest.mark.parametrize("line, shown", [("tension = 0.0\n", "got 0"), ("tension = -0.25\n", "got -0.25"),
+                                         ("", "got none")])
+def test_a_force_cable_without_a_positive_tension_shows_the_number(err, line, shown):
+    """A spatial force cable's tension error prints the number as written
+    (or that none was given), not Rust's ``Some(0.0)`` / ``None``."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "python" / "cdsm" / "robots" / "paper_spatial.toml").read_text()
+    text = re.sub(r"tension = [0-9.]+\n", line, text, count=1)
+    msg = _raises_naming(err, text, "cables[1].tension")
+    assert msg.endswith(f"needs a positive tension (N), {shown}") and "Some" not in msg, msg
+
+
 def test_wrong_type(err):
     _raises_naming(err, _toml(link_before='"long"'), "link_before")
 

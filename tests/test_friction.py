@@ -110,8 +110,8 @@ def test_dissipation_has_the_right_sign(cdsm):
 
 def test_slack_check_with_friction(cdsm):
     """``feasible`` with friction is the sign of the tensions of the state named
-    against the floor, and releasing makes a cable go slack where the
-    frictionless arm is held."""
+    against the floor, and releasing drops a cable below the floor where the
+    frictionless arm holds it above."""
     r = cdsm.Robot.paper()
     th = np.random.default_rng(4).uniform(-0.6, 0.6, (300, 3))
     floor = 0.05
@@ -121,6 +121,34 @@ def test_slack_check_with_friction(cdsm):
         assert np.array_equal(got, (r.tensions(th, friction=0.3, sliding=s) > floor).all(1))
     rel = r.feasible(th, min_tension=floor, friction=0.3, sliding="release")
     assert (free & ~rel).any()
+
+
+def test_slack_comes_first_pulling_and_a_floor_is_crossed_first_releasing(cdsm):
+    """The paper prototype at mu = 1 over the ±30° grid in 5° steps.
+    Pulling, each position cable's tension grows toward its actuator and
+    each force cable's toward its end, so at a joint the pairs ending beyond
+    it pull harder on the position side than at their own joints and relieve
+    the position cable ending there: it goes slack first pulling (taut
+    releasing wherever taut pulling). The check reads the actuator's
+    tension, and releasing the holes grip the paying-out cable: the actuator
+    holds the gap tension over exp(mu sum beta), so a positive floor is
+    crossed first releasing. ``feasible``'s docstring said releasing is
+    where a cable goes slack first; it now says both, with these counts."""
+    from cdsm.accuracy.workspace import joint_grid
+
+    r = cdsm.Robot.paper()
+    grid = joint_grid(3, step=np.radians(5.0))
+    counts = {}
+    for floor in (0.0, 0.05):
+        pull = r.feasible(grid, min_tension=floor, friction=1.0, sliding="pull")
+        release = r.feasible(grid, min_tension=floor, friction=1.0, sliding="release")
+        counts[floor] = (int(pull.sum()), int(release.sum()))
+        if floor == 0.0:
+            assert not (pull & ~release).any()
+    assert len(grid) == 2197 and counts == {0.0: (1576, 2197), 0.05: (1354, 6)}
+    doc = " ".join(r.feasible.__doc__.split())
+    assert "Slack comes first pulling" in doc and "A positive floor is crossed first releasing" in doc
+    assert "1576 pulling and 2197 releasing" in doc and "1354 pulling and 6 releasing" in doc
 
 
 def test_friction_input_errors(cdsm):
@@ -381,14 +409,19 @@ def test_library_has_cable_friction(cdsm):
 
 def test_the_diagnosis_names_and_fits_friction(compliant, friction_data):
     """Hidden mu = 0.3 on 60 displacement rows: named, explained, mu within 2 sigma
-    of the truth (the jets' Jacobian through the sticking bands)."""
+    of the truth (the jets' Jacobian through the sticking bands); the command
+    line shows mu as the number it is (it showed 0.3 as "+300.000 ± ... mm")."""
     from cdsm.calibration import diagnosis, plant
+    from cdsm.report import diagnosis as report
 
     d = diagnosis.diagnose(compliant, friction_data)
     assert d.best == "cable_friction" and d.verdict == "explained"
     fit = d.final().fit
     mu = fit.p[plant.layout(compliant)["cable_friction"]][0]
     assert abs(mu - 0.3) < 2 * fit.std[0] + 1e-3, (mu, fit.std)
+    shown = f"μ (every cable, every hole) = {mu:+.4f} ± {fit.std[0]:.4f}"
+    effect = next(ln for ln in report.summary(d) if ln.startswith("Effect: "))
+    assert shown in effect and "mm" not in effect, effect
 
 
 def test_friction_is_not_taken_for_backlash_or_elasticity(compliant):

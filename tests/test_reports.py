@@ -70,6 +70,25 @@ def test_the_redundant_arm_gets_the_joint_space_protocol_and_says_why(cdsm, redu
         assert not (out / name).exists()
 
 
+def test_holes_against_lengths_divides_only_by_a_hole_error_that_moves_the_tip(redundant_runs):
+    """The ratio |d(X, Y)|(length) / |d(X, Y)|(holes) divided by 1e-17 m where
+    a hole error does not move the tip of the 4-joint arm (its 95th
+    percentile read 4.7e13): it is taken where the hole error moves the tip
+    by at least 1 µm, and the configurations left out are counted."""
+    import re
+
+    _, (out, _), _ = redundant_runs
+    md = (out / "report.md").read_text(encoding="utf-8")
+    para = next(p for p in md.split("\n\n") if p.startswith("**Holes against lengths.**"))
+    lo, med, hi = (float(v) for v in re.search(
+        r"5th percentile (\d+\.\d), median (\d+\.\d), 95th percentile (\d+\.\d)", para).groups())
+    assert 1.0 < lo < med < hi < 100.0, para
+    assert "where the hole error moves the tip by at least 1 µm" in para, para
+    used, total = (int(v) for v in re.search(r"\((\d+) of (\d+)\)", para).groups())
+    left = int(re.search(r"At (\d+) of \d+ the hole error moves the tip by less than 1 µm", para).group(1))
+    assert used + left == total and left > 0, para
+
+
 def test_the_paper_geometry_is_recognised_by_geometry_not_by_name(cdsm):
     from cdsm import paper
 

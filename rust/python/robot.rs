@@ -694,6 +694,11 @@ impl CoreRobot {
         plant::effects(&self.model)
     }
 
+    /// Every parameter of the plant, in vector order: (block, label, SI unit).
+    fn plant_parameters(&self) -> Vec<(String, String, String)> {
+        plant::parameters(&self.model)
+    }
+
     /// Lower and upper bounds of the plant's parameters (the physical domain).
     fn plant_bounds<'py>(&self, py: Python<'py>) -> (Array<'py>, Array<'py>) {
         plant::bounds(py, &self.model)
