@@ -5,6 +5,7 @@ RuntimeWarning reaches the user. Each test reproduces a reported bug."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import warnings
 from pathlib import Path
@@ -152,7 +153,7 @@ def test_spatial_sensitivities_are_the_reference_solves_differentiated(cdsm, ref
             for hh in mirror.holes:
                 holes.append((flat + sign * e)[k:k + hh.size].reshape(hh.shape))
                 k += hh.size
-            return ref.spatial.SpatialRobot(**{**mirror.__dict__, "holes": tuple(holes)})
+            return dataclasses.replace(mirror, holes=tuple(holes))
 
         fd = (tips(moved(1.0), L0) - tips(moved(-1.0), L0)) / (2 * h)
         np.testing.assert_allclose(s.holes[:, :3, j], fd, atol=1e-7)
@@ -224,8 +225,6 @@ def test_spatial_monte_carlo_counts_slack_samples_as_the_reference_statics(cdsm,
     sample's holes for the moment arms: no taut set of position tensions
     (the square balance, or the minimum-norm set above 0 with 6 position
     cables on 4 joints)."""
-    import dataclasses
-
     from cdsm.accuracy.montecarlo import monte_carlo, sample_errors
 
     text = _weakly_held_two_universal(redundant)

@@ -54,7 +54,7 @@ class TestReferenceAlone:
     @pytest.mark.parametrize("linkages", [PAPER_LINKAGES, N1_LINKAGES, N12_LINKAGES])
     def test_jacobians_match_central_differences(self, ref, linkages):
         robot = reference_robot(linkages)
-        robot = robot.with_holes(robot.holes + hole_perturbation(robot.n, 3e-4, seed=3))
+        robot = robot.with_planar_holes(robot.planar.holes + hole_perturbation(robot.n, 3e-4, seed=3))
         theta = random_theta(robot.n, N=50, seed=1)
         h = 1e-6
         fd_fk = np.empty((50, 3, robot.n))
@@ -72,7 +72,7 @@ class TestReferenceAlone:
     def test_pqr_form_equals_direct_lengths(self, ref):
         """The closed-form coefficients P, Q, R reproduce the segment lengths."""
         robot = reference_robot(PAPER_LINKAGES)
-        robot = robot.with_holes(robot.holes + hole_perturbation(3, 3e-4, seed=4))
+        robot = robot.with_planar_holes(robot.planar.holes + hole_perturbation(3, 3e-4, seed=4))
         theta = random_theta(3, N=20, seed=2)
         P, Q, R, mask = ref.segment_coefficients(robot)
         s2 = P + Q * np.cos(theta)[:, None, :] + R * np.sin(theta)[:, None, :]
@@ -90,7 +90,7 @@ class TestReferenceAlone:
             )
 
     def test_table3_theoretical_column(self, ref):
-        robot = ref.SimpleRobot.paper()
+        robot = ref.Robot.paper()
         seed = np.tile(TABLE3_SEED, (9, 1))
         sol = ref.ik(robot, TABLE3_POINTS, seed=seed)
         assert sol["converged"].all()
@@ -105,7 +105,7 @@ class TestReferenceAlone:
         assert_close(cf["theta"], dev["theta"], ANGLE_TOL, "closed form vs LM")
 
     def test_table3_zero_seed_takes_mirror_branch_at_points_8_9(self, ref):
-        robot = ref.SimpleRobot.paper()
+        robot = ref.Robot.paper()
         sol = ref.ik(robot, TABLE3_POINTS)
         assert sol["converged"].all()
         dS = ref.deviation(robot, sol["theta"], TABLE3_DL)["dS"][:, :2] * 1e3
@@ -115,10 +115,10 @@ class TestReferenceAlone:
         assert (sol["theta"][7:, 1] > 0).all()  # the mirror image theta_2 >= 0
 
     def test_hole_height_error(self, ref):
-        robot = ref.SimpleRobot.paper()
+        robot = ref.Robot.paper()
         holes = ref.hole_height_error(robot, [3.5e-4, 0.0, -1e-4])
         mask = ref.used_hole_mask(3)
-        d = holes - robot.holes
+        d = holes - robot.planar.holes
         assert (d[..., 0] == 0).all()
         assert (d[~mask] == 0).all()
         np.testing.assert_allclose(d[0][mask[0], 1], 3.5e-4, atol=1e-18)
@@ -132,9 +132,9 @@ class TestReferenceAlone:
 # ==========================================================================
 def test_paper_robot_is_table_1(cdsm, ref):
     robot = cdsm.Robot.paper()
-    expected = ref.SimpleRobot.paper()
+    expected = ref.Robot.paper().planar
     assert robot.n == 3
-    for attr in ("link_before", "link_after", "thickness", "joint_limits"):
+    for attr in ("link_before", "link_after", "thickness", "joint_limits", "lower_tension", "mass"):
         assert_close(getattr(robot, attr), getattr(expected, attr), 0.0, attr)
     mask = ref.used_hole_mask(3)
     holes = np.asarray(robot.holes)
@@ -145,7 +145,7 @@ def test_paper_robot_is_table_1(cdsm, ref):
 @pytest.mark.parametrize("linkages", [N1_LINKAGES, N12_LINKAGES], ids=["n1", "n12"])
 def test_toml_robot_attributes(cdsm, ref, linkages):
     robot = cdsm.Robot.from_toml_str(robot_toml(linkages))
-    expected = reference_robot(linkages)
+    expected = reference_robot(linkages).planar
     n = len(linkages)
     assert robot.n == n
     for attr, shape in [
@@ -395,7 +395,7 @@ def test_ik_near_singular(pair, ref):
 def test_ik_single_pose_1d(cdsm, ref):
     robot = cdsm.Robot.paper()
     theta = np.array([0.1, -0.2, 0.3])
-    pose = ref.fk(ref.SimpleRobot.paper(), theta[None])[0]
+    pose = ref.fk(ref.Robot.paper(), theta[None])[0]
     sol = robot.ik(pose, seed=theta + 0.01)
     assert np.asarray(sol.theta).shape == (3,)
     assert bool(np.asarray(sol.converged))

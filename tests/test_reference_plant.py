@@ -4,7 +4,9 @@ the NumPy reference only (no compiled extension)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import types
 
 import numpy as np
 import pytest
@@ -16,12 +18,8 @@ G0 = 9.80665
 
 def _robot(ref, name, mass=None, gravity=None, routing_length=0.0):
     lk = {"paper": PAPER_LINKAGES, "n1": N1_LINKAGES, "n12": N12_LINKAGES}[name]
-    r = reference_robot(lk)
-    r.mass = np.array([x.mass for x in lk]) if mass is None else np.asarray(mass, float)
-    r.lower_tension = np.array([x.lower_tension for x in lk])
-    r.gravity = None if gravity is None else np.asarray(gravity, float)
-    r.routing_length = routing_length
-    return r
+    r = reference_robot(lk, gravity=gravity, routing_length=routing_length)
+    return r if mass is None else dataclasses.replace(r, mass=np.asarray(mass, float))
 
 
 def _p(ref, n, **effects):
@@ -79,7 +77,7 @@ def test_zero_parameters_are_nominal(ref, name):
     p = np.zeros(ref.plant_size(n))
     arm = ref.plant_arm(robot, p)
     for a in ["link_before", "link_after", "thickness", "holes", "joint_limits"]:
-        assert np.array_equal(getattr(arm, a), getattr(robot, a))
+        assert np.array_equal(getattr(arm.planar, a), getattr(robot.planar, a))
 
     N = 60
     theta = random_theta(n, N, seed=3, lim=0.4)
@@ -114,7 +112,8 @@ def test_arm_perturbations(ref, name):
     n = robot.n
     rng = np.random.default_rng(5)
     dh, dl = rng.normal(0, 1e-4, n), rng.normal(0, 1e-4, n + 1)
-    arm = ref.plant_arm(robot, _p(ref, n, hole_height=dh, link_length=dl))
+    arm = ref.plant_arm(robot, _p(ref, n, hole_height=dh, link_length=dl)).planar
+    robot = robot.planar
     assert arm.link_before[0] == robot.link_before[0] + dl[0]
     np.testing.assert_array_equal(arm.link_before[1:], robot.link_before[1:])
     np.testing.assert_array_equal(arm.link_after, robot.link_after + dl[1:])
@@ -164,8 +163,9 @@ def test_clearance_by_hand_n1(ref):
     """n = 1, straight holes at height h: both holes of the joint move by d, the
     anchor (face b of disk 1) stays."""
     robot = _robot(ref, "n1")
-    lb, la, t = robot.link_before[0], robot.link_after[0], robot.thickness[0]
-    h = robot.holes[0, 0, 1, 1]
+    v = robot.planar
+    lb, la, t = v.link_before[0], v.link_after[0], v.thickness[0]
+    h = v.holes[0, 0, 1, 1]
     cl, dw = 4e-4, 0.005
     w = 0.01 + dw
     theta = np.linspace(-0.6, 0.6, 13)[:, None]
@@ -331,8 +331,10 @@ def test_gravity_changes_tensions_only_with_mass(ref, name):
     g = [3.0, -9.81]
     p = _p(ref, n, hole_height=np.full(n, 1e-4))
     flat = ref.plant_tensions(_robot(ref, name), p, theta)
-    no_attr = _robot(ref, name)
-    del no_attr.gravity  # absent attribute: [0, 0]
+    v = _robot(ref, name).planar  # a duck-typed arm without a gravity attribute: [0, 0]
+    no_attr = types.SimpleNamespace(n=v.n, **{a: getattr(v, a) for a in ("link_before", "link_after", "thickness",
+                                                                           "holes", "joint_limits", "mass",
+                                                                           "lower_tension")})
     np.testing.assert_array_equal(ref.plant_tensions(no_attr, p, theta), flat)
     massless = ref.plant_tensions(_robot(ref, name, mass=np.zeros(n), gravity=g), p, theta)
     np.testing.assert_allclose(massless, flat, rtol=0, atol=1e-14)
@@ -355,7 +357,7 @@ def test_elastic_settling(ref, name, gravity, routing):
     theta, ok = ref.settle(robot, p, L, theta_cmd)
     assert ok.all()
     arm = ref.plant_arm(robot, p)
-    T = ref.tensions(arm, theta, lower=robot.lower_tension,
+    T = ref.tensions(arm, theta, lower=robot.planar.lower_tension,
                      gravity=None if gravity is None else gravity, mass=robot.mass)
     stretch = ref.upper_cable_lengths(arm, theta) - L
     # the settling equation: L_arm - L = (L + L_route) kappa T
@@ -385,7 +387,7 @@ def test_settling_with_clearance(ref):
     F = ref.settling_residual(robot, p, L, theta)
     assert np.abs(F).max() <= 1e-12
     # F written out: clearance lengths against the stretched rest lengths
-    T = ref.tensions(ref.plant_arm(robot, p), theta, lower=robot.lower_tension)
+    T = ref.tensions(ref.plant_arm(robot, p), theta, lower=robot.planar.lower_tension)
     np.testing.assert_allclose(ref.arm_upper_lengths(robot, p, theta), L * (1 + 1e-5 * T), rtol=0, atol=1e-12)
 
 

@@ -51,7 +51,7 @@ def uni_skewed(uni):
 
 def _box(robot, N, seed, scale=1.0):
     """Joint angles ``(N, n)`` rad uniform in ``scale`` times the joint box."""
-    lo, hi = robot.limits[:, 0] * scale, robot.limits[:, 1] * scale
+    lo, hi = robot.joint_limits[:, 0] * scale, robot.joint_limits[:, 1] * scale
     return np.random.default_rng(seed).uniform(lo, hi, (N, robot.n))
 
 
@@ -63,7 +63,7 @@ def test_packaged_files(paper, uni, sp):
     assert paper.kind == "spatial"
     np.testing.assert_array_equal(sp.position_cables(paper), [0, 2, 4])
     np.testing.assert_allclose(paper.cable_tension[1::2], PAPER_LOWER, rtol=0, atol=0)
-    np.testing.assert_allclose(paper.limits, np.tile([-LIM35, LIM35], (3, 1)), rtol=1e-15)
+    np.testing.assert_allclose(paper.joint_limits, np.tile([-LIM35, LIM35], (3, 1)), rtol=1e-15)
     for c, h in enumerate(paper.holes):
         assert h.shape == (2 * (c // 2 + 1) + 1, 3)
     assert (uni.n, uni.disks, uni.m) == (4, 2, 8)

@@ -94,7 +94,7 @@ def snake(ref):
 @pytest.fixture(scope="module")
 def theta(snake):
     """200 configurations uniform in the joint box (rad), seeded."""
-    lo, hi = snake.limits[:, 0], snake.limits[:, 1]
+    lo, hi = snake.joint_limits[:, 0], snake.joint_limits[:, 1]
     return np.random.default_rng(2024).uniform(lo, hi, (N_CONFIG, snake.n))
 
 
@@ -140,8 +140,8 @@ def test_packaged_file_facts(snake, caspr, ref):
     # limits, joint by joint in CASPR's order
     lo = np.concatenate([lk["q_min"] for lk in links])
     hi = np.concatenate([lk["q_max"] for lk in links])
-    np.testing.assert_array_equal(snake.limits, np.stack([lo, hi], axis=1))
-    np.testing.assert_array_equal(snake.limits, np.tile([-0.35, 0.35], (24, 1)))
+    np.testing.assert_array_equal(snake.joint_limits, np.stack([lo, hi], axis=1))
+    np.testing.assert_array_equal(snake.joint_limits, np.tile([-0.35, 0.35], (24, 1)))
     np.testing.assert_array_equal(snake.joint_disk, np.repeat(np.arange(1, 13), 2))
     # U_XZ under Q: Q e_x then Q e_z
     np.testing.assert_array_equal(snake.axes, np.tile([Q @ [1.0, 0, 0], Q @ [0, 0, 1.0]], (12, 1)))

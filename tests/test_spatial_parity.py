@@ -42,7 +42,7 @@ def pair(request):
 
 
 def _box(robot, N, seed, scale=1.0):
-    lo, hi = robot.limits[:, 0] * scale, robot.limits[:, 1] * scale
+    lo, hi = robot.joint_limits[:, 0] * scale, robot.joint_limits[:, 1] * scale
     return np.random.default_rng(seed).uniform(lo, hi, (N, robot.n))
 
 

@@ -211,7 +211,7 @@ def test_spatial_clearance_reduces_to_the_planar_one(cdsm, ref, cl, dw):
     from cdsm.calibration import plant
 
     spatial = sp.load_spatial(ROBOTS / "paper_spatial.toml")
-    planar_ref, planar_core = ref.SimpleRobot.paper(), cdsm.Robot.paper()
+    planar_ref, planar_core = ref.Robot.paper(), cdsm.Robot.paper()
     ps = np.zeros(spp.size(spatial))
     ls = spp.layout(spatial)
     ps[ls["hole_clearance"]], ps[ls["clearance_width"]] = cl, dw

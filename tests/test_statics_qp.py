@@ -64,7 +64,7 @@ def case(request, cdsm):
     rust, ref = cdsm.Robot.from_toml_str(text), sp.parse_spatial(text)
     m = 8 if request.param == "eight" else 6
     assert len(rust.position_cables) == m and len(sp.position_cables(ref)) == m and rust.n == 4
-    lo, hi = ref.limits[:, 0], ref.limits[:, 1]
+    lo, hi = ref.joint_limits[:, 0], ref.joint_limits[:, 1]
     theta = np.random.default_rng(20240611).uniform(lo, hi, (N_CONFIGS, ref.n))
     return request.param, rust, ref, wrench, theta
 

@@ -45,7 +45,7 @@ def test_rust_matches_reference(which, paper, r8):
     lim = robot.joint_limits
     th = rng.uniform(lim[:, 0], lim[:, 1], (40, robot.n))
     s = sensitivity.sensitivities(robot, th, holes=True)
-    r = ref.tip_sensitivity(ref.SimpleRobot.like(robot), th)
+    r = ref.tip_sensitivity(ref.Robot.like(robot), th)
     assert s.ok.all()
     for key in ("cable", "pair", "holes"):
         got = getattr(s, key)

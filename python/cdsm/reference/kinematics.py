@@ -20,7 +20,7 @@ attribute          shape                meaning
 ``joint_limits``   ``(n, 2)``           rad, ``[lo, hi]`` per joint
 =================  ===================  ==========================================
 
-so both :class:`SimpleRobot` and ``cdsm.Robot`` can be passed.
+so both :class:`.robot.Robot` (through its planar view) and ``cdsm.Robot`` can be passed.
 
 Conventions (see ``docs/model.md``): cables ``c = 0 .. 2n-1``; cable ``c``
 belongs to pair ``i = c // 2 + 1`` (1-based disk index), even ``c`` is the
@@ -30,15 +30,14 @@ the base disk (face ``b`` only) and disks ``1..i`` (both faces).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from .robot import Robot, as_robot, used_hole_mask
+
 __all__ = [
-    "SimpleRobot",
     "wrap_angle",
-    "used_hole_mask",
-    "default_holes",
     "fk",
     "fk_jacobian",
     "cable_lengths",
@@ -56,9 +55,6 @@ __all__ = [
     "hole_points",
 ]
 
-#: Joint limit of the paper prototype, rad (35 deg).
-PAPER_JOINT_LIMIT = float(np.deg2rad(35.0))
-
 # LM constants of docs/model.md.
 _LAMBDA_0 = 1e-3
 _LAMBDA_MIN = 1e-12
@@ -68,130 +64,10 @@ _LAMBDA_MAX = 1e12
 # --------------------------------------------------------------------------
 # Robot description
 # --------------------------------------------------------------------------
-def used_hole_mask(n: int) -> np.ndarray:
-    """Boolean mask ``(2n, n+1, 2)`` of the hole entries the model uses.
-
-    ``mask[c, d, f]`` is True when cable ``c`` crosses face ``f`` of disk ``d``:
-    ``d = 0`` (base) face ``b`` only, and ``1 <= d <= pair(c)`` both faces.
-    """
-    mask = np.zeros((2 * n, n + 1, 2), dtype=bool)
-    for c in range(2 * n):
-        pair = c // 2 + 1
-        mask[c, 0, 1] = True
-        mask[c, 1 : pair + 1, :] = True
-    return mask
-
-
-def default_holes(hole_height) -> np.ndarray:
-    """Default (straight) holes ``(2n, n+1, 2, 2)`` in m from heights ``(n,)`` in m.
-
-    Upper cable of pair ``i`` at ``(0, +h_i)``, lower at ``(0, -h_i)``, on every
-    face the pair crosses; unused entries are zero.
-    """
-    h = np.asarray(hole_height, dtype=float).reshape(-1)
-    n = h.size
-    holes = np.zeros((2 * n, n + 1, 2, 2))
-    mask = used_hole_mask(n)
-    for c in range(2 * n):
-        sign = 1.0 if c % 2 == 0 else -1.0
-        holes[c, mask[c], 1] = sign * h[c // 2]
-    return holes
-
-
-@dataclass
-class SimpleRobot:
-    """Minimal robot description accepted by every function of this module.
-
-    All arrays are SI: lengths in m, angles in rad.  Shapes: ``link_before``,
-    ``link_after``, ``thickness``: ``(n,)``; ``holes``: ``(2n, n+1, 2, 2)``;
-    ``joint_limits``: ``(n, 2)``.
-    """
-
-    link_before: np.ndarray
-    link_after: np.ndarray
-    thickness: np.ndarray
-    holes: np.ndarray
-    joint_limits: np.ndarray
-    n: int = field(init=False)
-    #: Optional loads and cable routing (statics, plant): masses ``(n,)`` kg,
-    #: lower-cable tensions ``(n,)`` N, in-plane gravity ``(2,)`` m/s^2 (None:
-    #: none) and the upper cables' routing length behind the base disk, m.
-    mass: np.ndarray | None = None
-    lower_tension: np.ndarray | None = None
-    gravity: np.ndarray | None = None
-    routing_length: float = 0.0
-
-    def __post_init__(self) -> None:
-        self.link_before = np.asarray(self.link_before, dtype=float).reshape(-1)
-        self.n = int(self.link_before.size)
-        n = self.n
-        self.link_after = np.asarray(self.link_after, dtype=float).reshape(n)
-        self.thickness = np.asarray(self.thickness, dtype=float).reshape(n)
-        self.holes = np.asarray(self.holes, dtype=float).reshape(2 * n, n + 1, 2, 2)
-        self.joint_limits = np.asarray(self.joint_limits, dtype=float).reshape(n, 2)
-        if self.mass is not None:
-            self.mass = np.asarray(self.mass, dtype=float).reshape(n)
-        if self.lower_tension is not None:
-            self.lower_tension = np.asarray(self.lower_tension, dtype=float).reshape(n)
-        if self.gravity is not None:
-            self.gravity = np.asarray(self.gravity, dtype=float).reshape(2)
-        self.routing_length = float(self.routing_length)
-
-    @classmethod
-    def from_heights(
-        cls,
-        link_before,
-        link_after,
-        thickness,
-        hole_height,
-        joint_limits=None,
-    ) -> "SimpleRobot":
-        """Robot with straight holes of heights ``hole_height`` ``(n,)`` m.
-
-        ``joint_limits`` defaults to +-35 deg on every joint.
-        """
-        lb = np.asarray(link_before, dtype=float).reshape(-1)
-        n = lb.size
-        if joint_limits is None:
-            joint_limits = np.tile([-PAPER_JOINT_LIMIT, PAPER_JOINT_LIMIT], (n, 1))
-        return cls(lb, link_after, thickness, default_holes(hole_height), joint_limits)
-
-    @classmethod
-    def paper(cls) -> "SimpleRobot":
-        """The 3-DOF prototype of the seed paper (Table 1), limits +-35 deg."""
-        return cls.from_heights(
-            link_before=[0.033, 0.033, 0.033],
-            link_after=[0.033, 0.033, 0.033],
-            thickness=[0.010, 0.010, 0.010],
-            hole_height=[0.030, 0.028, 0.026],
-        )
-
-    @classmethod
-    def like(cls, robot, holes=None) -> "SimpleRobot":
-        """Copy of any duck-typed ``robot``, optionally with other ``holes``
-        (``mass``, ``lower_tension``, ``gravity``, ``routing_length`` are carried
-        over when the robot has them)."""
-        g = read_geometry(robot)
-
-        def _opt(name):
-            v = getattr(robot, name, None)
-            return None if v is None else np.array(v, dtype=float)
-
-        return cls(
-            g.lb.copy(),
-            g.la.copy(),
-            g.t.copy(),
-            g.holes.copy() if holes is None else holes,
-            g.limits.copy(),
-            mass=_opt("mass"),
-            lower_tension=_opt("lower_tension"),
-            gravity=_opt("gravity"),
-            routing_length=float(getattr(robot, "routing_length", None) or 0.0),
-        )
-
-    def with_holes(self, holes) -> "SimpleRobot":
-        """Same robot with other hole positions ``(2n, n+1, 2, 2)`` m."""
-        return SimpleRobot.like(self, holes)
+def planar_attributes(robot):
+    """The planar attributes of ``robot``: its :class:`.robot.PlanarView` when it is a
+    :class:`.robot.Robot`, else the object itself (duck-typed, e.g. ``cdsm.Robot``)."""
+    return robot.planar if isinstance(robot, Robot) else robot
 
 
 @dataclass
@@ -206,6 +82,7 @@ class _Geometry:
 
 def read_geometry(robot) -> _Geometry:
     """Read the duck-typed robot attributes once, as float arrays."""
+    robot = planar_attributes(robot)
     n = int(robot.n)
     if n < 1:
         raise ValueError(f"robot.n must be >= 1, got {n}")
@@ -710,7 +587,7 @@ def deviation(robot, theta0, dL, holes_perturbed=None, tol=1e-12, max_iter=100) 
     g = read_geometry(robot)
     theta0 = batch_array(theta0, g.n, "theta0")
     target = upper_cable_lengths(robot, theta0) + np.asarray(dL, dtype=float)
-    perturbed = robot if holes_perturbed is None else SimpleRobot.like(robot, holes_perturbed)
+    perturbed = robot if holes_perturbed is None else as_robot(robot).with_planar_holes(holes_perturbed)
     sol = solve_cables(perturbed, target, seed=theta0, tol=tol, max_iter=max_iter)
     dS = fk(robot, sol["theta"]) - fk(robot, theta0)
     return dict(dS=dS, theta=sol["theta"], converged=sol["converged"])
@@ -858,10 +735,10 @@ def tensions(robot, theta, lower=None, tip_wrench=None, gravity=None, mass=None,
     theta = batch_array(theta, g.n, "theta")
     N = theta.shape[0]
     if lower is None:
-        lower = robot.lower_tension
+        lower = planar_attributes(robot).lower_tension
     lower = np.broadcast_to(np.asarray(lower, dtype=float), (N, g.n))
     if gravity is not None and mass is None:
-        mass = robot.mass
+        mass = planar_attributes(robot).mass
     fr = _frames(g, theta)
     M = _cable_moments(g, fr)  # (N, 2n, n)
     if gap is not None:

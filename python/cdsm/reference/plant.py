@@ -43,10 +43,13 @@ from __future__ import annotations
 
 import numpy as np
 
+import dataclasses
+
 from . import friction as fr
 from . import sequence as sq
+from .robot import Robot, as_robot
 from .kinematics import (
-    SimpleRobot,
+    planar_attributes,
     hole_points,
     batch_array,
     batched_solve,
@@ -162,7 +165,7 @@ def plant_params(p, n: int) -> dict:
 # The arm
 # --------------------------------------------------------------------------
 def _robot_gravity(robot) -> np.ndarray:
-    g = getattr(robot, "gravity", None)
+    g = getattr(planar_attributes(robot), "gravity", None)
     return np.zeros(2) if g is None else np.asarray(g, dtype=float).reshape(2)
 
 
@@ -177,11 +180,11 @@ def cable_compliance(robot) -> float:
     1.8e11 Pa and 0.18 mm): friction's change of the tensions stretches the
     cables at ``kappa + kappa_c``."""
     E = float(getattr(robot, "youngs_modulus", 1.8e11))
-    d = float(getattr(robot, "cable_diameter", 0.18e-3))
+    d = float(getattr(robot, "cable_diameter", getattr(robot, "diameter", 0.18e-3)))
     return 1.0 / (E * np.pi * d * d / 4.0)
 
 
-def plant_arm(robot, p) -> SimpleRobot:
+def plant_arm(robot, p) -> Robot:
     """The plant's arm: ``robot`` with the hole-height and link-length errors.
 
     Every hole of pair ``i`` moves by ``dh_i`` (upper ``y += dh_i``, lower
@@ -189,20 +192,15 @@ def plant_arm(robot, p) -> SimpleRobot:
     included); ``link_before[1] += dl_0`` and ``link_after[i] += dl_i``.
     ``mass``, ``lower_tension``, ``gravity`` (default ``[0, 0]``) and
     ``routing_length`` (default 0) are carried over.  Returns a
-    :class:`SimpleRobot`.
+    :class:`.robot.Robot`.
     """
     g = read_geometry(robot)
     q = plant_params(p, g.n)
-    lb = g.lb.copy()
-    lb[0] += q["dl"][0]
-    la = g.la + q["dl"][1:]
-    holes = hole_height_error(robot, q["dh"])
-    arm = SimpleRobot.like(robot, holes)
-    arm.link_before = lb
-    arm.link_after = la
-    arm.gravity = _robot_gravity(robot)
-    arm.routing_length = _robot_routing(robot)
-    return arm
+    arm = as_robot(robot).with_planar_holes(hole_height_error(robot, q["dh"]))
+    offsets, link_after = arm.offsets.copy(), arm.link_after.copy()
+    offsets[0, 0] += q["dl"][0]
+    link_after[:, 0] += q["dl"][1:]
+    return dataclasses.replace(arm, offsets=offsets, link_after=link_after)
 
 
 def clearance_shifts(theta, cl: float, w: float) -> np.ndarray:
@@ -313,10 +311,11 @@ def plant_tensions(robot, p, theta) -> np.ndarray:
     """
     arm = plant_arm(robot, p)
     theta = batch_array(theta, arm.n, "theta")
-    gravity = arm.gravity
+    gravity = _robot_gravity(arm)
+    v = planar_attributes(robot)
     if np.any(gravity != 0.0):
-        return tensions(arm, theta, lower=robot.lower_tension, gravity=gravity, mass=robot.mass)
-    return tensions(arm, theta, lower=robot.lower_tension)
+        return tensions(arm, theta, lower=v.lower_tension, gravity=gravity, mass=v.mass)
+    return tensions(arm, theta, lower=v.lower_tension)
 
 
 def friction_factors(arm, theta, z, mu: float):
@@ -356,8 +355,8 @@ def _settling_F(robot, arm, q, L, theta, lower, z=None):
     if q["kappa"] == 0.0 and q["mu"] == 0.0:
         return La - L
     Lr = arm.routing_length
-    g = arm.gravity
-    grav = dict(gravity=g, mass=robot.mass) if np.any(g != 0.0) else {}
+    g = _robot_gravity(arm)
+    grav = dict(gravity=g, mass=planar_attributes(robot).mass) if np.any(g != 0.0) else {}
     if q["mu"] == 0.0:
         T = tensions(arm, theta, lower=lower, **grav)
         return La - (L + Lr) * (1.0 + q["kappa"] * T) + Lr
@@ -380,7 +379,7 @@ def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
     L = batch_array(realised, arm.n, "realised")
     theta = batch_array(theta, arm.n, "theta")
     lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
-        np.asarray(robot.lower_tension, dtype=float), L.shape)
+        np.asarray(planar_attributes(robot).lower_tension, dtype=float), L.shape)
     z = np.ones((L.shape[0], _hole_count(arm.n))) if z is None else np.asarray(z, float)
     return _settling_F(robot, arm, q, L, theta, lower, z)
 
@@ -413,7 +412,7 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6
 
     theta = np.where(rigid["converged"][:, None], rigid["theta"], seed)
     lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
-        np.asarray(robot.lower_tension, dtype=float), L.shape)
+        np.asarray(planar_attributes(robot).lower_tension, dtype=float), L.shape)
     z = np.ones((L.shape[0], _hole_count(n))) if z is None else np.asarray(z, float)
 
     def F(th, idx):
@@ -516,10 +515,11 @@ def friction_motion(robot, commands, seeds, first) -> tuple:
     sol = solve_cables_closed_form(robot, commands, seed=seeds)
     theta = np.where(sol["converged"][:, None] & ~np.asarray(first, bool)[:, None], sol["theta"], seeds)
     g = _robot_gravity(robot)
-    grav = dict(gravity=g, mass=robot.mass) if np.any(g != 0.0) else {}
-    T = tensions(robot, theta, lower=robot.lower_tension, **grav)
+    v = planar_attributes(robot)
+    grav = dict(gravity=g, mass=v.mass) if np.any(g != 0.0) else {}
+    T = tensions(robot, theta, lower=v.lower_tension, **grav)
     T = np.where(np.isfinite(T) & (T > 0.0), T, 0.0)
-    lower = np.asarray(robot.lower_tension, dtype=float)
+    lower = np.asarray(v.lower_tension, dtype=float)
 
     def holes(th, Tup):
         d, beta, ten = [], [], []

@@ -33,11 +33,10 @@ m; defaults steel, 0.18 mm, 0 m, as for planar arms).
 from __future__ import annotations
 
 import itertools
-import math
-from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
+
+from .robot import Robot, load_robot, read_robot
 
 __all__ = [
     "SpatialRobot",
@@ -64,10 +63,6 @@ __all__ = [
     "tensions",
 ]
 
-#: Defaults of the optional cable material (steel, 0.18 mm), as for planar arms.
-DEFAULT_YOUNGS_MODULUS = 1.8e11
-DEFAULT_DIAMETER = 0.18e-3
-
 # Solver constants of docs/model.md ("Solves").
 _LAMBDA_0 = 1e-3
 _LAMBDA_MIN = 1e-12
@@ -82,302 +77,11 @@ _MASKS = ("position", "pointing", "pose")
 
 
 # --------------------------------------------------------------------------
-# Robot description
+# Robot description (:mod:`.robot`; the old names until the tests have moved)
 # --------------------------------------------------------------------------
-@dataclass
-class SpatialRobot:
-    """A spatial arm, all fields explicit (SI units).
-
-    ``n`` joints (numbered over all linkages in order), ``K`` disks (one per
-    linkage), ``m`` cables (file order).
-
-    =================  ==================  ===============================================
-    field              shape               meaning
-    =================  ==================  ===============================================
-    ``axes``           ``(n, 3)``          unit joint axes, in the joint frame
-    ``offsets``        ``(n, 3)``          m, previous frame -> joint, previous frame
-    ``limits``         ``(n, 2)``          rad, ``[lo, hi]``
-    ``joint_disk``     ``(n,)`` int        the linkage (1-based disk index) of joint j
-    ``link_after``     ``(K, 3)``          m, last joint -> proximal face of disk k
-    ``thickness``      ``(K,)``            m, along the disk's local x axis
-    ``radius``         ``(K,)``            m, disk radius (holes lie within)
-    ``mass``           ``(K,)``            kg
-    ``com``            ``(K, 3)``          m, centre of mass in the proximal-face frame
-    ``base_radius``    float               m
-    ``gravity``        ``(3,)``            m/s^2, base frame
-    ``cable_end``      ``(m,)`` int        the disk cable c is fixed to (1-based)
-    ``cable_mode``     tuple of str        ``"position"`` or ``"force"``
-    ``cable_tension``  ``(m,)``            N for force cables, NaN for position cables
-    ``holes``          tuple of arrays     m, per cable ``(2 e_c + 1, 3)`` face-frame hole
-                                           points: base face b, then faces a, b of disks 1..e_c
-    ``youngs_modulus`` float               Pa
-    ``diameter``       float               m
-    ``routing_length`` float               m
-    =================  ==================  ===============================================
-    """
-
-    name: str
-    axes: np.ndarray
-    offsets: np.ndarray
-    limits: np.ndarray
-    joint_disk: np.ndarray
-    link_after: np.ndarray
-    thickness: np.ndarray
-    radius: np.ndarray
-    mass: np.ndarray
-    com: np.ndarray
-    base_radius: float
-    gravity: np.ndarray
-    cable_end: np.ndarray
-    cable_mode: tuple
-    cable_tension: np.ndarray
-    holes: tuple
-    youngs_modulus: float = DEFAULT_YOUNGS_MODULUS
-    diameter: float = DEFAULT_DIAMETER
-    routing_length: float = 0.0
-
-    kind = "spatial"
-
-    @property
-    def n(self) -> int:
-        """Number of joints."""
-        return int(self.axes.shape[0])
-
-    @property
-    def disks(self) -> int:
-        """Number of disks (= linkages) ``K``, the base disk not counted."""
-        return int(self.thickness.shape[0])
-
-    @property
-    def m(self) -> int:
-        """Number of cables."""
-        return int(self.cable_end.shape[0])
-
-
-def _where(field: str) -> str:
-    return field if field else "robot file"
-
-
-def _number(v, field: str) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise ValueError(f"{_where(field)}: must be a number, got {v!r}")
-    x = float(v)
-    if not math.isfinite(x):
-        raise ValueError(f"{_where(field)}: must be a finite number, got {v!r}")
-    return x
-
-
-def _positive(v, field: str) -> float:
-    x = _number(v, field)
-    if x <= 0.0:
-        raise ValueError(f"{field}: must be positive, got {v!r}")
-    return x
-
-
-def _non_negative(v, field: str) -> float:
-    x = _number(v, field)
-    if x < 0.0:
-        raise ValueError(f"{field}: must be non-negative, got {v!r}")
-    return x
-
-
-def _vector(v, size: int, field: str) -> np.ndarray:
-    if not isinstance(v, list) or len(v) != size:
-        raise ValueError(f"{field}: must be a list of {size} numbers, got {v!r}")
-    return np.array([_number(x, f"{field}[{i}]") for i, x in enumerate(v)])
-
-
-def _table(v, field: str) -> dict:
-    if not isinstance(v, dict):
-        raise ValueError(f"{field}: must be a table, got {v!r}")
-    return v
-
-
-def _table_list(v, field: str) -> list:
-    if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
-        raise ValueError(f"{field}: must be a list of tables ([[{field}]] or inline), got {v!r}")
-    return v
-
-
-def _known_keys(table: dict, allowed, field: str) -> None:
-    for key in table:
-        if key not in allowed:
-            where = f"{field}.{key}" if field else key
-            raise ValueError(f"{where}: unknown key")
-
-
-def _required(table: dict, key: str, field: str):
-    if key not in table:
-        raise ValueError(f"{field}.{key}: missing" if field else f"{key}: missing")
-    return table[key]
-
-
-def _load_toml(text: str) -> dict:
-    try:  # tomllib is Python >= 3.11; imported here so that the package imports on 3.9
-        import tomllib
-    except ModuleNotFoundError:  # pragma: no cover
-        try:
-            import tomli as tomllib
-        except ModuleNotFoundError as exc:
-            raise RuntimeError("parse_spatial needs Python >= 3.11 (tomllib) or the tomli package") from exc
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"robot file: not valid TOML: {exc}") from exc
-
-
-def parse_spatial(text: str) -> SpatialRobot:
-    """Read a ``kind = "spatial"`` robot file (TOML text, ``docs/spatial.md``).
-
-    Validation errors raise ``ValueError`` whose message starts with the field,
-    e.g. ``linkage[2].joints[1].axis: ...`` (1-based indices) or
-    ``cables[3].end: ...``.  Unknown keys are rejected, as for planar files.
-
-    Defaults (where the spec gives none, this reading): joint ``offset``
-    ``[0, 0, 0]``, ``limits`` ``[-pi, pi]`` (spec), ``mass`` 0 kg, ``com`` the
-    disk centre ``[thickness/2, 0, 0]``, ``gravity`` ``[0, 0, 0]`` (spec).
-    """
-    doc = _load_toml(text)
-    _known_keys(doc, {"kind", "name", "gravity", "base", "linkage", "cables", "cable"}, "")
-
-    kind = doc.get("kind", "planar")
-    if kind not in ("planar", "spatial"):
-        raise ValueError(f'kind: must be "planar" or "spatial", got {kind!r}')
-    if kind != "spatial":
-        raise ValueError('kind: parse_spatial reads kind = "spatial" files, got "planar"')
-    name = doc.get("name", "")
-    if not isinstance(name, str):
-        raise ValueError(f"name: must be a string, got {name!r}")
-    gravity = _vector(doc["gravity"], 3, "gravity") if "gravity" in doc else np.zeros(3)
-
-    base = _table(_required(doc, "base", ""), "base")
-    _known_keys(base, {"radius"}, "base")
-    base_radius = _positive(_required(base, "radius", "base"), "base.radius")
-
-    linkages = _table_list(_required(doc, "linkage", ""), "linkage")
-    if not linkages:
-        raise ValueError("linkage: at least one linkage is needed")
-    axes, offsets, limits, joint_disk = [], [], [], []
-    link_after, thickness, radius, mass, com = [], [], [], [], []
-    for k, lk in enumerate(linkages, start=1):
-        f = f"linkage[{k}]"
-        _known_keys(lk, {"joints", "link_after", "thickness", "radius", "mass", "com"}, f)
-        joints = _table_list(_required(lk, "joints", f), f"{f}.joints")
-        if not joints:
-            raise ValueError(f"{f}.joints: every linkage needs at least one joint")
-        for i, jt in enumerate(joints, start=1):
-            fj = f"{f}.joints[{i}]"
-            _known_keys(jt, {"axis", "offset", "limits"}, fj)
-            a = _vector(_required(jt, "axis", fj), 3, f"{fj}.axis")
-            norm = float(np.linalg.norm(a))
-            if not norm > 0.0 or not math.isfinite(norm):
-                raise ValueError(f"{fj}.axis: must be a non-zero vector (it is normalised), got {jt['axis']!r}")
-            axes.append(a / norm)
-            offsets.append(_vector(jt["offset"], 3, f"{fj}.offset") if "offset" in jt else np.zeros(3))
-            lim = _vector(jt["limits"], 2, f"{fj}.limits") if "limits" in jt else np.array([-np.pi, np.pi])
-            if not lim[0] < lim[1]:
-                raise ValueError(f"{fj}.limits: must be [lo, hi] with lo < hi, got {jt['limits']!r}")
-            limits.append(lim)
-            joint_disk.append(k)
-        link_after.append(_vector(_required(lk, "link_after", f), 3, f"{f}.link_after"))
-        t = _positive(_required(lk, "thickness", f), f"{f}.thickness")
-        thickness.append(t)
-        radius.append(_positive(_required(lk, "radius", f), f"{f}.radius"))
-        mass.append(_non_negative(lk["mass"], f"{f}.mass") if "mass" in lk else 0.0)
-        com.append(_vector(lk["com"], 3, f"{f}.com") if "com" in lk else np.array([0.5 * t, 0.0, 0.0]))
-    K = len(linkages)
-    disk_radius = [base_radius] + radius  # index d = 0 (base) .. K
-
-    cables = _table_list(_required(doc, "cables", ""), "cables")
-    if not cables:
-        raise ValueError("cables: at least one cable is needed")
-    cable_end, cable_mode, cable_tension, holes = [], [], [], []
-    for c, cb in enumerate(cables, start=1):
-        f = f"cables[{c}]"
-        _known_keys(cb, {"end", "mode", "tension", "radius", "angle", "holes"}, f)
-        end = _required(cb, "end", f)
-        if isinstance(end, bool) or not isinstance(end, int) or not 1 <= end <= K:
-            raise ValueError(f"{f}.end: must be a disk index in 1..{K}, got {end!r}")
-        mode = _required(cb, "mode", f)
-        if mode not in ("position", "force"):
-            raise ValueError(f'{f}.mode: must be "position" or "force", got {mode!r}')
-        if mode == "force":
-            tension = _positive(_required(cb, "tension", f), f"{f}.tension")
-        else:
-            if "tension" in cb:
-                raise ValueError(f"{f}.tension: only force-controlled cables carry a tension")
-            tension = float("nan")
-        has_polar = "radius" in cb or "angle" in cb
-        if has_polar and "holes" in cb:
-            raise ValueError(f"{f}.holes: give either radius + angle or holes, not both")
-        count = 2 * end + 1
-        if "holes" in cb:
-            pts = cb["holes"]
-            if not isinstance(pts, list) or len(pts) != count:
-                got = len(pts) if isinstance(pts, list) else pts
-                raise ValueError(f"{f}.holes: needs 2 end + 1 = {count} points, got {got!r}")
-            h = np.array([_vector(p, 3, f"{f}.holes[{i}]") for i, p in enumerate(pts)])
-            for i in range(count):
-                d = (i + 1) // 2  # point i lies on disk d (0 = base)
-                if math.hypot(h[i, 1], h[i, 2]) > disk_radius[d]:
-                    where = "the base" if d == 0 else f"disk {d}"
-                    raise ValueError(
-                        f"{f}.holes[{i}]: outside {where} (sqrt(y^2 + z^2) = {math.hypot(h[i, 1], h[i, 2])!r} m"
-                        f" > radius {disk_radius[d]!r} m)"
-                    )
-        elif has_polar:
-            r = _non_negative(_required(cb, "radius", f), f"{f}.radius")
-            a = _number(_required(cb, "angle", f), f"{f}.angle")
-            for d in range(end + 1):
-                if r > disk_radius[d]:
-                    where = "the base" if d == 0 else f"disk {d}"
-                    raise ValueError(f"{f}.radius: {r!r} m is outside {where} (radius {disk_radius[d]!r} m)")
-            h = np.tile([0.0, r * math.cos(a), r * math.sin(a)], (count, 1))
-        else:
-            raise ValueError(f"{f}.holes: missing (give radius + angle, or holes)")
-        cable_end.append(end)
-        cable_mode.append(mode)
-        cable_tension.append(tension)
-        holes.append(h)
-    n = len(axes)
-    n_pos = cable_mode.count("position")
-    if n_pos < n:
-        raise ValueError(
-            f"cables: {n_pos} position-controlled cables for {n} joints (mode = \"position\" needed on at least {n})"
-        )
-
-    material = _table(doc.get("cable", {}), "cable")
-    _known_keys(material, {"youngs_modulus", "diameter", "routing_length"}, "cable")
-    E = _positive(material.get("youngs_modulus", DEFAULT_YOUNGS_MODULUS), "cable.youngs_modulus")
-    dia = _positive(material.get("diameter", DEFAULT_DIAMETER), "cable.diameter")
-    routing = _non_negative(material.get("routing_length", 0.0), "cable.routing_length")
-
-    return SpatialRobot(
-        name=name,
-        axes=np.array(axes).reshape(n, 3),
-        offsets=np.array(offsets).reshape(n, 3),
-        limits=np.array(limits).reshape(n, 2),
-        joint_disk=np.array(joint_disk, dtype=np.int64),
-        link_after=np.array(link_after).reshape(K, 3),
-        thickness=np.array(thickness),
-        radius=np.array(radius),
-        mass=np.array(mass),
-        com=np.array(com).reshape(K, 3),
-        base_radius=base_radius,
-        gravity=gravity,
-        cable_end=np.array(cable_end, dtype=np.int64),
-        cable_mode=tuple(cable_mode),
-        cable_tension=np.array(cable_tension, dtype=float),
-        holes=tuple(holes),
-        youngs_modulus=E,
-        diameter=dia,
-        routing_length=routing,
-    )
-
-
-def load_spatial(path) -> SpatialRobot:
-    """:func:`parse_spatial` of the file at ``path``."""
-    return parse_spatial(Path(path).read_text(encoding="utf-8"))
+SpatialRobot = Robot
+parse_spatial = read_robot
+load_spatial = load_robot
 
 
 def position_cables(robot: SpatialRobot) -> np.ndarray:
@@ -664,7 +368,7 @@ def _seed(robot: SpatialRobot, seed, N: int) -> np.ndarray:
 
 
 def _within_limits(robot: SpatialRobot, theta: np.ndarray) -> np.ndarray:
-    return np.all((theta >= robot.limits[:, 0]) & (theta <= robot.limits[:, 1]), axis=1)
+    return np.all((theta >= robot.joint_limits[:, 0]) & (theta <= robot.joint_limits[:, 1]), axis=1)
 
 
 def solve_cables(robot: SpatialRobot, lengths_pos, seed=None, tol=1e-12, max_iter=100) -> dict:
