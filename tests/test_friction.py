@@ -13,7 +13,6 @@ import pytest
 from conftest import ROOT, reference
 
 spp = reference.spatial_plant
-sp = reference.spatial
 ROBOTS = ROOT / "python" / "cdsm" / "robots"
 
 #: One joint of the paper's first linkage (link_before = link_after, so the
@@ -189,7 +188,7 @@ def test_planar_plant_with_friction_matches_the_reference(cdsm, ref, blocks):
 def test_spatial_plant_with_friction_matches_the_reference(cdsm):
     from cdsm.calibration import plant
 
-    core, arm = cdsm.Robot.packaged("two_universal"), sp.load_spatial(ROBOTS / "two_universal.toml")
+    core, arm = cdsm.Robot.packaged("two_universal"), reference.load_robot(ROBOTS / "two_universal.toml")
     lay = spp.layout(arm)
     p = np.zeros(spp.size(arm))
     p[lay["cable_elasticity"]] = 0.02
@@ -252,7 +251,7 @@ def test_redundant_arm_with_friction_matches_the_reference(cdsm):
 
     text = (ROBOTS / "two_universal.toml").read_text(encoding="utf-8")
     text = re.sub(r'mode = "force"\ntension = [0-9.eE+-]+\n', 'mode = "position"\n', text)
-    core, arm = cdsm.Robot.from_toml_str(text), sp.parse_spatial(text)
+    core, arm = cdsm.Robot.from_toml_str(text), reference.read_robot(text)
     lay = spp.layout(arm)
     p = np.zeros(spp.size(arm))
     p[lay["cable_elasticity"]] = 0.02

@@ -76,7 +76,7 @@ class TestReferenceAlone:
         theta = random_theta(3, N=20, seed=2)
         P, Q, R, mask = ref.segment_coefficients(robot)
         s2 = P + Q * np.cos(theta)[:, None, :] + R * np.sin(theta)[:, None, :]
-        s, _ = ref.segment_lengths(robot, theta)
+        s = ref.segment_lengths(robot, theta)  # the chain's gaps |A_k - B_(k-1)|
         assert_close(np.where(mask, np.sqrt(s2), 0.0), s, 1e-15, "sqrt(P+Qc+Rs)")
 
     def test_straight_invariants(self, ref):
@@ -98,7 +98,7 @@ class TestReferenceAlone:
         assert dev["converged"].all()
         assert_close(dev["dS"][:, :2] * 1e3, TABLE3_THEORETICAL_MM, 2e-4, "Table 3 (mm)")
         cf = ref.solve_cables_closed_form(
-            robot, ref.upper_cable_lengths(robot, sol["theta"]) + TABLE3_DL, seed=sol["theta"]
+            robot, ref.position_lengths(robot, sol["theta"]) + TABLE3_DL, seed=sol["theta"]
         )
         assert cf["converged"].all()
         assert (cf["n_branches"] == 2).all()
@@ -116,7 +116,7 @@ class TestReferenceAlone:
 
     def test_hole_height_error(self, ref):
         robot = ref.Robot.paper()
-        holes = ref.hole_height_error(robot, [3.5e-4, 0.0, -1e-4])
+        holes = ref.hole_height_error(robot, [3.5e-4, 0.0, -1e-4]).planar.holes
         mask = ref.used_hole_mask(3)
         d = holes - robot.planar.holes
         assert (d[..., 0] == 0).all()
@@ -290,6 +290,23 @@ def test_upper_and_lower_change_oppositely(cdsm):
 # ==========================================================================
 # Pose IK
 # ==========================================================================
+def _rounding_spread(pair, pose, seed, rows, kw, tries=4):
+    """``(N,)`` rad: for the ``rows``, the largest change of the core's IK answer when
+    every seed angle moves by one ulp up or down (at random, ``tries`` times); 0 elsewhere."""
+    spread = np.zeros(len(pose))
+    if rows.size == 0:
+        return spread
+    base = np.zeros((len(pose), pair.ref.n)) if seed is None else np.asarray(seed, dtype=float)
+    theta0 = np.asarray(pair.rust.ik(pose[rows], seed=base[rows], **kw).theta)
+    rng = np.random.default_rng(0)
+    for _ in range(tries):
+        up = rng.random(base[rows].shape) < 0.5
+        nudged = np.where(up, np.nextafter(base[rows], np.inf), np.nextafter(base[rows], -np.inf))
+        moved = np.asarray(pair.rust.ik(pose[rows], seed=nudged, **kw).theta)
+        spread[rows] = np.maximum(spread[rows], np.abs(moved - theta0).max(axis=1))
+    return spread
+
+
 def _ik_parity(pair, ref, pose, seed, what, **kw):
     sol = pair.rust.ik(pose, seed=seed, **kw)
     expected = ref.ik(pair.ref, pose, seed=seed, **kw)
@@ -297,7 +314,20 @@ def _ik_parity(pair, ref, pose, seed, what, **kw):
     assert conv.dtype == np.bool_
     np.testing.assert_array_equal(conv, expected["converged"], err_msg=f"{what}: converged")
     theta = np.asarray(sol.theta)
-    assert_close(theta[conv], expected["theta"][conv], ANGLE_TOL, f"{what}: theta")
+    # a converged row of a redundant arm stops somewhere on its pose's set of
+    # configurations, and where depends on rounding along its path: on the
+    # 12-joint arm from far seeds the core itself moves such a row's answer by
+    # up to 5e-10 rad when its seed moves by one ulp (31 steps along a singular
+    # value of 0.04). A row the core does not reproduce to ANGLE_TOL under one-ulp
+    # changes of its seed is compared to twice that spread (two paths, each within
+    # it of a third); every other row to the full tolerance
+    err = np.abs(theta - expected["theta"]).max(axis=1)
+    spread = _rounding_spread(pair, pose, seed, np.flatnonzero(conv & (err > ANGLE_TOL)), kw)
+    undetermined = spread > ANGLE_TOL
+    assert_close(theta[conv & ~undetermined], expected["theta"][conv & ~undetermined], ANGLE_TOL, f"{what}: theta")
+    assert (err[undetermined] <= 2.0 * spread[undetermined]).all(), (f"{what}: theta beyond twice the core's own "
+                                                                     f"rounding spread", err[undetermined],
+                                                                     spread[undetermined])
     # a row both leave unconverged at max_iter with an angle held on the joint
     # box (limits enforced) is a search that crept along the bound, and
     # where it stopped depends on rounding (poses out of reach within the box:
@@ -429,7 +459,7 @@ def test_failed_ik_is_flagged_not_raised(pair, ref):
 def test_solve_cables_parity(pair, ref, method, seed_kind):
     n = pair.ref.n
     theta_true = random_theta(n, seed=41)
-    upper = ref.upper_cable_lengths(pair.ref, theta_true)
+    upper = ref.position_lengths(pair.ref, theta_true)
     seed = None
     if seed_kind == "near":
         seed = theta_true + np.random.default_rng(42).normal(0.0, 0.02, theta_true.shape)
@@ -457,7 +487,7 @@ def test_solve_cables_edge_cases(pair, ref, kind, method):
         "limits": np.stack([lo, hi, np.where(np.arange(n) % 2 == 0, lo, hi)]),
         "tiny": np.stack([np.full(n, 1e-9), np.full(n, -1e-9)]),
     }[kind]
-    upper = ref.upper_cable_lengths(pair.ref, theta)
+    upper = ref.position_lengths(pair.ref, theta)
     sol = pair.rust.solve_cables(upper, method=method)
     assert np.asarray(sol.converged).all()
     assert_close(sol.theta, theta, 1e-9, f"{pair.name} {method} {kind}")
@@ -472,7 +502,7 @@ def test_solve_cables_edge_cases(pair, ref, kind, method):
 @pytest.mark.parametrize("method", ["newton", "closed_form"])
 def test_failed_cable_solve_is_flagged(pair, ref, method):
     n = pair.ref.n
-    straight = ref.upper_cable_lengths(pair.ref, np.zeros((1, n)))
+    straight = ref.position_lengths(pair.ref, np.zeros((1, n)))
     upper = np.vstack([0.05 * straight, straight + 0.05])  # shorter than a disk / too long
     sol = pair.rust.solve_cables(upper, method=method)
     assert not np.asarray(sol.converged).any()

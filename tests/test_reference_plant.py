@@ -86,7 +86,7 @@ def test_zero_parameters_are_nominal(ref, name):
     obs, ok = ref.plant_predict(robot, p, theta, dL, kind)
     assert ok.all()
 
-    C = ref.upper_cable_lengths(robot, theta)
+    C = ref.position_lengths(robot, theta)
     for solver, atol in [(ref.solve_cables_closed_form, 1e-14), (ref.solve_cables, 1e-10)]:
         s1 = solver(robot, C + dL, seed=theta)
         s0 = solver(robot, C, seed=theta)
@@ -140,7 +140,7 @@ def test_clearance_zero_is_nominal_length(ref, name):
            clearance_width=0.02)
     theta = random_theta(n, 200, seed=7)
     La = ref.arm_upper_lengths(robot, p, theta)
-    np.testing.assert_allclose(La, ref.upper_cable_lengths(ref.plant_arm(robot, p), theta),
+    np.testing.assert_allclose(La, ref.position_lengths(ref.plant_arm(robot, p), theta),
                                rtol=0, atol=1e-15)
 
 
@@ -152,11 +152,11 @@ def test_clearance_vanishes_at_straight_pose(ref, name):
     assert np.all(ref.clearance_shifts(np.zeros((1, n)), 3e-4, 0.01) == 0.0)
     z = np.zeros((1, n))
     np.testing.assert_allclose(ref.arm_upper_lengths(robot, p, z),
-                               ref.upper_cable_lengths(ref.plant_arm(robot, p), z), rtol=0, atol=1e-15)
+                               ref.position_lengths(ref.plant_arm(robot, p), z), rtol=0, atol=1e-15)
     # away from the straight pose it does change the lengths
     theta = random_theta(n, 20, seed=8)
     assert np.abs(ref.arm_upper_lengths(robot, p, theta)
-                  - ref.upper_cable_lengths(ref.plant_arm(robot, p), theta)).max() > 1e-6
+                  - ref.position_lengths(ref.plant_arm(robot, p), theta)).max() > 1e-6
 
 
 def test_clearance_by_hand_n1(ref):
@@ -209,7 +209,7 @@ def test_backlash_zero_is_identity(ref):
 def test_backlash_reversal_and_monotone(ref):
     robot = _robot(ref, "paper")
     L0 = ref.reference_lengths(robot)
-    np.testing.assert_array_equal(L0, ref.upper_cable_lengths(robot, np.zeros((1, 3)))[0])
+    np.testing.assert_array_equal(L0, ref.position_lengths(robot, np.zeros((1, 3)))[0])
     b = np.array([1e-4, 2e-4, 5e-5])
     p = _p(ref, 3, backlash=b)
     D = 1e-3
@@ -247,7 +247,7 @@ def test_backlash_in_the_pipeline(ref):
     robot = _robot(ref, "paper")
     b = np.array([1e-4, 2e-4, 1.5e-4])
     theta = np.array([[-0.2, -0.1, -0.15]])  # all upper cables longer than straight
-    C = ref.upper_cable_lengths(robot, theta)
+    C = ref.position_lengths(robot, theta)
     assert np.all(C[0] - ref.reference_lengths(robot) > b)
     obs, ok = ref.plant_predict(robot, _p(ref, 3, backlash=b), theta, np.zeros((1, 3)), ["absolute"])
     sol = ref.solve_cables(robot, C - b, seed=theta)
@@ -263,7 +263,7 @@ def test_commands_order(ref):
     dL = np.full((4, 3), 1e-4)
     cmds, rows, seeds = ref.plant_commands(robot, theta, dL, ["displacement", "absolute", "unmeasured",
                                                               "displacement"])
-    C = ref.upper_cable_lengths(robot, theta)
+    C = ref.position_lengths(robot, theta)
     assert rows.tolist() == [0, 0, 1, 2, 3, 3]
     np.testing.assert_array_equal(cmds, [C[0], C[0] + dL[0], C[1] + dL[1], C[2] + dL[2], C[3], C[3] + dL[3]])
     np.testing.assert_array_equal(seeds, theta[rows])
@@ -353,13 +353,13 @@ def test_elastic_settling(ref, name, gravity, routing):
     rng = np.random.default_rng(16)
     p = _p(ref, n, cable_elasticity=kappa, hole_height=rng.normal(0, 5e-5, n),
            link_length=rng.normal(0, 5e-5, n + 1))
-    L = ref.upper_cable_lengths(robot, theta_cmd)
+    L = ref.position_lengths(robot, theta_cmd)
     theta, ok = ref.settle(robot, p, L, theta_cmd)
     assert ok.all()
     arm = ref.plant_arm(robot, p)
     T = ref.tensions(arm, theta, lower=robot.planar.lower_tension,
                      gravity=None if gravity is None else gravity, mass=robot.mass)
-    stretch = ref.upper_cable_lengths(arm, theta) - L
+    stretch = ref.position_lengths(arm, theta) - L
     # the settling equation: L_arm - L = (L + L_route) kappa T
     np.testing.assert_allclose(stretch, (L + routing) * kappa * T, rtol=0, atol=1e-10)
     # taut cables lengthen (and the random configurations do pull on them)
@@ -380,7 +380,7 @@ def test_elastic_settling(ref, name, gravity, routing):
 def test_settling_with_clearance(ref):
     robot = _robot(ref, "paper")
     theta_cmd = random_theta(3, 30, seed=17, lim=0.4)
-    L = ref.upper_cable_lengths(robot, theta_cmd)
+    L = ref.position_lengths(robot, theta_cmd)
     p = _p(ref, 3, hole_clearance=2e-4, clearance_width=0.01, cable_elasticity=1e-5)
     theta, ok = ref.settle(robot, p, L, theta_cmd)
     assert ok.all()

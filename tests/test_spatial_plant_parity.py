@@ -27,7 +27,6 @@ import pytest
 from conftest import ROOT, reference
 
 spp = reference.spatial_plant
-sp = reference.spatial
 ROBOTS = ROOT / "python" / "cdsm" / "robots"
 NON_NEGATIVE = ("cable_elasticity", "hole_clearance", "backlash", "cable_friction")
 KINDS = ["absolute", "displacement", "unmeasured"]
@@ -45,21 +44,21 @@ def _all_position_text() -> str:
 @pytest.fixture(scope="module")
 def two(cdsm):
     """``(core robot, reference robot)`` of two_universal."""
-    return cdsm.Robot.packaged("two_universal"), sp.load_spatial(ROBOTS / "two_universal.toml")
+    return cdsm.Robot.packaged("two_universal"), reference.load_robot(ROBOTS / "two_universal.toml")
 
 
 @pytest.fixture(scope="module")
 def eight(cdsm):
     """``(core robot, reference robot)`` of the all-position two_universal."""
     text = _all_position_text()
-    return cdsm.Robot.from_toml_str(text), sp.parse_spatial(text)
+    return cdsm.Robot.from_toml_str(text), reference.read_robot(text)
 
 
 def _rows(ref, rows, seed, dl=1e-3, kinds=None):
     """Commands within +-0.4 rad, ``dL`` within +-dl m, mixed row kinds; seeded."""
     rng = np.random.default_rng(seed)
     theta = rng.uniform(-0.4, 0.4, (rows, ref.n))
-    dL = rng.uniform(-dl, dl, (rows, sp.position_cables(ref).size))
+    dL = rng.uniform(-dl, dl, (rows, reference.position_cables(ref).size))
     kind = rng.choice(KINDS, rows, p=[0.5, 0.3, 0.2]) if kinds is None else np.array(kinds)
     return theta, dL, kind
 
@@ -105,7 +104,7 @@ def _compare(core, ref, p, theta, dL, kind, tol=1e-12, every_row=True):
 def test_layout_matches_the_core(cdsm, two, eight):
     from cdsm.calibration import plant
 
-    paper = cdsm.Robot.packaged("paper_spatial"), sp.load_spatial(ROBOTS / "paper_spatial.toml")
+    paper = cdsm.Robot.packaged("paper_spatial"), reference.load_robot(ROBOTS / "paper_spatial.toml")
     for core, ref in (two, eight, paper):
         assert list(map(tuple, core.core.plant_effects())) == spp.block_sizes(ref)
         assert plant.layout(core) == spp.layout(ref) and plant.size(core) == spp.size(ref)
@@ -210,7 +209,7 @@ def test_redundant_elastic_arm_settles_with_slack_cables(eight):
 def test_spatial_clearance_reduces_to_the_planar_one(cdsm, ref, cl, dw):
     from cdsm.calibration import plant
 
-    spatial = sp.load_spatial(ROBOTS / "paper_spatial.toml")
+    spatial = reference.load_robot(ROBOTS / "paper_spatial.toml")
     planar_ref, planar_core = ref.Robot.paper(), cdsm.Robot.paper()
     ps = np.zeros(spp.size(spatial))
     ls = spp.layout(spatial)
@@ -251,7 +250,7 @@ def test_joint_axis_tilt_of_an_axis_near_x(cdsm, degrees):
     a = np.radians(90.0 - degrees)
     axis = f"axis = [{float(np.sin(a))!r}, {float(np.cos(a))!r}, 0.0]"
     text = (ROBOTS / "two_universal.toml").read_text(encoding="utf-8").replace("axis = [0.0, 1.0, 0.0]", axis, 1)
-    core, ref = cdsm.Robot.from_toml_str(text), sp.parse_spatial(text)
+    core, ref = cdsm.Robot.from_toml_str(text), reference.read_robot(text)
     p = np.zeros(spp.size(ref))
     p[spp.layout(ref)["joint_axis"]] = np.random.default_rng(8).uniform(-1e-2, 1e-2, 8)
     theta, _, kind = _rows(ref, 8, 8)
@@ -298,25 +297,25 @@ def test_jets_jacobian_matches_central_differences_of_the_reference(two):
 # Reference self-checks (no core needed)
 # --------------------------------------------------------------------------
 def test_reference_all_zero_parameters_are_the_nominal_model():
-    ref = sp.load_spatial(ROBOTS / "two_universal.toml")
+    ref = reference.load_robot(ROBOTS / "two_universal.toml")
     theta, dL, _ = _rows(ref, 6, 3)
     obs, ok = spp.predict(ref, np.zeros(spp.size(ref)), theta, dL, ["absolute"] * 6)
-    pos = sp.position_cables(ref)
-    nominal = sp.solve_cables(ref, sp.cable_lengths(ref, theta)[:, pos] + dL, seed=theta)
+    pos = reference.position_cables(ref)
+    nominal = reference.solve_cables(ref, reference.cable_lengths(ref, theta)[:, pos] + dL, seed=theta)
     assert ok.all() and nominal["converged"].all()
-    assert np.abs(obs - sp.fk(ref, nominal["theta"])).max() < 1e-12
+    assert np.abs(obs - reference.fk(ref, nominal["theta"])).max() < 1e-12
 
 
 def test_reference_elastic_equations_are_the_gradient_of_the_energy():
     """``docs/model.md``: for ``m > n`` the elastic equilibrium ``J^T max(0, s) - kappa
     (tau - J_f^T T_f) = 0`` is the stationary point of ``sum (L + L_r)/2 max(0, s)^2 +
     kappa (V + sum_f T_f L_f)``; checked by central differences."""
-    ref = sp.parse_spatial(_all_position_text())
+    ref = reference.read_robot(_all_position_text())
     p = np.zeros(spp.size(ref))
     p[spp.layout(ref)["cable_elasticity"]] = 0.02
     arm, q = spp.plant_arm(ref, p), spp.plant_params(ref, p)
     theta, dL, _ = _rows(ref, 5, 4)
-    L = sp.cable_lengths(ref, theta)[:, sp.position_cables(ref)] + dL
+    L = reference.cable_lengths(ref, theta)[:, reference.position_cables(ref)] + dL
     F = spp._residual_function(ref, arm, q, L)
     idx = np.arange(5)
     th = theta + 0.02

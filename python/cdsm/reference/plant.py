@@ -47,20 +47,19 @@ import dataclasses
 
 from . import friction as fr
 from . import sequence as sq
-from .robot import Robot, as_robot
-from .kinematics import (
-    planar_attributes,
-    hole_points,
-    batch_array,
-    batched_solve,
-    read_geometry,
-    levenberg_marquardt,
-    fk,
-    hole_height_error,
-    solve_cables_closed_form,
-    tensions,
-    upper_cable_lengths,
-)
+from .closed_form import solve_cables_closed_form
+from .kinematics import cable_points, fk, position_lengths
+from .robot import Robot, as_robot, hole_height_error
+from .solve import levenberg_marquardt, solve_rows
+from .statics import tensions
+
+
+def batch_array(a, width: int, name: str) -> np.ndarray:
+    """``a`` as a float64 ``(N, width)`` array (no 1-D convenience here)."""
+    arr = np.asarray(a, dtype=float)
+    if arr.ndim != 2 or arr.shape[1] != width:
+        raise ValueError(f"{name} must have shape (N, {width}), got {arr.shape}")
+    return arr
 
 __all__ = [
     "PLANT_EFFECTS",
@@ -164,11 +163,6 @@ def plant_params(p, n: int) -> dict:
 # --------------------------------------------------------------------------
 # The arm
 # --------------------------------------------------------------------------
-def _robot_gravity(robot) -> np.ndarray:
-    g = getattr(planar_attributes(robot), "gravity", None)
-    return np.zeros(2) if g is None else np.asarray(g, dtype=float).reshape(2)
-
-
 def _robot_routing(robot) -> float:
     r = getattr(robot, "routing_length", None)
     return 0.0 if r is None else float(r)
@@ -194,9 +188,9 @@ def plant_arm(robot, p) -> Robot:
     ``routing_length`` (default 0) are carried over.  Returns a
     :class:`.robot.Robot`.
     """
-    g = read_geometry(robot)
-    q = plant_params(p, g.n)
-    arm = as_robot(robot).with_planar_holes(hole_height_error(robot, q["dh"]))
+    robot = as_robot(robot)
+    q = plant_params(p, robot.n)
+    arm = hole_height_error(robot, q["dh"])
     offsets, link_after = arm.offsets.copy(), arm.link_after.copy()
     offsets[0, 0] += q["dl"][0]
     link_after[:, 0] += q["dl"][1:]
@@ -210,7 +204,7 @@ def clearance_shifts(theta, cl: float, w: float) -> np.ndarray:
 
 def _arm_upper_lengths(arm, theta: np.ndarray, cl: float, w: float) -> np.ndarray:
     """Upper-cable lengths of ``arm`` (already perturbed) with hole clearance."""
-    g = read_geometry(arm)
+    g = arm.planar
     n, N = g.n, theta.shape[0]
     H = g.holes[0::2]  # (n cables, n+1 disks, 2 faces, 2) upper holes
     d = clearance_shifts(theta, cl, w)  # (N, n): shift at joint k
@@ -230,14 +224,14 @@ def _arm_upper_lengths(arm, theta: np.ndarray, cl: float, w: float) -> np.ndarra
     qx, qy = q[None, ..., 0], q[None, ..., 1] + d_k
     bx, by = b[None, ..., 0], b[None, ..., 1] + d_next
     # A_k = (lb_k, 0) + Rot(theta_k) (q' + (la_k, 0)), frame O_{k-1,b}
-    ux = qx + g.la[None, None, :]
+    ux = qx + g.link_after[None, None, :]
     uy = qy
     c, s = np.cos(theta)[:, None, :], np.sin(theta)[:, None, :]
-    ax = g.lb[None, None, :] + c * ux - s * uy
+    ax = g.link_before[None, None, :] + c * ux - s * uy
     ay = s * ux + c * uy
     seg = np.hypot(ax - px, ay - py)
     # traversal of disk k, frame O_{k,a}
-    tr = np.hypot(g.t[None, None, :] + bx - qx, by - qy)
+    tr = np.hypot(g.thickness[None, None, :] + bx - qx, by - qy)
     return np.where(mask[None], seg + tr, 0.0).sum(axis=2)
 
 
@@ -263,7 +257,7 @@ def arm_upper_lengths(robot, p, theta) -> np.ndarray:
 # --------------------------------------------------------------------------
 def reference_lengths(robot) -> np.ndarray:
     """``L_ref (n,)`` m: straight-pose upper lengths of the *nominal* robot."""
-    return upper_cable_lengths(robot, np.zeros((1, int(robot.n))))[0]
+    return position_lengths(robot, np.zeros((1, int(robot.n))))[0]
 
 
 def backlash_scan(robot, p, commands, start=None) -> np.ndarray:
@@ -310,34 +304,32 @@ def plant_tensions(robot, p, theta) -> np.ndarray:
     :func:`plant_arm` *without* the clearance shifts.
     """
     arm = plant_arm(robot, p)
-    theta = batch_array(theta, arm.n, "theta")
-    gravity = _robot_gravity(arm)
-    v = planar_attributes(robot)
-    if np.any(gravity != 0.0):
-        return tensions(arm, theta, lower=v.lower_tension, gravity=gravity, mass=v.mass)
-    return tensions(arm, theta, lower=v.lower_tension)
+    return tensions(arm, batch_array(theta, arm.n, "theta"))
 
 
 def friction_factors(arm, theta, z, mu: float):
     """The capstan profile of every cable of ``arm`` at ``theta (N, n)`` rad with
     the mobilisations ``z (N, H)`` (holes cable by cable, ``2 e`` each): the gap
-    factors ``(N, 2n, n)`` (tension in the gap before disk ``k`` over the
-    routing's, 0 where the cable does not cross it) and ``ebar (N, 2n)`` (the
-    length-weighted mean factor with the routing, ``docs/model.md``)."""
-    theta = batch_array(theta, int(arm.n), "theta")
-    n, N = int(arm.n), theta.shape[0]
-    pts = hole_points(arm, theta)
-    gap = np.zeros((N, 2 * n, n))
-    ebar = np.empty((N, 2 * n))
+    factors ``(N, n, m)`` (tension in the gap of joint ``j`` over the routing's, 1
+    where the cable does not cross it) and ``ebar (N, m)`` (the length-weighted mean
+    factor with the routing, ``docs/model.md``)."""
+    arm = as_robot(arm)
+    theta = batch_array(theta, arm.n, "theta")
+    N = theta.shape[0]
+    gap = np.ones((N, arm.n, arm.m))
+    ebar = np.empty((N, arm.m))
     start = 0
-    for c, P in enumerate(pts):
-        e = c // 2 + 1
+    for c, P in enumerate(cable_points(arm, theta)):
+        e = int(arm.cable_end[c])
         beta = fr.wrap_angles(P)
         g, _ = fr.segments(P)
         E = fr.profile(beta, z[:, start:start + 2 * e], mu)
         start += 2 * e
-        gap[:, c, :e] = E[:, 1::2]  # segment 2k - 1: the gap before disk k
-        ebar[:, c] = fr.mean_factor(g, E, _robot_routing(arm))
+        for j in range(arm.n):
+            k = int(arm.joint_disk[j])
+            if k <= e:
+                gap[:, j, c] = E[:, 2 * k - 1]
+        ebar[:, c] = fr.mean_factor(g, E, float(arm.routing_length))
     return gap, ebar
 
 
@@ -355,14 +347,12 @@ def _settling_F(robot, arm, q, L, theta, lower, z=None):
     if q["kappa"] == 0.0 and q["mu"] == 0.0:
         return La - L
     Lr = arm.routing_length
-    g = _robot_gravity(arm)
-    grav = dict(gravity=g, mass=planar_attributes(robot).mass) if np.any(g != 0.0) else {}
     if q["mu"] == 0.0:
-        T = tensions(arm, theta, lower=lower, **grav)
+        T = tensions(arm, theta, lower=lower)
         return La - (L + Lr) * (1.0 + q["kappa"] * T) + Lr
     gap, ebar = friction_factors(arm, theta, z, q["mu"])
-    T = tensions(arm, theta, lower=lower, gap=gap, **grav) * ebar[:, 0::2]
-    T0 = tensions(arm, theta, lower=lower, **grav)
+    T = tensions(arm, theta, lower=lower, gap=gap) * ebar[:, 0::2]
+    T0 = tensions(arm, theta, lower=lower)
     return La - L - (L + Lr) * (q["kappa"] * T + cable_compliance(robot) * (T - T0))
 
 
@@ -379,7 +369,7 @@ def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
     L = batch_array(realised, arm.n, "realised")
     theta = batch_array(theta, arm.n, "theta")
     lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
-        np.asarray(planar_attributes(robot).lower_tension, dtype=float), L.shape)
+        np.asarray(arm.planar.lower_tension, dtype=float), L.shape)
     z = np.ones((L.shape[0], _hole_count(arm.n))) if z is None else np.asarray(z, float)
     return _settling_F(robot, arm, q, L, theta, lower, z)
 
@@ -412,7 +402,7 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6
 
     theta = np.where(rigid["converged"][:, None], rigid["theta"], seed)
     lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
-        np.asarray(planar_attributes(robot).lower_tension, dtype=float), L.shape)
+        np.asarray(arm.planar.lower_tension, dtype=float), L.shape)
     z = np.ones((L.shape[0], _hole_count(n))) if z is None else np.asarray(z, float)
 
     def F(th, idx):
@@ -429,7 +419,7 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6
             J[:, :, k] = (F(th + e, idx) - F(th - e, idx)) / (2.0 * fd_step)
         Jt = np.swapaxes(J, 1, 2)
         A = Jt @ J + lam[:, None, None] * np.eye(n)
-        return batched_solve(A, (Jt @ r[..., None])[..., 0])
+        return solve_rows(A, (Jt @ r[..., None])[..., 0])
 
     with np.errstate(all="ignore"):
         sol = levenberg_marquardt(residual, step, theta, tol, max_iter)
@@ -483,7 +473,7 @@ def plant_commands(robot, theta_cmd, dL, kind):
     bad = [k for k in kind if k not in _KINDS]
     if bad:
         raise ValueError(f"kind must be one of {_KINDS}, got {bad[0]!r}")
-    C = upper_cable_lengths(robot, theta_cmd)
+    C = position_lengths(robot, theta_cmd)
     commands, rows = [], []
     for i, k in enumerate(kind):
         if k == "displacement":
@@ -509,21 +499,19 @@ def friction_motion(robot, commands, seeds, first) -> tuple:
     frictionless tension ``T_hat`` at every hole (upper: the balance's, 0 where
     negative or undefined; lower: its set tension) and ``d0 (H,)`` the straight
     pose's distal lengths; holes cable by cable (``2 e`` each)."""
+    robot = as_robot(robot)
     n = int(robot.n)
     commands = batch_array(commands, n, "commands")
     seeds = batch_array(seeds, n, "seeds")
     sol = solve_cables_closed_form(robot, commands, seed=seeds)
     theta = np.where(sol["converged"][:, None] & ~np.asarray(first, bool)[:, None], sol["theta"], seeds)
-    g = _robot_gravity(robot)
-    v = planar_attributes(robot)
-    grav = dict(gravity=g, mass=v.mass) if np.any(g != 0.0) else {}
-    T = tensions(robot, theta, lower=v.lower_tension, **grav)
+    T = tensions(robot, theta)
     T = np.where(np.isfinite(T) & (T > 0.0), T, 0.0)
-    lower = np.asarray(v.lower_tension, dtype=float)
+    lower = np.asarray(robot.planar.lower_tension, dtype=float)
 
     def holes(th, Tup):
         d, beta, ten = [], [], []
-        for c, P in enumerate(hole_points(robot, th)):
+        for c, P in enumerate(cable_points(robot, th)):
             gseg, _ = fr.segments(P)
             d.append(fr.distal_lengths(gseg))
             beta.append(fr.wrap_angles(P))
@@ -558,6 +546,7 @@ def plant_predict(robot, p, theta_cmd, dL, kind):
     components and ``phi``), NaN (unmeasured, and rows that did not settle); ``converged`` is True when every
     command of the row settled (also for unmeasured rows).
     """
+    robot = as_robot(robot)
     commands, rows, seeds = plant_commands(robot, theta_cmd, dL, kind)
     r = backlash_scan(robot, p, commands)
     L = realised_lengths(robot, p, r)

@@ -45,6 +45,8 @@ __all__ = [
     "position_cables",
     "force_cables",
     "used_hole_mask",
+    "hole_height_error",
+    "to_planar_layout",
     "STANDARD_GRAVITY",
     "PAPER_JOINT_LIMIT",
 ]
@@ -227,6 +229,40 @@ def position_cables(robot: Robot) -> np.ndarray:
 def force_cables(robot: Robot) -> np.ndarray:
     """Indices (0-based, file order) of the force-controlled cables, ``(m - m_pos,)`` int."""
     return np.array([c for c, mode in enumerate(robot.cable_mode) if mode == "force"], dtype=np.int64)
+
+
+def hole_height_error(robot: Robot, dh) -> Robot:
+    """The arm with the paper's "error on disk i's holes" (``docs/model.md``, the plant's
+    ``hole_height``): every hole of the cables ending at disk ``i`` moved by ``dh_i`` m
+    (``dh (K,)``) along its local ``y``, a position cable's ``+dh_i``, a force cable's
+    ``-dh_i``, on every face the cable crosses."""
+    robot = as_robot(robot)
+    dh = np.asarray(dh, dtype=float).reshape(robot.disks)
+    holes = []
+    for c, h in enumerate(robot.holes):
+        h = h.copy()
+        h[:, 1] += (1.0 if robot.cable_mode[c] == "position" else -1.0) * dh[robot.cable_end[c] - 1]
+        holes.append(h)
+    return dataclasses.replace(robot, holes=tuple(holes))
+
+
+def to_planar_layout(robot: Robot, values) -> np.ndarray:
+    """An array over the arm's hole coordinates, last axis ``3H`` (every cable's holes
+    flat: cable by cable, point by point, ``x, y, z``), in the planar layout: last
+    axes ``(2n, n+1, 2, 2)`` (``[c, d, f] = (x, y)``, :class:`PlanarView`; ``z``
+    dropped, entries no cable uses 0)."""
+    n = robot.planar.n
+    values = np.asarray(values, dtype=float)
+    out = np.zeros(values.shape[:-1] + (2 * n, n + 1, 2, 2))
+    start = 0
+    for c, h in enumerate(robot.holes):
+        pts = values[..., start:start + h.size].reshape(values.shape[:-1] + h.shape)[..., :2]
+        start += h.size
+        out[..., c, 0, 1, :] = pts[..., 0, :]
+        for d in range(1, c // 2 + 2):
+            out[..., c, d, 0, :] = pts[..., 2 * d - 1, :]
+            out[..., c, d, 1, :] = pts[..., 2 * d, :]
+    return out
 
 
 # --------------------------------------------------------------------------

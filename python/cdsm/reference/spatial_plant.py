@@ -3,7 +3,7 @@ spatial model plus unmodelled effects.
 
 Written from ``docs/model.md`` ("The arm model", "The plant" and its
 subsections) and ``docs/spatial.md`` alone, on top of the reference spatial
-kinematics (:mod:`.spatial`); the tests check the Rust core's one plant
+kinematics (:mod:`.kinematics`); the tests check the Rust core's one plant
 (``cdsm.calibration.plant`` on a ``kind = "spatial"`` robot) against it.
 **All-zero parameters give the nominal model exactly.**
 
@@ -18,7 +18,7 @@ Pipeline for one data set (:func:`predict`), rows in execution order::
     theta  --observe-->  [x, y, z, rx, ry, rz]
 
 Notation: ``n`` joints, ``K`` disks, ``m`` position-controlled cables (the
-commanded ones, file order, :func:`.spatial.position_cables`), ``H`` the holes
+commanded ones, file order, :func:`.robot.position_cables`), ``H`` the holes
 of those cables (``2 e_c + 1`` each, cable by cable in file order, each cable's
 holes in file order: base face b, then faces a, b of disks ``1..e_c``).
 
@@ -74,7 +74,11 @@ import numpy as np
 
 from . import friction as fr
 from . import sequence as sq
-from . import spatial as sp
+from . import kinematics as kin
+from . import robot as rb
+from . import rotations as rot
+from . import solve as sv
+from . import statics as st
 
 __all__ = [
     "BLOCKS",
@@ -123,7 +127,7 @@ _KINDS = ("absolute", "displacement", "unmeasured")
 # Parameter layout
 # --------------------------------------------------------------------------
 def _pos(robot) -> np.ndarray:
-    return sp.position_cables(robot)
+    return rb.position_cables(robot)
 
 
 def _hole_count(robot) -> int:
@@ -131,7 +135,7 @@ def _hole_count(robot) -> int:
 
 
 def block_sizes(robot) -> list:
-    """``[(block, size), ...]`` of the flat vector of ``robot`` (a :class:`.spatial.SpatialRobot`)."""
+    """``[(block, size), ...]`` of the flat vector of ``robot`` (a :class:`.robot.Robot`)."""
     n, K, m, H = robot.n, robot.disks, int(_pos(robot).size), _hole_count(robot)
     sizes = dict(actuation_scale=1, cable_offset=m, hole_position=3 * H, link_length=3 * (n + K),
                  cable_elasticity=1, frame_misalignment=6, tip_offset=3, backlash=m, hole_clearance=1,
@@ -237,12 +241,12 @@ def tilted_axes(axes, tilt) -> np.ndarray:
 
 
 def plant_arm(robot, p):
-    """The plant's arm: ``robot`` (:class:`.spatial.SpatialRobot`) with every hole of the
+    """The plant's arm: ``robot`` (:class:`.robot.Robot`) with every hole of the
     position cables moved by its ``hole_position`` 3-vector (face frame), every joint
     offset and disk ``link_after`` moved by its ``link_length`` 3-vector and every
     joint axis tilted by ``joint_axis``.  Force-cable holes, masses, centres of mass,
     thicknesses, gravity and the cable material are unchanged.  Returns a new
-    :class:`.spatial.SpatialRobot`.
+    :class:`.robot.Robot`.
     """
     q = plant_params(robot, p)
     holes = list(robot.holes)
@@ -287,7 +291,7 @@ def bend_shifts(robot, p, theta) -> tuple:
     ``sb, sa (N, K+1, 3)`` m (index 0 unused, zero)."""
     arm = plant_arm(robot, p)
     q = plant_params(robot, p)
-    return _bend(sp.chain_frames(arm, sp.as_theta(arm, theta)), arm.disks, q["cl"], q["w"])
+    return _bend(kin.chain_frames(arm, kin.as_theta(arm, theta)), arm.disks, q["cl"], q["w"])
 
 
 def _arm_lengths(arm, ch: dict, cl: float, w: float) -> np.ndarray:
@@ -314,7 +318,7 @@ def arm_lengths(robot, p, theta) -> np.ndarray:
     (``docs/model.md``, "The arm"); with ``cl = 0`` the nominal lengths of :func:`plant_arm`."""
     arm = plant_arm(robot, p)
     q = plant_params(robot, p)
-    return _arm_lengths(arm, sp.chain_frames(arm, sp.as_theta(arm, theta)), q["cl"], q["w"])
+    return _arm_lengths(arm, kin.chain_frames(arm, kin.as_theta(arm, theta)), q["cl"], q["w"])
 
 
 # --------------------------------------------------------------------------
@@ -322,7 +326,7 @@ def arm_lengths(robot, p, theta) -> np.ndarray:
 # --------------------------------------------------------------------------
 def reference_lengths(robot) -> np.ndarray:
     """``L_ref (m,)`` m: straight-pose position-cable lengths of the *nominal* robot."""
-    return sp.cable_lengths(robot, np.zeros((1, robot.n)))[0, _pos(robot)]
+    return kin.cable_lengths(robot, np.zeros((1, robot.n)))[0, _pos(robot)]
 
 
 def plant_commands(robot, theta_cmd, dL, kind) -> tuple:
@@ -344,7 +348,7 @@ def plant_commands(robot, theta_cmd, dL, kind) -> tuple:
     bad = [k for k in kind if k not in _KINDS]
     if bad:
         raise ValueError(f"kind must be one of {_KINDS}, got {bad[0]!r}")
-    C = sp.cable_lengths(robot, theta_cmd)[:, pos]
+    C = kin.cable_lengths(robot, theta_cmd)[:, pos]
     commands, rows = [], []
     for i, k in enumerate(kind):
         if k == "displacement":
@@ -387,9 +391,9 @@ def _square_tensions(arm, theta) -> np.ndarray:
     """Position-cable tensions ``(N, m)`` N of the statics of ``arm`` (``m = n``): the square
     solve of ``M_p T_p = -(tau + M_f T_f)`` (force cables at their tension, the file's
     gravity, no tip wrench, moment arms of the unshifted holes)."""
-    pos, frc = _pos(arm), sp.force_cables(arm)
-    M = sp.moment_matrices(arm, theta)
-    tau = sp.external_moments(arm, theta)
+    pos, frc = _pos(arm), rb.force_cables(arm)
+    M = st.moment_matrices(arm, theta)
+    tau = st.external_moments(arm, theta)
     rhs = -(tau + M[:, :, frc] @ arm.cable_tension[frc])
     return np.linalg.solve(M[:, :, pos], rhs[..., None])[..., 0]
 
@@ -400,7 +404,7 @@ def plant_tensions(robot, p, theta) -> np.ndarray:
     arm = plant_arm(robot, p)
     if _pos(arm).size != arm.n:
         raise ValueError("plant_tensions: the statics fix the tensions only with as many position cables as joints")
-    return _square_tensions(arm, sp.as_theta(arm, theta))
+    return _square_tensions(arm, kin.as_theta(arm, theta))
 
 
 def friction_factors(arm, theta, z, mu: float):
@@ -410,12 +414,12 @@ def friction_factors(arm, theta, z, mu: float):
     tension ``(N, n, m_all)`` (1 where the cable does not cross the joint: its
     moment there is 0 anyway) and ``ebar (N, m_all)``, the length-weighted mean
     factor with the routing (``docs/model.md``)."""
-    th = sp.as_theta(arm, theta)
+    th = kin.as_theta(arm, theta)
     N = th.shape[0]
     gap = np.ones((N, arm.n, arm.m))
     ebar = np.empty((N, arm.m))
     start = 0
-    for c, P in enumerate(sp.cable_points(arm, th)):
+    for c, P in enumerate(kin.cable_points(arm, th)):
         e = int(arm.cable_end[c])
         beta = fr.wrap_angles(P)
         g, _ = fr.segments(P)
@@ -456,11 +460,11 @@ def _residual_function(robot, arm, q, L, z=None):
     ``V = -sum_b mass_b g . c_b`` the gravity potential (J), ``L_f`` the force-cable
     lengths (m): the equilibrium is its stationary point, a minimum for a stable arm.
     """
-    pos, frc = _pos(arm), sp.force_cables(arm)
+    pos, frc = _pos(arm), rb.force_cables(arm)
     Lr = float(arm.routing_length)
     kappa, cl, w, mu = q["kappa"], q["cl"], q["w"], q["mu"]
     square = pos.size == arm.n
-    scale = np.linalg.norm(sp.cable_jacobian(arm, np.zeros((1, arm.n)))[0, pos])
+    scale = np.linalg.norm(kin.cable_jacobian(arm, np.zeros((1, arm.n)))[0, pos])
     friction = mu > 0.0 and (square or kappa > 0.0)  # a rigid redundant arm: no stretch to change
     kc = 1.0 / (float(arm.youngs_modulus) * np.pi * float(arm.diameter) ** 2 / 4.0)
     if friction:
@@ -473,11 +477,11 @@ def _residual_function(robot, arm, q, L, z=None):
         return friction_factors(arm, th, z[idx], mu)
 
     def strain(th, idx):
-        La = _arm_lengths(arm, sp.chain_frames(arm, th), cl, w)
+        La = _arm_lengths(arm, kin.chain_frames(arm, th), cl, w)
         return (La + Lr) / (L[idx] + Lr) - 1.0
 
     def F(th, idx, taut=None):
-        ch = sp.chain_frames(arm, th)
+        ch = kin.chain_frames(arm, th)
         La = _arm_lengths(arm, ch, cl, w)
         Li = L[idx]
         if square:
@@ -487,12 +491,12 @@ def _residual_function(robot, arm, q, L, z=None):
                 T = _square_tensions(arm, th)
                 return La - (Li + Lr) * (1.0 + kappa * T) + Lr
             gap, ebar = factors(th, idx)
-            M = sp.moment_matrices(arm, th) * gap
-            rhs = -(sp.external_moments(arm, th) + M[:, :, frc] @ arm.cable_tension[frc])
+            M = st.moment_matrices(arm, th) * gap
+            rhs = -(st.external_moments(arm, th) + M[:, :, frc] @ arm.cable_tension[frc])
             T = np.linalg.solve(M[:, :, pos], rhs[..., None])[..., 0] * ebar[:, pos]
             T0 = _square_tensions(arm, th)
             return La - Li - (Li + Lr) * (kappa * T + kc * (T - T0))
-        J = sp.cable_jacobian(arm, th)  # (k, m_all, n), unshifted holes
+        J = kin.cable_jacobian(arm, th)  # (k, m_all, n), unshifted holes
         if kappa == 0.0:
             return np.einsum("kij,ki->kj", J[:, pos, :], La - Li) / scale
         gap, ebar = factors(th, idx)
@@ -500,7 +504,7 @@ def _residual_function(robot, arm, q, L, z=None):
         Jp = J[:, pos, :]
         s = (La + Lr) / (Li + Lr) - 1.0
         pull = np.maximum(0.0, s) if taut is None else np.where(taut, s, 0.0)
-        tau = sp.external_moments(arm, th)
+        tau = st.external_moments(arm, th)
         force = np.einsum("kij,i->kj", J[:, frc, :], arm.cable_tension[frc])
         return np.einsum("kij,ki->kj", Jp, pull / ebar[:, pos]) - kappa * (tau - force)
 
@@ -510,10 +514,10 @@ def _residual_function(robot, arm, q, L, z=None):
         return strain(th, idx) >= -1e-12
 
     def energy(th, idx):
-        La = sp.cable_lengths(arm, th)  # unshifted holes: only used with cl = 0
+        La = kin.cable_lengths(arm, th)  # unshifted holes: only used with cl = 0
         Li = L[idx]
         s = (La[:, pos] + Lr) / (Li + Lr) - 1.0
-        ch = sp.chain_frames(arm, th)
+        ch = kin.chain_frames(arm, th)
         V = np.zeros(th.shape[0])
         for b in range(1, arm.disks + 1):
             centre = np.einsum("nij,j->ni", ch["Ra"][:, b], arm.com[b - 1]) + ch["ta"][:, b]
@@ -533,7 +537,7 @@ def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
     arm = plant_arm(robot, p)
     q = plant_params(robot, p)
     L = np.asarray(realised, dtype=float)
-    th = sp.as_theta(arm, theta)
+    th = kin.as_theta(arm, theta)
     return _residual_function(robot, arm, q, L, z)(th, np.arange(th.shape[0]))
 
 
@@ -574,7 +578,7 @@ def _damped_newton(F, theta, target, max_iter, h):
         idx = np.flatnonzero(active)
         Jt = np.swapaxes(J[idx], 1, 2)
         A = Jt @ J[idx] + lam[idx, None, None] * np.eye(n)
-        delta = -sp.solve_batched(A, (Jt @ r[idx, :, None])[..., 0])
+        delta = -sv.solve_rows(A, (Jt @ r[idx, :, None])[..., 0])
         trial = theta[idx] + delta
         with np.errstate(all="ignore"):
             r_trial = F(trial, idx)
@@ -637,7 +641,7 @@ def _energy_descent(F, theta, switch, max_iter, h):
         A = H[idx] + (lam[idx] * mu)[:, None, None] * np.eye(n)
         with np.errstate(all="ignore"):
             pd = np.linalg.eigvalsh(A).min(1) > 0.0
-            delta = -sp.solve_batched(A, g[idx])
+            delta = -sv.solve_rows(A, g[idx])
             trial = theta[idx] + delta
             e_trial = E(trial, idx)
         trials[idx] += 1
@@ -657,7 +661,7 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, target=1e-15, max_iter=200
     """Joint angles at which the plant's arm settles, per command.
 
     ``realised``: ``L (R, m)`` m; ``theta_seed (R, n)`` rad (the row's ``theta_cmd``).
-    First the rigid cable solve of the plant's arm (:func:`.spatial.solve_cables`,
+    First the rigid cable solve of the plant's arm (:func:`.solve.solve_cables`,
     no clearance; least squares when ``m > n``) from the seed; for an elastic arm with
     ``m > n`` a descent on its energy without clearance (:func:`_energy_descent`);
     then damped Newton
@@ -674,7 +678,7 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, target=1e-15, max_iter=200
     q = plant_params(robot, p)
     L = np.asarray(realised, dtype=float)
     seed = np.array(theta_seed, dtype=float).reshape(L.shape[0], arm.n)
-    rigid = sp.solve_cables(arm, L, seed=seed)
+    rigid = sv.solve_cables(arm, L, seed=seed)
     theta = np.where(np.isfinite(rigid["theta"]).all(1, keepdims=True), rigid["theta"], seed)
     F = _residual_function(robot, arm, q, L, z)
     if arm.n < _pos(arm).size and q["kappa"] > 0.0:
@@ -698,12 +702,12 @@ def observe(robot, p, theta) -> np.ndarray:
     """
     arm = plant_arm(robot, p)
     q = plant_params(robot, p)
-    ch = sp.chain_frames(arm, sp.as_theta(arm, theta))
+    ch = kin.chain_frames(arm, kin.as_theta(arm, theta))
     p_end, R_end = ch["tb"][:, -1], ch["Rb"][:, -1]
-    E = sp.exp_so3(q["rho"])
+    E = rot.exp_so3(q["rho"])
     point = p_end + R_end @ q["tip"]
     seen = point @ E.T + q["t"]
-    return np.concatenate([seen, sp.log_so3(E @ R_end)], axis=1)
+    return np.concatenate([seen, rot.log_so3(E @ R_end)], axis=1)
 
 
 def friction_motion(robot, commands, seeds, first) -> tuple:
@@ -718,22 +722,22 @@ def friction_motion(robot, commands, seeds, first) -> tuple:
     position cables than joints the minimum-norm set at or above 0; 0 where negative
     or undefined); and ``d0 (H,)`` the straight pose's distal lengths."""
     seeds = np.asarray(seeds, dtype=float).reshape(-1, robot.n)
-    sol = sp.solve_cables(robot, np.asarray(commands, dtype=float), seed=seeds)
+    sol = sv.solve_cables(robot, np.asarray(commands, dtype=float), seed=seeds)
     good = np.isfinite(sol["theta"]).all(1) & np.asarray(sol["converged"], bool) & ~np.asarray(first, bool)
     theta = np.where(good[:, None], sol["theta"], seeds)
-    pos, frc = _pos(robot), sp.force_cables(robot)
+    pos, frc = _pos(robot), rb.force_cables(robot)
 
     def holes(th):
         if pos.size == robot.n:
             Tp = _square_tensions(robot, th)
         else:
-            M = sp.moment_matrices(robot, th)
-            b = -(sp.external_moments(robot, th) + M[:, :, frc] @ robot.cable_tension[frc])
-            Tp, _ = sp.min_norm_tensions(M[:, :, pos], b, 0.0)
+            M = st.moment_matrices(robot, th)
+            b = -(st.external_moments(robot, th) + M[:, :, frc] @ robot.cable_tension[frc])
+            Tp, _ = st.min_norm_tensions(M[:, :, pos], b, 0.0)
         T = np.tile(np.asarray(robot.cable_tension, float), (th.shape[0], 1))
         T[:, pos] = np.where(np.isfinite(Tp) & (Tp > 0.0), Tp, 0.0)
         d, beta, ten = [], [], []
-        for c, P in enumerate(sp.cable_points(robot, th)):
+        for c, P in enumerate(kin.cable_points(robot, th)):
             g, _ = fr.segments(P)
             d.append(fr.distal_lengths(g))
             beta.append(fr.wrap_angles(P))
