@@ -32,7 +32,7 @@ ASYM_LINKAGES = [
 
 
 def robot_pair(cdsm, name):
-    """``(rust Robot, reference SimpleRobot)`` of the named 3-joint arm."""
+    """``(rust Robot, reference Robot)`` of the named 3-joint arm."""
     if name == "paper":
         return cdsm.Robot.paper(), reference_robot(PAPER_LINKAGES)
     return cdsm.Robot.from_toml_str(robot_toml(ASYM_LINKAGES)), reference_robot(ASYM_LINKAGES)

@@ -1,4 +1,4 @@
-"""Self-checks of the reference plant (``cdsm.reference.plant``): facts of
+"""Self-checks of the reference plant (``cdsm.reference.plant``) on planar arms: facts of
 ``docs/model.md`` ("The plant: nominal model plus unmodelled effects"), using
 the NumPy reference only (no compiled extension)."""
 
@@ -22,10 +22,15 @@ def _robot(ref, name, mass=None, gravity=None, routing_length=0.0):
     return r if mass is None else dataclasses.replace(r, mass=np.asarray(mass, float))
 
 
+def _planar(n):
+    """A planar reference arm of ``n`` joints (the planar layout depends on ``n`` only)."""
+    return reference_robot(N12_LINKAGES[:n])
+
+
 def _p(ref, n, **effects):
-    """Flat parameter vector with the named effects set."""
-    p = np.zeros(ref.plant_size(n))
-    lay = ref.plant_layout(n)
+    """Flat parameter vector of an ``n``-joint planar arm with the named effects set."""
+    p = np.zeros(ref.plant_size(_planar(n)))
+    lay = ref.plant_layout(_planar(n))
     for k, v in effects.items():
         p[lay[k]] = v
     return p
@@ -44,27 +49,36 @@ NAMES = ["paper", "n1", "n12"]
 # --------------------------------------------------------------------------
 @pytest.mark.parametrize("n", [1, 3, 12])
 def test_layout(ref, n):
-    names = [name for name, _ in ref.PLANT_EFFECTS]
+    names = [name for name, _ in ref.plant_blocks(_planar(n))]
     assert names == ["actuation_scale", "cable_offset", "hole_height", "link_length",
                      "cable_elasticity", "hole_clearance", "frame_misalignment",
                      "tip_offset", "backlash", "clearance_width", "cable_friction"]
-    lay = ref.plant_layout(n)
+    lay = ref.plant_layout(_planar(n))
     sizes = [1, n, n, n + 1, 1, 1, 3, 2, n, 1, 1]
     assert [lay[k].stop - lay[k].start for k in names] == sizes
     assert lay["actuation_scale"].start == 0
     for a, b in zip(names, names[1:]):
         assert lay[a].stop == lay[b].start
-    assert ref.plant_size(n) == 4 * n + 11 == lay["cable_friction"].stop
+    assert ref.plant_size(_planar(n)) == 4 * n + 11 == lay["cable_friction"].stop
 
 
 def test_parameter_checks(ref):
+    """Outside the physical domain of docs/model.md ("Parameters") the reference refuses."""
     n = 3
-    for bad in [dict(cable_elasticity=-1e-6), dict(hole_clearance=-1e-4),
-                dict(backlash=[0, -1e-5, 0]), dict(clearance_width=-0.01), dict(cable_friction=-0.1)]:
-        with pytest.raises(ValueError):
-            ref.plant_params(_p(ref, n, **bad), n)
+    robot = _planar(n)
+    la = robot.link_after[1, 0]  # m, link_after[2]: its link_length entry is dl_2
+    for bad, field in [(dict(cable_elasticity=-1e-6), "cable_elasticity"),
+                       (dict(hole_clearance=-1e-4), "hole_clearance"),
+                       (dict(backlash=[0, -1e-5, 0]), "backlash"), (dict(clearance_width=-0.01), "clearance width"),
+                       (dict(clearance_width=1.0), "clearance width"), (dict(cable_friction=-0.1), "cable_friction"),
+                       (dict(cable_friction=1.01), "cable_friction"), (dict(actuation_scale=-0.9), "actuator gain"),
+                       (dict(link_length=[0.0, 0.0, -0.91 * la, 0.0]), "link_length")]:
+        with pytest.raises(ValueError, match=field):
+            ref.plant_params(robot, _p(ref, n, **bad))
+    ref.plant_params(robot, _p(ref, n, link_length=[0.0, 0.0, -0.89 * la, 0.0], clearance_width=0.99,
+                               cable_friction=1.0, actuation_scale=-0.89))  # inside, at the edges
     with pytest.raises(ValueError):
-        ref.plant_params(np.zeros(4 * n + 10), n)
+        ref.plant_params(robot, np.zeros(4 * n + 10))
 
 
 # --------------------------------------------------------------------------
@@ -74,10 +88,13 @@ def test_parameter_checks(ref):
 def test_zero_parameters_are_nominal(ref, name):
     robot = _robot(ref, name)
     n = robot.n
-    p = np.zeros(ref.plant_size(n))
+    p = np.zeros(ref.plant_size(robot))
     arm = ref.plant_arm(robot, p)
-    for a in ["link_before", "link_after", "thickness", "holes", "joint_limits"]:
-        assert np.array_equal(getattr(arm.planar, a), getattr(robot.planar, a))
+    for a in ["axes", "offsets", "joint_limits", "link_after", "thickness", "mass", "com", "gravity",
+              "cable_tension"]:
+        np.testing.assert_array_equal(getattr(arm, a), getattr(robot, a), err_msg=a)
+    for h, g in zip(arm.holes, robot.holes):
+        assert np.array_equal(h, g)
 
     N = 60
     theta = random_theta(n, N, seed=3, lim=0.4)
@@ -86,16 +103,18 @@ def test_zero_parameters_are_nominal(ref, name):
     obs, ok = ref.plant_predict(robot, p, theta, dL, kind)
     assert ok.all()
 
+    # the plant's settle (a damped Newton on the cables to round-off) and two
+    # independent rigid solves; the closed form to 1e-14 per coordinate: x, y (m)
+    # and each joint angle, so phi, the sum of n angles, to n 1e-14 rad
     C = ref.position_lengths(robot, theta)
-    for solver, atol in [(ref.solve_cables_closed_form, 1e-14), (ref.solve_cables, 1e-10)]:
+    for solver, atol in [(ref.solve_cables_closed_form, [1e-14, 1e-14, n * 1e-14]), (ref.solve_cables, 1e-10)]:
         s1 = solver(robot, C + dL, seed=theta)
         s0 = solver(robot, C, seed=theta)
         assert s1["converged"].all() and s0["converged"].all()
         S1, S0 = ref.fk(robot, s1["theta"]), ref.fk(robot, s0["theta"])
         k = np.array(kind)
-        np.testing.assert_allclose(obs[k == "absolute"], S1[k == "absolute"], rtol=0, atol=atol)
-        np.testing.assert_allclose(obs[k == "displacement"], (S1 - S0)[k == "displacement"],
-                                   rtol=0, atol=atol)
+        assert (np.abs(obs[k == "absolute"] - S1[k == "absolute"]) <= atol).all()
+        assert (np.abs(obs[k == "displacement"] - (S1 - S0)[k == "displacement"]) <= atol).all()
         assert np.isnan(obs[k == "unmeasured"]).all()
     # with dL = 0 an absolute row sees the commanded pose
     obs0, ok0 = ref.plant_predict(robot, p, theta, np.zeros_like(dL), ["absolute"] * N)
@@ -139,7 +158,7 @@ def test_clearance_zero_is_nominal_length(ref, name):
     p = _p(ref, n, hole_height=rng.normal(0, 1e-4, n), link_length=rng.normal(0, 1e-4, n + 1),
            clearance_width=0.02)
     theta = random_theta(n, 200, seed=7)
-    La = ref.arm_upper_lengths(robot, p, theta)
+    La = ref.arm_lengths(robot, p, theta)
     np.testing.assert_allclose(La, ref.position_lengths(ref.plant_arm(robot, p), theta),
                                rtol=0, atol=1e-15)
 
@@ -149,13 +168,13 @@ def test_clearance_vanishes_at_straight_pose(ref, name):
     robot = _robot(ref, name)
     n = robot.n
     p = _p(ref, n, hole_clearance=3e-4, hole_height=np.full(n, 2e-5))
-    assert np.all(ref.clearance_shifts(np.zeros((1, n)), 3e-4, 0.01) == 0.0)
+    assert all(np.all(shift == 0.0) for shift in ref.bend_shifts(robot, p, np.zeros((1, n))))
     z = np.zeros((1, n))
-    np.testing.assert_allclose(ref.arm_upper_lengths(robot, p, z),
+    np.testing.assert_allclose(ref.arm_lengths(robot, p, z),
                                ref.position_lengths(ref.plant_arm(robot, p), z), rtol=0, atol=1e-15)
     # away from the straight pose it does change the lengths
     theta = random_theta(n, 20, seed=8)
-    assert np.abs(ref.arm_upper_lengths(robot, p, theta)
+    assert np.abs(ref.arm_lengths(robot, p, theta)
                   - ref.position_lengths(ref.plant_arm(robot, p), theta)).max() > 1e-6
 
 
@@ -173,7 +192,7 @@ def test_clearance_by_hand_n1(ref):
     Ax = lb + np.cos(theta[:, 0]) * la - np.sin(theta[:, 0]) * (h + d)
     Ay = np.sin(theta[:, 0]) * la + np.cos(theta[:, 0]) * (h + d)
     expect = np.hypot(Ax - 0.0, Ay - (h + d)) + np.hypot(t, -d)
-    got = ref.arm_upper_lengths(robot, _p(ref, 1, hole_clearance=cl, clearance_width=dw), theta)
+    got = ref.arm_lengths(robot, _p(ref, 1, hole_clearance=cl, clearance_width=dw), theta)
     np.testing.assert_allclose(got[:, 0], expect, rtol=0, atol=1e-15)
 
 
@@ -193,7 +212,7 @@ def test_clearance_by_hand_n2_inner_disk(ref):
 
     expect = (seg(lk[0].link_before, lk[0].link_after, t1, d1) + math.hypot(lk[0].thickness, d2 - d1)
               + seg(lk[1].link_before, lk[1].link_after, t2, d2) + math.hypot(lk[1].thickness, -d2))
-    got = ref.arm_upper_lengths(robot, _p(ref, 2, hole_clearance=cl), theta)
+    got = ref.arm_lengths(robot, _p(ref, 2, hole_clearance=cl), theta)
     assert abs(got[0, 1] - expect) < 1e-15
 
 
@@ -304,7 +323,7 @@ def test_frame_translation_cancels_in_displacements(ref, name):
     k = np.array(kind)
     base = _p(ref, n, tip_offset=[2e-3, 1e-3], backlash=np.full(n, 5e-5))
     o0, ok0 = ref.plant_predict(robot, base, theta, dL, kind)
-    lay = ref.plant_layout(n)
+    lay = ref.plant_layout(robot)
     moved = base.copy()
     moved[lay["frame_misalignment"]] = [0.0, 0.02, -0.01]
     o1, ok1 = ref.plant_predict(robot, moved, theta, dL, kind)
@@ -365,8 +384,9 @@ def test_elastic_settling(ref, name, gravity, routing):
     # taut cables lengthen (and the random configurations do pull on them)
     assert (T > 1e-3).any() and (stretch[T > 1e-3] > 0.0).all()
     # and the rigid answer is a different configuration
-    rigid, _ = ref.settle(robot, _p(ref, n, hole_height=p[ref.plant_layout(n)["hole_height"]],
-                                    link_length=p[ref.plant_layout(n)["link_length"]]), L, theta_cmd)
+    lay = ref.plant_layout(robot)
+    rigid, _ = ref.settle(robot, _p(ref, n, hole_height=p[lay["hole_height"]], link_length=p[lay["link_length"]]),
+                          L, theta_cmd)
     assert np.abs(theta - rigid).max() > 1e-6
     # the same physics through the kinematics module's elastic cable solve
     d = 1e-3
@@ -388,7 +408,7 @@ def test_settling_with_clearance(ref):
     assert np.abs(F).max() <= 1e-12
     # F written out: clearance lengths against the stretched rest lengths
     T = ref.tensions(ref.plant_arm(robot, p), theta, lower=robot.planar.lower_tension)
-    np.testing.assert_allclose(ref.arm_upper_lengths(robot, p, theta), L * (1 + 1e-5 * T), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ref.arm_lengths(robot, p, theta), L * (1 + 1e-5 * T), rtol=0, atol=1e-12)
 
 
 def test_unreachable_command_fails(ref):

@@ -16,10 +16,11 @@ scenarios (deviations) and tip sensitivities.
 floor) and cable elasticity.
 ``closed_form``: the planar case in closed form (Eq. 4-5 coefficients, the
 closed-form cable solve and pose IK).
-``plant``: the planar plant, nominal model plus unmodelled effects.
-``spatial_plant``: the plant of spatial arms; a submodule only
-(``reference.spatial_plant.predict``).
-``friction``: Coulomb friction of the cables in the holes, shared by both plants.
+``plant``: the plant of either kind, the nominal model plus unmodelled effects
+(the parameter layouts of ``docs/model.md``, the effects as moves of the arm's
+numbers, backlash, actuation, hole clearance, settling, friction, observation).
+``friction``: Coulomb friction of the cables in the holes (capstan profile, wrap
+angles, sticking bands, the mobilisation scan); ``sequence``: the rows of a data set.
 """
 
 from .robot import *  # noqa: F401,F403
@@ -37,7 +38,6 @@ from .closed_form import __all__ as _closed_form_all
 from .plant import *  # noqa: F401,F403
 from .plant import __all__ as _plant_all
 from . import friction  # noqa: F401
-from . import spatial_plant  # noqa: F401
 
 __all__ = (list(_robot_all) + list(_rotations_all) + list(_kinematics_all) + list(_solve_all)
            + list(_statics_all) + list(_closed_form_all) + list(_plant_all))

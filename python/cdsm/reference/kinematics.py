@@ -41,7 +41,15 @@ __all__ = [
     "cable_jacobian",
     "cable_hole_gradient",
     "unit_vectors",
+    "cross",
 ]
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` along the last axis of broadcasting ``(..., 3)`` arrays."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def as_theta(robot: Robot, theta) -> np.ndarray:
@@ -147,7 +155,7 @@ def joint_positions_axes(robot: Robot, theta):
 def point_jacobian(robot: Robot, ch: dict, q: np.ndarray, disk: int) -> np.ndarray:
     """``dq/dtheta (N, 3, n)`` m/rad of world points ``q (N, 3)`` fixed to disk ``disk``
     (0 = base): ``w_j x (q - p_j)`` for the joints proximal of it, else 0."""
-    J = np.cross(ch["w"], q[:, None, :] - ch["p"])  # (N, n, 3)
+    J = cross(ch["w"], q[:, None, :] - ch["p"])  # (N, n, 3)
     J = np.where((robot.joint_disk <= disk)[None, :, None], J, 0.0)
     return np.swapaxes(J, 1, 2)
 
@@ -157,7 +165,7 @@ def geometric_jacobian(robot: Robot, theta) -> np.ndarray:
     of its origin (m/rad), rows 3-5 the angular velocity (rad/rad), base frame."""
     robot, ch = _frames(robot, theta)
     tip = ch["tb"][:, -1]
-    lin = np.cross(ch["w"], tip[:, None, :] - ch["p"])  # (N, n, 3)
+    lin = cross(ch["w"], tip[:, None, :] - ch["p"])  # (N, n, 3)
     return np.concatenate([np.swapaxes(lin, 1, 2), np.swapaxes(ch["w"], 1, 2)], axis=1)
 
 
@@ -173,32 +181,30 @@ def fk_jacobian(robot: Robot, theta) -> np.ndarray:
 # --------------------------------------------------------------------------
 # Holes and cables
 # --------------------------------------------------------------------------
-def _cable_points(robot: Robot, ch: dict) -> list:
+def cable_points(robot: Robot, theta, frames: dict | None = None) -> list:
+    """World points of every hole: a list (one per cable, file order) of ``(N, 2 e_c + 1, 3)``
+    m arrays ``[B_0, A_1, B_1, ..., A_e, B_e]`` (``B_0 = F_0b h_0``, ``A_k = F_ka h_(2k-1)``,
+    ``B_k = F_kb h_(2k)``); ``frames``: :func:`chain_frames` at ``theta`` when at hand."""
+    robot = as_robot(robot)
+    ch = chain_frames(robot, as_theta(robot, theta)) if frames is None else frames
     pts = []
     N = ch["tb"].shape[0]
     for c in range(robot.m):
         e, h = int(robot.cable_end[c]), robot.holes[c]
         P = np.empty((N, 2 * e + 1, 3))
-        P[:, 0] = h[0]  # B_0 = F_0b h_0, F_0b = I
+        P[:, 0] = h[0]
         for k in range(1, e + 1):
-            P[:, 2 * k - 1] = ch["Ra"][:, k] @ h[2 * k - 1] + ch["ta"][:, k]  # A_k
-            P[:, 2 * k] = ch["Rb"][:, k] @ h[2 * k] + ch["tb"][:, k]  # B_k
+            P[:, 2 * k - 1] = ch["Ra"][:, k] @ h[2 * k - 1] + ch["ta"][:, k]
+            P[:, 2 * k] = ch["Rb"][:, k] @ h[2 * k] + ch["tb"][:, k]
         pts.append(P)
     return pts
-
-
-def cable_points(robot: Robot, theta) -> list:
-    """World points of every hole: a list (one per cable, file order) of ``(N, 2 e_c + 1, 3)``
-    m arrays ``[B_0, A_1, B_1, ..., A_e, B_e]``."""
-    robot, ch = _frames(robot, theta)
-    return _cable_points(robot, ch)
 
 
 def cable_lengths(robot: Robot, theta) -> np.ndarray:
     """Lengths ``(N, m)`` m of every cable (file order): ``sum_k |A_k - B_(k-1)| + |B_k - A_k|``."""
     robot, ch = _frames(robot, theta)
     out = np.empty((ch["tb"].shape[0], robot.m))
-    for c, P in enumerate(_cable_points(robot, ch)):
+    for c, P in enumerate(cable_points(robot, theta, ch)):
         seg = P[:, 1::2] - P[:, 0:-1:2]  # A_k - B_(k-1)
         trav = P[:, 2::2] - P[:, 1::2]  # B_k - A_k
         out[:, c] = np.linalg.norm(seg, axis=-1).sum(1) + np.linalg.norm(trav, axis=-1).sum(1)
@@ -217,7 +223,7 @@ def segment_lengths(robot: Robot, theta) -> np.ndarray:
     does not reach disk ``k``)."""
     robot, ch = _frames(robot, theta)
     out = np.zeros((ch["tb"].shape[0], robot.m, robot.disks))
-    for c, P in enumerate(_cable_points(robot, ch)):
+    for c, P in enumerate(cable_points(robot, theta, ch)):
         e = int(robot.cable_end[c])
         out[:, c, :e] = np.linalg.norm(P[:, 1::2] - P[:, 0:-1:2], axis=-1)
     return out
@@ -235,7 +241,7 @@ def cable_jacobian(robot: Robot, theta) -> np.ndarray:
     ``B_(k-1) -> A_k`` (a zero-length segment contributes 0)."""
     robot, ch = _frames(robot, theta)
     J = np.zeros((ch["tb"].shape[0], robot.m, robot.n))
-    for c, P in enumerate(_cable_points(robot, ch)):
+    for c, P in enumerate(cable_points(robot, theta, ch)):
         for k in range(1, int(robot.cable_end[c]) + 1):
             A, B = P[:, 2 * k - 1], P[:, 2 * k - 2]
             u = unit_vectors(A - B)
@@ -263,7 +269,7 @@ def cable_hole_gradient(robot: Robot, theta) -> np.ndarray:
     def add(c, i, R, v):
         grad[:, c, starts[c] + 3 * i:starts[c] + 3 * i + 3] += np.einsum("nji,nj->ni", R, v)
 
-    for c, P in enumerate(_cable_points(robot, ch)):
+    for c, P in enumerate(cable_points(robot, theta, ch)):
         for k in range(1, int(robot.cable_end[c]) + 1):
             u = unit_vectors(P[:, 2 * k - 1] - P[:, 2 * k - 2])
             add(c, 2 * k - 1, ch["Ra"][:, k], u)

@@ -45,6 +45,7 @@ __all__ = [
     "position_cables",
     "force_cables",
     "used_hole_mask",
+    "hole_height_moves",
     "hole_height_error",
     "to_planar_layout",
     "STANDARD_GRAVITY",
@@ -231,19 +232,25 @@ def force_cables(robot: Robot) -> np.ndarray:
     return np.array([c for c, mode in enumerate(robot.cable_mode) if mode == "force"], dtype=np.int64)
 
 
-def hole_height_error(robot: Robot, dh) -> Robot:
-    """The arm with the paper's "error on disk i's holes" (``docs/model.md``, the plant's
-    ``hole_height``): every hole of the cables ending at disk ``i`` moved by ``dh_i`` m
-    (``dh (K,)``) along its local ``y``, a position cable's ``+dh_i``, a force cable's
-    ``-dh_i``, on every face the cable crosses."""
+def hole_height_moves(robot: Robot, dh) -> tuple:
+    """The paper's "error on disk i's holes" (``docs/model.md``, the plant's ``hole_height``)
+    as moves of the holes: one ``(2 e_c + 1, 3)`` m array per cable, every hole of the
+    cables ending at disk ``i`` along its local ``y`` by ``dh_i`` m (``dh (K,)``), a
+    position cable's ``+dh_i``, a force cable's ``-dh_i``, on every face the cable crosses."""
     robot = as_robot(robot)
     dh = np.asarray(dh, dtype=float).reshape(robot.disks)
-    holes = []
+    moves = []
     for c, h in enumerate(robot.holes):
-        h = h.copy()
-        h[:, 1] += (1.0 if robot.cable_mode[c] == "position" else -1.0) * dh[robot.cable_end[c] - 1]
-        holes.append(h)
-    return dataclasses.replace(robot, holes=tuple(holes))
+        d = np.zeros_like(h)
+        d[:, 1] = (1.0 if robot.cable_mode[c] == "position" else -1.0) * dh[robot.cable_end[c] - 1]
+        moves.append(d)
+    return tuple(moves)
+
+
+def hole_height_error(robot: Robot, dh) -> Robot:
+    """The arm with its holes moved by :func:`hole_height_moves` of ``dh (K,)`` m."""
+    robot = as_robot(robot)
+    return robot.with_holes(h + d for h, d in zip(robot.holes, hole_height_moves(robot, dh)))
 
 
 def to_planar_layout(robot: Robot, values) -> np.ndarray:

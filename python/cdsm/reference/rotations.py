@@ -33,11 +33,14 @@ def rotation_matrix(axis, angle) -> np.ndarray:
     axis = np.asarray(axis, dtype=float)
     angle = np.asarray(angle, dtype=float)
     shape = np.broadcast_shapes(axis.shape[:-1], angle.shape)
-    axis = np.broadcast_to(axis, shape + (3,))
-    angle = np.broadcast_to(angle, shape)
-    K = _skew(axis)
-    s, c = np.sin(angle)[..., None, None], np.cos(angle)[..., None, None]
-    return c * np.eye(3) + s * K + (1.0 - c) * (axis[..., :, None] * axis[..., None, :])
+    x, y, z = (np.broadcast_to(axis[..., i], shape) for i in range(3))
+    c, s = np.cos(angle), np.sin(angle)
+    v = 1.0 - c
+    R = np.empty(shape + (3, 3))
+    R[..., 0, 0], R[..., 0, 1], R[..., 0, 2] = c + x * x * v, x * y * v - z * s, x * z * v + y * s
+    R[..., 1, 0], R[..., 1, 1], R[..., 1, 2] = y * x * v + z * s, c + y * y * v, y * z * v - x * s
+    R[..., 2, 0], R[..., 2, 1], R[..., 2, 2] = z * x * v - y * s, z * y * v + x * s, c + z * z * v
+    return R
 
 
 def exp_so3(r) -> np.ndarray:

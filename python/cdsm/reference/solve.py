@@ -17,6 +17,7 @@ from .kinematics import (
     cable_hole_gradient,
     cable_jacobian,
     chain_frames,
+    cross,
     fk,
     fk_jacobian,
     position_lengths,
@@ -227,9 +228,9 @@ def _spatial_rows(robot, target, mask):
         if not jacobian:
             return np.concatenate(r, axis=1), None
         w = ch["w"]
-        J = [np.swapaxes(np.cross(w, p[:, None, :] - ch["p"]), 1, 2)]
+        J = [np.swapaxes(cross(w, p[:, None, :] - ch["p"]), 1, 2)]
         if mask == "pointing":
-            J.append(np.swapaxes(np.cross(w, R[:, None, :, 0]), 1, 2))
+            J.append(np.swapaxes(cross(w, R[:, None, :, 0]), 1, 2))
         elif mask == "pose":
             J.append(np.swapaxes(w, 1, 2))
         return np.concatenate(r, axis=1), np.concatenate(J, axis=1)

@@ -21,7 +21,7 @@ import itertools
 
 import numpy as np
 
-from .kinematics import as_theta, cable_points, chain_frames, position_lengths, unit_vectors, within_limits
+from .kinematics import as_theta, cable_points, chain_frames, cross, position_lengths, unit_vectors, within_limits
 from .robot import Robot, as_robot, force_cables, position_cables
 from .solve import levenberg_marquardt, solve_cables, solve_rows
 
@@ -40,25 +40,24 @@ __all__ = [
 QP_RTOL = 1e-12
 
 
-def moment_matrices(robot: Robot, theta) -> np.ndarray:
+def moment_matrices(robot: Robot, theta, frames: dict | None = None) -> np.ndarray:
     """Cable moment matrix ``M (N, n, m)`` N m per N: the moment about the axis of
     joint ``j`` (of disk ``k``) of a unit pull of cable ``c`` on the part distal of
     the joint, ``w_j . ((A_k - p_j) x unit(B_(k-1) - A_k))`` (0 when ``e_c < k``).
 
     Balance: ``M T + tau = 0`` with :func:`external_moments` ``tau``; virtual work
-    makes ``M = -(dL/dtheta)^T``.
+    makes ``M = -(dL/dtheta)^T``.  ``frames``: :func:`.kinematics.chain_frames` at ``theta``
+    when at hand.
     """
     robot = as_robot(robot)
     th = as_theta(robot, theta)
-    ch = chain_frames(robot, th)
+    ch = chain_frames(robot, th) if frames is None else frames
     M = np.zeros((th.shape[0], robot.n, robot.m))
-    for c, P in enumerate(cable_points(robot, th)):
-        for j in range(robot.n):
-            k = int(robot.joint_disk[j])
-            if robot.cable_end[c] < k:
-                continue
-            A, B = P[:, 2 * k - 1], P[:, 2 * k - 2]
-            M[:, j, c] = (ch["w"][:, j] * np.cross(A - ch["p"][:, j], unit_vectors(B - A))).sum(-1)
+    k = robot.joint_disk  # (n,): the disk of each joint
+    for c, P in enumerate(cable_points(robot, th, ch)):
+        crosses = k <= robot.cable_end[c]  # the joints whose cut cable c crosses
+        A, B = P[:, 2 * k[crosses] - 1], P[:, 2 * k[crosses] - 2]  # (N, j, 3): A_k, B_(k-1) of each
+        M[:, crosses, c] = (ch["w"][:, crosses] * cross(A - ch["p"][:, crosses], unit_vectors(B - A))).sum(-1)
     return M
 
 
@@ -79,15 +78,17 @@ def _wrench(robot: Robot, tip_wrench, N: int) -> np.ndarray:
     return np.broadcast_to(np.asarray(tip_wrench, dtype=float), (N, 6))
 
 
-def external_moments(robot: Robot, theta, tip_wrench=None, gravity=None, mass=None) -> np.ndarray:
+def external_moments(robot: Robot, theta, tip_wrench=None, gravity=None, mass=None,
+                     frames: dict | None = None) -> np.ndarray:
     """``tau (N, n)`` N m: moment about each joint axis of the loads on the part distal
     of it -- gravity ``mass_b g`` at every disk's centre of mass (disks ``b >= k``) and
     the tip wrench (base frame, at the origin of ``F_Kb``; planar ``[Fx, Fy, Mz]``,
     spatial ``[F, M]``; ``(t,)`` or ``(N, t)``).  ``gravity``: the robot's (default)
-    or ``(2,)`` in-plane / ``(3,)`` m/s^2; ``mass``: ``(K,)`` kg (default the robot's)."""
+    or ``(2,)`` in-plane / ``(3,)`` m/s^2; ``mass``: ``(K,)`` kg (default the robot's);
+    ``frames``: :func:`.kinematics.chain_frames` at ``theta`` when at hand."""
     robot = as_robot(robot)
     th = as_theta(robot, theta)
-    ch = chain_frames(robot, th)
+    ch = chain_frames(robot, th) if frames is None else frames
     N = th.shape[0]
     tau = np.zeros((N, robot.n))
     g = robot.gravity if gravity is None else _gravity(gravity)
@@ -96,17 +97,18 @@ def external_moments(robot: Robot, theta, tip_wrench=None, gravity=None, mass=No
         for b in range(1, robot.disks + 1):
             centre = ch["Ra"][:, b] @ robot.com[b - 1] + ch["ta"][:, b]
             arm = centre[:, None, :] - ch["p"]
-            mom = (ch["w"] * np.cross(arm, mass[b - 1] * g)).sum(-1)  # (N, n)
+            mom = (ch["w"] * cross(arm, mass[b - 1] * g)).sum(-1)  # (N, n)
             tau += np.where(robot.joint_disk[None, :] <= b, mom, 0.0)
     if tip_wrench is not None:
         W = _wrench(robot, tip_wrench, N)
         tip = ch["tb"][:, -1]
-        mom = np.cross(tip[:, None, :] - ch["p"], W[:, None, :3]) + W[:, None, 3:]
+        mom = cross(tip[:, None, :] - ch["p"], W[:, None, :3]) + W[:, None, 3:]
         tau += (ch["w"] * mom).sum(-1)
     return tau
 
 
-def tensions(robot: Robot, theta, lower=None, tip_wrench=None, gravity=None, mass=None, gap=None) -> np.ndarray:
+def tensions(robot: Robot, theta, lower=None, tip_wrench=None, gravity=None, mass=None, gap=None,
+             frames: dict | None = None) -> np.ndarray:
     """Position-cable tensions ``(N, m_pos)`` N from the moment balance, for an arm with
     as many position cables as joints (the square solve, from the tip joint down for a
     planar arm: a negative tension is kept -- a cable that would have to push).
@@ -115,8 +117,9 @@ def tensions(robot: Robot, theta, lower=None, tip_wrench=None, gravity=None, mas
     robot's; planar: the lower cables'); ``tip_wrench``, ``gravity``, ``mass``: as
     :func:`external_moments`; ``gap``: ``(N, n, m)`` factors of each cable's tension in
     the gap of each joint over its routing tension (friction in the holes; the
-    tensions returned, and ``lower``, are then the routings').  NaN where the balance
-    has no unique solution.
+    tensions returned, and ``lower``, are then the routings'); ``frames``:
+    :func:`.kinematics.chain_frames` at ``theta`` when at hand.  NaN where the balance has
+    no unique solution.
     """
     robot = as_robot(robot)
     th = as_theta(robot, theta)
@@ -125,10 +128,11 @@ def tensions(robot: Robot, theta, lower=None, tip_wrench=None, gravity=None, mas
         raise ValueError(f"tensions: {pos.size} position cables for {robot.n} joints; the balance fixes their "
                          f"tensions only when the numbers are equal (see feasible_tensions())")
     N = th.shape[0]
-    M = moment_matrices(robot, th)
+    ch = chain_frames(robot, th) if frames is None else frames
+    M = moment_matrices(robot, th, ch)
     if gap is not None:
         M = M * np.asarray(gap, dtype=float)
-    tau = external_moments(robot, th, tip_wrench, gravity, mass)
+    tau = external_moments(robot, th, tip_wrench, gravity, mass, ch)
     Tf = robot.cable_tension[frc] if lower is None else lower
     Tf = np.broadcast_to(np.asarray(Tf, dtype=float), (N, frc.size))
     rhs = -(tau + np.einsum("njf,nf->nj", M[:, :, frc], Tf))
@@ -195,8 +199,9 @@ def feasible_tensions(robot: Robot, theta, min_tension=0.0, tip_wrench=None):
     """
     robot = as_robot(robot)
     th = as_theta(robot, theta)
-    M = moment_matrices(robot, th)
-    tau = external_moments(robot, th, tip_wrench)
+    ch = chain_frames(robot, th)
+    M = moment_matrices(robot, th, ch)
+    tau = external_moments(robot, th, tip_wrench, frames=ch)
     pos, frc = position_cables(robot), force_cables(robot)
     b = -(tau + M[:, :, frc] @ robot.cable_tension[frc])
     return min_norm_tensions(M[:, :, pos], b, min_tension)
