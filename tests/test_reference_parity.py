@@ -371,6 +371,22 @@ def test_ik_parity(pair, ref, seed_kind):
     assert_close(pair.rust.fk(sol.theta)[conv], pose[conv], 1e-12, "fk(ik(pose))")
 
 
+@pytest.mark.parametrize("mask", ["position", [1.0, 0.5, 2.0], [0.0, 1.0, 1.0]], ids=["position", "weights", "y-phi"])
+def test_ik_mask_parity(pair, ref, mask):
+    """The task masks of a planar arm: a name or weights on the x, y, phi residuals
+    (0: the coordinate is free), seeded near the answer."""
+    n = pair.ref.n
+    theta_true = random_theta(n, N=200, seed=37)
+    pose = ref.fk(pair.ref, theta_true)
+    seed = theta_true + np.random.default_rng(38).normal(0.0, 0.02, theta_true.shape)
+    sol, expected = _ik_parity(pair, ref, pose, seed, f"{pair.name} ik mask {mask}", mask=mask)
+    assert expected["converged"].mean() >= 0.95
+    w = np.array([1.0, 1.0, 0.0]) if mask == "position" else np.asarray(mask)
+    conv = expected["converged"]
+    reached = np.abs(ref.fk(pair.ref, expected["theta"]) - pose)[conv][:, w != 0]
+    assert reached.max() <= 1e-12 / w[w != 0].min()
+
+
 def test_ik_iteration_counts_match(pair, ref):
     """Same LM, same lambda schedule: the trial counts should agree."""
     theta_true = random_theta(pair.ref.n, N=200, seed=33)

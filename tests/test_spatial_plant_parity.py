@@ -27,7 +27,7 @@ import pytest
 from conftest import ROOT, reference
 
 #: The spatial plant's parameter blocks, in the order of the flat vector.
-BLOCKS = [name for name, _ in reference.LAYOUTS["spatial"]]
+BLOCKS = [name for name, _ in reference.KINDS["spatial"].layout]
 ROBOTS = ROOT / "python" / "cdsm" / "robots"
 NON_NEGATIVE = ("cable_elasticity", "hole_clearance", "backlash", "cable_friction")
 KINDS = ["absolute", "displacement", "unmeasured"]

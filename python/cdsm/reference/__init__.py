@@ -4,8 +4,10 @@ core); the tests check the core against it.  One reference over both kinds of
 arm: every name takes a :class:`Robot` of either kind (or a ``cdsm.Robot`` of a
 planar arm, read through :meth:`Robot.like`).
 
-``robot``: the description of an arm (:class:`Robot`), the reader of both
-robot-file forms (:func:`read_robot`) and the planar layout (:class:`PlanarView`).
+``robot``: the description of an arm (:class:`Robot`), its kind as data
+(:class:`Kind`, :data:`KINDS`: the task space, the IK masks, the plant's parameter
+layout; the algorithms ask it instead of branching), the reader of both robot-file
+forms (:func:`read_robot`) and the planar layout (:class:`PlanarView`).
 ``rotations``: rotation matrices, the exponential and logarithm of rotation vectors.
 ``kinematics``: the chain's frames, the task vector (planar ``[x, y, phi]``,
 spatial ``[x, y, z, rx, ry, rz]``), Jacobians, cable points, lengths and their

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .robot import Robot, as_robot, position_cables
-from .rotations import log_so3, rotation_matrix
+from .rotations import rotation_matrix
 
 __all__ = [
     "as_theta",
@@ -123,12 +123,11 @@ def fk_matrix(robot: Robot, theta) -> np.ndarray:
 def task_vector(robot: Robot, position: np.ndarray, R: np.ndarray, theta: np.ndarray,
                 turn: float = 0.0) -> np.ndarray:
     """The kind's task vector of a frame ``(position (N, 3) m, R (N, 3, 3))`` of the arm
-    at ``theta (N, n)`` rad: planar ``[x, y, phi]`` with ``phi = sum(theta) + turn``
+    at ``theta (N, n)`` rad: its position coordinates and its attitude
+    (:meth:`.robot.Kind.attitude`): planar ``[x, y, phi]`` with ``phi = sum(theta) + turn``
     (unwrapped; ``turn`` rad a rotation about ``z`` applied to the frame), spatial
     ``[x, y, z]`` and the principal rotation vector of ``R`` (rad)."""
-    if robot.kind == "planar":
-        return np.concatenate([position[:, :2], theta.sum(axis=1, keepdims=True) + turn], axis=1)
-    return np.concatenate([position, log_so3(R)], axis=1)
+    return np.concatenate([position[:, :robot.kind.dim], robot.kind.attitude(R, theta, turn)], axis=1)
 
 
 def fk(robot: Robot, theta) -> np.ndarray:
@@ -174,8 +173,7 @@ def fk_jacobian(robot: Robot, theta) -> np.ndarray:
     ``phi`` 1: the geometric Jacobian's rows 0, 1, 5), spatial the geometric Jacobian
     ``(N, 6, n)`` (the rotation as an angular velocity)."""
     robot = as_robot(robot)
-    J = geometric_jacobian(robot, theta)
-    return J[:, [0, 1, 5]] if robot.kind == "planar" else J
+    return geometric_jacobian(robot, theta)[:, list(robot.kind.task_rows)]
 
 
 # --------------------------------------------------------------------------

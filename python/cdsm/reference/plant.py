@@ -19,7 +19,7 @@ commanded ones, file order, :func:`.robot.position_cables`; planar: the upper
 cables), ``H`` the holes of those cables (``2 e_c + 1`` each).
 
 The parameter layout of each kind is the table of ``docs/model.md``
-(:data:`LAYOUTS`, :func:`plant_blocks`); every effect is a move of the arm's
+(:attr:`.robot.Kind.layout`, :func:`plant_blocks`); every effect is a move of the arm's
 numbers (:func:`plant_params`, :func:`plant_arm`) or of the pipeline's
 (actuation, backlash, elasticity, clearance, friction, observation), written
 once.  The planar ``hole_height`` is one grouping of hole coordinates (every hole
@@ -69,7 +69,6 @@ from .solve import solve_cables, solve_rows
 from .statics import external_moments, min_norm_tensions, moment_matrices, tensions
 
 __all__ = [
-    "LAYOUTS",
     "CLEARANCE_WIDTH_0",
     "AXIS_NEAR_X",
     "plant_blocks",
@@ -97,36 +96,6 @@ __all__ = [
     "plant_predict",
 ]
 
-#: The parameter blocks of each kind's plant, in the order of the flat vector, with
-#: their sizes (``docs/model.md``, "Parameters": planar in the order of cdsm 0.1,
-#: spatial in the order of cdsm 0.2, then the effects added since).
-LAYOUTS = {
-    "planar": (("actuation_scale", "one"), ("cable_offset", "position cables"), ("hole_height", "disks"),
-               ("link_length", "first offset and links"), ("cable_elasticity", "one"), ("hole_clearance", "one"),
-               ("frame_misalignment", "angle and 2-D origin"), ("tip_offset", "2-D point"),
-               ("backlash", "position cables"), ("clearance_width", "one"), ("cable_friction", "one")),
-    "spatial": (("actuation_scale", "one"), ("cable_offset", "position cables"), ("hole_position", "hole points"),
-                ("link_length", "offsets and links"), ("cable_elasticity", "one"),
-                ("frame_misalignment", "rotation vector and origin"), ("tip_offset", "3-D point"),
-                ("backlash", "position cables"), ("hole_clearance", "one"), ("clearance_width", "one"),
-                ("joint_axis", "joint tilts"), ("cable_friction", "one")),
-}
-
-#: The sizes of the layouts' entries, from the arm's numbers.
-_SIZES = {
-    "one": lambda r: 1,
-    "position cables": lambda r: position_cables(r).size,
-    "disks": lambda r: r.disks,
-    "first offset and links": lambda r: 1 + r.disks,
-    "angle and 2-D origin": lambda r: 3,
-    "2-D point": lambda r: 2,
-    "hole points": lambda r: 3 * sum(r.holes[c].shape[0] for c in position_cables(r)),
-    "offsets and links": lambda r: 3 * (r.n + r.disks),
-    "rotation vector and origin": lambda r: 6,
-    "3-D point": lambda r: 3,
-    "joint tilts": lambda r: 2 * r.n,
-}
-
 #: Base transition width of the hole clearance, rad (``w = 0.01 + dw``).
 CLEARANCE_WIDTH_0 = 0.01
 
@@ -140,14 +109,80 @@ _KINDS = ("absolute", "displacement", "unmeasured")
 # --------------------------------------------------------------------------
 # Parameter layout and the moves of the arm's numbers
 # --------------------------------------------------------------------------
+def _hole_heights(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["dholes"] = list(hole_height_moves(robot, x))
+
+
+def _hole_points(robot: Robot, x: np.ndarray, q: dict) -> None:
+    moves, start = x.reshape(-1, 3), 0
+    for c in position_cables(robot):
+        count = robot.holes[c].shape[0]
+        q["dholes"][c] = moves[start:start + count].copy()
+        start += count
+
+
+def _links_along_x(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["doffset"][0, 0] = x[0]
+    q["dlink_after"][:, 0] = x[1:]
+    links = np.concatenate([robot.offsets[:1, 0], robot.link_after[:, 0]])
+    if not np.all(links + x > 0.1 * links):
+        raise ValueError(f"link_length: the links must stay above a tenth of nominal, got {links + x} m "
+                         f"for {links} m")
+
+
+def _offsets_and_links(robot: Robot, x: np.ndarray, q: dict) -> None:
+    moves = x.reshape(robot.n + robot.disks, 3)
+    q["doffset"], q["dlink_after"] = moves[:robot.n].copy(), moves[robot.n:].copy()
+
+
+def _turn_and_origin(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["rho"], q["t"] = np.array([0.0, 0.0, x[0]]), np.array([x[1], x[2], 0.0])
+
+
+def _rotation_and_origin(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["rho"], q["t"] = x[:3].copy(), x[3:].copy()
+
+
+def _point_in_plane(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["tip"][:2] = x
+
+
+def _point_in_space(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["tip"] = x.copy()
+
+
+def _joint_tilts(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["tilt"] = x.reshape(robot.n, 2).copy()
+
+
+#: The size rules of the kinds' layouts (:attr:`.robot.Kind.layout`): the size of a block
+#: from the arm's numbers, and the move of the plant's numbers its values make (None: the
+#: values are read as they are, :func:`plant_params`).
+_RULES = {
+    "one": (lambda r: 1, None),
+    "position cables": (lambda r: position_cables(r).size, None),
+    "disk hole heights": (lambda r: r.disks, _hole_heights),
+    "position cables' hole points": (lambda r: 3 * sum(r.holes[c].shape[0] for c in position_cables(r)),
+                                     _hole_points),
+    "first offset and links along x": (lambda r: 1 + r.disks, _links_along_x),
+    "offsets and links": (lambda r: 3 * (r.n + r.disks), _offsets_and_links),
+    "turn about z and origin in the plane": (lambda r: 3, _turn_and_origin),
+    "rotation vector and origin": (lambda r: 6, _rotation_and_origin),
+    "point in the plane": (lambda r: 2, _point_in_plane),
+    "point in space": (lambda r: 3, _point_in_space),
+    "joint tilts": (lambda r: 2 * r.n, _joint_tilts),
+}
+
+
 def plant_blocks(robot) -> list:
-    """``[(block, size), ...]`` of the flat parameter vector of ``robot``'s kind."""
+    """``[(block, size), ...]`` of the flat parameter vector of ``robot``'s kind
+    (:attr:`.robot.Kind.layout`, the table of ``docs/model.md``)."""
     robot = as_robot(robot)
-    return [(name, _SIZES[rule](robot)) for name, rule in LAYOUTS[robot.kind]]
+    return [(name, _RULES[rule][0](robot)) for name, rule in robot.kind.layout]
 
 
 def plant_layout(robot) -> dict:
-    """``{block: slice}`` into the flat parameter vector, in :data:`LAYOUTS` order."""
+    """``{block: slice}`` into the flat parameter vector, in the layout's order."""
     out, start = {}, 0
     for name, k in plant_blocks(robot):
         out[name] = slice(start, start + k)
@@ -184,37 +219,16 @@ def plant_params(robot, p) -> dict:
     if p.size != plant_size(robot):
         raise ValueError(f"plant parameters must have {plant_size(robot)} entries for this robot, got {p.size}")
     v = {name: p[sl] for name, sl in plant_layout(robot).items()}
-    n, K, pos = robot.n, robot.disks, position_cables(robot)
     q = dict(s=float(v["actuation_scale"][0]), o=v["cable_offset"].copy(), b=v["backlash"].copy(),
              kappa=float(v["cable_elasticity"][0]), cl=float(v["hole_clearance"][0]),
              w=CLEARANCE_WIDTH_0 + float(v["clearance_width"][0]), mu=float(v["cable_friction"][0]),
-             dholes=[np.zeros_like(h) for h in robot.holes], doffset=np.zeros((n, 3)), dlink_after=np.zeros((K, 3)),
-             tilt=np.zeros((n, 2)), tip=np.zeros(3))
-    fm = v["frame_misalignment"]
-    if robot.kind == "planar":
-        q["dholes"] = list(hole_height_moves(robot, v["hole_height"]))
-        q["doffset"][0, 0] = v["link_length"][0]
-        q["dlink_after"][:, 0] = v["link_length"][1:]
-        q["rho"], q["t"] = np.array([0.0, 0.0, fm[0]]), np.array([fm[1], fm[2], 0.0])
-        q["tip"][:2] = v["tip_offset"]
-    else:
-        moves = v["hole_position"].reshape(-1, 3)
-        start = 0
-        for c in pos:
-            count = robot.holes[c].shape[0]
-            q["dholes"][c] = moves[start:start + count].copy()
-            start += count
-        ll = v["link_length"].reshape(n + K, 3)
-        q["doffset"], q["dlink_after"] = ll[:n].copy(), ll[n:].copy()
-        q["rho"], q["t"] = fm[:3].copy(), fm[3:].copy()
-        q["tip"] = v["tip_offset"].copy()
-        q["tilt"] = v["joint_axis"].reshape(n, 2).copy()
-    _check_domain(robot, q)
-    return q
-
-
-def _check_domain(robot: Robot, q: dict) -> None:
-    """The physical domain of ``docs/model.md`` ("Parameters")."""
+             dholes=[np.zeros_like(h) for h in robot.holes], doffset=np.zeros((robot.n, 3)),
+             dlink_after=np.zeros((robot.disks, 3)), tilt=np.zeros((robot.n, 2)), rho=np.zeros(3), t=np.zeros(3),
+             tip=np.zeros(3))
+    for name, rule in robot.kind.layout:
+        move = _RULES[rule][1]
+        if move is not None:
+            move(robot, v[name], q)
     if not q["kappa"] >= 0.0:
         raise ValueError(f"cable_elasticity kappa must be >= 0, got {q['kappa']}")
     if not q["cl"] >= 0.0:
@@ -227,12 +241,7 @@ def _check_domain(robot: Robot, q: dict) -> None:
         raise ValueError(f"cable_friction mu must be within [0, 1], got {q['mu']}")
     if not 1.0 + q["s"] > 0.1:
         raise ValueError(f"actuator gain 1 + s must be above 0.1, got {1.0 + q['s']}")
-    if robot.kind == "planar":
-        links = np.concatenate([robot.offsets[:1, 0], robot.link_after[:, 0]])
-        moved = links + np.concatenate([q["doffset"][:1, 0], q["dlink_after"][:, 0]])
-        if not np.all(moved > 0.1 * links):
-            raise ValueError(f"link_length: the links must stay above a tenth of nominal, got {moved} m "
-                             f"for {links} m")
+    return q
 
 
 def axis_basis(axis) -> tuple:

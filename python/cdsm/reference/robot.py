@@ -36,7 +36,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .rotations import log_so3
+
 __all__ = [
+    "Kind",
+    "KINDS",
     "Robot",
     "PlanarView",
     "read_robot",
@@ -62,8 +66,82 @@ STANDARD_GRAVITY = 9.80665
 #: Joint limit of the paper prototype, rad (35 deg).
 PAPER_JOINT_LIMIT = float(np.deg2rad(35.0))
 
-_KINDS = ("planar", "spatial")
 _MODES = ("position", "force")
+
+
+# --------------------------------------------------------------------------
+# The kinds of arm
+# --------------------------------------------------------------------------
+class Kind(str):
+    """An arm's kind (``"planar"`` or ``"spatial"``, a string) with the facts that differ
+    between the kinds, so that the algorithms ask it instead of branching (``docs/model.md``,
+    "The arm model"; ``docs/spatial.md``).
+
+    ``dim``: the position coordinates of the task vector (2: ``x, y``; 3: ``x, y, z``).
+    ``rotation``: the task's attitude, ``"angle"`` (one angle about ``z``, kept unwrapped:
+    ``phi = theta_1 + ... + theta_n``) or ``"vector"`` (the principal rotation vector).
+    ``task_rows``: the rows of the end frame's ``[linear; angular]`` velocity (or of a
+    wrench ``[F; M]``) that the task vector takes (planar ``x, y`` and the turn about
+    ``z``).  ``masks``: the IK masks by name, each ``(position weights (dim,), rotation
+    form, rotation weight)``, the rotation form ``"free"``, ``"angle"``, ``"pointing"``
+    or ``"log"``; ``default_mask``.  ``layout``: the plant's parameter blocks in the order
+    of the flat vector, ``(effect, size rule)`` (``docs/model.md``, "Parameters"; the
+    rules are :mod:`.plant`'s).
+    """
+
+    dim: int
+    rotation: str
+    task_rows: tuple
+    masks: dict
+    default_mask: str
+    layout: tuple
+
+    def __new__(cls, name, dim, rotation, task_rows, masks, default_mask, layout):
+        kind = super().__new__(cls, name)
+        kind.dim, kind.rotation, kind.task_rows = dim, rotation, tuple(task_rows)
+        kind.masks, kind.default_mask, kind.layout = dict(masks), default_mask, tuple(layout)
+        return kind
+
+    def attitude(self, R: np.ndarray, theta: np.ndarray, turn: float = 0.0) -> np.ndarray:
+        """The task's attitude ``(N, 1)`` or ``(N, 3)`` rad of frames ``R (N, 3, 3)`` of the arm
+        at ``theta (N, n)`` rad: ``sum(theta) + turn`` (``turn`` a rotation about ``z``
+        applied to the frame) or the principal rotation vector of ``R``."""
+        if self.rotation == "angle":
+            return theta.sum(axis=1, keepdims=True) + turn
+        return log_so3(R)
+
+    def attitude_change(self, R0: np.ndarray, R1: np.ndarray, theta0: np.ndarray, theta1: np.ndarray):
+        """The attitude's change ``(N, 1)`` or ``(N, 3)`` rad from ``(R0, theta0)`` to ``(R1,
+        theta1)``: the angle's difference, or the rotation ``R0 log(R0^T R1)`` in the base frame."""
+        if self.rotation == "angle":
+            return self.attitude(R1, theta1) - self.attitude(R0, theta0)
+        return np.einsum("nij,nj->ni", R0, log_so3(np.swapaxes(R0, 1, 2) @ R1))
+
+
+#: The two kinds.  Planar: task ``[x, y, phi]``, IK masks ``"pose"`` and ``"position"`` (or
+#: three weights on ``x, y, phi``), the parameter layout of cdsm 0.1; spatial: task ``[x, y, z,
+#: rx, ry, rz]``, masks ``"position"``, ``"pointing"``, ``"pose"``, the layout of cdsm 0.2
+#: and the effects added since.
+KINDS = {
+    "planar": Kind(
+        "planar", dim=2, rotation="angle", task_rows=(0, 1, 5),
+        masks={"pose": ((1.0, 1.0), "angle", 1.0), "position": ((1.0, 1.0), "free", 0.0)}, default_mask="pose",
+        layout=(("actuation_scale", "one"), ("cable_offset", "position cables"),
+                ("hole_height", "disk hole heights"), ("link_length", "first offset and links along x"),
+                ("cable_elasticity", "one"), ("hole_clearance", "one"),
+                ("frame_misalignment", "turn about z and origin in the plane"), ("tip_offset", "point in the plane"),
+                ("backlash", "position cables"), ("clearance_width", "one"), ("cable_friction", "one"))),
+    "spatial": Kind(
+        "spatial", dim=3, rotation="vector", task_rows=(0, 1, 2, 3, 4, 5),
+        masks={"position": ((1.0, 1.0, 1.0), "free", 0.0), "pointing": ((1.0, 1.0, 1.0), "pointing", 1.0),
+               "pose": ((1.0, 1.0, 1.0), "log", 1.0)}, default_mask="pose",
+        layout=(("actuation_scale", "one"), ("cable_offset", "position cables"),
+                ("hole_position", "position cables' hole points"),
+                ("link_length", "offsets and links"), ("cable_elasticity", "one"),
+                ("frame_misalignment", "rotation vector and origin"), ("tip_offset", "point in space"),
+                ("backlash", "position cables"), ("hole_clearance", "one"), ("clearance_width", "one"),
+                ("joint_axis", "joint tilts"), ("cable_friction", "one"))),
+}
 
 
 # --------------------------------------------------------------------------
@@ -79,7 +157,7 @@ class Robot:
     field             shape               meaning
     ================  ==================  ===============================================
     ``name``          str
-    ``kind``          str                 ``"planar"`` or ``"spatial"`` (task space)
+    ``kind``          :class:`Kind`       ``"planar"`` or ``"spatial"``, with its facts
     ``axes``          ``(n, 3)``          unit joint axes, in the joint frame
     ``offsets``       ``(n, 3)``          m, previous frame -> joint, previous frame
     ``joint_limits``  ``(n, 2)``          rad, ``[lo, hi]``
@@ -104,7 +182,7 @@ class Robot:
     """
 
     name: str
-    kind: str
+    kind: Kind
     axes: np.ndarray
     offsets: np.ndarray
     joint_limits: np.ndarray
@@ -383,7 +461,7 @@ def _planar_robot(name, link_before, link_after, thickness, holes, joint_limits=
     zeros = np.zeros((n, 2))
     return Robot(
         name=name,
-        kind="planar",
+        kind=KINDS["planar"],
         axes=np.tile([0.0, 0.0, 1.0], (n, 1)),
         offsets=np.column_stack([lb, zeros]),
         joint_limits=limits.copy(),
@@ -508,18 +586,12 @@ def read_robot(text: str) -> Robot:
     """
     doc = _load_toml(text)
     kind = doc.get("kind", "planar")
-    if kind not in _KINDS:
+    if kind not in _FORMS:
         raise ValueError(f'kind: must be "planar" or "spatial", got {kind!r}')
     name = doc.get("name", "")
     if not isinstance(name, str):
         raise ValueError(f"name: must be a string, got {name!r}")
-    if kind == "planar":
-        general = sorted({"base", "cables"} & set(doc))
-        if general:
-            raise ValueError(f'kind: a planar file is written in the planar shorthand; {general[0]!r} belongs to '
-                             f'the general form (kind = "spatial")')
-        return _read_planar(doc, name)
-    return _read_general(doc, name)
+    return _FORMS[kind](doc, name)
 
 
 def load_robot(path) -> Robot:
@@ -529,6 +601,10 @@ def load_robot(path) -> Robot:
 
 def _read_planar(doc: dict, name: str) -> Robot:
     """The planar shorthand: ``n``, in-plane ``gravity``, ``[cable]``, ``[[linkage]]``."""
+    general = sorted({"base", "cables"} & set(doc))
+    if general:
+        raise ValueError(f'kind: a planar file is written in the planar shorthand; {general[0]!r} belongs to '
+                         f'the general form (kind = "spatial")')
     _known_keys(doc, {"kind", "name", "n", "gravity", "cable", "linkage"}, "")
     linkages = _table_list(_required(doc, "linkage", ""), "linkage")
     n = len(linkages)
@@ -591,7 +667,7 @@ def _read_general(doc: dict, name: str) -> Robot:
     K = len(disks)
     return Robot(
         name=name,
-        kind="spatial",
+        kind=KINDS["spatial"],
         axes=np.array([j["axis"] for j in joints]).reshape(n, 3),
         offsets=np.array([j["offset"] for j in joints]).reshape(n, 3),
         joint_limits=np.array([j["limits"] for j in joints]).reshape(n, 2),
@@ -695,3 +771,7 @@ def _general_cables(cables: list, radii: list) -> list:
             raise ValueError(f"{f}.holes: missing (give radius + angle, or holes)")
         out.append(dict(end=end, mode=mode, tension=tension, holes=h))
     return out
+
+
+#: The reader of each form of robot file, by its ``kind``.
+_FORMS = {"planar": _read_planar, "spatial": _read_general}

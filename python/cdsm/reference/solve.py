@@ -18,7 +18,6 @@ from .kinematics import (
     cable_jacobian,
     chain_frames,
     cross,
-    fk,
     fk_jacobian,
     position_lengths,
     within_limits,
@@ -31,8 +30,6 @@ __all__ = [
     "solve_rows",
     "seeds",
     "solve_cables",
-    "PLANAR_MASKS",
-    "SPATIAL_MASKS",
     "ik",
     "deviation",
     "tip_sensitivity",
@@ -46,10 +43,6 @@ LAMBDA_MAX = 1e12
 #: accepted step lowers ``|r|^2`` by less than this fraction of itself.
 STALL = 1e-12
 
-#: Task masks of a planar arm's IK: weights on the ``x, y, phi`` residuals.
-PLANAR_MASKS = {"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}
-#: Task masks of a spatial arm's IK.
-SPATIAL_MASKS = ("position", "pointing", "pose")
 
 
 def levenberg_marquardt(residual, step, theta, tol, max_iter, lambda0=LAMBDA_0, project=None, stall=None) -> dict:
@@ -187,53 +180,53 @@ def _damped_step(J: np.ndarray, r: np.ndarray, lam: np.ndarray) -> np.ndarray:
     return -solve_rows(Jt @ J + lam[:, None, None] * np.eye(J.shape[2]), (Jt @ r[..., None])[..., 0])
 
 
-def _planar_rows(robot, target, mask):
-    """Residual and Jacobian of a planar IK: ``w_i (fk_i(theta) - target_i)`` over the
-    coordinates with a non-zero weight ``w`` (the mask: a name of :data:`PLANAR_MASKS`
-    or three weights)."""
-    if target.ndim != 2 or target.shape[1] != 3:
-        raise ValueError(f"target must have shape (N, 3), got {target.shape}")
+def _ik_mask(kind, mask) -> tuple:
+    """``(position weights (dim,), rotation form, rotation weight)`` of an IK mask: a name of
+    the kind's masks, or (an angle attitude) ``dim + 1`` weights on the task's coordinates."""
     if isinstance(mask, str):
-        if mask not in PLANAR_MASKS:
-            raise ValueError(f"mask must be one of {tuple(PLANAR_MASKS)} or 3 weights, got {mask!r}")
-        mask = PLANAR_MASKS[mask]
-    w = np.asarray(mask, dtype=float).reshape(3)
-    on = w != 0.0
-
-    def rows(th, idx, jacobian):
-        r = (fk(robot, th) - target[idx])[:, on] * w[on]
-        return r, (fk_jacobian(robot, th)[:, on] * w[on, None] if jacobian else None)
-
-    return rows
+        if mask not in kind.masks:
+            raise ValueError(f"mask must be one of {tuple(kind.masks)}, got {mask!r}")
+        return kind.masks[mask]
+    w = np.asarray(mask, dtype=float).ravel()
+    if kind.rotation != "angle" or w.size != kind.dim + 1:
+        raise ValueError(f"mask must be one of {tuple(kind.masks)}"
+                         + (f" or {kind.dim + 1} weights" if kind.rotation == "angle" else "") + f", got {mask!r}")
+    return tuple(w[:kind.dim]), ("angle" if w[kind.dim] != 0.0 else "free"), float(w[kind.dim])
 
 
-def _spatial_rows(robot, target, mask):
-    """Residual and Jacobian of a spatial IK (``docs/spatial.md``): ``p - p_t`` and, by
-    the mask, ``d - d_t`` (``d = R e_x``, ``"pointing"``) or ``R_t log(R_t^T R)``
-    (``"pose"``); the geometric Jacobian (``w_j x d``, ``w_j``)."""
-    if mask not in SPATIAL_MASKS:
-        raise ValueError(f"mask must be one of {SPATIAL_MASKS}, got {mask!r}")
-    if target.ndim != 2 or target.shape[1] != 6:
-        raise ValueError(f"target must have shape (N, 6), got {target.shape}")
-    target_p, target_R = target[:, :3], exp_so3(target[:, 3:])
+def _ik_rows(robot: Robot, target: np.ndarray, mask):
+    """Residual and Jacobian of the pose IK (``docs/model.md``, ``docs/spatial.md``
+    "Solves"), over the rows the mask keeps: the weighted position rows ``w_i (p_i -
+    p_t,i)`` and, by the mask's rotation form, none (``"free"``), the angle's ``w (phi -
+    phi_t)`` (``"angle"``, the unwrapped ``phi = sum(theta)``), the pointing direction's
+    ``d - d_t`` (``d = R e_x``, ``"pointing"``) or the rotation error ``R_t log(R_t^T R)``
+    (``"log"``); the geometric Jacobian (``w_j x (p - p_j)``, ``w_j x d``, ``w_j``)."""
+    kind = robot.kind
+    width = len(kind.task_rows)
+    if target.ndim != 2 or target.shape[1] != width:
+        raise ValueError(f"target must have shape (N, {width}), got {target.shape}")
+    wp, form, wr = _ik_mask(kind, mask)
+    wp = np.asarray(wp, dtype=float)
+    on = wp != 0.0
+    target_p = target[:, :kind.dim]
+    target_R = exp_so3(target[:, kind.dim:]) if form in ("pointing", "log") else None
 
     def rows(th, idx, jacobian):
         ch = chain_frames(robot, th)
-        p, R, tR = ch["tb"][:, -1], ch["Rb"][:, -1], target_R[idx]
-        r = [p - target_p[idx]]
-        if mask == "pointing":
-            r.append(R[:, :, 0] - tR[:, :, 0])
-        elif mask == "pose":
-            r.append(np.einsum("nij,nj->ni", tR, log_so3(np.swapaxes(tR, 1, 2) @ R)))
-        if not jacobian:
-            return np.concatenate(r, axis=1), None
-        w = ch["w"]
-        J = [np.swapaxes(cross(w, p[:, None, :] - ch["p"]), 1, 2)]
-        if mask == "pointing":
-            J.append(np.swapaxes(cross(w, R[:, None, :, 0]), 1, 2))
-        elif mask == "pose":
-            J.append(np.swapaxes(w, 1, 2))
-        return np.concatenate(r, axis=1), np.concatenate(J, axis=1)
+        p, R, w = ch["tb"][:, -1], ch["Rb"][:, -1], ch["w"]
+        r = [(p[:, :kind.dim] - target_p[idx])[:, on] * wp[on]]
+        J = [np.swapaxes(cross(w, p[:, None, :] - ch["p"]), 1, 2)[:, :kind.dim][:, on] * wp[on, None]]
+        if form == "angle":
+            r.append(wr * (th.sum(axis=1, keepdims=True) - target[idx, kind.dim:]))
+            J.append(wr * w[:, None, :, 2])
+        elif form == "pointing":
+            r.append(wr * (R[:, :, 0] - target_R[idx, :, 0]))
+            J.append(wr * np.swapaxes(cross(w, R[:, None, :, 0]), 1, 2))
+        elif form == "log":
+            tR = target_R[idx]
+            r.append(wr * np.einsum("nij,nj->ni", tR, log_so3(np.swapaxes(tR, 1, 2) @ R)))
+            J.append(wr * np.swapaxes(w, 1, 2))
+        return np.concatenate(r, axis=1), (np.concatenate(J, axis=1) if jacobian else None)
 
     return rows
 
@@ -253,10 +246,7 @@ def ik(robot: Robot, target, seed=None, mask=None, tol=1e-12, max_iter=100, enfo
     """
     robot = as_robot(robot)
     tg = np.asarray(target, dtype=float)
-    if robot.kind == "planar":
-        rows = _planar_rows(robot, tg, "pose" if mask is None else mask)
-    else:
-        rows = _spatial_rows(robot, tg, "pose" if mask is None else mask)
+    rows = _ik_rows(robot, tg, robot.kind.default_mask if mask is None else mask)
     theta = seeds(robot, seed, tg.shape[0])
 
     def residual(th, idx):
@@ -288,13 +278,9 @@ def deviation(robot: Robot, theta0, dL, arm=None, tol=1e-12, max_iter=100) -> di
     theta0 = as_theta(robot, theta0)
     target = position_lengths(robot, theta0) + np.asarray(dL, dtype=float)
     sol = solve_cables(robot if arm is None else as_robot(arm), target, seed=theta0, tol=tol, max_iter=max_iter)
-    if robot.kind == "planar":
-        dS = fk(robot, sol["theta"]) - fk(robot, theta0)
-    else:
-        a, b = chain_frames(robot, theta0), chain_frames(robot, sol["theta"])
-        R0 = a["Rb"][:, -1]
-        turn = log_so3(np.swapaxes(R0, 1, 2) @ b["Rb"][:, -1])
-        dS = np.concatenate([b["tb"][:, -1] - a["tb"][:, -1], np.einsum("nij,nj->ni", R0, turn)], axis=1)
+    a, b = chain_frames(robot, theta0), chain_frames(robot, sol["theta"])
+    dS = np.concatenate([(b["tb"][:, -1] - a["tb"][:, -1])[:, :robot.kind.dim],
+                         robot.kind.attitude_change(a["Rb"][:, -1], b["Rb"][:, -1], theta0, sol["theta"])], axis=1)
     return dict(dS=dS, theta=sol["theta"], converged=sol["converged"])
 
 

@@ -70,12 +70,12 @@ def _gravity(gravity) -> np.ndarray:
 
 
 def _wrench(robot: Robot, tip_wrench, N: int) -> np.ndarray:
-    """The tip wrench as ``(N, 6)`` ``[F, M]``: planar ``[Fx, Fy, Mz]`` (N, N, N m)
-    padded, spatial ``[Fx, Fy, Fz, Mx, My, Mz]``."""
-    if robot.kind == "planar":
-        W = np.broadcast_to(np.asarray(tip_wrench, dtype=float), (N, 3))
-        return np.concatenate([W[:, :2], np.zeros((N, 3)), W[:, 2:]], axis=1)
-    return np.broadcast_to(np.asarray(tip_wrench, dtype=float), (N, 6))
+    """The tip wrench as ``(N, 6)`` ``[F, M]`` from the task's entries (the kind's
+    ``task_rows``: planar ``[Fx, Fy, Mz]`` N, N, N m; spatial ``[Fx, Fy, Fz, Mx, My, Mz]``)."""
+    rows = list(robot.kind.task_rows)
+    W = np.zeros((N, 6))
+    W[:, rows] = np.broadcast_to(np.asarray(tip_wrench, dtype=float), (N, len(rows)))
+    return W
 
 
 def external_moments(robot: Robot, theta, tip_wrench=None, gravity=None, mass=None,
@@ -247,7 +247,7 @@ def solve_cables_elastic(robot: Robot, lengths, E, diameter, routing_length=0.0,
     N, n = L.shape[0], robot.n
     lower_b = None if lower is None else np.broadcast_to(np.asarray(lower, float), (N, force_cables(robot).size))
     wrench = None if tip_wrench is None else np.broadcast_to(np.asarray(tip_wrench, float),
-                                                              (N, 3 if robot.kind == "planar" else 6))
+                                                              (N, len(robot.kind.task_rows)))
 
     def T(th, idx):
         return tensions(robot, th, None if lower_b is None else lower_b[idx],
