@@ -8,10 +8,16 @@ checked through a pipe."""
 from __future__ import annotations
 
 import io
+import os
 import re
+import subprocess
+import sys
 import types
+from pathlib import Path
 
 import pytest
+
+DATA = Path(__file__).resolve().parents[1] / "python" / "cdsm" / "data"
 
 
 class _Clock:
@@ -91,3 +97,24 @@ def test_nothing_when_not_enabled(fake):
         bar.update(1)
     bar.finish()
     assert buf.getvalue() == ""
+
+
+def test_the_diagnose_command_logs_its_stages_when_stderr_is_not_a_terminal(cdsm, tmp_path):
+    """``cdsm diagnose FILE`` with stderr redirected: a line per stage
+    (reading the file, the single effects, the selection), no carriage
+    return (the old progress line drew only on terminals: stderr held the
+    final ``done in`` line alone)."""
+    f = tmp_path / "measured.csv"
+    f.write_text((DATA / "table3.csv").read_text(encoding="utf-8"), encoding="utf-8")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(Path(cdsm.__file__).parents[1]),
+                                                         os.environ.get("PYTHONPATH", "")]))
+    run = subprocess.run([sys.executable, "-m", "cdsm", "diagnose", str(f)], capture_output=True, text=True,
+                         env=env, timeout=600)
+    assert run.returncode == 0, run.stderr
+    err = run.stderr
+    assert "\r" not in err and "\033" not in err
+    lines = err.splitlines()
+    assert re.fullmatch(r"reading measured\.csv: done, 0\.7 kB of 0\.7 kB in \d+\.\d s", lines[0]), lines
+    assert re.fullmatch(r"diagnose: the nominal model and each effect: done, 110/110 fold fits in .*", lines[1])
+    assert re.fullmatch(r"diagnose: selection, search and checks: done, \d+ fold fits in .*", lines[2])
+    assert lines[-1].startswith("done in") and len(lines) <= 8
