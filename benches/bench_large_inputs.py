@@ -18,8 +18,9 @@ process's own; the import of cdsm is in it, about 40 MB):
   :func:`cdsm.accuracy.statics.friction_map` at one configuration (what the
   study cycles for such an arm: :data:`~cdsm.accuracy.statics.CYCLE_WORK`).
 
-Prints a Markdown table. Run it with another ``PYTHONPATH`` to measure
-another version of cdsm (the API used is the same since 0.2).
+Prints a Markdown table (wall time depends on what else the machine runs;
+CPU time less). Run it with another ``PYTHONPATH`` to measure another
+version of cdsm (the API used is the same since 0.2).
 """
 
 from __future__ import annotations
@@ -29,7 +30,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -38,7 +38,8 @@ import resource, sys, time
 from cdsm.calibration.measurements import read_csv
 t = time.perf_counter()
 m = read_csv(sys.argv[1], 3)
-print(len(m), time.perf_counter() - t, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+ru = resource.getrusage(resource.RUSAGE_SELF)
+print(len(m), time.perf_counter() - t, ru.ru_utime + ru.ru_stime, ru.ru_maxrss / 1024)
 """
 
 _FRICTION = """
@@ -52,8 +53,9 @@ r = cdsm.Robot.from_toml_str(planar_toml(int(sys.argv[1])))
 th = np.full((1, r.n), 0.01)
 t = time.perf_counter()
 fm = statics.friction_map(r, th)
-print(int(fm.cycled.sum()) * len(r.position_cables), time.perf_counter() - t,
-      resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+ru = resource.getrusage(resource.RUSAGE_SELF)
+print(int(fm.cycled.sum()) * len(r.position_cables), time.perf_counter() - t, ru.ru_utime + ru.ru_stime,
+      ru.ru_maxrss / 1024)
 """
 
 
@@ -79,11 +81,11 @@ def child(code: str, *args: str):
 
 
 def timed(argv):
-    t = time.perf_counter()
-    out = subprocess.run(["/usr/bin/time", "-f", "%M", *argv], capture_output=True, text=True)
+    out = subprocess.run(["/usr/bin/time", "-f", "%e %U %S %M", *argv], capture_output=True, text=True)
     if out.returncode:
         raise SystemExit(out.stderr)
-    return time.perf_counter() - t, float(out.stderr.strip().splitlines()[-1]) / 1024
+    wall, user, system, rss = (float(v) for v in out.stderr.strip().splitlines()[-1].split())
+    return wall, user + system, rss / 1024
 
 
 def main() -> None:
@@ -96,15 +98,15 @@ def main() -> None:
     path = os.path.join(a.dir, f"measurements_{a.rows}.csv")
     if not os.path.exists(path):
         write_file(path, a.rows)
-    table = ["| step | size | wall time | peak RSS |", "|---|---|---|---|"]
-    n, t, rss = child(_READ, path)
+    table = ["| step | size | wall time | CPU time (with the import) | peak RSS |", "|---|---|---|---|---|"]
+    n, t, cpu, rss = child(_READ, path)
     table.append(f"| read {os.path.basename(path)} | {int(n)} rows, {os.path.getsize(path) / 1e6:.0f} MB | "
-                 f"{t:.1f} s | {rss:.0f} MB |")
+                 f"{t:.1f} s | {cpu:.1f} s | {rss:.0f} MB |")
     if a.diagnose:
-        t, rss = timed([sys.executable, "-m", "cdsm", "diagnose", path, "--quiet"])
-        table.append(f"| cdsm diagnose | {a.rows} rows | {t:.0f} s | {rss:.0f} MB |")
-    n, t, rss = child(_FRICTION, str(a.joints), HERE)
-    table.append(f"| friction map, {a.joints}-joint arm | {int(n)} cycles | {t:.0f} s | {rss:.0f} MB |")
+        t, cpu, rss = timed([sys.executable, "-m", "cdsm", "diagnose", path, "--quiet"])
+        table.append(f"| cdsm diagnose | {a.rows} rows | {t:.0f} s | {cpu:.0f} s | {rss:.0f} MB |")
+    n, t, cpu, rss = child(_FRICTION, str(a.joints), HERE)
+    table.append(f"| friction map, {a.joints}-joint arm | {int(n)} cycles | {t:.0f} s | {cpu:.0f} s | {rss:.0f} MB |")
     print("\n".join(table))
 
 
