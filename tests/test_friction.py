@@ -458,3 +458,46 @@ def test_suggest_offers_loading_and_unloading_with_friction(compliant, friction_
     d = diagnosis.diagnose(compliant, friction_data, effects=["cable_friction", "backlash", "cable_elasticity"])
     sug = experiment.suggest(d, 4, pool=60)
     assert sug.approach is not None and len(sug.approach) == len(sug.theta)
+
+
+def test_a_friction_map_runs_its_cycles_in_chunks_of_bounded_memory(cdsm, ref, monkeypatch):
+    """Memory bounded by design (issue 32, item 11): the plant with friction
+    keeps every hole's motion for every command, so the hysteresis map runs
+    its cycles in chunks of :func:`cycle_chunk` (here two cycles: at most 10
+    rows through the plant at once, where it used to run all 45 in one
+    sequence); each chunk is a sequence of its own from the start state —
+    its loops are the reference plant's on that chunk alone — and a chunk
+    holding every cycle is the one sequence, as before."""
+    from cdsm.accuracy import statics
+    from cdsm.calibration import plant
+
+    r = cdsm.Robot.packaged("paper_vertical")
+    th = np.array([[0.3, -0.2, 0.25], [0.0, 0.0, 0.0], [-0.4, 0.3, 0.1]])
+    whole = statics.friction_map(r, th)
+    holes = 2 * sum(r.cable_ends)
+    monkeypatch.setattr(statics, "CYCLE_MEMORY", 2 * 5 * holes * statics.BYTES_PER_HOLE_COMMAND)
+    assert statics.cycle_chunk(r) == 2
+    calls = []
+    real = plant.predict
+
+    def spy(robot, p, theta_cmd, *a, **k):
+        calls.append(len(theta_cmd))
+        return real(robot, p, theta_cmd, *a, **k)
+
+    monkeypatch.setattr(plant, "predict", spy)
+    fm = statics.friction_map(r, th)
+    assert calls == [10, 10, 10, 10, 5]
+    theta_cmd, dL = statics.hysteresis_cycles(3, 3, th)
+    p = np.zeros(ref.plant_size(r))
+    p[ref.plant_layout(r)["cable_friction"]] = statics.FRICTION
+    want = np.empty(9)
+    for first in range(0, 9, 2):
+        rows = slice(5 * first, 5 * min(first + 2, 9))
+        kinds = np.array(["absolute"] * (rows.stop - rows.start))
+        obs, ok = ref.plant_predict(r, p, theta_cmd[rows], dL[rows], kinds)
+        assert ok.all()
+        xy = obs[:, :2].reshape(-1, 5, 2)
+        want[first:first + len(xy)] = np.linalg.norm(xy[:, 2] - xy[:, 4], axis=-1)
+    assert np.abs(fm.loop.reshape(-1) - want).max() < 1e-12
+    # the first chunk starts where the whole sequence starts: same loops
+    np.testing.assert_array_equal(fm.loop.reshape(-1)[:2], whole.loop.reshape(-1)[:2])
