@@ -59,6 +59,7 @@ __all__ = [
     "derivatives",
     "friction_sequence",
     "newton_step",
+    "structured_step",
     "ARMIJO",
     "XTOL",
     "SHIFT",
@@ -367,6 +368,35 @@ def newton_step(H: np.ndarray, g: np.ndarray) -> tuple:
     return np.full(n, np.nan), np.inf
 
 
+def structured_step(robot: Robot, parts: dict, row: int = 0) -> np.ndarray:
+    """The Newton step ``s`` of ``H s = -g`` by the structure of ``docs/model.md`` ("The
+    solver"), for one row of :func:`evaluate`'s ``parts`` (``order=2``): ``H = D + G_t C
+    G_t^T`` with ``D = K + B`` block diagonal (one block per disk: its joints) and ``C =
+    diag(c)`` over the ``m_t`` taut cables, so by Woodbury
+
+        s = -(D^-1 g - D^-1 G_t (C^-1 + G_t^T D^-1 G_t)^-1 G_t^T D^-1 g)
+
+    a solve per block and one ``m_t x m_t`` solve.  Needs ``Q = 0`` (no gravity, no tip
+    force: ``Q`` is dense) and every block of ``D`` invertible; ``(n,)`` rad."""
+    robot = as_robot(robot)
+    Q = parts["Q"][row]
+    if np.any(Q != 0.0):
+        raise ValueError("structured_step: the loads' curvature Q is not 0 (gravity or a tip force): "
+                         "H has no block-plus-low-rank form")
+    g, B, G, c = parts["g"][row], parts["B"][row], parts["G"][row], parts["c"][row]
+    taut = c > 0.0
+    Gt = G[:, taut]
+    rhs = np.column_stack([g, Gt])  # D^-1 [g, G_t] block by block
+    sol = np.empty_like(rhs)
+    for k in np.unique(robot.joint_disk):
+        j = np.flatnonzero(robot.joint_disk == k)
+        Dk = B[np.ix_(j, j)] + np.diag(parts["K"][j])
+        sol[j] = np.linalg.solve(Dk, rhs[j])
+    Dg, DG = sol[:, 0], sol[:, 1:]
+    small = np.diag(1.0 / c[taut]) + Gt.T @ DG
+    return -(Dg - DG @ np.linalg.solve(small, Gt.T @ Dg))
+
+
 def equilibrium(robot: Robot, lengths=None, displacements=None, tip_wrench=None, seed=None, xtol: float = XTOL,
                 max_iter: int = 100) -> dict:
     """The frictionless forward statics of an elastic arm (``docs/model.md``, "Elastic
@@ -595,7 +625,8 @@ def friction_sequence(robot: Robot, joint_friction, lengths=None, displacements=
     ``+-tau``, 0 inside the band); the Newton step on the joints that move or would move
     (the others held), its components that leave their orthant at ``x_j = 0`` dropped, the
     trial projected onto the orthant (a joint whose ``x_j`` would change sign stops at 0),
-    Armijo on ``Phi``.  A joint with ``tau_c = 0`` has no kink and is never held.
+    Armijo on ``Phi`` (an unshifted step whose predicted decrease is below ``Phi``'s rounding
+    level is taken whole, as in :func:`equilibrium`).  A joint with ``tau_c = 0`` has no kink and is never held.
     Converged when every held joint is inside its band and the unshifted step is at most
     ``xtol`` rad.  With ``tau_c = 0`` this is :func:`equilibrium_sequence`'s Newton.
 
@@ -664,6 +695,9 @@ def _minimise_friction(robot, springs, task, prev, tc, xtol, max_iter) -> tuple:
             if shift == 0.0 and not np.any(leave & (pg != 0.0)):
                 return _project(prev, x + s, orthant, kinked), True, "converged", it + 1
             return q, False, "not a minimum", it
+        if shift == 0.0 and -float(pg @ s) <= ROUNDING_ULPS * np.finfo(float).eps * float(ev["scale"][0]):
+            q = _project(prev, x + s, orthant, kinked)  # below the rounding level of Phi: the full step
+            continue
         P0 = phi(q)
         t = 1.0
         for _ in range(HALVINGS):
@@ -672,9 +706,6 @@ def _minimise_friction(robot, springs, task, prev, tc, xtol, max_iter) -> tuple:
                 break
             t *= 0.5
         else:
-            if shift == 0.0 and -float(pg @ s) <= ROUNDING_ULPS * np.finfo(float).eps * float(ev["scale"][0]):
-                q = _project(prev, x + s, orthant, kinked)
-                continue
             return q, False, "line search", it + 1
         q = trial
     return q, False, "iteration limit", max_iter

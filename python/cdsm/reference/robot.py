@@ -760,18 +760,18 @@ def _backbone_stiffness(table: dict, axes: np.ndarray, joint_disk: np.ndarray, f
     if len(link) != K:
         raise ValueError(f"backbone.segments: the segments' links add up to {len(link)} but the arm has {K} "
                          f"disks (one link per disk, base to tip)")
-    I = math.pi * r**4 / 4.0
+    area_moment = math.pi * r**4 / 4.0  # I, m^4
     out = np.empty(len(axes))
     for j, (a, k, f) in enumerate(zip(axes, joint_disk, fields)):
-        l = link[int(k) - 1]
+        link_length = link[int(k) - 1]
         kind = axis_class(a)
         if kind == "bending":
-            out[j] = E * I / l
+            out[j] = E * area_moment / link_length
         elif kind == "torsion":
             if G is None:
                 raise ValueError(f"backbone.shear_modulus: missing ({f} is a torsion joint: its axis lies along "
                                  f"the backbone)")
-            out[j] = G * 2.0 * I / l
+            out[j] = G * 2.0 * area_moment / link_length
         else:
             raise ValueError(f"{f}.axis: a [backbone] derives bending joints (axis perpendicular to the "
                              f"backbone, the joint frame's x) and torsion joints (axis along x); "
