@@ -76,7 +76,7 @@ def test_one_segment_one_tendon_is_constant_curvature_at_small_angles():
                    uniform=np.abs(theta / theta.mean() - 1.0).max(),
                    y=abs(tip[1] / ((1.0 - math.cos(phi_target)) / kappa) - 1.0),
                    x=abs(tip[0] - math.sin(phi_target) / kappa) / L)
-        assert max(err.values()) < 2.0 * phi_target, err
+        assert max(err.values()) < 0.05 * phi_target, err  # measured: 0.018 phi (T)
         errors.append(err)
     # second order: halving the angle halves the relative error of phi and T
     for key in ("phi", "T"):
@@ -104,7 +104,7 @@ def test_cantilever_under_a_tip_load_converges_to_euler_bernoulli():
     order = -np.diff(np.log(np.abs(rel))) / np.diff(np.log(Ns))
     np.testing.assert_allclose(order, 2.0, atol=0.01)
     # and the constant: the lumped sum's -1/(4 N^2), up to the load's own nonlinearity
-    np.testing.assert_allclose(rel, -1.0 / (4.0 * Ns**2), atol=1e-6)
+    np.testing.assert_allclose(rel, -1.0 / (4.0 * Ns**2), rtol=0, atol=1e-7)  # measured: 1.9e-8
 
 
 # --------------------------------------------------------------------------
@@ -355,8 +355,8 @@ def test_ftdcr_v4_against_opencr_mujoco_settled():
     assert sol["converged"].all()
     tip = fk(robot, sol["theta"])[:, [1, 2, 0]]  # cdsm (x, y, z) = MuJoCo (z, x, y)
     assert np.abs(tips[:, :2]).max(1).min() > 0.02  # the arm bends (tip >= 20 mm off the axis)
-    np.testing.assert_allclose(tip, tips, rtol=0, atol=1e-9)  # m
-    np.testing.assert_allclose(sol["tension"], tensions, rtol=0, atol=1e-6)  # N
+    np.testing.assert_allclose(tip, tips, rtol=0, atol=1e-11)  # m; measured: 4e-15
+    np.testing.assert_allclose(sol["tension"], tensions, rtol=0, atol=1e-9)  # N; measured: 1e-12
     np.testing.assert_array_equal(sol["slack"], tensions == 0.0)
 
 

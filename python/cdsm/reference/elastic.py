@@ -523,6 +523,14 @@ def _newton(robot, springs, task, theta, xtol, max_iter) -> tuple:
     return q, converged, reason, iterations
 
 
+def _sequence(robot: Robot, lengths, displacements, tip_wrench, start) -> tuple:
+    """A sequence's cable laws, its task wrench rows ``(N, t)`` and its start ``(n,)`` rad."""
+    springs = tendon_springs(robot, lengths, displacements,
+                             None if tip_wrench is None or np.ndim(tip_wrench) < 2 else np.shape(tip_wrench)[0])
+    task = _wrench(robot, tip_wrench, springs.rows)[:, list(robot.kind.task_rows)]
+    return springs, task, _seed(robot, start, 1)[0]
+
+
 def equilibrium_sequence(robot: Robot, lengths=None, displacements=None, tip_wrench=None, start=None,
                          xtol: float = XTOL, max_iter: int = 100) -> dict:
     """:func:`equilibrium` along a sequence of commands, each row seeded with the previous
@@ -530,11 +538,8 @@ def equilibrium_sequence(robot: Robot, lengths=None, displacements=None, tip_wre
     start of ``docs/model.md``.  Without friction the answer of a row does not depend on
     the history except through which minimum a row reaches."""
     robot = as_robot(robot)
-    springs = tendon_springs(robot, lengths, displacements,
-                             None if tip_wrench is None or np.ndim(tip_wrench) < 2 else np.shape(tip_wrench)[0])
+    springs, task, q = _sequence(robot, lengths, displacements, tip_wrench, start)
     N = springs.rows
-    task = _wrench(robot, tip_wrench, N)[:, list(robot.kind.task_rows)]
-    q = _seed(robot, start, 1)[0]
     theta = np.empty((N, robot.n))
     converged = np.zeros(N, dtype=bool)
     reason, iterations = [], np.zeros(N, dtype=np.int64)
@@ -637,11 +642,8 @@ def friction_sequence(robot: Robot, joint_friction, lengths=None, displacements=
     tc = np.broadcast_to(np.asarray(joint_friction, dtype=float), (robot.n,)).copy()
     if not np.all(np.isfinite(tc)) or np.any(tc < 0.0):
         raise ValueError(f"joint_friction: must be finite and >= 0 N m, got {joint_friction!r}")
-    springs = tendon_springs(robot, lengths, displacements,
-                             None if tip_wrench is None or np.ndim(tip_wrench) < 2 else np.shape(tip_wrench)[0])
+    springs, task, prev = _sequence(robot, lengths, displacements, tip_wrench, start)
     N = springs.rows
-    task = _wrench(robot, tip_wrench, N)[:, list(robot.kind.task_rows)]
-    prev = _seed(robot, start, 1)[0]
     theta = np.empty((N, robot.n))
     stuck = np.zeros((N, robot.n), dtype=bool)
     converged = np.zeros(N, dtype=bool)
