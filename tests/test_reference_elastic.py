@@ -467,3 +467,18 @@ def test_planar_springs_are_read_and_refused():
         read_robot(good.replace("stiffness = 0.5", "stiffness = -0.5"))
     with pytest.raises(ValueError, match=r"^linkage\[1\]\.rest_angle"):
         read_robot(good.replace("rest_angle = 0.02", "rest_angle = nan"))
+
+
+def test_bad_commands_are_refused_naming_the_argument():
+    """Commands of the wrong shape, not finite, or a position cable's length <= 0 (its
+    Hooke law divides by it); a spatial tip moment (no potential)."""
+    arm = mixed_arm()
+    lengths = position_lengths(arm, np.full((1, arm.n), 0.02))
+    d = np.zeros((1, 3))
+    for kwargs, field in ((dict(lengths=lengths, displacements=np.zeros((1, 2))), "displacements"),
+                          (dict(lengths=lengths, displacements=d + np.nan), "displacements"),
+                          (dict(lengths=-lengths, displacements=d), "lengths"),
+                          (dict(displacements=d), "lengths"),
+                          (dict(lengths=lengths, displacements=d, tip_wrench=[0, 0, 0, 0, 0, 0.1]), "tip_wrench")):
+        with pytest.raises(ValueError, match="^" + field):
+            elastic.equilibrium(arm, **kwargs)

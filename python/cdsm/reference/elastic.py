@@ -161,6 +161,9 @@ def tendon_springs(robot: Robot, lengths=None, displacements=None, rows: int | N
         raise ValueError(f"lengths and displacements: {L.shape[0]} and {d.shape[0]} rows differ")
     EA = robot.youngs_modulus * np.pi * robot.diameter**2 / 4.0
     Lr = robot.routing_length
+    if np.any(L + Lr <= 0.0):
+        raise ValueError(f"lengths: a commanded cable length plus the routing length ({Lr!r} m) must be > 0 m, "
+                         f"got {L[L + Lr <= 0.0][0]!r}")
     rest = np.full((N, robot.m), np.nan)
     k = np.zeros((N, robot.m))
     rest[:, pos] = L
