@@ -27,6 +27,8 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HIST_BINS", crate::accuracy::HIST_BINS)?;
     m.add("QUANTITIES", crate::accuracy::QUANTITIES)?;
     m.add("REASONS", crate::lm::Reason::NAMES.to_vec())?;
+    m.add("ELASTIC_REASONS", crate::elastic::REASONS.to_vec())?;
+    m.add("ELASTIC_XTOL", crate::elastic::XTOL)?;
     m.add("CLEARANCE_WIDTH", crate::plant::CLEARANCE_WIDTH)?;
     m.add_function(wrap_pyfunction!(robot::hist_edges, m)?)?;
     m.add_function(wrap_pyfunction!(robot::simd_instruction_set, m)?)?;
