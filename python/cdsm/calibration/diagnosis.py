@@ -523,7 +523,10 @@ class _Scorer:
 class SupportTest(ShortRepr):
     """One support decision: whether the model ``big`` is supported over
     the nested smaller model ``small`` (``step``: where the diagnosis asked)
-    at the level ``alpha`` (docs/model.md, "The support test").
+    at the level ``alpha`` (docs/model.md, "The support test"). A tie test
+    is kept the same way (:attr:`nested` false): two models not nested,
+    ``big`` beating ``small`` by the held-out signed-rank test whatever the
+    noise, a tie where it does not.
 
     ``test``: ``"chi2"``, the likelihood ratio against the given noise,
     ``(RSS_small - RSS_big) / (r sigma)^2`` against chi-square(``dof``);
@@ -551,14 +554,25 @@ class SupportTest(ShortRepr):
 
     @property
     def supported(self) -> bool:
+        """Nested: ``big`` is supported over ``small``; not nested: ``big``
+        beats ``small`` (no tie)."""
         return bool(self.p_value < self.alpha and self.guard_passed)
+
+    @property
+    def nested(self) -> bool:
+        """A support test of nested models (else a tie test of two models
+        that are not nested: :meth:`_Judge.differs`)."""
+        return self.guard != NOT_NESTED
 
     def to_json(self) -> dict:
         return dict(big=self.big, small=self.small, step=self.step, test=self.test, statistic=self.statistic,
                     dof=list(self.dof), p_value=self.p_value, alpha=self.alpha, guard=self.guard,
                     guard_passed=self.guard_passed, heldout_rms_big_m=self.heldout_big,
-                    heldout_rms_small_m=self.heldout_small, supported=self.supported)
+                    heldout_rms_small_m=self.heldout_small, supported=self.supported, nested=self.nested)
 
+
+#: The guard of a :class:`SupportTest` of two models that are not nested (a tie test).
+NOT_NESTED = "none (not nested: a tie test)"
 
 #: How an :class:`AdequacyBound` is obtained (the JSON's words).
 BOUND_METHOD = ("linearised parametric bootstrap: data sets simulated from the fitted model (its Jacobian at the "
@@ -922,7 +936,7 @@ class _Judge:
         (:class:`SupportTest`): with a given or repeat-estimated noise, the
         likelihood-ratio test and the held-out RMS improving; with an
         assumed noise, the held-out signed-rank test and BIC."""
-        key = (id(big), id(small), float(alpha))
+        key = ("nested", id(big), id(small), float(alpha))
         if key not in self.tests:
             ne = self.noise
             guard = big.heldout_rms < small.heldout_rms
@@ -942,6 +956,18 @@ class _Judge:
                 t = SupportTest(big.name, small.name, step, test, float(stat), dof, float(p), float(alpha),
                                 "held-out RMS improves", bool(guard), big.heldout_rms, small.heldout_rms)
             self.tests[key] = t
+        return self.tests[key].supported
+
+    def differs(self, a: Candidate, b: Candidate, alpha: float, step: str) -> bool:
+        """Whether ``a``'s held-out errors beat ``b``'s beyond noise: models
+        not nested (two single effects, two combinations of one size), so the
+        held-out signed-rank test at ``alpha`` whatever the noise (a tie
+        where it does not); kept in ``tests`` with the guard always met."""
+        key = ("not nested", id(a), id(b), float(alpha))
+        if key not in self.tests:
+            w, pairs, p = stats.signed_rank(b.heldout ** 2 - a.heldout ** 2)
+            self.tests[key] = SupportTest(a.name, b.name, step, "signed-rank", w, (pairs,), p, float(alpha),
+                                          NOT_NESTED, True, a.heldout_rms, b.heldout_rms)
         return self.tests[key].supported
 
     def bound(self, c: Candidate) -> AdequacyBound:
@@ -1142,7 +1168,7 @@ def _search(judge: _Judge, scorer: "_Scorer", known: Dict[frozenset, Candidate],
         pick = min(pool, key=lambda c: c.heldout_rms) if pool else None
         rivals = supported
     tie = [] if pick is None else [c.name for c in rivals if c is not pick and len(c.effects) == len(pick.effects)
-                                   and not stats.better(pick.heldout, c.heldout, ALPHA)]
+                                   and not judge.differs(pick, c, ALPHA, "search: ties")]
     bounds = {c.name: judge.bounds[id(c)].bound for c in tried + ([chosen] if chosen is not None else [])
               if id(c) in judge.bounds}
     return Search(reason, len(combos), float(a), {"+".join(c): float(v) for c, v in zip(combos, screen)}, tried,
@@ -1284,7 +1310,7 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     chosen, dropped = _prune(judge, scorer, known, chosen, alphas[0]) if alphas else (chosen, [])
     # single effects the held-out errors cannot tell from the best one (not
     # nested: the paired signed-rank test, whatever the noise)
-    ties = [c.name for c in singles[1:] if not stats.better(top.heldout, c.heldout, ALPHA)
+    ties = [c.name for c in singles[1:] if not judge.differs(top, c, ALPHA, "ties of the first single effect")
             and c.heldout_rms < base.heldout_rms] if top is not None else []
     search = _search(judge, scorer, known, base, singles, chosen, ties, max_combination)
     if search is not None and search.replaced:

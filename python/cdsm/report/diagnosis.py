@@ -419,15 +419,17 @@ def _support_words(d: diagnose.Diagnosis) -> str:
 
 
 def test_rows(d: diagnose.Diagnosis) -> List[List[str]]:
-    """One row per support test of ``d``, in the order asked: where, the
-    model, the nested one it is tested against, the test, its statistic,
-    degrees of freedom, p-value and level, the guard and the decision."""
+    """One row per test of ``d``, in the order asked: where, the model, the
+    one it is tested against (nested: a support test; not nested: a tie
+    test), the test, its statistic, degrees of freedom, p-value and level,
+    the guard and the decision."""
     out = []
     for t in d.support:
         stat = f"{t.statistic:.3g}" if np.isfinite(t.statistic) else "—"
         out.append([t.step, f"`{t.big}`", f"`{t.small}`", {"chi2": "χ² (LR)", "F": "F (LR)"}.get(t.test, t.test),
                     stat, ", ".join(str(v) for v in t.dof), f"{t.p_value:.2g}", f"{t.alpha:.2g}",
-                    f"{t.guard}: {'yes' if t.guard_passed else 'no'}", "**supported**" if t.supported else "no"])
+                    f"{t.guard}: {'yes' if t.guard_passed else 'no'}" if t.nested else "— (not nested)",
+                    ("**supported**" if t.supported else "no") if t.nested else ("differs" if t.supported else "tie")])
     return out
 
 
@@ -437,7 +439,8 @@ def tests_text(d: diagnose.Diagnosis) -> List[str]:
     adequacy bounds used and how they were obtained, the lack-of-fit test."""
     v = d.verdict_detail
     out = [f"Support test: {d.support_rule}, at the family-corrected levels below (docs/model.md, \"The support "
-           "test\"). Each row asks whether a model beats the nested smaller one: the likelihood ratio's statistic "
+           "test\"). Each row asks whether a model beats the nested smaller one (or, for two models not nested, "
+           "whether the held-out errors tell them apart: a tie where they do not): the likelihood ratio's statistic "
            "is the drop in the position residuals' sum of squares over the noise variance (χ², degrees of "
            "freedom: the parameters added that are not at a bound), or that drop per parameter over the pure "
            "error's mean square (F); the signed-rank statistic is W+ over the rows' held-out gains."]
@@ -453,8 +456,8 @@ def tests_text(d: diagnose.Diagnosis) -> List[str]:
             f"by a linearised parametric bootstrap around the model's fit ({b.draws} data sets simulated from the "
             f"fitted model's Jacobian plus the noise, refitted on the same folds). "
             + (f"`{d.best}`: held-out {_um(fin.heldout_rms)} against its bound {_um(b.bound)} "
-               f"({b.factor:.2f}× the floor, median {_um(b.median)}, {b.parameters} parameters); "
-               if d.chosen is not None else "")
+               f"({b.factor:.2f}× the floor, median {_um(b.median)}, {b.parameters} parameters); the "
+               if d.chosen is not None else "The ")
             + f"nominal model: held-out {_um(d.baseline.heldout_rms)} against {_um(nb.bound)} ({nb.factor:.2f}× the "
             f"floor, {nb.parameters} parameters). Lack of fit of the final model: "
             + (f"F = {v.statistic:.3g} ({v.dof[0]}, {v.dof[1]} dof)" if v.test == "F" and len(v.dof) > 1 else
@@ -919,7 +922,7 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Do
     for t in tests_text(d):
         doc.p(t)
     if d.support:
-        doc.table(["step", "model", "against", "test", "statistic", "dof", "p", "level", "guard", "supported"],
+        doc.table(["step", "model", "against", "test", "statistic", "dof", "p", "level", "guard", "decision"],
                   test_rows(d))
     doc.section("identifiability", "Identifiability")
     for t in f["identifiability"]:
