@@ -11,7 +11,9 @@
 
 use crate::error::{CdsmError, Result};
 use crate::robot::{CableMaterial, Robot};
-use crate::robot_file::{bad, coordinates, joint_limits, parse_toml, positive_length, Exact};
+use crate::robot_file::{
+    bad, coordinates, from_table, joint_limits, positive_length, robot_name, toml_table, Exact,
+};
 use serde::Deserialize;
 
 /// The kind of an arm: which motion group its joints span and which task
@@ -231,7 +233,11 @@ pub fn toml_string(text: &str) -> String {
 
 /// The `kind` of a robot description: `"planar"` (the default) or `"spatial"`.
 pub fn kind_of(text: &str) -> Result<String> {
-    let table: toml::Table = parse_toml(text)?;
+    kind_of_table(&toml_table(text)?)
+}
+
+/// [`kind_of`] of a description given as its table.
+fn kind_of_table(table: &toml::Table) -> Result<String> {
     let kind = match table.get("kind") {
         None => "planar".to_string(),
         Some(v) => v
@@ -254,12 +260,19 @@ pub type SpatialRobot = Model;
 
 impl Model {
     /// Parses and validates a robot description of either kind: a spatial
-    /// file as written, a planar file through [`Robot::from_toml`] and
+    /// file as written, a planar file through [`Robot::from_table`] and
     /// [`Model::from_planar`].
     pub fn from_toml(text: &str) -> Result<Model> {
-        match kind_of(text)?.as_str() {
-            "planar" => Ok(Model::from_planar(&Robot::from_toml(text)?)),
-            _ => Model::from_spatial_toml(text),
+        Model::from_table(toml_table(text)?)
+    }
+
+    /// Validates a robot description of either kind given as its table: a
+    /// parsed file, or data built as one (the same fields, the same checks,
+    /// the same field paths in errors; no text in between).
+    pub fn from_table(table: toml::Table) -> Result<Model> {
+        match kind_of_table(&table)?.as_str() {
+            "planar" => Ok(Model::from_planar(&Robot::from_table(table)?)),
+            _ => Model::from_spatial_table(table),
         }
     }
 
@@ -459,9 +472,10 @@ impl Model {
         self.planar.as_deref()
     }
 
-    /// Parses and validates a spatial robot description (`docs/spatial.md`).
-    pub fn from_spatial_toml(text: &str) -> Result<Model> {
-        let f: File = parse_toml(text)?;
+    /// Validates a spatial robot description (`docs/spatial.md`) given as
+    /// its table.
+    fn from_spatial_table(table: toml::Table) -> Result<Model> {
+        let f: File = from_table(table)?;
         if f.kind != "spatial" {
             return Err(bad(
                 "kind".into(),
@@ -556,10 +570,11 @@ impl Model {
                 }
                 ("force", Some(t)) if t.is_finite() && t > 0.0 => (Mode::Force, t),
                 ("force", t) => {
+                    let got = t.map_or_else(|| "none".to_string(), |v| v.to_string());
                     return Err(bad(
                         field("tension"),
-                        format!("a force-controlled cable needs a positive tension (N), got {t:?}"),
-                    ))
+                        format!("a force-controlled cable needs a positive tension (N), got {got}"),
+                    ));
                 }
                 (m, _) => {
                     return Err(bad(
@@ -608,7 +623,7 @@ impl Model {
             });
         }
         let robot = Model {
-            name: f.name.unwrap_or_else(|| "unnamed".into()),
+            name: robot_name(f.name)?,
             kind: Kind::Spatial,
             joints,
             disks,
@@ -842,6 +857,39 @@ mod tests {
             }
             let back = Model::from_toml(&m.to_toml()).unwrap();
             assert_eq!(back, m, "{}", m.to_toml());
+        }
+    }
+
+    #[test]
+    fn every_reader_refuses_a_name_xml_forbids() {
+        for text in [
+            include_str!("../python/cdsm/robots/paper.toml"),
+            include_str!("../python/cdsm/robots/two_universal.toml"),
+        ] {
+            let named = |name: &str| {
+                let body: String = text
+                    .lines()
+                    .filter(|l| !l.starts_with("name ="))
+                    .map(|l| format!("{l}\n"))
+                    .collect();
+                format!("name = {}\n{body}", toml_string(name))
+            };
+            assert_eq!(
+                Model::from_toml(&named("ok \u{1F4AA}")).unwrap().name,
+                "ok \u{1F4AA}"
+            );
+            for (bad_name, code) in [
+                ("a\u{1}", "U+0001"),
+                ("\u{1b}[2J", "U+001B"),
+                ("\u{FFFE}", "U+FFFE"),
+            ] {
+                let e = Model::from_toml(&named(bad_name)).unwrap_err().to_string();
+                assert!(e.contains("`name`") && e.contains(code), "{e}");
+                let mut table = toml_table(&named("x")).unwrap();
+                table.insert("name".into(), toml::Value::String(bad_name.into()));
+                let e = Model::from_table(table).unwrap_err().to_string();
+                assert!(e.contains("`name`") && e.contains(code), "{e}");
+            }
         }
     }
 

@@ -159,6 +159,143 @@ pub fn layout(model: &Model) -> Layout {
     Layout { blocks, total }
 }
 
+/// The SI unit of a plant parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Unit {
+    Metre,
+    Radian,
+    /// Dimensionless (a gain, a friction coefficient).
+    One,
+    /// A compliance, `1/(E A)`.
+    PerNewton,
+}
+
+impl Unit {
+    pub fn symbol(self) -> &'static str {
+        match self {
+            Unit::Metre => "m",
+            Unit::Radian => "rad",
+            Unit::One => "1",
+            Unit::PerNewton => "1/N",
+        }
+    }
+}
+
+/// One parameter of the flat vector: its block, what it is on the arm (the
+/// cable, hole, joint or disk, and the component) and its unit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Parameter {
+    pub effect: Effect,
+    pub label: String,
+    pub unit: Unit,
+}
+
+/// Every parameter of `model`'s plant, in the order of [`layout`] (the
+/// meaning of each block: `docs/model.md`, "Parameters"). Cables, joints
+/// and disks are numbered from 1 as in the robot file.
+pub fn parameters(model: &Model) -> Vec<Parameter> {
+    let planar = model.kind == model::Kind::Planar;
+    let pos = model.position_cables();
+    let xyz = ["x", "y", "z"];
+    let cable = |c: usize| format!("cable {} (to disk {})", c + 1, model.cables[c].end);
+    let lay = layout(model);
+    let mut out = Vec::with_capacity(lay.total);
+    for &(e, _, s) in &lay.blocks {
+        let before = out.len();
+        let mut put = |label: String, unit: Unit| {
+            out.push(Parameter {
+                effect: e,
+                label,
+                unit,
+            })
+        };
+        match e {
+            Effect::ActuationScale => put("s (actuator gain 1 + s)".into(), Unit::One),
+            Effect::CableOffset | Effect::Backlash => {
+                for &c in &pos {
+                    put(cable(c), Unit::Metre);
+                }
+            }
+            Effect::HoleHeight => {
+                for d in 1..=model.disks.len() {
+                    put(format!("holes of the cables to disk {d}"), Unit::Metre);
+                }
+            }
+            Effect::HolePosition => {
+                for &c in &pos {
+                    for h in 0..model.cables[c].holes.len() {
+                        let face = match h {
+                            0 => "base face b".to_string(),
+                            _ => format!("disk {} face {}", h.div_ceil(2), ["b", "a"][h % 2]),
+                        };
+                        for x in xyz {
+                            put(format!("cable {}, {face}, {x}", c + 1), Unit::Metre);
+                        }
+                    }
+                }
+            }
+            Effect::LinkLength if planar => {
+                put("base → joint 1".into(), Unit::Metre);
+                for (i, d) in model.disks.iter().enumerate() {
+                    put(
+                        format!("joint {} → disk {}", d.joints.end, i + 1),
+                        Unit::Metre,
+                    );
+                }
+            }
+            Effect::LinkLength => {
+                for j in 1..=model.n() {
+                    for x in xyz {
+                        put(format!("joint {j} offset, {x}"), Unit::Metre);
+                    }
+                }
+                for d in 1..=model.disks.len() {
+                    for x in xyz {
+                        put(format!("disk {d} link after, {x}"), Unit::Metre);
+                    }
+                }
+            }
+            Effect::CableElasticity => put("compliance 1/(E A)".into(), Unit::PerNewton),
+            Effect::HoleClearance => put("clearance c".into(), Unit::Metre),
+            Effect::ClearanceWidth => put(
+                format!("transition width w − {CLEARANCE_WIDTH} rad"),
+                Unit::Radian,
+            ),
+            Effect::FrameMisalignment if planar => {
+                put("instrument frame rotation".into(), Unit::Radian);
+                for x in &xyz[..2] {
+                    put(format!("instrument frame {x}"), Unit::Metre);
+                }
+            }
+            Effect::FrameMisalignment => {
+                for x in xyz {
+                    put(
+                        format!("instrument frame rotation vector, {x}"),
+                        Unit::Radian,
+                    );
+                }
+                for x in xyz {
+                    put(format!("instrument frame {x}"), Unit::Metre);
+                }
+            }
+            Effect::TipOffset => {
+                for x in &xyz[..if planar { 2 } else { 3 }] {
+                    put(format!("tip offset {x} (end frame)"), Unit::Metre);
+                }
+            }
+            Effect::JointAxis => {
+                for j in 1..=model.n() {
+                    put(format!("joint {j} tilt d1 (toward e1)"), Unit::Radian);
+                    put(format!("joint {j} tilt d2 (toward e2)"), Unit::Radian);
+                }
+            }
+            Effect::CableFriction => put("μ (every cable, every hole)".into(), Unit::One),
+        }
+        debug_assert_eq!(out.len() - before, s, "{}", e.name());
+    }
+    out
+}
+
 /// The smallest distance of a hole from its disk's axis (m, 0 excluded):
 /// a clearance cannot be wider.
 fn least_hole_radius(model: &Model) -> f64 {
@@ -1921,6 +2058,63 @@ mod tests {
 
     fn planar() -> Model {
         Model::from_planar(&Robot::paper())
+    }
+
+    #[test]
+    fn every_parameter_has_a_label_and_a_unit_in_layout_order() {
+        for m in [planar(), Model::from_toml(TWO_UNIVERSAL).unwrap()] {
+            let (lay, ps) = (layout(&m), parameters(&m));
+            assert_eq!(ps.len(), lay.total);
+            for &(e, o, s) in &lay.blocks {
+                assert!(ps[o..o + s].iter().all(|p| p.effect == e), "{}", e.name());
+                let labels: std::collections::HashSet<_> =
+                    ps[o..o + s].iter().map(|p| &p.label).collect();
+                assert_eq!(labels.len(), s, "{}: labels repeat", e.name());
+            }
+        }
+        let ps = parameters(&planar());
+        let of = |e: Effect| -> Vec<(String, &'static str)> {
+            ps.iter()
+                .filter(|p| p.effect == e)
+                .map(|p| (p.label.clone(), p.unit.symbol()))
+                .collect()
+        };
+        // the upper cables are cables 1, 3, 5 of the paper robot
+        assert_eq!(
+            of(Effect::CableOffset)[1],
+            ("cable 3 (to disk 2)".into(), "m")
+        );
+        assert_eq!(of(Effect::LinkLength)[0], ("base → joint 1".into(), "m"));
+        assert_eq!(of(Effect::LinkLength)[3], ("joint 3 → disk 3".into(), "m"));
+        assert_eq!(of(Effect::FrameMisalignment)[0].1, "rad");
+        assert_eq!(of(Effect::CableFriction)[0].1, "1");
+        assert_eq!(of(Effect::CableElasticity)[0].1, "1/N");
+        let ps = parameters(&Model::from_toml(TWO_UNIVERSAL).unwrap());
+        let holes: Vec<_> = ps
+            .iter()
+            .filter(|p| p.effect == Effect::HolePosition)
+            .map(|p| p.label.as_str())
+            .collect();
+        // cable 1 ends at disk 1: base face b, disk 1 faces a and b
+        assert_eq!(
+            holes[..9],
+            [
+                "cable 1, base face b, x",
+                "cable 1, base face b, y",
+                "cable 1, base face b, z",
+                "cable 1, disk 1 face a, x",
+                "cable 1, disk 1 face a, y",
+                "cable 1, disk 1 face a, z",
+                "cable 1, disk 1 face b, x",
+                "cable 1, disk 1 face b, y",
+                "cable 1, disk 1 face b, z",
+            ]
+        );
+        let axis: Vec<_> = ps
+            .iter()
+            .filter(|p| p.effect == Effect::JointAxis)
+            .collect();
+        assert_eq!((axis.len(), axis[0].unit), (8, Unit::Radian));
     }
 
     #[test]

@@ -3,8 +3,8 @@
 
 use crate::error::Result;
 use crate::robot_file::{
-    bad, coordinates, joint_limits, non_negative, parse_toml, positive, positive_length, Exact,
-    MAX_LENGTH,
+    bad, coordinates, from_table, joint_limits, non_negative, positive, positive_length,
+    robot_name, toml_table, Exact, MAX_LENGTH,
 };
 use serde::Deserialize;
 
@@ -128,7 +128,13 @@ impl Robot {
 
     /// Parses and validates a TOML robot description (format in README).
     pub fn from_toml(text: &str) -> Result<Robot> {
-        let file: RobotFile = parse_toml(text)?;
+        Robot::from_table(toml_table(text)?)
+    }
+
+    /// Validates a planar robot description given as its table (a parsed
+    /// file, or data built as one).
+    pub fn from_table(table: toml::Table) -> Result<Robot> {
+        let file: RobotFile = from_table(table)?;
         if let Some(k) = file.kind.as_deref() {
             if k != "planar" {
                 return Err(bad(
@@ -165,7 +171,7 @@ impl Robot {
             },
         };
         let mut robot = Robot {
-            name: file.name.unwrap_or_else(|| "unnamed".to_string()),
+            name: robot_name(file.name)?,
             link_before: Vec::with_capacity(n),
             link_after: Vec::with_capacity(n),
             thickness: Vec::with_capacity(n),

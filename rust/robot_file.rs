@@ -1,8 +1,9 @@
 //! The rules every robot-file reader follows (planar and spatial): one TOML
-//! parse that names the field of any error by its path, fixed-size arrays
-//! that refuse extra or missing elements, and the checks of lengths, masses
-//! and tensions. Nothing is truncated, clamped or dropped: what cannot be
-//! taken whole is refused with the field and the problem.
+//! parse into a table (or a table built from data: the same checks follow),
+//! read with errors that name the field by its path, fixed-size arrays
+//! that refuse extra or missing elements, and the checks of the name,
+//! lengths, masses and tensions. Nothing is truncated, clamped or dropped:
+//! what cannot be taken whole is refused with the field and the problem.
 
 use crate::error::{CdsmError, Result};
 use serde::de::{Deserialize, Deserializer, Error as _};
@@ -20,11 +21,10 @@ pub(crate) fn bad(field: String, problem: impl Into<String>) -> CdsmError {
     }
 }
 
-/// Parses a robot file's TOML into `T`. A syntax error (a duplicate key, a
-/// missing bracket) names the key at the error and its line; a type or
-/// shape error names the field by its path (`linkage[0].thickness`).
-pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T> {
-    let table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+/// A robot file's TOML as a table. A syntax error (a duplicate key, a
+/// missing bracket) names the key at the error and its line.
+pub(crate) fn toml_table(text: &str) -> Result<toml::Table> {
+    text.parse().map_err(|e: toml::de::Error| {
         let line = e
             .span()
             .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1);
@@ -46,7 +46,13 @@ pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T
             Some(l) => bad(field, format!("{problem} (line {l})")),
             None => bad(field, problem),
         }
-    })?;
+    })
+}
+
+/// A robot file's table (parsed from TOML, or built from data) as `T`; a
+/// type or shape error names the field by its path
+/// (`linkage[0].thickness`).
+pub(crate) fn from_table<T: serde::de::DeserializeOwned>(table: toml::Table) -> Result<T> {
     serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
         let path = e.path().to_string();
         let field = if path.is_empty() || path == "." {
@@ -56,6 +62,35 @@ pub(crate) fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T
         };
         bad(field, e.into_inner().to_string().trim().replace('\n', " "))
     })
+}
+
+/// Whether XML 1.0 allows `c` in a document (its `Char` production: tab,
+/// line feed, carriage return, U+0020-U+D7FF, U+E000-U+FFFD,
+/// U+10000-U+10FFFF); the others (the other C0 controls, U+FFFE, U+FFFF)
+/// cannot appear in well-formed XML, not even escaped.
+fn xml_char(c: char) -> bool {
+    matches!(c as u32, 0x9 | 0xA | 0xD | 0x20..=0xD7FF | 0xE000..=0xFFFD | 0x10000..=0x10FFFF)
+}
+
+/// A robot's `name` (`None`: "unnamed"): any Unicode that XML allows (the
+/// MJCF and URDF exports carry it as an attribute); a character XML forbids
+/// is refused, named by its code point and position.
+pub(crate) fn robot_name(name: Option<String>) -> Result<String> {
+    let Some(name) = name else {
+        return Ok("unnamed".to_string());
+    };
+    if let Some((i, c)) = name.chars().enumerate().find(|(_, c)| !xml_char(*c)) {
+        return Err(bad(
+            "name".into(),
+            format!(
+                "character U+{:04X} (character {} of {name:?}) is not allowed: XML forbids it, so \
+                 no MJCF or URDF could carry the name",
+                c as u32,
+                i + 1
+            ),
+        ));
+    }
+    Ok(name)
 }
 
 /// A fixed-size array of numbers in a robot file: exactly `N` of them
@@ -157,6 +192,10 @@ mod tests {
         holes: Option<Vec<Exact<3>>>,
     }
 
+    fn parse_toml<T: serde::de::DeserializeOwned>(text: &str) -> Result<T> {
+        from_table(toml_table(text)?)
+    }
+
     fn field_of(text: &str) -> (String, String) {
         match parse_toml::<File>(text) {
             Err(CdsmError::Robot { field, problem }) => (field, problem),
@@ -185,6 +224,30 @@ mod tests {
         assert_eq!(f, "link[0].holes[1]", "{p}");
         let ok: File = parse_toml("g = [0.0, -9.8]\n[[link]]\nthickness = 0.1\n").unwrap();
         assert_eq!(ok.g.unwrap().0, [0.0, -9.8]);
+    }
+
+    #[test]
+    fn names_with_characters_xml_forbids_are_refused() {
+        for (name, code) in [
+            ("a\u{0}b", "U+0000"),
+            ("\u{1}", "U+0001"),
+            ("arm \u{1b}[31m", "U+001B"),
+            ("x\u{B}", "U+000B"),
+            ("\u{FFFE}", "U+FFFE"),
+            ("y\u{FFFF}", "U+FFFF"),
+        ] {
+            match robot_name(Some(name.into())) {
+                Err(CdsmError::Robot { field, problem }) => {
+                    assert_eq!(field, "name");
+                    assert!(problem.contains(code), "{problem}");
+                }
+                other => panic!("{name:?}: expected a robot error, got {other:?}"),
+            }
+        }
+        let fine =
+            "arm \u{1F4AA} \"q\" \\ \t\n\r\u{7f}\u{85}\u{D7FF}\u{E000}\u{FFFD}\u{10000}\u{10FFFF}";
+        assert_eq!(robot_name(Some(fine.into())).unwrap(), fine);
+        assert_eq!(robot_name(None).unwrap(), "unnamed");
     }
 
     #[test]

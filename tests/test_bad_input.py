@@ -340,6 +340,19 @@ def test_bad_mass_and_tension(err, field, value):
     _raises_naming(err, _toml(**{field: value}), field)
 
 
+@pytest.mark.parametrize("line, shown", [("tension = 0.0\n", "got 0"), ("tension = -0.25\n", "got -0.25"),
+                                         ("", "got none")])
+def test_a_force_cable_without_a_positive_tension_shows_the_number(err, line, shown):
+    """A spatial force cable's tension error prints the number as written
+    (or that none was given), not Rust's ``Some(0.0)`` / ``None``."""
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "python" / "cdsm" / "robots" / "paper_spatial.toml").read_text()
+    text = re.sub(r"tension = [0-9.]+\n", line, text, count=1)
+    msg = _raises_naming(err, text, "cables[1].tension")
+    assert msg.endswith(f"needs a positive tension (N), {shown}") and "Some" not in msg, msg
+
+
 def test_wrong_type(err):
     _raises_naming(err, _toml(link_before='"long"'), "link_before")
 
@@ -552,3 +565,92 @@ def test_planar_angles_whose_sum_overflows_are_refused(robot, err, fn):
     with pytest.raises(err, match="`theta`: row 1: the joint angles add up past the largest float"):
         getattr(robot, fn)(np.array([[0.1, 0.2, 0.3], [1e308, 1e308, 0.0]]))
     assert np.isfinite(robot.fk([1e300, 1e10, 3.0])).all()  # large but summable: taken
+
+
+# ==========================================================================
+# Robot names (MJCF and URDF carry them in an XML attribute) and robots
+# built from data
+# ==========================================================================
+#: A one-disk spatial arm, written with inline tables (the shape of its data below).
+SPATIAL_TOML = ('kind = "spatial"\nname = "data arm"\nbase = { radius = 0.03 }\n'
+                "linkage = [{ joints = [{ axis = [0.0, 0.0, 1.0], offset = [0.02, 0.0, 0.0], limits = [-0.5, 0.5] }], "
+                "link_after = [0.01, 0.0, 0.0], thickness = 0.005, radius = 0.03, mass = 0.02 }]\n"
+                'cables = [{ end = 1, mode = "position", radius = 0.025, angle = 0.0 }, '
+                '{ end = 1, mode = "force", tension = 1.0, radius = 0.025, angle = 3.0 }]\n')
+
+
+def _spatial_data(**top):
+    """The data of :data:`SPATIAL_TOML` (a dict of the file's structure), top-level keys replaced."""
+    data = {"kind": "spatial", "name": "data arm", "base": {"radius": 0.03},
+            "linkage": [{"joints": [{"axis": [0.0, 0.0, 1.0], "offset": [0.02, 0.0, 0.0], "limits": [-0.5, 0.5]}],
+                         "link_after": [0.01, 0.0, 0.0], "thickness": 0.005, "radius": 0.03, "mass": 0.02}],
+            "cables": [{"end": 1, "mode": "position", "radius": 0.025, "angle": 0.0},
+                       {"end": 1, "mode": "force", "tension": 1.0, "radius": 0.025, "angle": 3.0}]}
+    data.update(top)
+    return data
+
+
+def _named(kind, value):
+    """A robot file of ``kind`` whose name is the TOML string ``value``."""
+    text = robot_toml(PAPER_LINKAGES) if kind == "planar" else SPATIAL_TOML
+    text, count = re.subn(r'^name = "[^"\n]*"$', lambda _: f"name = {value}", text, count=1, flags=re.M)
+    assert count == 1
+    return text
+
+
+#: characters XML 1.0 forbids (its Char production), as TOML escapes
+FORBIDDEN = ["\\u0000", "\\u0001", "\\u0008", "\\u000B", "\\u000C", "\\u001B", "\\u001F", "\\uFFFE", "\\uFFFF"]
+
+
+@pytest.mark.parametrize("kind", ["planar", "spatial"])
+@pytest.mark.parametrize("escape", FORBIDDEN)
+def test_a_name_xml_forbids_is_refused(cdsm, err, kind, escape):
+    """No MJCF or URDF could carry such a name: every reader refuses it,
+    naming the field and the character (it once reached `cdsm export`,
+    which wrote two files no XML reader takes)."""
+    msg = _raises_naming(err, _named(kind, f'"arm {escape}"'), "`name`")
+    assert f"U+{escape[2:]}" in msg, msg
+    char = chr(int(escape[2:], 16))
+    with pytest.raises(err, match=rf"`name`.*U\+{escape[2:]}"):
+        cdsm.Robot.from_data(_spatial_data(name=f"arm {char}"))
+
+
+@pytest.mark.parametrize("kind", ["planar", "spatial"])
+def test_names_xml_allows_are_kept(cdsm, kind):
+    """Any other Unicode is a name, read and written back as it is."""
+    name = 'a\t"b"\\ c\nd\r\x7f\x85 \ud7ff\ue000\ufffd \U0001F4AA\U0010FFFF'
+    robot = cdsm.Robot.from_toml_str(_named(kind, '"x"'))
+    robot = cdsm.Robot.from_toml_str(robot.to_toml().replace('name = "x"', "name = " + _toml_str(name), 1))
+    assert robot.name == name
+    assert cdsm.Robot.from_toml_str(robot.to_toml()).name == name
+
+
+def _toml_str(text):
+    """``text`` as a TOML basic string, every character escaped."""
+    return '"' + "".join(f"\\U{ord(ch):08X}" for ch in text) + '"'
+
+
+def test_robot_from_data(cdsm, err):
+    """Robot.from_data: the file's data, no text in between; the same checks
+    and the same field paths as the file."""
+    assert cdsm.Robot.from_data(_spatial_data()).to_toml() == cdsm.Robot.from_toml_str(SPATIAL_TOML).to_toml()
+    planar = cdsm.Robot.from_data({"name": "p", "linkage": [
+        {"link_before": 0.03, "link_after": 0.03, "thickness": 0.01, "hole_height": 0.02, "mass": 0.01}]})
+    assert planar.kind == "planar" and planar.n == 1
+    bad_mass = _spatial_data()
+    bad_mass["linkage"][0]["mass"] = -1.0
+    cases = [
+        (bad_mass, r"`linkage\[0\]\.mass`.*>= 0"),
+        (_spatial_data(colour=3), r"colour"),
+        (_spatial_data(name=b"arm"), r"`name`: a bytes is not a robot file's value"),
+        (_spatial_data(name="arm \ud800"), r"`name`.*lone surrogate"),
+        (_spatial_data(gravity=[0.0, 0.0, None]), r"`gravity\[2\]`: a NoneType"),
+        (_spatial_data(base={1: 0.03}), r"`base`: key 1 is not a string"),
+        (_spatial_data(cables=[{"end": 2**70}]), r"`cables\[0\]\.end`: integer .* out of range"),
+        (_spatial_data(name=1.5), r"`name`"),
+    ]
+    for data, pattern in cases:
+        with pytest.raises(err, match=pattern):
+            cdsm.Robot.from_data(data)
+    with pytest.raises(err, match=r"`data`: expected a dict"):
+        cdsm.Robot.from_data(SPATIAL_TOML)

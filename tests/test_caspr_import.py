@@ -22,6 +22,7 @@ swapped, ``test_model_lengths_equal_caspr`` failed on every direction (1.2e-2 to
 from __future__ import annotations
 
 import math
+import os
 import re
 import warnings
 
@@ -306,6 +307,95 @@ def test_model_route_errors(cdsm, tmp_path):
     with pytest.raises(cdsm.CdsmInputError, match=r"CASPR model .*M_bodies.xml.*cannot represent it.*2 "
                                                  r"position-controlled cables cannot determine 6 joints"):
         _quiet(cdsm.Robot.from_caspr, b, c)
+
+
+# --------------------------------------------------------------------------
+# Hostile input: names and paths are data, encodings and huge vectors
+# --------------------------------------------------------------------------
+def test_a_file_name_cannot_become_a_setting(cdsm, tmp_path):
+    """The bodies file's name goes into the robot's name as data: a name that
+    reads as TOML lines sets nothing (the robot was once built from text,
+    and this file imported with E = 1 Pa)."""
+    plain = _quiet(cdsm.Robot.from_caspr, BODIES, CABLES)
+    stem = "x\ncable.youngs_modulus = 1.0\ncable.diameter = 0.00018\n#"
+    hostile = tmp_path / f"{stem}_bodies.xml"
+    hostile.write_bytes(BODIES.read_bytes())
+    robot = _quiet(cdsm.Robot.from_caspr, hostile, CABLES)
+    assert robot.youngs_modulus == plain.youngs_modulus == 1.8e11
+    assert robot.cable_diameter == plain.cable_diameter == 0.18e-3
+    assert robot.axial_stiffness == plain.axial_stiffness
+    assert robot.name == f"{stem} (CASPR, cable set {SET_ID})"
+    # everything but the name is the plain import's, and the name survives a save
+    mine, theirs = robot.to_toml().splitlines(), plain.to_toml().splitlines()
+    name_line = [i for i, line in enumerate(theirs) if line.startswith("name = ")]
+    assert len(mine) == len(theirs) and [i for i, (a, b) in enumerate(zip(mine, theirs)) if a != b] == name_line
+    back = cdsm.Robot.from_toml_str(robot.to_toml())
+    assert back.name == robot.name and back.to_toml() == robot.to_toml()
+
+
+def test_the_set_id_and_names_are_data(cdsm, tmp_path):
+    """A cable set's id (in the robot's name) and link and cable names with
+    line breaks, quotes and TOML syntax change nothing but the name."""
+    bodies_text, cables_text = _model((0, 0, 1))
+    sid = 'all"\n[cable]\nyoungs_modulus = 1.0\n# \\'
+    attr = sid.replace('"', "&quot;").replace("\n", "&#10;")
+    b, c = _write_model(tmp_path, bodies_text.replace('name="L1"', 'name="L1&#10;mass = 9"'),
+                        cables_text.replace('"all"', f'"{attr}"').replace('name="c1"', 'name="c&#10;[base]"'))
+    robot = _quiet(cdsm.Robot.from_caspr, b, c)
+    assert robot.name == f"M (CASPR, cable set {sid})"
+    assert robot.youngs_modulus == 1.8e11
+    (tmp_path / "plain").mkdir()
+    plain = _quiet(cdsm.Robot.from_caspr, *_write_model(tmp_path / "plain", bodies_text, cables_text))
+    mine, theirs = robot.to_toml().splitlines(), plain.to_toml().splitlines()
+    name_line = [i for i, line in enumerate(theirs) if line.startswith("name = ")]
+    assert len(mine) == len(theirs) and [i for i, (a, b) in enumerate(zip(mine, theirs)) if a != b] == name_line
+
+
+def test_names_xml_forbids_are_refused(cdsm, tmp_path):
+    """A bodies file's name with a character XML forbids (a control character;
+    a byte that is not UTF-8, a lone surrogate in Python) would give the
+    robot a name no MJCF or URDF can carry: refused, naming the model, the
+    field and the character."""
+    for stem, code in [("x\x01", "U+0001"), ("\x1b[2J", "U+001B"), (os.fsdecode(b"x\xff"), "surrogate")]:
+        path = tmp_path / f"{stem}_bodies.xml"
+        path.write_bytes(BODIES.read_bytes())
+        pattern = rf"CASPR model .*cdsm cannot represent it.*name.*{re.escape(code)}"
+        with pytest.raises(cdsm.CdsmInputError, match=pattern):
+            _quiet(cdsm.Robot.from_caspr, path, CABLES)
+
+
+def test_declared_encodings(cdsm, tmp_path):
+    """The files are read as XML, in the encoding they declare: one Python
+    does not know (``utf-0``) or cannot feed to the XML parser (a multi-byte
+    one) is an error naming the file and the encoding; a Latin-1 file that
+    says so imports."""
+    bodies_text, cables_text = _model((0, 0, 1))
+    b, c = _write_model(tmp_path, bodies_text, cables_text)
+    plain = _quiet(cdsm.Robot.from_caspr, b, c)
+    for enc in ("utf-0", "shift_jis"):
+        b.write_bytes(bodies_text.replace('encoding="utf-8"', f'encoding="{enc}"', 1).encode())
+        with pytest.raises(cdsm.CdsmInputError, match=rf"CASPR bodies file .*M_bodies.xml.*declares encoding "
+                                                     rf"'{enc}', which cdsm cannot decode"):
+            _quiet(cdsm.Robot.from_caspr, b, c)
+    latin = bodies_text.replace('encoding="utf-8"', 'encoding="ISO-8859-1"', 1).replace('name="L1"', 'name="L\xe9"')
+    b.write_bytes(latin.encode("latin-1"))
+    assert _quiet(cdsm.Robot.from_caspr, b, c).to_toml() == plain.to_toml()
+
+
+def test_a_huge_axis_is_normalised_safely(cdsm, tmp_path):
+    """An ``R_AXIS`` axis ``0 1e308 1e308`` is the axis ``0 1 1`` (its length
+    overflows; the reader scales by the largest component first), as the
+    robot file reader takes it."""
+    bodies_text, cables_text = _model((0, 0, 1))
+    robots = []
+    for axis in ("0 1 1", "0 1e308 1e308", "0 1e-310 1e-310"):
+        (tmp_path / axis).mkdir()
+        robots.append(_quiet(cdsm.Robot.from_caspr, *_write_model(
+            tmp_path / axis, bodies_text.replace('axis="1 2 0.5"', f'axis="{axis}"'), cables_text)))
+    for r in robots[1:]:
+        assert r.to_toml() == robots[0].to_toml()
+    np.testing.assert_allclose(robots[0].axes[0], _q_of((0, 0, 1)) @ np.array([0.0, 1.0, 1.0]) / np.sqrt(2.0),
+                               rtol=0, atol=1e-15)
 
 
 def test_packaged_data_untouched():

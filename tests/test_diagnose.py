@@ -283,6 +283,55 @@ def test_report_files(mods, robot, tmp_path):
 
 
 # ---------------------------------------------------------------------------
+# the parameter table (issue 32, item 12)
+# ---------------------------------------------------------------------------
+def test_each_parameter_is_shown_in_its_own_unit(robot, parameter_table):
+    """μ = 1.0 ± 1.29 was "+1000.000 ± 1287.997 mm" (every parameter scaled
+    and labelled as a length), and ``hole_clearance``'s second parameter
+    (the transition width, rad) was cut off by a zip over planar labels."""
+    rows, notes = parameter_table(
+        robot, {"cable_friction": [1.0], "hole_clearance": [1e-4, 0.02], "actuation_scale": [0.03],
+                "cable_elasticity": [0.02], "frame_misalignment": [0.3, 2e-3, -5e-6]},
+        {"cable_friction": [1.288], "hole_clearance": [2e-5, 0.004], "actuation_scale": [0.001],
+         "cable_elasticity": [0.002], "frame_misalignment": [0.01, 1e-5, 2e-6]})
+    assert rows == {
+        ("cable_friction", "μ (every cable, every hole)"): "+1.0000 ± 1.2880",
+        ("hole_clearance", "clearance c"): "+100.0 ± 20.0 µm",
+        ("hole_clearance", "transition width w − 0.01 rad"): "+20.00 ± 4.00 mrad",
+        ("actuation_scale", "s (actuator gain 1 + s)"): "+0.0300 ± 0.0010",
+        ("cable_elasticity", "compliance 1/(E A)"): "+0.0200 ± 0.0020 1/N (E·A ≈ 50 N)",
+        ("frame_misalignment", "instrument frame rotation"): "+17.19 ± 0.57°",
+        ("frame_misalignment", "instrument frame x"): "+2.000 ± 0.010 mm",
+        ("frame_misalignment", "instrument frame y"): "-5.0 ± 2.0 µm"}
+    # μ at its upper bound with a standard error larger than itself: said in words
+    (note,) = notes
+    assert note.startswith("`cable_friction` μ (every cable, every hole) = +1.0000 ± 1.2880 sits at its upper "
+                           "bound (1)") and "not a measurement" in note
+    # at the bound with a small error, or inside with a large one: nothing to say
+    assert parameter_table(robot, {"cable_friction": [1.0]}, {"cable_friction": [0.1]})[1] == []
+    assert parameter_table(robot, {"cable_friction": [0.5]}, {"cable_friction": [0.9]})[1] == []
+
+
+def test_the_planar_labels_name_the_robots_own_cables_and_disks(robot, parameter_table):
+    rows, _ = parameter_table(robot, {"cable_offset": [2e-4, -1e-4, 3e-5], "link_length": [1e-4, 2e-4, 3e-4, 4e-4]},
+                              {"cable_offset": [1e-5] * 3, "link_length": [1e-5] * 4})
+    assert list(rows) == [("cable_offset", "cable 1 (to disk 1)"), ("cable_offset", "cable 3 (to disk 2)"),
+                          ("cable_offset", "cable 5 (to disk 3)"), ("link_length", "base → joint 1"),
+                          ("link_length", "joint 1 → disk 1"), ("link_length", "joint 2 → disk 2"),
+                          ("link_length", "joint 3 → disk 3")]
+    assert rows[("cable_offset", "cable 3 (to disk 2)")] == "-100.0 ± 10.0 µm"
+
+
+def test_one_row_carrying_half_the_gap_is_said_in_words(mods, robot):
+    """"1 of 12 rows carryes half of the squared gap": the verb agrees."""
+    meas = _data(mods["plant"], robot, {}, 5, rows=12)
+    meas.measured[4] += [8e-4, 0.0]
+    d = mods["diagnose"].diagnose(robot, meas, effects=["tip_offset"], folds=4, noise=NOISE, frame="base")
+    where = " ".join(mods["report"].findings(d)["where"])
+    assert "1 of 12 rows carries half of the squared gap" in where and "carryes" not in where
+
+
+# ---------------------------------------------------------------------------
 # the command line
 # ---------------------------------------------------------------------------
 def _absolute_rows(robot, plant, rows, seed):
@@ -477,3 +526,35 @@ def test_repeats_with_readings_of_their_own_still_estimate_the_noise(mods, robot
         d = mods["diagnose"].diagnose(robot, meas, folds=FOLDS, frame="base")
     assert d.prep.copies == {} and int(d.prep.usable.sum()) == 50
     assert d.noise_estimate.source == "repeats" and d.noise_estimate.groups == 25
+
+
+def test_the_folds_are_fitted_a_few_at_a_time_with_the_same_answer(mods, robot, monkeypatch):
+    """Memory bounded by design (issue 32, item 11): the cross-validation
+    fits run as many folds at a time as the robot has worker threads (the
+    results of the others are not held at once; a progress line counts
+    them), and the answer is the one of all folds in one call — each fold's
+    fit is independent."""
+    plant, diagnose = mods["plant"], mods["diagnose"]
+    meas = _data(plant, robot, {"hole_height": _typical(plant, robot, "hole_height", 3)}, 3)
+    calls = []
+    real = diagnose.fit_folds
+
+    def spy(prep, effects, scored, *a, **k):
+        calls.append(len(scored))
+        return real(prep, effects, scored, *a, **k)
+
+    r2 = robot.with_loads()  # a copy with its own thread count
+    r2.threads = 2
+    monkeypatch.setattr(diagnose, "fit_folds", spy)
+    d2 = diagnose.diagnose(r2, meas, folds=FOLDS, noise=NOISE, frame="base")
+    assert calls and max(calls) == 2 and set(calls) <= {1, 2}
+    calls.clear()
+    r1 = robot.with_loads()
+    r1.threads = FOLDS + 1  # every fold (and the fit on all rows) in one call
+    d1 = diagnose.diagnose(r1, meas, folds=FOLDS, noise=NOISE, frame="base")
+    assert set(calls) == {FOLDS + 1}
+    assert d1.best == d2.best == "hole_height"
+    for a, b in zip([d1.baseline] + d1.singles, [d2.baseline] + d2.singles):
+        assert a.name == b.name
+        np.testing.assert_array_equal(a.heldout, b.heldout)
+        np.testing.assert_array_equal(a.fit.p, b.fit.p)

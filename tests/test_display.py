@@ -18,11 +18,11 @@ ROBOTS = Path(__file__).resolve().parents[1] / "python" / "cdsm" / "robots"
 @pytest.mark.parametrize("name", ["two_universal", "sjtu_snake", "paper_spatial"])
 def test_disk_frames_equal_the_reference(cdsm, ref, name):
     robot = cdsm.Robot.from_toml(name)
-    nominal = ref.spatial.load_spatial(ROBOTS / f"{name}.toml")
+    nominal = ref.load_robot(ROBOTS / f"{name}.toml")
     lim = robot.joint_limits
     theta = np.random.default_rng(4).uniform(lim[:, 0], lim[:, 1], (50, robot.n))
     got = robot.disk_frames(theta)
-    want = ref.spatial.disk_frames(nominal, theta)
+    want = ref.disk_frames(nominal, theta)
     k = got.shape[1]
     np.testing.assert_allclose(got[:, :, 0, :3, :3], want["Ra"][:, 1:k + 1], atol=1e-14)
     np.testing.assert_allclose(got[:, :, 1, :3, 3], want["tb"][:, 1:k + 1], atol=1e-14)
@@ -59,6 +59,44 @@ def test_plot_draws_every_cable_in_the_arms_space(cdsm, name, dims):
     import matplotlib.pyplot as plt
 
     plt.close("all")
+
+
+@pytest.mark.parametrize("name, theta, title", [
+    ("sjtu_snake", np.full(24, 0.1), "every joint at 5.7°"),
+    ("sjtu_snake", np.linspace(-0.1, 0.2, 24), "24 joints, theta from -5.7° to 11.5°"),
+    ("two_universal", [0.1, -0.2, 0.0, 0.35], "theta = (5.7, -11.5, 0.0, 20.1)°"),
+    ("paper", None, "straight: every joint at 0.0°")])
+def test_plot_titles_the_configuration_it_draws(cdsm, name, theta, title):
+    """One angle for every joint is said once ("theta from 5.7 to 5.7 deg"
+    said it as a range), a range only when the angles differ, in the
+    degrees every print uses."""
+    import matplotlib.pyplot as plt
+
+    robot = cdsm.Robot.from_toml(name)
+    ax = robot.plot(theta)
+    assert ax.get_title() == f"{robot.name}\n{title}"
+    plt.close("all")
+
+
+def test_one_joint_limit_reads_the_same_in_print_report_and_figure(cdsm):
+    """0.6 rad was 34.4° in ``print(robot)`` and 34° in the study report:
+    every place that shows a joint limit uses :func:`cdsm.display.degrees`."""
+    from cdsm import study
+    from cdsm.display import degrees
+    from cdsm.report import report_for, study_figures
+
+    r = cdsm.Robot.from_toml("two_universal")
+    assert degrees(0.6) == "34.4" and degrees(-1e-17) == "0.0" and degrees(np.radians(35.0)) == "35.0"
+    assert "[-34.4, 34.4]" in str(r)
+    st = study.run(r, theta=np.random.default_rng(0).uniform(-0.5, 0.5, (12, r.n)), samples=4, progress=False)
+    md = report_for(st).build({}).markdown("figures", {})
+    assert "[-34.4°, 34.4°]" in md and "[-34°" not in md
+    from cdsm.accuracy.workspace import joint_grid
+
+    paper = study.run(cdsm.Robot.paper(), grid=joint_grid(3, step=np.radians(15.0)), samples=2, progress=False)
+    fig = study_figures.workspace_figure(paper)
+    labels = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    assert "phi = 0 within the joint limits (up to ±35.0°)" in labels, labels
 
 
 def test_a_robot_prints_its_links_holes_cables_and_limits(cdsm):

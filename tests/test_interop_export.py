@@ -272,6 +272,150 @@ def test_massless_disk_is_refused_by_mjcf(cdsm):
     assert root.find("link[@name='disk2']/inertial") is None
 
 
+def _with(text, **linkage1):
+    """OBLIQUE with fields of its second linkage (disk 2: mass 0.015 kg, radius 0.028 m) replaced."""
+    for key, value in linkage1.items():
+        old = {"mass": "mass = 0.015\n", "radius": "radius = 0.028\n", "thickness": "thickness = 0.005\n"}[key]
+        assert text.count(old) == 1
+        text = text.replace(old, f"{key} = {value!r}\n")
+    return text
+
+
+def _refit(text, mass, radius, thickness):
+    """The MJCF ``text`` with disk 2's inertial as cdsm writes it for ``mass`` (kg): what the exporter
+    wrote before it checked the inertials."""
+    from cdsm.interop.chain import cylinder_inertia, fmt
+
+    root = ET.fromstring(text)
+    inertial = root.find(".//body[@name='disk2']/inertial")
+    inertial.set("mass", fmt(mass))
+    inertial.set("diaginertia", fmt(*cylinder_inertia(mass, radius, thickness)))
+    return ET.tostring(root, encoding="unicode")
+
+
+def _loads(mujoco, text):
+    try:
+        mujoco.MjModel.from_xml_string(text)
+    except ValueError as exc:
+        assert "mass and inertia of moving bodies must be larger than mjMINVAL" in str(exc), exc
+        return False
+    return True
+
+
+def test_mujocos_smallest_mass_and_inertia(cdsm):
+    """to_mjcf refuses a disk whose mass or a moment of inertia is below
+    MuJoCo's mjMINVAL, and exactly those: at the boundary (bisected over the
+    doubles) the smallest mass cdsm exports loads in MuJoCo, and the next
+    smaller one, which cdsm refuses naming the disk and the field, MuJoCo
+    refuses too. Two boundaries: a disk of radius 0.028 m, where the inertia
+    Iyy binds (1e-12 kg passed the old check, MuJoCo refused the file), and
+    one of radius 10 m, where the mass does (at 1e-15 kg exactly)."""
+    mujoco = pytest.importorskip("mujoco")
+    from cdsm.interop.mjcf import MJMINVAL
+
+    assert MJMINVAL == mujoco.mjMINVAL
+
+    def exports(mass, radius):
+        try:
+            return cdsm.Robot.from_toml_str(_with(OBLIQUE, mass=mass, radius=radius)).to_mjcf()
+        except cdsm.CdsmInputError:
+            return None
+
+    for radius, field in ((0.028, "Iyy"), (10.0, "mass")):
+        lo, hi = 1e-20, 1e-9          # refused, taken
+        assert exports(lo, radius) is None and exports(hi, radius) is not None
+        while np.nextafter(lo, hi) < hi:
+            mid = float(np.sqrt(lo * hi)) if hi / lo > 1.5 else (lo + hi) / 2.0
+            mid = min(max(mid, np.nextafter(lo, hi)), np.nextafter(hi, lo))
+            if exports(mid, radius) is None:
+                lo = mid
+            else:
+                hi = mid
+        text = exports(hi, radius)
+        assert _loads(mujoco, text), f"radius {radius}: mass {hi!r} kg exported and MuJoCo refused it"
+        with pytest.raises(cdsm.CdsmInputError, match=rf"disk 2 \(body 'disk2'\).*{field}.*below 1e-15"):
+            cdsm.Robot.from_toml_str(_with(OBLIQUE, mass=lo, radius=radius)).to_mjcf()
+        assert not _loads(mujoco, _refit(text, lo, radius, 0.005)), \
+            f"radius {radius}: mass {lo!r} kg refused by cdsm, taken by MuJoCo"
+        if field == "mass":
+            assert hi == MJMINVAL
+    with pytest.raises(cdsm.CdsmInputError, match=r"disk 2 \(body 'disk2'\): inertia Ixx = .*, Iyy = .*, Izz = .* "
+                                                 r"kg m\^2 \(mass 1e-12 kg.* are below 1e-15"):
+        cdsm.Robot.from_toml_str(_with(OBLIQUE, mass=1e-12)).to_mjcf()
+
+
+def test_thin_disks_load_in_mujoco(cdsm):
+    """A disk 1e-9 m thin (MuJoCo refuses a geom ``fromto`` shorter than
+    1e-7 m; the display cylinder is placed by its centre and axis), and a
+    wide thin disk whose cylinder inertia m (3 r^2 + t^2) / 12 rounds below
+    Ixx / 2 (MuJoCo refuses Iyy + Izz < Ixx): both load."""
+    mujoco = pytest.importorskip("mujoco")
+    from cdsm.interop.chain import cylinder_inertia
+
+    m, r, t = 0.042, 20.76, 2e-7
+    old = m * (3.0 * r * r + t * t) / 12.0
+    assert old + old < m * r * r / 2.0            # the old formula breaks the triangle inequality here
+    ix, iy, iz = cylinder_inertia(m, r, t)
+    assert iy + iz >= ix and ix + iy >= iz and iy == iz
+    for text in (_with(OBLIQUE, thickness=1e-9), _with(OBLIQUE, mass=m, radius=r, thickness=t)):
+        robot = cdsm.Robot.from_toml_str(text)
+        model = mujoco.MjModel.from_xml_string(robot.to_mjcf())
+        np.testing.assert_array_equal(model.body_mass[1:], robot.mass)
+    # the display geom spans the disk, face a to face b
+    robot = cdsm.Robot.from_toml_str(OBLIQUE)
+    model = mujoco.MjModel.from_xml_string(robot.to_mjcf())
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    g = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "disk3")
+    ends = data.geom_xpos[g] + np.outer([-1.0, 1.0], data.geom_xmat[g].reshape(3, 3)[:, 2] * model.geom_size[g, 1])
+    np.testing.assert_allclose(ends[1], robot.fk_matrix(np.zeros(robot.n))[:3, 3], rtol=0, atol=1e-14)
+    np.testing.assert_allclose(np.linalg.norm(ends[1] - ends[0]), 0.003, rtol=1e-12)
+
+
+def test_cylinder_inertia_keeps_the_triangle_inequality():
+    """Over random thin and thick disks the moments written satisfy MuJoCo's
+    Iyy + Izz >= Ixx exactly in floating point (the old formula failed on
+    about one thin disk in ten), and equal the solid cylinder's to rounding."""
+    from cdsm.interop.chain import cylinder_inertia
+
+    rng = np.random.default_rng(0)
+    for _ in range(20000):
+        m, r = 10 ** rng.uniform(-6, 3), 10 ** rng.uniform(-4, 2)
+        t = r * 10 ** rng.uniform(-12, 1)
+        ix, iy, iz = cylinder_inertia(m, r, t)
+        assert iy + iz >= ix and ix + iy >= iz and iy == iz
+        assert abs(iy - m * (3 * r * r + t * t) / 12) <= 1e-15 * iy and ix == m * r * r / 2
+
+
+class _Renamed:
+    """A robot whose ``name`` is any string (the readers refuse the names
+    these tests give), for the exporters' own check."""
+
+    def __init__(self, robot, name):
+        self.robot, self.name = robot, name
+
+    def __getattr__(self, attr):
+        return getattr(self.robot, attr)
+
+
+@pytest.mark.parametrize("bad", ["\x00", "\x01", "\x1b", "\ufffe", "\uffff", "\ud800"])
+def test_exports_are_well_formed_or_refused(cdsm, bad):
+    """The exporters parse what they wrote back: a name XML forbids (which
+    no robot reader lets through any more) is an error, not a text that no
+    XML reader takes."""
+    from cdsm.interop.mjcf import to_mjcf
+    from cdsm.interop.urdf import to_urdf
+
+    real = cdsm.Robot.from_toml_str(OBLIQUE)
+    for export, what in ((to_mjcf, "to_mjcf"), (to_urdf, "to_urdf")):
+        with pytest.raises(cdsm.CdsmInputError, match=rf"{what}: the XML of robot .* would not be well-formed"):
+            export(_Renamed(real, f"arm {bad}"))
+    fine = _Renamed(real, "arm \t\n\x7f \U0001F4AA")
+    for xml in (to_mjcf(fine), to_urdf(fine)):
+        root = ET.fromstring(xml)
+        assert root.get("model", root.get("name")) == fine.name
+
+
 def test_names_are_escaped(cdsm):
     text = OBLIQUE.replace('name = "oblique test arm"', 'name = "a <b> & \\"c\\" -- d"')
     robot = cdsm.Robot.from_toml_str(text)
@@ -320,3 +464,9 @@ def test_export_errors(tmp_path, capsys, monkeypatch):
     (tmp_path / "massless.toml").write_text(OBLIQUE.replace("mass = 0.015\n", ""))
     assert "disk 2 has no mass" in run("--robot", "massless.toml", "--mjcf", "m.xml", "--urdf", "m.urdf")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["massless.toml"]   # nothing written, no temporary
+    (tmp_path / "tiny.toml").write_text(_with(OBLIQUE, mass=1e-12))
+    assert "disk 2 (body 'disk2'): inertia Ixx" in run("--robot", "tiny.toml", "--mjcf", "t.xml", "--urdf", "t.urdf")
+    (tmp_path / "named.toml").write_text(OBLIQUE.replace('"oblique test arm"', '"arm \\u001b[2J"'))
+    err = run("--robot", "named.toml", "--mjcf", "n.xml", "--urdf", "n.urdf")
+    assert "`name`" in err and "U+001B" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["massless.toml", "named.toml", "tiny.toml"]

@@ -234,6 +234,45 @@ def test_jump_points_only_under_attitude0(study):
     assert a0 > 0 and jt == 0
 
 
+def test_table2_panels_share_one_range(study):
+    """Every panel of a Table 2 figure shows the same X and Y window (the
+    fourth panel of the first pose had a Y range of its own)."""
+    from cdsm.report import paper_figures
+
+    figs = paper_figures.table2_figures(study)
+    assert len(figs) == 6
+    for name, fig in figs:
+        fig.canvas.draw()
+        panels = [ax for ax in fig.axes if ax.get_visible()]
+        assert len(panels) >= 2, name
+        assert len({ax.get_xlim() for ax in panels}) == 1, name
+        assert len({ax.get_ylim() for ax in panels}) == 1, name
+
+
+def test_fig9_labels_stand_apart_and_every_set_of_tips_shows(study):
+    """The workspace figure with the paper's marks (its Fig. 9 range): the
+    labels of Table 3's nine points do not overlap (points 2-6 lie within
+    15 mm), and the attitude-0 grid's tips (blue) are drawn over the joint
+    grid's (grey) and the phi = 0 reach (green), which hid them."""
+    from matplotlib.text import Text
+
+    from cdsm.report import paper_figures, study_figures
+
+    fig = study_figures.workspace_figure(study, paper_figures.workspace_overlay(study))
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    ax = fig.axes[0]
+    points = {str(p) for p in study.table3["point"]}
+    labels = [t for t in ax.texts if t.get_text() in points]
+    assert len(labels) == 9
+    boxes = [Text.get_window_extent(t, renderer) for t in labels]  # the words, not their leader lines
+    crowded = [(labels[i].get_text(), labels[j].get_text()) for i in range(9) for j in range(i + 1, 9)
+               if boxes[i].overlaps(boxes[j])]
+    assert not crowded, crowded
+    layer = {c.get_label().split(" ")[0]: c.get_zorder() for c in ax.collections}
+    assert layer["grid"] > layer["phi"] > layer["joint"], layer
+
+
 def test_chain_points_end_at_the_tip():
     import cdsm
     from cdsm.report import figures

@@ -22,7 +22,7 @@ ROBOTS = Path(__file__).resolve().parents[1] / "python" / "cdsm" / "robots"
 @pytest.fixture(scope="module")
 def arm(cdsm, ref):
     robot = cdsm.Robot.packaged("two_universal")
-    mirror = ref.spatial.load_spatial(ROBOTS / "two_universal.toml")
+    mirror = ref.load_robot(ROBOTS / "two_universal.toml")
     return robot, mirror
 
 
@@ -38,12 +38,12 @@ def _ref_tips(mirror, lengths, seed, tip=None, frame=None):
     ``lengths`` from ``seed``, seen through a tip offset and a frame."""
     from conftest import reference as ref
 
-    sol = ref.spatial.solve_cables(mirror, lengths, seed=seed)
+    sol = ref.solve_cables(mirror, lengths, seed=seed)
     assert sol["converged"].all()
-    f = ref.spatial.fk_matrix(mirror, sol["theta"])
+    f = ref.fk_matrix(mirror, sol["theta"])
     p = f[:, :3, 3] + (0 if tip is None else np.einsum("nij,j->ni", f[:, :3, :3], tip))
     if frame is not None:
-        p = p @ ref.spatial.exp_so3(frame[:3]).T + frame[3:]
+        p = p @ ref.exp_so3(frame[:3]).T + frame[3:]
     return p
 
 
@@ -64,11 +64,11 @@ def test_each_effect_matches_the_reference(cdsm, ref, arm, effect):
 
     robot, mirror = arm
     th, dl = _commands(robot)
-    pos = ref.spatial.position_cables(mirror)
+    pos = ref.position_cables(mirror)
     lay = plant.layout(robot)
     p = np.zeros(plant.size(robot))
-    l_ref = ref.spatial.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
-    cmd = ref.spatial.cable_lengths(mirror, th)[:, pos] + dl
+    l_ref = ref.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
+    cmd = ref.cable_lengths(mirror, th)[:, pos] + dl
     real, tip, frame, moved = cmd, None, None, mirror
     rng = np.random.default_rng(4)
     if effect == "actuation_scale":
@@ -112,7 +112,7 @@ def test_backlash_loses_the_dead_band_on_a_reversal(cdsm, ref, arm):
     from cdsm.calibration import plant
 
     robot, mirror = arm
-    pos = ref.spatial.position_cables(mirror)
+    pos = ref.position_cables(mirror)
     b = np.array([4e-5, 3e-5, 2e-5, 5e-5])
     p = plant.params(robot, {"backlash": b})
     th = np.tile(np.array([0.1, -0.2, 0.15, 0.05]), (3, 1))
@@ -120,8 +120,8 @@ def test_backlash_loses_the_dead_band_on_a_reversal(cdsm, ref, arm):
     dl[1] = 1e-3  # go beyond, then come back to the same command
     obs, ok = plant.predict(robot, p, th, dl)
     assert ok.all()
-    cmd = ref.spatial.cable_lengths(mirror, th[:1])[:, pos]
-    l_ref = ref.spatial.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
+    cmd = ref.cable_lengths(mirror, th[:1])[:, pos]
+    l_ref = ref.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
     first = np.where(cmd > l_ref, cmd - b, cmd + b)  # approached from the straight pose
     back = cmd + 1e-3 - b + 0.0  # state after going beyond ...
     back = np.where(cmd - back < -b, cmd + b, back)  # ... then down by 1 mm: reversal
@@ -178,6 +178,55 @@ def test_a_tracker_frame_is_registered_in_3d(cdsm, arm):
     # the translation (metres away) to a few tens of µm
     np.testing.assert_allclose(got[:3], frame[:3], atol=1e-3)
     np.testing.assert_allclose(got[3:], frame[3:], atol=5e-5)
+    # the report and the command line show the tip offset's three parameters (a
+    # zip over the planar labels showed two), as the JSON has them
+    from cdsm.report import diagnosis as report
+
+    rows = report.param_rows(d, d.chosen)
+    assert [lab for _, lab, *_ in rows] == [f"tip offset {a} (end frame)" for a in "xyz"]
+    assert [v for *_, v, _ in rows] == d.to_json()["chosen"]["params"]["tip_offset"]
+    effect_line = next(ln for ln in report.summary(d) if ln.startswith("Effect: "))
+    assert all(f"{lab} = {txt}" in effect_line for _, lab, txt, _, _ in rows)
+
+
+def test_a_spatial_frame_is_reported_in_six_labelled_parameters(cdsm, arm, parameter_table):
+    """A spatial frame has a rotation vector (rad) and a translation (m):
+    six rows, each in its unit (a zip over the planar labels showed three,
+    the rotation in mm), and the command line lists them all."""
+    robot, _ = arm
+    frame = [0.3, -0.2, 0.05, 1.2, -0.4, 3e-4]
+    rows, notes = parameter_table(robot, {"frame_misalignment": frame}, {"frame_misalignment": [1e-3] * 3 + [2e-5] * 3})
+    assert rows == {("frame_misalignment", "instrument frame rotation vector, x"): "+17.19 ± 0.06°",
+                    ("frame_misalignment", "instrument frame rotation vector, y"): "-11.46 ± 0.06°",
+                    ("frame_misalignment", "instrument frame rotation vector, z"): "+50.00 ± 1.00 mrad",
+                    ("frame_misalignment", "instrument frame x"): "+1200.000 ± 0.020 mm",
+                    ("frame_misalignment", "instrument frame y"): "-400.000 ± 0.020 mm",
+                    ("frame_misalignment", "instrument frame z"): "+300.0 ± 20.0 µm"}
+    assert notes == []
+
+
+def test_every_spatial_parameter_is_listed_under_its_own_label(cdsm, parameter_table):
+    """``sjtu_snake``'s 36 cable offsets (24 were listed, under the planar
+    labels "upper cable 2i+1 (pair i+1)"), ``two_universal``'s 18 link
+    parameters (5 were), its joint axes in mrad (they were in mm) and its
+    holes by cable, disk face and axis."""
+    snake = cdsm.Robot.packaged("sjtu_snake")
+    off = np.linspace(-2e-4, 2e-4, 36)
+    rows, _ = parameter_table(snake, {"cable_offset": off}, {"cable_offset": np.full(36, 1e-5)})
+    assert list(rows) == [("cable_offset", f"cable {c} (to disk {(c - 1) % 12 + 1})") for c in range(1, 37)]
+    assert rows[("cable_offset", "cable 36 (to disk 12)")] == "+200.0 ± 10.0 µm"
+    two = cdsm.Robot.packaged("two_universal")
+    rows, _ = parameter_table(two, {"link_length": np.full(18, 1e-4), "joint_axis": np.full(8, 4e-3)},
+                              {"link_length": np.full(18, 1e-5), "joint_axis": np.full(8, 1e-4)})
+    labels = [lab for _, lab in rows]
+    assert labels[:4] == ["joint 1 offset, x", "joint 1 offset, y", "joint 1 offset, z", "joint 2 offset, x"]
+    assert labels[12:18] == [f"disk {d} link after, {a}" for d in (1, 2) for a in "xyz"]
+    assert labels[18:20] == ["joint 1 tilt d1 (toward e1)", "joint 1 tilt d2 (toward e2)"] and len(labels) == 26
+    assert rows[("joint_axis", "joint 4 tilt d2 (toward e2)")] == "+4.00 ± 0.10 mrad"
+    holes = 3 * sum(2 * two.cable_ends[c] + 1 for c in two.position_cables)
+    rows, _ = parameter_table(two, {"hole_position": np.full(holes, 5e-5)}, {"hole_position": np.full(holes, 1e-5)})
+    assert len(rows) == holes == 3 * (3 + 3 + 5 + 5)
+    assert ("hole_position", "cable 5, disk 2 face b, z") in rows  # the 0° cable to disk 2 (cables 1, 2, 5, 6)
 
 
 def test_compensated_commands_put_the_reference_arm_on_target(cdsm, ref, arm, tmp_path):
@@ -187,7 +236,7 @@ def test_compensated_commands_put_the_reference_arm_on_target(cdsm, ref, arm, tm
     from cdsm.calibration.model import Model
 
     robot, mirror = arm
-    pos = ref.spatial.position_cables(mirror)
+    pos = ref.position_cables(mirror)
     off = np.array([1e-4, -2e-4, 5e-5, 0.0])
     model = Model.from_effects(robot, {"actuation_scale": [0.03], "cable_offset": off})
     path = tmp_path / "m.json"
@@ -197,7 +246,7 @@ def test_compensated_commands_put_the_reference_arm_on_target(cdsm, ref, arm, tm
     targets = robot.fk(th)[:, :3]
     c = model.compensate(targets)
     assert c.converged.all() and c.commands.shape == (6, len(pos)) and not any(c.flags)
-    l_ref = ref.spatial.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
+    l_ref = ref.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
 
     def played(cmd):
         return _ref_tips(mirror, l_ref + 1.03 * (cmd - l_ref) + off, seed=c.theta_cmd)

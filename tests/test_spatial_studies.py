@@ -14,6 +14,7 @@ spatial robot. SI units.
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -203,7 +204,13 @@ def test_cli_paper_montecarlo_tolerance_on_a_spatial_robot(cdsm, tmp_path, capsy
     assert main(["paper", "--robot", "two_universal", "--out-dir", str(out), "--configurations", "40",
                  "--samples", "20", "--no-scenario-figures", "--quiet"]) == 0
     assert (out / "report.html").exists() and (out / "scenarios.csv").exists()
-    assert "jump points" in capsys.readouterr().out
+    # the command line counts jumps in the report's words (it said "jump
+    # points 154" where the report said "84 configurations on a jump")
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("sampled:"))
+    jumps = re.search(r"mm, (\d+ configurations on a jump in \d+ of \d+ scenarios \(\d+ jump points: [^)]*\))",
+                      line)
+    assert jumps is not None, line
+    assert jumps.group(1) in (out / "report.md").read_text(encoding="utf-8")
     tol = tmp_path / "tol.json"
     assert main(["tolerance", "--robot", "two_universal", "--target-mm", "1", "--region", "sobol:60",
                  "--samples", "100", "--json", str(tol), "--quiet"]) == 0

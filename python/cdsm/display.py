@@ -10,10 +10,17 @@ import html
 
 import numpy as np
 
-__all__ = ["ShortRepr", "describe"]
+__all__ = ["ShortRepr", "describe", "degrees"]
 
 #: Fields shown before "..." in a repr.
 MAX_FIELDS = 12
+
+
+def degrees(rad: float) -> str:
+    """An angle given in rad as degrees with one decimal (no unit sign): the
+    one way every print, report and figure shows a joint angle or limit
+    (0.6 rad is ``"34.4"`` everywhere)."""
+    return f"{round(float(np.degrees(rad)), 1) + 0.0:.1f}"  # + 0.0: no "-0.0"
 
 
 def describe(value) -> str:

@@ -21,7 +21,7 @@ from . import _cdsm
 from .files import read_text
 from .inputs import (CdsmDataWarning, CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector,
                      did_you_mean)
-from .display import ShortRepr
+from .display import ShortRepr, degrees
 
 __all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
            "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "PLAUSIBLE_LENGTH", "packaged_robots"]
@@ -171,12 +171,21 @@ class Robot:
         description whose straight arm is longer than
         :data:`PLAUSIBLE_LENGTH` (a file in mm read as m, most likely)
         raises a :class:`CdsmDataWarning`."""
-        robot = cls(_cdsm.CoreRobot.from_toml(text))
-        length = robot.straight_length
-        if length > PLAUSIBLE_LENGTH:
-            warnings.warn(f"robot {robot.name!r}: the straight arm is {length:.4g} m long; is the file in mm? cdsm "
-                          "reads SI units: metres (divide every length by 1000)", CdsmDataWarning, stacklevel=2)
-        return robot
+        return _plausible(cls(_cdsm.CoreRobot.from_toml(text)))
+
+    @classmethod
+    def from_data(cls, data: dict) -> "Robot":
+        """A robot from a robot file's data instead of its text: a dict of
+        the file's structure (tables as dicts, arrays as lists; str, float,
+        int, bool values; either kind, ``docs/model.md``,
+        ``docs/spatial.md``), checked as the file would be, errors naming
+        the field by the same path (``linkage[0].mass``). No text is
+        formatted in between, so no value (a name, say) can become another
+        setting. SI units. The same :class:`CdsmDataWarning` as
+        :meth:`from_toml_str`."""
+        if not isinstance(data, dict):
+            raise CdsmInputError(f"`data`: expected a dict of the robot file's structure, got {type(data).__name__}")
+        return _plausible(cls(_cdsm.CoreRobot.from_data(data)))
 
     @classmethod
     def from_caspr(cls, bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathLike[str]",
@@ -193,16 +202,18 @@ class Robot:
         consecutive attachments, as in CASPR. CASPR's vectors are turned by
         one constant rotation so that the links point along ``+x``
         (``docs/interop.md`` has the whole mapping;
-        :func:`cdsm.interop.caspr.caspr_toml` writes the robot file). What is
-        not kept (inertia tensors, cable force limits, names, ...) is said in
-        one ``UserWarning``; what cannot be represented (a cable that does
-        not start at the base, another joint type, a tree, ...) raises
-        :class:`CdsmInputError` naming the link or cable. SI units."""
-        from .interop.caspr import caspr_toml
+        :func:`cdsm.interop.caspr.caspr_robot_data` builds the robot file's
+        data, :meth:`from_data` the robot; :meth:`to_toml` writes it as a
+        robot file). What is not kept (inertia tensors, cable force limits,
+        names, ...) is said in one ``UserWarning``; what cannot be
+        represented (a cable that does not start at the base, another joint
+        type, a tree, ...) raises :class:`CdsmInputError` naming the link or
+        cable. SI units."""
+        from .interop.caspr import caspr_robot_data
 
-        text = caspr_toml(bodies_xml, cables_xml, cable_set)
+        data = caspr_robot_data(bodies_xml, cables_xml, cable_set)
         try:
-            return cls.from_toml_str(text)
+            return cls.from_data(data)
         except CdsmInputError as exc:
             raise CdsmInputError(f"CASPR model {os.fspath(bodies_xml)!r}: cdsm cannot represent it: {exc}") from None
 
@@ -429,10 +440,10 @@ class Robot:
         """The robot as tables of text (SI units in the headers): ``joints``,
         ``disks``, ``cables`` — each ``(header, rows)`` — for :meth:`__str__`
         and the notebook view."""
-        lim = np.degrees(self.joint_limits)
         joints = (["joint", "disk", "axis", "offset (m)", "limits (deg)"],
-                  [[str(j + 1), str(d), _vec(a, 3), _vec(o, 4), f"[{lo:.1f}, {hi:.1f}]"]
-                   for j, (d, a, o, (lo, hi)) in enumerate(zip(self.joint_disks, self.axes, self.offsets, lim))])
+                  [[str(j + 1), str(d), _vec(a, 3), _vec(o, 4), f"[{degrees(lo)}, {degrees(hi)}]"]
+                   for j, (d, a, o, (lo, hi)) in enumerate(zip(self.joint_disks, self.axes, self.offsets,
+                                                                self.joint_limits))])
         disks = (["disk", "link after (m)", "thickness (m)", "radius (m)", "mass (kg)"],
                  [[str(d + 1), _vec(la, 4), f"{t:.4g}", f"{r:.4g}", f"{m:.4g}"]
                   for d, (la, t, r, m) in enumerate(zip(self.disk_link_after, self.disk_thickness,
@@ -736,9 +747,25 @@ class Robot:
                  lower=None, friction: Optional[float] = None, sliding: str = "pull") -> np.ndarray:
         """Whether the position cables hold the arm, every tension above
         ``min_tension`` (N): (N, n) -> (N,) bool (False: a cable would have to
-        go slack). Loads, ``friction`` and ``sliding`` as :meth:`tensions`
-        (the slack check with friction: releasing is the state where a
-        cable goes slack first)."""
+        go slack). Loads, ``friction`` and ``sliding`` as :meth:`tensions`.
+
+        With friction the two sliding states lose a cable in opposite ways
+        (``docs/model.md``, "Statics with friction"). **Slack comes first
+        pulling**: each position cable slides toward its actuator, its
+        tension growing toward it (``T_proximal = T_distal exp(mu beta)``
+        at each hole), and each force cable is drawn distally, its tension
+        growing from its weight toward its end; at a joint, the pairs that
+        end beyond it then pull harder on the position side than at their
+        own joints, taking over part of the moment the position cable
+        ending there must make, and its tension drops toward zero.
+        Releasing reverses every hole, and the position cables pull harder.
+        **A positive floor is crossed first releasing**: the tension checked
+        is the actuator's, and as a cable pays out the holes grip it and
+        carry part of the load, so the actuator holds the gap's tension
+        divided by ``exp(mu sum beta)``. The paper prototype at ``mu = 1``
+        over the ±30° grid in 5° steps (2197 configurations): every cable
+        taut at 1576 pulling and 2197 releasing; every tension above 0.05 N
+        at 1354 pulling and 6 releasing."""
         force, name = self._force(force, lower)
         res, single = self._statics(theta, min_tension, tip_wrench, force, gravity, name, friction, sliding)
         ok = np.asarray(res.feasible, bool)
@@ -829,3 +856,14 @@ class ElasticSolution(Solution):
 def _vec(v, digits: int) -> str:
     """A short vector for the summary tables."""
     return "[" + ", ".join(f"{x:.{digits}g}" for x in np.asarray(v, dtype=float)) + "]"
+
+
+def _plausible(robot: Robot) -> Robot:
+    """``robot``, with a :class:`CdsmDataWarning` when its straight arm is
+    longer than :data:`PLAUSIBLE_LENGTH` (a file in mm read as m, most
+    likely)."""
+    length = robot.straight_length
+    if length > PLAUSIBLE_LENGTH:
+        warnings.warn(f"robot {robot.name!r}: the straight arm is {length:.4g} m long; is the file in mm? cdsm "
+                      "reads SI units: metres (divide every length by 1000)", CdsmDataWarning, stacklevel=3)
+    return robot

@@ -10,6 +10,7 @@ use numpy::{PyArray1, PyReadonlyArrayDyn};
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
 create_exception!(
     _cdsm,
@@ -83,4 +84,81 @@ pub fn kinds(codes: &[u8]) -> PyResult<Vec<RowKind>> {
         .iter()
         .map(|c| RowKind::from_code(*c).map_err(err))
         .collect()
+}
+
+/// A robot file's table built from Python data of the file's structure
+/// (dicts as tables, lists and tuples as arrays, `str`, `float`, `int`,
+/// `bool`): the robot built from data, with no text in between. A value
+/// of another type, or a key that is not a string, is an error naming its
+/// path (`linkage[0].mass`).
+pub fn robot_table(data: &Bound<'_, PyDict>) -> PyResult<toml::Table> {
+    table_of(data, "")
+}
+
+fn table_of(data: &Bound<'_, PyDict>, path: &str) -> PyResult<toml::Table> {
+    let mut table = toml::Table::new();
+    for (k, v) in data.iter() {
+        let Ok(key) = k.cast::<PyString>() else {
+            return Err(CdsmInputError::new_err(format!(
+                "robot data{}: key {} is not a string",
+                if path.is_empty() {
+                    String::new()
+                } else {
+                    format!(" `{path}`")
+                },
+                k.repr()?
+            )));
+        };
+        let key = unicode(key, path)?;
+        let at = if path.is_empty() {
+            key.clone()
+        } else {
+            format!("{path}.{key}")
+        };
+        table.insert(key, value_of(&v, &at)?);
+    }
+    Ok(table)
+}
+
+fn unicode(s: &Bound<'_, PyString>, path: &str) -> PyResult<String> {
+    s.to_cow().map(|c| c.into_owned()).map_err(|_| {
+        CdsmInputError::new_err(format!(
+            "robot data `{path}`: {} is not valid Unicode (a lone surrogate)",
+            s.repr()
+                .map_or_else(|_| "the string".to_string(), |r| r.to_string())
+        ))
+    })
+}
+
+fn value_of(v: &Bound<'_, PyAny>, path: &str) -> PyResult<toml::Value> {
+    use toml::Value;
+    if let Ok(b) = v.cast::<PyBool>() {
+        return Ok(Value::Boolean(b.is_true()));
+    }
+    if v.is_instance_of::<PyInt>() {
+        return v.extract::<i64>().map(Value::Integer).map_err(|_| {
+            CdsmInputError::new_err(format!("robot data `{path}`: integer {v} out of range"))
+        });
+    }
+    if v.is_instance_of::<PyFloat>() {
+        return Ok(Value::Float(v.extract::<f64>()?));
+    }
+    if let Ok(s) = v.cast::<PyString>() {
+        return Ok(Value::String(unicode(s, path)?));
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        return Ok(Value::Table(table_of(d, path)?));
+    }
+    if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
+        let items = v
+            .try_iter()?
+            .enumerate()
+            .map(|(i, item)| value_of(&item?, &format!("{path}[{i}]")))
+            .collect::<PyResult<Vec<_>>>()?;
+        return Ok(Value::Array(items));
+    }
+    Err(CdsmInputError::new_err(format!(
+        "robot data `{path}`: a {} is not a robot file's value (str, float, int, bool, list or dict)",
+        v.get_type().name()?
+    )))
 }

@@ -19,6 +19,21 @@ pub fn effects(model: &Model) -> Vec<(String, usize)> {
         .collect()
 }
 
+/// Every parameter of the plant, in vector order: its block's name, what it
+/// is on the arm, its SI unit (`m`, `rad`, `1`, `1/N`).
+pub fn parameters(model: &Model) -> Vec<(String, String, String)> {
+    plant::parameters(model)
+        .into_iter()
+        .map(|p| {
+            (
+                p.effect.name().to_string(),
+                p.label,
+                p.unit.symbol().to_string(),
+            )
+        })
+        .collect()
+}
+
 /// Lower and upper bounds of the plant's parameters (the physical domain).
 pub fn bounds<'py>(py: Python<'py>, model: &Model) -> (Array<'py>, Array<'py>) {
     let (lo, hi) = plant::bounds(model);

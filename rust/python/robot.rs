@@ -5,7 +5,8 @@
 //! methods.
 
 use super::convert::{
-    err, ik_method, method, opt_slice, options, slice, vec1, Arr, Array, CdsmInputError,
+    err, ik_method, method, opt_slice, options, robot_table, slice, vec1, Arr, Array,
+    CdsmInputError,
 };
 use super::plant::{self, Data, FitArgs};
 use super::results::{
@@ -21,6 +22,7 @@ use crate::model::{Mode, Model};
 use crate::robot::{CableMaterial, Robot};
 use numpy::PyArray1;
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 
 /// A validated arm (SI units); see `cdsm.Robot` for the documented API.
 #[pyclass(frozen, module = "cdsm._cdsm")]
@@ -75,6 +77,15 @@ impl CoreRobot {
     #[staticmethod]
     fn from_toml(text: &str) -> PyResult<Self> {
         Ok(CoreRobot::of(Model::from_toml(text).map_err(err)?))
+    }
+
+    /// The arm of a robot file's data (a dict of the file's structure),
+    /// validated as the file would be; no text in between.
+    #[staticmethod]
+    fn from_data(data: &Bound<'_, PyDict>) -> PyResult<Self> {
+        Ok(CoreRobot::of(
+            Model::from_table(robot_table(data)?).map_err(err)?,
+        ))
     }
 
     #[staticmethod]
@@ -681,6 +692,11 @@ impl CoreRobot {
     /// Names and sizes of the plant's effects, in parameter order.
     fn plant_effects(&self) -> Vec<(String, usize)> {
         plant::effects(&self.model)
+    }
+
+    /// Every parameter of the plant, in vector order: (block, label, SI unit).
+    fn plant_parameters(&self) -> Vec<(String, String, String)> {
+        plant::parameters(&self.model)
     }
 
     /// Lower and upper bounds of the plant's parameters (the physical domain).

@@ -50,7 +50,7 @@ from .measurements import KIND_CODES, Measurements
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
-           "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
+           "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
            "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
@@ -178,6 +178,16 @@ def parameter_names(robot: Robot, indices: Sequence[int]) -> List[str]:
     for blocks of more than one (``link_length[0]``)."""
     return [f"{b}[{int(i) - sl.start}]" if sl.stop - sl.start > 1 else b
             for i, (b, sl) in zip(indices, parameter_blocks(robot, indices))]
+
+
+def parameter_labels(robot: Robot) -> List[Tuple[str, str, str]]:
+    """Every flat parameter, in vector order, as (block, label, SI unit):
+    the label says what it is on this arm (the cable, hole, joint or disk,
+    numbered from 1 as in the robot file, and the component:
+    ``"cable 3 (to disk 2)"``, ``"cable 1, disk 1 face a, x"``), the unit
+    is ``"m"``, ``"rad"``, ``"1"`` or ``"1/N"``. From the Rust core's
+    layout, so either kind's labels come from where its blocks are laid out."""
+    return [(str(b), str(lab), str(u)) for b, lab, u in robot.core.plant_parameters()]
 
 
 def bounds(robot: Robot) -> Tuple[np.ndarray, np.ndarray]:

@@ -41,6 +41,7 @@ def _paper_args(p: argparse.ArgumentParser) -> None:
 @options(_paper_args)
 def _paper_run(args) -> int:
     from .. import paper, report, study
+    from ..report.study import jump_words
 
     t0 = time.perf_counter()
     robot = load_robot(args.robot)
@@ -69,8 +70,8 @@ def _paper_run(args) -> int:
     print(f"        {paths['report_md']}")
     q = "|dXYZ|" if robot.kind == "spatial" else "|dXY|"
     for p in st.workspaces:
-        line = (f"{p}: worst single-error {q} {h[f'worst_single_m_{p}'] * 1e3:.2f} mm, jump points "
-                f"{h[f'jump_points_{p}']}, unreachable {h[f'unreachable_{p}']}, Monte Carlo max {q} "
+        line = (f"{p}: worst single-error {q} {h[f'worst_single_m_{p}'] * 1e3:.2f} mm, {jump_words(h, p)}, "
+                f"unreachable {h[f'unreachable_{p}']}, Monte Carlo max {q} "
                 f"{h[f'mc_max_m_{p}'] * 1e3:.2f} mm (95th pct up to {h[f'mc_max_p95_m_{p}'] * 1e3:.2f} mm)")
         fail = h[f"mc_failed_{p}"]
         line += (f", FAILED SOLVES {fail} of {h[f'mc_attempted_{p}']} at {h[f'mc_failed_configurations_{p}']} "

@@ -10,7 +10,8 @@ The conventions below are read from CASPR's ``src/Model`` code
 (``SystemModelBodies``, ``BodyModelRigid``, the joint classes,
 ``CableAttachmentPoint``, ``CableModelBase``).
 
-Conversion (:func:`caspr_toml`):
+Conversion (:func:`caspr_robot_data`: the robot file's data, built as data,
+never as text):
 
 * One constant rotation ``Q`` takes CASPR's vectors to cdsm's: the smallest
   rotation taking the links' common direction ``d`` (that of their
@@ -45,6 +46,14 @@ Conversion (:func:`caspr_toml`):
 * Disk and base radii (CASPR has none): the largest distance of a hole on
   that disk (base) from its axis; a disk without an off-axis hole takes
   the largest over the arm.
+* The robot's name: ``"<stem> (CASPR, cable set <id>)"``, ``<stem>`` the
+  bodies file's name without ``_bodies.xml``. It is data, like every value
+  here: the robot is built from the dict, never from formatted text, so no
+  file name or id can become a setting. (A name XML forbids, e.g. a control
+  character in the file's name, is refused by the robot reader.)
+* The files are read as XML: in the encoding they declare (UTF-8 without a
+  declaration). One Python does not know, or a multi-byte one other than
+  UTF-8 and UTF-16, is an error naming the file and the encoding.
 
 What cdsm cannot represent is an error naming the link or cable: another
 link type, joint type (prismatic, spherical, planar, ...), or an actuated
@@ -61,6 +70,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import warnings
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -68,10 +78,10 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..files import read_text
+from ..files import read_bytes
 from ..inputs import CdsmInputError
 
-__all__ = ["caspr_toml", "JOINT_AXES", "GRAVITY"]
+__all__ = ["caspr_robot_data", "JOINT_AXES", "GRAVITY"]
 
 #: CASPR's revolute joint types and their axes in order (``R_pe`` the product
 #: of the rotations about them, each about the frame turned by the previous);
@@ -111,16 +121,27 @@ class _Cable:
     points: List[Tuple[int, np.ndarray]]   # base first; joint-frame locations (CASPR axes)
 
 
+#: An XML declaration's encoding (the bytes of its name).
+_DECLARED_ENCODING = re.compile(rb"""\A(?:\xef\xbb\xbf)?\s*<\?xml[^>]*?\bencoding\s*=\s*["']([^"']*)["']""")
+
+
 class _Reader:
     """Field access with errors that name the file and the element."""
 
     def __init__(self, path: str, what: str):
         self.path, self.what = os.fspath(path), what
-        text = read_text(path, f"CASPR {what}")
+        data = read_bytes(path, f"CASPR {what}")
         try:
-            self.root = ET.fromstring(text.encode("utf-8"))
+            self.root = ET.fromstring(data)   # decoded as the file declares (XML's rule)
         except ET.ParseError as exc:
             raise self.error(f"not well-formed XML ({exc})") from None
+        except (LookupError, ValueError) as exc:
+            # the declared encoding: unknown to Python (LookupError), or multi-byte (ValueError:
+            # expat decodes UTF-8, UTF-16 and single-byte encodings only)
+            m = _DECLARED_ENCODING.match(data)
+            declared = m.group(1).decode("ascii", "backslashreplace") if m else "?"
+            raise self.error(f"declares encoding {declared!r}, which cdsm cannot decode ({exc}); "
+                             "save the file as UTF-8") from None
 
     def error(self, msg: str) -> CdsmInputError:
         return CdsmInputError(f"CASPR {self.what} file {self.path!r}: {msg}")
@@ -180,10 +201,10 @@ def _links(bodies: _Reader, ignored: List[str]) -> List[_Link]:
                                "their cables only")
         axes = [np.array(a) for a in JOINT_AXES[jt]]
         if jt == "R_AXIS":
-            a = np.array(bodies.numbers(joint.get("axis"), f"{where} joint axis", 3))
-            if not np.linalg.norm(a) > 0:
+            a = _unit(np.array(bodies.numbers(joint.get("axis"), f"{where} joint axis", 3)))
+            if a is None:
                 raise bodies.error(f"{where}: joint axis {joint.get('axis')!r} is a zero vector")
-            axes = [a / np.linalg.norm(a)]
+            axes = [a]
         q_min = bodies.numbers(joint.get("q_min"), f"{where} joint q_min", len(axes))
         q_max = bodies.numbers(joint.get("q_max"), f"{where} joint q_max", len(axes))
         for v, (lo, hi) in enumerate(zip(q_min, q_max)):
@@ -217,7 +238,7 @@ def _links(bodies: _Reader, ignored: List[str]) -> List[_Link]:
     if q_init:
         ignored.append(f"the initial joint values (q_initial) of {q_init} links")
     if names:
-        ignored.append("the link names (kept as comments in the robot file)")
+        ignored.append("the link names")
     return links
 
 
@@ -312,19 +333,40 @@ def _cables(cables: _Reader, set_el: ET.Element, set_id: str, links: Sequence[_L
         ignored.append(f"the force limits (force_min, force_max) of {limits} cables")
     if diameters:
         ignored.append(f"the diameters of {diameters} cables")
-    ignored.append("the cable names (kept as comments in the robot file)")
+    ignored.append("the cable names")
     return out
 
 
-def _rotation(links: Sequence[_Link], bodies: _Reader) -> Tuple[np.ndarray, np.ndarray]:
-    """``Q`` (3, 3) and the links' common unit direction ``d`` (CASPR frame)."""
+def _norm(v: np.ndarray) -> float:
+    """``|v|`` computed without overflow or underflow (``v`` scaled by its
+    largest component first): ``inf`` only when ``|v|`` itself overflows."""
+    s = float(np.abs(v).max())
+    if s == 0.0 or not math.isfinite(s):
+        return s
+    return s * float(np.linalg.norm(v / s))
+
+
+def _unit(v: np.ndarray) -> Optional[np.ndarray]:
+    """The unit vector along ``v`` (finite), computed without overflow or
+    underflow (``0 1e308 1e308`` is ``(0, 1, 1) / sqrt 2``); None for a
+    zero vector."""
+    s = float(np.abs(v).max())
+    if s == 0.0:
+        return None
+    u = v / s
+    return u / np.linalg.norm(u)
+
+
+def _rotation(links: Sequence[_Link], bodies: _Reader) -> np.ndarray:
+    """``Q`` (3, 3): the smallest rotation taking the links' common unit
+    direction (CASPR frame) to ``+x``."""
     dirs = []
     for lk in links:
-        n = np.linalg.norm(lk.end)
-        if not n > 0:
+        u = _unit(lk.end)
+        if u is None:
             raise bodies.error(f"link {lk.num} ({lk.name!r}): end_location is zero; cdsm's disks have a "
                                "positive thickness along their normal")
-        dirs.append(lk.end / n)
+        dirs.append(u)
     d = dirs[-1]
     for lk, u in zip(links, dirs):
         if np.abs(u - d).max() > 1e-12:
@@ -335,43 +377,26 @@ def _rotation(links: Sequence[_Link], bodies: _Reader) -> Tuple[np.ndarray, np.n
     v, c = np.cross(d, ex), float(d @ ex)
     s2 = float(v @ v)
     if s2 == 0.0:
-        return (np.eye(3) if c > 0 else np.diag([-1.0, -1.0, 1.0])), d
+        return np.eye(3) if c > 0 else np.diag([-1.0, -1.0, 1.0])
     vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-    return np.eye(3) + vx + vx @ vx * ((1.0 - c) / s2), d
+    return np.eye(3) + vx + vx @ vx * ((1.0 - c) / s2)
 
 
-def _f(v: float) -> str:
-    return repr(float(v) + 0.0)   # -0.0 written as 0.0
+def _floats(v) -> List[float]:
+    return [float(x) + 0.0 for x in v]   # -0.0 kept as 0.0
 
 
-def _fs(v) -> str:
-    return "[" + ", ".join(_f(x) for x in v) + "]"
-
-
-def _toml_string(text: str) -> str:
-    out = ['"']
-    for ch in text:
-        if ch in '"\\':
-            out.append("\\" + ch)
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    return "".join(out) + '"'
-
-
-def _comment(text: str) -> str:
-    return " ".join(text.split()).replace("\x7f", "")
-
-
-def caspr_toml(bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathLike[str]",
-               cable_set: Optional[str] = None) -> str:
-    """The cdsm spatial robot file (TOML text, SI units) of a CASPR model:
-    ``bodies_xml`` and ``cables_xml`` are the paths of its ``_bodies.xml``
-    and ``_cables.xml`` files; ``cable_set`` the id of the cable set (None:
-    the file's ``default_cable_set``, else its only set). The conversion is
-    the module doc's; what is not kept is said in one warning
-    (``UserWarning``), what cannot be represented raises
+def caspr_robot_data(bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathLike[str]",
+                     cable_set: Optional[str] = None) -> dict:
+    """The cdsm spatial robot file of a CASPR model, as data (a dict of the
+    file's structure, ``docs/spatial.md``; SI units) for
+    :meth:`cdsm.Robot.from_data`: ``bodies_xml`` and ``cables_xml`` are the
+    paths of its ``_bodies.xml`` and ``_cables.xml`` files; ``cable_set``
+    the id of the cable set (None: the file's ``default_cable_set``, else
+    its only set). The robot's ``name`` is ``"<stem> (CASPR, cable set
+    <id>)"``, ``<stem>`` the bodies file's name without ``_bodies.xml``. The
+    conversion is the module doc's; what is not kept is said in one
+    warning (``UserWarning``), what cannot be represented raises
     :class:`CdsmInputError` naming it."""
     ignored: List[str] = []
     bodies = _Reader(bodies_xml, "bodies")
@@ -379,9 +404,9 @@ def caspr_toml(bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathL
     links = _links(bodies, ignored)
     set_id, set_el = _cable_set(cables, cable_set, ignored)
     cable_list = _cables(cables, set_el, set_id, links, ignored)
-    Q, d = _rotation(links, bodies)
+    Q = _rotation(links, bodies)
     K = len(links)
-    thick = [float(np.linalg.norm(lk.end)) for lk in links]
+    thick = [_norm(lk.end) for lk in links]
     ex = np.array([1.0, 0.0, 0.0])
 
     # holes in face frames (cdsm axes): base face b, then faces a and b of disks 1..e
@@ -410,33 +435,22 @@ def caspr_toml(bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathL
 
     stem = os.path.basename(os.fspath(bodies_xml))
     stem = stem[:-len("_bodies.xml")] if stem.endswith("_bodies.xml") else os.path.splitext(stem)[0]
-    g = Q @ np.array([0.0, 0.0, -GRAVITY])
-    w: List[str] = [
-        f"# Converted by cdsm (Robot.from_caspr) from CASPR's {os.path.basename(os.fspath(bodies_xml))} and",
-        f"# {os.path.basename(os.fspath(cables_xml))}, cable set {_comment(repr(set_id))} (docs/interop.md).",
-        f"# SI units. CASPR vectors v are written here as Q v, Q = {_fs(Q[0])}, {_fs(Q[1])}, {_fs(Q[2])}",
-        f"# (rows): the links' direction {_fs(d)} becomes +x. Disk radii: the farthest hole.",
-        'kind = "spatial"',
-        f"name = {_toml_string(f'{stem} (CASPR, cable set {set_id})')}",
-        f"gravity = {_fs(g)}",
-        "",
-        "[base]",
-        f"radius = {_f(radius[0])}",
-    ]
+    linkage = []
     for i, lk in enumerate(links):
         before = thick[i - 1] if i > 0 else 0.0
-        w += ["", f"[[linkage]]   # CASPR link {lk.num} {_comment(repr(lk.name))}, joint {lk.joint_type}",
-              "joints = ["]
-        for v, ax in enumerate(lk.axes):
-            off = Q @ lk.location - before * ex if v == 0 else np.zeros(3)
-            w.append(f"  {{ axis = {_fs(Q @ ax)}, offset = {_fs(off)}, limits = {_fs([lk.q_min[v], lk.q_max[v]])} }},")
-        w += ["]", "link_after = [0.0, 0.0, 0.0]", f"thickness = {_f(thick[i])}", f"radius = {_f(radius[i + 1])}",
-              f"mass = {_f(lk.mass)}", f"com = {_fs(Q @ lk.com)}"]
-    for cb, pts in zip(cable_list, holes):
-        w += ["", f"[[cables]]   # CASPR cable {_comment(repr(cb.name))}", f"end = {len(pts) // 2}",
-              'mode = "position"', "holes = ["]
-        w += [f"  {_fs(p)}," for p in pts]
-        w.append("]")
+        joints = [{"axis": _floats(Q @ ax),
+                   "offset": _floats(Q @ lk.location - before * ex if v == 0 else np.zeros(3)),
+                   "limits": _floats([lk.q_min[v], lk.q_max[v]])}
+                  for v, ax in enumerate(lk.axes)]
+        linkage.append({"joints": joints, "link_after": [0.0, 0.0, 0.0], "thickness": thick[i],
+                        "radius": float(radius[i + 1]), "mass": float(lk.mass), "com": _floats(Q @ lk.com)})
     if ignored:
         warnings.warn(f"CASPR model {stem!r}: not kept: " + "; ".join(ignored), UserWarning, stacklevel=3)
-    return "\n".join(w) + "\n"
+    return {
+        "kind": "spatial",
+        "name": f"{stem} (CASPR, cable set {set_id})",
+        "gravity": _floats(Q @ np.array([0.0, 0.0, -GRAVITY])),
+        "base": {"radius": float(radius[0])},
+        "linkage": linkage,
+        "cables": [{"end": len(pts) // 2, "mode": "position", "holes": [_floats(p) for p in pts]} for pts in holes],
+    }

@@ -31,7 +31,9 @@ from typing import List, Tuple
 
 import numpy as np
 
-__all__ = ["Joint", "Cable", "Chain", "chain", "cylinder_inertia", "fmt", "comment"]
+from ..inputs import CdsmInputError
+
+__all__ = ["Joint", "Cable", "Chain", "chain", "cylinder_inertia", "fmt", "comment", "xml_text"]
 
 
 def fmt(*values: float) -> str:
@@ -52,10 +54,31 @@ def comment(text: str) -> ET.Element:
 def cylinder_inertia(mass: float, radius: float, thickness: float) -> Tuple[float, float, float]:
     """Principal moments (kg m^2) of a uniform solid cylinder of ``mass``
     (kg), ``radius`` and ``thickness`` (m) whose axis is ``x``, about its
-    centre: ``(m r^2 / 2, m (3 r^2 + t^2) / 12, m (3 r^2 + t^2) / 12)``."""
+    centre: ``(m r^2 / 2, m (3 r^2 + t^2) / 12, m (3 r^2 + t^2) / 12)``,
+    the last two computed as ``Ixx / 2 + m t^2 / 12`` so that the triangle
+    inequality MuJoCo checks (``Iyy + Izz >= Ixx``) holds in floating point
+    too (``m (3 r^2 + t^2) / 12`` can round below ``Ixx / 2`` on a thin
+    disk, ``t`` much less than ``r``)."""
     ix = mass * radius * radius / 2.0
-    iy = mass * (3.0 * radius * radius + thickness * thickness) / 12.0
+    iy = ix / 2.0 + mass * thickness * thickness / 12.0
     return ix, iy, iy
+
+
+def xml_text(root: ET.Element, what: str, name: str) -> str:
+    """The XML document of ``root`` (a UTF-8 declaration, indented),
+    checked to be well-formed by parsing it back, so that no caller writes
+    a file every XML reader refuses: :class:`CdsmInputError` naming
+    ``what`` (``to_mjcf``, ``to_urdf``) and the robot ``name`` (the one
+    free text in an export) otherwise."""
+    ET.indent(root, space="  ")
+    text = '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    try:
+        ET.fromstring(text.encode("utf-8"))
+    except (ET.ParseError, UnicodeEncodeError) as exc:
+        raise CdsmInputError(f"{what}: the XML of robot {name!r} would not be well-formed ({exc}): the name holds a "
+                             "character XML forbids (a control character, U+FFFE, U+FFFF or a lone surrogate); "
+                             "nothing written") from None
+    return text
 
 
 @dataclass(frozen=True)

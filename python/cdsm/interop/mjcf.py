@@ -12,9 +12,15 @@
   robot file holds no inertia tensor, the inertia of a uniform solid
   cylinder of the disk's radius and thickness about that point, axis along
   the disk normal (``x``): ``m r^2 / 2``, ``m (3 r^2 + t^2) / 12`` twice.
-  MuJoCo rejects a moving body without mass: a disk of zero mass is an error.
-  A cylinder ``geom`` shows the disk (no contacts, no mass:
-  ``inertiafromgeom="false"``).
+  MuJoCo rejects a moving body whose mass or any moment of inertia is below
+  ``mjMINVAL`` (:data:`MJMINVAL`, 1e-15): such a disk (zero mass included)
+  is an error naming it and the field. A cylinder ``geom`` shows the disk
+  (no contacts, no mass: ``inertiafromgeom="false"``), placed by its centre
+  and axis (``pos``, ``zaxis``, half-thickness in ``size``; not ``fromto``,
+  which MuJoCo 4.0 refuses shorter than 1e-7 m).
+* The robot's name is the ``model`` attribute: the text is parsed back
+  before it is returned, and a name with a character XML forbids (which
+  the robot readers refuse) is an error, not a file.
 * A ``site`` at every hole (``cable<c>_hole<i>``, ``c`` from 1 in cdsm's
   order, ``i = 0 .. 2 end``: base face b, then faces a and b of each disk),
   a site ``tip`` at the end frame's origin, and one spatial ``tendon`` per
@@ -39,20 +45,50 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from ..inputs import CdsmInputError
-from .chain import chain, comment, cylinder_inertia, fmt
+from .chain import chain, comment, cylinder_inertia, fmt, xml_text
 
-__all__ = ["to_mjcf"]
+__all__ = ["to_mjcf", "MJMINVAL"]
+
+
+#: MuJoCo's ``mjMINVAL`` (``mujoco.mjMINVAL``): its compiler refuses a moving
+#: body whose mass or any principal moment of inertia is below it ("mass and
+#: inertia of moving bodies must be larger than mjMINVAL").
+MJMINVAL = 1e-15
+
+
+def _check_inertials(ch) -> None:
+    """:class:`CdsmInputError` naming the disk (its body) and the field when
+    the mass or a moment of inertia written for it is one MuJoCo refuses:
+    below :data:`MJMINVAL`, or not finite."""
+    for k in range(ch.disks):
+        m, r, t = float(ch.mass[k]), float(ch.radius[k]), float(ch.thickness[k])
+        where = f"to_mjcf: disk {k + 1} (body 'disk{k + 1}')"
+        if m == 0:
+            raise CdsmInputError(f"to_mjcf: disk {k + 1} has no mass (0.0 kg, body 'disk{k + 1}'); MuJoCo rejects a "
+                                 "moving body without mass and inertia: give the disk its mass")
+        if not m >= MJMINVAL:
+            raise CdsmInputError(f"{where}: mass {m!r} kg is below {MJMINVAL!r} (MuJoCo's mjMINVAL: it rejects a "
+                                 "moving body of smaller mass or inertia): give the disk its mass")
+        moments = zip(("Ixx", "Iyy", "Izz"), cylinder_inertia(m, r, t), ("m r^2 / 2", *["m (3 r^2 + t^2) / 12"] * 2))
+        bad = [(field, value, formula) for field, value, formula in moments if not MJMINVAL <= value < np.inf]
+        if bad:
+            problem = ("is not finite" if bad[0][1] >= MJMINVAL else
+                       f"{'is' if len(bad) == 1 else 'are'} below {MJMINVAL!r} (MuJoCo's mjMINVAL)")
+            raise CdsmInputError(f"{where}: inertia {', '.join(f'{f} = {x} = {v!r}' for f, v, x in bad)} kg m^2 "
+                                 f"(mass {m!r} kg, radius {r!r} m, thickness {t!r} m: a uniform solid cylinder) "
+                                 f"{problem}; MuJoCo rejects a moving body whose mass or inertia is smaller: give "
+                                 "the disk more mass or a larger radius")
 
 
 def to_mjcf(robot) -> str:
     """The MJCF text (UTF-8 XML) of ``robot`` (a :class:`cdsm.Robot` of either
-    kind); see the module doc for the mapping. :class:`CdsmInputError` for a
-    disk without mass (MuJoCo rejects a moving body without mass)."""
+    kind); see the module doc for the mapping. :class:`CdsmInputError` for
+    what MuJoCo would refuse: a disk whose mass or inertia is below
+    :data:`MJMINVAL` (zero mass included), naming the disk and the field,
+    or a text that is not well-formed XML (a name with a character XML
+    forbids)."""
     ch = chain(robot)
-    for k in range(ch.disks):
-        if not ch.mass[k] > 0:
-            raise CdsmInputError(f"to_mjcf: disk {k + 1} has no mass ({ch.mass[k]!r} kg); MuJoCo rejects a "
-                                 "moving body without mass and inertia: give the disk its mass")
+    _check_inertials(ch)
     root = ET.Element("mujoco", model=ch.name)
     root.append(comment(f"written by cdsm (Robot.to_mjcf) from the {ch.kind} robot {ch.name!r}: "
                         f"{len(ch.joints)} hinges in cdsm's joint order, {len(ch.cables)} cables as spatial "
@@ -77,9 +113,10 @@ def to_mjcf(robot) -> str:
         s, i = shift[k], k - 1
         body[k].insert(0, ET.Element("inertial", pos=fmt(*(s + ch.com[i])), mass=fmt(ch.mass[i]),
                                      diaginertia=fmt(*cylinder_inertia(ch.mass[i], ch.radius[i], ch.thickness[i]))))
-        ET.SubElement(body[k], "geom", name=f"disk{k}", type="cylinder", size=fmt(ch.radius[i]),
-                      fromto=fmt(*(s + ch.face_a[i]), *(s + ch.face_b[i])), contype="0", conaffinity="0",
-                      group="1")
+        half = ch.thickness[i] / 2.0
+        ET.SubElement(body[k], "geom", name=f"disk{k}", type="cylinder", size=fmt(ch.radius[i], half),
+                      pos=fmt(*(s + ch.face_a[i] + (half, 0.0, 0.0))), zaxis="1 0 0", contype="0",
+                      conaffinity="0", group="1")
     for c in ch.cables:
         for i, (k, point) in enumerate(c.holes):
             ET.SubElement(body[k], "site", name=f"cable{c.index + 1}_hole{i}", pos=fmt(*(shift[k] + point)),
@@ -109,5 +146,4 @@ def to_mjcf(robot) -> str:
         else:
             ET.SubElement(actuators, "general", name=f"{tendon}_force", tendon=tendon, gaintype="fixed",
                           gainprm="0", biastype="affine", biasprm=fmt(-c.tension, 0.0, 0.0))
-    ET.indent(root, space="  ")
-    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    return xml_text(root, "to_mjcf", ch.name)

@@ -25,14 +25,16 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
-from .chain import chain, comment, cylinder_inertia, fmt
+from .chain import chain, comment, cylinder_inertia, fmt, xml_text
 
 __all__ = ["to_urdf"]
 
 
 def to_urdf(robot) -> str:
     """The URDF text (UTF-8 XML) of ``robot`` (a :class:`cdsm.Robot` of either
-    kind); see the module doc for the mapping."""
+    kind); see the module doc for the mapping. :class:`CdsmInputError` for a
+    text that is not well-formed XML (a name with a character XML forbids:
+    the text is parsed back before it is returned)."""
     ch = chain(robot)
     root = ET.Element("robot", name=ch.name)
     root.append(comment(f"written by cdsm (Robot.to_urdf) from the {ch.kind} robot {ch.name!r}: "
@@ -65,5 +67,4 @@ def to_urdf(robot) -> str:
     ET.SubElement(tip, "parent", link=parent)
     ET.SubElement(tip, "child", link="tip")
     ET.SubElement(tip, "origin", xyz=fmt(*ch.face_b[-1]), rpy="0 0 0")
-    ET.indent(root, space="  ")
-    return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    return xml_text(root, "to_urdf", ch.name)

@@ -24,14 +24,14 @@ from matplotlib.ticker import MaxNLocator
 
 from .. import __version__
 from ..calibration import diagnosis as diagnose
-from ..calibration import stats
+from ..calibration import plant, stats
 from ..files import run_directory
-from .document import HEADLINE, Document
+from .document import HEADLINE, Document, literal
 from .figures import BLUE, GREEN, RED, new_figure, place, png_bytes, report_style
 
-__all__ = ["FILES", "write", "findings", "summary", "param_rows", "headline_items", "next_steps", "figures",
-           "residual_map_figure", "residual_bars_figure", "candidates_figure", "features_figure", "test_rows",
-           "tests_text"]
+__all__ = ["FILES", "write", "findings", "summary", "param_rows", "bound_notes", "headline_items", "next_steps",
+           "figures", "residual_map_figure", "residual_bars_figure", "candidates_figure", "features_figure",
+           "test_rows", "tests_text"]
 
 #: the files the report writes beside ``figures/`` (:func:`write`)
 FILES = ("report.md", "report.html", "diagnosis.json", "residuals.csv", "suggested.csv")
@@ -74,59 +74,77 @@ def _um(v: float, nd: int = 1) -> str:
     return f"{v * 1e6:.{nd}f} µm"
 
 
+def _suffix(unit: str) -> str:
+    """A unit after a number: a space before it, none before ``°``."""
+    return f" {unit}" if unit and unit != "°" else unit
+
+
 def _pm(v: float, s: float, scale: float, unit: str, nd: int) -> str:
+    u = _suffix(unit)
     if s is None or not np.isfinite(s) or s <= 0.0:
         # NaN: the fit found a direction the data do not see (diagnose.fit)
-        return f"{v * scale:+.{nd}f} {unit} (not determined by these data)"
-    return f"{v * scale:+.{nd}f} ± {s * scale:.{nd}f} {unit}"
+        return f"{v * scale:+.{nd}f}{u} (not determined by these data)"
+    return f"{v * scale:+.{nd}f} ± {s * scale:.{nd}f}{u}"
 
 
-def _param_labels(effect: str, n: int) -> List[Tuple[str, str]]:
-    """(label, unit kind) of each parameter of ``effect`` for ``n`` joints.
-    Unit kinds: len (m), ratio (1), rad, compliance (1/N)."""
-    if effect == "actuation_scale":
-        return [("actuation scale s", "ratio")]
-    if effect == "cable_offset":
-        return [(f"offset of upper cable {2 * i + 1} (pair {i + 1})", "len") for i in range(n)]
-    if effect == "hole_height":
-        return [(f"hole-height error, pair {i + 1}", "len") for i in range(n)]
-    if effect == "link_length":
-        return [("base → joint 1", "len")] + [(f"joint {i + 1} → disk {i + 1}", "len") for i in range(n)]
-    if effect == "cable_elasticity":
-        return [("compliance 1/(E A)", "compliance")]
-    if effect == "hole_clearance":
-        return [("hole clearance c", "len")]
-    if effect == "frame_misalignment":
-        return [("frame rotation", "rad"), ("frame x", "len"), ("frame y", "len")]
-    if effect == "tip_offset":
-        return [("tip offset x (end frame)", "len"), ("tip offset y (end frame)", "len")]
-    return [(f"{effect}[{j}]", "len") for j in range(n)]  # pragma: no cover
+def _shown_as(unit: str, big: float) -> Tuple[float, str, int]:
+    """(scale, unit shown, decimals) of a parameter in SI ``unit`` whose
+    value or std reaches ``big``: m as mm (≥ 1 mm) or µm, rad as mrad
+    (below 0.1 rad) or degrees, others (dimensionless, 1/N) as they are
+    with three significant digits of the larger, at least four decimals."""
+    if unit == "m":
+        return (1e3, "mm", 3) if big >= 1e-3 else (1e6, "µm", 1)
+    if unit == "rad":
+        return (1e3, "mrad", 2) if big < 0.1 else (180.0 / math.pi, "°", 2)
+    nd = min(12, max(4, 2 - math.floor(math.log10(big)))) if big > 0 else 4
+    return 1.0, "" if unit == "1" else unit, nd
 
 
-def _fmt_param(kind: str, v: float, s: float) -> str:
-    if kind == "ratio":
-        return _pm(v, s, 100.0, "%", 2)
-    if kind == "rad":
-        return _pm(v, s, 1e3, "mrad", 2)
-    if kind == "compliance":
-        txt = _pm(v, s, 1.0, "1/N", 4)
-        if v > 0:
-            txt += f" (E·A ≈ {1.0 / v:.3g} N)"
-        return txt
-    big = max(abs(v), abs(s) if np.isfinite(s) else 0.0)
-    return _pm(v, s, 1e3, "mm", 3) if big >= 1e-3 else _pm(v, s, 1e6, "µm", 1)
+def _fmt_param(unit: str, v: float, s: float) -> str:
+    """A parameter ± std in the unit :func:`_shown_as` picks for it; a
+    compliance with the stiffness it means."""
+    scale, shown, nd = _shown_as(unit, max(abs(v), abs(s) if np.isfinite(s) else 0.0))
+    txt = _pm(v, s, scale, shown, nd)
+    return txt + (f" (E·A ≈ {1.0 / v:.3g} N)" if unit == "1/N" and v > 0 else "")
+
+
+def _fitted(robot, fit) -> List[Tuple[str, int, str, str, float, float]]:
+    """(effect, flat index, label, SI unit, value, std) of every parameter of
+    a fit's effects, labelled from the plant's layout."""
+    labels = plant.parameter_labels(robot)
+    vals, stds = fit.params_by_effect(robot), fit.std_by_effect(robot)
+    out = []
+    for e in fit.effects:
+        for k, i in enumerate(plant.effect_indices(robot, e)):
+            _, lab, unit = labels[int(i)]
+            out.append((e, int(i), lab, unit, float(vals[e][k]), float(stds[e][k])))
+    return out
 
 
 def param_rows(d: diagnose.Diagnosis, cand: diagnose.Candidate) -> List[Tuple[str, str, str, float, float]]:
-    """(effect, parameter label, readable value ± std, value SI, std SI) of a
-    candidate's fit on all usable rows."""
+    """(effect, parameter label, readable value ± std, value SI, std SI) of
+    every parameter of a candidate's fit on all usable rows, each in its own
+    unit (:func:`cdsm.calibration.plant.parameter_labels`)."""
+    return [(e, lab, _fmt_param(unit, v, s), v, s) for e, _, lab, unit, v, s in _fitted(d.prep.robot, cand.fit)]
+
+
+def bound_notes(d: diagnose.Diagnosis, cand: diagnose.Candidate) -> List[str]:
+    """A sentence for each parameter of a candidate's fit that sits at a
+    bound of the physical domain with a standard error larger than its
+    value: the bound stopped the fit, the data did not place it."""
     robot = d.prep.robot
-    vals = cand.fit.params_by_effect(robot)
-    stds = cand.fit.std_by_effect(robot)
+    lo, hi = plant.bounds(robot)
     out = []
-    for e in cand.effects:
-        for (lab, kind), v, s in zip(_param_labels(e, robot.n), vals[e], stds[e]):
-            out.append((e, lab, _fmt_param(kind, float(v), float(s)), float(v), float(s)))
+    for e, i, lab, unit, v, s in _fitted(robot, cand.fit):
+        if not (np.isfinite(s) and s > abs(v)):
+            continue
+        for side, b in (("lower", lo[i]), ("upper", hi[i])):
+            if np.isfinite(b) and abs(v - b) <= 1e-9 * max(abs(b), s):
+                scale, shown, _ = _shown_as(unit, max(abs(v), s))
+                bound = f"{b * scale:g}{_suffix(shown)}"
+                out.append(f"`{e}` {lab} = {_fmt_param(unit, v, s)} sits at its {side} bound ({bound}) with a "
+                           "standard error larger than its value: the edge of the physical domain stopped the "
+                           "fit, not the data, so this number is not a measurement of it.")
     return out
 
 
@@ -296,7 +314,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         "Largest gaps (nominal model): " + "; ".join(
             f"{names[i]} at X = {_commanded_xy(d)[i, 0] * 1e3:.1f} mm, Y = {_commanded_xy(d)[i, 1] * 1e3:.1f} mm: "
             f"{_um(size_b[i])} (dX {_um(g_base[i, 0])}, dY {_um(g_base[i, 1])})" for i in top)
-        + f". {k50} of {nu} rows carry{'' if k50 > 1 else 'es'} half of the squared gap"
+        + f". {k50} of {nu} rows {'carry' if k50 > 1 else 'carries'} half of the squared gap"
         + (" — the gap is concentrated in a few rows." if k50 <= max(1, nu // 5) else "."))
     rx = float(np.sqrt(np.nanmean(g_base[rows, 0] ** 2)))
     ry = float(np.sqrt(np.nanmean(g_base[rows, 1] ** 2)))
@@ -346,6 +364,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         out["which"].append(f"`{d.best}` fitted on all {nu} usable rows: " + "; ".join(
             f"{lab} = {txt}" + (f" ({abs(v) / s:.1f} σ from zero)" if np.isfinite(s) and s > 0 else "")
             for _, lab, txt, v, s in prs) + ".")
+        out["which"].extend(bound_notes(d, d.chosen))
         if len(d.steps) > 1:
             out["which"].append("Forward selection: " + " → ".join(
                 f"`{c.name}` {_um(c.heldout_rms)}" for c in d.steps) + " (each step kept only when it beats the "
@@ -355,6 +374,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         out["which"].append(
             f"No effect is chosen. For reference, the best single candidate `{t.name}` would be: " + "; ".join(
                 f"{lab} = {txt}" for _, lab, txt, _, _ in param_rows(d, t)) + ".")
+        out["which"].extend(bound_notes(d, t))
 
     # -- how far it shrinks ----------------------------------------------
     out["shrink"].append(
@@ -814,7 +834,8 @@ def headline_items(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
     }.get(d.verdict, "no effect of the library reduces the gap significantly.")]
     if d.chosen is not None:
         items.append(f"**Effect: `{d.best}`** — " + "; ".join(f"{lab} = {txt}" for _, lab, txt, _, _ in
-                                                                param_rows(d, d.chosen)) + ".")
+                                                                param_rows(d, d.chosen)) + "."
+                     + "".join(" " + note for note in bound_notes(d, d.chosen)))
     elif d.singles:
         t = d.singles[0]
         items.append(f"**Effect: none.** The best single candidate, `{t.name}`, reaches {_um(t.heldout_rms)} "
@@ -860,8 +881,8 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Do
     doc.section(HEADLINE, "Headline")
     src = os.path.basename(prep.meas.source) if prep.meas.source else "measurements"
     ne = d.noise_estimate.source
-    doc.p(f"Data: `{src}` — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
-          f"usable); robot **{prep.robot.name}** ({prep.robot.n} joints); measurement noise "
+    doc.p(f"Data: {literal(src)} — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
+          f"usable); robot **{literal(prep.robot.name)}** ({prep.robot.n} joints); measurement noise "
           f"{'assumed ' if ne == 'assumed' else ''}{_um(d.noise)} per axis"
           f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation; "
           f"candidate library: {', '.join(c.name for c in d.singles) or 'empty'}. cdsm {__version__}. The "

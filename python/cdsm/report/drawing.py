@@ -9,7 +9,9 @@ from typing import List, Optional
 
 import numpy as np
 
-__all__ = ["cable_paths", "draw_arm"]
+from ..display import degrees
+
+__all__ = ["cable_paths", "configuration_words", "draw_arm"]
 
 #: Colours of position- and force-controlled cables.
 POSITION_COLOUR, FORCE_COLOUR = "#c0392b", "#2471a3"
@@ -38,6 +40,18 @@ def _disk_outline(T: np.ndarray, radius: float, planar: bool) -> np.ndarray:
         return np.array([T[:3, :3] @ [0.0, s * radius, 0.0] + T[:3, 3] for s in (-1.0, 1.0)])
     a = np.linspace(0.0, 2.0 * np.pi, 48)
     return (T[:3, :3] @ np.stack([np.zeros_like(a), radius * np.cos(a), radius * np.sin(a)]) + T[:3, 3:4]).T
+
+
+def configuration_words(theta) -> str:
+    """The configuration ``theta`` (n,) rad a drawing shows, in degrees: the
+    straight arm; every joint at one angle; up to six joints each; more as
+    the range they span."""
+    deg = [degrees(t) for t in theta]
+    if len(set(deg)) == 1:
+        return ("straight: " if deg[0] == "0.0" else "") + f"every joint at {deg[0]}°"
+    if len(deg) <= 6:
+        return "theta = (" + ", ".join(deg) + ")°"
+    return f"{len(deg)} joints, theta from {degrees(np.min(theta))}° to {degrees(np.max(theta))}°"
 
 
 def draw_arm(robot, theta=None, ax=None, cables: bool = True, title: Optional[str] = None):
@@ -86,11 +100,7 @@ def draw_arm(robot, theta=None, ax=None, cables: bool = True, title: Optional[st
         ax.set_xlim(mid[0] - half, mid[0] + half)
         ax.set_ylim(mid[1] - half, mid[1] + half)
         ax.set_zlim(mid[2] - half, mid[2] + half)
-    if title is None:
-        deg = np.degrees(theta)
-        title = (f"{robot.name}\ntheta = " + np.array2string(deg, precision=1, separator=", ") + " deg"
-                 if robot.n <= 6 else
-                 f"{robot.name}\n{robot.n} joints, theta from {deg.min():.1f} to {deg.max():.1f} deg")
-    ax.set_title(title, fontsize=10)
+    ax.set_title(f"{robot.name}\n{configuration_words(theta)}" if title is None else title, fontsize=10,
+                 parse_math=False)
     ax.legend(loc="best", fontsize=8)
     return ax

@@ -18,9 +18,10 @@ from typing import Dict, List, Optional
 import numpy as np
 
 from .. import __version__
+from ..display import degrees
 from . import diagnosis as diagnosis_report
 from . import paper_figures
-from .document import Document
+from .document import Document, literal
 from .figures import FigureJob
 from .study import StudyReport, fmt, mm, nanmax, sci
 from .study import headline as study_headline
@@ -413,7 +414,7 @@ class PaperReport(StudyReport):
 
     def intro(self) -> str:
         r, prm = self.robot, self.study.params
-        return (f"Robot: **{r.name}**, {r.n} joints, {2 * r.n} cables — the paper's prototype geometry; cdsm "
+        return (f"Robot: **{literal(r.name)}**, {r.n} joints, {2 * r.n} cables — the paper's prototype geometry; cdsm "
                 f"{__version__}. Monte Carlo: {prm['samples']} samples, seed {prm['seed']}. All computed "
                 "quantities are SI (m, rad) in the CSV files; the text and figures show mm and degrees as the paper "
                 "does.")
@@ -496,7 +497,7 @@ class PaperReport(StudyReport):
     def table3_section(self, doc: Document) -> None:
         st = self.study
         t = st.table3
-        lim = np.degrees(np.abs(self.robot.joint_limits).max())
+        lim = degrees(np.abs(self.robot.joint_limits).max())
         rows = []
         for i in range(len(t["point"])):
             o, pp, m = t["ours"][i] * 1e3, t["paper"][i] * 1e3, t["measured"][i] * 1e3
@@ -508,7 +509,7 @@ class PaperReport(StudyReport):
         doc.p("−1 mm on cable 1 at nine commanded poses (phi = 0), ours from the pose IK on the paper's branch "
               "(theta_2 ≤ 0).")
         doc.table(["point", "pose [X m, Y m, phi rad]", "ours dX, dY (mm)", "paper dX, dY (mm)",
-                   "measured dX, dY (mm)", "measured − ours (mm)", "theta0 (deg)", f"within ±{lim:.0f}°"], rows)
+                   "measured dX, dY (mm)", "measured − ours (mm)", "theta0 (deg)", f"within ±{lim}°"], rows)
         err = np.abs(t["ours"] - t["paper"]).max() * 1e3
         gap = (t["measured"] - t["ours"]) * 1e3
         doc.p(f"Largest |ours − paper| over the nine points: **{err:.1e} mm** (the paper prints 4 decimals). "

@@ -23,8 +23,9 @@ from ..accuracy.scenarios import deviation
 from .figures import (BLUE, HUES, MAX_WIDTH_IN, RED, FigureJob, colour_bar, draw_arm, few_ticks, mark_missing,
                       new_figure, place, report_style, tension_cmap)
 
-__all__ = ["readings_figure", "table2_figures", "table2_groups", "singular_state_figure", "table3_figure",
-           "workspace_overlay", "figure_jobs", "EXAGGERATION"]
+__all__ = ["readings_figure", "table2_figures", "table2_groups", "share_range", "singular_state_figure",
+           "table3_figure", "workspace_overlay", "figure_jobs", "spread", "EXAGGERATION", "LABEL_COLUMN_MM",
+           "LABEL_GAP_MM"]
 
 W = MAX_WIDTH_IN
 
@@ -126,6 +127,24 @@ def _diagram(ax, robot, theta0, theta, ok, title, target=None, dS=None):
     ax.grid(True)
 
 
+def share_range(axs, margin: float = 0.05) -> None:
+    """One X and one Y range on every axes of ``axs`` (panels of one size,
+    placed): the union of what they show, widened by ``margin`` of its span
+    and, for equal-aspect panels, widened further along one axis to the
+    panels' own aspect, so each fills its box."""
+    lo = np.min([ax.dataLim.min for ax in axs], axis=0)
+    hi = np.max([ax.dataLim.max for ax in axs], axis=0)
+    mid, half = (lo + hi) / 2, (hi - lo) * (0.5 + margin)
+    if axs[0].get_aspect() != "auto":
+        box = axs[0].get_position().size * axs[0].figure.get_size_inches()  # width, height (in)
+        half = np.maximum(half, half[::-1] * np.array([box[0] / box[1], box[1] / box[0]]))
+    for ax in axs:
+        ax.set_xlim(mid[0] - half[0], mid[0] + half[0])
+        ax.set_ylim(mid[1] - half[1], mid[1] + half[1])
+        if ax.get_aspect() != "auto":
+            ax.set_adjustable("box")  # the ranges already have the box's aspect
+
+
 def table2_groups(study) -> Dict[Tuple, List[dict]]:
     """Table 2's entries grouped by (pose, condition), in table order."""
     groups: Dict[Tuple, List[dict]] = {}
@@ -136,8 +155,9 @@ def table2_groups(study) -> Dict[Tuple, List[dict]]:
 
 def table2_figures(study, which: Optional[List[int]] = None) -> List[Tuple[str, Figure]]:
     """Table 2 configuration diagrams: one figure per (pose, condition) (all,
-    or the groups ``which``), one panel per error; blue before, red after,
-    red dashed after with the joint-angle change exaggerated ×10. Returns
+    or the groups ``which``), one panel per error, every panel on the same
+    X and Y range; blue before, red after, red dashed after with the
+    joint-angle change exaggerated ×10. Returns
     [(name, Figure)]."""
     out = []
     for gi, ((pose, cond), items) in enumerate(table2_groups(study).items()):
@@ -158,6 +178,7 @@ def table2_figures(study, which: Optional[List[int]] = None) -> List[Tuple[str, 
                          f"initial theta = ({th})° (pose IK, theta_2 ≤ 0 branch); + marks the commanded tip",
                          fontsize=10)
             place(fig, rows, cols, left=0.7, right=0.2, bottom=0.5, top=1.15, wgap=0.75, hgap=0.95)
+            share_range(axs[:len(items)])
         out.append((f"table2_{gi + 1}", fig))
     return out
 
@@ -251,9 +272,42 @@ def workspace_overlay(study):
                    label="Table 3 points within the limits")
         ax.scatter(p[~ok, 0], p[~ok, 1], marker="*", s=110, c="w", ec=RED, lw=1.2, zorder=5,
                    label="Table 3 points beyond the limits (paper's branch)")
-        for lab, q in zip(study.table3["point"], p):
-            ax.annotate(str(lab), q[:2], xytext=(4, 3), textcoords="offset points", fontsize=8)
+        # labels in a column right of the range, spread apart, each joined
+        # to its star by a leader line (points 2-6 lie within 15 mm)
+        ys = spread(p[:, 1], LABEL_GAP_MM)
+        for lab, q, y in zip(study.table3["point"], p, ys):
+            ax.annotate(str(lab), q[:2], xytext=(LABEL_COLUMN_MM, y), textcoords="data", fontsize=8, va="center",
+                        arrowprops=dict(arrowstyle="-", lw=0.6, color="0.3", shrinkA=1, shrinkB=5))
     return overlay
+
+
+#: Where the Table 3 labels of the workspace figure stand (tip X, mm) and
+#: their least vertical distance apart (mm).
+LABEL_COLUMN_MM, LABEL_GAP_MM = 242.0, 9.0
+
+
+def spread(y, gap: float) -> np.ndarray:
+    """Positions for labels at ``y`` (K,) at least ``gap`` apart, each group
+    of labels that would crowd centred on its points' mean, in the order of
+    ``y`` (ties in their given order)."""
+    y = np.asarray(y, float)
+    order = np.argsort(y, kind="stable")
+    groups = [[i] for i in order]  # runs of labels placed as one block
+    merged = True
+    while merged:
+        merged = False
+        for k in range(len(groups) - 1):
+            a, b = groups[k], groups[k + 1]
+            top_a = y[a].mean() + gap * (len(a) - 1) / 2
+            bottom_b = y[b].mean() - gap * (len(b) - 1) / 2
+            if bottom_b - top_a < gap:
+                groups[k:k + 2] = [a + b]
+                merged = True
+                break
+    out = np.empty_like(y)
+    for g in groups:
+        out[g] = y[g].mean() + gap * (np.arange(len(g)) - (len(g) - 1) / 2)
+    return out
 
 
 def figure_jobs(study) -> List[FigureJob]:

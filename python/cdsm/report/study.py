@@ -22,14 +22,15 @@ import numpy as np
 from .. import __version__
 from ..accuracy.tolerance import pooled_percentile
 from ..accuracy.workspace import MIN_LINE, REASONS
+from ..display import degrees
 from ..files import run_directory
 from ..study import DEFAULT_SAMPLES, DEFAULT_SOLVES, NEAR_SINGULAR, PROTOCOL_NAMES, finite_rms, worst_configurations
 from . import study_figures
-from .document import HEADLINE, Document
+from .document import HEADLINE, Document, literal
 from .figures import FigureJob, file_key, render_pngs
 
-__all__ = ["StudyReport", "write", "headline", "scenario_rows", "jump_rows", "mc_rows", "montecarlo_rows",
-           "configuration_rows", "mm", "nanmax", "fmt", "sci"]
+__all__ = ["StudyReport", "write", "headline", "jump_words", "scenario_rows", "jump_rows", "mc_rows",
+           "montecarlo_rows", "configuration_rows", "mm", "nanmax", "fmt", "sci"]
 
 
 # ---------------------------------------------------------------------------
@@ -286,6 +287,22 @@ def friction_rows(study) -> List[dict]:
     return rows
 
 
+#: The least tip movement (m) by a hole error that the ratio "holes against
+#: lengths" divides by: below it the hole error acts to second order or not
+#: at all and the ratio measures rounding (1e-17 m), not the arm.
+RATIO_FLOOR_M = 1e-6
+
+
+def jump_words(h: Dict[str, object], p: str) -> str:
+    """The jumps of protocol ``p`` from the :func:`headline` numbers ``h``,
+    in the words the report and the command line both use: the
+    configurations on a jump (each once) and the jump points (a
+    configuration once per scenario that jumps there)."""
+    return (f"{h[f'jump_configurations_{p}']} configurations on a jump in {h[f'jump_scenarios_{p}']} of "
+            f"{h[f'scenarios_{p}']} scenarios ({h[f'jump_points_{p}']} jump points: a configuration counted once "
+            "per scenario that jumps there)")
+
+
 def headline(study) -> Dict[str, object]:
     """The headline numbers (SI) of the study, for the report's first
     section and the command line: per protocol ``p`` the unreachable count,
@@ -311,6 +328,7 @@ def headline(study) -> Dict[str, object]:
         out[f"jump_points_{p}"] = sum(r.jump_count for r in res)
         out[f"jump_configurations_{p}"] = int(np.any([r.jumps.point for r in res], axis=0).sum()) if res else 0
         out[f"jump_scenarios_{p}"] = sum(r.jump_count > 0 for r in res)
+        out[f"scenarios_{p}"] = len(res)
         s = study.singular[p]
         out[f"singular_min_{p}"] = _nanmin(s)
         out[f"near_singular_{p}"] = int(np.sum(s < NEAR_SINGULAR))
@@ -367,7 +385,7 @@ class StudyReport:
 
     # -- names ---------------------------------------------------------------
     def title(self) -> str:
-        return f"Tip-positioning accuracy of {self.robot.name}"
+        return f"Tip-positioning accuracy of {literal(self.robot.name)}"
 
     def html_title(self) -> str:
         return f"cdsm accuracy study — {self.robot.name}"
@@ -414,9 +432,9 @@ class StudyReport:
         kind = ("planar" if st.kind == "planar" else "spatial")
         cables = (f"{r.cables} cables ({len(pos)} position-controlled"
                   + (f", {len(force)} force-controlled" if force else "") + ")")
-        return (f"Robot **{r.name}**: a {kind} arm of {r.n} joints and {cables}; cdsm {__version__}. Monte Carlo: "
-                f"{prm['samples']} samples, seed {prm['seed']}. All computed quantities are SI (m, rad, N) in the "
-                "CSV files; the text and figures show mm and degrees.")
+        return (f"Robot **{literal(r.name)}**: a {kind} arm of {r.n} joints and {cables}; cdsm {__version__}. "
+                f"Monte Carlo: {prm['samples']} samples, seed {prm['seed']}. All computed quantities are SI (m, rad, "
+                "N) in the CSV files; the text and figures show mm and degrees.")
 
     def headline_items(self) -> List[str]:
         """The answers, in numbers."""
@@ -446,9 +464,8 @@ class StudyReport:
         items["montecarlo"] = f"**Monte Carlo** ({tol}): " + "; ".join(mcs) + " — see [Monte Carlo](#montecarlo)."
         jt = []
         for p in protos:
-            jt.append(f"{_pname(p)}: {h[f'jump_configurations_{p}']} configurations on a jump in "
-                      f"{h[f'jump_scenarios_{p}']} of {len(st.results(p))} scenarios, {h[f'near_singular_{p}']} "
-                      f"near-singular (measure < {NEAR_SINGULAR:g})")
+            jt.append(f"{_pname(p)}: {jump_words(h, p)}, {h[f'near_singular_{p}']} near-singular "
+                      f"(measure < {NEAR_SINGULAR:g})")
         items["jumps"] = "**Jump points and singular states**: " + "; ".join(jt) + " — see [jumps](#jumps)."
         sl = []
         for p in protos:
@@ -509,7 +526,7 @@ class StudyReport:
                 ["cables", f"{r.cables}: position-controlled " + ", ".join(str(c + 1) for c in pos)
                  + ("; force-controlled " + ", ".join(f"{c + 1} ({r.cable_tensions[c]:g} N)" for c in force)
                     if force else "")],
-                ["joint limits", ", ".join(f"[{np.degrees(a):.0f}°, {np.degrees(b):.0f}°]" for a, b in lim)],
+                ["joint limits", ", ".join(f"[{degrees(a)}°, {degrees(b)}°]" for a, b in lim)],
                 ["straight length", mm(r.straight_length, 1)],
                 ["gravity", "none (horizontal plane)" if not np.any(r.gravity) else
                  "(" + ", ".join(f"{v:g}" for v in r.gravity) + ") m/s²"]]
@@ -630,7 +647,7 @@ class StudyReport:
                        + ", ".join(f"disk {d} {mm(v)}" for d, v in holes.items()) + ". "
                        + ("A length error matters less the nearer the tip its cable ends." if shrink else
                           "A length error does not matter less the nearer the tip its cable ends on this arm."))
-        ratios = []
+        ratios, pairs = [], 0
         for r in st.results():
             if r.scenario.kind != "cable":
                 continue
@@ -638,14 +655,28 @@ class StudyReport:
             hk = (f"radial{r.scenario.cable + 1}{s}" if st.kind == "spatial" else f"disk{r.scenario.cable // 2 + 1}{s}")
             b = st.result(hk).position
             a = r.position
-            m = np.isfinite(a) & np.isfinite(b) & (b > 0)
+            m = np.isfinite(a) & np.isfinite(b)
+            pairs += int(m.sum())
+            m &= b >= RATIO_FLOOR_M
             ratios.append(a[m] / b[m])
         rr = np.concatenate(ratios) if ratios else np.zeros(0)
-        if rr.size:
-            lo, med, hi = np.percentile(rr, [5, 50, 95])
-            out.append(f"**Holes against lengths.** Per configuration and cable, {q}(±1 mm length) / {q}(±0.35 mm "
-                       f"{'radial holes' if st.kind == 'spatial' else 'holes of its pair'}): 5th percentile "
-                       f"{lo:.1f}, median {med:.1f}, 95th percentile {hi:.1f}.")
+        if pairs:
+            floor = f"{RATIO_FLOOR_M * 1e6:g} µm"
+            small = pairs - rr.size
+            what = "radial holes" if st.kind == "spatial" else "holes of its pair"
+            text = (f"**Holes against lengths.** Per configuration and cable, {q}(±1 mm length) / {q}(±0.35 mm "
+                    f"{what})")
+            if rr.size:
+                lo, med, hi = np.percentile(rr, [5, 50, 95])
+                text += (f", where the hole error moves the tip by at least {floor} ({rr.size} of {pairs}): 5th "
+                         f"percentile {lo:.1f}, median {med:.1f}, 95th percentile {hi:.1f}.")
+            else:
+                text += (f": none to give, the hole error moves the tip by less than {floor} at all {pairs} (it "
+                         "acts to second order or not at all).")
+            if small and rr.size:
+                text += (f" At {small} of {pairs} the hole error moves the tip by less than {floor} (there it acts "
+                         "to second order or not at all), so the ratio would only divide by rounding; left out.")
+            out.append(text)
         if st.kind == "planar" and "attitude0" in st.workspaces:
             n = self.robot.n
             a0 = [finite_rms(st.result(f"disk{n}{s}", "attitude0").position) for s in "-+"]

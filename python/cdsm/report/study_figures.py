@@ -26,6 +26,7 @@ from matplotlib.ticker import MaxNLocator
 
 from ..accuracy.montecarlo import MonteCarlo
 from ..accuracy.tolerance import pooled_percentile
+from ..display import degrees
 from ..robot import Robot
 from ..study import NEAR_SINGULAR
 from .figures import (BLUE, GREEN, HUES, MAX_WIDTH_IN, RED, FigureJob, colour_bar, draw_arm, few_ticks, file_key,
@@ -179,7 +180,9 @@ def phi0_tips(robot: Robot, step_deg: float = 1.0, max_points: int = 200_000) ->
 def workspace_figure(study, overlay: Optional[Callable] = None) -> Figure:
     """The workspace of the study. Planar: the tips of every protocol's
     configurations (mm), the tips reachable at phi = 0 within the joint
-    limits when the attitude-0 protocol is used, the straight arm; then
+    limits when the attitude-0 protocol is used, the straight arm (layered
+    from the widest set at the back to the attitude-0 grid's tips in front,
+    so none hides another); then
     ``overlay(ax)`` (the paper's report adds its experimental range).
     Spatial: the sampled tips on the three projections, coloured by the
     third coordinate; the straight pose's tip starred."""
@@ -211,19 +214,19 @@ def workspace_figure(study, overlay: Optional[Callable] = None) -> Figure:
         for p, ws in study.workspaces.items():
             if p == "attitude0":
                 g = ws.poses[ws.reachable, :2] * 1e3
-                ax.scatter(g[:, 0], g[:, 1], s=5, c=BLUE, linewidths=0, rasterized=True,
+                ax.scatter(g[:, 0], g[:, 1], s=5, c=BLUE, linewidths=0, rasterized=True, zorder=3,
                            label=f"grid tips reachable at phi = 0 ({len(g)}; {ws.n_unreachable} not)")
             else:
                 tips = robot.fk(ws.grid)[:, :2] * 1e3
                 what = f"joint grid {ws.describe_grid()}" if p == "joint" else "sampled configurations"
-                ax.scatter(tips[:, 0], tips[:, 1], s=4, c="0.55", linewidths=0, rasterized=True,
+                ax.scatter(tips[:, 0], tips[:, 1], s=4, c="0.55", linewidths=0, rasterized=True, zorder=1,
                            label=f"{what}: tips, any phi ({len(tips)})")
         if "attitude0" in study.workspaces:
             t = phi0_tips(robot) * 1e3
             if len(t):
-                lim = np.degrees(np.abs(robot.joint_limits).max())
-                ax.scatter(t[:, 0], t[:, 1], s=2, c=GREEN, alpha=0.35, linewidths=0, rasterized=True,
-                           label=f"phi = 0 within the joint limits (up to ±{lim:.0f}°)")
+                lim = degrees(np.abs(robot.joint_limits).max())
+                ax.scatter(t[:, 0], t[:, 1], s=9, c=GREEN, alpha=0.25, linewidths=0, rasterized=True, zorder=2,
+                           label=f"phi = 0 within the joint limits (up to ±{lim}°)")
         draw_arm(ax, robot, np.zeros(robot.n), "k", lw=1.2, label="straight arm")
         if overlay is not None:
             overlay(ax)
