@@ -515,7 +515,9 @@ class _Scorer:
         step = prep.robot.threads or os.cpu_count() or 1
         full = None
         for first in range(0, len(self.scored), step):
-            fits = fit_folds(prep, fitted, self.scored[first:first + step], start)
+            chunk = self.scored[first:first + step]
+            # the folds' fits serve their predictions only: no uncertainty
+            fits = fit_folds(prep, fitted, chunk, start, uncertainty=first + np.arange(len(chunk)) == 0)
             for f, fit_ in enumerate(fits, start=first):
                 if f == 0:
                     full = fit_
