@@ -121,3 +121,42 @@ def test_the_report_says_it_in_its_headline_and_a_section(cdsm, tmp_path):
     assert "On a second file" in head and f"{v.rows} of {v.rows_in_file} rows" in head
     js = json.load(open(paths["json"], encoding="utf-8"))
     assert js["validation"]["model_rms_m"] == v.model_rms
+
+
+def test_grouped_folds_hold_out_whole_groups(cdsm):
+    """Folds by a label column (issue 35 item 5: hold out whole patterns,
+    not rows): every fold is a union of whole groups, the folds partition
+    the rows, their number is at most the groups'; without groups the folds
+    are today's (the same seeded permutation)."""
+    from cdsm.calibration.diagnosis import fold_split
+
+    rng = np.random.default_rng(3)
+    labels = np.array([f"p{g}" for g in rng.integers(0, 13, 200)])
+    folds = fold_split(200, 10, groups=labels)
+    assert len(folds) == 10
+    assert sorted(np.concatenate(folds).tolist()) == list(range(200))
+    for f in folds:
+        inside = set(labels[f])
+        assert all(set(labels[g]).isdisjoint(inside) for g in folds if g is not f)
+    assert len(fold_split(200, 50, groups=labels)) == len(set(labels))
+    order = np.random.default_rng(0).permutation(60)
+    assert all((a == np.sort(order[i::10])).all() for i, a in enumerate(fold_split(60, 10)))
+
+
+def test_the_diagnosis_holds_out_a_label_columns_groups(cdsm, tmp_path):
+    from cdsm import cli
+    from cdsm.calibration import diagnosis, plant
+
+    robot = cdsm.Robot.packaged("paper_vertical")
+    train, _ = _pair(plant, robot, {"cable_offset": [3e-4, -2e-4, 1e-4]}, 30, seed=8)
+    train.labels["pattern"] = [f"pattern {i // 3}" for i in range(30)]
+    d = diagnosis.diagnose(robot, train, noise=NOISE, folds_by="pattern")
+    groups = np.asarray(train.labels["pattern"])
+    for c in [d.baseline] + d.singles:
+        for f in c.folds:
+            assert set(groups[f]).isdisjoint(set(groups[np.setdiff1d(d.prep.rows, f)]))
+    assert d.to_json()["folds_by"] == {"column": "pattern", "groups": 10}
+    path = _write(tmp_path / "t.csv", train)
+    with pytest.raises(cdsm.CdsmInputError, match="`folds_by`: no label column 'pattern'"):
+        diagnosis.diagnose(robot, train.__class__(**{**train.__dict__, "labels": {}}), folds_by="pattern")
+    assert cli.main(["diagnose", path, "--robot", "paper_vertical", "--folds-by", "pattern", "--quiet"]) == 2

@@ -75,6 +75,9 @@ def _diagnose_args(p: argparse.ArgumentParser) -> None:
                         "are in the robot's base frame")
     p.add_argument("--folds", metavar="K", type=_folds, default=10,
                    help="cross-validation folds (default: 10; leave-one-out when fewer rows)")
+    p.add_argument("--folds-by", metavar="COLUMN", default=None,
+                   help="hold out the rows of one value of this label column together (e.g. a motion pattern: "
+                        "neighbouring keypoints of one pattern are not independent readings); default: row by row")
     add_path(p, "--save-model", role="output", metavar="MODEL.json",
              help="save the diagnosed model (cdsm.calibration.model)")
     p.add_argument("--suggest", metavar="K", type=positive_int,
@@ -100,8 +103,7 @@ def _diagnose_run(args) -> int:
     meas = read_for(robot, args.data, progress=show)
     report_dir = args.report  # absolute, owned by this run (cdsm.cli.paths)
     d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
-                          frame=args.frame,
-                          progress=show)
+                          frame=args.frame, progress=show, folds_by=args.folds_by)
     suggestion = None
     if args.suggest is not None:
         from ..calibration.experiment import suggest

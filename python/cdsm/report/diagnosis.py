@@ -225,6 +225,8 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     out: Dict[str, List[str]] = {k: [] for k in ("answer", "where", "which", "shrink", "identifiability",
                                                  "flagged")}
     cv = ("leave-one-out" if d.folds >= nu else f"{d.folds}-fold") + " cross-validation"
+    if d.prep.groups is not None:
+        cv += f" (whole groups of {literal(d.prep.group_column)} held out together)"
     shrink = 100.0 * (1.0 - f_rms / b_rms) if b_rms > 0 else 0.0
 
     # -- the answer ------------------------------------------------------
@@ -514,8 +516,10 @@ def summary(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
     how far the gap shrinks, the largest gaps, the next measurements; then
     the rows used and the flagged ones."""
     lines = [_plain(item) for item in headline_items(d, suggestion)]
+    by = (f" over {len(np.unique(d.prep.groups[d.prep.rows]))} groups of {d.prep.group_column!r}"
+          if d.prep.groups is not None else "")
     lines.append(f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
-                 f"{d.folds}-fold cross-validation")
+                 f"{d.folds}-fold cross-validation{by}")
     if d.prep.flags:
         lines.append(f"flagged rows: {', '.join(str(i + 1) for i in sorted(d.prep.flags))} (see the report)")
     if d.outliers:
@@ -884,7 +888,8 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None, valid
     doc.p(f"Data: {literal(src)} — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
           f"usable); robot **{literal(prep.robot.name)}** ({prep.robot.n} joints); measurement noise "
           f"{'assumed ' if ne == 'assumed' else ''}{_um(d.noise)} per axis"
-          f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation; "
+          f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation"
+          f"{' by ' + literal(prep.group_column) if prep.groups is not None else ''}; "
           f"candidate library: {', '.join(c.name for c in d.singles) or 'empty'}. cdsm {__version__}. The "
           "diagnosis was not told which effect is in the data.")
     items = headline_items(d, suggestion)
