@@ -146,7 +146,8 @@ def test_outputs_of_other_names_beside_the_inputs_are_fine(cdsm, files, capsys):
 # item 2: empty paths
 # ---------------------------------------------------------------------------
 #: the path options of every command (a new one must be declared: cdsm.cli.paths.add_path)
-PATH_OPTIONS = {"paper": {"robot", "out_dir"}, "diagnose": {"data", "robot", "json", "report", "save_model", "validate"},
+PATH_OPTIONS = {"paper": {"robot", "out_dir"},
+                "diagnose": {"data", "robot", "json", "report", "save_model", "validate"},
                 "compensate": {"targets", "model", "out"}, "tolerance": {"robot", "region", "json"},
                 "montecarlo": {"robot", "out", "tolerances"}, "export": {"robot", "mjcf", "urdf"}, "list": set()}
 BASE = {"paper": ["paper"], "diagnose": ["diagnose", "d.csv"], "export": ["export", "--mjcf", "o.xml"],
