@@ -59,6 +59,7 @@ import numpy as np
 
 from .accuracy import montecarlo, sampling, scenarios, sensitivity, statics, workspace
 from .inputs import CdsmInputError
+from .kinds import KINDS as ARM_KINDS, Kind
 from .progress import Progress
 from .robot import Robot
 from .display import ShortRepr
@@ -76,8 +77,9 @@ PROTOCOL_NAMES = {"attitude0": "attitude-0 protocol", "joint": "joint-space prot
 KINDS = ("cable", "radial", "normal")
 #: Sampled configurations of the ``sampled`` protocol (default).
 DEFAULT_CONFIGURATIONS = 1000
-#: Monte-Carlo samples per configuration (default, at most), by kind: the paper's 1000; 200 over sampled 3-D arms.
-DEFAULT_SAMPLES = {"planar": 1000, "spatial": 200}
+#: Monte-Carlo samples per configuration (default, at most), by kind: the paper's 1000; 200 over sampled 3-D arms
+#: (each kind's :attr:`cdsm.kinds.Kind.default_samples`).
+DEFAULT_SAMPLES = {str(k): k.default_samples for k in ARM_KINDS.values()}
 #: Monte-Carlo solves of a study by default, at most, counted as solves of the paper's arm (fewer samples per
 #: configuration over large grids or large arms, not fewer than :data:`MIN_SAMPLES`): the paper's 1000 samples over
 #: its two grids stay.
@@ -101,7 +103,7 @@ def default_samples(robot: Robot, configurations: int = 0) -> int:
     but not fewer than :data:`MIN_SAMPLES`."""
     size = robot.n * len(robot.position_cables) / 9.0
     cap = int(DEFAULT_SOLVES / max(size, 1.0)) // max(int(configurations), 1)
-    return int(min(DEFAULT_SAMPLES[robot.kind], max(MIN_SAMPLES, cap)))
+    return int(min(robot.kind.default_samples, max(MIN_SAMPLES, cap)))
 
 
 def configuration_count(robot: Robot, protocols: List[str], configurations: int = 1000, grid=None) -> int:
@@ -376,7 +378,8 @@ class Study(ShortRepr):
     friction: Dict[str, statics.FrictionMap] = field(default_factory=dict)
 
     @property
-    def kind(self) -> str:
+    def kind(self) -> Kind:
+        """The robot's :class:`cdsm.kinds.Kind`."""
         return self.robot.kind
 
     @property

@@ -1,0 +1,207 @@
+"""The arm's kind as data: :class:`Kind`, a string (``"planar"`` or
+``"spatial"``) carrying the facts that differ between the kinds, so that the
+rest of cdsm asks it instead of branching on its name.
+
+A planar arm (``docs/model.md``) moves in the plane ``z = 0``: its task
+vector is ``[x, y, phi]`` (m, m, rad; ``phi`` the end frame's angle about
+``z``), its cables come in upper (position) and lower (force) pairs. A
+spatial arm (``docs/spatial.md``) has the task ``[x, y, z, rx, ry, rz]``
+(m, rad: the end frame's origin and rotation vector). Everything else below
+follows from those two statements or is the words cdsm uses for them.
+
+The numbers the core decides (how many Monte-Carlo quantities a planar study
+returns, :data:`cdsm._cdsm.QUANTITIES`) are read from the core and checked
+here once; the words (CSV column names, prose, figure layout) are
+presentation and live here, one definition each. :func:`kind_of` is the one
+lookup by name.
+"""
+
+from __future__ import annotations
+
+from typing import Dict, Tuple
+
+import numpy as np
+
+from . import _cdsm
+from .inputs import CdsmInputError, as_vector
+
+__all__ = ["Kind", "KINDS", "kind_of", "PLANAR", "SPATIAL"]
+
+
+class Kind(str):
+    """An arm's kind: the string ``"planar"`` or ``"spatial"`` (so comparing
+    it with its name, f-strings, JSON and dict keys keep working)
+    with the facts of that kind as attributes.
+
+    Geometry of the task (SI units): ``task_axes`` the names of the task
+    vector's coordinates, ``task_units`` their units (``"m"``, ``"rad"``),
+    ``dim`` how many of them are the position (2 or 3), ``rotation`` the
+    attitude's form (``"angle"``: one angle about ``z``; ``"vector"``: the
+    rotation vector), ``pose_words`` their words in prose.
+
+    Solves: ``masks`` the pose-IK masks by name, each the core's argument
+    (planar three weights on ``x, y, phi``; spatial the name itself);
+    ``mask_weights`` whether weights may be given instead of a name;
+    ``target_arg`` and ``command_arg`` the kind's names of the IK targets and
+    of the commanded cable lengths (in error messages); ``summed_angles``: a
+    disk's attitude is the running sum of the joint angles (planar), so a
+    row whose sum overflows is refused; ``pair_holes``: holes in the planar
+    ``(2n, n+1, 2, 2)`` layout (cable, disk, face, (x, y)) rather than per
+    cable.
+
+    Statics: the task wrench is padded into the core's wrench
+    (``core_wrench_rows`` of ``core_wrench_width``), the gravity into the
+    core's 3-vector (:meth:`core_wrench`, :meth:`core_gravity`).
+
+    Monte Carlo: ``quantities`` and ``quantity_units`` the columns of the
+    statistics, ``norm`` the index of the position error's norm,
+    ``norm_label`` / ``norm_slug`` its words (``"|d(X, Y)|"``, ``"dxy"``),
+    ``default_samples`` the samples per configuration of a study.
+
+    CSV columns of the study (``cdsm paper``): ``pose_columns``,
+    ``tip_columns`` (the position only), ``scenario_columns``,
+    ``mc_columns`` (per configuration), ``mc_summary_columns``: each a tuple
+    of ``(column name, what it holds)`` — the second a key the report's row
+    builders know (:mod:`cdsm.report.study`).
+    """
+
+    dim: int
+    task_axes: Tuple[str, ...]
+    task_units: Tuple[str, ...]
+    rotation: str
+    masks: Dict[str, object]
+    mask_weights: bool
+    mask_hint: str
+    target_arg: str
+    command_arg: str
+    summed_angles: bool
+    pair_holes: bool
+    core_wrench_rows: Tuple[int, ...]
+    core_wrench_width: int
+    quantities: Tuple[str, ...]
+    quantity_units: Tuple[str, ...]
+    default_samples: int
+
+    def __new__(cls, name: str, *, dim: int, task_axes, task_units, rotation: str, masks: dict,
+                mask_weights: bool, mask_hint: str, target_arg: str, command_arg: str, summed_angles: bool,
+                pair_holes: bool, core_wrench_rows, core_wrench_width: int, quantities, quantity_units,
+                default_samples: int):
+        kind = super().__new__(cls, name)
+        kind.dim, kind.task_axes, kind.task_units = int(dim), tuple(task_axes), tuple(task_units)
+        kind.rotation, kind.masks, kind.mask_weights, kind.mask_hint = rotation, dict(masks), mask_weights, mask_hint
+        kind.target_arg, kind.command_arg = target_arg, command_arg
+        kind.summed_angles, kind.pair_holes = bool(summed_angles), bool(pair_holes)
+        kind.core_wrench_rows, kind.core_wrench_width = tuple(core_wrench_rows), int(core_wrench_width)
+        kind.quantities, kind.quantity_units = tuple(quantities), tuple(quantity_units)
+        kind.default_samples = int(default_samples)
+        return kind
+
+    def __reduce__(self):
+        return kind_of, (str(self),)
+
+    # ---- the task -----------------------------------------------------------
+    @property
+    def name(self) -> str:
+        """The kind's name (the string itself)."""
+        return str(self)
+
+    @property
+    def task(self) -> int:
+        """Width of the task vector: 3 (planar) or 6 (spatial)."""
+        return len(self.task_axes)
+
+    @property
+    def position_axes(self) -> Tuple[str, ...]:
+        """The position coordinates' names (``("x", "y")`` or ``("x", "y", "z")``)."""
+        return self.task_axes[:self.dim]
+
+    @property
+    def rotation_axes(self) -> Tuple[str, ...]:
+        """The attitude coordinates' names (``("phi",)`` or ``("rx", "ry", "rz")``)."""
+        return self.task_axes[self.dim:]
+
+    @property
+    def pose_columns(self) -> Tuple[str, ...]:
+        """CSV names of the task coordinates with their units (``x_m``, ..., ``phi_rad``)."""
+        return tuple(f"{a}_{u}" for a, u in zip(self.task_axes, self.task_units))
+
+    @property
+    def tip_columns(self) -> Tuple[str, ...]:
+        """CSV names of the position coordinates (``x_m``, ``y_m``[, ``z_m``])."""
+        return self.pose_columns[:self.dim]
+
+    # ---- the Monte Carlo's quantities ------------------------------------------
+    @property
+    def norm(self) -> int:
+        """Index of the position error's norm among :attr:`quantities`."""
+        return self.dim
+
+    @property
+    def norm_label(self) -> str:
+        """The position error's norm in prose: ``|d(X, Y)|`` or ``|d(X, Y, Z)|``."""
+        return "|d(" + ", ".join(a.upper() for a in self.position_axes) + ")|"
+
+    @property
+    def norm_slug(self) -> str:
+        """The position error's norm in file and column names: ``dxy`` or ``dxyz``."""
+        return "d" + "".join(self.position_axes)
+
+    # ---- arguments of the core --------------------------------------------------
+    def core_mask(self, mask):
+        """The core's IK mask argument for ``mask`` (a name of :attr:`masks`,
+        or task-width weights where :attr:`mask_weights`); anything else
+        raises :class:`CdsmInputError` naming ``mask``."""
+        if isinstance(mask, str) or not self.mask_weights:
+            if not isinstance(mask, str) or mask not in self.masks:
+                raise CdsmInputError(f"`mask`: expected one of {', '.join(map(repr, self.masks))}{self.mask_hint}, "
+                                     f"got {mask!r}")
+            value = self.masks[mask]
+            return list(value) if self.mask_weights else value
+        return [float(v) for v in as_vector("mask", mask, self.task)]
+
+    def core_wrench(self, wrench: np.ndarray) -> np.ndarray:
+        """(N, task) tip wrenches -> the core's (N, width) (the planar
+        ``[Fx, Fy, Mz]`` as ``[Fx, Fy, 0, Mz]``), C-contiguous."""
+        w = np.asarray(wrench, dtype=np.float64)
+        if self.core_wrench_width == w.shape[1]:
+            return w
+        out = np.zeros((w.shape[0], self.core_wrench_width))
+        out[:, list(self.core_wrench_rows)] = w
+        return out
+
+    def core_gravity(self, gravity) -> list:
+        """Gravity ``(dim,)`` m/s^2 (checked, named ``gravity``) -> the core's
+        3-vector (the plane's ``z`` component 0)."""
+        g = [float(v) for v in as_vector("gravity", gravity, self.dim)]
+        return g + [0.0] * (3 - self.dim)
+
+
+PLANAR = Kind(
+    "planar", dim=2, task_axes=("x", "y", "phi"), task_units=("m", "m", "rad"), rotation="angle",
+    masks={"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}, mask_weights=True, mask_hint=" or 3 weights",
+    target_arg="pose", command_arg="upper", summed_angles=True, pair_holes=True,
+    core_wrench_rows=(0, 1, 3), core_wrench_width=4,
+    quantities=("dX", "dY", "dphi", "dXY"), quantity_units=("m", "m", "rad", "m"), default_samples=1000)
+
+SPATIAL = Kind(
+    "spatial", dim=3, task_axes=("x", "y", "z", "rx", "ry", "rz"), task_units=("m", "m", "m", "rad", "rad", "rad"),
+    rotation="vector", masks={"position": "position", "pointing": "pointing", "pose": "pose"}, mask_weights=False,
+    mask_hint=" for a spatial arm", target_arg="target", command_arg="lengths", summed_angles=False,
+    pair_holes=False, core_wrench_rows=(0, 1, 2, 3, 4, 5), core_wrench_width=6,
+    quantities=("dX", "dY", "dZ", "dXYZ", "rot"), quantity_units=("m", "m", "m", "m", "rad"), default_samples=200)
+
+if len(PLANAR.quantities) != _cdsm.QUANTITIES:  # the core decides what a planar Monte Carlo returns
+    raise ImportError(f"cdsm.kinds: the core's planar Monte Carlo returns {_cdsm.QUANTITIES} quantities, "
+                      f"the planar kind names {len(PLANAR.quantities)}: rebuild the core")
+
+#: The kinds by name.
+KINDS: Dict[str, Kind] = {str(k): k for k in (PLANAR, SPATIAL)}
+
+
+def kind_of(name: str) -> Kind:
+    """The :class:`Kind` called ``name`` (``"planar"`` or ``"spatial"``);
+    another name raises :class:`CdsmInputError`."""
+    try:
+        return KINDS[str(name)]
+    except KeyError:
+        raise CdsmInputError(f"`kind`: expected one of {', '.join(map(repr, KINDS))}, got {name!r}") from None
