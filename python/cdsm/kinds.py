@@ -58,11 +58,26 @@ class Kind(str):
     ``norm_label`` / ``norm_slug`` its words (``"|d(X, Y)|"``, ``"dxy"``),
     ``default_samples`` the samples per configuration of a study.
 
-    CSV columns of the study (``cdsm paper``): ``pose_columns``,
-    ``tip_columns`` (the position only), ``scenario_columns``,
-    ``mc_columns`` (per configuration), ``mc_summary_columns``: each a tuple
-    of ``(column name, what it holds)`` — the second a key the report's row
-    builders know (:mod:`cdsm.report.study`).
+    The study (``cdsm paper``, :mod:`cdsm.study`): ``hole_error_arg`` the
+    argument a hole error is given by (``"dh"``: planar, one height error
+    per disk; ``"dholes"``: spatial, every hole coordinate);
+    ``hole_scenarios`` the single hole errors, each ``(error, key, label)``
+    (``key`` and ``label`` format templates over ``cable``, ``disk``,
+    ``size``); ``cable_scenario_label`` the label of a cable-length error;
+    ``grid_protocols`` whether the paper's joint-grid protocols apply
+    (else ``no_grid_reason`` says why not); ``singular`` the Jacobian rows
+    of the singular measure (``"pose"``: the attitude row scaled by the
+    straight length; ``"position"``).
+
+    CSV columns of the study's tables: :attr:`pose_columns`,
+    :attr:`tip_columns` (the position only) and ``csv`` = {table: ((column
+    name, what it holds), ...)} for ``"scenarios"``, ``"mc_summary"`` (the
+    kind's own columns of a protocol's Monte-Carlo summary) and
+    ``"montecarlo"`` (``montecarlo.csv``) — the second a key the report's row
+    builders know (:mod:`cdsm.report.study`; ``"max_abs:2"`` is the max
+    ``|.|`` of task coordinate 2, ``"mean:4"`` the mean of quantity 4).
+    ``headline_aliases``: the extra names (cdsm 0.2's) of headline numbers,
+    ``(alias, name)`` pairs, by where they are set (``"mc"``, ``"single"``).
     """
 
     dim: int
@@ -81,19 +96,18 @@ class Kind(str):
     quantities: Tuple[str, ...]
     quantity_units: Tuple[str, ...]
     default_samples: int
+    hole_error_arg: str
+    hole_scenarios: Tuple[Tuple[str, str, str], ...]
+    cable_scenario_label: str
+    grid_protocols: bool
+    no_grid_reason: str
+    singular: str
+    csv: Dict[str, Tuple[Tuple[str, str], ...]]
+    headline_aliases: Dict[str, Tuple[Tuple[str, str], ...]]
 
-    def __new__(cls, name: str, *, dim: int, task_axes, task_units, rotation: str, masks: dict,
-                mask_weights: bool, mask_hint: str, target_arg: str, command_arg: str, summed_angles: bool,
-                pair_holes: bool, core_wrench_rows, core_wrench_width: int, quantities, quantity_units,
-                default_samples: int):
+    def __new__(cls, name: str, **facts):
         kind = super().__new__(cls, name)
-        kind.dim, kind.task_axes, kind.task_units = int(dim), tuple(task_axes), tuple(task_units)
-        kind.rotation, kind.masks, kind.mask_weights, kind.mask_hint = rotation, dict(masks), mask_weights, mask_hint
-        kind.target_arg, kind.command_arg = target_arg, command_arg
-        kind.summed_angles, kind.pair_holes = bool(summed_angles), bool(pair_holes)
-        kind.core_wrench_rows, kind.core_wrench_width = tuple(core_wrench_rows), int(core_wrench_width)
-        kind.quantities, kind.quantity_units = tuple(quantities), tuple(quantity_units)
-        kind.default_samples = int(default_samples)
+        kind.__dict__.update(facts)
         return kind
 
     def __reduce__(self):
@@ -133,8 +147,8 @@ class Kind(str):
     # ---- the Monte Carlo's quantities ------------------------------------------
     @property
     def norm(self) -> int:
-        """Index of the position error's norm among :attr:`quantities`."""
-        return self.dim
+        """Index of the position error's norm among :attr:`quantities` (``dXY``, ``dXYZ``)."""
+        return self.quantities.index("d" + "".join(a.upper() for a in self.position_axes))
 
     @property
     def norm_label(self) -> str:
@@ -176,19 +190,65 @@ class Kind(str):
         return g + [0.0] * (3 - self.dim)
 
 
+def _scenario_columns(head, slug, axes, units, tail) -> Tuple[Tuple[str, str], ...]:
+    """Columns of ``scenarios.csv``: ``head``, the RMS and max of the
+    position norm (``slug``), the max ``|.|`` of each task coordinate of
+    ``axes`` (with their ``units``), ``tail``."""
+    return (tuple(head) + ((f"rms_{slug}_m", "rms_position"), (f"max_{slug}_m", "max_position"))
+            + tuple((f"max_abs_d{a}_{u}", f"max_abs:{i}") for i, (a, u) in enumerate(zip(axes, units)))
+            + tuple(tail))
+
+
 PLANAR = Kind(
     "planar", dim=2, task_axes=("x", "y", "phi"), task_units=("m", "m", "rad"), rotation="angle",
     masks={"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}, mask_weights=True, mask_hint=" or 3 weights",
     target_arg="pose", command_arg="upper", summed_angles=True, pair_holes=True,
     core_wrench_rows=(0, 1, 3), core_wrench_width=4,
-    quantities=("dX", "dY", "dphi", "dXY"), quantity_units=("m", "m", "rad", "m"), default_samples=1000)
+    quantities=("dX", "dY", "dphi", "dXY"), quantity_units=("m", "m", "rad", "m"), default_samples=1000,
+    hole_error_arg="dh", hole_scenarios=(("hole", "disk{disk}", "{size:+g} mm on disk {disk}'s holes"),),
+    cable_scenario_label="{size:+g} mm on cable {cable}", grid_protocols=True, no_grid_reason="", singular="pose",
+    csv={"scenarios": _scenario_columns(
+            (("scenario", "key"), ("label", "label"), ("figure", "figure"), ("protocol", "protocol"),
+             ("configurations", "configurations"), ("solved", "solved"), ("unreachable", "unreachable"),
+             ("no_solution_after_error", "no_solution")), "dxy", ("x", "y", "phi"), ("m", "m", "rad"),
+            (("jump_points", "jump_points"), ("jump_edges", "jump_pairs"))),
+         "mc_summary": (("max_abs_mean_dx_m", "max_abs_mean:0"), ("max_abs_mean_dy_m", "max_abs_mean:1"),
+                        ("max_abs_mean_dphi_rad", "max_abs_mean:2")),
+         "montecarlo": (("x_m", "tip:0"), ("y_m", "tip:1"), ("samples", "samples"), ("failed", "failed"),
+                        ("mean_dx_m", "mean:0"), ("mean_dy_m", "mean:1"), ("mean_dphi_rad", "mean:2"),
+                        ("mean_dxy_m", "mean:3"), ("p95_dxy_m", "p95"), ("max_dxy_m", "max:3"))},
+    headline_aliases={"mc": (("mc_max_dxy_m", "mc_max_m"), ("mc_max_p95_dxy_m", "mc_max_p95_m")),
+                      "single": (("worst_single_dxy_m", "worst_single_m"),)})
 
 SPATIAL = Kind(
     "spatial", dim=3, task_axes=("x", "y", "z", "rx", "ry", "rz"), task_units=("m", "m", "m", "rad", "rad", "rad"),
     rotation="vector", masks={"position": "position", "pointing": "pointing", "pose": "pose"}, mask_weights=False,
     mask_hint=" for a spatial arm", target_arg="target", command_arg="lengths", summed_angles=False,
     pair_holes=False, core_wrench_rows=(0, 1, 2, 3, 4, 5), core_wrench_width=6,
-    quantities=("dX", "dY", "dZ", "dXYZ", "rot"), quantity_units=("m", "m", "m", "m", "rad"), default_samples=200)
+    quantities=("dX", "dY", "dZ", "dXYZ", "rot"), quantity_units=("m", "m", "m", "m", "rad"), default_samples=200,
+    hole_error_arg="dholes",
+    hole_scenarios=(("radial", "radial{cable}", "{size:+g} mm radially on cable {cable}'s holes"),
+                    ("normal", "normal{cable}", "{size:+g} mm along the disk normal on cable {cable}'s holes")),
+    cable_scenario_label="{size:+g} mm on cable {cable}'s length", grid_protocols=False,
+    no_grid_reason=("a spatial arm has no single attitude to hold over its workspace, and a joint grid is "
+                    "impossible past a few joints: the errors are applied at configurations sampled in "
+                    "the joint box (scrambled Sobol sequence); jump points are judged between nearest "
+                    "neighbours in joint space"),
+    singular="position",
+    csv={"scenarios": _scenario_columns(
+            (("scenario", "key"), ("label", "label"), ("protocol", "protocol"), ("kind", "error"), ("cable", "cable"),
+             ("sign", "sign"), ("error_m", "size"), ("configurations", "configurations"), ("solved", "solved")),
+            "dxyz", ("x", "y", "z"), ("m", "m", "m"),
+            (("rms_rotation_rad", "rms_rotation"), ("max_rotation_rad", "max_rotation"),
+             ("jump_points", "jump_points"), ("jump_pairs", "jump_pairs"),
+             ("jump_points_near_singular", "near_singular_jumps"))),
+         "mc_summary": (("max_mean_rotation_rad", "max_mean:4"),),
+         "montecarlo": (("x_m", "tip:0"), ("y_m", "tip:1"), ("z_m", "tip:2"), ("samples", "samples"),
+                        ("failed", "failed"), ("mean_dx_m", "mean:0"), ("mean_dy_m", "mean:1"),
+                        ("mean_dz_m", "mean:2"), ("mean_dxyz_m", "mean:3"), ("p95_dxyz_m", "p95"),
+                        ("max_dxyz_m", "max:3"), ("std_dxyz_m", "std:3"), ("mean_rotation_rad", "mean:4"),
+                        ("max_rotation_rad", "max:4"))},
+    headline_aliases={"mc": (), "single": ()})
 
 if len(PLANAR.quantities) != _cdsm.QUANTITIES:  # the core decides what a planar Monte Carlo returns
     raise ImportError(f"cdsm.kinds: the core's planar Monte Carlo returns {_cdsm.QUANTITIES} quantities, "

@@ -24,7 +24,7 @@ from ..accuracy.tolerance import pooled_percentile
 from ..accuracy.workspace import MIN_LINE, REASONS
 from ..display import degrees
 from ..files import run_directory
-from ..study import DEFAULT_SAMPLES, DEFAULT_SOLVES, NEAR_SINGULAR, PROTOCOL_NAMES, finite_rms, worst_configurations
+from ..study import DEFAULT_SOLVES, NEAR_SINGULAR, PROTOCOL_NAMES, finite_rms, worst_configurations
 from . import study_figures
 from .document import HEADLINE, Document, literal
 from .figures import FigureJob, file_key, render_pngs
@@ -94,47 +94,65 @@ def _pname(p: str) -> str:
 
 def _q(study) -> str:
     """The position error's name: |d(X, Y)| (planar) or |d(X, Y, Z)|."""
-    return "|d(X, Y, Z)|" if study.kind == "spatial" else "|d(X, Y)|"
+    return study.kind.norm_label
 
 
 def _slug(study) -> str:
-    return "dxyz" if study.kind == "spatial" else "dxy"
+    return study.kind.norm_slug
 
 
 # ---------------------------------------------------------------------------
 # rows (SI units): the CSV files
 # ---------------------------------------------------------------------------
+def _row(spec, value) -> dict:
+    """A CSV row of the columns ``spec`` (``(name, key)`` pairs of a kind's
+    ``csv``): ``value(what, index)`` for each key ``what[:index]``."""
+    row = {}
+    for name, key in spec:
+        what, _, index = key.partition(":")
+        row[name] = value(what, int(index) if index else None)
+    return row
+
+
+#: The values of ``scenarios.csv`` by key (:attr:`cdsm.kinds.Kind.csv`): f(study, result, workspace, index).
+_SCENARIO_VALUES = {
+    "key": lambda st, r, ws, i: r.scenario.key,
+    "label": lambda st, r, ws, i: r.scenario.label,
+    "figure": lambda st, r, ws, i: r.scenario.figure,
+    "protocol": lambda st, r, ws, i: r.protocol,
+    "error": lambda st, r, ws, i: r.scenario.kind,
+    "cable": lambda st, r, ws, i: r.scenario.cable + 1,
+    "sign": lambda st, r, ws, i: int(r.scenario.sign),
+    "size": lambda st, r, ws, i: r.scenario.size,
+    "configurations": lambda st, r, ws, i: len(r.ok),
+    "solved": lambda st, r, ws, i: int(r.ok.sum()),
+    "unreachable": lambda st, r, ws, i: ws.n_unreachable,
+    "no_solution": lambda st, r, ws, i: int((ws.reachable & ~r.ok).sum()),
+    "rms_position": lambda st, r, ws, i: finite_rms(r.position),
+    "max_position": lambda st, r, ws, i: nanmax(r.position),
+    "max_abs": lambda st, r, ws, i: nanmax(np.abs(r.dS[:, i])),
+    "rms_rotation": lambda st, r, ws, i: finite_rms(r.rotation),
+    "max_rotation": lambda st, r, ws, i: nanmax(r.rotation),
+    "jump_points": lambda st, r, ws, i: r.jump_count,
+    "jump_pairs": lambda st, r, ws, i: int(r.jumps.edge_jump.sum()),
+    "near_singular_jumps": lambda st, r, ws, i: int((r.jumps.point & (st.singular[r.protocol] < NEAR_SINGULAR))
+                                                    .sum()),
+}
+
+
 def scenario_rows(study) -> List[dict]:
-    """One row per scenario and protocol (m, rad). Planar arms: label,
-    figure, protocol, counts, RMS and max |d(X, Y)|, max |dX|, |dY|,
-    |dphi|, jump points and (grid protocols) their reasons (``jumps_*``
-    and ``jump_edges``, for ``jumps.csv``). Spatial arms: kind, cable, sign,
-    error, counts, RMS and max |d(X, Y, Z)|, max |dX|, |dY|, |dZ|, RMS and
-    max rotation, jump points and pairs, those at near-singular
-    configurations."""
+    """One row per scenario and protocol (m, rad), the columns of the
+    kind's ``csv["scenarios"]``. Planar arms: label, figure, protocol,
+    counts, RMS and max |d(X, Y)|, max |dX|, |dY|, |dphi|, jump points and
+    (grid protocols) their reasons (``jumps_*`` and ``jump_edges``, for
+    ``jumps.csv``). Spatial arms: kind, cable, sign, error, counts, RMS and
+    max |d(X, Y, Z)|, max |dX|, |dY|, |dZ|, RMS and max rotation, jump points
+    and pairs, those at near-singular configurations."""
+    spec = study.kind.csv["scenarios"]
     rows = []
     for r in study.scenarios:
         ws = study.workspaces[r.protocol]
-        d = r.dS
-        sc = r.scenario
-        if study.kind == "spatial":
-            rows.append(dict(
-                scenario=sc.key, label=sc.label, protocol=r.protocol, kind=sc.kind, cable=sc.cable + 1,
-                sign=int(sc.sign), error_m=sc.size, configurations=len(r.ok), solved=int(r.ok.sum()),
-                rms_dxyz_m=finite_rms(r.position), max_dxyz_m=nanmax(r.position),
-                max_abs_dx_m=nanmax(np.abs(d[:, 0])), max_abs_dy_m=nanmax(np.abs(d[:, 1])),
-                max_abs_dz_m=nanmax(np.abs(d[:, 2])), rms_rotation_rad=finite_rms(r.rotation),
-                max_rotation_rad=nanmax(r.rotation), jump_points=r.jump_count,
-                jump_pairs=int(r.jumps.edge_jump.sum()),
-                jump_points_near_singular=int((r.jumps.point & (study.singular[r.protocol] < NEAR_SINGULAR)).sum())))
-            continue
-        pos = r.position
-        row = dict(scenario=sc.key, label=sc.label, figure=sc.figure, protocol=r.protocol,
-                   configurations=len(r.ok), solved=int(r.ok.sum()), unreachable=ws.n_unreachable,
-                   no_solution_after_error=int((ws.reachable & ~r.ok).sum()), rms_dxy_m=finite_rms(pos),
-                   max_dxy_m=nanmax(pos), max_abs_dx_m=nanmax(np.abs(d[:, 0])), max_abs_dy_m=nanmax(np.abs(d[:, 1])),
-                   max_abs_dphi_rad=nanmax(np.abs(d[:, 2])), jump_points=r.jump_count,
-                   jump_edges=int(r.jumps.edge_jump.sum()))
+        row = _row(spec, lambda what, i: _SCENARIO_VALUES[what](study, r, ws, i))
         if hasattr(r.jumps, "counts"):
             cnt = r.jumps.counts()
             row.update({f"jumps_{k.replace(' ', '_').replace('-', '_')}": int(cnt.get(k, 0)) for k in REASONS})
@@ -166,54 +184,49 @@ def mc_rows(study) -> List[dict]:
     |d position|; planar the max |mean dX|, |mean dY|, |mean dphi|; the
     share of converged samples that need a slack cable."""
     rows = []
+    k = study.kind.norm
     for p, mc in study.monte_carlo.items():
         failed = int(mc.failed.sum())
         total = int(mc.count.sum()) + failed
+        mean = mc.mean
         with np.errstate(invalid="ignore"):
-            mean_of_mean = float(np.nanmean(mc.mean[:, 3])) if np.isfinite(mc.mean[:, 3]).any() else float("nan")
+            mean_of_mean = float(np.nanmean(mean[:, k])) if np.isfinite(mean[:, k]).any() else float("nan")
         row = dict(protocol=p, configurations=len(mc.count), samples=mc.params.get("samples"),
                    seed=mc.params.get("seed"), attempted=total, failed=failed,
                    failed_configurations=int((mc.failed > 0).sum()),
-                   mean_of_mean_m=mean_of_mean, max_mean_m=nanmax(mc.mean[:, 3]),
-                   max_p95_m=nanmax(mc.percentile(95.0)), max_m=nanmax(mc.max_abs[:, 3]),
+                   mean_of_mean_m=mean_of_mean, max_mean_m=nanmax(mean[:, k]),
+                   max_p95_m=nanmax(mc.percentile(95.0)), max_m=nanmax(mc.max_abs[:, k]),
                    pooled_p50_m=pooled_percentile(mc, 50.0), pooled_p95_m=pooled_percentile(mc, 95.0),
                    pooled_p99_m=pooled_percentile(mc, 99.0),
                    slack_share=(float(mc.slack.sum() / mc.count.sum()) if mc.slack is not None and mc.count.sum()
                                 else float("nan")),
                    slack_configurations=int((mc.slack > 0).sum()) if mc.slack is not None else 0)
-        if study.kind == "planar":
-            row.update(max_abs_mean_dx_m=nanmax(np.abs(mc.mean[:, 0])), max_abs_mean_dy_m=nanmax(np.abs(mc.mean[:, 1])),
-                       max_abs_mean_dphi_rad=nanmax(np.abs(mc.mean[:, 2])))
-        else:
-            row.update(max_mean_rotation_rad=nanmax(mc.mean[:, 4]))
+        extremes = {"max_abs_mean": lambda i: nanmax(np.abs(mean[:, i])), "max_mean": lambda i: nanmax(mean[:, i])}
+        row.update(_row(study.kind.csv["mc_summary"], lambda what, i: extremes[what](i)))
         rows.append(row)
     return rows
+
+
+#: The integer columns of ``montecarlo.csv`` (the others are floats).
+_MC_CAST = {"samples": int, "failed": int}
 
 
 def montecarlo_rows(study) -> List[dict]:
     """``montecarlo.csv``: one row per protocol and configuration: its
     angles (rad), tip (m) and the Monte-Carlo statistics (m, rad)."""
     rows = []
+    spec = study.kind.csv["montecarlo"]
     for p, mc in study.monte_carlo.items():
         ws = study.workspaces[p]
         pose = ws.poses[ws.reachable]
-        mean, p95, mx = mc.mean, mc.percentile(95.0), mc.max_abs
+        columns = {"tip": pose, "mean": mc.mean, "max": mc.max_abs, "std": mc.std, "p95": mc.percentile(95.0),
+                   "samples": mc.count, "failed": mc.failed}
         for i in range(len(mc.count)):
             r = dict(protocol=p)
             for k, v in enumerate(mc.theta0[i]):
                 r[f"theta{k + 1}_rad"] = float(v)
-            if study.kind == "spatial":
-                r.update(x_m=float(pose[i, 0]), y_m=float(pose[i, 1]), z_m=float(pose[i, 2]),
-                         samples=int(mc.count[i]), failed=int(mc.failed[i]),
-                         mean_dx_m=float(mean[i, 0]), mean_dy_m=float(mean[i, 1]), mean_dz_m=float(mean[i, 2]),
-                         mean_dxyz_m=float(mean[i, 3]), p95_dxyz_m=float(p95[i]), max_dxyz_m=float(mx[i, 3]),
-                         std_dxyz_m=float(mc.std[i, 3]), mean_rotation_rad=float(mean[i, 4]),
-                         max_rotation_rad=float(mx[i, 4]))
-            else:
-                r.update(x_m=float(pose[i, 0]), y_m=float(pose[i, 1]), samples=int(mc.count[i]),
-                         failed=int(mc.failed[i]), mean_dx_m=float(mean[i, 0]), mean_dy_m=float(mean[i, 1]),
-                         mean_dphi_rad=float(mean[i, 2]), mean_dxy_m=float(mean[i, 3]), p95_dxy_m=float(p95[i]),
-                         max_dxy_m=float(mx[i, 3]))
+            r.update(_row(spec, lambda what, j, i=i: _MC_CAST.get(what, float)(
+                columns[what][i] if j is None else columns[what][i, j])))
             rows.append(r)
     return rows
 
@@ -226,8 +239,7 @@ def configuration_rows(study) -> List[dict]:
     Carlo's 95th percentile (m), failed solves and slack samples."""
     slug = _slug(study)
     cables = study.robot.position_cables
-    names = ["x_m", "y_m", "phi_rad"] if study.kind == "planar" else ["x_m", "y_m", "z_m", "rx_rad", "ry_rad",
-                                                                       "rz_rad"]
+    names = study.kind.pose_columns
     rows = []
     for p, ws in study.workspaces.items():
         res = study.results(p)
@@ -315,7 +327,7 @@ def headline(study) -> Dict[str, object]:
     the linear 95th percentile and the common tolerance scale for the
     target."""
     out: Dict[str, object] = dict(kind=study.kind, protocols=study.protocols)
-    planar = study.kind == "planar"
+    aliases = study.kind.headline_aliases  # the names of cdsm 0.2's planar summary
     for p, ws in study.workspaces.items():
         res = study.results(p)
         worst = [(nanmax(r.position), r.scenario.key) for r in res]
@@ -343,12 +355,9 @@ def headline(study) -> Dict[str, object]:
         out[f"mc_attempted_{p}"] = row["attempted"]
         out[f"mc_failed_configurations_{p}"] = row["failed_configurations"]
         out[f"mc_slack_share_{p}"] = row["slack_share"]
-        if planar:  # the names of cdsm 0.2's planar summary
-            out[f"mc_max_dxy_m_{p}"] = row["max_m"]
-            out[f"mc_max_p95_dxy_m_{p}"] = row["max_p95_m"]
-    if planar:
-        for p in study.workspaces:
-            out[f"worst_single_dxy_m_{p}"] = out[f"worst_single_m_{p}"]
+        out.update({f"{alias}_{p}": out[f"{name}_{p}"] for alias, name in aliases["mc"]})
+    for p in study.workspaces:
+        out.update({f"{alias}_{p}": out[f"{name}_{p}"] for alias, name in aliases["single"]})
     b = study.budget
     if b is not None and len(b.share) and b.share.sum() > 0:
         top = int(np.argmax(b.share))
@@ -802,7 +811,7 @@ class StudyReport:
         few = (f" {p0.get('samples')} is the default sample count over "
                f"{sum(len(ws.grid) for ws in st.workspaces.values())} configurations: it keeps a study at "
                f"{DEFAULT_SOLVES / 1e6:g} million solves (`--samples` sets it)."
-               if st.params.get("samples_default") and p0.get("samples") < DEFAULT_SAMPLES[st.kind] else "")
+               if st.params.get("samples_default") and p0.get("samples") < st.kind.default_samples else "")
         doc.p(f"{p0.get('samples')} random composite errors per configuration ({self._tolerance_words()}), "
               f"seed {p0.get('seed')}, streamed in chunks of {p0.get('chunk')} samples with bounded memory; every "
               "converged sample is also checked for a slack position cable. Percentiles are read from the study's "
