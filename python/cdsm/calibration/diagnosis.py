@@ -191,6 +191,10 @@ class Prepared(ShortRepr):
     #: {row: the earlier row it copies bit for bit} (file order, 0-based;
     #: :meth:`Measurements.copy_of`): counted once, never usable
     copies: Dict[int, int] = field(default_factory=dict)
+    #: (N,) the rows' fold groups (rows of one label held out together), or
+    #: None (rows dealt out one by one); ``group_column`` names their source
+    groups: Optional[np.ndarray] = None
+    group_column: Optional[str] = None
 
     @property
     def kind(self) -> str:
@@ -469,11 +473,26 @@ class Candidate(ShortRepr):
         return float(np.sqrt(np.nanmean(self.heldout ** 2))) if len(self.heldout) else float("nan")
 
 
-def fold_split(n_rows: int, k: int, seed: int = 0) -> List[np.ndarray]:
+def fold_split(n_rows: int, k: int, seed: int = 0, groups: Optional[Sequence] = None) -> List[np.ndarray]:
     """The ``k`` held-out folds of ``n_rows`` rows the diagnosis scores on:
-    indices into the rows, each sorted (a seeded permutation dealt out)."""
-    order = np.random.default_rng(seed).permutation(n_rows)
-    return [np.sort(order[i::k]) for i in range(k)]
+    indices into the rows, each sorted (a seeded permutation dealt out).
+    With ``groups`` ((n_rows,) labels) whole groups are dealt out instead of
+    rows — rows of one label are held out together (neighbouring keypoints
+    of one motion pattern are not independent) — and ``k`` is at most the
+    number of groups."""
+    if groups is None:
+        order = np.random.default_rng(seed).permutation(n_rows)
+        return [np.sort(order[i::k]) for i in range(k)]
+    labels = np.asarray(groups)
+    if labels.shape != (n_rows,):
+        raise CdsmInputError(f"`groups`: expected {n_rows} labels, got shape {labels.shape}")
+    names, first, code = np.unique(labels, return_index=True, return_inverse=True)
+    rank = np.argsort(np.argsort(first))  # groups in order of first appearance
+    order = np.random.default_rng(seed).permutation(len(names))
+    fold_of_group = np.empty(len(names), int)
+    fold_of_group[order] = np.arange(len(names)) % min(k, len(names))
+    fold = fold_of_group[rank[code]]
+    return [np.flatnonzero(fold == i) for i in range(min(k, len(names)))]
 
 
 def _fitted(prep: Prepared, effects: Sequence[str]) -> List[str]:
@@ -491,9 +510,9 @@ class _Scorer:
         self.prep = prep
         self.bar = bar
         self.rows = np.asarray(rows, int)
-        k = min(folds, len(self.rows))
-        self.tests = [self.rows[t] for t in fold_split(len(self.rows), k)]
-        self.k = k
+        groups = None if prep.groups is None else prep.groups[self.rows]
+        self.tests = [self.rows[t] for t in fold_split(len(self.rows), min(folds, len(self.rows)), groups=groups)]
+        k = self.k = len(self.tests)
         N = len(prep.theta_cmd)
         self.scored = np.zeros((k + 1, N), bool)
         self.scored[0, self.rows] = True
@@ -834,6 +853,8 @@ class Diagnosis(ShortRepr):
             ties=self.ties, correlated_parameters=self.correlated,
             unidentifiable_parameters=self.unidentifiable,
             feature_correlation=self.feature_correlation, folds=self.folds,
+            folds_by=(dict(column=prep.group_column, groups=int(len(np.unique(prep.groups[prep.rows]))))
+                      if prep.groups is not None else None),
             selection_test=dict(kind=self.support_rule + f", Bonferroni-corrected for the candidates compared "
                                                          f"at each step (family alpha {ALPHA})",
                                 alpha=self.alphas),
@@ -1263,7 +1284,7 @@ def _screen(prep: Prepared, scorer: "_Scorer", free: Sequence[Tuple[np.ndarray, 
 
 def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] = None,
              folds: int = 10, noise: Optional[float] = None, max_combination: int = 3,
-             frame: str = "auto", progress: bool = False) -> Diagnosis:
+             frame: str = "auto", progress: bool = False, folds_by: Optional[str] = None) -> Diagnosis:
     """Diagnose the gap between ``robot`` and ``meas`` (see the module doc).
 
     effects: the candidate library (default: every effect of
@@ -1275,12 +1296,20 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     ``"auto"`` (absolute data near the nominal predictions are taken in the
     base frame with ``frame_misalignment`` a candidate, farther ones
     registered; :data:`NEAR_FRACTION`), ``"register"`` (an instrument frame,
-    fitted with every candidate) or ``"base"`` (the base frame).
+    fitted with every candidate) or ``"base"`` (the base frame). folds_by:
+    a label column of ``meas`` whose rows of one value are held out together
+    (:func:`fold_split`; e.g. a motion pattern: neighbouring keypoints of one
+    pattern are not independent readings); default: rows one by one.
     """
     library = plant.check_effects(robot, plant.effects_of(robot) if effects is None else effects)
     if noise is not None and not (np.isfinite(noise) and noise > 0):
         raise CdsmInputError(f"`noise`: must be a positive number of m, got {noise}")
     prep = prepare(robot, meas, frame)
+    if folds_by is not None:
+        if folds_by not in meas.labels:
+            raise CdsmInputError(f"`folds_by`: no label column {folds_by!r} in {meas.source or 'the measurements'} "
+                                 f"(label columns: {', '.join(meas.labels) or 'none'})")
+        prep.groups, prep.group_column = np.asarray(meas.labels[folds_by], dtype=str), folds_by
     if prep.usable.sum() < 3:
         raise CdsmInputError(_too_few_rows(robot, meas, prep))
     if prep.registered:

@@ -225,6 +225,8 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     out: Dict[str, List[str]] = {k: [] for k in ("answer", "where", "which", "shrink", "identifiability",
                                                  "flagged")}
     cv = ("leave-one-out" if d.folds >= nu else f"{d.folds}-fold") + " cross-validation"
+    if d.prep.groups is not None:
+        cv += f" (whole groups of {literal(d.prep.group_column)} held out together)"
     shrink = 100.0 * (1.0 - f_rms / b_rms) if b_rms > 0 else 0.0
 
     # -- the answer ------------------------------------------------------
@@ -514,8 +516,10 @@ def summary(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
     how far the gap shrinks, the largest gaps, the next measurements; then
     the rows used and the flagged ones."""
     lines = [_plain(item) for item in headline_items(d, suggestion)]
+    by = (f" over {len(np.unique(d.prep.groups[d.prep.rows]))} groups of {d.prep.group_column!r}"
+          if d.prep.groups is not None else "")
     lines.append(f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
-                 f"{d.folds}-fold cross-validation")
+                 f"{d.folds}-fold cross-validation{by}")
     if d.prep.flags:
         lines.append(f"flagged rows: {', '.join(str(i + 1) for i in sorted(d.prep.flags))} (see the report)")
     if d.outliers:
@@ -867,7 +871,7 @@ def headline_items(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
     return items
 
 
-def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Document:
+def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None, validation=None) -> Document:
     prep = d.prep
     f = findings(d)
     names = _row_names(d)
@@ -884,10 +888,32 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Do
     doc.p(f"Data: {literal(src)} — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
           f"usable); robot **{literal(prep.robot.name)}** ({prep.robot.n} joints); measurement noise "
           f"{'assumed ' if ne == 'assumed' else ''}{_um(d.noise)} per axis"
-          f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation; "
+          f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation"
+          f"{' by ' + literal(prep.group_column) if prep.groups is not None else ''}; "
           f"candidate library: {', '.join(c.name for c in d.singles) or 'empty'}. cdsm {__version__}. The "
           "diagnosis was not told which effect is in the data.")
-    doc.ul(headline_items(d, suggestion))
+    items = headline_items(d, suggestion)
+    if validation is not None:
+        v = validation
+        items.append(f"**On a second file** ({literal(os.path.basename(v.source) or 'validation data')}, "
+                     f"{v.rows} of {v.rows_in_file} rows, nothing refitted): tip error RMS {_um(v.nominal_rms)} "
+                     f"nominal → {_um(v.model_rms)} with {literal(v.model)}; mean offset removed "
+                     f"{_um(v.nominal_rms_mean_aligned)} → {_um(v.model_rms_mean_aligned)}.")
+    doc.ul(items)
+    if validation is not None:
+        v = validation
+        doc.section("validation", "On a second file")
+        flagged = f" ({len(v.flagged)} flagged by the nominal model, as on the first file)" if v.flagged else ""
+        lost = "; ".join(f"the {k} model cannot predict {len(r)} row(s) ({', '.join(str(i + 1) for i in r[:10])}"
+                         f"{', ...' if len(r) > 10 else ''})" for k, r in v.unpredicted.items() if r)
+        doc.p(f"The nominal model and {literal(v.model)}, every parameter and the frame as fitted on "
+              f"{literal(src)}, predict {literal(os.path.basename(v.source) or 'the second file')}: nothing is "
+              f"refitted there. {v.rows} of its {v.rows_in_file} rows are scored"
+              f"{flagged}"
+              f"{'; ' + lost if lost else ''}. Tip position error, RMS over those rows: {_um(v.nominal_rms)} "
+              f"nominal, {_um(v.model_rms)} with {literal(v.model)}; after removing the error's mean over the "
+              f"rows (three translations): {_um(v.nominal_rms_mean_aligned)} and "
+              f"{_um(v.model_rms_mean_aligned)}.")
     doc.section("answer", "Answer")
     for t in f["answer"]:
         doc.p(t)
@@ -996,8 +1022,8 @@ def _residual_rows(d: diagnose.Diagnosis) -> List[dict]:
     return out
 
 
-def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None, overwrite: bool = False
-          ) -> Dict[str, str]:
+def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None, overwrite: bool = False,
+          validation=None) -> Dict[str, str]:
     """Write ``report.md``, ``report.html`` (self-contained), ``diagnosis.json``,
     ``residuals.csv``, ``figures/*.png`` and, given a ``suggestion``
     (:func:`cdsm.calibration.experiment.suggest`), ``suggested.csv`` into
@@ -1006,17 +1032,23 @@ def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None,
     there, or when it holds files of these names (:data:`FILES`) that no
     cdsm run wrote, unless ``overwrite``). Returns {name: path}
     (``report_md``, ``report_html``, ``json``, ``csv``, ``figures``,
-    ``suggested_csv``, ``manifest``: see :meth:`cdsm.files.Run.finish`)."""
+    ``suggested_csv``, ``manifest``: see :meth:`cdsm.files.Run.finish`).
+    ``validation``: the models judged on a second file
+    (:func:`cdsm.calibration.validation.validate`), a headline item, a
+    section and the JSON's ``validation``."""
     with run_directory(out, "cdsm diagnose", FILES, overwrite=overwrite) as run:
         pngs = figures(d)
         paths = {"figures": os.path.join(run.out, "figures")}
         for name, data in pngs.items():
             run.write(f"figures/{name}.png", data, "figure")
-        doc = _build(d, pngs, suggestion)
+        doc = _build(d, pngs, suggestion, validation)
         paths["report_md"] = run.write_text("report.md", doc.markdown("figures", pngs), "report")
         name = os.path.basename(d.prep.meas.source or "") or "measurements"
         paths["report_html"] = run.write_text("report.html", doc.html(pngs, f"cdsm diagnose — {name}"), "report")
-        paths["json"] = run.write_json("diagnosis.json", d.to_json(), "diagnosis")
+        js = d.to_json()
+        if validation is not None:
+            js["validation"] = validation.to_json()
+        paths["json"] = run.write_json("diagnosis.json", js, "diagnosis")
         paths["csv"] = run.write_csv("residuals.csv", _residual_rows(d), "residuals")
         if suggestion is not None:
             paths["suggested_csv"] = run.write_text("suggested.csv", suggestion.csv_text(), "suggestion")
