@@ -108,3 +108,22 @@ def test_spatial_scenarios_move_each_position_cable_and_its_holes(cdsm):
     normal = next(s for s in sc if s.key == "normal6-")
     assert normal.label == "-0.35 mm along the disk normal on cable 6's holes"
     assert study.spatial_scenarios(r)[5].key == sc[5].key
+
+
+def test_a_long_planar_arms_overview_names_its_own_errors(cdsm):
+    """A planar arm with more single errors than thumbnails (serpentine8: 8
+    pairs x 4) gets the matrix overview; it took a spatial arm's six columns
+    (and crashed: 6 labels for 4 columns) and its |d(X, Y, Z)|."""
+    from cdsm import study
+    from cdsm.report import study_figures
+
+    r = cdsm.Robot.from_toml("serpentine8")
+    theta = np.random.default_rng(0).uniform(-0.3, 0.3, (12, r.n))
+    st = study.run(r, samples=10, theta=theta, progress=False)
+    fig = study_figures.overview_figure(st, st.main)
+    title = fig._suptitle.get_text()
+    assert "|d(X, Y)|" in title and "Z" not in title.split("—")[0]
+    assert "columns: cable −, cable +, disk −, disk +" in title
+    labels = [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    assert labels == ["cable -", "cable +", "hole -", "hole +"]
+    assert [t.get_text() for t in fig.axes[0].get_yticklabels()] == [str(c + 1) for c in r.position_cables]

@@ -78,6 +78,22 @@ class Kind(str):
     ``|.|`` of task coordinate 2, ``"mean:4"`` the mean of quantity 4).
     ``headline_aliases``: the extra names (cdsm 0.2's) of headline numbers,
     ``(alias, name)`` pairs, by where they are set (``"mc"``, ``"single"``).
+
+    Figures and prose (:mod:`cdsm.report.study_figures`): ``figure`` the
+    layout facts — ``projections`` (the maps on three orthogonal
+    projections, the overviews on the main plane; else the one plane of the
+    arm), ``equal`` (equal axis scales), ``ticks`` (ticks per axis),
+    ``mc_wgap`` and ``row_wgap`` (gaps between panels, inches),
+    ``rotation_overview`` (an overview of the rotation errors too),
+    ``projection`` (matplotlib's, of a drawing's axes: None for 2-D),
+    ``disk_angles`` (the angles, rad, about a face's normal at which a
+    drawing samples its outline: a planar face is its diameter across the
+    plane) and ``disk_lw`` (the outline's line width, points);
+    ``words`` the phrases that differ: the error sources (``cables_per``,
+    ``holes_per``, ``cables_every``, ``holes_every``), the Jacobian of the
+    singular measure (``singular_of``), the overview's rows and columns
+    (``overview_layout``) and the force cables' loads (``force_loads``, a
+    template over ``grams``: their tensions as weights, g).
     """
 
     dim: int
@@ -104,6 +120,8 @@ class Kind(str):
     singular: str
     csv: Dict[str, Tuple[Tuple[str, str], ...]]
     headline_aliases: Dict[str, Tuple[Tuple[str, str], ...]]
+    figure: Dict[str, object]
+    words: Dict[str, str]
 
     def __new__(cls, name: str, **facts):
         kind = super().__new__(cls, name)
@@ -218,7 +236,14 @@ PLANAR = Kind(
                         ("mean_dx_m", "mean:0"), ("mean_dy_m", "mean:1"), ("mean_dphi_rad", "mean:2"),
                         ("mean_dxy_m", "mean:3"), ("p95_dxy_m", "p95"), ("max_dxy_m", "max:3"))},
     headline_aliases={"mc": (("mc_max_dxy_m", "mc_max_m"), ("mc_max_p95_dxy_m", "mc_max_p95_m")),
-                      "single": (("worst_single_dxy_m", "worst_single_m"),)})
+                      "single": (("worst_single_dxy_m", "worst_single_m"),)},
+    figure=dict(projections=False, equal=False, ticks=4, mc_wgap=0.85, row_wgap=1.3, rotation_overview=False,
+                projection=None, disk_angles=(np.pi, 0.0), disk_lw=3),
+    words=dict(cables_per="per upper cable", holes_per="per disk's holes", cables_every="every upper cable",
+               holes_every="every disk's hole height",
+               singular_of="pose Jacobian d[X, Y, L·phi]/dtheta (all joints zero loses X)",
+               overview_layout="columns: cable −, cable +, disk −, disk +; rows: pairs 1..n",
+               force_loads="lower weights {grams} g"))
 
 SPATIAL = Kind(
     "spatial", dim=3, task_axes=("x", "y", "z", "rx", "ry", "rz"), task_units=("m", "m", "m", "rad", "rad", "rad"),
@@ -248,7 +273,14 @@ SPATIAL = Kind(
                         ("mean_dz_m", "mean:2"), ("mean_dxyz_m", "mean:3"), ("p95_dxyz_m", "p95"),
                         ("max_dxyz_m", "max:3"), ("std_dxyz_m", "std:3"), ("mean_rotation_rad", "mean:4"),
                         ("max_rotation_rad", "max:4"))},
-    headline_aliases={"mc": (), "single": ()})
+    headline_aliases={"mc": (), "single": ()},
+    figure=dict(projections=True, equal=True, ticks=3, mc_wgap=0.95, row_wgap=1.05, rotation_overview=True,
+                projection="3d", disk_angles=tuple(np.linspace(0.0, 2.0 * np.pi, 48)), disk_lw=1),
+    words=dict(cables_per="per position cable", holes_per="per hole coordinate", cables_every="every position cable",
+               holes_every="every coordinate of every hole",
+               singular_of="position Jacobian (directions the arm never moves in left out)",
+               overview_layout="rows: position cables; columns: ±1 mm length, ±0.35 mm holes radial, along the normal",
+               force_loads="force cables at their set tension"))
 
 if len(PLANAR.quantities) != _cdsm.QUANTITIES:  # the core decides what a planar Monte Carlo returns
     raise ImportError(f"cdsm.kinds: the core's planar Monte Carlo returns {_cdsm.QUANTITIES} quantities, "
