@@ -93,7 +93,16 @@ class Kind(str):
     ``holes_per``, ``cables_every``, ``holes_every``), the Jacobian of the
     singular measure (``singular_of``), the overview's rows and columns
     (``overview_layout``) and the force cables' loads (``force_loads``, a
-    template over ``grams``: their tensions as weights, g).
+    template over ``grams``: their tensions as weights, g); in the report
+    (:mod:`cdsm.report.study`) ``holes_each`` (the Monte Carlo's hole
+    errors), ``force_row`` (the arm table's row of the force cables'
+    tensions, "" for none), ``force_statics`` (their loads in the statics, a
+    template over ``newtons``), ``hole_error`` and ``hole_pair`` (a hole
+    error beside a length error), ``singular_rows`` (the Jacobian of the
+    singular measure), ``workspace_caption`` (a template over
+    ``attitude0``), ``scenario_caption`` (over ``label``, ``figure``,
+    ``key``, ``q``), ``mc_caption`` and ``limit_notes`` (the kind's own
+    limits of the study).
     """
 
     dim: int
@@ -243,7 +252,16 @@ PLANAR = Kind(
                holes_every="every disk's hole height",
                singular_of="pose Jacobian d[X, Y, L·phi]/dtheta (all joints zero loses X)",
                overview_layout="columns: cable −, cable +, disk −, disk +; rows: pairs 1..n",
-               force_loads="lower weights {grams} g"))
+               force_loads="lower weights {grams} g", holes_each="every disk's holes",
+               force_row="lower-cable tensions", force_statics="the lower cables at {newtons} N",
+               hole_error="hole error", hole_pair="holes of its pair",
+               singular_rows="the pose Jacobian d[X, Y, L·phi]/dtheta (attitude row scaled by the straight length L)",
+               workspace_caption="Workspace: the tips of the study's configurations{attitude0}; the straight arm in "
+                                 "black.",
+               scenario_caption="{label} ({figure}): dX red, dY blue, dphi green (negative purple, zero grey) over "
+                                "the tip positions, one row per protocol; black rings: jump points; crosses: "
+                                "unreachable or unsolved.",
+               mc_caption="; mean signed dX (red), dY (blue), dphi (green)", limit_notes=""))
 
 SPATIAL = Kind(
     "spatial", dim=3, task_axes=("x", "y", "z", "rx", "ry", "rz"), task_units=("m", "m", "m", "rad", "rad", "rad"),
@@ -280,7 +298,18 @@ SPATIAL = Kind(
                holes_every="every coordinate of every hole",
                singular_of="position Jacobian (directions the arm never moves in left out)",
                overview_layout="rows: position cables; columns: ±1 mm length, ±0.35 mm holes radial, along the normal",
-               force_loads="force cables at their set tension"))
+               force_loads="force cables at their set tension", holes_each="every hole coordinate", force_row="",
+               force_statics="the force cables at their set tensions", hole_error="radial hole error",
+               hole_pair="radial holes",
+               singular_rows="the position rows of the geometric Jacobian (directions the arm can never move in are "
+                             "left out)",
+               workspace_caption="Workspace: the sampled tip positions on the x–y, x–z and y–z projections, coloured "
+                                 "by the third coordinate (mm).",
+               scenario_caption="{label} ({key}): {q} (top) and the rotation angle (bottom) on the three "
+                                "projections; black rings: jump points.",
+               mc_caption="; the 95th percentile on the other projections; histogram over every sample.",
+               limit_notes="**Hole clearance** is an effect of the diagnosis library, not a manufacturing error "
+                           "scenario of this study."))
 
 if len(PLANAR.quantities) != _cdsm.QUANTITIES:  # the core decides what a planar Monte Carlo returns
     raise ImportError(f"cdsm.kinds: the core's planar Monte Carlo returns {_cdsm.QUANTITIES} quantities, "

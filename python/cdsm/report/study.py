@@ -418,7 +418,7 @@ class StudyReport:
                 "friction.csv": friction_rows(self.study)}
 
     def file_notes(self) -> List[str]:
-        q = "|d(X, Y, Z)|" if self.study.kind == "spatial" else "|d(X, Y)|"
+        q = _q(self.study)
         return [f"`scenarios.csv` — per single error and protocol: solved counts, RMS and max {q}, max per axis "
                 "(m, rad), jump points",
                 "`jumps.csv` — jump points per scenario and protocol (grid protocols by reason)",
@@ -438,7 +438,7 @@ class StudyReport:
         prm = st.params
         pos = r.position_cables
         force = [c for c in range(r.cables) if c not in pos]
-        kind = ("planar" if st.kind == "planar" else "spatial")
+        kind = str(st.kind)
         cables = (f"{r.cables} cables ({len(pos)} position-controlled"
                   + (f", {len(force)} force-controlled" if force else "") + ")")
         return (f"Robot **{literal(r.name)}**: a {kind} arm of {r.n} joints and {cables}; cdsm {__version__}. "
@@ -492,9 +492,8 @@ class StudyReport:
     def _tolerance_words(self) -> str:
         prm = self.study.params
         dl, dh = max(prm["dl_tol_m"]) * 1e3, max(prm["dh_tol_m"]) * 1e3
-        if self.study.kind == "spatial":
-            return f"uniform ±{dl:g} mm on every position cable, ±{dh:g} mm on every hole coordinate"
-        return f"uniform ±{dl:g} mm on every upper cable, ±{dh:g} mm on every disk's holes"
+        words = self.study.kind.words
+        return f"uniform ±{dl:g} mm on {words['cables_every']}, ±{dh:g} mm on {words['holes_each']}"
 
     def outline(self) -> List[Section]:
         """The sections after the headline, in order: (id, title, builder)."""
@@ -539,8 +538,8 @@ class StudyReport:
                 ["straight length", mm(r.straight_length, 1)],
                 ["gravity", "none (horizontal plane)" if not np.any(r.gravity) else
                  "(" + ", ".join(f"{v:g}" for v in r.gravity) + ") m/s²"]]
-        if st.kind == "planar":
-            rows.insert(3, ["lower-cable tensions", ", ".join(f"{t:.3g}" for t in r.lower_tension) + " N"])
+        if st.kind.words["force_row"]:
+            rows.insert(3, [st.kind.words["force_row"], ", ".join(f"{r.cable_tensions[c]:.3g}" for c in force) + " N"])
         doc.table(["the arm", ""], rows)
         doc.p(f"**Protocol.** {st.protocol_reason[0].upper() + st.protocol_reason[1:]}.")
         items = []
@@ -566,14 +565,12 @@ class StudyReport:
                              f"against each configuration's {prm.get('k')} nearest neighbours in joint space.")
         doc.ul(items)
         main = st.workspaces[st.main]
-        span = np.ptp(main.poses[main.reachable][:, :3 if st.kind == "spatial" else 2], axis=0) * 1e3
+        span = np.ptp(main.poses[main.reachable][:, :st.kind.dim], axis=0) * 1e3
         doc.p("Workspace of the study's configurations: tip extent " + ", ".join(
             f"{a} {fmt(s, 1)} mm" for a, s in zip("xyz", span)) + ".")
-        cap = ("Workspace: the sampled tip positions on the x–y, x–z and y–z projections, coloured by the third "
-               "coordinate (mm)." if st.kind == "spatial" else
-               "Workspace: the tips of the study's configurations"
-               + (", those reachable at phi = 0 and the phi = 0 reach within the joint limits"
-                  if "attitude0" in st.workspaces else "") + "; the straight arm in black.")
+        cap = st.kind.words["workspace_caption"].format(
+            attitude0=", those reachable at phi = 0 and the phi = 0 reach within the joint limits"
+            if "attitude0" in st.workspaces else "")
         self.fig(doc, "workspace", cap)
 
     def _by_end(self, kind: str) -> Dict[int, float]:
@@ -626,11 +623,7 @@ class StudyReport:
             self.fig(doc, f"rotation_{p}", f"Every single error, the end frame's rotation angle — {_pname(p)}; each "
                      "thumbnail on its own scale.")
         for sc in [r.scenario for r in st.results()]:
-            cap = (f"{sc.label} ({sc.key}): {q} (top) and the rotation angle (bottom) on the three projections; "
-                   "black rings: jump points." if st.kind == "spatial" else
-                   f"{sc.label} ({sc.figure or sc.key}): dX red, dY blue, dphi green (negative purple, zero grey) "
-                   "over the tip positions, one row per protocol; black rings: jump points; crosses: unreachable "
-                   "or unsolved.")
+            cap = st.kind.words["scenario_caption"].format(label=sc.label, figure=sc.figure or sc.key, key=sc.key, q=q)
             self.fig(doc, f"scenario_{file_key(sc.key)}", cap)
         if not self.detail:
             doc.p("The one-figure-per-scenario maps were left out (`--no-scenario-figures`); the overviews above "
@@ -646,13 +639,13 @@ class StudyReport:
         st = self.study
         q = _q(st)
         out = []
-        hole_kind = "radial" if st.kind == "spatial" else "hole"
+        hole_kind, hole_key, _ = st.kind.hole_scenarios[0]  # the first hole error beside the length's
         length, holes = self._by_end("cable"), self._by_end(hole_kind)
         if len(length) > 1:
             shrink = all(a >= b for a, b in zip(list(length.values()), list(length.values())[1:]))
             out.append(f"**Toward the tip** ({_pname(st.main)}). RMS {q} of a ±1 mm length error, by the disk its "
                        "cable ends at: " + ", ".join(f"disk {d} {mm(v)}" for d, v in length.items())
-                       + f"; of a ±0.35 mm {'radial ' if st.kind == 'spatial' else ''}hole error: "
+                       + f"; of a ±0.35 mm {st.kind.words['hole_error']}: "
                        + ", ".join(f"disk {d} {mm(v)}" for d, v in holes.items()) + ". "
                        + ("A length error matters less the nearer the tip its cable ends." if shrink else
                           "A length error does not matter less the nearer the tip its cable ends on this arm."))
@@ -661,7 +654,8 @@ class StudyReport:
             if r.scenario.kind != "cable":
                 continue
             s = "+" if r.scenario.sign > 0 else "-"
-            hk = (f"radial{r.scenario.cable + 1}{s}" if st.kind == "spatial" else f"disk{r.scenario.cable // 2 + 1}{s}")
+            c = r.scenario.cable
+            hk = hole_key.format(cable=c + 1, disk=self.robot.cable_ends[c]) + s
             b = st.result(hk).position
             a = r.position
             m = np.isfinite(a) & np.isfinite(b)
@@ -672,7 +666,7 @@ class StudyReport:
         if pairs:
             floor = f"{RATIO_FLOOR_M * 1e6:g} µm"
             small = pairs - rr.size
-            what = "radial holes" if st.kind == "spatial" else "holes of its pair"
+            what = st.kind.words["hole_pair"]
             text = (f"**Holes against lengths.** Per configuration and cable, {q}(±1 mm length) / {q}(±0.35 mm "
                     f"{what})")
             if rr.size:
@@ -686,7 +680,7 @@ class StudyReport:
                 text += (f" At {small} of {pairs} the hole error moves the tip by less than {floor} (there it acts "
                          "to second order or not at all), so the ratio would only divide by rounding; left out.")
             out.append(text)
-        if st.kind == "planar" and "attitude0" in st.workspaces:
+        if "attitude0" in st.workspaces:  # a planar arm's protocol
             n = self.robot.n
             a0 = [finite_rms(st.result(f"disk{n}{s}", "attitude0").position) for s in "-+"]
             other = [p for p in st.workspaces if p != "attitude0"]
@@ -696,7 +690,7 @@ class StudyReport:
                        f"−dh·(theta_1 + … + theta_{n}) = −dh·phi, which is zero when phi = 0. RMS {q}: "
                        f"{mm(a0[0], 4)} / {mm(a0[1], 4)} (−/+) under the attitude-0 protocol"
                        + (f", {mm(jt[0])} / {mm(jt[1])} under the {_pname(other[0])} where phi ≠ 0." if jt else "."))
-        if st.kind == "spatial":
+        if any(h[0] == "normal" for h in st.kind.hole_scenarios):
             normal = self._by_end("normal")
             rn = [normal[d] / holes[d] for d in holes if holes[d] > 0 and d in normal]
             if rn:
@@ -722,7 +716,7 @@ class StudyReport:
                 marks = [m for m, on in (("near-singular", w["singular"] < NEAR_SINGULAR), ("on a jump", w["jump"]),
                                          ("slack", not w["taut"]),
                                          (f"{w['failed']} failed solves", w["failed"] > 0)) if on]
-                tip = ", ".join(fmt(v * 1e3, 1) for v in w["pose"][:3 if st.kind == "spatial" else 2])
+                tip = ", ".join(fmt(v * 1e3, 1) for v in w["pose"][:st.kind.dim])
                 rows.append([_angles(w["theta"]), tip, fmt(w["p95_m"] * 1e3), fmt(w["max_m"] * 1e3),
                              f"{fmt(w['single_m'] * 1e3)} ({w['single']})", fmt(w["singular"], 3, "g"),
                              ", ".join(marks) or "—"])
@@ -776,9 +770,7 @@ class StudyReport:
         else:
             doc.p("No jump points were found in any scenario: the deviation maps are smooth over these "
                   "configurations.")
-        what = ("the position rows of the geometric Jacobian (directions the arm can never move in are left out)"
-                if st.kind == "spatial" else "the pose Jacobian d[X, Y, L·phi]/dtheta (attitude row scaled by the "
-                "straight length L)")
+        what = st.kind.words["singular_rows"]
         doc.p(f"Singular measure: the smallest over the largest singular value of {what}.")
         for p in st.workspaces:
             s = st.singular[p]
@@ -786,7 +778,7 @@ class StudyReport:
             sing = fin & (s < 1e-6)
             near = fin & (s < NEAR_SINGULAR)
             extra = ""
-            if st.kind == "planar" and self.robot.n == 3 and sing.any():
+            if st.kind.singular == "pose" and self.robot.n == 3 and sing.any():
                 th = np.where(np.isfinite(st.workspaces[p].theta0), st.workspaces[p].theta0, 0.0)
                 if np.all(np.abs(th[sing, 1]) < 1e-6):
                     extra = (" All of the singular ones have theta_2 = 0: for three joints the pose Jacobian is "
@@ -795,7 +787,7 @@ class StudyReport:
                   f"{fmt(float(np.median(s[fin])) if fin.any() else float('nan'), 3, 'g')}; {int(sing.sum())} "
                   f"configurations singular (< 1e-6), {int(near.sum())} near-singular (< {NEAR_SINGULAR:g}), of "
                   f"{int(fin.sum())}.{extra}")
-        if st.kind == "planar":
+        if st.kind.singular == "pose":  # the straight arm's pose Jacobian loses X
             sv0 = np.linalg.svd(self.robot.fk_jacobian(np.zeros(self.robot.n))[:2], compute_uv=False)
             doc.p("At theta = 0 the position Jacobian d[X, Y]/dtheta has singular values "
                   f"{', '.join(f'{s * 1e3:.3g}' for s in sv0)} mm/rad: X is lost, so a cable error moves the tip in "
@@ -851,8 +843,7 @@ class StudyReport:
                       f"{r['configurations']} configurations.")
         for p in st.monte_carlo:
             cap = (f"Monte Carlo — {_pname(p)}: mean, 95th percentile and max of {q} per configuration"
-                   + ("; the 95th percentile on the other projections; histogram over every sample."
-                      if st.kind == "spatial" else "; mean signed dX (red), dY (blue), dphi (green)")
+                   + st.kind.words["mc_caption"]
                    + "; red rings: configurations with failed solves.")
             self.fig(doc, f"montecarlo_{p}", cap)
 
@@ -860,8 +851,8 @@ class StudyReport:
         st, r = self.study, self.robot
         g = r.gravity
         grav = "no gravity" if not np.any(g) else "gravity (" + ", ".join(f"{v:g}" for v in g) + ") m/s²"
-        force = ("the lower cables at " + ", ".join(f"{t:.3g}" for t in r.lower_tension) + " N" if st.kind == "planar"
-                 else "the force cables at their set tensions")
+        force = st.kind.words["force_statics"].format(
+            newtons=", ".join(f"{r.cable_tensions[c]:.3g}" for c in range(r.cables) if c not in r.position_cables))
         doc.p(f"Tensions of the position-controlled cables at every initial configuration: {force}, {grav}, no tip "
               "load; " + ("the balance's one solution (as many position cables as joints)"
                           if len(r.position_cables) == r.n else
@@ -930,7 +921,7 @@ class StudyReport:
     def sensitivity_section(self, doc: Document) -> None:
         st = self.study
         q = _q(st)
-        what_h = "every coordinate of every hole" if st.kind == "spatial" else "every disk's hole height"
+        what_h = st.kind.words["holes_every"]
         doc.p(f"First-order sensitivities of the tip position (analytic, the implicit function theorem through the "
               f"cable solve): the worst-case and RMS amplification of a unit error on every position cable and on "
               f"{what_h} into {q}.")
@@ -971,14 +962,13 @@ class StudyReport:
                  "candidate unmodelled effect (backlash, cable elasticity, hole clearance, ...) to them.",
                  "**Cable stretch.** The cables are rigid here; the statics give the tensions, "
                  "`Robot.solve_cables_elastic` the elastic configuration."]
-        if st.kind == "spatial":
-            items.append("**Hole clearance** is an effect of the diagnosis library, not a manufacturing error "
-                         "scenario of this study.")
+        if st.kind.words["limit_notes"]:
+            items.append(st.kind.words["limit_notes"])
         if "sampled" in st.workspaces:
             items.append("**Jump reasons.** Between sampled neighbours only the jumps at near-singular "
                          "configurations are named; the grid protocols also name branch switches, cable folds and "
                          "the reach boundary.")
-        if st.kind == "planar" and "attitude0" not in st.workspaces:
+        if st.kind.grid_protocols and "attitude0" not in st.workspaces:
             items.append("**The attitude-0 protocol** is left out for this arm (see [the protocol](#arm)).")
         doc.ul(items)
 
