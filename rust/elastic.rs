@@ -377,7 +377,8 @@ impl Elastic {
         };
         for (i, &c) in self.pos.iter().enumerate() {
             let l = cmd.lengths[i];
-            if !(l + self.lr > 0.0) {
+            let positive = l + self.lr > 0.0; // NaN is refused too
+            if !positive {
                 return Err(CdsmError::Option {
                     name: "lengths".into(),
                     problem: format!(
@@ -458,9 +459,9 @@ impl Elastic {
         }
         // springs
         let mut u = 0.0;
-        for j in 0..n {
-            let dq = q[j] - self.rest[j];
-            u += 0.5 * self.k[j] * dq * dq;
+        for ((qj, rj), kj) in q.iter().zip(&self.rest).zip(&self.k) {
+            let dq = qj - rj;
+            u += 0.5 * kj * dq * dq;
         }
         let mut scale = u;
         // cables: lengths (and the gaps kept for the derivatives)
@@ -522,8 +523,8 @@ impl Elastic {
             return;
         }
         // the gradient
-        for j in 0..n {
-            w.g[j] = self.k[j] * (q[j] - self.rest[j]);
+        for (((gj, qj), rj), kj) in w.g.iter_mut().zip(q).zip(&self.rest).zip(&self.k) {
+            *gj = kj * (qj - rj);
         }
         w.grad_l.fill(0.0);
         let mut at = 0;
@@ -541,8 +542,8 @@ impl Elastic {
             }
             let t = w.t[c];
             if t != 0.0 {
-                for j in 0..n {
-                    w.g[j] += t * row[j];
+                for (gj, rj) in w.g.iter_mut().zip(row.iter()) {
+                    *gj += t * rj;
                 }
             }
         }
@@ -716,8 +717,8 @@ impl Elastic {
                 cholesky_solve(&sc.blocks[d], blk.len(), &mut x[blk.clone()]);
             }
         }
-        for j in 0..n {
-            s[j] = -sc.x[j];
+        for (sj, xj) in s.iter_mut().zip(&sc.x[..n]) {
+            *sj = -xj;
         }
         if mt == 0 {
             return true;
@@ -904,7 +905,10 @@ impl Elastic {
         Equilibrium {
             tension: w.t.clone(),
             slack: (0..m)
-                .map(|c| laws.elastic[c] && !(w.sigma[c] > 0.0))
+                .map(|c| {
+                    let pulls = w.sigma[c] > 0.0; // NaN counts as slack
+                    laws.elastic[c] && !pulls
+                })
                 .collect(),
             capped: (0..m)
                 .map(|c| laws.elastic[c] && w.sigma[c] >= laws.cap[c])
@@ -963,12 +967,7 @@ impl Elastic {
     /// The Newton step of the structure and of the dense Hessian at `q`
     /// (rad), `None` for the structured one when it does not apply: for
     /// the tests of the structured solve.
-    pub fn steps(
-        &self,
-        model: &Model,
-        cmd: &Commands,
-        q: &[f64],
-    ) -> Result<(Option<Vec<f64>>, Option<Vec<f64>>)> {
+    pub fn steps(&self, model: &Model, cmd: &Commands, q: &[f64]) -> Result<StepPair> {
         let laws = self.laws(model, cmd)?;
         let mut w = self.work(model);
         self.evaluate(model, &laws, &cmd.wrench, q, 2, &mut w);
@@ -980,6 +979,9 @@ impl Elastic {
         Ok((structured, dense))
     }
 }
+
+/// The structured and the dense Newton step ([`Elastic::steps`]).
+pub type StepPair = (Option<Vec<f64>>, Option<Vec<f64>>);
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
