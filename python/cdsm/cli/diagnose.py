@@ -57,6 +57,10 @@ def _diagnose_args(p: argparse.ArgumentParser) -> None:
     add_robot_option(p)
     p.add_argument("--effects", metavar="a,b,...", type=_effect_list, default=None,
                    help="candidate effects (comma list; default: the whole library)")
+    add_path(p, "--validate", role="input", metavar="VAL.csv|NAME",
+             help="judge the nominal and the diagnosed model on a second measurement table, nothing refitted "
+                  "(the frame and every parameter as fitted on DATA): tip error RMS, as is and with the mean "
+                  "offset removed, in the summary and the JSON's `validation`")
     add_path(p, "--json", role="output", metavar="OUT", help="write the diagnosis as JSON (SI units)")
     add_path(p, "--report", role="directory", command="cdsm diagnose", files=_report_files, metavar="DIR",
              help="write report.md, report.html, figures and CSV into DIR")
@@ -71,6 +75,9 @@ def _diagnose_args(p: argparse.ArgumentParser) -> None:
                         "are in the robot's base frame")
     p.add_argument("--folds", metavar="K", type=_folds, default=10,
                    help="cross-validation folds (default: 10; leave-one-out when fewer rows)")
+    p.add_argument("--folds-by", metavar="COLUMN", default=None,
+                   help="hold out the rows of one value of this label column together (e.g. a motion pattern: "
+                        "neighbouring keypoints of one pattern are not independent readings); default: row by row")
     add_path(p, "--save-model", role="output", metavar="MODEL.json",
              help="save the diagnosed model (cdsm.calibration.model)")
     p.add_argument("--suggest", metavar="K", type=positive_int,
@@ -96,22 +103,32 @@ def _diagnose_run(args) -> int:
     meas = read_for(robot, args.data, progress=show)
     report_dir = args.report  # absolute, owned by this run (cdsm.cli.paths)
     d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
-                          frame=args.frame,
-                          progress=show)
+                          frame=args.frame, progress=show, folds_by=args.folds_by)
     suggestion = None
     if args.suggest is not None:
         from ..calibration.experiment import suggest
 
         suggestion = suggest(d, args.suggest)
+    validation = None
+    if args.validate is not None:
+        from ..calibration.validation import validate
+
+        validation = validate(d, read_for(robot, args.validate, progress=show))
     for line in diagnose_report.summary(d, suggestion):
         print(line)
+    if validation is not None:
+        print(validation.summary())
     if suggestion is not None:
         print(suggestion.summary())
     if args.json is not None:
-        write_json(args.json, d.to_json(), "--json")
+        out = d.to_json()
+        if validation is not None:
+            out["validation"] = validation.to_json()
+        write_json(args.json, out, "--json")
         print(f"json: {args.json}")
     if report_dir is not None:
-        paths = diagnose_report.write(d, report_dir, suggestion=suggestion, overwrite=args.overwrite)
+        paths = diagnose_report.write(d, report_dir, suggestion=suggestion, overwrite=args.overwrite,
+                                      validation=validation)
         print(f"report: {paths['report_html']}")
         print(f"        {paths['report_md']}")
         if "suggested_csv" in paths:

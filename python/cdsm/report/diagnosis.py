@@ -30,8 +30,8 @@ from .document import HEADLINE, Document, literal
 from .figures import BLUE, GREEN, RED, new_figure, place, png_bytes, report_style
 
 __all__ = ["FILES", "write", "findings", "summary", "param_rows", "bound_notes", "headline_items", "next_steps",
-           "figures",
-           "residual_map_figure", "residual_bars_figure", "candidates_figure", "features_figure"]
+           "figures", "residual_map_figure", "residual_bars_figure", "candidates_figure", "features_figure",
+           "test_rows", "tests_text"]
 
 #: the files the report writes beside ``figures/`` (:func:`write`)
 FILES = ("report.md", "report.html", "diagnosis.json", "residuals.csv", "suggested.csv")
@@ -225,6 +225,8 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     out: Dict[str, List[str]] = {k: [] for k in ("answer", "where", "which", "shrink", "identifiability",
                                                  "flagged")}
     cv = ("leave-one-out" if d.folds >= nu else f"{d.folds}-fold") + " cross-validation"
+    if d.prep.groups is not None:
+        cv += f" (whole groups of {literal(d.prep.group_column)} held out together)"
     shrink = 100.0 * (1.0 - f_rms / b_rms) if b_rms > 0 else 0.0
 
     # -- the answer ------------------------------------------------------
@@ -241,14 +243,16 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     lof = (f"lack-of-fit test ({'F against pure error' if v.test == 'F' else 'chi-square against the noise'}): "
            f"p = {v.p_value:.2g}")
     if d.verdict == "no gap":
+        nb = v.nominal_bound.bound if v.nominal_bound else float("nan")
         out["answer"].append(
             f"**No gap beyond measurement noise** (verdict: no gap). The nominal model's held-out RMS position "
-            f"error is {_um(b_rms)}, within 1.5× the noise floor {_um(floor)}, and the {lof}; no effect of the "
-            "library improves it significantly. Answer: **none**.")
+            f"error is {_um(b_rms)}, within its adequacy bound {_um(nb)} ({nb / floor:.2f}× the noise floor "
+            f"{_um(floor)}: see [the tests](#tests)), and the {lof}; no effect of the library improves it "
+            "significantly. Answer: **none**.")
     elif d.verdict == "unexplained":
         top = d.singles[0] if d.singles else None
-        extra = (f" The best single candidate, `{top.name}`, reaches {_um(top.heldout_rms)}, which the "
-                 "corrected paired held-out test (and BIC) cannot tell apart from the nominal model on these rows."
+        extra = (f" The best single candidate, `{top.name}`, reaches {_um(top.heldout_rms)}, which "
+                 f"{_support_words(d)} cannot tell apart from the nominal model on these rows."
                  if top is not None else "")
         out["answer"].append(
             f"**The gap stays unexplained** (verdict: unexplained). The nominal model misses the measurements "
@@ -366,7 +370,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         if len(d.steps) > 1:
             out["which"].append("Forward selection: " + " → ".join(
                 f"`{c.name}` {_um(c.heldout_rms)}" for c in d.steps) + " (each step kept only when it beats the "
-                "previous one on held-out rows beyond noise and lowers BIC).")
+                f"previous one by {_support_words(d)}: see [the tests](#tests)).")
     elif d.singles:
         t = d.singles[0]
         out["which"].append(
@@ -426,6 +430,63 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     return out
 
 
+def _support_words(d: diagnose.Diagnosis) -> str:
+    """The support test of ``d`` in a few words."""
+    src = d.noise_estimate.source
+    if src == "assumed":
+        return "the corrected paired held-out test (and BIC)"
+    return ("the corrected likelihood-ratio test against the " + ("given noise" if src == "given" else
+                                                                 "pure error of the repeats")
+            + " (and a lower held-out RMS)")
+
+
+def test_rows(d: diagnose.Diagnosis) -> List[List[str]]:
+    """One row per test of ``d``, in the order asked: where, the model, the
+    one it is tested against (nested: a support test; not nested: a tie
+    test), the test, its statistic, degrees of freedom, p-value and level,
+    the guard and the decision."""
+    out = []
+    for t in d.support:
+        stat = f"{t.statistic:.3g}" if np.isfinite(t.statistic) else "—"
+        out.append([t.step, f"`{t.big}`", f"`{t.small}`", {"chi2": "χ² (LR)", "F": "F (LR)"}.get(t.test, t.test),
+                    stat, ", ".join(str(v) for v in t.dof), f"{t.p_value:.2g}", f"{t.alpha:.2g}",
+                    f"{t.guard}: {'yes' if t.guard_passed else 'no'}" if t.nested else "— (not nested)",
+                    ("**supported**" if t.supported else "no") if t.nested else ("differs" if t.supported else "tie")])
+    return out
+
+
+def tests_text(d: diagnose.Diagnosis) -> List[str]:
+    """The paragraphs of the report's section on the tests behind the
+    verdict: the support rule (and how an assumed noise limits it), the
+    adequacy bounds used and how they were obtained, the lack-of-fit test."""
+    v = d.verdict_detail
+    out = [f"Support test: {d.support_rule}, at the family-corrected levels below (docs/model.md, \"The support "
+           "test\"). Each row asks whether a model beats the nested smaller one (or, for two models not nested, "
+           "whether the held-out errors tell them apart: a tie where they do not): the likelihood ratio's statistic "
+           "is the drop in the position residuals' sum of squares over the noise variance (χ², degrees of "
+           "freedom: the parameters added that are not at a bound), or that drop per parameter over the pure "
+           "error's mean square (F); the signed-rank statistic is W+ over the rows' held-out gains."]
+    if d.support_limits:
+        out.append("**" + d.support_limits + "**")
+    if v is not None and v.bound is not None:
+        b, nb = v.bound, v.nominal_bound
+        fin = d.final()
+        out.append(
+            f"Adequacy (docs/model.md, \"The adequacy bound\"): a model is adequate when its held-out RMS is within "
+            f"its bound and the lack-of-fit test does not reject it at {diagnose.LACK_OF_FIT_ALPHA:g}. The bound is "
+            f"the {b.quantile:g} quantile of the held-out RMS a correct model would reach on these rows and folds, "
+            f"by a linearised parametric bootstrap around the model's fit ({b.draws} data sets simulated from the "
+            f"fitted model's Jacobian plus the noise, refitted on the same folds). "
+            + (f"`{d.best}`: held-out {_um(fin.heldout_rms)} against its bound {_um(b.bound)} "
+               f"({b.factor:.2f}× the floor, median {_um(b.median)}, {b.parameters} parameters); the "
+               if d.chosen is not None else "The ")
+            + f"nominal model: held-out {_um(d.baseline.heldout_rms)} against {_um(nb.bound)} ({nb.factor:.2f}× the "
+            f"floor, {nb.parameters} parameters). Lack of fit of the final model: "
+            + (f"F = {v.statistic:.3g} ({v.dof[0]}, {v.dof[1]} dof)" if v.test == "F" and len(v.dof) > 1 else
+               f"χ² = {v.statistic:.3g} ({v.dof[0]} dof)") + f", p = {v.p_value:.2g}.")
+    return out
+
+
 def outlier_note(d: diagnose.Diagnosis, names: List[str]) -> str:
     """The outliers, said against the noise they were judged by: a noise
     that was assumed, not estimated, is called so, and when every row is
@@ -455,8 +516,10 @@ def summary(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
     how far the gap shrinks, the largest gaps, the next measurements; then
     the rows used and the flagged ones."""
     lines = [_plain(item) for item in headline_items(d, suggestion)]
+    by = (f" over {len(np.unique(d.prep.groups[d.prep.rows]))} groups of {d.prep.group_column!r}"
+          if d.prep.groups is not None else "")
     lines.append(f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
-                 f"{d.folds}-fold cross-validation")
+                 f"{d.folds}-fold cross-validation{by}")
     if d.prep.flags:
         lines.append(f"flagged rows: {', '.join(str(i + 1) for i in sorted(d.prep.flags))} (see the report)")
     if d.outliers:
@@ -808,7 +871,7 @@ def headline_items(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
     return items
 
 
-def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Document:
+def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None, validation=None) -> Document:
     prep = d.prep
     f = findings(d)
     names = _row_names(d)
@@ -825,10 +888,32 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Do
     doc.p(f"Data: {literal(src)} — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
           f"usable); robot **{literal(prep.robot.name)}** ({prep.robot.n} joints); measurement noise "
           f"{'assumed ' if ne == 'assumed' else ''}{_um(d.noise)} per axis"
-          f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation; "
+          f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation"
+          f"{' by ' + literal(prep.group_column) if prep.groups is not None else ''}; "
           f"candidate library: {', '.join(c.name for c in d.singles) or 'empty'}. cdsm {__version__}. The "
           "diagnosis was not told which effect is in the data.")
-    doc.ul(headline_items(d, suggestion))
+    items = headline_items(d, suggestion)
+    if validation is not None:
+        v = validation
+        items.append(f"**On a second file** ({literal(os.path.basename(v.source) or 'validation data')}, "
+                     f"{v.rows} of {v.rows_in_file} rows, nothing refitted): tip error RMS {_um(v.nominal_rms)} "
+                     f"nominal → {_um(v.model_rms)} with {literal(v.model)}; mean offset removed "
+                     f"{_um(v.nominal_rms_mean_aligned)} → {_um(v.model_rms_mean_aligned)}.")
+    doc.ul(items)
+    if validation is not None:
+        v = validation
+        doc.section("validation", "On a second file")
+        flagged = f" ({len(v.flagged)} flagged by the nominal model, as on the first file)" if v.flagged else ""
+        lost = "; ".join(f"the {k} model cannot predict {len(r)} row(s) ({', '.join(str(i + 1) for i in r[:10])}"
+                         f"{', ...' if len(r) > 10 else ''})" for k, r in v.unpredicted.items() if r)
+        doc.p(f"The nominal model and {literal(v.model)}, every parameter and the frame as fitted on "
+              f"{literal(src)}, predict {literal(os.path.basename(v.source) or 'the second file')}: nothing is "
+              f"refitted there. {v.rows} of its {v.rows_in_file} rows are scored"
+              f"{flagged}"
+              f"{'; ' + lost if lost else ''}. Tip position error, RMS over those rows: {_um(v.nominal_rms)} "
+              f"nominal, {_um(v.model_rms)} with {literal(v.model)}; after removing the error's mean over the "
+              f"rows (three translations): {_um(v.nominal_rms_mean_aligned)} and "
+              f"{_um(v.model_rms_mean_aligned)}.")
     doc.section("answer", "Answer")
     for t in f["answer"]:
         doc.p(t)
@@ -880,6 +965,12 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Do
                 f"{c.fit.rms * 1e6:.1f}", f"{c.fit.bic - b.fit.bic:+.1f}",
                 "; ".join(f"{lab} {txt}" for _, lab, txt, _, _ in param_rows(d, c))] for c in cands])
     fig("candidates")
+    doc.section("tests", "The tests behind the verdict")
+    for t in tests_text(d):
+        doc.p(t)
+    if d.support:
+        doc.table(["step", "model", "against", "test", "statistic", "dof", "p", "level", "guard", "decision"],
+                  test_rows(d))
     doc.section("identifiability", "Identifiability")
     for t in f["identifiability"]:
         doc.p(t)
@@ -896,7 +987,8 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Do
         doc.p(f["flagged"][0])
     doc.section("files", "Files")
     doc.ul(["`diagnosis.json` — the diagnosis (SI units; keys `best`, `baseline.heldout_rms_m`, `effects` best "
-            "first with `name`, `params`, `heldout_rms_m`)",
+            "first with `name`, `params`, `heldout_rms_m`; `support.tests` each test's statistic, `dof`, "
+            "`p_value`; `adequacy` the bounds used and how they were obtained)",
             "`residuals.csv` — per row: commanded tip, gap of the nominal and final model, held-out errors, "
             "features, flag (SI units)"]
            + (["`suggested.csv` — the suggested configurations"] if suggestion is not None else [])
@@ -930,8 +1022,8 @@ def _residual_rows(d: diagnose.Diagnosis) -> List[dict]:
     return out
 
 
-def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None, overwrite: bool = False
-          ) -> Dict[str, str]:
+def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None, overwrite: bool = False,
+          validation=None) -> Dict[str, str]:
     """Write ``report.md``, ``report.html`` (self-contained), ``diagnosis.json``,
     ``residuals.csv``, ``figures/*.png`` and, given a ``suggestion``
     (:func:`cdsm.calibration.experiment.suggest`), ``suggested.csv`` into
@@ -940,17 +1032,23 @@ def write(d: diagnose.Diagnosis, out: "str | os.PathLike[str]", suggestion=None,
     there, or when it holds files of these names (:data:`FILES`) that no
     cdsm run wrote, unless ``overwrite``). Returns {name: path}
     (``report_md``, ``report_html``, ``json``, ``csv``, ``figures``,
-    ``suggested_csv``, ``manifest``: see :meth:`cdsm.files.Run.finish`)."""
+    ``suggested_csv``, ``manifest``: see :meth:`cdsm.files.Run.finish`).
+    ``validation``: the models judged on a second file
+    (:func:`cdsm.calibration.validation.validate`), a headline item, a
+    section and the JSON's ``validation``."""
     with run_directory(out, "cdsm diagnose", FILES, overwrite=overwrite) as run:
         pngs = figures(d)
         paths = {"figures": os.path.join(run.out, "figures")}
         for name, data in pngs.items():
             run.write(f"figures/{name}.png", data, "figure")
-        doc = _build(d, pngs, suggestion)
+        doc = _build(d, pngs, suggestion, validation)
         paths["report_md"] = run.write_text("report.md", doc.markdown("figures", pngs), "report")
         name = os.path.basename(d.prep.meas.source or "") or "measurements"
         paths["report_html"] = run.write_text("report.html", doc.html(pngs, f"cdsm diagnose — {name}"), "report")
-        paths["json"] = run.write_json("diagnosis.json", d.to_json(), "diagnosis")
+        js = d.to_json()
+        if validation is not None:
+            js["validation"] = validation.to_json()
+        paths["json"] = run.write_json("diagnosis.json", js, "diagnosis")
         paths["csv"] = run.write_csv("residuals.csv", _residual_rows(d), "residuals")
         if suggestion is not None:
             paths["suggested_csv"] = run.write_text("suggested.csv", suggestion.csv_text(), "suggestion")
