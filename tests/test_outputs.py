@@ -73,6 +73,7 @@ def files(cdsm, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     (tmp_path / "d.csv").write_bytes((DATA / "table3.csv").read_bytes())
     (tmp_path / "r.toml").write_text(robot.to_toml())
+    (tmp_path / "v.csv").write_bytes((DATA / "table3.csv").read_bytes())
     os.symlink("d.csv", tmp_path / "link.csv")
     os.link(tmp_path / "d.csv", tmp_path / "hard.csv")
     (tmp_path / "sub").mkdir()
@@ -100,6 +101,7 @@ COLLISIONS = [
     (["diagnose", "d.csv", "--robot", "r.toml", "--json", "r.toml"], ["--json", "--robot"]),
     (["diagnose", "d.csv", "--json", "x.json", "--save-model", "sub/../x.json"], ["--json", "--save-model"]),
     (["diagnose", "d.csv", "--json", "link.csv"], ["--json", "DATA.csv"]),  # a symbolic link to the input
+    (["diagnose", "d.csv", "--validate", "v.csv", "--save-model", "v.csv"], ["--save-model", "--validate"]),
     (["diagnose", "d.csv", "--save-model", "hard.csv"], ["--save-model", "DATA.csv"]),  # a hard link
     (["diagnose", "rep/residuals.csv", "--report", "rep"], ["--report", "DATA.csv", "residuals.csv"]),
     (["diagnose", "d.csv", "--report", "out", "--json", "out/diagnosis.json"], ["--json", "--report"]),
@@ -144,7 +146,8 @@ def test_outputs_of_other_names_beside_the_inputs_are_fine(cdsm, files, capsys):
 # item 2: empty paths
 # ---------------------------------------------------------------------------
 #: the path options of every command (a new one must be declared: cdsm.cli.paths.add_path)
-PATH_OPTIONS = {"paper": {"robot", "out_dir"}, "diagnose": {"data", "robot", "json", "report", "save_model"},
+PATH_OPTIONS = {"paper": {"robot", "out_dir"},
+                "diagnose": {"data", "robot", "json", "report", "save_model", "validate"},
                 "compensate": {"targets", "model", "out"}, "tolerance": {"robot", "region", "json"},
                 "montecarlo": {"robot", "out", "tolerances"}, "export": {"robot", "mjcf", "urdf"}, "list": set()}
 BASE = {"paper": ["paper"], "diagnose": ["diagnose", "d.csv"], "export": ["export", "--mjcf", "o.xml"],

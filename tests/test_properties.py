@@ -542,7 +542,9 @@ def import_caspr(folder, stem: str, model, cables_stem: str = ""):
 
 
 def without_name(toml: str) -> str:
-    return "\n".join(ln for ln in toml.splitlines() if not ln.startswith("name = "))
+    # split at "\n" only: str.splitlines also breaks at U+0085, U+2028, ...,
+    # which a name may hold raw (TOML escapes only C0 controls and DEL)
+    return "\n".join(ln for ln in toml.split("\n") if not ln.startswith("name = "))
 
 
 @prop(40)

@@ -5,6 +5,7 @@ manipulators, with a Rust core. SI units everywhere (m, rad, N, kg).
 module                 holds
 =====================  ==========================================================
 ``robot``              :class:`Robot` (either kind: kinematics, solves, statics) and :class:`Solution`
+``kinds``              the arm's kind as data (:class:`cdsm.kinds.Kind`: task axes, masks, quantities, words)
 ``spatial``            the spatial kind's constants (``kind = "spatial"``: 3-D joints and holes)
 ``accuracy``           error studies of the nominal model (scenarios, Monte Carlo, tolerances)
 ``calibration``        the gap to a real arm (measurements, plant, diagnosis, compensation)

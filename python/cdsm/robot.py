@@ -22,14 +22,15 @@ from .files import read_text
 from .inputs import (CdsmDataWarning, CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector,
                      did_you_mean)
 from .display import ShortRepr, degrees
+from .kinds import KINDS as _KIND_OBJECTS, PLANAR, SPATIAL, Kind, kind_of
 
 __all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
            "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "PLAUSIBLE_LENGTH", "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 
-#: The robot kinds.
-KINDS = ("planar", "spatial")
+#: The robot kinds (:class:`cdsm.kinds.Kind`, strings).
+KINDS = tuple(_KIND_OBJECTS.values())
 
 #: The longest straight arm (m) taken without a warning about its unit.
 PLAUSIBLE_LENGTH = 10.0
@@ -52,11 +53,11 @@ _REASON_NAMES = np.array(REASONS)
 #: Pose-IK methods (:meth:`Robot.ik`).
 IK_METHODS = ("lm", "closed_form")
 
-#: Named task masks of the pose IK over the planar task coordinates (x, y, phi).
-TASK_MASKS = {"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}
+#: Named task masks of the pose IK over the planar task coordinates (x, y, phi) (the planar kind's).
+TASK_MASKS = PLANAR.masks
 
-#: Task masks of a spatial arm's pose IK.
-SPATIAL_MASKS = ("position", "pointing", "pose")
+#: Task masks of a spatial arm's pose IK (the spatial kind's).
+SPATIAL_MASKS = tuple(SPATIAL.masks)
 
 
 @dataclass(frozen=True, repr=False)
@@ -258,7 +259,7 @@ class Robot:
         spatial hole outside its disk's radius is refused, as in a robot
         file (False for error studies that move holes past the nominal
         outline; such a robot's :meth:`to_toml` does not load back)."""
-        if self.kind == "planar":
+        if self.kind.pair_holes:
             h = np.ascontiguousarray(as_array("holes", holes))
             if h.shape != self.holes.shape:
                 raise CdsmInputError(f"`holes`: expected shape {self.holes.shape}, got {h.shape}")
@@ -284,9 +285,10 @@ class Robot:
 
     # ---- what every kind has -------------------------------------------
     @property
-    def kind(self) -> str:
-        """``"planar"`` or ``"spatial"``."""
-        return self.core.kind
+    def kind(self) -> Kind:
+        """``"planar"`` or ``"spatial"``: a :class:`cdsm.kinds.Kind`, the
+        string with the kind's facts (task axes, masks, ...)."""
+        return kind_of(self.core.kind)
 
     @property
     def threads(self) -> int:
@@ -311,7 +313,7 @@ class Robot:
     @property
     def task(self) -> int:
         """Width of the task vector: 3 (planar ``[x, y, phi]``) or 6 (spatial)."""
-        return 3 if self.kind == "planar" else 6
+        return self.kind.task
 
     @property
     def joint_limits(self) -> np.ndarray:
@@ -329,7 +331,7 @@ class Robot:
         spatial ``(3,)``. The default of every statics call (robot file
         ``gravity``; 0: a horizontal plane)."""
         g = np.array(self.core.gravity)
-        return g[:2] if self.kind == "planar" else g
+        return g[:self.kind.dim]
 
     @property
     def straight_length(self) -> float:
@@ -437,7 +439,7 @@ class Robot:
         """Planar: ``(2n, n+1, 2, 2)`` hole positions: cable, disk (0 = base),
         face (a, b), (x, y), m. Spatial: per cable, its holes ``(2 end + 1,
         3)`` in face frames, m."""
-        if self.kind == "planar":
+        if self.kind.pair_holes:
             n = self.n
             return self.core.holes.reshape(2 * n, n + 1, 2, 2)
         return self.holes_by_cable()
@@ -560,7 +562,7 @@ class Robot:
         arm's disk angles are running sums of the joint angles, so a row
         whose sum overflows a float (``1e308 + 1e308``) is refused too."""
         t, single = as_batch("theta", theta, self.n)
-        if self.kind == "planar":
+        if self.kind.summed_angles:
             with np.errstate(over="ignore"):
                 bad = ~np.isfinite(np.cumsum(t, axis=1)).all(axis=1)
             if bad.any():
@@ -635,29 +637,15 @@ class Robot:
         enforced only with ``enforce_limits``.
         """
         # the kind's word for it: a planar arm's pose, a spatial arm's target
-        name, target = ("pose", pose) if pose is not None else (
-            "pose" if self.kind == "planar" else "target", target)
+        name, target = ("pose", pose) if pose is not None else (self.kind.target_arg, target)
         if target is None:
             raise CdsmInputError("`target`: the targets (N, task) are missing")
         p, single = as_batch(name, target, self.task, finite=False)  # checked by the core
         if method not in IK_METHODS:
             raise CdsmInputError(f"`method`: expected one of {', '.join(map(repr, IK_METHODS))}, got {method!r}")
-        res = self.core.ik(p, self._seed(seed, p.shape[0]), self._mask(mask), method, as_finite("tol", tol),
+        res = self.core.ik(p, self._seed(seed, p.shape[0]), self.kind.core_mask(mask), method, as_finite("tol", tol),
                            as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
         return Solution.from_core(res, self.n, single, self)
-
-    def _mask(self, mask):
-        if self.kind == "spatial":
-            if not isinstance(mask, str) or mask not in SPATIAL_MASKS:
-                raise CdsmInputError(f"`mask`: expected one of {', '.join(map(repr, SPATIAL_MASKS))} "
-                                     f"for a spatial arm, got {mask!r}")
-            return mask
-        if isinstance(mask, str):
-            if mask not in TASK_MASKS:
-                raise CdsmInputError(f"`mask`: expected one of {', '.join(map(repr, TASK_MASKS))} "
-                                     f"or 3 weights, got {mask!r}")
-            return list(TASK_MASKS[mask])
-        return [float(v) for v in as_vector("mask", mask, 3)]
 
     def solve_cables(self, lengths, seed=None, method: str = "auto", tol: float = 1e-12,
                      max_iter: int = 100, enforce_limits: bool = False) -> Solution:
@@ -673,7 +661,7 @@ class Robot:
         default 0.
         """
         # the kind's word for them: a planar arm's upper cables
-        name = "upper" if self.kind == "planar" else "lengths"
+        name = self.kind.command_arg
         u, single = as_batch(name, lengths, len(self.position_cables), finite=False)  # checked by the core
         res = self.core.solve_cables(u, self._seed(seed, u.shape[0]), str(method), as_finite("tol", tol),
                                      as_iterations("max_iter", max_iter), bool(enforce_limits), self.threads)
@@ -702,14 +690,9 @@ class Robot:
             return arr
 
         w = rowed("tip_wrench", tip_wrench, self.task)
-        if w is not None and self.kind == "planar":
-            # [Fx, Fy, Mz] -> the core's [Fx, Fy, Fz, Mz]
-            w = np.ascontiguousarray(np.insert(w, 2, 0.0, axis=1))
+        w = None if w is None else self.kind.core_wrench(w)
         f = rowed(force_name, force, self.cables - len(self.position_cables))
-        g = None
-        if gravity is not None:
-            g = [float(v) for v in as_vector("gravity", gravity, 2 if self.kind == "planar" else 3)]
-            g = g + [0.0] if self.kind == "planar" else g
+        g = None if gravity is None else self.kind.core_gravity(gravity)
         res = self.core.tensions(t, None if f is None else f.reshape(-1), None if w is None else w.reshape(-1),
                                  g, as_finite("min_tension", min_tension), self.threads, friction,
                                  sliding == "pull")
@@ -826,7 +809,7 @@ class Robot:
         coupled equations. Returns an :class:`ElasticSolution` (also flags
         slack cables: ``feasible``).
         """
-        name = "upper" if self.kind == "planar" else "lengths"
+        name = self.kind.command_arg
         u, single = as_batch(name, lengths, len(self.position_cables))
         force, fname = self._force(force, lower)
         rows = u.shape[0]
@@ -841,13 +824,9 @@ class Robot:
             return arr
 
         w = rowed("tip_wrench", tip_wrench, self.task)
-        if w is not None and self.kind == "planar":
-            w = np.ascontiguousarray(np.insert(w, 2, 0.0, axis=1))
+        w = None if w is None else self.kind.core_wrench(w)
         f = rowed(fname, force, self.cables - len(self.position_cables))
-        g = None
-        if gravity is not None:
-            g = [float(v) for v in as_vector("gravity", gravity, 2 if self.kind == "planar" else 3)]
-            g = g + [0.0] if self.kind == "planar" else g
+        g = None if gravity is None else self.kind.core_gravity(gravity)
         res = self.core.solve_elastic(u, self._seed(seed, rows), None if f is None else f.reshape(-1),
                                       None if w is None else w.reshape(-1), g,
                                       as_finite("min_tension", min_tension), as_finite("tol", tol),

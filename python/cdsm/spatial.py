@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import warnings
 
+from .kinds import SPATIAL
 from .robot import SPATIAL_MASKS, Robot
 
 __all__ = ["SPATIAL_MASKS", "TASK"]
 
-#: Task-space width of a spatial arm: x, y, z (m), rotation vector (rad).
-TASK = 6
+#: Task-space width of a spatial arm: x, y, z (m), rotation vector (rad) (the spatial kind's).
+TASK = SPATIAL.task
 
 
 def __getattr__(name: str):

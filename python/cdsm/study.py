@@ -59,6 +59,7 @@ import numpy as np
 
 from .accuracy import montecarlo, sampling, scenarios, sensitivity, statics, workspace
 from .inputs import CdsmInputError
+from .kinds import KINDS as ARM_KINDS, PLANAR, Kind
 from .progress import Progress
 from .robot import Robot
 from .display import ShortRepr
@@ -76,8 +77,9 @@ PROTOCOL_NAMES = {"attitude0": "attitude-0 protocol", "joint": "joint-space prot
 KINDS = ("cable", "radial", "normal")
 #: Sampled configurations of the ``sampled`` protocol (default).
 DEFAULT_CONFIGURATIONS = 1000
-#: Monte-Carlo samples per configuration (default, at most), by kind: the paper's 1000; 200 over sampled 3-D arms.
-DEFAULT_SAMPLES = {"planar": 1000, "spatial": 200}
+#: Monte-Carlo samples per configuration (default, at most), by kind: the paper's 1000; 200 over sampled 3-D arms
+#: (each kind's :attr:`cdsm.kinds.Kind.default_samples`).
+DEFAULT_SAMPLES = {str(k): k.default_samples for k in ARM_KINDS.values()}
 #: Monte-Carlo solves of a study by default, at most, counted as solves of the paper's arm (fewer samples per
 #: configuration over large grids or large arms, not fewer than :data:`MIN_SAMPLES`): the paper's 1000 samples over
 #: its two grids stay.
@@ -101,7 +103,7 @@ def default_samples(robot: Robot, configurations: int = 0) -> int:
     but not fewer than :data:`MIN_SAMPLES`."""
     size = robot.n * len(robot.position_cables) / 9.0
     cap = int(DEFAULT_SOLVES / max(size, 1.0)) // max(int(configurations), 1)
-    return int(min(DEFAULT_SAMPLES[robot.kind], max(MIN_SAMPLES, cap)))
+    return int(min(robot.kind.default_samples, max(MIN_SAMPLES, cap)))
 
 
 def configuration_count(robot: Robot, protocols: List[str], configurations: int = 1000, grid=None) -> int:
@@ -124,12 +126,14 @@ class Scenario(ShortRepr):
     """One single error. key: ``cable3+``, ``disk2-``, ``radial3-``, ...
     dL: error on the position cables' lengths (planar (n,) upper cables;
     spatial (m_pos,)), m. dh: planar (n,) error on each disk's hole height,
-    m (None for spatial arms). figure: the paper's figure it reproduces (set
+    m (None for a cable error and for spatial arms). figure: the paper's figure it reproduces (set
     by :mod:`cdsm.paper`), or "". kind: ``"cable"``, ``"hole"`` (planar),
     ``"radial"`` or ``"normal"`` (spatial). cable: the cable's file index
     (0-based; planar hole scenarios: the upper cable of the pair). sign: ±1.
     size: the error's magnitude, m. dholes: spatial (3 H,) error on every
-    hole coordinate (the order of ``robot.flat_holes``), m, or None."""
+    hole coordinate (the order of ``robot.flat_holes``), m, or None (a
+    cable error, planar arms). The kind says which of the two a hole error
+    is given by (:attr:`cdsm.kinds.Kind.hole_error_arg`)."""
 
     key: str
     label: str
@@ -143,26 +147,30 @@ class Scenario(ShortRepr):
     dholes: Optional[np.ndarray] = None
 
 
+@dataclass(frozen=True)
+class _PlanarPairs:
+    """What :func:`scenario_set` reads of a planar arm of ``n`` joints: its
+    cables in pairs (upper cable ``2i`` and lower ``2i + 1`` end at disk
+    ``i + 1``; the upper ones are position-controlled)."""
+
+    n: int
+    kind: Kind = PLANAR
+
+    @property
+    def position_cables(self) -> List[int]:
+        return list(range(0, 2 * self.n, 2))
+
+    @property
+    def cable_ends(self) -> List[int]:
+        return [c // 2 + 1 for c in range(2 * self.n)]
+
+
 def planar_scenarios(n: int, cable_error: float = DEFAULT_DL_TOL,
                      hole_error: float = DEFAULT_DH_TOL) -> List[Scenario]:
-    """The planar single errors: ±``cable_error`` on each upper cable (cables
-    1, 3, 5, ...) and ±``hole_error`` on each disk's holes (m)."""
-    out = []
-    for i in range(n):
-        for sign in (-1.0, 1.0):
-            dl = np.zeros(n)
-            dl[i] = sign * cable_error
-            out.append(Scenario(f"cable{2 * i + 1}{'+' if sign > 0 else '-'}",
-                                f"{sign * cable_error * 1e3:+g} mm on cable {2 * i + 1}", dl, np.zeros(n),
-                                kind="cable", cable=2 * i, sign=sign, size=float(cable_error)))
-    for i in range(n):
-        for sign in (-1.0, 1.0):
-            dh = np.zeros(n)
-            dh[i] = sign * hole_error
-            out.append(Scenario(f"disk{i + 1}{'+' if sign > 0 else '-'}",
-                                f"{sign * hole_error * 1e3:+g} mm on disk {i + 1}'s holes", np.zeros(n), dh,
-                                kind="hole", cable=2 * i, sign=sign, size=float(hole_error)))
-    return out
+    """The planar single errors of an arm of ``n`` joints: ±``cable_error``
+    on each upper cable (cables 1, 3, 5, ...) and ±``hole_error`` on each
+    disk's holes (m) — :func:`scenario_set` of a planar arm."""
+    return scenario_set(_PlanarPairs(int(n)), cable_error, hole_error)
 
 
 def hole_direction(robot: Robot, cable: int, kind: str) -> np.ndarray:
@@ -190,35 +198,50 @@ def spatial_scenarios(robot: Robot, cable_error: float = DEFAULT_DL_TOL,
                       hole_error: float = DEFAULT_DH_TOL) -> List[Scenario]:
     """The single errors of a spatial arm: for each position-controlled cable
     ±``cable_error`` on its length, then ±``hole_error`` radially and along
-    the normal on its holes (m). Holes of force-controlled cables do not move
-    the tip of the rigid model (their lengths are not commanded): no scenario
-    (the Monte Carlo perturbs them all the same)."""
-    pos = robot.position_cables
+    the normal on its holes (m) — :func:`scenario_set` of a spatial arm.
+    Holes of force-controlled cables do not move the tip of the rigid model
+    (their lengths are not commanded): no scenario (the Monte Carlo perturbs
+    them all the same)."""
+    return scenario_set(robot, cable_error, hole_error)
+
+
+def _hole_move(robot: Robot, error: str, i: int, cable: int) -> np.ndarray:
+    """The unit hole error ``error`` of position cable ``cable`` (the
+    ``i``-th): a planar disk's hole height (``"hole"``, (n,), the disk cable
+    ``cable`` ends at) or a move of every hole of the cable (3 H,)."""
+    if error == "hole":
+        unit = np.zeros(robot.n)
+        unit[robot.cable_ends[cable] - 1] = 1.0
+        return unit
+    return hole_direction(robot, cable, error)
+
+
+def scenario_set(robot: Robot, cable_error: float = DEFAULT_DL_TOL,
+                 hole_error: float = DEFAULT_DH_TOL) -> List[Scenario]:
+    """The single errors of ``robot`` (module doc): ±``cable_error`` on each
+    position cable's length, then ±``hole_error`` on the holes, each of the
+    kind's hole errors (:attr:`cdsm.kinds.Kind.hole_scenarios`: planar each
+    disk's hole height, spatial each position cable's holes radially and
+    along the normal), m."""
+    kind, pos = robot.kind, robot.position_cables
     out = []
     for i, c in enumerate(pos):
         for sign in (-1.0, 1.0):
             dl = np.zeros(len(pos))
             dl[i] = sign * cable_error
             out.append(Scenario(f"cable{c + 1}{'+' if sign > 0 else '-'}",
-                                f"{sign * cable_error * 1e3:+g} mm on cable {c + 1}'s length", dl,
+                                kind.cable_scenario_label.format(size=sign * cable_error * 1e3, cable=c + 1), dl,
                                 kind="cable", cable=c, sign=sign, size=float(cable_error)))
-    for kind, what in (("radial", "radially"), ("normal", "along the disk normal")):
-        for c in pos:
-            unit = hole_direction(robot, c, kind)
+    for error, key, label in kind.hole_scenarios:
+        for i, c in enumerate(pos):
+            unit = _hole_move(robot, error, i, c)
+            words = dict(cable=c + 1, disk=robot.cable_ends[c])
             for sign in (-1.0, 1.0):
-                out.append(Scenario(f"{kind}{c + 1}{'+' if sign > 0 else '-'}",
-                                    f"{sign * hole_error * 1e3:+g} mm {what} on cable {c + 1}'s holes",
-                                    np.zeros(len(pos)), kind=kind, cable=c, sign=sign, size=float(hole_error),
-                                    dholes=sign * hole_error * unit))
+                out.append(Scenario(key.format(**words) + ("+" if sign > 0 else "-"),
+                                    label.format(size=sign * hole_error * 1e3, **words), np.zeros(len(pos)),
+                                    kind=error, cable=c, sign=sign, size=float(hole_error),
+                                    **{kind.hole_error_arg: sign * hole_error * unit}))
     return out
-
-
-def scenario_set(robot: Robot, cable_error: float = DEFAULT_DL_TOL,
-                 hole_error: float = DEFAULT_DH_TOL) -> List[Scenario]:
-    """The single errors of ``robot``'s kind (module doc)."""
-    if robot.kind == "spatial":
-        return spatial_scenarios(robot, cable_error, hole_error)
-    return planar_scenarios(robot.n, cable_error, hole_error)
 
 
 @dataclass(repr=False)
@@ -268,11 +291,8 @@ def choose_protocols(robot: Robot, grid=None, theta=None) -> Tuple[List[str], st
     doc): a given ``theta`` is sampled; a given ``grid`` (planar) is gridded."""
     if theta is not None:
         return ["sampled"], "the errors are applied at the configurations given"
-    if robot.kind == "spatial":
-        return ["sampled"], ("a spatial arm has no single attitude to hold over its workspace, and a joint grid is "
-                             "impossible past a few joints: the errors are applied at configurations sampled in "
-                             "the joint box (scrambled Sobol sequence); jump points are judged between nearest "
-                             "neighbours in joint space")
+    if not robot.kind.grid_protocols:
+        return ["sampled"], robot.kind.no_grid_reason
     n = robot.n
     if grid is None and workspace.grid_values(n) < workspace.MIN_LINE:
         return ["sampled"], (f"the ±30° joint grid of {n} joints has only {workspace.grid_values(n)} values per "
@@ -303,8 +323,7 @@ def _workspace(robot: Robot, protocol: str, grid, theta, configurations: int, me
 
 def _jumps(robot: Robot, ws: workspace.Workspace, ds: np.ndarray):
     if ws.protocol == "sampled":
-        d = 3 if robot.kind == "spatial" else 2
-        return sampling.jump_points(ws.theta0, ds[:, :d], neighbours=ws.neighbours)
+        return sampling.jump_points(ws.theta0, ds[:, :robot.kind.dim], neighbours=ws.neighbours)
     return workspace.jump_points(robot, ws, ds)
 
 
@@ -316,11 +335,10 @@ def _initial(ws: workspace.Workspace) -> np.ndarray:
 def _scenario(robot: Robot, ws: workspace.Workspace, sc: Scenario) -> ScenarioResult:
     ok0 = ws.reachable
     theta0 = _initial(ws)
-    if robot.kind == "spatial":
-        dev = scenarios.deviation(robot, theta0, dL=sc.dL, dholes=sc.dholes, statics=False)
-    else:
-        dev = scenarios.deviation(robot, theta0, dL=sc.dL, dh=sc.dh if sc.dh is not None and np.any(sc.dh) else None,
-                                  statics=False)
+    arg = robot.kind.hole_error_arg
+    hole = getattr(sc, arg)
+    dev = scenarios.deviation(robot, theta0, dL=sc.dL, statics=False,
+                              **{arg: hole if hole is not None and np.any(hole) else None})
     ok = ok0 & np.asarray(dev.ok, bool)
     ds = np.where(ok[:, None], dev.dS, np.nan)
     return ScenarioResult(sc, ws.protocol, ds, ok, _jumps(robot, ws, ds))
@@ -330,13 +348,18 @@ def _singular(robot: Robot, ws: workspace.Workspace) -> np.ndarray:
     """(N,) singular measure: planar sigma_min / sigma_max of the pose
     Jacobian (attitude row scaled to m); spatial of the position Jacobian
     (:func:`cdsm.accuracy.sampling.singular_measure`); NaN where unreachable."""
-    th = _initial(ws)
-    if robot.kind == "spatial":
-        r = sampling.singular_measure(robot, th)
-    else:
-        sv = workspace.singular_values(robot, th)
-        r = sv[:, -1] / np.maximum(sv[:, 0], 1e-300)
+    r = _SINGULAR[robot.kind.singular](robot, _initial(ws))
     return np.where(ws.reachable, r, np.nan)
+
+
+def _pose_singular(robot: Robot, theta: np.ndarray) -> np.ndarray:
+    """(N,) sigma_min / sigma_max of the pose Jacobian, the attitude row scaled to m."""
+    sv = workspace.singular_values(robot, theta)
+    return sv[:, -1] / np.maximum(sv[:, 0], 1e-300)
+
+
+#: The singular measure by the Jacobian rows it takes (:attr:`cdsm.kinds.Kind.singular`).
+_SINGULAR = {"pose": _pose_singular, "position": sampling.singular_measure}
 
 
 # ---------------------------------------------------------------------------
@@ -376,7 +399,8 @@ class Study(ShortRepr):
     friction: Dict[str, statics.FrictionMap] = field(default_factory=dict)
 
     @property
-    def kind(self) -> str:
+    def kind(self) -> Kind:
+        """The robot's :class:`cdsm.kinds.Kind`."""
         return self.robot.kind
 
     @property

@@ -19,6 +19,7 @@ import numpy as np
 from .. import _cdsm
 from ..files import check_path, json_safe, read_npz, write_npz
 from ..inputs import CdsmInputError, as_batch, as_count, as_finite, as_tolerances
+from ..kinds import KINDS, PLANAR, SPATIAL
 from ..progress import Progress
 from ..robot import Robot
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
@@ -31,13 +32,14 @@ __all__ = ["QUANTILE_BOUND", "hist_quantile", "MonteCarlo", "monte_carlo", "mont
            "summary", "save_npz", "load_npz"]
 
 DEFAULT_PERCENTILES = (50.0, 95.0, 99.0)
-QUANTITY_UNITS = ("m", "m", "rad", "m")
-
-
-QUANTITY_NAMES = ("dX", "dY", "dphi", "dXY")
-#: The quantities of a spatial arm's study: dX, dY, dZ, |d(X, Y, Z)| (m), rotation angle (rad).
-SPATIAL_QUANTITY_NAMES = ("dX", "dY", "dZ", "dXYZ", "rot")
-SPATIAL_QUANTITY_UNITS = ("m", "m", "m", "m", "rad")
+#: The quantities of a planar arm's study: dX, dY (m), dphi (rad), |d(X, Y)| (m) (the planar kind's).
+QUANTITY_NAMES = PLANAR.quantities
+QUANTITY_UNITS = PLANAR.quantity_units
+#: The quantities of a spatial arm's study: dX, dY, dZ, |d(X, Y, Z)| (m), rotation angle (rad) (the spatial kind's).
+SPATIAL_QUANTITY_NAMES = SPATIAL.quantities
+SPATIAL_QUANTITY_UNITS = SPATIAL.quantity_units
+#: The units of a study's quantities, by the quantities' names (each kind's).
+_UNITS = {k.quantities: k.quantity_units for k in KINDS.values()}
 
 
 @dataclass(repr=False)
@@ -262,10 +264,9 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     if robot.kind == "spatial":
         st = robot.core.monte_carlo(theta0, dl, None, dh if np.any(dh_tol) else None, method, 1e-12, 100,
                                     bool(check_slack), th)
-        names = SPATIAL_QUANTITY_NAMES
     else:
         st = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
-        names = QUANTITY_NAMES
+    names = robot.kind.quantities
     q = st.quantities
     return MonteCarlo(theta0=theta0, count=st.count.astype(np.int64), failed=st.failed.astype(np.int64),
                       sum=st.sum.reshape(-1, q), sum_sq=st.sum_sq.reshape(-1, q),
@@ -310,7 +311,7 @@ def summary(mc: MonteCarlo, percentiles: Sequence[float] = DEFAULT_PERCENTILES) 
                min=mc.min, max=mc.max, max_abs=mc.max_abs, sum=mc.sum, sum_sq=mc.sum_sq,
                hist=mc.dense_hist(), hist_edges=mc.hist_edges(), percentiles=pct,
                quantities=np.array(mc.quantities),
-               units=np.array(SPATIAL_QUANTITY_UNITS if mc.quantities == SPATIAL_QUANTITY_NAMES else QUANTITY_UNITS))
+               units=np.array(_UNITS.get(tuple(mc.quantities), QUANTITY_UNITS)))
     cols = [mc.percentile(p) for p in pct]
     out["dxy_percentiles"] = np.stack(cols, axis=1) if cols else np.zeros((len(mc.count), 0))
     for key, col in zip(keys, cols):

@@ -33,12 +33,12 @@ def cable_paths(robot, theta) -> List[np.ndarray]:
     return out
 
 
-def _disk_outline(T: np.ndarray, radius: float, planar: bool) -> np.ndarray:
-    """Points of a disk face of ``radius`` (m) in the frame ``T``: its
-    diameter across the plane (planar) or its circle (spatial)."""
-    if planar:
-        return np.array([T[:3, :3] @ [0.0, s * radius, 0.0] + T[:3, 3] for s in (-1.0, 1.0)])
-    a = np.linspace(0.0, 2.0 * np.pi, 48)
+def _disk_outline(T: np.ndarray, radius: float, angles) -> np.ndarray:
+    """Points of a disk face of ``radius`` (m) in the frame ``T`` at
+    ``angles`` (rad) about its normal (the face's x axis): a spatial face's
+    circle, a planar face's diameter across the plane
+    (:attr:`cdsm.kinds.Kind.figure`)."""
+    a = np.asarray(angles, dtype=float)
     return (T[:3, :3] @ np.stack([np.zeros_like(a), radius * np.cos(a), radius * np.sin(a)]) + T[:3, 3:4]).T
 
 
@@ -66,20 +66,24 @@ def draw_arm(robot, theta=None, ax=None, cables: bool = True, title: Optional[st
         from ..inputs import CdsmInputError
 
         raise CdsmInputError(f"`theta`: expected ({robot.n},) joint angles (rad), got shape {theta.shape}")
-    planar = robot.kind == "planar"
+    dim, look = robot.kind.dim, robot.kind.figure
     if ax is None:
         fig = plt.figure(figsize=(6.4, 4.8))
-        ax = fig.add_subplot(111) if planar else fig.add_subplot(111, projection="3d")
+        ax = fig.add_subplot(111, projection=look["projection"])
     frames = robot.disk_frames(theta[None])[0]
     radii = robot.radii
-    xy = (lambda p: (p[..., 0], p[..., 1])) if planar else (lambda p: (p[..., 0], p[..., 1], p[..., 2]))
+
+    def xy(p):
+        return tuple(p[..., i] for i in range(dim))
+
     # the backbone: base, then faces a and b of each disk
     spine = np.vstack([np.zeros(3)] + [frames[d, f, :3, 3] for d in range(len(frames)) for f in (0, 1)])
     ax.plot(*xy(spine), color="black", lw=1.2, label="backbone")
-    ax.plot(*xy(_disk_outline(np.eye(4), radii[0], planar)), color="0.45", lw=3 if planar else 1)
+    ax.plot(*xy(_disk_outline(np.eye(4), radii[0], look["disk_angles"])), color="0.45", lw=look["disk_lw"])
     for d in range(len(frames)):
         for f in (0, 1):
-            ax.plot(*xy(_disk_outline(frames[d, f], radii[d + 1], planar)), color="0.45", lw=3 if planar else 1)
+            ax.plot(*xy(_disk_outline(frames[d, f], radii[d + 1], look["disk_angles"])), color="0.45",
+                    lw=look["disk_lw"])
     if cables:
         modes = set(robot.position_cables)
         seen = set()
@@ -91,9 +95,9 @@ def draw_arm(robot, theta=None, ax=None, cables: bool = True, title: Optional[st
     ax.plot(*xy(spine[-1:]), "o", color="black", ms=4, label="end frame")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    if planar:
+    if dim == 2:
         ax.set_aspect("equal", adjustable="datalim")
-    else:
+    else:  # 3-D axes: equal scales by a cube of limits
         ax.set_zlabel("z (m)")
         lo, hi = spine.min(axis=0) - radii.max(), spine.max(axis=0) + radii.max()
         mid, half = (lo + hi) / 2, (hi - lo).max() / 2

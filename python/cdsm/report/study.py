@@ -24,7 +24,7 @@ from ..accuracy.tolerance import pooled_percentile
 from ..accuracy.workspace import MIN_LINE, REASONS
 from ..display import degrees
 from ..files import run_directory
-from ..study import DEFAULT_SAMPLES, DEFAULT_SOLVES, NEAR_SINGULAR, PROTOCOL_NAMES, finite_rms, worst_configurations
+from ..study import DEFAULT_SOLVES, NEAR_SINGULAR, PROTOCOL_NAMES, finite_rms, worst_configurations
 from . import study_figures
 from .document import HEADLINE, Document, literal
 from .figures import FigureJob, file_key, render_pngs
@@ -94,47 +94,65 @@ def _pname(p: str) -> str:
 
 def _q(study) -> str:
     """The position error's name: |d(X, Y)| (planar) or |d(X, Y, Z)|."""
-    return "|d(X, Y, Z)|" if study.kind == "spatial" else "|d(X, Y)|"
+    return study.kind.norm_label
 
 
 def _slug(study) -> str:
-    return "dxyz" if study.kind == "spatial" else "dxy"
+    return study.kind.norm_slug
 
 
 # ---------------------------------------------------------------------------
 # rows (SI units): the CSV files
 # ---------------------------------------------------------------------------
+def _row(spec, value) -> dict:
+    """A CSV row of the columns ``spec`` (``(name, key)`` pairs of a kind's
+    ``csv``): ``value(what, index)`` for each key ``what[:index]``."""
+    row = {}
+    for name, key in spec:
+        what, _, index = key.partition(":")
+        row[name] = value(what, int(index) if index else None)
+    return row
+
+
+#: The values of ``scenarios.csv`` by key (:attr:`cdsm.kinds.Kind.csv`): f(study, result, workspace, index).
+_SCENARIO_VALUES = {
+    "key": lambda st, r, ws, i: r.scenario.key,
+    "label": lambda st, r, ws, i: r.scenario.label,
+    "figure": lambda st, r, ws, i: r.scenario.figure,
+    "protocol": lambda st, r, ws, i: r.protocol,
+    "error": lambda st, r, ws, i: r.scenario.kind,
+    "cable": lambda st, r, ws, i: r.scenario.cable + 1,
+    "sign": lambda st, r, ws, i: int(r.scenario.sign),
+    "size": lambda st, r, ws, i: r.scenario.size,
+    "configurations": lambda st, r, ws, i: len(r.ok),
+    "solved": lambda st, r, ws, i: int(r.ok.sum()),
+    "unreachable": lambda st, r, ws, i: ws.n_unreachable,
+    "no_solution": lambda st, r, ws, i: int((ws.reachable & ~r.ok).sum()),
+    "rms_position": lambda st, r, ws, i: finite_rms(r.position),
+    "max_position": lambda st, r, ws, i: nanmax(r.position),
+    "max_abs": lambda st, r, ws, i: nanmax(np.abs(r.dS[:, i])),
+    "rms_rotation": lambda st, r, ws, i: finite_rms(r.rotation),
+    "max_rotation": lambda st, r, ws, i: nanmax(r.rotation),
+    "jump_points": lambda st, r, ws, i: r.jump_count,
+    "jump_pairs": lambda st, r, ws, i: int(r.jumps.edge_jump.sum()),
+    "near_singular_jumps": lambda st, r, ws, i: int((r.jumps.point & (st.singular[r.protocol] < NEAR_SINGULAR))
+                                                    .sum()),
+}
+
+
 def scenario_rows(study) -> List[dict]:
-    """One row per scenario and protocol (m, rad). Planar arms: label,
-    figure, protocol, counts, RMS and max |d(X, Y)|, max |dX|, |dY|,
-    |dphi|, jump points and (grid protocols) their reasons (``jumps_*``
-    and ``jump_edges``, for ``jumps.csv``). Spatial arms: kind, cable, sign,
-    error, counts, RMS and max |d(X, Y, Z)|, max |dX|, |dY|, |dZ|, RMS and
-    max rotation, jump points and pairs, those at near-singular
-    configurations."""
+    """One row per scenario and protocol (m, rad), the columns of the
+    kind's ``csv["scenarios"]``. Planar arms: label, figure, protocol,
+    counts, RMS and max |d(X, Y)|, max |dX|, |dY|, |dphi|, jump points and
+    (grid protocols) their reasons (``jumps_*`` and ``jump_edges``, for
+    ``jumps.csv``). Spatial arms: kind, cable, sign, error, counts, RMS and
+    max |d(X, Y, Z)|, max |dX|, |dY|, |dZ|, RMS and max rotation, jump points
+    and pairs, those at near-singular configurations."""
+    spec = study.kind.csv["scenarios"]
     rows = []
     for r in study.scenarios:
         ws = study.workspaces[r.protocol]
-        d = r.dS
-        sc = r.scenario
-        if study.kind == "spatial":
-            rows.append(dict(
-                scenario=sc.key, label=sc.label, protocol=r.protocol, kind=sc.kind, cable=sc.cable + 1,
-                sign=int(sc.sign), error_m=sc.size, configurations=len(r.ok), solved=int(r.ok.sum()),
-                rms_dxyz_m=finite_rms(r.position), max_dxyz_m=nanmax(r.position),
-                max_abs_dx_m=nanmax(np.abs(d[:, 0])), max_abs_dy_m=nanmax(np.abs(d[:, 1])),
-                max_abs_dz_m=nanmax(np.abs(d[:, 2])), rms_rotation_rad=finite_rms(r.rotation),
-                max_rotation_rad=nanmax(r.rotation), jump_points=r.jump_count,
-                jump_pairs=int(r.jumps.edge_jump.sum()),
-                jump_points_near_singular=int((r.jumps.point & (study.singular[r.protocol] < NEAR_SINGULAR)).sum())))
-            continue
-        pos = r.position
-        row = dict(scenario=sc.key, label=sc.label, figure=sc.figure, protocol=r.protocol,
-                   configurations=len(r.ok), solved=int(r.ok.sum()), unreachable=ws.n_unreachable,
-                   no_solution_after_error=int((ws.reachable & ~r.ok).sum()), rms_dxy_m=finite_rms(pos),
-                   max_dxy_m=nanmax(pos), max_abs_dx_m=nanmax(np.abs(d[:, 0])), max_abs_dy_m=nanmax(np.abs(d[:, 1])),
-                   max_abs_dphi_rad=nanmax(np.abs(d[:, 2])), jump_points=r.jump_count,
-                   jump_edges=int(r.jumps.edge_jump.sum()))
+        row = _row(spec, lambda what, i: _SCENARIO_VALUES[what](study, r, ws, i))
         if hasattr(r.jumps, "counts"):
             cnt = r.jumps.counts()
             row.update({f"jumps_{k.replace(' ', '_').replace('-', '_')}": int(cnt.get(k, 0)) for k in REASONS})
@@ -166,54 +184,49 @@ def mc_rows(study) -> List[dict]:
     |d position|; planar the max |mean dX|, |mean dY|, |mean dphi|; the
     share of converged samples that need a slack cable."""
     rows = []
+    k = study.kind.norm
     for p, mc in study.monte_carlo.items():
         failed = int(mc.failed.sum())
         total = int(mc.count.sum()) + failed
+        mean = mc.mean
         with np.errstate(invalid="ignore"):
-            mean_of_mean = float(np.nanmean(mc.mean[:, 3])) if np.isfinite(mc.mean[:, 3]).any() else float("nan")
+            mean_of_mean = float(np.nanmean(mean[:, k])) if np.isfinite(mean[:, k]).any() else float("nan")
         row = dict(protocol=p, configurations=len(mc.count), samples=mc.params.get("samples"),
                    seed=mc.params.get("seed"), attempted=total, failed=failed,
                    failed_configurations=int((mc.failed > 0).sum()),
-                   mean_of_mean_m=mean_of_mean, max_mean_m=nanmax(mc.mean[:, 3]),
-                   max_p95_m=nanmax(mc.percentile(95.0)), max_m=nanmax(mc.max_abs[:, 3]),
+                   mean_of_mean_m=mean_of_mean, max_mean_m=nanmax(mean[:, k]),
+                   max_p95_m=nanmax(mc.percentile(95.0)), max_m=nanmax(mc.max_abs[:, k]),
                    pooled_p50_m=pooled_percentile(mc, 50.0), pooled_p95_m=pooled_percentile(mc, 95.0),
                    pooled_p99_m=pooled_percentile(mc, 99.0),
                    slack_share=(float(mc.slack.sum() / mc.count.sum()) if mc.slack is not None and mc.count.sum()
                                 else float("nan")),
                    slack_configurations=int((mc.slack > 0).sum()) if mc.slack is not None else 0)
-        if study.kind == "planar":
-            row.update(max_abs_mean_dx_m=nanmax(np.abs(mc.mean[:, 0])), max_abs_mean_dy_m=nanmax(np.abs(mc.mean[:, 1])),
-                       max_abs_mean_dphi_rad=nanmax(np.abs(mc.mean[:, 2])))
-        else:
-            row.update(max_mean_rotation_rad=nanmax(mc.mean[:, 4]))
+        extremes = {"max_abs_mean": lambda i: nanmax(np.abs(mean[:, i])), "max_mean": lambda i: nanmax(mean[:, i])}
+        row.update(_row(study.kind.csv["mc_summary"], lambda what, i: extremes[what](i)))
         rows.append(row)
     return rows
+
+
+#: The integer columns of ``montecarlo.csv`` (the others are floats).
+_MC_CAST = {"samples": int, "failed": int}
 
 
 def montecarlo_rows(study) -> List[dict]:
     """``montecarlo.csv``: one row per protocol and configuration: its
     angles (rad), tip (m) and the Monte-Carlo statistics (m, rad)."""
     rows = []
+    spec = study.kind.csv["montecarlo"]
     for p, mc in study.monte_carlo.items():
         ws = study.workspaces[p]
         pose = ws.poses[ws.reachable]
-        mean, p95, mx = mc.mean, mc.percentile(95.0), mc.max_abs
+        columns = {"tip": pose, "mean": mc.mean, "max": mc.max_abs, "std": mc.std, "p95": mc.percentile(95.0),
+                   "samples": mc.count, "failed": mc.failed}
         for i in range(len(mc.count)):
             r = dict(protocol=p)
             for k, v in enumerate(mc.theta0[i]):
                 r[f"theta{k + 1}_rad"] = float(v)
-            if study.kind == "spatial":
-                r.update(x_m=float(pose[i, 0]), y_m=float(pose[i, 1]), z_m=float(pose[i, 2]),
-                         samples=int(mc.count[i]), failed=int(mc.failed[i]),
-                         mean_dx_m=float(mean[i, 0]), mean_dy_m=float(mean[i, 1]), mean_dz_m=float(mean[i, 2]),
-                         mean_dxyz_m=float(mean[i, 3]), p95_dxyz_m=float(p95[i]), max_dxyz_m=float(mx[i, 3]),
-                         std_dxyz_m=float(mc.std[i, 3]), mean_rotation_rad=float(mean[i, 4]),
-                         max_rotation_rad=float(mx[i, 4]))
-            else:
-                r.update(x_m=float(pose[i, 0]), y_m=float(pose[i, 1]), samples=int(mc.count[i]),
-                         failed=int(mc.failed[i]), mean_dx_m=float(mean[i, 0]), mean_dy_m=float(mean[i, 1]),
-                         mean_dphi_rad=float(mean[i, 2]), mean_dxy_m=float(mean[i, 3]), p95_dxy_m=float(p95[i]),
-                         max_dxy_m=float(mx[i, 3]))
+            r.update(_row(spec, lambda what, j, i=i: _MC_CAST.get(what, float)(
+                columns[what][i] if j is None else columns[what][i, j])))
             rows.append(r)
     return rows
 
@@ -226,8 +239,7 @@ def configuration_rows(study) -> List[dict]:
     Carlo's 95th percentile (m), failed solves and slack samples."""
     slug = _slug(study)
     cables = study.robot.position_cables
-    names = ["x_m", "y_m", "phi_rad"] if study.kind == "planar" else ["x_m", "y_m", "z_m", "rx_rad", "ry_rad",
-                                                                       "rz_rad"]
+    names = study.kind.pose_columns
     rows = []
     for p, ws in study.workspaces.items():
         res = study.results(p)
@@ -315,7 +327,7 @@ def headline(study) -> Dict[str, object]:
     the linear 95th percentile and the common tolerance scale for the
     target."""
     out: Dict[str, object] = dict(kind=study.kind, protocols=study.protocols)
-    planar = study.kind == "planar"
+    aliases = study.kind.headline_aliases  # the names of cdsm 0.2's planar summary
     for p, ws in study.workspaces.items():
         res = study.results(p)
         worst = [(nanmax(r.position), r.scenario.key) for r in res]
@@ -343,12 +355,9 @@ def headline(study) -> Dict[str, object]:
         out[f"mc_attempted_{p}"] = row["attempted"]
         out[f"mc_failed_configurations_{p}"] = row["failed_configurations"]
         out[f"mc_slack_share_{p}"] = row["slack_share"]
-        if planar:  # the names of cdsm 0.2's planar summary
-            out[f"mc_max_dxy_m_{p}"] = row["max_m"]
-            out[f"mc_max_p95_dxy_m_{p}"] = row["max_p95_m"]
-    if planar:
-        for p in study.workspaces:
-            out[f"worst_single_dxy_m_{p}"] = out[f"worst_single_m_{p}"]
+        out.update({f"{alias}_{p}": out[f"{name}_{p}"] for alias, name in aliases["mc"]})
+    for p in study.workspaces:
+        out.update({f"{alias}_{p}": out[f"{name}_{p}"] for alias, name in aliases["single"]})
     b = study.budget
     if b is not None and len(b.share) and b.share.sum() > 0:
         top = int(np.argmax(b.share))
@@ -409,7 +418,7 @@ class StudyReport:
                 "friction.csv": friction_rows(self.study)}
 
     def file_notes(self) -> List[str]:
-        q = "|d(X, Y, Z)|" if self.study.kind == "spatial" else "|d(X, Y)|"
+        q = _q(self.study)
         return [f"`scenarios.csv` — per single error and protocol: solved counts, RMS and max {q}, max per axis "
                 "(m, rad), jump points",
                 "`jumps.csv` — jump points per scenario and protocol (grid protocols by reason)",
@@ -429,7 +438,7 @@ class StudyReport:
         prm = st.params
         pos = r.position_cables
         force = [c for c in range(r.cables) if c not in pos]
-        kind = ("planar" if st.kind == "planar" else "spatial")
+        kind = str(st.kind)
         cables = (f"{r.cables} cables ({len(pos)} position-controlled"
                   + (f", {len(force)} force-controlled" if force else "") + ")")
         return (f"Robot **{literal(r.name)}**: a {kind} arm of {r.n} joints and {cables}; cdsm {__version__}. "
@@ -483,9 +492,8 @@ class StudyReport:
     def _tolerance_words(self) -> str:
         prm = self.study.params
         dl, dh = max(prm["dl_tol_m"]) * 1e3, max(prm["dh_tol_m"]) * 1e3
-        if self.study.kind == "spatial":
-            return f"uniform ±{dl:g} mm on every position cable, ±{dh:g} mm on every hole coordinate"
-        return f"uniform ±{dl:g} mm on every upper cable, ±{dh:g} mm on every disk's holes"
+        words = self.study.kind.words
+        return f"uniform ±{dl:g} mm on {words['cables_every']}, ±{dh:g} mm on {words['holes_each']}"
 
     def outline(self) -> List[Section]:
         """The sections after the headline, in order: (id, title, builder)."""
@@ -530,8 +538,8 @@ class StudyReport:
                 ["straight length", mm(r.straight_length, 1)],
                 ["gravity", "none (horizontal plane)" if not np.any(r.gravity) else
                  "(" + ", ".join(f"{v:g}" for v in r.gravity) + ") m/s²"]]
-        if st.kind == "planar":
-            rows.insert(3, ["lower-cable tensions", ", ".join(f"{t:.3g}" for t in r.lower_tension) + " N"])
+        if st.kind.words["force_row"]:
+            rows.insert(3, [st.kind.words["force_row"], ", ".join(f"{r.cable_tensions[c]:.3g}" for c in force) + " N"])
         doc.table(["the arm", ""], rows)
         doc.p(f"**Protocol.** {st.protocol_reason[0].upper() + st.protocol_reason[1:]}.")
         items = []
@@ -557,14 +565,12 @@ class StudyReport:
                              f"against each configuration's {prm.get('k')} nearest neighbours in joint space.")
         doc.ul(items)
         main = st.workspaces[st.main]
-        span = np.ptp(main.poses[main.reachable][:, :3 if st.kind == "spatial" else 2], axis=0) * 1e3
+        span = np.ptp(main.poses[main.reachable][:, :st.kind.dim], axis=0) * 1e3
         doc.p("Workspace of the study's configurations: tip extent " + ", ".join(
             f"{a} {fmt(s, 1)} mm" for a, s in zip("xyz", span)) + ".")
-        cap = ("Workspace: the sampled tip positions on the x–y, x–z and y–z projections, coloured by the third "
-               "coordinate (mm)." if st.kind == "spatial" else
-               "Workspace: the tips of the study's configurations"
-               + (", those reachable at phi = 0 and the phi = 0 reach within the joint limits"
-                  if "attitude0" in st.workspaces else "") + "; the straight arm in black.")
+        cap = st.kind.words["workspace_caption"].format(
+            attitude0=", those reachable at phi = 0 and the phi = 0 reach within the joint limits"
+            if "attitude0" in st.workspaces else "")
         self.fig(doc, "workspace", cap)
 
     def _by_end(self, kind: str) -> Dict[int, float]:
@@ -617,11 +623,7 @@ class StudyReport:
             self.fig(doc, f"rotation_{p}", f"Every single error, the end frame's rotation angle — {_pname(p)}; each "
                      "thumbnail on its own scale.")
         for sc in [r.scenario for r in st.results()]:
-            cap = (f"{sc.label} ({sc.key}): {q} (top) and the rotation angle (bottom) on the three projections; "
-                   "black rings: jump points." if st.kind == "spatial" else
-                   f"{sc.label} ({sc.figure or sc.key}): dX red, dY blue, dphi green (negative purple, zero grey) "
-                   "over the tip positions, one row per protocol; black rings: jump points; crosses: unreachable "
-                   "or unsolved.")
+            cap = st.kind.words["scenario_caption"].format(label=sc.label, figure=sc.figure or sc.key, key=sc.key, q=q)
             self.fig(doc, f"scenario_{file_key(sc.key)}", cap)
         if not self.detail:
             doc.p("The one-figure-per-scenario maps were left out (`--no-scenario-figures`); the overviews above "
@@ -637,13 +639,13 @@ class StudyReport:
         st = self.study
         q = _q(st)
         out = []
-        hole_kind = "radial" if st.kind == "spatial" else "hole"
+        hole_kind, hole_key, _ = st.kind.hole_scenarios[0]  # the first hole error beside the length's
         length, holes = self._by_end("cable"), self._by_end(hole_kind)
         if len(length) > 1:
             shrink = all(a >= b for a, b in zip(list(length.values()), list(length.values())[1:]))
             out.append(f"**Toward the tip** ({_pname(st.main)}). RMS {q} of a ±1 mm length error, by the disk its "
                        "cable ends at: " + ", ".join(f"disk {d} {mm(v)}" for d, v in length.items())
-                       + f"; of a ±0.35 mm {'radial ' if st.kind == 'spatial' else ''}hole error: "
+                       + f"; of a ±0.35 mm {st.kind.words['hole_error']}: "
                        + ", ".join(f"disk {d} {mm(v)}" for d, v in holes.items()) + ". "
                        + ("A length error matters less the nearer the tip its cable ends." if shrink else
                           "A length error does not matter less the nearer the tip its cable ends on this arm."))
@@ -652,7 +654,8 @@ class StudyReport:
             if r.scenario.kind != "cable":
                 continue
             s = "+" if r.scenario.sign > 0 else "-"
-            hk = (f"radial{r.scenario.cable + 1}{s}" if st.kind == "spatial" else f"disk{r.scenario.cable // 2 + 1}{s}")
+            c = r.scenario.cable
+            hk = hole_key.format(cable=c + 1, disk=self.robot.cable_ends[c]) + s
             b = st.result(hk).position
             a = r.position
             m = np.isfinite(a) & np.isfinite(b)
@@ -663,7 +666,7 @@ class StudyReport:
         if pairs:
             floor = f"{RATIO_FLOOR_M * 1e6:g} µm"
             small = pairs - rr.size
-            what = "radial holes" if st.kind == "spatial" else "holes of its pair"
+            what = st.kind.words["hole_pair"]
             text = (f"**Holes against lengths.** Per configuration and cable, {q}(±1 mm length) / {q}(±0.35 mm "
                     f"{what})")
             if rr.size:
@@ -677,7 +680,7 @@ class StudyReport:
                 text += (f" At {small} of {pairs} the hole error moves the tip by less than {floor} (there it acts "
                          "to second order or not at all), so the ratio would only divide by rounding; left out.")
             out.append(text)
-        if st.kind == "planar" and "attitude0" in st.workspaces:
+        if "attitude0" in st.workspaces:  # a planar arm's protocol
             n = self.robot.n
             a0 = [finite_rms(st.result(f"disk{n}{s}", "attitude0").position) for s in "-+"]
             other = [p for p in st.workspaces if p != "attitude0"]
@@ -687,7 +690,7 @@ class StudyReport:
                        f"−dh·(theta_1 + … + theta_{n}) = −dh·phi, which is zero when phi = 0. RMS {q}: "
                        f"{mm(a0[0], 4)} / {mm(a0[1], 4)} (−/+) under the attitude-0 protocol"
                        + (f", {mm(jt[0])} / {mm(jt[1])} under the {_pname(other[0])} where phi ≠ 0." if jt else "."))
-        if st.kind == "spatial":
+        if any(h[0] == "normal" for h in st.kind.hole_scenarios):
             normal = self._by_end("normal")
             rn = [normal[d] / holes[d] for d in holes if holes[d] > 0 and d in normal]
             if rn:
@@ -713,7 +716,7 @@ class StudyReport:
                 marks = [m for m, on in (("near-singular", w["singular"] < NEAR_SINGULAR), ("on a jump", w["jump"]),
                                          ("slack", not w["taut"]),
                                          (f"{w['failed']} failed solves", w["failed"] > 0)) if on]
-                tip = ", ".join(fmt(v * 1e3, 1) for v in w["pose"][:3 if st.kind == "spatial" else 2])
+                tip = ", ".join(fmt(v * 1e3, 1) for v in w["pose"][:st.kind.dim])
                 rows.append([_angles(w["theta"]), tip, fmt(w["p95_m"] * 1e3), fmt(w["max_m"] * 1e3),
                              f"{fmt(w['single_m'] * 1e3)} ({w['single']})", fmt(w["singular"], 3, "g"),
                              ", ".join(marks) or "—"])
@@ -767,9 +770,7 @@ class StudyReport:
         else:
             doc.p("No jump points were found in any scenario: the deviation maps are smooth over these "
                   "configurations.")
-        what = ("the position rows of the geometric Jacobian (directions the arm can never move in are left out)"
-                if st.kind == "spatial" else "the pose Jacobian d[X, Y, L·phi]/dtheta (attitude row scaled by the "
-                "straight length L)")
+        what = st.kind.words["singular_rows"]
         doc.p(f"Singular measure: the smallest over the largest singular value of {what}.")
         for p in st.workspaces:
             s = st.singular[p]
@@ -777,7 +778,7 @@ class StudyReport:
             sing = fin & (s < 1e-6)
             near = fin & (s < NEAR_SINGULAR)
             extra = ""
-            if st.kind == "planar" and self.robot.n == 3 and sing.any():
+            if st.kind.singular == "pose" and self.robot.n == 3 and sing.any():
                 th = np.where(np.isfinite(st.workspaces[p].theta0), st.workspaces[p].theta0, 0.0)
                 if np.all(np.abs(th[sing, 1]) < 1e-6):
                     extra = (" All of the singular ones have theta_2 = 0: for three joints the pose Jacobian is "
@@ -786,7 +787,7 @@ class StudyReport:
                   f"{fmt(float(np.median(s[fin])) if fin.any() else float('nan'), 3, 'g')}; {int(sing.sum())} "
                   f"configurations singular (< 1e-6), {int(near.sum())} near-singular (< {NEAR_SINGULAR:g}), of "
                   f"{int(fin.sum())}.{extra}")
-        if st.kind == "planar":
+        if st.kind.singular == "pose":  # the straight arm's pose Jacobian loses X
             sv0 = np.linalg.svd(self.robot.fk_jacobian(np.zeros(self.robot.n))[:2], compute_uv=False)
             doc.p("At theta = 0 the position Jacobian d[X, Y]/dtheta has singular values "
                   f"{', '.join(f'{s * 1e3:.3g}' for s in sv0)} mm/rad: X is lost, so a cable error moves the tip in "
@@ -802,7 +803,7 @@ class StudyReport:
         few = (f" {p0.get('samples')} is the default sample count over "
                f"{sum(len(ws.grid) for ws in st.workspaces.values())} configurations: it keeps a study at "
                f"{DEFAULT_SOLVES / 1e6:g} million solves (`--samples` sets it)."
-               if st.params.get("samples_default") and p0.get("samples") < DEFAULT_SAMPLES[st.kind] else "")
+               if st.params.get("samples_default") and p0.get("samples") < st.kind.default_samples else "")
         doc.p(f"{p0.get('samples')} random composite errors per configuration ({self._tolerance_words()}), "
               f"seed {p0.get('seed')}, streamed in chunks of {p0.get('chunk')} samples with bounded memory; every "
               "converged sample is also checked for a slack position cable. Percentiles are read from the study's "
@@ -842,8 +843,7 @@ class StudyReport:
                       f"{r['configurations']} configurations.")
         for p in st.monte_carlo:
             cap = (f"Monte Carlo — {_pname(p)}: mean, 95th percentile and max of {q} per configuration"
-                   + ("; the 95th percentile on the other projections; histogram over every sample."
-                      if st.kind == "spatial" else "; mean signed dX (red), dY (blue), dphi (green)")
+                   + st.kind.words["mc_caption"]
                    + "; red rings: configurations with failed solves.")
             self.fig(doc, f"montecarlo_{p}", cap)
 
@@ -851,8 +851,8 @@ class StudyReport:
         st, r = self.study, self.robot
         g = r.gravity
         grav = "no gravity" if not np.any(g) else "gravity (" + ", ".join(f"{v:g}" for v in g) + ") m/s²"
-        force = ("the lower cables at " + ", ".join(f"{t:.3g}" for t in r.lower_tension) + " N" if st.kind == "planar"
-                 else "the force cables at their set tensions")
+        force = st.kind.words["force_statics"].format(
+            newtons=", ".join(f"{r.cable_tensions[c]:.3g}" for c in range(r.cables) if c not in r.position_cables))
         doc.p(f"Tensions of the position-controlled cables at every initial configuration: {force}, {grav}, no tip "
               "load; " + ("the balance's one solution (as many position cables as joints)"
                           if len(r.position_cables) == r.n else
@@ -921,7 +921,7 @@ class StudyReport:
     def sensitivity_section(self, doc: Document) -> None:
         st = self.study
         q = _q(st)
-        what_h = "every coordinate of every hole" if st.kind == "spatial" else "every disk's hole height"
+        what_h = st.kind.words["holes_every"]
         doc.p(f"First-order sensitivities of the tip position (analytic, the implicit function theorem through the "
               f"cable solve): the worst-case and RMS amplification of a unit error on every position cable and on "
               f"{what_h} into {q}.")
@@ -962,14 +962,13 @@ class StudyReport:
                  "candidate unmodelled effect (backlash, cable elasticity, hole clearance, ...) to them.",
                  "**Cable stretch.** The cables are rigid here; the statics give the tensions, "
                  "`Robot.solve_cables_elastic` the elastic configuration."]
-        if st.kind == "spatial":
-            items.append("**Hole clearance** is an effect of the diagnosis library, not a manufacturing error "
-                         "scenario of this study.")
+        if st.kind.words["limit_notes"]:
+            items.append(st.kind.words["limit_notes"])
         if "sampled" in st.workspaces:
             items.append("**Jump reasons.** Between sampled neighbours only the jumps at near-singular "
                          "configurations are named; the grid protocols also name branch switches, cable folds and "
                          "the reach boundary.")
-        if st.kind == "planar" and "attitude0" not in st.workspaces:
+        if st.kind.grid_protocols and "attitude0" not in st.workspaces:
             items.append("**The attitude-0 protocol** is left out for this arm (see [the protocol](#arm)).")
         doc.ul(items)
 

@@ -27,6 +27,7 @@ from matplotlib.ticker import MaxNLocator
 from ..accuracy.montecarlo import MonteCarlo
 from ..accuracy.tolerance import pooled_percentile
 from ..display import degrees
+from ..kinds import SPATIAL
 from ..robot import Robot
 from ..study import NEAR_SINGULAR
 from .figures import (BLUE, GREEN, HUES, MAX_WIDTH_IN, RED, FigureJob, colour_bar, draw_arm, few_ticks, file_key,
@@ -41,9 +42,15 @@ __all__ = ["AXES", "PLANES", "SCENARIO_COLUMNS", "main_plane", "phi0_tips", "wor
 AXES = ("x", "y", "z")
 #: The three orthogonal projections: (horizontal axis, vertical axis) indices.
 PLANES = ((0, 1), (0, 2), (1, 2))
+
+
+def _error_columns(kind) -> Tuple[Tuple[str, str], ...]:
+    """Columns of an overview: (scenario error, sign), the cable's length then the kind's hole errors."""
+    return tuple((e, s) for e in ("cable",) + tuple(h[0] for h in kind.hole_scenarios) for s in "-+")
+
+
 #: Columns of a spatial arm's overview: (scenario kind, sign).
-SCENARIO_COLUMNS = (("cable", "-"), ("cable", "+"), ("radial", "-"), ("radial", "+"), ("normal", "-"),
-                    ("normal", "+"))
+SCENARIO_COLUMNS = _error_columns(SPATIAL)
 PROTOCOL_SHORT = {"attitude0": "attitude-0", "joint": "joint-space", "sampled": "sampled"}
 W = MAX_WIDTH_IN
 
@@ -56,18 +63,21 @@ def main_plane(pose: np.ndarray) -> Tuple[int, int]:
     return int(a), int(b)
 
 
-def _spatial(study) -> bool:
-    return study.robot.kind == "spatial"
-
-
 def _tips(study, protocol: str) -> np.ndarray:
     """(N, 2) planar or (N, 3) spatial nominal tips, mm."""
-    d = 3 if _spatial(study) else 2
-    return study.workspaces[protocol].poses[:, :d] * 1e3
+    return study.workspaces[protocol].poses[:, :study.kind.dim] * 1e3
 
 
 def _plane(study, protocol: str) -> Tuple[int, int]:
-    return main_plane(study.workspaces[protocol].poses) if _spatial(study) else (0, 1)
+    """The main plane of the tips (a planar arm's: its plane)."""
+    return main_plane(study.workspaces[protocol].poses[:, :study.kind.dim])
+
+
+def _panel_title(study, protocol: str, plane: Tuple[int, int]) -> str:
+    """A map panel's title: its projection, or (one plane) its protocol."""
+    if study.kind.figure["projections"]:
+        return f"{AXES[plane[0]]}–{AXES[plane[1]]} projection"
+    return PROTOCOL_SHORT.get(protocol, protocol)
 
 
 def _title(study, protocol: str) -> str:
@@ -187,7 +197,7 @@ def workspace_figure(study, overlay: Optional[Callable] = None) -> Figure:
     Spatial: the sampled tips on the three projections, coloured by the
     third coordinate; the straight pose's tip starred."""
     robot = study.robot
-    if _spatial(study):
+    if study.kind.figure["projections"]:
         p = study.main
         pts = _tips(study, p)
         tip0 = robot.fk(np.zeros(robot.n))[:3] * 1e3
@@ -241,11 +251,12 @@ def workspace_figure(study, overlay: Optional[Callable] = None) -> Figure:
 # single errors
 # ---------------------------------------------------------------------------
 def _overview_keys(study) -> List[List[str]]:
-    """Rows of scenario keys of an overview figure."""
-    if _spatial(study):
-        return [[f"{kind}{c + 1}{sign}" for kind, sign in SCENARIO_COLUMNS] for c in study.robot.position_cables]
-    return [[f"cable{2 * i + 1}-", f"cable{2 * i + 1}+", f"disk{i + 1}-", f"disk{i + 1}+"]
-            for i in range(study.robot.n)]
+    """Rows of scenario keys of an overview figure: one per position cable,
+    its length's errors then its hole errors (:func:`cdsm.study.scenario_set`)."""
+    kind, ends = study.kind, study.robot.cable_ends
+    return [[f"cable{c + 1}{s}" for s in "-+"]
+            + [key.format(cable=c + 1, disk=ends[c]) + s for _, key, _ in kind.hole_scenarios for s in "-+"]
+            for c in study.robot.position_cables]
 
 
 def overview_figure(study, protocol: str, quantity: str = "position") -> Figure:
@@ -263,7 +274,7 @@ def overview_figure(study, protocol: str, quantity: str = "position") -> Figure:
     plane = _plane(study, protocol)
     ws = study.workspaces[protocol]
     unit = "mm" if quantity == "position" else "deg"
-    what = ("|d(X, Y, Z)|" if _spatial(study) else "|d(X, Y)|") if quantity == "position" else "rotation angle"
+    what = study.kind.norm_label if quantity == "position" else "rotation angle"
     lims = _limits(pts, plane)
     hrow = 1.95 if cols > 4 else 2.5
     with report_style():
@@ -301,8 +312,7 @@ def overview_figure(study, protocol: str, quantity: str = "position") -> Figure:
             cax = fig.add_axes((1 - 0.7 / W, 0.3, 0.12 / W, 0.4))
             cb = fig.colorbar(sc, cax=cax)
             cb.set_label(f"{what} / thumbnail max")
-        cols_txt = ("columns: cable −, cable +, disk −, disk +; rows: pairs 1..n" if not _spatial(study) else
-                    "rows: position cables; columns: ±1 mm length, ±0.35 mm holes radial, along the normal")
+        cols_txt = study.kind.words["overview_layout"]
         fig.suptitle(f"Single errors, {what} — {_title(study, protocol)}\n{cols_txt}; black rings: jump points"
                      + ("; crosses: unreachable" if ws.n_unreachable else ""), fontsize=10)
     return fig
@@ -314,7 +324,7 @@ def _overview_matrix(study, protocol: str, quantity: str, keys: List[List[str]])
     and the RMS |d position| (mm) or rotation (deg) over the configurations,
     one cell per single error, one row per position cable."""
     unit = "mm" if quantity == "position" else "deg"
-    what = "|d(X, Y, Z)|" if quantity == "position" else "rotation angle"
+    what = study.kind.norm_label if quantity == "position" else "rotation angle"
     rows, cols = len(keys), len(keys[0])
     stats = np.full((2, rows, cols), np.nan)
     for r, row in enumerate(keys):
@@ -324,7 +334,7 @@ def _overview_matrix(study, protocol: str, quantity: str, keys: List[List[str]])
             if np.isfinite(v).any():
                 stats[0, r, c] = np.nanmax(v)
                 stats[1, r, c] = np.sqrt(np.nanmean(v ** 2))
-    labels = [f"{kind} {sign}" for kind, sign in SCENARIO_COLUMNS]
+    labels = [f"{kind} {sign}" for kind, sign in _error_columns(study.kind)]
     cables = [str(c + 1) for c in study.robot.position_cables]
     with report_style():
         fig = new_figure(W, min(0.16 * rows + 1.6, 11.0))
@@ -338,8 +348,8 @@ def _overview_matrix(study, protocol: str, quantity: str, keys: List[List[str]])
             ax.set_title(f"{name} {what} ({unit}) over the configurations", fontsize=9)
             fig.colorbar(im, ax=ax, fraction=0.06, pad=0.02).set_label(unit)
         axs[0].set_ylabel("position cable")
-        fig.suptitle(f"Single errors, {what} — {_title(study, protocol)}\nrows: position cables; columns: ±1 mm "
-                     "length, ±0.35 mm holes radial, along the normal", fontsize=10)
+        fig.suptitle(f"Single errors, {what} — {_title(study, protocol)}\n{study.kind.words['overview_layout']}",
+                     fontsize=10)
         fig.subplots_adjust(left=0.09, right=0.97, bottom=0.12, top=0.9, wspace=0.25)
     return fig
 
@@ -350,8 +360,8 @@ def scenario_figure(study, key: str) -> Figure:
     purple, zero grey). Spatial: |d(X, Y, Z)| (top) and the rotation angle
     (bottom) on the three projections. Jump points ringed; unreachable tips
     as crosses."""
-    if _spatial(study):
-        return _spatial_scenario_figure(study, key)
+    if study.kind.figure["projections"]:
+        return _projections_scenario_figure(study, key)
     protos = [p for p in study.workspaces if any(r.protocol == p and r.scenario.key == key for r in study.scenarios)]
     names = ["dX (mm)", "dY (mm)", "dphi (deg)"]
     res = {p: study.result(key, p) for p in protos}
@@ -389,10 +399,10 @@ def scenario_figure(study, key: str) -> Figure:
     return fig
 
 
-def _spatial_scenario_figure(study, key: str) -> Figure:
+def _projections_scenario_figure(study, key: str) -> Figure:
     r = study.result(key)
     pts = _tips(study, r.protocol)
-    rows = [(r.position * 1e3, "|d(X, Y, Z)|", "mm", seq_cmap("magma_r")),
+    rows = [(r.position * 1e3, study.kind.norm_label, "mm", seq_cmap("magma_r")),
             (np.degrees(r.rotation), "rotation", "deg", seq_cmap("cividis_r"))]
     with report_style():
         fig = new_figure(W, 7.4)
@@ -421,8 +431,7 @@ def _spatial_scenario_figure(study, key: str) -> Figure:
 def _mc_subtitle(study, protocol: str) -> str:
     mc = study.monte_carlo[protocol]
     p = mc.params
-    holes = "per disk's holes" if not _spatial(study) else "per hole coordinate"
-    cables = "per upper cable" if not _spatial(study) else "per position cable"
+    holes, cables = study.kind.words["holes_per"], study.kind.words["cables_per"]
     failed = int(mc.failed.sum())
     fail = (f"failed solves: {failed} of {int(mc.count.sum() + failed)} at {int((mc.failed > 0).sum())} "
             "configurations (red rings)" if failed else "no failed solves")
@@ -448,10 +457,11 @@ def monte_carlo_figure(study, protocol: str) -> Figure:
     ws = study.workspaces[protocol]
     pts = _tips(study, protocol)[ws.reachable]
     plane = _plane(study, protocol)
-    spatial = _spatial(study)
-    q = "|dXYZ|" if spatial else "|dXY|"
-    top = [(mc.mean[:, 3] * 1e3, f"mean {q} (mm)"), (mc.percentile(95.0) * 1e3, f"95th pct {q} (mm)"),
-           (mc.max_abs[:, 3] * 1e3, f"max {q} (mm)")]
+    kind = study.kind
+    layout = kind.figure
+    q = f"|{kind.quantities[kind.norm]}|"
+    top = [(mc.mean[:, kind.norm] * 1e3, f"mean {q} (mm)"), (mc.percentile(95.0) * 1e3, f"95th pct {q} (mm)"),
+           (mc.max_abs[:, kind.norm] * 1e3, f"max {q} (mm)")]
     failed = mc.failed > 0
     with report_style():
         fig = new_figure(W, 7.6)
@@ -462,8 +472,8 @@ def monte_carlo_figure(study, protocol: str) -> Figure:
             _map(fig, ax, pts, v, seq_cmap("magma_r"), norm, nm, plane=plane, size=5, bar_ticks=4)
             _rings(ax, pts, failed, plane, color=RED, size=22)
             ax.set_title(f"{nm.replace(' (mm)', '')}: max {_g(_nanmax(v))} mm", fontsize=9.5)
-            _axes(ax, plane, equal=spatial, ticks=3 if spatial else 4)
-        if spatial:
+            _axes(ax, plane, equal=layout["equal"], ticks=layout["ticks"])
+        if layout["projections"]:
             p95 = top[1][0]
             for ax, pl in zip(axs[1][:2], [pl for pl in PLANES if pl != plane][:2]):
                 _map(fig, ax, pts, p95, seq_cmap("magma_r"), norm, f"95th pct {q} (mm)", plane=pl, size=5,
@@ -496,7 +506,7 @@ def monte_carlo_figure(study, protocol: str) -> Figure:
             for ax in axs.ravel():
                 ax.label_outer()
         fig.suptitle(_mc_subtitle(study, protocol), fontsize=9.5)
-        place(fig, 2, 3, left=0.7, right=0.85, bottom=0.5, top=0.85, wgap=0.95 if spatial else 0.85, hgap=0.7)
+        place(fig, 2, 3, left=0.7, right=0.85, bottom=0.5, top=0.85, wgap=layout["mc_wgap"], hgap=0.7)
     return fig
 
 
@@ -506,7 +516,7 @@ def monte_carlo_figure(study, protocol: str) -> Figure:
 def _panels(study) -> List[Tuple[str, Tuple[int, int]]]:
     """(protocol, plane) of each panel of a one-row map figure: planar one
     per protocol, spatial the main protocol on the three projections."""
-    if _spatial(study):
+    if study.kind.figure["projections"]:
         return [(study.main, pl) for pl in PLANES]
     return [(p, (0, 1)) for p in study.workspaces]
 
@@ -523,7 +533,7 @@ def singular_figure(study) -> Figure:
     near-singular): planar sigma_min / sigma_max of the pose Jacobian
     d[X, Y, L·phi]/dtheta, one panel per protocol; spatial of the position
     Jacobian on the three projections. The lowest ringed red."""
-    spatial = _spatial(study)
+    layout = study.kind.figure
     with report_style():
         fig, axs, panels = _row_figure(study)
         for ax, (p, plane) in zip(axs, panels):
@@ -533,7 +543,7 @@ def singular_figure(study) -> Figure:
             lo = max(float(good.min()) if good.size else 1e-4, 1e-4)
             hi = max(float(good.max()) if good.size else 1.0, lo * 10)
             _missing(ax, pts, ~np.isfinite(v), plane, size=5)
-            last = (not spatial) or plane == PLANES[-1]
+            last = plane == panels[-1][1]
             _map(fig, ax, pts, np.maximum(v, lo), "cividis", LogNorm(lo, hi), "sigma_min / sigma_max", plane=plane,
                  size=5, order=False, bar=last, bar_ticks=4)
             if np.isfinite(v).any():
@@ -545,13 +555,11 @@ def singular_figure(study) -> Figure:
                        label=f"lowest {v[i0]:.2g}\n(theta = " + ", ".join(f"{np.degrees(t):.0f}" for t in th) + "°)")
                 ax.legend(loc="lower left", fontsize=7.5, framealpha=0.85)
             near = int(np.sum(v < NEAR_SINGULAR))
-            ax.set_title((f"{AXES[plane[0]]}–{AXES[plane[1]]} projection" if spatial else PROTOCOL_SHORT.get(p, p))
-                         + f": {near} below {NEAR_SINGULAR:g}", fontsize=9.5)
-            _axes(ax, plane, equal=spatial, ticks=3 if spatial else 4)
-        what = ("position Jacobian (directions the arm never moves in left out)" if spatial else
-                "pose Jacobian d[X, Y, L·phi]/dtheta (all joints zero loses X)")
+            ax.set_title(_panel_title(study, p, plane) + f": {near} below {NEAR_SINGULAR:g}", fontsize=9.5)
+            _axes(ax, plane, equal=layout["equal"], ticks=layout["ticks"])
+        what = study.kind.words["singular_of"]
         fig.suptitle(f"Singular states: smallest over largest singular value of the {what}", fontsize=10)
-        place(fig, 1, len(panels), left=0.7, right=0.85, bottom=0.5, top=0.45, wgap=1.05 if spatial else 1.3)
+        place(fig, 1, len(panels), left=0.7, right=0.85, bottom=0.5, top=0.45, wgap=layout["row_wgap"])
     return fig
 
 
@@ -561,8 +569,9 @@ def feasibility_figure(study) -> Figure:
     positive blue), slack configurations ringed (planar, one panel per
     protocol) or crossed black (spatial, three projections). Gravity of the
     robot file, force cables at their set tension, no tip load."""
-    spatial = _spatial(study)
-    g = study.robot.gravity
+    layout = study.kind.figure
+    robot = study.robot
+    g = robot.gravity
     with report_style():
         fig, axs, panels = _row_figure(study)
         for ax, (p, plane) in zip(axs, panels):
@@ -574,7 +583,7 @@ def feasibility_figure(study) -> Figure:
             lim = _nanmax(np.abs(tmin))
             lim = lim if np.isfinite(lim) and lim > 0 else 1.0
             _missing(ax, pts, ~ws.reachable, plane, size=5)
-            last = (not spatial) or plane == PLANES[-1]
+            last = plane == panels[-1][1]
             _map(fig, ax, pts, tmin, tension_cmap(), Normalize(-lim, lim), "smallest position-cable tension (N)",
                  plane=plane, size=5, order="low", bar=last, bar_ticks=5)
             slack = ws.reachable & ~fm.feasible
@@ -583,15 +592,14 @@ def feasibility_figure(study) -> Figure:
                 ax.scatter(pts[slack, i], pts[slack, j], marker="o", s=24, facecolors="none", edgecolors="k",
                            linewidths=0.7, label=f"slack cable needed: {int(slack.sum())} of {int(ws.reachable.sum())}")
                 ax.legend(loc="lower left", fontsize=7.5, framealpha=0.85)
-            ax.set_title((f"{AXES[plane[0]]}–{AXES[plane[1]]} projection" if spatial else PROTOCOL_SHORT.get(p, p))
-                         + f": {int(slack.sum())} slack", fontsize=9.5)
-            _axes(ax, plane, equal=spatial, ticks=3 if spatial else 4)
+            ax.set_title(_panel_title(study, p, plane) + f": {int(slack.sum())} slack", fontsize=9.5)
+            _axes(ax, plane, equal=layout["equal"], ticks=layout["ticks"])
         grav = "no gravity" if not np.any(g) else "gravity (" + ", ".join(f"{v:g}" for v in g) + ") m/s²"
-        what = ("lower weights " + ", ".join(f"{t / 9.80665 * 1e3:.0f}" for t in study.robot.lower_tension) + " g"
-                if not spatial else "force cables at their set tension")
+        force = [t for c, t in enumerate(robot.cable_tensions) if c not in robot.position_cables]
+        what = study.kind.words["force_loads"].format(grams=", ".join(f"{t / 9.80665 * 1e3:.0f}" for t in force))
         fig.suptitle(f"Statics: smallest position-cable tension ({what}, {grav}, no tip load); rings: a slack cable "
                      "is needed", fontsize=10)
-        place(fig, 1, len(panels), left=0.7, right=0.85, bottom=0.5, top=0.45, wgap=1.05 if spatial else 1.3)
+        place(fig, 1, len(panels), left=0.7, right=0.85, bottom=0.5, top=0.45, wgap=layout["row_wgap"])
     return fig
 
 
@@ -600,7 +608,7 @@ def hysteresis_figure(study) -> Figure:
     largest over the position cables' ±1 mm cycles) at each configuration
     (:func:`cdsm.accuracy.statics.friction_map`; the configurations it
     cycled); grey: not reachable or a command did not settle."""
-    spatial = _spatial(study)
+    layout = study.kind.figure
     with report_style():
         fig, axs, panels = _row_figure(study)
         for ax, (p, plane) in zip(axs, panels):
@@ -610,23 +618,21 @@ def hysteresis_figure(study) -> Figure:
             lim = _nanmax(w)
             lim = lim if np.isfinite(lim) and lim > 0 else 1.0
             _missing(ax, pts, ~np.isfinite(w), plane, size=5)
-            last = (not spatial) or plane == PLANES[-1]
+            last = plane == panels[-1][1]
             _map(fig, ax, pts, w, "viridis", Normalize(0.0, lim), "loop width (µm)", plane=plane, size=5,
                  order=True, bar=last, bar_ticks=5)
-            ax.set_title((f"{AXES[plane[0]]}–{AXES[plane[1]]} projection" if spatial else PROTOCOL_SHORT.get(p, p))
-                         + f": max {lim:.3g} µm", fontsize=9.5)
-            _axes(ax, plane, equal=spatial, ticks=3 if spatial else 4)
+            ax.set_title(_panel_title(study, p, plane) + f": max {lim:.3g} µm", fontsize=9.5)
+            _axes(ax, plane, equal=layout["equal"], ticks=layout["ticks"])
         fm0 = next(iter(study.friction.values()))
         fig.suptitle(f"Friction in the holes (mu = {fm0.mu:g}): tip hysteresis over a ±1 mm cycle of each position "
                      f"cable, E·A = {study.robot.axial_stiffness:.3g} N", fontsize=10)
-        place(fig, 1, len(panels), left=0.7, right=0.85, bottom=0.5, top=0.45, wgap=1.05 if spatial else 1.3)
+        place(fig, 1, len(panels), left=0.7, right=0.85, bottom=0.5, top=0.45, wgap=layout["row_wgap"])
     return fig
 
 
 def amplification_titles(study) -> dict:
     """Panel titles of :func:`amplification_figure` by map key."""
-    holes = "every coordinate of every hole" if _spatial(study) else "every disk's hole height"
-    cables = "every position cable" if _spatial(study) else "every upper cable"
+    holes, cables = study.kind.words["holes_every"], study.kind.words["cables_every"]
     return {"cable_worst": f"worst case, mm of tip per mm on {cables}",
             "cable_rms": f"RMS, mm of tip per mm (uniform ±1) on {cables}",
             "hole_worst": f"worst case, mm of tip per mm on {holes}",
@@ -699,7 +705,7 @@ def figure_jobs(study, detail: bool = True, overlay: Optional[Callable] = None) 
 
     for p in study.workspaces:
         one(f"overview_{p}", lambda p=p: overview_figure(study, p))
-        if _spatial(study):
+        if study.kind.figure["rotation_overview"]:
             one(f"rotation_{p}", lambda p=p: overview_figure(study, p, "rotation"))
     for p in study.monte_carlo:
         one(f"montecarlo_{p}", lambda p=p: monte_carlo_figure(study, p))
