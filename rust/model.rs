@@ -133,6 +133,8 @@ struct MaterialFile {
     diameter: f64,
     #[serde(default)]
     routing_length: f64,
+    #[serde(default = "crate::robot::feed_forward_default")]
+    stretch_feed_forward: bool,
 }
 
 #[derive(Deserialize)]
@@ -403,6 +405,9 @@ impl Model {
             w,
             format!("routing_length = {}", toml_f(self.cable.routing_length)),
         );
+        if !self.cable.stretch_feed_forward {
+            line(w, "stretch_feed_forward = false".into());
+        }
         if let Some(r) = self.planar() {
             line(w, format!("\n# {} linkages", r.n()));
             for i in 0..r.n() {
@@ -494,6 +499,7 @@ impl Model {
                     youngs_modulus: c.youngs_modulus,
                     diameter: c.diameter,
                     routing_length: c.routing_length,
+                    stretch_feed_forward: c.stretch_feed_forward,
                 };
                 m.validate()?;
                 m
@@ -502,6 +508,7 @@ impl Model {
                 youngs_modulus: 1.8e11,
                 diameter: 0.18e-3,
                 routing_length: 0.0,
+                stretch_feed_forward: true,
             },
         };
         let gravity = finite3("gravity", f.gravity.map_or([0.0; 3], |g| g.0))?;

@@ -386,10 +386,12 @@ struct Params<S> {
     backlash: Vec<S>,
     /// Friction coefficient in the holes (1).
     mu: S,
-    /// The compliance of the robot file's cable, `1 / (E A)` (1/N): the
-    /// change friction makes to the tensions stretches the cables at
-    /// `kappa + kc` (`docs/model.md`, "Friction in the holes").
-    kc: f64,
+    /// The compliance whose frictionless stretch the controller feeds
+    /// forward (1/N): the robot file's cable's `1 / (E A)` with
+    /// `stretch_feed_forward` and as many position cables as joints, else 0.
+    /// A cable has one compliance, `kappa + kff`, whatever makes its tension
+    /// (`docs/model.md`, "Friction in the holes").
+    kff: f64,
     /// The plant's arm: the model's numbers, moved.
     arm: ArmNumbers<S>,
 }
@@ -472,7 +474,13 @@ impl<S: Real> Params<S> {
             tip: span(Effect::TipOffset),
             backlash: span(Effect::Backlash),
             mu: one(Effect::CableFriction),
-            kc: model.cable.compliance(),
+            // with more position cables than joints the statics fix no
+            // frictionless tensions to feed forward: kappa is the whole compliance
+            kff: if pos.len() == model.n() {
+                model.cable.fed_forward()
+            } else {
+                0.0
+            },
             arm,
         }
     }
@@ -491,9 +499,10 @@ impl<S: Real> Params<S> {
         self.mu.val() != 0.0 || self.mu.is_variable()
     }
 
-    /// The compliance friction's change of the tensions stretches at (1/N).
+    /// The cable's one compliance (1/N): every tension stretches it, friction's
+    /// change of the tensions too.
     fn friction_compliance(&self) -> S {
-        self.kappa + self.kc
+        self.kappa + self.kff
     }
 }
 
@@ -882,10 +891,16 @@ fn equations<S: Real, F: Frame<S>>(
         }
         for i in 0..n {
             let stretch = if friction {
-                // kappa T ebar + kc (T ebar - T*): the frictionless stretch at
-                // kappa, friction's change of it at kappa + kc
+                // (kappa + kff) T ebar - kff T*: the whole stretch at the
+                // cable's one compliance, less the frictionless stretch the
+                // controller feeds forward
                 let t = b.tension[i] * b.profile.mean[b.pos[i]];
-                (real[i] + route) * (prm.kappa * t + (t - b.tension0[i]) * prm.kc)
+                let whole = prm.kappa * t;
+                if prm.kff == 0.0 {
+                    (real[i] + route) * whole
+                } else {
+                    (real[i] + route) * (whole + (t - b.tension0[i]) * prm.kff)
+                }
             } else if elastic {
                 (real[i] + route) * prm.kappa * b.tension[i]
             } else {

@@ -421,6 +421,15 @@ class Robot:
         return self.core.routing_length
 
     @property
+    def stretch_feed_forward(self) -> bool:
+        """The controller's premise (robot file ``[cable] stretch_feed_forward``, default
+        True): it pays the cable's frictionless stretch (compliance ``1 / (E A)``, 1/N) out
+        with its commands, so the plant's ``cable_elasticity`` is the compliance beyond the
+        cable's; False: it commands the rigid model's lengths and ``cable_elasticity`` is
+        the whole compliance (``docs/model.md``, "Commands and their order")."""
+        return self.core.stretch_feed_forward
+
+    @property
     def axial_stiffness(self) -> float:
         """Cable axial stiffness E A, N (A = pi d^2 / 4)."""
         return self.core.axial_stiffness
@@ -772,12 +781,17 @@ class Robot:
                      self.threads)
 
     def with_cable(self, youngs_modulus: Optional[float] = None, diameter: Optional[float] = None,
-                   routing_length: Optional[float] = None) -> "Robot":
-        """The same robot with another cable material (Pa, m) or routing length (m)."""
+                   routing_length: Optional[float] = None,
+                   stretch_feed_forward: Optional[bool] = None) -> "Robot":
+        """The same robot with another cable material (Pa, m), routing length (m) or
+        controller premise (:attr:`stretch_feed_forward`, True or False)."""
         e = self.youngs_modulus if youngs_modulus is None else as_finite("youngs_modulus", youngs_modulus)
         d = self.cable_diameter if diameter is None else as_finite("diameter", diameter)
         r = self.routing_length if routing_length is None else as_finite("routing_length", routing_length)
-        return Robot(self.core.with_cable(e, d, r), self.threads)
+        f = self.stretch_feed_forward if stretch_feed_forward is None else stretch_feed_forward
+        if not isinstance(f, (bool, np.bool_)):
+            raise CdsmInputError(f"`stretch_feed_forward`: expected True or False, got {f!r}")
+        return Robot(self.core.with_cable(e, d, r, bool(f)), self.threads)
 
     def solve_cables_elastic(self, lengths, seed=None, lower=None, tip_wrench=None, gravity=None,
                              min_tension: float = 0.0, tol: float = 1e-12, max_iter: int = 100,

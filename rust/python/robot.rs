@@ -230,6 +230,12 @@ impl CoreRobot {
     fn routing_length(&self) -> f64 {
         self.model.cable.routing_length
     }
+
+    #[getter]
+    fn stretch_feed_forward(&self) -> bool {
+        self.model.cable.stretch_feed_forward
+    }
+
     #[getter]
     fn axial_stiffness(&self) -> f64 {
         let d = self.model.cable.diameter;
@@ -255,17 +261,22 @@ impl CoreRobot {
         }
     }
 
-    /// The same arm with another cable material / routing length (validated).
+    /// The same arm with another cable material / routing length (validated)
+    /// and controller premise (`None`: this arm's).
+    #[pyo3(signature = (youngs_modulus, diameter, routing_length, stretch_feed_forward=None))]
     fn with_cable(
         &self,
         youngs_modulus: f64,
         diameter: f64,
         routing_length: f64,
+        stretch_feed_forward: Option<bool>,
     ) -> PyResult<Self> {
         let cable = CableMaterial {
             youngs_modulus,
             diameter,
             routing_length,
+            stretch_feed_forward: stretch_feed_forward
+                .unwrap_or(self.model.cable.stretch_feed_forward),
         };
         match self.model.planar() {
             Some(r) => {

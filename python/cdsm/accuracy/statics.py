@@ -228,7 +228,9 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
     """:class:`FrictionMap` of ``robot`` over ``theta`` (N, n) rad (rows with NaN
     are left NaN): statics with friction ``mu`` (1) pulling and releasing, and
     the hysteresis of a ``+-amplitude`` (m) cycle of every position cable
-    through the plant with friction ``mu`` (the robot file's cable stiffness)
+    through the plant with friction ``mu`` and the robot file's cable (its
+    stretch fed forward, or, with rigid commands, its compliance ``1 / (E A)``
+    as ``cable_elasticity``: ``docs/model.md``, "Commands and their order")
     (:func:`hysteresis_cycles`; :mod:`cdsm.calibration.plant`) at evenly
     spread configurations, at most ``cycle_work`` configurations x position
     cables x joints, run in chunks of :func:`cycle_chunk` cycles (memory
@@ -254,7 +256,10 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
         release[ok] = robot.tensions(t, friction=mu, sliding="release", min_tension=min_tension)
         fp[ok] = robot.feasible(t, friction=mu, sliding="pull", min_tension=min_tension)
         fr[ok] = robot.feasible(t, friction=mu, sliding="release", min_tension=min_tension)
-        p = plant.params(robot, {"cable_friction": [mu]})
+        effects = {"cable_friction": [mu]}
+        if not robot.stretch_feed_forward:
+            effects["cable_elasticity"] = [1.0 / robot.axial_stiffness]
+        p = plant.params(robot, effects)
         rows = np.flatnonzero(ok)
         most = max(1, int(cycle_work) // max(m * robot.n, 1))
         if len(rows) > most:
