@@ -6,7 +6,7 @@
 //! the only ones of a spatial arm. SI units; arrays row-major.
 
 use crate::accuracy::McStats;
-use crate::batch::{self, rows_exactly, rows_of, seeds, split_rows, BatchSolution};
+use crate::batch;
 use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
 use crate::friction::{Holes, Profile, Sliding};
@@ -15,8 +15,11 @@ use crate::kinds::{log_so3, Frame, Kind, Planar, Se3, Spatial, Vector};
 use crate::lm::Reason;
 use crate::model::{self, Model};
 use crate::qp::min_norm_active;
+use crate::real::pack::Pack;
 use crate::real::Lane;
-use crate::simd::pack::Pack;
+use crate::rows::{
+    row_of, rows_exactly, rows_of, seeds, shared_or_rows, split_rows, BatchSolution,
+};
 use crate::solve::{CableMethod, CableNewton, CableSolve, SolveOptions};
 use crate::tension::{Balance, Wrench};
 use pulp::{Simd, WithSimd};
@@ -126,20 +129,13 @@ pub fn cable_jacobian(model: &Model, theta: &[f64], threads: usize) -> Result<Ve
     }
 }
 
-/// Whether every angle lies within its joint's limits.
-pub fn within_limits_of(model: &Model, theta: &[f64]) -> bool {
-    theta
-        .iter()
-        .zip(&model.joints)
-        .all(|(t, j)| *t >= j.limits[0] && *t <= j.limits[1])
-}
-
 /// Joint-limit checks `(N,)`.
 pub fn within_limits(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<bool>> {
     let n = model.n();
     let rows = rows_of("theta", theta, n)?;
+    let limits = model.limits();
     Ok(split_rows(rows, threads, |r| {
-        r.map(|i| within_limits_of(model, &theta[i * n..(i + 1) * n]))
+        r.map(|i| limits.contains(&theta[i * n..(i + 1) * n]))
             .collect::<Vec<bool>>()
     })
     .concat())
@@ -222,7 +218,7 @@ pub fn solve_cables_general<K: Kind>(
     let (n, m) = (model.n(), model.position_cables().len());
     let rows = rows_of("lengths", lengths, m)?;
     let seed = seeds(seed, rows, n)?;
-    batch::check_options(opts)?;
+    opts.check()?;
     let mut traverse = Vec::new();
     Broadcast::traversals(model, model, &model.position_cables(), &mut traverse);
     let arch = pulp::Arch::new();
@@ -271,6 +267,7 @@ impl<K: Kind> WithSimd for SolveRows<'_, K> {
         let mut lanes = CableNewton::<P, K::Frame<P>>::new(model, *opts);
         let mut solver = CableSolve::<K::Frame<f64>>::new(model, *opts);
         let mut th = vec![0.0; n];
+        let limits = model.limits();
         let seed_of = |i: usize, k: usize| seed.map_or(0.0, |s| s[i * n + k]);
         for start in rows.clone().step_by(PACK) {
             let count = PACK.min(rows.end - start);
@@ -301,7 +298,7 @@ impl<K: Kind> WithSimd for SolveRows<'_, K> {
                         solver.solve(model, model, &lengths[i * m..(i + 1) * m], &mut th)
                     }
                 };
-                out.push_row(&th, st, within_limits_of(model, &th));
+                out.push_row(&th, st, limits.contains(&th));
             }
         }
         out
@@ -344,11 +341,12 @@ pub fn ik(
             let n = model.n();
             let rows = rows_of("target", target, 6)?;
             let seed = seeds(seed, rows, n)?;
-            batch::check_options(opts)?;
+            opts.check()?;
             let parts = split_rows(rows, threads, |r| {
                 let mut out = BatchSolution::with_capacity(r.len(), n);
                 let mut solver = SpatialIk::new(model, mask, *opts);
                 let mut th = vec![0.0; n];
+                let limits = model.limits();
                 for i in r {
                     match seed {
                         Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
@@ -356,7 +354,7 @@ pub fn ik(
                     }
                     let t: [f64; 6] = std::array::from_fn(|k| target[i * 6 + k]);
                     let st = solver.solve(&t, &mut th);
-                    out.push_row(&th, st, within_limits_of(model, &th));
+                    out.push_row(&th, st, limits.contains(&th));
                 }
                 out
             });
@@ -373,40 +371,6 @@ pub struct Loads<'a> {
     pub gravity: Option<[f64; 3]>,
     pub force: Option<&'a [f64]>,
     pub wrench: Option<&'a [f64]>,
-}
-
-/// Per-row or shared values of a batch: `(width,)` or `(rows, width)`.
-fn shared_or_rows<'a>(
-    name: &str,
-    v: Option<&'a [f64]>,
-    width: usize,
-    rows: usize,
-) -> Result<Option<(&'a [f64], bool)>> {
-    let Some(v) = v else {
-        return Ok(None);
-    };
-    crate::error::check_finite(name, v)?;
-    if v.len() == width {
-        Ok(Some((v, false)))
-    } else if v.len() == rows * width {
-        Ok(Some((v, true)))
-    } else {
-        Err(CdsmError::Shape {
-            name: name.into(),
-            expected: format!("({width},) or ({rows}, {width})"),
-            got: format!("{} values", v.len()),
-        })
-    }
-}
-
-fn row_of(v: Option<(&[f64], bool)>, width: usize, i: usize) -> Option<&[f64]> {
-    v.map(|(v, per_row)| {
-        if per_row {
-            &v[i * width..(i + 1) * width]
-        } else {
-            v
-        }
-    })
 }
 
 /// The position-cable tensions at a batch of configurations `(N, m_pos)`
@@ -571,7 +535,7 @@ pub fn monte_carlo(
     let m = model.position_cables().len();
     let rows = rows_of("theta0", theta0, n)?;
     let samples = crate::accuracy::check_samples(rows_of("dl", dl, m)?)?;
-    batch::check_options(opts)?;
+    opts.check()?;
     let nominal_holes = model.flat_holes();
     let h = nominal_holes.len();
     let models: Vec<Model> = match dholes {

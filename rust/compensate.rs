@@ -16,13 +16,13 @@
 //! friction"), so a target approached from the other side gets other
 //! commands.
 
-use crate::batch::{rows_exactly, split_rows};
 use crate::chain::Chain;
 use crate::error::{CdsmError, Result};
 use crate::kinds::{Frame, Kind, Planar, Spatial};
 use crate::lm::{self, Lm, Problem, Step, Workspace};
 use crate::model::{self, Model};
 use crate::plant::{position_lengths, Plant, SettleWork};
+use crate::rows::{rows_exactly, split_rows};
 use crate::solve::SolveOptions;
 
 /// Appends the command that makes the screws deliver `delivered` (m) from
@@ -171,7 +171,7 @@ fn compensate_k<K: Kind>(model: &Model, args: Args) -> Result<Compensation> {
     let (p, theta_cmd, targets, weights, start, opts, tol, max_iter, threads) = args;
     let n = model.n();
     let task = <K::Frame<f64> as Frame<f64>>::TASK;
-    let rows = crate::batch::rows_of("targets", targets, task)?;
+    let rows = crate::rows::rows_of("targets", targets, task)?;
     rows_exactly("theta_cmd", theta_cmd, n, rows)?;
     crate::error::check_finite("weights", weights)?;
     if weights.len() != task {

@@ -19,9 +19,23 @@ use crate::chain::{Chain, Numbers};
 use crate::error::{CdsmError, Result};
 use crate::kinds::{cross, Frame, Kind, Vector};
 use crate::model::{Mode, Model};
-use crate::plant::MAX_FRICTION;
 use crate::real::Real;
 use crate::tension::{Balance, Wrench};
+
+/// The largest friction coefficient of the physical domain (1; a fit at it
+/// says friction alone does not explain the data).
+pub const MU_MAX: f64 = 1.0;
+
+/// An error naming `friction` unless `0 <= mu <= MU_MAX` (NaN refused).
+pub fn check_mu(mu: f64) -> Result<()> {
+    if !(0.0..=MU_MAX).contains(&mu) {
+        return Err(CdsmError::Option {
+            name: "friction".into(),
+            problem: format!("the friction coefficient must be within [0, {MU_MAX}], got {mu}"),
+        });
+    }
+    Ok(())
+}
 
 /// Where every cable's holes sit in a flat per-hole vector: cable `c` has
 /// `2 e_c` of them from `start[c]`.
@@ -356,18 +370,10 @@ impl Sliding {
         }
     }
 
-    /// An error naming `friction` unless `0 <= mu <= MAX_FRICTION` and the
-    /// mobilisations are within `[-1, 1]`.
+    /// An error naming `friction` unless `0 <= mu <= MU_MAX` ([`check_mu`])
+    /// and the mobilisations are within `[-1, 1]`.
     pub fn check(&self) -> Result<()> {
-        if !(self.mu >= 0.0 && self.mu <= MAX_FRICTION) {
-            return Err(CdsmError::Option {
-                name: "friction".into(),
-                problem: format!(
-                    "the friction coefficient must be within [0, {MAX_FRICTION}], got {}",
-                    self.mu
-                ),
-            });
-        }
+        check_mu(self.mu)?;
         if !(self.position.abs() <= 1.0 && self.force.abs() <= 1.0) {
             return Err(CdsmError::Option {
                 name: "sliding".into(),

@@ -11,7 +11,7 @@
 //! `u = q + (link_after[k], 0)`, so `|v|^2 = P + Q cos(theta_k) + R sin(theta_k)`.
 
 use crate::real::Real;
-use crate::robot::Robot;
+use crate::robot::{hole_index, Robot};
 
 /// Links, disks and holes of an arm in any scalar (m): implemented by the
 /// robot description ([`Robot`], `f64`) and by [`Arm`] (an owned arm, e.g. the
@@ -114,12 +114,6 @@ pub trait ArmGeometry<S: Real> {
         }
         o
     }
-}
-
-/// Index of `holes[c, d, f, 0]` in the flat hole array of an `n`-joint arm.
-#[inline]
-pub fn hole_index(n: usize, c: usize, d: usize, f: usize) -> usize {
-    ((c * (n + 1) + d) * 2 + f) * 2
 }
 
 /// Pair (0-based) of cable `c`: cable `c` crosses joints `0..=pair(c)`.

@@ -10,6 +10,7 @@
 //! planar closed forms serve it. SI units.
 
 use crate::error::{CdsmError, Result};
+use crate::limits::Limits;
 use crate::robot::{CableMaterial, Robot};
 use crate::robot_file::{
     bad, coordinates, from_table, joint_limits, positive_length, robot_name, toml_table, Exact,
@@ -682,15 +683,9 @@ impl Model {
         Ok(())
     }
 
-    /// Length of the straight arm along its chain (m): the distance of the
-    /// end frame's origin from the base at `theta = 0`.
-    pub fn straight_length(&self) -> f64 {
-        use crate::kinds::{Frame, Se3};
-        let mut chain = crate::chain::Chain::<f64, Se3<f64>>::new(self);
-        chain.at(self, self, &vec![0.0; self.n()]);
-        chain.world(self, self);
-        let p = chain.end().origin();
-        (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt()
+    /// The joint-limit box (rad).
+    pub fn limits(&self) -> Limits {
+        Limits(self.joints.iter().map(|j| j.limits).collect())
     }
 
     /// Indices of the position-controlled cables (file order).

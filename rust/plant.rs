@@ -16,17 +16,19 @@
 //! Jacobian of the predictions with respect to the parameters follows from
 //! the implicit function theorem at the settled configuration.
 
-use crate::batch::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
-use crate::chain::{ArmNumbers, Chain};
+use crate::chain::{straight_length, ArmNumbers, Chain};
 use crate::error::{CdsmError, Result};
-use crate::fit::FitModel;
-use crate::friction::{mobilisation, Holes, Motion, Profile};
+use crate::fit::{FitModel, Predictions};
+use crate::friction::{mobilisation, Holes, Motion, Profile, MU_MAX};
 use crate::kinds::{Frame, Kind, Planar, Spatial, Vector};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
 use crate::model::{self, Mode, Model};
 use crate::real::{Arith, Jet, Real};
 use crate::robot::Robot;
+use crate::rows::{
+    row_of, rows_exactly, rows_of, seeds, shared_or_rows, split_rows, BatchSolution,
+};
 use crate::solve::CableSolve;
 use crate::solve::{CableMethod, CableSolver, SolveOptions};
 use crate::tension::{Balance, Wrench};
@@ -87,10 +89,6 @@ impl Effect {
 
 /// The clearance's transition width at `clearance_width = 0` (rad).
 pub const CLEARANCE_WIDTH: f64 = 0.01;
-
-/// The largest friction coefficient of the physical domain (a fit at it
-/// says friction alone does not explain the data).
-pub const MAX_FRICTION: f64 = 1.0;
 
 /// The flat parameter vector of a model's plant: its effects in order, each
 /// with its offset and size.
@@ -311,7 +309,7 @@ fn least_hole_radius(model: &Model) -> f64 {
 /// actuator gain above a tenth of nominal, non-negative compliance, clearance
 /// and backlash, a clearance below the least hole radius, a transition width
 /// in `[1e-4, 1]` rad, planar links above a tenth of their nominal length,
-/// friction in `[0, MAX_FRICTION]`.
+/// friction in `[0, MU_MAX]`.
 pub fn bounds(model: &Model) -> (Vec<f64>, Vec<f64>) {
     let lay = layout(model);
     let mut lo = vec![f64::NEG_INFINITY; lay.total];
@@ -334,7 +332,7 @@ pub fn bounds(model: &Model) -> (Vec<f64>, Vec<f64>) {
             Effect::Backlash => lo[o..o + s].fill(0.0),
             Effect::CableFriction => {
                 lo[o] = 0.0;
-                hi[o] = MAX_FRICTION;
+                hi[o] = MU_MAX;
             }
             Effect::LinkLength if model.kind == model::Kind::Planar => {
                 lo[o] = -0.9 * model.joints[0].offset[0];
@@ -1441,17 +1439,6 @@ fn implicit_derivatives<'c, K: Kind>(
     true
 }
 
-/// Predictions of `K` plants for one data set: observations `(K, N, TASK)`
-/// (NaN for unmeasured rows and rows that did not settle), converged
-/// `(K, N)`, and the configuration each row's last command settles at
-/// `(K, N, n)` (rad).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Predictions {
-    pub observation: Vec<f64>,
-    pub converged: Vec<bool>,
-    pub theta: Vec<f64>,
-}
-
 /// Every command of a data set settled by one plant: the configurations,
 /// observations and flags (the state a fit keeps between a trial and its
 /// Jacobian).
@@ -1792,7 +1779,7 @@ impl<K: Kind> FitModel for PlantFit<'_, K> {
     }
 
     fn weights(&self) -> Vec<f64> {
-        let l = self.model.straight_length();
+        let l = straight_length(self.model);
         let dim = <K::Frame<f64> as Frame<f64>>::DIM;
         (0..self.width())
             .map(|c| if c < dim { 1.0 } else { l })
@@ -1876,8 +1863,8 @@ fn solve_elastic_k<K: Kind>(
 ) -> Result<ElasticSolution> {
     let (n, m) = (model.n(), model.position_cables().len());
     let rows = rows_of("lengths", lengths, m)?;
-    let seed = crate::batch::seeds(seed, rows, n)?;
-    crate::batch::check_options(opts)?;
+    let seed = seeds(seed, rows, n)?;
+    opts.check()?;
     if !min_tension.is_finite() {
         return Err(CdsmError::Option {
             name: "min_tension".into(),
@@ -1886,29 +1873,8 @@ fn solve_elastic_k<K: Kind>(
     }
     let nf = model.cables.len() - m;
     let cw = 3 + model.kind.task() - model.kind.dim();
-    let per_row = |name: &str, v: Option<&[f64]>, width: usize| -> Result<bool> {
-        match v {
-            None => Ok(false),
-            Some(v) => {
-                crate::error::check_finite(name, v)?;
-                if v.len() == width {
-                    Ok(false)
-                } else if v.len() == rows * width {
-                    Ok(true)
-                } else {
-                    Err(CdsmError::Shape {
-                        name: name.into(),
-                        expected: format!("({width},) or ({rows}, {width})"),
-                        got: format!("{} values", v.len()),
-                    })
-                }
-            }
-        }
-    };
-    let (force_rows, wrench_rows) = (
-        per_row("lower", loads.force, nf)?,
-        per_row("tip_wrench", loads.wrench, cw)?,
-    );
+    let force_rows = shared_or_rows("lower", loads.force, nf, rows)?;
+    let wrench_rows = shared_or_rows("tip_wrench", loads.wrench, cw, rows)?;
     if let Some(g) = loads.gravity {
         crate::error::check_finite("gravity", &g)?;
     }
@@ -1931,22 +1897,14 @@ fn solve_elastic_k<K: Kind>(
         let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
         let mut bal = Balance::<f64>::new(model);
         let (mut th, mut t) = (vec![0.0; n], vec![0.0; m]);
+        let limits = model.limits();
         for i in r {
             match seed {
                 Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
                 None => th.fill(0.0),
             }
-            fn pick(v: Option<&[f64]>, w: usize, rows_given: bool, i: usize) -> Option<&[f64]> {
-                v.map(|v| {
-                    if rows_given {
-                        &v[i * w..(i + 1) * w]
-                    } else {
-                        v
-                    }
-                })
-            }
-            let force = pick(loads.force, nf, force_rows, i);
-            let wrench = pick(loads.wrench, cw, wrench_rows, i);
+            let force = row_of(force_rows, nf, i);
+            let wrench = row_of(wrench_rows, cw, i);
             work.loads = Loads {
                 gravity: loads.gravity.unwrap_or(model.gravity),
                 force: force.map(|f| f.to_vec()),
@@ -1981,8 +1939,7 @@ fn solve_elastic_k<K: Kind>(
                     *tk = s.max(0.0) / kappa;
                 }
             }
-            out.solution
-                .push_row(&th, st, crate::arm::within_limits_of(model, &th));
+            out.solution.push_row(&th, st, limits.contains(&th));
             out.tension.extend_from_slice(&t);
             out.feasible.push(t.iter().all(|v| *v > min_tension));
         }

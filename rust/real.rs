@@ -1,11 +1,13 @@
 //! Scalars the models are written over: `f64`, [`Jet`]s that carry
 //! derivatives along `K` directions (forward mode; [`Dual`] is `Jet<1>`),
-//! and lane packs of several rows at once ([`crate::simd::pack::Pack`]).
+//! and lane packs of several rows at once ([`pack::Pack`]).
 //! The plant, the statics and the cable geometry are generic over [`Real`],
 //! so one code path gives values and exact derivatives (no finite
 //! differences); the geometry of a configuration (frames, cable lengths and
 //! their Jacobian) only needs [`Arith`], so it also runs on lanes ([`Lane`]:
 //! `f64` is the one-lane case).
+
+pub mod pack;
 
 use std::ops::{Add, AddAssign, BitAnd, BitOr, Div, Mul, MulAssign, Neg, Not, Sub, SubAssign};
 

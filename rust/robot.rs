@@ -2,6 +2,7 @@
 //! lower-cable tensions and joint limits (SI units), read from TOML.
 
 use crate::error::Result;
+use crate::limits::Limits;
 use crate::robot_file::{
     bad, coordinates, from_table, joint_limits, non_negative, positive, positive_length,
     robot_name, toml_table, Exact, MAX_LENGTH,
@@ -47,6 +48,12 @@ impl CableMaterial {
         }
         Ok(())
     }
+}
+
+/// Index of `holes[c, d, f, 0]` in the flat hole array of an `n`-joint arm.
+#[inline]
+pub fn hole_index(n: usize, c: usize, d: usize, f: usize) -> usize {
+    ((c * (n + 1) + d) * 2 + f) * 2
 }
 
 /// A planar CDSM with `n` joints and `2n` cables (see `docs/model.md`).
@@ -123,7 +130,12 @@ impl Robot {
     /// Index of `holes[c, d, f, 0]` in the flat hole array.
     #[inline]
     pub fn hole_index(&self, c: usize, d: usize, f: usize) -> usize {
-        crate::geometry::hole_index(self.n(), c, d, f)
+        hole_index(self.n(), c, d, f)
+    }
+
+    /// The joint-limit box.
+    pub fn limits(&self) -> Limits<&[[f64; 2]]> {
+        Limits(&self.joint_limits)
     }
 
     /// Parses and validates a TOML robot description (format in README).

@@ -25,7 +25,6 @@
 //! `dS/ddh_i = -J_pose · (dL_upper/dtheta)^-1 [:, i] · sum_holes dL_{2i}/dy`.
 //! Units: m/m for x, y; rad/m for phi.
 
-use crate::batch::{map_rows, rows_of};
 use crate::cables::CableGeometry;
 use crate::chain::{Chain, Numbers};
 use crate::error::Result;
@@ -34,6 +33,7 @@ use crate::kinds::{Frame, Kind, Planar, Spatial, Vector};
 use crate::kinematics::fk_jacobian;
 use crate::model::{self, Model};
 use crate::robot::Robot;
+use crate::rows::{map_rows, rows_of};
 
 /// Sensitivities of a batch of configurations (row-major, flat).
 #[derive(Debug, Clone, PartialEq)]
@@ -256,7 +256,7 @@ pub fn rms_amplification(
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let n = robot.n();
     let rows = rows_of("theta", theta, n)?;
-    crate::batch::rows_exactly("tol", tol, 2 * n, 1)?;
+    crate::rows::rows_exactly("tol", tol, 2 * n, 1)?;
     if !(h > 0.0 && h.is_finite()) {
         return Err(crate::error::CdsmError::Option {
             name: "h".into(),

@@ -133,7 +133,7 @@ impl CoreRobot {
     /// Distance of the straight arm's tip from the base (m).
     #[getter]
     fn straight_length(&self) -> f64 {
-        self.model.straight_length()
+        crate::chain::straight_length(&self.model)
     }
     /// Number of cables.
     #[getter]
