@@ -38,7 +38,7 @@ def reference_rate(robot, theta0, samples, solver):
     l0 = reference.cable_lengths(robot, theta0)[:, 0::2]
     t = time.perf_counter()
     for s in range(samples):
-        r = reference.SimpleRobot.like(robot, reference.hole_height_error(robot, dh[s]))
+        r = reference.hole_height_error(reference.Robot.like(robot), dh[s])
         sol = solver(r, l0 + dl[s], seed=theta0)
         reference.fk(robot, sol["theta"])
     el = time.perf_counter() - t

@@ -83,14 +83,19 @@ def robot_toml(linkages, name="test robot", declare_n=True) -> str:
     return "\n".join(lines) + "\n"
 
 
-def reference_robot(linkages):
-    """The reference :class:`SimpleRobot` of ``linkages`` (built without Rust)."""
-    return reference.SimpleRobot.from_heights(
+def reference_robot(linkages, **loads):
+    """The reference :class:`Robot` of ``linkages`` (built without Rust): the robot
+    file :func:`robot_toml` writes; ``loads``: ``gravity`` (in-plane, m/s^2) and the
+    cable material (``routing_length``, ...)."""
+    return reference.Robot.from_heights(
         [lk.link_before for lk in linkages],
         [lk.link_after for lk in linkages],
         [lk.thickness for lk in linkages],
         [lk.hole_height for lk in linkages],
         [lk.joint_limits for lk in linkages],
+        mass=[lk.mass for lk in linkages],
+        lower_tension=[lk.lower_tension for lk in linkages],
+        **loads,
     )
 
 
@@ -135,7 +140,7 @@ class RobotPair:
 def make_pair(cdsm_mod, name: str) -> RobotPair:
     """Build one of the named test robots in both implementations."""
     if name == "paper":
-        return RobotPair(name, cdsm_mod.Robot.paper(), reference.SimpleRobot.paper())
+        return RobotPair(name, cdsm_mod.Robot.paper(), reference.Robot.paper())
     if name == "n1":
         lk = N1_LINKAGES
     elif name == "n12":
@@ -146,8 +151,8 @@ def make_pair(cdsm_mod, name: str) -> RobotPair:
     elif name in ("paper_perturbed", "n12_perturbed"):
         base = make_pair(cdsm_mod, name.removesuffix("_perturbed"))
         d = hole_perturbation(base.ref.n, 3e-4, seed=7)
-        holes = base.ref.holes + d
-        return RobotPair(name, base.rust.with_holes(holes), base.ref.with_holes(holes))
+        holes = base.ref.planar.holes + d
+        return RobotPair(name, base.rust.with_holes(holes), base.ref.with_planar_holes(holes))
     else:  # pragma: no cover
         raise KeyError(name)
     return RobotPair(name, cdsm_mod.Robot.from_toml_str(robot_toml(lk)), reference_robot(lk))

@@ -3,7 +3,7 @@ solves of a spatial arm, and its Monte Carlo, run the Newton phase of the
 damped solver several rows at a time (``docs/model.md``, "Solves"), and the
 rows that leave it (a rejected step, a singular Jacobian, the iteration
 limit) through the damped solver from their seeds. Parity with the
-independent NumPy reference (``cdsm.reference.spatial``, written from
+independent NumPy reference (``cdsm.reference``, written from
 ``docs/spatial.md``) on random rows of an 8-joint arm — near and far seeds,
 cables too long to reach, rows that end at the iteration limit, enforced
 joint limits — and of the 24-joint SJTU snake (more cables than joints:
@@ -18,7 +18,6 @@ import pytest
 
 from conftest import ROOT, reference
 
-sp = reference.spatial
 
 
 def _eight_joint_toml(sections: int = 4) -> str:
@@ -44,11 +43,11 @@ def _eight_joint_toml(sections: int = 4) -> str:
 @pytest.fixture(scope="module")
 def eight(cdsm, ref):
     text = _eight_joint_toml()
-    return cdsm.Robot.from_toml_str(text), ref.spatial.parse_spatial(text)
+    return cdsm.Robot.from_toml_str(text), ref.read_robot(text)
 
 
 def _position_lengths(nominal, theta):
-    return sp.cable_lengths(nominal, theta)[:, sp.position_cables(nominal)]
+    return reference.cable_lengths(nominal, theta)[:, reference.position_cables(nominal)]
 
 
 def _rows(nominal, count, seed):
@@ -75,7 +74,7 @@ def test_batch_solves_are_the_references(eight):
     robot, nominal = eight
     _, lengths, seed = _rows(nominal, 203, 5)
     sol = robot.solve_cables(lengths, seed=seed)
-    mine = sp.solve_cables(nominal, lengths, seed=seed)
+    mine = reference.solve_cables(nominal, lengths, seed=seed)
     conv = np.asarray(sol.converged)
     np.testing.assert_array_equal(conv, mine["converged"])
     assert 150 < conv.sum() < 203
@@ -135,12 +134,12 @@ def test_least_squares_lanes_on_the_sjtu_snake_are_the_references(cdsm):
     by less than 1e-12 of itself, a test at the level of its rounding: one
     side may take one step more along the misfit's flat valley)."""
     robot = cdsm.Robot.from_toml("sjtu_snake")
-    nominal = sp.load_spatial(ROOT / "python" / "cdsm" / "robots" / "sjtu_snake.toml")
+    nominal = reference.load_robot(ROOT / "python" / "cdsm" / "robots" / "sjtu_snake.toml")
     rng = np.random.default_rng(8)
     th = rng.uniform(-0.3, 0.3, (9, robot.n))
     lengths = _position_lengths(nominal, th) + rng.uniform(-1e-3, 1e-3, (9, len(robot.position_cables)))
     sol = robot.solve_cables(lengths, seed=th)
-    mine = sp.solve_cables(nominal, lengths, seed=th)
+    mine = reference.solve_cables(nominal, lengths, seed=th)
     assert np.asarray(sol.converged).all() and mine["converged"].all()
     cost = [((_position_lengths(nominal, t) - lengths) ** 2).sum(1) for t in (np.asarray(sol.theta), mine["theta"])]
     np.testing.assert_allclose(cost[0], cost[1], rtol=1e-10, atol=0)
@@ -164,17 +163,17 @@ def test_spatial_monte_carlo_is_the_references(eight):
     mc = monte_carlo(robot, theta, samples=samples, seed=4, chunk=samples, dl_tol=1e-2, progress=False)
     dl, dh = sample_errors(robot.n, samples, 4, 0, np.full(m, 1e-2), np.full(h, 0.35e-3))
     l0 = _position_lengths(nominal, theta)
-    f0 = sp.fk_matrix(nominal, theta)
+    f0 = reference.fk_matrix(nominal, theta)
     sizes = [x.size for x in nominal.holes]
     values = np.full((samples, len(theta), 5), np.nan)
     for s in range(samples):
         flat = np.concatenate([x.ravel() for x in nominal.holes]) + dh[s]
         parts = np.split(flat, np.cumsum(sizes)[:-1])
         arm = dataclasses.replace(nominal, holes=tuple(p.reshape(x.shape) for p, x in zip(parts, nominal.holes)))
-        sol = sp.solve_cables(arm, l0 + dl[s], seed=theta)
-        f = sp.fk_matrix(arm, sol["theta"])
+        sol = reference.solve_cables(arm, l0 + dl[s], seed=theta)
+        f = reference.fk_matrix(arm, sol["theta"])
         d = f[:, :3, 3] - f0[:, :3, 3]
-        angle = np.array([np.linalg.norm(sp.log_so3(a[:3, :3].T @ b[:3, :3])) for a, b in zip(f0, f)])
+        angle = np.array([np.linalg.norm(reference.log_so3(a[:3, :3].T @ b[:3, :3])) for a, b in zip(f0, f)])
         ok = sol["converged"]
         values[s, ok] = np.column_stack([d, np.linalg.norm(d, axis=1), angle])[ok]
     solved = ~np.isnan(values[..., 0])

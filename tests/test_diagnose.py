@@ -526,3 +526,35 @@ def test_repeats_with_readings_of_their_own_still_estimate_the_noise(mods, robot
         d = mods["diagnose"].diagnose(robot, meas, folds=FOLDS, frame="base")
     assert d.prep.copies == {} and int(d.prep.usable.sum()) == 50
     assert d.noise_estimate.source == "repeats" and d.noise_estimate.groups == 25
+
+
+def test_the_folds_are_fitted_a_few_at_a_time_with_the_same_answer(mods, robot, monkeypatch):
+    """Memory bounded by design (issue 32, item 11): the cross-validation
+    fits run as many folds at a time as the robot has worker threads (the
+    results of the others are not held at once; a progress line counts
+    them), and the answer is the one of all folds in one call — each fold's
+    fit is independent."""
+    plant, diagnose = mods["plant"], mods["diagnose"]
+    meas = _data(plant, robot, {"hole_height": _typical(plant, robot, "hole_height", 3)}, 3)
+    calls = []
+    real = diagnose.fit_folds
+
+    def spy(prep, effects, scored, *a, **k):
+        calls.append(len(scored))
+        return real(prep, effects, scored, *a, **k)
+
+    r2 = robot.with_loads()  # a copy with its own thread count
+    r2.threads = 2
+    monkeypatch.setattr(diagnose, "fit_folds", spy)
+    d2 = diagnose.diagnose(r2, meas, folds=FOLDS, noise=NOISE, frame="base")
+    assert calls and max(calls) == 2 and set(calls) <= {1, 2}
+    calls.clear()
+    r1 = robot.with_loads()
+    r1.threads = FOLDS + 1  # every fold (and the fit on all rows) in one call
+    d1 = diagnose.diagnose(r1, meas, folds=FOLDS, noise=NOISE, frame="base")
+    assert set(calls) == {FOLDS + 1}
+    assert d1.best == d2.best == "hole_height"
+    for a, b in zip([d1.baseline] + d1.singles, [d2.baseline] + d2.singles):
+        assert a.name == b.name
+        np.testing.assert_array_equal(a.heldout, b.heldout)
+        np.testing.assert_array_equal(a.fit.p, b.fit.p)

@@ -18,11 +18,11 @@ ROBOTS = Path(__file__).resolve().parents[1] / "python" / "cdsm" / "robots"
 @pytest.mark.parametrize("name", ["two_universal", "sjtu_snake", "paper_spatial"])
 def test_disk_frames_equal_the_reference(cdsm, ref, name):
     robot = cdsm.Robot.from_toml(name)
-    nominal = ref.spatial.load_spatial(ROBOTS / f"{name}.toml")
+    nominal = ref.load_robot(ROBOTS / f"{name}.toml")
     lim = robot.joint_limits
     theta = np.random.default_rng(4).uniform(lim[:, 0], lim[:, 1], (50, robot.n))
     got = robot.disk_frames(theta)
-    want = ref.spatial.disk_frames(nominal, theta)
+    want = ref.disk_frames(nominal, theta)
     k = got.shape[1]
     np.testing.assert_allclose(got[:, :, 0, :3, :3], want["Ra"][:, 1:k + 1], atol=1e-14)
     np.testing.assert_allclose(got[:, :, 1, :3, 3], want["tb"][:, 1:k + 1], atol=1e-14)

@@ -97,8 +97,8 @@ def test_the_diagnosis_progress_counts_its_steps(cdsm, monkeypatch):
     real = progress.Progress
 
     class Spy(real):
-        def __init__(self, total, label, enabled=True, force=False):
-            super().__init__(total, label, False, False)
+        def __init__(self, total, label, enabled=True, force=False, **kw):
+            super().__init__(total, label, False, False, **kw)
             seen.append(self)
 
     monkeypatch.setattr(diagnosis, "Progress", Spy)

@@ -3,7 +3,7 @@
 (Euler--Eytelwein at one hole, the frictionless limit, the hysteresis loop
 widening with ``mu`` and the wrap angle, the sign of the dissipation) and
 parity with the independent NumPy reference (``cdsm.reference.friction``,
-``.plant``, ``.spatial_plant``).  SI units: m, rad, N, 1/N."""
+``.plant``).  SI units: m, rad, N, 1/N."""
 
 from __future__ import annotations
 
@@ -12,8 +12,6 @@ import pytest
 
 from conftest import ROOT, reference
 
-spp = reference.spatial_plant
-sp = reference.spatial
 ROBOTS = ROOT / "python" / "cdsm" / "robots"
 
 #: One joint of the paper's first linkage (link_before = link_after, so the
@@ -72,7 +70,7 @@ def test_frictionless_statics_are_todays(cdsm):
 
 def test_statics_with_friction_match_the_reference(cdsm, ref):
     """The bounding states' tensions against the reference's balance with the
-    capstan gap factors (``reference.plant.friction_factors``)."""
+    capstan gap factors (``reference.friction_factors``)."""
     r = cdsm.Robot.paper().with_loads(gravity=[0.0, -9.80665])
     th = np.random.default_rng(2).uniform(-0.5, 0.5, (20, 3))
     H = sum(2 * (c // 2 + 1) for c in range(6))
@@ -217,9 +215,9 @@ def test_planar_plant_with_friction_matches_the_reference(cdsm, ref, blocks):
 def test_spatial_plant_with_friction_matches_the_reference(cdsm):
     from cdsm.calibration import plant
 
-    core, arm = cdsm.Robot.packaged("two_universal"), sp.load_spatial(ROBOTS / "two_universal.toml")
-    lay = spp.layout(arm)
-    p = np.zeros(spp.size(arm))
+    core, arm = cdsm.Robot.packaged("two_universal"), reference.load_robot(ROBOTS / "two_universal.toml")
+    lay = reference.plant_layout(arm)
+    p = np.zeros(reference.plant_size(arm))
     p[lay["cable_elasticity"]] = 0.02
     p[lay["cable_friction"]] = 0.2
     p[lay["backlash"]] = [2e-5, 1e-5, 3e-5, 1e-5]
@@ -228,7 +226,7 @@ def test_spatial_plant_with_friction_matches_the_reference(cdsm):
     dL = rng.uniform(-1e-3, 1e-3, (14, 4))
     kind = rng.choice(["absolute", "displacement", "unmeasured"], 14, p=[0.5, 0.3, 0.2])
     obs, ok = plant.predict(core, p, theta, dL, kind)
-    want, ok_ref = spp.predict(arm, p, theta, dL, kind)
+    want, ok_ref = reference.plant_predict(arm, p, theta, dL, kind)
     assert (ok == ok_ref).all() and ok.all()
     m = kind != "unmeasured"
     assert np.abs(obs[m] - want[m]).max() < 1e-10, np.abs(obs[m] - want[m]).max()
@@ -280,9 +278,9 @@ def test_redundant_arm_with_friction_matches_the_reference(cdsm):
 
     text = (ROBOTS / "two_universal.toml").read_text(encoding="utf-8")
     text = re.sub(r'mode = "force"\ntension = [0-9.eE+-]+\n', 'mode = "position"\n', text)
-    core, arm = cdsm.Robot.from_toml_str(text), sp.parse_spatial(text)
-    lay = spp.layout(arm)
-    p = np.zeros(spp.size(arm))
+    core, arm = cdsm.Robot.from_toml_str(text), reference.read_robot(text)
+    lay = reference.plant_layout(arm)
+    p = np.zeros(reference.plant_size(arm))
     p[lay["cable_elasticity"]] = 0.02
     p[lay["cable_friction"]] = 0.15
     p[lay["cable_offset"]] = np.random.default_rng(5).uniform(-1e-3, -6e-4, 8)
@@ -292,7 +290,7 @@ def test_redundant_arm_with_friction_matches_the_reference(cdsm):
     from cdsm.calibration import plant
 
     obs, ok = plant.predict(core, p, theta, dL, kind)
-    want, ok_ref = spp.predict(arm, p, theta, dL, kind)
+    want, ok_ref = reference.plant_predict(arm, p, theta, dL, kind)
     assert ok.all() and ok_ref.all()
     assert np.abs(obs - want).max() < 1e-9, np.abs(obs - want).max()
 
@@ -344,8 +342,8 @@ def test_friction_map_loops_match_the_reference(cdsm, ref):
     th = np.array([[0.3, -0.2, 0.25], [0.0, 0.0, 0.0], [-0.4, 0.3, 0.1]])
     fm = statics.friction_map(r, th)
     theta_cmd, dL = statics.hysteresis_cycles(3, 3, th)
-    p = np.zeros(ref.plant_size(3))
-    lay = ref.plant_layout(3)
+    p = np.zeros(ref.plant_size(r))
+    lay = ref.plant_layout(r)
     p[lay["cable_friction"]] = statics.FRICTION  # friction's stretch at the robot file's E A
     obs, ok = ref.plant_predict(r, p, theta_cmd, dL, np.array(["absolute"] * len(theta_cmd)))
     assert ok.all()
@@ -460,3 +458,46 @@ def test_suggest_offers_loading_and_unloading_with_friction(compliant, friction_
     d = diagnosis.diagnose(compliant, friction_data, effects=["cable_friction", "backlash", "cable_elasticity"])
     sug = experiment.suggest(d, 4, pool=60)
     assert sug.approach is not None and len(sug.approach) == len(sug.theta)
+
+
+def test_a_friction_map_runs_its_cycles_in_chunks_of_bounded_memory(cdsm, ref, monkeypatch):
+    """Memory bounded by design (issue 32, item 11): the plant with friction
+    keeps every hole's motion for every command, so the hysteresis map runs
+    its cycles in chunks of :func:`cycle_chunk` (here two cycles: at most 10
+    rows through the plant at once, where it used to run all 45 in one
+    sequence); each chunk is a sequence of its own from the start state —
+    its loops are the reference plant's on that chunk alone — and a chunk
+    holding every cycle is the one sequence, as before."""
+    from cdsm.accuracy import statics
+    from cdsm.calibration import plant
+
+    r = cdsm.Robot.packaged("paper_vertical")
+    th = np.array([[0.3, -0.2, 0.25], [0.0, 0.0, 0.0], [-0.4, 0.3, 0.1]])
+    whole = statics.friction_map(r, th)
+    holes = 2 * sum(r.cable_ends)
+    monkeypatch.setattr(statics, "CYCLE_MEMORY", 2 * 5 * holes * statics.BYTES_PER_HOLE_COMMAND)
+    assert statics.cycle_chunk(r) == 2
+    calls = []
+    real = plant.predict
+
+    def spy(robot, p, theta_cmd, *a, **k):
+        calls.append(len(theta_cmd))
+        return real(robot, p, theta_cmd, *a, **k)
+
+    monkeypatch.setattr(plant, "predict", spy)
+    fm = statics.friction_map(r, th)
+    assert calls == [10, 10, 10, 10, 5]
+    theta_cmd, dL = statics.hysteresis_cycles(3, 3, th)
+    p = np.zeros(ref.plant_size(r))
+    p[ref.plant_layout(r)["cable_friction"]] = statics.FRICTION
+    want = np.empty(9)
+    for first in range(0, 9, 2):
+        rows = slice(5 * first, 5 * min(first + 2, 9))
+        kinds = np.array(["absolute"] * (rows.stop - rows.start))
+        obs, ok = ref.plant_predict(r, p, theta_cmd[rows], dL[rows], kinds)
+        assert ok.all()
+        xy = obs[:, :2].reshape(-1, 5, 2)
+        want[first:first + len(xy)] = np.linalg.norm(xy[:, 2] - xy[:, 4], axis=-1)
+    assert np.abs(fm.loop.reshape(-1) - want).max() < 1e-12
+    # the first chunk starts where the whole sequence starts: same loops
+    np.testing.assert_array_equal(fm.loop.reshape(-1)[:2], whole.loop.reshape(-1)[:2])

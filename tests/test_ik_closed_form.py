@@ -32,7 +32,7 @@ ASYM_LINKAGES = [
 
 
 def robot_pair(cdsm, name):
-    """``(rust Robot, reference SimpleRobot)`` of the named 3-joint arm."""
+    """``(rust Robot, reference Robot)`` of the named 3-joint arm."""
     if name == "paper":
         return cdsm.Robot.paper(), reference_robot(PAPER_LINKAGES)
     return cdsm.Robot.from_toml_str(robot_toml(ASYM_LINKAGES)), reference_robot(ASYM_LINKAGES)
@@ -40,7 +40,8 @@ def robot_pair(cdsm, name):
 
 def arm_radii(robot):
     """``(r1, r2)`` m: joint 1 -> joint 2 and joint 2 -> joint 3 distances."""
-    lb, la, t = (np.asarray(a, dtype=float) for a in (robot.link_before, robot.link_after, robot.thickness))
+    v = robot.planar  # the reference arm's planar layout
+    lb, la, t = (np.asarray(a, dtype=float) for a in (v.link_before, v.link_after, v.thickness))
     return la[0] + t[0] + lb[1], la[1] + t[1] + lb[2]
 
 

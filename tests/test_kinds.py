@@ -5,6 +5,7 @@ RuntimeWarning reaches the user. Each test reproduces a reported bug."""
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import warnings
 from pathlib import Path
@@ -124,18 +125,18 @@ def test_spatial_sensitivities_are_the_reference_solves_differentiated(cdsm, ref
     from cdsm.accuracy.sensitivity import sensitivities
 
     robot = cdsm.Robot.packaged("two_universal")
-    mirror = ref.spatial.load_spatial(ROBOTS / "two_universal.toml")
+    mirror = ref.load_robot(ROBOTS / "two_universal.toml")
     theta = np.random.default_rng(3).uniform(-0.4, 0.4, (4, 4))
     s = sensitivities(robot, theta, holes=True)
     assert s.ok.all() and s.cable.shape == (4, 6, 4) and s.holes.shape == (4, 6, len(robot.flat_holes))
-    pos = ref.spatial.position_cables(mirror)
-    L0 = ref.spatial.cable_lengths(mirror, theta)[:, pos]
+    pos = ref.position_cables(mirror)
+    L0 = ref.cable_lengths(mirror, theta)[:, pos]
     h = 1e-6
 
     def tips(m, lengths):
-        sol = ref.spatial.solve_cables(m, lengths, seed=theta)
+        sol = ref.solve_cables(m, lengths, seed=theta)
         assert sol["converged"].all()
-        return ref.spatial.fk_matrix(m, sol["theta"])[:, :3, 3]
+        return ref.fk_matrix(m, sol["theta"])[:, :3, 3]
 
     for k in range(4):
         d = np.zeros(4)
@@ -152,7 +153,7 @@ def test_spatial_sensitivities_are_the_reference_solves_differentiated(cdsm, ref
             for hh in mirror.holes:
                 holes.append((flat + sign * e)[k:k + hh.size].reshape(hh.shape))
                 k += hh.size
-            return ref.spatial.SpatialRobot(**{**mirror.__dict__, "holes": tuple(holes)})
+            return dataclasses.replace(mirror, holes=tuple(holes))
 
         fd = (tips(moved(1.0), L0) - tips(moved(-1.0), L0)) / (2 * h)
         np.testing.assert_allclose(s.holes[:, :3, j], fd, atol=1e-7)
@@ -224,12 +225,10 @@ def test_spatial_monte_carlo_counts_slack_samples_as_the_reference_statics(cdsm,
     sample's holes for the moment arms: no taut set of position tensions
     (the square balance, or the minimum-norm set above 0 with 6 position
     cables on 4 joints)."""
-    import dataclasses
-
     from cdsm.accuracy.montecarlo import monte_carlo, sample_errors
 
     text = _weakly_held_two_universal(redundant)
-    r, nominal = cdsm.Robot.from_toml_str(text), ref.spatial.parse_spatial(text)
+    r, nominal = cdsm.Robot.from_toml_str(text), ref.read_robot(text)
     assert len(r.position_cables) == (6 if redundant else 4)
     theta = np.random.default_rng(3).uniform(-0.6, 0.6, (60, r.n))
     mc = monte_carlo(r, theta, samples=1, seed=11, chunk=1, progress=False, check_slack=True)
@@ -240,7 +239,7 @@ def test_spatial_monte_carlo_counts_slack_samples_as_the_reference_statics(cdsm,
     sizes = [x.size for x in nominal.holes]
     parts = np.split(np.concatenate([x.ravel() for x in nominal.holes]) + dh[0], np.cumsum(sizes)[:-1])
     moved = dataclasses.replace(nominal, holes=tuple(p.reshape(x.shape) for p, x in zip(parts, nominal.holes)))
-    _, taut = ref.spatial.tensions(moved, d.solution.theta)
+    _, taut = ref.feasible_tensions(moved, d.solution.theta)
     np.testing.assert_array_equal(mc.slack, (~taut).astype(int))
     assert 0 < mc.slack.sum() < len(theta)
     plain = monte_carlo(r, theta, samples=1, seed=11, chunk=1, progress=False)

@@ -443,12 +443,12 @@ def test_table3_in_millimetres_says_so(cdsm):
 # ---------------------------------------------------------------------------
 def test_a_spatial_ik_reports_its_true_residual(cdsm, ref):
     s = cdsm.Robot.from_toml("two_universal")
-    nominal = ref.spatial.load_spatial(os.path.join(ROBOTS, "two_universal.toml"))
+    nominal = ref.load_robot(os.path.join(ROBOTS, "two_universal.toml"))
     # a rotation vector of 1e300 rad is a rotation (its angle modulo 2 pi);
     # the arm cannot take it at this position, and the residual says by how much
     for target in (np.array([0.1, 0.0, 0.0, 1e300, 0.0, 0.0]), np.array([0.1, 0.0, 0.0, np.pi, 0.0, 0.0])):
         sol = s.ik(target)
         assert not sol.converged and np.isfinite(sol.residual) and sol.residual > 0.1
         # the position part of the misfit at the returned angles, by the reference
-        p = ref.spatial.fk(nominal, sol.theta[None])[0, :3]
+        p = ref.fk(nominal, sol.theta[None])[0, :3]
         assert sol.residual >= np.abs(p - target[:3]).max() - 1e-12

@@ -1,10 +1,12 @@
-"""Self-checks of the reference plant (``cdsm.reference.plant``): facts of
+"""Self-checks of the reference plant (``cdsm.reference.plant``) on planar arms: facts of
 ``docs/model.md`` ("The plant: nominal model plus unmodelled effects"), using
 the NumPy reference only (no compiled extension)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import types
 
 import numpy as np
 import pytest
@@ -16,18 +18,19 @@ G0 = 9.80665
 
 def _robot(ref, name, mass=None, gravity=None, routing_length=0.0):
     lk = {"paper": PAPER_LINKAGES, "n1": N1_LINKAGES, "n12": N12_LINKAGES}[name]
-    r = reference_robot(lk)
-    r.mass = np.array([x.mass for x in lk]) if mass is None else np.asarray(mass, float)
-    r.lower_tension = np.array([x.lower_tension for x in lk])
-    r.gravity = None if gravity is None else np.asarray(gravity, float)
-    r.routing_length = routing_length
-    return r
+    r = reference_robot(lk, gravity=gravity, routing_length=routing_length)
+    return r if mass is None else dataclasses.replace(r, mass=np.asarray(mass, float))
+
+
+def _planar(n):
+    """A planar reference arm of ``n`` joints (the planar layout depends on ``n`` only)."""
+    return reference_robot(N12_LINKAGES[:n])
 
 
 def _p(ref, n, **effects):
-    """Flat parameter vector with the named effects set."""
-    p = np.zeros(ref.plant_size(n))
-    lay = ref.plant_layout(n)
+    """Flat parameter vector of an ``n``-joint planar arm with the named effects set."""
+    p = np.zeros(ref.plant_size(_planar(n)))
+    lay = ref.plant_layout(_planar(n))
     for k, v in effects.items():
         p[lay[k]] = v
     return p
@@ -46,27 +49,36 @@ NAMES = ["paper", "n1", "n12"]
 # --------------------------------------------------------------------------
 @pytest.mark.parametrize("n", [1, 3, 12])
 def test_layout(ref, n):
-    names = [name for name, _ in ref.PLANT_EFFECTS]
+    names = [name for name, _ in ref.plant_blocks(_planar(n))]
     assert names == ["actuation_scale", "cable_offset", "hole_height", "link_length",
                      "cable_elasticity", "hole_clearance", "frame_misalignment",
                      "tip_offset", "backlash", "clearance_width", "cable_friction"]
-    lay = ref.plant_layout(n)
+    lay = ref.plant_layout(_planar(n))
     sizes = [1, n, n, n + 1, 1, 1, 3, 2, n, 1, 1]
     assert [lay[k].stop - lay[k].start for k in names] == sizes
     assert lay["actuation_scale"].start == 0
     for a, b in zip(names, names[1:]):
         assert lay[a].stop == lay[b].start
-    assert ref.plant_size(n) == 4 * n + 11 == lay["cable_friction"].stop
+    assert ref.plant_size(_planar(n)) == 4 * n + 11 == lay["cable_friction"].stop
 
 
 def test_parameter_checks(ref):
+    """Outside the physical domain of docs/model.md ("Parameters") the reference refuses."""
     n = 3
-    for bad in [dict(cable_elasticity=-1e-6), dict(hole_clearance=-1e-4),
-                dict(backlash=[0, -1e-5, 0]), dict(clearance_width=-0.01), dict(cable_friction=-0.1)]:
-        with pytest.raises(ValueError):
-            ref.plant_params(_p(ref, n, **bad), n)
+    robot = _planar(n)
+    la = robot.link_after[1, 0]  # m, link_after[2]: its link_length entry is dl_2
+    for bad, field in [(dict(cable_elasticity=-1e-6), "cable_elasticity"),
+                       (dict(hole_clearance=-1e-4), "hole_clearance"),
+                       (dict(backlash=[0, -1e-5, 0]), "backlash"), (dict(clearance_width=-0.01), "clearance width"),
+                       (dict(clearance_width=1.0), "clearance width"), (dict(cable_friction=-0.1), "cable_friction"),
+                       (dict(cable_friction=1.01), "cable_friction"), (dict(actuation_scale=-0.9), "actuator gain"),
+                       (dict(link_length=[0.0, 0.0, -0.91 * la, 0.0]), "link_length")]:
+        with pytest.raises(ValueError, match=field):
+            ref.plant_params(robot, _p(ref, n, **bad))
+    ref.plant_params(robot, _p(ref, n, link_length=[0.0, 0.0, -0.89 * la, 0.0], clearance_width=0.99,
+                               cable_friction=1.0, actuation_scale=-0.89))  # inside, at the edges
     with pytest.raises(ValueError):
-        ref.plant_params(np.zeros(4 * n + 10), n)
+        ref.plant_params(robot, np.zeros(4 * n + 10))
 
 
 # --------------------------------------------------------------------------
@@ -76,10 +88,13 @@ def test_parameter_checks(ref):
 def test_zero_parameters_are_nominal(ref, name):
     robot = _robot(ref, name)
     n = robot.n
-    p = np.zeros(ref.plant_size(n))
+    p = np.zeros(ref.plant_size(robot))
     arm = ref.plant_arm(robot, p)
-    for a in ["link_before", "link_after", "thickness", "holes", "joint_limits"]:
-        assert np.array_equal(getattr(arm, a), getattr(robot, a))
+    for a in ["axes", "offsets", "joint_limits", "link_after", "thickness", "mass", "com", "gravity",
+              "cable_tension"]:
+        np.testing.assert_array_equal(getattr(arm, a), getattr(robot, a), err_msg=a)
+    for h, g in zip(arm.holes, robot.holes):
+        assert np.array_equal(h, g)
 
     N = 60
     theta = random_theta(n, N, seed=3, lim=0.4)
@@ -88,16 +103,18 @@ def test_zero_parameters_are_nominal(ref, name):
     obs, ok = ref.plant_predict(robot, p, theta, dL, kind)
     assert ok.all()
 
-    C = ref.upper_cable_lengths(robot, theta)
-    for solver, atol in [(ref.solve_cables_closed_form, 1e-14), (ref.solve_cables, 1e-10)]:
+    # the plant's settle (a damped Newton on the cables to round-off) and two
+    # independent rigid solves; the closed form to 1e-14 per coordinate: x, y (m)
+    # and each joint angle, so phi, the sum of n angles, to n 1e-14 rad
+    C = ref.position_lengths(robot, theta)
+    for solver, atol in [(ref.solve_cables_closed_form, [1e-14, 1e-14, n * 1e-14]), (ref.solve_cables, 1e-10)]:
         s1 = solver(robot, C + dL, seed=theta)
         s0 = solver(robot, C, seed=theta)
         assert s1["converged"].all() and s0["converged"].all()
         S1, S0 = ref.fk(robot, s1["theta"]), ref.fk(robot, s0["theta"])
         k = np.array(kind)
-        np.testing.assert_allclose(obs[k == "absolute"], S1[k == "absolute"], rtol=0, atol=atol)
-        np.testing.assert_allclose(obs[k == "displacement"], (S1 - S0)[k == "displacement"],
-                                   rtol=0, atol=atol)
+        assert (np.abs(obs[k == "absolute"] - S1[k == "absolute"]) <= atol).all()
+        assert (np.abs(obs[k == "displacement"] - (S1 - S0)[k == "displacement"]) <= atol).all()
         assert np.isnan(obs[k == "unmeasured"]).all()
     # with dL = 0 an absolute row sees the commanded pose
     obs0, ok0 = ref.plant_predict(robot, p, theta, np.zeros_like(dL), ["absolute"] * N)
@@ -114,7 +131,8 @@ def test_arm_perturbations(ref, name):
     n = robot.n
     rng = np.random.default_rng(5)
     dh, dl = rng.normal(0, 1e-4, n), rng.normal(0, 1e-4, n + 1)
-    arm = ref.plant_arm(robot, _p(ref, n, hole_height=dh, link_length=dl))
+    arm = ref.plant_arm(robot, _p(ref, n, hole_height=dh, link_length=dl)).planar
+    robot = robot.planar
     assert arm.link_before[0] == robot.link_before[0] + dl[0]
     np.testing.assert_array_equal(arm.link_before[1:], robot.link_before[1:])
     np.testing.assert_array_equal(arm.link_after, robot.link_after + dl[1:])
@@ -140,8 +158,8 @@ def test_clearance_zero_is_nominal_length(ref, name):
     p = _p(ref, n, hole_height=rng.normal(0, 1e-4, n), link_length=rng.normal(0, 1e-4, n + 1),
            clearance_width=0.02)
     theta = random_theta(n, 200, seed=7)
-    La = ref.arm_upper_lengths(robot, p, theta)
-    np.testing.assert_allclose(La, ref.upper_cable_lengths(ref.plant_arm(robot, p), theta),
+    La = ref.arm_lengths(robot, p, theta)
+    np.testing.assert_allclose(La, ref.position_lengths(ref.plant_arm(robot, p), theta),
                                rtol=0, atol=1e-15)
 
 
@@ -150,22 +168,23 @@ def test_clearance_vanishes_at_straight_pose(ref, name):
     robot = _robot(ref, name)
     n = robot.n
     p = _p(ref, n, hole_clearance=3e-4, hole_height=np.full(n, 2e-5))
-    assert np.all(ref.clearance_shifts(np.zeros((1, n)), 3e-4, 0.01) == 0.0)
+    assert all(np.all(shift == 0.0) for shift in ref.bend_shifts(robot, p, np.zeros((1, n))))
     z = np.zeros((1, n))
-    np.testing.assert_allclose(ref.arm_upper_lengths(robot, p, z),
-                               ref.upper_cable_lengths(ref.plant_arm(robot, p), z), rtol=0, atol=1e-15)
+    np.testing.assert_allclose(ref.arm_lengths(robot, p, z),
+                               ref.position_lengths(ref.plant_arm(robot, p), z), rtol=0, atol=1e-15)
     # away from the straight pose it does change the lengths
     theta = random_theta(n, 20, seed=8)
-    assert np.abs(ref.arm_upper_lengths(robot, p, theta)
-                  - ref.upper_cable_lengths(ref.plant_arm(robot, p), theta)).max() > 1e-6
+    assert np.abs(ref.arm_lengths(robot, p, theta)
+                  - ref.position_lengths(ref.plant_arm(robot, p), theta)).max() > 1e-6
 
 
 def test_clearance_by_hand_n1(ref):
     """n = 1, straight holes at height h: both holes of the joint move by d, the
     anchor (face b of disk 1) stays."""
     robot = _robot(ref, "n1")
-    lb, la, t = robot.link_before[0], robot.link_after[0], robot.thickness[0]
-    h = robot.holes[0, 0, 1, 1]
+    v = robot.planar
+    lb, la, t = v.link_before[0], v.link_after[0], v.thickness[0]
+    h = v.holes[0, 0, 1, 1]
     cl, dw = 4e-4, 0.005
     w = 0.01 + dw
     theta = np.linspace(-0.6, 0.6, 13)[:, None]
@@ -173,7 +192,7 @@ def test_clearance_by_hand_n1(ref):
     Ax = lb + np.cos(theta[:, 0]) * la - np.sin(theta[:, 0]) * (h + d)
     Ay = np.sin(theta[:, 0]) * la + np.cos(theta[:, 0]) * (h + d)
     expect = np.hypot(Ax - 0.0, Ay - (h + d)) + np.hypot(t, -d)
-    got = ref.arm_upper_lengths(robot, _p(ref, 1, hole_clearance=cl, clearance_width=dw), theta)
+    got = ref.arm_lengths(robot, _p(ref, 1, hole_clearance=cl, clearance_width=dw), theta)
     np.testing.assert_allclose(got[:, 0], expect, rtol=0, atol=1e-15)
 
 
@@ -193,7 +212,7 @@ def test_clearance_by_hand_n2_inner_disk(ref):
 
     expect = (seg(lk[0].link_before, lk[0].link_after, t1, d1) + math.hypot(lk[0].thickness, d2 - d1)
               + seg(lk[1].link_before, lk[1].link_after, t2, d2) + math.hypot(lk[1].thickness, -d2))
-    got = ref.arm_upper_lengths(robot, _p(ref, 2, hole_clearance=cl), theta)
+    got = ref.arm_lengths(robot, _p(ref, 2, hole_clearance=cl), theta)
     assert abs(got[0, 1] - expect) < 1e-15
 
 
@@ -209,7 +228,7 @@ def test_backlash_zero_is_identity(ref):
 def test_backlash_reversal_and_monotone(ref):
     robot = _robot(ref, "paper")
     L0 = ref.reference_lengths(robot)
-    np.testing.assert_array_equal(L0, ref.upper_cable_lengths(robot, np.zeros((1, 3)))[0])
+    np.testing.assert_array_equal(L0, ref.position_lengths(robot, np.zeros((1, 3)))[0])
     b = np.array([1e-4, 2e-4, 5e-5])
     p = _p(ref, 3, backlash=b)
     D = 1e-3
@@ -247,7 +266,7 @@ def test_backlash_in_the_pipeline(ref):
     robot = _robot(ref, "paper")
     b = np.array([1e-4, 2e-4, 1.5e-4])
     theta = np.array([[-0.2, -0.1, -0.15]])  # all upper cables longer than straight
-    C = ref.upper_cable_lengths(robot, theta)
+    C = ref.position_lengths(robot, theta)
     assert np.all(C[0] - ref.reference_lengths(robot) > b)
     obs, ok = ref.plant_predict(robot, _p(ref, 3, backlash=b), theta, np.zeros((1, 3)), ["absolute"])
     sol = ref.solve_cables(robot, C - b, seed=theta)
@@ -263,7 +282,7 @@ def test_commands_order(ref):
     dL = np.full((4, 3), 1e-4)
     cmds, rows, seeds = ref.plant_commands(robot, theta, dL, ["displacement", "absolute", "unmeasured",
                                                               "displacement"])
-    C = ref.upper_cable_lengths(robot, theta)
+    C = ref.position_lengths(robot, theta)
     assert rows.tolist() == [0, 0, 1, 2, 3, 3]
     np.testing.assert_array_equal(cmds, [C[0], C[0] + dL[0], C[1] + dL[1], C[2] + dL[2], C[3], C[3] + dL[3]])
     np.testing.assert_array_equal(seeds, theta[rows])
@@ -304,7 +323,7 @@ def test_frame_translation_cancels_in_displacements(ref, name):
     k = np.array(kind)
     base = _p(ref, n, tip_offset=[2e-3, 1e-3], backlash=np.full(n, 5e-5))
     o0, ok0 = ref.plant_predict(robot, base, theta, dL, kind)
-    lay = ref.plant_layout(n)
+    lay = ref.plant_layout(robot)
     moved = base.copy()
     moved[lay["frame_misalignment"]] = [0.0, 0.02, -0.01]
     o1, ok1 = ref.plant_predict(robot, moved, theta, dL, kind)
@@ -331,8 +350,10 @@ def test_gravity_changes_tensions_only_with_mass(ref, name):
     g = [3.0, -9.81]
     p = _p(ref, n, hole_height=np.full(n, 1e-4))
     flat = ref.plant_tensions(_robot(ref, name), p, theta)
-    no_attr = _robot(ref, name)
-    del no_attr.gravity  # absent attribute: [0, 0]
+    v = _robot(ref, name).planar  # a duck-typed arm without a gravity attribute: [0, 0]
+    no_attr = types.SimpleNamespace(n=v.n, **{a: getattr(v, a) for a in ("link_before", "link_after", "thickness",
+                                                                           "holes", "joint_limits", "mass",
+                                                                           "lower_tension")})
     np.testing.assert_array_equal(ref.plant_tensions(no_attr, p, theta), flat)
     massless = ref.plant_tensions(_robot(ref, name, mass=np.zeros(n), gravity=g), p, theta)
     np.testing.assert_allclose(massless, flat, rtol=0, atol=1e-14)
@@ -351,20 +372,21 @@ def test_elastic_settling(ref, name, gravity, routing):
     rng = np.random.default_rng(16)
     p = _p(ref, n, cable_elasticity=kappa, hole_height=rng.normal(0, 5e-5, n),
            link_length=rng.normal(0, 5e-5, n + 1))
-    L = ref.upper_cable_lengths(robot, theta_cmd)
+    L = ref.position_lengths(robot, theta_cmd)
     theta, ok = ref.settle(robot, p, L, theta_cmd)
     assert ok.all()
     arm = ref.plant_arm(robot, p)
-    T = ref.tensions(arm, theta, lower=robot.lower_tension,
+    T = ref.tensions(arm, theta, lower=robot.planar.lower_tension,
                      gravity=None if gravity is None else gravity, mass=robot.mass)
-    stretch = ref.upper_cable_lengths(arm, theta) - L
+    stretch = ref.position_lengths(arm, theta) - L
     # the settling equation: L_arm - L = (L + L_route) kappa T
     np.testing.assert_allclose(stretch, (L + routing) * kappa * T, rtol=0, atol=1e-10)
     # taut cables lengthen (and the random configurations do pull on them)
     assert (T > 1e-3).any() and (stretch[T > 1e-3] > 0.0).all()
     # and the rigid answer is a different configuration
-    rigid, _ = ref.settle(robot, _p(ref, n, hole_height=p[ref.plant_layout(n)["hole_height"]],
-                                    link_length=p[ref.plant_layout(n)["link_length"]]), L, theta_cmd)
+    lay = ref.plant_layout(robot)
+    rigid, _ = ref.settle(robot, _p(ref, n, hole_height=p[lay["hole_height"]], link_length=p[lay["link_length"]]),
+                          L, theta_cmd)
     assert np.abs(theta - rigid).max() > 1e-6
     # the same physics through the kinematics module's elastic cable solve
     d = 1e-3
@@ -378,15 +400,15 @@ def test_elastic_settling(ref, name, gravity, routing):
 def test_settling_with_clearance(ref):
     robot = _robot(ref, "paper")
     theta_cmd = random_theta(3, 30, seed=17, lim=0.4)
-    L = ref.upper_cable_lengths(robot, theta_cmd)
+    L = ref.position_lengths(robot, theta_cmd)
     p = _p(ref, 3, hole_clearance=2e-4, clearance_width=0.01, cable_elasticity=1e-5)
     theta, ok = ref.settle(robot, p, L, theta_cmd)
     assert ok.all()
     F = ref.settling_residual(robot, p, L, theta)
     assert np.abs(F).max() <= 1e-12
     # F written out: clearance lengths against the stretched rest lengths
-    T = ref.tensions(ref.plant_arm(robot, p), theta, lower=robot.lower_tension)
-    np.testing.assert_allclose(ref.arm_upper_lengths(robot, p, theta), L * (1 + 1e-5 * T), rtol=0, atol=1e-12)
+    T = ref.tensions(ref.plant_arm(robot, p), theta, lower=robot.planar.lower_tension)
+    np.testing.assert_allclose(ref.arm_lengths(robot, p, theta), L * (1 + 1e-5 * T), rtol=0, atol=1e-12)
 
 
 def test_unreachable_command_fails(ref):

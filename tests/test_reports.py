@@ -17,6 +17,9 @@ configuration counts keep it fast.
 
 from __future__ import annotations
 
+import html
+import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -270,3 +273,55 @@ def test_a_long_arm_draws_maps_for_its_worst_single_errors_only(cdsm):
     assert keys == sorted(keys, key=lambda k: int(k[1:]))
     few = results[:sf.MAX_SCENARIO_FIGURES]
     assert sf.detailed_scenarios(NS(scenarios=few)) == [r.scenario.key for r in few]
+
+
+#: a robot name that is Markdown and matplotlib markup if taken as such (a heading, bold, a code span, a link, a
+#: table cell break, HTML, a mathtext formula with a stray backslash)
+HOSTILE_NAME = "arm **x**\n# h | `c` [l](#m) <b> $\\\\frac $1"
+
+
+def test_outside_text_shows_as_written_and_changes_no_structure():
+    """``document.literal``: the name keeps its characters in both renderers
+    (its line break as a space) and adds no heading, table cell or link."""
+    from cdsm.report.document import Document, literal
+
+    doc = Document(f"Study of {literal(HOSTILE_NAME)}")
+    doc.section("headline", "Headline")
+    doc.p(f"Robot **{literal(HOSTILE_NAME)}**.")
+    doc.table(["robot", "n"], [[literal(HOSTILE_NAME), "3"]])
+    md = doc.markdown("figures")
+    assert [line for line in md.splitlines() if line.startswith("#")] == [md.splitlines()[0]]
+    row = next(line for line in md.splitlines() if line.startswith("| arm"))
+    assert len(re.findall(r"(?<!\\)((?:\\\\)*)\|", row)) == 3  # two cells: three unescaped pipes
+    page = doc.html({}, "t")
+    shown = html.escape(HOSTILE_NAME.replace("\n", " "))
+    assert f"<h1>Study of {shown}</h1>" in page and f"<b>{shown}</b>" in page and f"<td>{shown}</td>" in page
+    assert "<a href" not in page and "<code>" not in page
+
+
+def test_a_hostile_robot_name_in_the_reports(cdsm, tmp_path):
+    """A study and a diagnosis of a robot whose name is markup: both reports
+    keep their structure and the figures draw (a mathtext name raised at draw
+    time)."""
+    from conftest import N12_LINKAGES, robot_toml
+
+    from cdsm.calibration import diagnosis, measurements
+    from cdsm.cli import main
+    from cdsm.report import diagnosis as diagnosis_report
+
+    f = tmp_path / "two.toml"
+    f.write_text(re.sub(r'^name = .*$', lambda _: "name = " + json.dumps(HOSTILE_NAME),
+                        robot_toml(N12_LINKAGES[:2], name="x"), count=1, flags=re.M))
+    out = tmp_path / "study"
+    assert main(["paper", "--robot", str(f), "--out-dir", str(out), "--samples", "10", "--no-scenario-figures",
+                 "--quiet"]) == 0
+    paper = re.sub(r'^name = .*$', lambda _: "name = " + json.dumps(HOSTILE_NAME),
+                   (Path(cdsm.__file__).parent / "robots" / "paper.toml").read_text(encoding="utf-8"),
+                   count=1, flags=re.M)
+    d = diagnosis.diagnose(cdsm.Robot.from_toml_str(paper), measurements.packaged("table3", 3))
+    diagnosis_report.write(d, tmp_path / "diag")
+    for folder in (out, tmp_path / "diag"):
+        md = (folder / "report.md").read_text(encoding="utf-8")
+        assert not re.search(r"^#+ h", md, re.M) and "arm \\*\\*x\\*\\* \\# h \\| \\`c\\`" in md
+        assert html.escape(HOSTILE_NAME.replace("\n", " ")) in (folder / "report.html").read_text(encoding="utf-8")
+        assert list((folder / "figures").glob("*.png"))

@@ -18,7 +18,7 @@ https://github.com/darwinlau/CASPR, BSD-3-Clause) are read here with
 
 (``tests/caspr_reference.py``, shared with ``tests/test_caspr_import.py``).
 
-The NumPy reference of spatial arms (``cdsm.reference.spatial``, loaded from its
+The NumPy reference (``cdsm.reference``, loaded from its
 files by ``conftest``; no compiled extension) reads the packaged robot file; its
 cable lengths must equal CASPR's at 200 random configurations within the joint
 limits to 1e-12 m. SI units: m, rad, kg.
@@ -88,13 +88,13 @@ def caspr():
 
 @pytest.fixture(scope="module")
 def snake(ref):
-    return ref.spatial.load_spatial(TOML)
+    return ref.load_robot(TOML)
 
 
 @pytest.fixture(scope="module")
 def theta(snake):
     """200 configurations uniform in the joint box (rad), seeded."""
-    lo, hi = snake.limits[:, 0], snake.limits[:, 1]
+    lo, hi = snake.joint_limits[:, 0], snake.joint_limits[:, 1]
     return np.random.default_rng(2024).uniform(lo, hi, (N_CONFIG, snake.n))
 
 
@@ -127,12 +127,11 @@ def test_caspr_model_facts(caspr):
 # The packaged file
 # --------------------------------------------------------------------------
 def test_packaged_file_facts(snake, caspr, ref):
-    sp = ref.spatial
     links = caspr["links"]
     assert snake.kind == "spatial"
     assert (snake.n, snake.disks, snake.m) == (24, 12, 36)
     assert snake.cable_mode == ("position",) * 36
-    np.testing.assert_array_equal(sp.position_cables(snake), np.arange(36))
+    np.testing.assert_array_equal(ref.position_cables(snake), np.arange(36))
     counts = np.bincount(snake.cable_end, minlength=13)[1:]
     np.testing.assert_array_equal(counts, np.full(12, 3))  # three cables end at each link
     # the ends in CASPR's order: cable i (link k) for i = 1, 2, 3 and k = 1..12
@@ -140,8 +139,8 @@ def test_packaged_file_facts(snake, caspr, ref):
     # limits, joint by joint in CASPR's order
     lo = np.concatenate([lk["q_min"] for lk in links])
     hi = np.concatenate([lk["q_max"] for lk in links])
-    np.testing.assert_array_equal(snake.limits, np.stack([lo, hi], axis=1))
-    np.testing.assert_array_equal(snake.limits, np.tile([-0.35, 0.35], (24, 1)))
+    np.testing.assert_array_equal(snake.joint_limits, np.stack([lo, hi], axis=1))
+    np.testing.assert_array_equal(snake.joint_limits, np.tile([-0.35, 0.35], (24, 1)))
     np.testing.assert_array_equal(snake.joint_disk, np.repeat(np.arange(1, 13), 2))
     # U_XZ under Q: Q e_x then Q e_z
     np.testing.assert_array_equal(snake.axes, np.tile([Q @ [1.0, 0, 0], Q @ [0, 0, 1.0]], (12, 1)))
@@ -150,9 +149,9 @@ def test_packaged_file_facts(snake, caspr, ref):
     np.testing.assert_allclose(snake.com, [Q @ lk["com"] for lk in links], rtol=0, atol=1e-15)
     # gravity: CASPR's -z, perpendicular to the straight arm (+x), standard magnitude
     np.testing.assert_array_equal(snake.gravity, [0.0, 0.0, -9.80665])
-    assert snake.gravity @ sp.fk_matrix(snake, np.zeros((1, 24)))[0, :3, 0] == 0.0
+    assert snake.gravity @ ref.fk_matrix(snake, np.zeros((1, 24)))[0, :3, 0] == 0.0
     # the straight arm points along +x: twelve links of 0.09921 m
-    np.testing.assert_allclose(sp.fk(snake, np.zeros((1, 24)))[0], [12 * 0.09921, 0, 0, 0, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(ref.fk(snake, np.zeros((1, 24)))[0], [12 * 0.09921, 0, 0, 0, 0, 0], atol=1e-15)
     # holes within the radii (the reader checks it too), at 19 mm
     for h in snake.holes:
         assert np.all(np.hypot(h[:, 1], h[:, 2]) <= 0.02)
@@ -161,7 +160,7 @@ def test_packaged_file_facts(snake, caspr, ref):
 
 def test_cable_lengths_equal_caspr(snake, caspr, theta, ref):
     """The packaged file's cable lengths (NumPy reference) equal CASPR's model's, 1e-12 m."""
-    mine = ref.spatial.cable_lengths(snake, theta)
+    mine = ref.cable_lengths(snake, theta)
     theirs = caspr_lengths(caspr["links"], caspr["cables"], theta)
     assert mine.shape == theirs.shape == (N_CONFIG, 36)
     err = np.max(np.abs(mine - theirs))
@@ -173,9 +172,8 @@ def test_cable_lengths_equal_caspr(snake, caspr, theta, ref):
 def test_points_and_tip_equal_caspr(snake, caspr, theta, ref):
     """Every hole point is CASPR's attachment point (under Q) and the end frame is
     CASPR's tip operational point (link 12, offset end_location): 1e-12 m."""
-    sp = ref.spatial
     R, p = caspr_frames(caspr["links"], theta)
-    pts = sp.cable_points(snake, theta)
+    pts = ref.cable_points(snake, theta)
     for c, (name, att) in enumerate(caspr["cables"]):
         P = caspr_points(R, p, att[::-1]) @ Q.T  # base to end, cdsm axes
         e = att[0][0]
@@ -183,7 +181,7 @@ def test_points_and_tip_equal_caspr(snake, caspr, theta, ref):
         np.testing.assert_allclose(pts[c][:, :-1], P, rtol=0, atol=TOL, err_msg=name)
         np.testing.assert_allclose(pts[c][:, -1], P[:, -1], rtol=0, atol=TOL, err_msg=name)  # zero traversal
         assert pts[c].shape[1] == 2 * e + 1
-    T = sp.fk_matrix(snake, theta)
+    T = ref.fk_matrix(snake, theta)
     tip = p[:, 12] + R[:, 12] @ caspr["links"][-1]["end"]
     np.testing.assert_allclose(T[:, :3, 3], tip @ Q.T, rtol=0, atol=TOL)
     np.testing.assert_allclose(T[:, :3, :3], Q @ R[:, 12] @ Q.T, rtol=0, atol=1e-13)
@@ -196,7 +194,7 @@ def test_one_millimetre_is_seen(snake, caspr, theta, ref):
     h[9, 1] -= 1e-3  # cable 20, face a of disk 5
     holes[19] = h
     moved = dataclasses.replace(snake, holes=tuple(holes))
-    err = np.abs(ref.spatial.cable_lengths(moved, theta) - caspr_lengths(caspr["links"], caspr["cables"], theta))
+    err = np.abs(ref.cable_lengths(moved, theta) - caspr_lengths(caspr["links"], caspr["cables"], theta))
     assert err[:, 19].max() > 1e-5
     assert np.delete(err, 19, axis=1).max() <= TOL
 
@@ -213,5 +211,5 @@ def test_rust_core_reads_the_packaged_file(snake, theta, ref):
     assert robot.n == 24 and robot.cables == 36
     assert list(robot.position_cables) == list(range(36))
     th = theta[:8]
-    err = np.max(np.abs(robot.cable_lengths(th) - ref.spatial.cable_lengths(snake, th)))
+    err = np.max(np.abs(robot.cable_lengths(th) - ref.cable_lengths(snake, th)))
     assert err <= TOL, f"max |L_rust - L_reference| = {err:.3e} m"

@@ -22,7 +22,7 @@ ROBOTS = Path(__file__).resolve().parents[1] / "python" / "cdsm" / "robots"
 @pytest.fixture(scope="module")
 def arm(cdsm, ref):
     robot = cdsm.Robot.packaged("two_universal")
-    mirror = ref.spatial.load_spatial(ROBOTS / "two_universal.toml")
+    mirror = ref.load_robot(ROBOTS / "two_universal.toml")
     return robot, mirror
 
 
@@ -38,12 +38,12 @@ def _ref_tips(mirror, lengths, seed, tip=None, frame=None):
     ``lengths`` from ``seed``, seen through a tip offset and a frame."""
     from conftest import reference as ref
 
-    sol = ref.spatial.solve_cables(mirror, lengths, seed=seed)
+    sol = ref.solve_cables(mirror, lengths, seed=seed)
     assert sol["converged"].all()
-    f = ref.spatial.fk_matrix(mirror, sol["theta"])
+    f = ref.fk_matrix(mirror, sol["theta"])
     p = f[:, :3, 3] + (0 if tip is None else np.einsum("nij,j->ni", f[:, :3, :3], tip))
     if frame is not None:
-        p = p @ ref.spatial.exp_so3(frame[:3]).T + frame[3:]
+        p = p @ ref.exp_so3(frame[:3]).T + frame[3:]
     return p
 
 
@@ -64,11 +64,11 @@ def test_each_effect_matches_the_reference(cdsm, ref, arm, effect):
 
     robot, mirror = arm
     th, dl = _commands(robot)
-    pos = ref.spatial.position_cables(mirror)
+    pos = ref.position_cables(mirror)
     lay = plant.layout(robot)
     p = np.zeros(plant.size(robot))
-    l_ref = ref.spatial.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
-    cmd = ref.spatial.cable_lengths(mirror, th)[:, pos] + dl
+    l_ref = ref.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
+    cmd = ref.cable_lengths(mirror, th)[:, pos] + dl
     real, tip, frame, moved = cmd, None, None, mirror
     rng = np.random.default_rng(4)
     if effect == "actuation_scale":
@@ -112,7 +112,7 @@ def test_backlash_loses_the_dead_band_on_a_reversal(cdsm, ref, arm):
     from cdsm.calibration import plant
 
     robot, mirror = arm
-    pos = ref.spatial.position_cables(mirror)
+    pos = ref.position_cables(mirror)
     b = np.array([4e-5, 3e-5, 2e-5, 5e-5])
     p = plant.params(robot, {"backlash": b})
     th = np.tile(np.array([0.1, -0.2, 0.15, 0.05]), (3, 1))
@@ -120,8 +120,8 @@ def test_backlash_loses_the_dead_band_on_a_reversal(cdsm, ref, arm):
     dl[1] = 1e-3  # go beyond, then come back to the same command
     obs, ok = plant.predict(robot, p, th, dl)
     assert ok.all()
-    cmd = ref.spatial.cable_lengths(mirror, th[:1])[:, pos]
-    l_ref = ref.spatial.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
+    cmd = ref.cable_lengths(mirror, th[:1])[:, pos]
+    l_ref = ref.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
     first = np.where(cmd > l_ref, cmd - b, cmd + b)  # approached from the straight pose
     back = cmd + 1e-3 - b + 0.0  # state after going beyond ...
     back = np.where(cmd - back < -b, cmd + b, back)  # ... then down by 1 mm: reversal
@@ -236,7 +236,7 @@ def test_compensated_commands_put_the_reference_arm_on_target(cdsm, ref, arm, tm
     from cdsm.calibration.model import Model
 
     robot, mirror = arm
-    pos = ref.spatial.position_cables(mirror)
+    pos = ref.position_cables(mirror)
     off = np.array([1e-4, -2e-4, 5e-5, 0.0])
     model = Model.from_effects(robot, {"actuation_scale": [0.03], "cable_offset": off})
     path = tmp_path / "m.json"
@@ -246,7 +246,7 @@ def test_compensated_commands_put_the_reference_arm_on_target(cdsm, ref, arm, tm
     targets = robot.fk(th)[:, :3]
     c = model.compensate(targets)
     assert c.converged.all() and c.commands.shape == (6, len(pos)) and not any(c.flags)
-    l_ref = ref.spatial.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
+    l_ref = ref.cable_lengths(mirror, np.zeros((1, robot.n)))[0, pos]
 
     def played(cmd):
         return _ref_tips(mirror, l_ref + 1.03 * (cmd - l_ref) + off, seed=c.theta_cmd)

@@ -1,6 +1,6 @@
 """Parity of the Rust core on spatial robot files (``cdsm.Robot`` with
 ``kind == "spatial"``) with the independent NumPy reference
-(``cdsm.reference.spatial``, written from ``docs/spatial.md``) on random
+(``cdsm.reference``, written from ``docs/spatial.md``) on random
 batches.  SI units: m, rad, N.  Tolerances: lengths and poses 1e-12, Jacobians
 1e-10, solves 1e-9 rad.
 
@@ -15,7 +15,6 @@ import pytest
 
 from conftest import ROOT, reference
 
-sp = reference.spatial
 ROBOTS = ROOT / "python" / "cdsm" / "robots"
 NAMES = ["paper_spatial", "two_universal"]
 
@@ -38,11 +37,11 @@ if _kind != "spatial":
 @pytest.fixture(params=NAMES, scope="module")
 def pair(request):
     """``(rust robot, reference robot)`` of one packaged spatial file."""
-    return _rust_robot(request.param), sp.load_spatial(ROBOTS / f"{request.param}.toml")
+    return _rust_robot(request.param), reference.load_robot(ROBOTS / f"{request.param}.toml")
 
 
 def _box(robot, N, seed, scale=1.0):
-    lo, hi = robot.limits[:, 0] * scale, robot.limits[:, 1] * scale
+    lo, hi = robot.joint_limits[:, 0] * scale, robot.joint_limits[:, 1] * scale
     return np.random.default_rng(seed).uniform(lo, hi, (N, robot.n))
 
 
@@ -61,36 +60,38 @@ def test_shapes_and_kind(pair):
 def test_forward_kinematics(pair):
     rust, ref = pair
     th = _box(ref, 500, 1)
-    np.testing.assert_allclose(np.asarray(rust.fk_matrix(th)), sp.fk_matrix(ref, th), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(rust.fk(th)), sp.fk(ref, th), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(rust.fk_matrix(th)), reference.fk_matrix(ref, th), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(rust.fk(th)), reference.fk(ref, th), rtol=0, atol=1e-12)
 
 
 def test_rotation_vector_beyond_half_turn(pair):
     """Outside the joint box (FK does not clamp): principal rotation vectors, |r| <= pi."""
     rust, ref = pair
     th = np.random.default_rng(2).uniform(-2.0, 2.0, (300, ref.n))
-    a, b = np.asarray(rust.fk(th)), sp.fk(ref, th)
+    a, b = np.asarray(rust.fk(th)), reference.fk(ref, th)
     np.testing.assert_allclose(a[:, :3], b[:, :3], rtol=0, atol=1e-12)
     ok = np.linalg.norm(b[:, 3:], axis=1) < np.pi - 1e-6  # at pi both signs are principal
     np.testing.assert_allclose(a[ok, 3:], b[ok, 3:], rtol=0, atol=1e-11)
-    np.testing.assert_allclose(sp.exp_so3(a[:, 3:]), sp.exp_so3(b[:, 3:]), rtol=0, atol=1e-11)
+    np.testing.assert_allclose(reference.exp_so3(a[:, 3:]), reference.exp_so3(b[:, 3:]), rtol=0, atol=1e-11)
 
 
 def test_cable_lengths_and_jacobians(pair):
     rust, ref = pair
     th = _box(ref, 500, 3)
-    np.testing.assert_allclose(np.asarray(rust.cable_lengths(th)), sp.cable_lengths(ref, th), rtol=0, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(rust.cable_jacobian(th)), sp.cable_jacobian(ref, th), rtol=0, atol=1e-10)
-    np.testing.assert_allclose(np.asarray(rust.fk_jacobian(th)), sp.geometric_jacobian(ref, th), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(np.asarray(rust.cable_lengths(th)), reference.cable_lengths(ref, th), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(rust.cable_jacobian(th)), reference.cable_jacobian(ref, th),
+                               rtol=0, atol=1e-10)
+    np.testing.assert_allclose(np.asarray(rust.fk_jacobian(th)), reference.geometric_jacobian(ref, th),
+                               rtol=0, atol=1e-10)
 
 
 def test_cable_solve(pair):
     rust, ref = pair
     th = _box(ref, 200, 4)
-    lengths = sp.cable_lengths(ref, th)[:, sp.position_cables(ref)]
+    lengths = reference.cable_lengths(ref, th)[:, reference.position_cables(ref)]
     seed = np.zeros_like(th)
     sol = rust.solve_cables(lengths, seed=seed)
-    mine = sp.solve_cables(ref, lengths, seed=seed)
+    mine = reference.solve_cables(ref, lengths, seed=seed)
     assert np.asarray(sol.converged).all() and mine["converged"].all()
     np.testing.assert_allclose(np.asarray(sol.theta), th, rtol=0, atol=1e-9)
     np.testing.assert_allclose(np.asarray(sol.theta), mine["theta"], rtol=0, atol=1e-9)
@@ -104,24 +105,24 @@ def test_ik(pair, mask):
     answer they agree on the joint angles (rad) — the same answer, to 1e-9."""
     rust, ref = pair
     th = _box(ref, 100, 5, scale=0.5)
-    target = sp.fk(ref, th)
+    target = reference.fk(ref, th)
     seed = np.zeros_like(th)
     sol = rust.ik(target, seed=seed, mask=mask)
-    mine = sp.ik(ref, target, seed=seed, mask=mask)
+    mine = reference.ik(ref, target, seed=seed, mask=mask)
     conv = np.asarray(sol.converged)
     np.testing.assert_array_equal(conv, mine["converged"])
     assert conv.all()
     theta = np.asarray(sol.theta)
-    np.testing.assert_allclose(sp.fk(ref, theta)[:, :3], target[:, :3], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(reference.fk(ref, theta)[:, :3], target[:, :3], rtol=0, atol=1e-12)
     # seeded 1 mrad from the answer both reach the same joint angles, to 1e-9
     # rad plus what a 1e-12 residual allows where the Jacobian is nearly
     # singular (1e-12 over its smallest non-zero singular value)
-    sv = np.linalg.svd(sp.geometric_jacobian(ref, th), compute_uv=False)
+    sv = np.linalg.svd(reference.geometric_jacobian(ref, th), compute_uv=False)
     sv_min = np.where(sv > 1e-9, sv, np.inf).min(axis=1)
     tol = 1e-9 + 1e-12 / sv_min
     near = th + np.random.default_rng(7).uniform(-1e-3, 1e-3, th.shape)
     sol = rust.ik(target, seed=near, mask=mask)
-    mine = sp.ik(ref, target, seed=near, mask=mask)
+    mine = reference.ik(ref, target, seed=near, mask=mask)
     assert np.asarray(sol.converged).all() and mine["converged"].all()
     assert np.all(np.abs(np.asarray(sol.theta) - mine["theta"]).max(axis=1) <= tol)
     if mask in ("pose", "pointing"):  # unique near the answer: the joint angles themselves
@@ -135,16 +136,16 @@ def test_tensions(pair):
     have to push (the reference has no set above the floor: NaN)."""
     rust, ref = pair
     th = _box(ref, 300, 6)
-    T, feasible = sp.tensions(ref, th)
+    T, feasible = reference.feasible_tensions(ref, th)
     T_rust = np.asarray(rust.tensions(th))
     np.testing.assert_array_equal(np.asarray(rust.feasible(th)), feasible)
     np.testing.assert_allclose(T_rust[feasible], T[feasible], rtol=1e-9, atol=1e-12)
     assert np.isnan(T[~feasible]).all()
     if len(rust.position_cables) == rust.n and (~feasible).any():
         assert (np.nanmin(T_rust[~feasible], axis=1) < 0).all()
-        M = sp.moment_matrices(ref, th[~feasible])
-        tau = sp.external_moments(ref, th[~feasible])
-        pos, frc = sp.position_cables(ref), sp.force_cables(ref)
+        M = reference.moment_matrices(ref, th[~feasible])
+        tau = reference.external_moments(ref, th[~feasible])
+        pos, frc = reference.position_cables(ref), reference.force_cables(ref)
         resid = (np.einsum("nij,nj->ni", M[:, :, pos], T_rust[~feasible]) + tau
                  + M[:, :, frc] @ ref.cable_tension[frc])
         assert np.abs(resid).max() < 1e-12

@@ -1,7 +1,7 @@
 """Parity of the spatial plant (``rust/plant.rs`` through ``cdsm.calibration.plant``
 on ``kind = "spatial"`` robots) with the independent NumPy reference written from
 ``docs/model.md`` ("The plant") and ``docs/spatial.md``
-(``cdsm.reference.spatial_plant``).  SI units: m, rad, N, 1/N.
+(``cdsm.reference.plant``).  SI units: m, rad, N, 1/N.
 
 Tolerances: the core settles each command to its default ``tol = 1e-12`` m in the
 cable lengths (the reference iterates to round-off), which leaves about 3e-11
@@ -26,8 +26,8 @@ import pytest
 
 from conftest import ROOT, reference
 
-spp = reference.spatial_plant
-sp = reference.spatial
+#: The spatial plant's parameter blocks, in the order of the flat vector.
+BLOCKS = [name for name, _ in reference.KINDS["spatial"].layout]
 ROBOTS = ROOT / "python" / "cdsm" / "robots"
 NON_NEGATIVE = ("cable_elasticity", "hole_clearance", "backlash", "cable_friction")
 KINDS = ["absolute", "displacement", "unmeasured"]
@@ -45,21 +45,21 @@ def _all_position_text() -> str:
 @pytest.fixture(scope="module")
 def two(cdsm):
     """``(core robot, reference robot)`` of two_universal."""
-    return cdsm.Robot.packaged("two_universal"), sp.load_spatial(ROBOTS / "two_universal.toml")
+    return cdsm.Robot.packaged("two_universal"), reference.load_robot(ROBOTS / "two_universal.toml")
 
 
 @pytest.fixture(scope="module")
 def eight(cdsm):
     """``(core robot, reference robot)`` of the all-position two_universal."""
     text = _all_position_text()
-    return cdsm.Robot.from_toml_str(text), sp.parse_spatial(text)
+    return cdsm.Robot.from_toml_str(text), reference.read_robot(text)
 
 
 def _rows(ref, rows, seed, dl=1e-3, kinds=None):
     """Commands within +-0.4 rad, ``dL`` within +-dl m, mixed row kinds; seeded."""
     rng = np.random.default_rng(seed)
     theta = rng.uniform(-0.4, 0.4, (rows, ref.n))
-    dL = rng.uniform(-dl, dl, (rows, sp.position_cables(ref).size))
+    dL = rng.uniform(-dl, dl, (rows, reference.position_cables(ref).size))
     kind = rng.choice(KINDS, rows, p=[0.5, 0.3, 0.2]) if kinds is None else np.array(kinds)
     return theta, dL, kind
 
@@ -69,8 +69,8 @@ def _typical(ref, blocks, seed):
     from cdsm.calibration import plant
 
     rng = np.random.default_rng(seed)
-    lay = spp.layout(ref)
-    p = np.zeros(spp.size(ref))
+    lay = reference.plant_layout(ref)
+    p = np.zeros(reference.plant_size(ref))
     for b in blocks:
         sl = lay[b]
         v = rng.uniform(0.5, 1.0, sl.stop - sl.start) * plant.TYPICAL[b]
@@ -89,7 +89,7 @@ def _compare(core, ref, p, theta, dL, kind, tol=1e-12, every_row=True):
     from cdsm.calibration import plant
 
     obs, ok = plant.predict(core, p, theta, dL, kind, tol=tol)
-    want, ok_ref = spp.predict(ref, p, theta, dL, kind)
+    want, ok_ref = reference.plant_predict(ref, p, theta, dL, kind)
     assert obs.shape == want.shape == (len(kind), 6)
     assert (ok == ok_ref).all() and (ok.all() or not every_row), (ok, ok_ref)
     un = kind == "unmeasured"
@@ -105,12 +105,14 @@ def _compare(core, ref, p, theta, dL, kind, tol=1e-12, every_row=True):
 def test_layout_matches_the_core(cdsm, two, eight):
     from cdsm.calibration import plant
 
-    paper = cdsm.Robot.packaged("paper_spatial"), sp.load_spatial(ROBOTS / "paper_spatial.toml")
-    for core, ref in (two, eight, paper):
-        assert list(map(tuple, core.core.plant_effects())) == spp.block_sizes(ref)
-        assert plant.layout(core) == spp.layout(ref) and plant.size(core) == spp.size(ref)
+    paper = cdsm.Robot.packaged("paper_spatial"), reference.load_robot(ROBOTS / "paper_spatial.toml")
+    planar = [(cdsm.Robot.packaged(name), reference.load_robot(ROBOTS / f"{name}.toml"))
+              for name in ("paper", "serpentine8")]  # the one layout table's planar rows
+    for core, ref in (two, eight, paper, *planar):
+        assert list(map(tuple, core.core.plant_effects())) == reference.plant_blocks(ref)
+        assert plant.layout(core) == reference.plant_layout(ref) and plant.size(core) == reference.plant_size(ref)
     # two_universal: m = 4 position cables with 3 + 3 + 5 + 5 holes, n = 4 joints, K = 2 disks
-    assert dict(spp.block_sizes(two[1])) == dict(
+    assert dict(reference.plant_blocks(two[1])) == dict(
         actuation_scale=1, cable_offset=4, hole_position=48, link_length=18, cable_elasticity=1,
         frame_misalignment=6, tip_offset=3, backlash=4, hole_clearance=1, clearance_width=1, joint_axis=8,
         cable_friction=1)
@@ -119,10 +121,10 @@ def test_layout_matches_the_core(cdsm, two, eight):
 # --------------------------------------------------------------------------
 # two_universal: every effect alone and all at once
 # --------------------------------------------------------------------------
-@pytest.mark.parametrize("blocks", [[b] for b in spp.BLOCKS] + [list(spp.BLOCKS)], ids=list(spp.BLOCKS) + ["all"])
+@pytest.mark.parametrize("blocks", [[b] for b in BLOCKS] + [list(BLOCKS)], ids=list(BLOCKS) + ["all"])
 def test_two_universal_predictions_match_the_reference(two, blocks):
     core, ref = two
-    seed = len(blocks) + spp.BLOCKS.index(blocks[0])
+    seed = len(blocks) + BLOCKS.index(blocks[0])
     p = _typical(ref, blocks, seed)
     theta, dL, kind = _rows(ref, 14, seed)
     got, want = _compare(core, ref, p, theta, dL, kind)
@@ -131,7 +133,7 @@ def test_two_universal_predictions_match_the_reference(two, blocks):
 
 def test_two_universal_all_effects_at_a_tight_tolerance(two):
     core, ref = two
-    p = _typical(ref, spp.BLOCKS, 99)
+    p = _typical(ref, BLOCKS, 99)
     theta, dL, kind = _rows(ref, 14, 99)
     got, want = _compare(core, ref, p, theta, dL, kind, tol=1e-14)
     assert np.abs(got - want).max() < 1e-12, np.abs(got - want).max()
@@ -144,8 +146,8 @@ def test_two_universal_all_effects_at_a_tight_tolerance(two):
                          ids=["nominal", "actuation_scale", "actuation_scale+backlash"])
 def test_redundant_rigid_arm_settles_in_least_squares(eight, effects):
     core, ref = eight
-    lay = spp.layout(ref)
-    p = np.zeros(spp.size(ref))
+    lay = reference.plant_layout(ref)
+    p = np.zeros(reference.plant_size(ref))
     for name, v in effects.items():
         p[lay[name]] = v
     theta, dL, kind = _rows(ref, 12, 21)  # +-1 mm on 8 cables: inconsistent lengths
@@ -153,10 +155,10 @@ def test_redundant_rigid_arm_settles_in_least_squares(eight, effects):
     assert np.abs(got[:, :3] - want[:, :3]).max() < 1e-10, np.abs(got[:, :3] - want[:, :3]).max()
     assert np.abs(got[:, 3:] - want[:, 3:]).max() < 5e-9, np.abs(got[:, 3:] - want[:, 3:]).max()
     # the lengths were inconsistent: the settled arm misses them
-    commands, _, seeds = spp.plant_commands(ref, theta, dL, kind)
-    L = spp.realised_lengths(ref, p, spp.backlash_scan(ref, p, commands))
-    th, _ = spp.settle(ref, p, L, seeds)
-    assert np.abs(spp.arm_lengths(ref, p, th) - L).max() > 1e-4
+    commands, _, seeds = reference.plant_commands(ref, theta, dL, kind)
+    L = reference.realised_lengths(ref, p, reference.backlash_scan(ref, p, commands))
+    th, _ = reference.settle(ref, p, L, seeds)
+    assert np.abs(reference.arm_lengths(ref, p, th) - L).max() > 1e-4
 
 
 @pytest.mark.parametrize("effects", [{}, {"actuation_scale": 0.02}, {"actuation_scale": -0.02, "backlash": 3e-5},
@@ -170,9 +172,9 @@ def test_redundant_elastic_arm_settles_at_its_equilibrium(eight, effects):
     With the clearance, the moment arms are those of the unshifted holes (the
     reading of ``docs/model.md`` this reference takes; the core agrees)."""
     core, ref = eight
-    lay = spp.layout(ref)
+    lay = reference.plant_layout(ref)
     rng = np.random.default_rng(5)
-    p = np.zeros(spp.size(ref))
+    p = np.zeros(reference.plant_size(ref))
     p[lay["cable_elasticity"]] = 0.02
     p[lay["cable_offset"]] = rng.uniform(-1e-3, -6e-4, 8)
     for name, v in effects.items():
@@ -192,11 +194,11 @@ def test_redundant_elastic_arm_settles_with_slack_cables(eight):
     from cdsm.calibration import plant
 
     core, ref = eight
-    p = np.zeros(spp.size(ref))
-    p[spp.layout(ref)["cable_elasticity"]] = 0.02
+    p = np.zeros(reference.plant_size(ref))
+    p[reference.plant_layout(ref)["cable_elasticity"]] = 0.02
     theta = np.array([[0.0, 0.0, 0.0, 0.0], [0.0, 0.1, 0.0, 0.0], [0.2, -0.1, 0.1, 0.2], [-0.3, 0.2, 0.1, -0.1]])
     dL = np.zeros((4, 8))
-    want, ok_ref = spp.predict(ref, p, theta, dL, ["absolute"] * 4)
+    want, ok_ref = reference.plant_predict(ref, p, theta, dL, ["absolute"] * 4)
     assert ok_ref.all()
     obs, ok = plant.predict(core, p, theta, dL, "absolute")
     assert ok.all(), ok
@@ -210,18 +212,18 @@ def test_redundant_elastic_arm_settles_with_slack_cables(eight):
 def test_spatial_clearance_reduces_to_the_planar_one(cdsm, ref, cl, dw):
     from cdsm.calibration import plant
 
-    spatial = sp.load_spatial(ROBOTS / "paper_spatial.toml")
-    planar_ref, planar_core = ref.SimpleRobot.paper(), cdsm.Robot.paper()
-    ps = np.zeros(spp.size(spatial))
-    ls = spp.layout(spatial)
+    spatial = reference.load_robot(ROBOTS / "paper_spatial.toml")
+    planar_ref, planar_core = ref.Robot.paper(), cdsm.Robot.paper()
+    ps = np.zeros(reference.plant_size(spatial))
+    ls = reference.plant_layout(spatial)
     ps[ls["hole_clearance"]], ps[ls["clearance_width"]] = cl, dw
-    pp = np.zeros(ref.plant_size(3))
-    lp = ref.plant_layout(3)
+    pp = np.zeros(ref.plant_size(planar_ref))
+    lp = ref.plant_layout(planar_ref)
     pp[lp["hole_clearance"]], pp[lp["clearance_width"]] = cl, dw
     rng = np.random.default_rng(int(cl * 1e5))
     theta, dL = rng.uniform(-0.5, 0.5, (12, 3)), rng.uniform(-1e-3, 1e-3, (12, 3))
     kind = rng.choice(KINDS, 12, p=[0.5, 0.3, 0.2])
-    seen, ok = spp.predict(spatial, ps, theta, dL, kind)
+    seen, ok = reference.plant_predict(spatial, ps, theta, dL, kind)
     want, ok_planar = ref.plant_predict(planar_ref, pp, theta, dL, kind)
     core, ok_core = plant.predict(planar_core, pp, theta, dL, kind)
     core_spatial, ok_core_spatial = plant.predict(cdsm.Robot.packaged("paper_spatial"), ps, theta, dL, kind)
@@ -234,7 +236,7 @@ def test_spatial_clearance_reduces_to_the_planar_one(cdsm, ref, cl, dw):
     assert np.abs(seen[m] - core_spatial[m]).max() < 1e-10, np.abs(seen[m] - core_spatial[m]).max()
     # without the clearance the lengths differ: the test sees the effect
     ps[ls["hole_clearance"]] = 0.0
-    assert np.abs(spp.predict(spatial, ps, theta, dL, kind)[0][m] - seen[m]).max() > 1e-5
+    assert np.abs(reference.plant_predict(spatial, ps, theta, dL, kind)[0][m] - seen[m]).max() > 1e-5
 
 
 # --------------------------------------------------------------------------
@@ -251,9 +253,9 @@ def test_joint_axis_tilt_of_an_axis_near_x(cdsm, degrees):
     a = np.radians(90.0 - degrees)
     axis = f"axis = [{float(np.sin(a))!r}, {float(np.cos(a))!r}, 0.0]"
     text = (ROBOTS / "two_universal.toml").read_text(encoding="utf-8").replace("axis = [0.0, 1.0, 0.0]", axis, 1)
-    core, ref = cdsm.Robot.from_toml_str(text), sp.parse_spatial(text)
-    p = np.zeros(spp.size(ref))
-    p[spp.layout(ref)["joint_axis"]] = np.random.default_rng(8).uniform(-1e-2, 1e-2, 8)
+    core, ref = cdsm.Robot.from_toml_str(text), reference.read_robot(text)
+    p = np.zeros(reference.plant_size(ref))
+    p[reference.plant_layout(ref)["joint_axis"]] = np.random.default_rng(8).uniform(-1e-2, 1e-2, 8)
     theta, _, kind = _rows(ref, 8, 8)
     got, want = _compare(core, ref, p, theta, np.zeros((8, 4)), kind, every_row=False)
     assert np.abs(got - want).max() < 1e-10, np.abs(got - want).max()
@@ -266,9 +268,9 @@ def test_jets_jacobian_matches_central_differences_of_the_reference(two):
     from cdsm.calibration.measurements import KIND_CODES
 
     core, ref = two
-    lay = spp.layout(ref)
+    lay = reference.plant_layout(ref)
     rng = np.random.default_rng(7)
-    p = np.zeros(spp.size(ref))
+    p = np.zeros(reference.plant_size(ref))
     p[lay["joint_axis"]] = rng.uniform(-1e-2, 1e-2, 8)
     p[lay["hole_clearance"]] = 1.5e-4
     p[lay["clearance_width"]] = 0.3  # w = 0.31 rad: the clearance has not saturated at these bends
@@ -288,7 +290,8 @@ def test_jets_jacobian_matches_central_differences_of_the_reference(two):
         plus, minus = p.copy(), p.copy()
         plus[i] += h
         minus[i] -= h
-        fd = (spp.predict(ref, plus, theta, dL, kind)[0] - spp.predict(ref, minus, theta, dL, kind)[0]) / (2 * h)
+        fd = (reference.plant_predict(ref, plus, theta, dL, kind)[0]
+              - reference.plant_predict(ref, minus, theta, dL, kind)[0]) / (2 * h)
         scale = np.abs(fd[m]).max()
         assert scale > 1e-3  # the parameter is seen
         assert np.abs(J[m][:, :, j] - fd[m]).max() < 1e-6 * scale, (i, np.abs(J[m][:, :, j] - fd[m]).max(), scale)
@@ -298,26 +301,26 @@ def test_jets_jacobian_matches_central_differences_of_the_reference(two):
 # Reference self-checks (no core needed)
 # --------------------------------------------------------------------------
 def test_reference_all_zero_parameters_are_the_nominal_model():
-    ref = sp.load_spatial(ROBOTS / "two_universal.toml")
+    ref = reference.load_robot(ROBOTS / "two_universal.toml")
     theta, dL, _ = _rows(ref, 6, 3)
-    obs, ok = spp.predict(ref, np.zeros(spp.size(ref)), theta, dL, ["absolute"] * 6)
-    pos = sp.position_cables(ref)
-    nominal = sp.solve_cables(ref, sp.cable_lengths(ref, theta)[:, pos] + dL, seed=theta)
+    obs, ok = reference.plant_predict(ref, np.zeros(reference.plant_size(ref)), theta, dL, ["absolute"] * 6)
+    pos = reference.position_cables(ref)
+    nominal = reference.solve_cables(ref, reference.cable_lengths(ref, theta)[:, pos] + dL, seed=theta)
     assert ok.all() and nominal["converged"].all()
-    assert np.abs(obs - sp.fk(ref, nominal["theta"])).max() < 1e-12
+    assert np.abs(obs - reference.fk(ref, nominal["theta"])).max() < 1e-12
 
 
 def test_reference_elastic_equations_are_the_gradient_of_the_energy():
     """``docs/model.md``: for ``m > n`` the elastic equilibrium ``J^T max(0, s) - kappa
     (tau - J_f^T T_f) = 0`` is the stationary point of ``sum (L + L_r)/2 max(0, s)^2 +
     kappa (V + sum_f T_f L_f)``; checked by central differences."""
-    ref = sp.parse_spatial(_all_position_text())
-    p = np.zeros(spp.size(ref))
-    p[spp.layout(ref)["cable_elasticity"]] = 0.02
-    arm, q = spp.plant_arm(ref, p), spp.plant_params(ref, p)
+    ref = reference.read_robot(_all_position_text())
+    p = np.zeros(reference.plant_size(ref))
+    p[reference.plant_layout(ref)["cable_elasticity"]] = 0.02
+    arm, q = reference.plant_arm(ref, p), reference.plant_params(ref, p)
     theta, dL, _ = _rows(ref, 5, 4)
-    L = sp.cable_lengths(ref, theta)[:, sp.position_cables(ref)] + dL
-    F = spp._residual_function(ref, arm, q, L)
+    L = reference.cable_lengths(ref, theta)[:, reference.position_cables(ref)] + dL
+    F = reference.settling_equations(ref, arm, q, L)
     idx = np.arange(5)
     th = theta + 0.02
     h = 1e-6

@@ -87,7 +87,7 @@ def test_elastic_solve_with_loads_matches_reference(cdsm, ref):
     gravity = np.array([0.0, -9.81])
     L = rob.upper_lengths(theta0)
     sol = rob.solve_cables_elastic(L, seed=theta0, tip_wrench=wrench, gravity=gravity)
-    r = ref.solve_cables_elastic(ref.SimpleRobot.paper(), L, 5e9, rob.cable_diameter,
+    r = ref.solve_cables_elastic(ref.Robot.paper(), L, 5e9, rob.cable_diameter,
                                  lower=rob.lower_tension, tip_wrench=wrench, gravity=gravity,
                                  mass=rob.mass, seed=theta0)
     assert sol.converged.all() and r["converged"].all()

@@ -9,7 +9,7 @@ balance above any floor exists everywhere), and the same without the 270 deg
 cables under a tip moment (6 cables: both verdicts occur). On 300 random
 configurations of the joint box at floors 0 and 0.3 N the Rust core
 (``SpatialRobot.tensions`` / ``feasible``) matches the NumPy reference
-(``cdsm.reference.spatial.tensions``, which enumerates all 2^m active sets):
+(``cdsm.reference.statics``, which enumerates all 2^m active sets):
 the same verdicts, the tensions to 1e-9 relative. A higher floor can only
 shrink the feasible set: feasible at 0.3 N implies feasible at 0 N.
 
@@ -27,7 +27,6 @@ import pytest
 
 from conftest import ROOT, reference
 
-sp = reference.spatial
 FLOORS = (0.0, 0.3)  # N
 N_CONFIGS = 300
 TIP_MOMENT = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.01])  # N, N m
@@ -61,10 +60,10 @@ def case(request, cdsm):
     """``(name, rust robot, reference robot, tip wrench, theta (300, 4))``."""
     make, wrench = VARIANTS[request.param]
     text = make()
-    rust, ref = cdsm.Robot.from_toml_str(text), sp.parse_spatial(text)
+    rust, ref = cdsm.Robot.from_toml_str(text), reference.read_robot(text)
     m = 8 if request.param == "eight" else 6
-    assert len(rust.position_cables) == m and len(sp.position_cables(ref)) == m and rust.n == 4
-    lo, hi = ref.limits[:, 0], ref.limits[:, 1]
+    assert len(rust.position_cables) == m and len(reference.position_cables(ref)) == m and rust.n == 4
+    lo, hi = ref.joint_limits[:, 0], ref.joint_limits[:, 1]
     theta = np.random.default_rng(20240611).uniform(lo, hi, (N_CONFIGS, ref.n))
     return request.param, rust, ref, wrench, theta
 
@@ -72,7 +71,7 @@ def case(request, cdsm):
 @pytest.mark.parametrize("floor", FLOORS)
 def test_tensions_equal_the_enumerated_optimum(case, floor):
     name, rust, ref, wrench, theta = case
-    T_ref, ok_ref = sp.tensions(ref, theta, min_tension=floor, tip_wrench=wrench)
+    T_ref, ok_ref = reference.feasible_tensions(ref, theta, min_tension=floor, tip_wrench=wrench)
     T = np.asarray(rust.tensions(theta, min_tension=floor, tip_wrench=wrench))
     ok = np.asarray(rust.feasible(theta, min_tension=floor, tip_wrench=wrench))
     if name == "eight":
@@ -100,8 +99,8 @@ def test_a_higher_floor_only_shrinks_the_feasible_set(case):
 def test_the_balance_holds_at_the_answer(case):
     """M_p T = -(tau + 0) to 1e-10 of the moments' scale (no force cables)."""
     _, rust, ref, wrench, theta = case
-    M = sp.moment_matrices(ref, theta)[:, :, sp.position_cables(ref)]
-    tau = sp.external_moments(ref, theta, wrench)
+    M = reference.moment_matrices(ref, theta)[:, :, reference.position_cables(ref)]
+    tau = reference.external_moments(ref, theta, wrench)
     for floor in FLOORS:
         T = np.asarray(rust.tensions(theta, min_tension=floor, tip_wrench=wrench))
         ok = ~np.isnan(T).any(axis=1)

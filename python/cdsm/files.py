@@ -26,6 +26,7 @@ import contextlib
 import csv
 import hashlib
 import io
+import itertools
 import json
 import math
 import os
@@ -33,7 +34,7 @@ import re
 import tempfile
 import threading
 import zipfile
-from typing import AbstractSet, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
+from typing import AbstractSet, Callable, Dict, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -45,8 +46,8 @@ except ImportError:  # pragma: no cover - Windows: no advisory locks, runs into 
     fcntl = None  # type: ignore[assignment]
 
 __all__ = ["read_text", "write_text", "write_bytes", "read_bytes", "sha256_of", "parse_table", "read_table",
-           "table_column", "write_csv", "csv_text", "write_json", "json_text", "json_safe", "csv_cell", "write_npz",
-           "read_npz", "atomic_file", "check_path", "same_file", "RUN_MANIFEST", "Run", "run_directory",
+           "Table", "NUMBER_CELL", "write_csv", "csv_text", "write_json", "json_text", "json_safe", "csv_cell",
+           "write_npz", "read_npz", "atomic_file", "check_path", "same_file", "RUN_MANIFEST", "Run", "run_directory",
            "run_complete"]
 
 #: The manifest of an output directory written by one run (see the module doc).
@@ -209,75 +210,272 @@ def read_npz(path: "str | os.PathLike[str]", what: str) -> Dict[str, np.ndarray]
                              f"({type(exc).__name__}: {exc})") from None
 
 
-def _numeric(cells: Sequence[str]) -> bool:
+# ---------------------------------------------------------------------------
+# CSV tables
+# ---------------------------------------------------------------------------
+#: What a number cell of a CSV table is: ASCII decimal — an optional sign,
+#: digits with an optional decimal point (``12``, ``1.5``, ``.5``, ``5.``),
+#: an optional exponent (``e-3``, ``E+05``) — with spaces or tabs around it.
+#: Nothing else is read as a number: no digit-group underscores (``1_0``),
+#: no digits of other scripts (``١``), no ``nan``, ``inf`` or ``infinity``,
+#: no hexadecimal. A number beyond the float range (``1e999``) is refused.
+NUMBER_CELL = re.compile(r"[ \t]*[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?[ \t]*")
+# characters no number cell holds: a quick test of a chunk of a column at
+# once, its cells joined by commas (a cell holding a comma is no number for
+# float() either); made of these characters only, a cell is a number cell
+# exactly when Python's float() reads it
+_NOT_IN_NUMBERS = re.compile(r"[^0-9+\-.eE \t,]")
+_NON_FINITE = re.compile(r"[ \t]*[+-]?(?:nan|inf|infinity)[ \t]*", re.IGNORECASE)
+#: Rows parsed at a time: the strings of one chunk are all the reader
+#: holds beyond the table's columns (number columns as float64 arrays).
+CHUNK_ROWS = 4096
+_RULE = "a number is ASCII decimal: an optional sign, digits, an optional decimal point and exponent, e.g. -1.5e-3"
+
+
+def _number_problem(cell: str) -> str:
+    """Why ``cell`` (not empty) is not a number cell, for an error message."""
+    if _NON_FINITE.fullmatch(cell):
+        return f"non-finite value {cell!r}; a number cell must be finite ({_RULE})"
+    if NUMBER_CELL.fullmatch(cell):
+        return f"{cell!r} is beyond the range of a float (about ±1.8e308)"
+    return f"not a number: {cell!r} ({_RULE})"
+
+
+class _NumberColumn:
+    """One column read as numbers, chunk by chunk: float64 values (NaN for
+    an empty cell), the first empty row and the first row that is not a
+    number (with its reason); once a row is not a number the values are
+    dropped (the column cannot be used)."""
+
+    __slots__ = ("parts", "values", "empty", "bad")
+
+    def __init__(self):
+        self.parts: List[np.ndarray] = []
+        self.values: Optional[np.ndarray] = None
+        self.empty: Optional[int] = None
+        self.bad: Optional[Tuple[int, str]] = None
+
+    def add(self, cells: Sequence[str], first: int) -> None:
+        """Append ``cells``, the rows ``first, first + 1, ...`` (0-based)."""
+        if self.bad is not None:
+            return
+        if not _NOT_IN_NUMBERS.search(",".join(cells)):
+            try:
+                vals = np.fromiter(map(float, cells), np.float64, len(cells))
+            except ValueError:
+                vals = None  # an empty cell or a misplaced sign, point or exponent
+            if vals is not None and np.isfinite(vals).all():
+                self.parts.append(vals)
+                return
+        vals = np.empty(len(cells))
+        for j, c in enumerate(cells):
+            if NUMBER_CELL.fullmatch(c):
+                vals[j] = float(c)
+                if math.isfinite(vals[j]):
+                    continue
+            elif not c.strip():  # blank (any white space): no value
+                vals[j] = np.nan
+                if self.empty is None:
+                    self.empty = first + j
+                continue
+            self.bad, self.parts = (first + j, _number_problem(c)), []
+            return
+        self.parts.append(vals)
+
+    def finish(self) -> None:
+        self.values = np.concatenate(self.parts) if self.parts else np.zeros(0)
+        self.parts = []
+
+
+class Table:
+    """A CSV table as :func:`parse_table` / :func:`read_table` read it: the
+    column names in file order (:attr:`columns`), its rows (``len``), and per
+    column the cells as numbers (:meth:`numbers`, float64) or as text
+    (:meth:`text`, the cells as written). Errors name :attr:`source`, the
+    row (1 = the first row under the header) and the column."""
+
+    def __init__(self, source: str, columns: List[str], rows: int, numbers: Dict[str, "_NumberColumn"],
+                 text: Dict[str, List[str]]):
+        self.source, self.columns, self._rows = source, columns, rows
+        self._numbers, self._text = numbers, text
+
+    def __len__(self) -> int:
+        return self._rows
+
+    def numbers(self, name: str, allow_empty: bool = False) -> np.ndarray:
+        """Column ``name`` as float64 (N,); :class:`CdsmInputError` naming the
+        row and column for a cell that is not a number (:data:`NUMBER_CELL`:
+        ASCII decimal; ``nan``, ``inf`` and numbers beyond the float range
+        are refused). With ``allow_empty`` an empty cell gives NaN (a value
+        that was not measured); otherwise it is an error too. The array is
+        the table's own: copy it before changing it."""
+        if name not in self._numbers:
+            if name not in self._text:
+                raise CdsmInputError(f"{self.source}: no column {name!r}; columns: {', '.join(self.columns)}")
+            col = _NumberColumn()
+            col.add(self._text[name], 0)
+            col.finish()
+            self._numbers[name] = col
+        col = self._numbers[name]
+        problems = ([col.bad] if col.bad is not None else []) + \
+            ([(col.empty, "empty; a number is needed here")] if col.empty is not None and not allow_empty else [])
+        if problems:
+            row, why = min(problems)
+            raise CdsmInputError(f"{self.source}: row {row + 1}, column {name!r}: {why}")
+        return col.values
+
+    def text(self, name: str) -> List[str]:
+        """Column ``name`` as the cells written (a column the reader was
+        told to keep as text; :func:`parse_table`'s ``read_as``)."""
+        if name not in self._text:
+            raise KeyError(f"{self.source}: column {name!r} was not kept as text")
+        return list(self._text[name])
+
+
+def _float_like(cell: str) -> bool:
+    """Whether Python's float() reads ``cell`` (which a number cell need not be)."""
     try:
-        [float(c) for c in cells]
+        float(cell)
     except ValueError:
         return False
     return True
 
 
-def parse_table(text: str, source: str, headerless: Optional[Sequence[str]] = None
-                ) -> Tuple[List[str], List[Dict[str, str]]]:
-    """Header (column names) and rows (dicts of strings) of a CSV text whose
-    ``#`` lines (and trailing ``# ...`` remarks) are comments; an error naming
-    ``source`` if either is empty. With ``headerless`` (column names), a text
-    whose first line is all numbers has no header and takes those names."""
-    text = text[1:] if text.startswith("\ufeff") else text  # a byte-order mark is not part of the header
-    lines = [ln.split("#", 1)[0] if headerless is not None else ln for ln in text.splitlines()]
-    lines = [ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
-    if not lines:
+def _is_number_row(cells: Sequence[str]) -> bool:
+    return bool(cells) and all(NUMBER_CELL.fullmatch(c) for c in cells)
+
+
+# a line that is blank or a comment, in a block of lines (each ending in "\n")
+_SKIPPED_LINE = re.compile(r"^[^\S\n]*(?:#|\n)", re.MULTILINE)
+
+
+def _content(lines: Iterable[str], remarks: bool) -> Iterator[List[str]]:
+    """Blocks of the lines of a table that are not blank and not ``#``
+    comments; with ``remarks``, trailing ``# ...`` remarks cut off too.
+    (Blocks: a whole block is checked at once, and passed on as it is when
+    it holds no such line.)"""
+    it = iter(lines)
+    while True:
+        block = list(itertools.islice(it, 4096))
+        if not block:
+            return
+        text = "".join(block)
+        if (remarks and "#" in text) or _SKIPPED_LINE.search(text) or not block[-1].strip():
+            out = []
+            for ln in block:
+                if remarks and "#" in ln:
+                    ln = ln.split("#", 1)[0] + "\n"
+                s = ln.strip()
+                if s and s[0] != "#":
+                    out.append(ln)
+            block = out
+        yield block
+
+
+def _parse_lines(lines: Iterable[str], source: str, headerless: Optional[Sequence[str]],
+                 read_as: Optional[Callable[[List[str]], Dict[str, str]]],
+                 tick: Optional[Callable[[], None]] = None) -> Table:
+    reader = csv.reader(itertools.chain.from_iterable(_content(lines, headerless is not None)))
+    first = next(reader, None)
+    if first is None:
         raise CdsmInputError(f"{source}: no header and no rows")
-    first = next(csv.reader([lines[0]]))
-    if headerless is not None and _numeric(first):
+    pending: List[List[str]] = []
+    if headerless is not None and _is_number_row(first):
         if len(first) != len(headerless):
             raise CdsmInputError(f"{source}: line 1: expected {len(headerless)} values "
                                  f"({', '.join(headerless)}), got {len(first)}")
-        lines.insert(0, ",".join(headerless))
-    reader = csv.DictReader(io.StringIO("\n".join(lines)))
-    cols = [c.strip() for c in (reader.fieldnames or [])]
+        pending, first = [first], list(headerless)
+    elif headerless is not None:
+        # not a header of names, and not a row of numbers either: say so
+        # rather than take a row in another notation (1_0, ١) for a header
+        odd = [c for c in first if not NUMBER_CELL.fullmatch(c) and _float_like(c)]
+        if odd:
+            raise CdsmInputError(f"{source}: line 1: {_number_problem(odd[0])}; give a header of column names "
+                                 f"({', '.join(headerless)}) or a first row of numbers")
+    cols = [c.strip() for c in first]
     twice = sorted({c for c in cols if cols.count(c) > 1})
     if twice:
         raise CdsmInputError(f"{source}: column(s) {', '.join(map(repr, twice))} appear more than once in the "
                              "header; each column must be named once")
-    reader.fieldnames = cols
-    rows = list(reader)
-    for i, r in enumerate(rows):
-        if None in r:
-            raise CdsmInputError(f"{source}: row {i + 1}: more values than the {len(cols)} columns "
-                                 f"({', '.join(cols)})")
-        for k, v in r.items():
-            if v is None:
-                r[k] = ""  # a short row: the missing cells are empty
-    if not rows:
+    kinds = {c: "number" for c in cols} if read_as is None else read_as(list(cols))
+    numbers = {c: _NumberColumn() for c in cols if kinds.get(c) == "number"}
+    text: Dict[str, List[str]] = {c: [] for c in cols if kinds.get(c) == "text"}
+    width, done = len(cols), 0
+    while True:
+        chunk = pending + list(itertools.islice(reader, CHUNK_ROWS - len(pending)))
+        pending = []
+        if not chunk:
+            break
+        if set(map(len, chunk)) != {width}:
+            for j, r in enumerate(chunk):
+                if len(r) > width:
+                    raise CdsmInputError(f"{source}: row {done + j + 1}: more values than the {width} columns "
+                                         f"({', '.join(cols)})")
+                r.extend([""] * (width - len(r)))  # a short row: the missing cells are empty
+        for c, cells in zip(cols, zip(*chunk)):
+            if c in numbers:
+                numbers[c].add(cells, done)
+            elif c in text:
+                text[c].extend(cells)
+        done += len(chunk)
+        if tick is not None:
+            tick()
+    if not done:
         raise CdsmInputError(f"{source}: header but no rows")
-    return cols, rows
+    for col in numbers.values():
+        col.finish()
+    return Table(source, cols, done, numbers, text)
 
 
-def read_table(path: "str | os.PathLike[str]", what: str, headerless: Optional[Sequence[str]] = None
-               ) -> Tuple[List[str], List[Dict[str, str]]]:
-    """:func:`parse_table` of a CSV file (``what`` names it in errors)."""
-    return parse_table(read_text(path, what), str(path), headerless)
+def parse_table(text: str, source: str, headerless: Optional[Sequence[str]] = None,
+                read_as: Optional[Callable[[List[str]], Dict[str, str]]] = None) -> Table:
+    """The :class:`Table` of a CSV text whose ``#`` lines are comments
+    (blank lines skipped); an error naming ``source`` if it has no header or
+    no rows, a header naming a column twice, or a row longer than the
+    header (a shorter row's missing cells are empty). With ``headerless``
+    (column names), a text whose first line is all numbers has no header and
+    takes those names, and trailing ``# ...`` remarks are cut off every line.
+    ``read_as(columns)`` says how each column is kept: ``"number"`` or
+    ``"text"``; a column it does not name is not kept (default: every
+    column a number). Number cells follow :data:`NUMBER_CELL`; a cell that
+    is not a number is an error only when its column is asked for
+    (:meth:`Table.numbers`). The rows are parsed :data:`CHUNK_ROWS` at a
+    time: no per-row objects are kept."""
+    text = text[1:] if text.startswith("\ufeff") else text  # a byte-order mark is not part of the header
+    return _parse_lines(io.StringIO(text, newline=None), source, headerless, read_as)
 
 
-def table_column(rows: Sequence[Dict[str, str]], name: str, source: str,
-                 allow_empty: bool = False) -> np.ndarray:
-    """Column ``name`` of parsed rows as floats; an error naming the row and
-    column for a non-number or a non-finite value. With ``allow_empty`` an
-    empty cell gives NaN (a value that was not measured)."""
-    out = np.empty(len(rows))
-    for i, r in enumerate(rows):
-        cell = (r.get(name) or "").strip()
-        if allow_empty and cell == "":
-            out[i] = np.nan
-            continue
-        try:
-            out[i] = float(cell)
-        except ValueError:
-            raise CdsmInputError(f"{source}: row {i + 1}, column {name!r}: not a number: {cell!r}") from None
-        if not np.isfinite(out[i]):
-            raise CdsmInputError(f"{source}: row {i + 1}, column {name!r}: non-finite value {cell!r}")
-    return out
+def read_table(path: "str | os.PathLike[str]", what: str, headerless: Optional[Sequence[str]] = None,
+               read_as: Optional[Callable[[List[str]], Dict[str, str]]] = None, progress: bool = False) -> Table:
+    """:func:`parse_table` of a CSV file (``what`` names it in errors),
+    streamed from disk: what it holds is the table's columns, not the file's
+    text. ``progress``: a progress line over the file's bytes on stderr
+    (:class:`cdsm.progress.Progress`)."""
+    from .progress import Progress
+
+    name = str(path)
+    if os.path.isdir(path):
+        raise CdsmInputError(f"{what} file {name!r}: is a directory")
+    try:
+        with open(path, encoding="utf-8-sig", newline=None) as fh:
+            size = os.fstat(fh.fileno()).st_size
+            bar = Progress(size, f"reading {os.path.basename(name)}", progress and size > 0, unit="bytes")
+            seen = [0]
+
+            def tick():
+                at = min(fh.buffer.tell(), size)
+                bar.update(at - seen[0])
+                seen[0] = at
+
+            table = _parse_lines(fh, name, headerless, read_as, tick)
+            bar.update(size - seen[0])
+            return table
+    except FileNotFoundError:
+        raise CdsmInputError(f"{what} file {name!r}: does not exist") from None
+    except UnicodeDecodeError:
+        raise CdsmInputError(f"{what} file {name!r}: not UTF-8 text") from None
+    except OSError as exc:
+        raise CdsmInputError(f"{what} file {name!r}: {exc.strerror}") from None
 
 
 def csv_cell(v):

@@ -469,7 +469,8 @@ def run(robot: Optional[Robot] = None, samples: Optional[int] = None, seed: int 
     for p, ws in spaces.items():
         study.feasibility[p] = statics.feasibility_map(robot, _initial(ws))
         study.amplification[p] = sensitivity.amplification_maps(robot, p, ws)
-        study.friction[p] = statics.friction_map(robot, np.where(ws.reachable[:, None], ws.theta0, np.nan))
+        study.friction[p] = statics.friction_map(robot, np.where(ws.reachable[:, None], ws.theta0, np.nan),
+                                                 progress=progress, label=f"friction map ({p})")
     th = main.theta0[main.reachable]
     if len(th):
         study.budget = sensitivity.error_budget(robot, th, mc0.params["dl_tol_m"], mc0.params["dh_tol_m"],

@@ -14,13 +14,14 @@ from typing import Dict, Optional
 import numpy as np
 
 from ..inputs import CdsmInputError, as_batch, as_count, as_finite
+from ..progress import Progress
 from ..robot import Robot
 from .workspace import joint_grid
 from ..display import ShortRepr
 
 __all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation", "load_readings", "Reading",
            "reading_maps", "STANDARD_GRAVITY", "FrictionMap", "friction_map", "hysteresis_cycles", "FRICTION",
-           "CYCLE_AMPLITUDE"]
+           "CYCLE_AMPLITUDE", "CYCLE_WORK", "CYCLE_MEMORY", "BYTES_PER_HOLE_COMMAND", "cycle_chunk"]
 
 #: Standard gravity, m/s^2.
 STANDARD_GRAVITY = 9.80665
@@ -35,6 +36,13 @@ CYCLE_AMPLITUDE = 1e-3
 #: ``two_universal``, 57 of the SJTU snake's 1000 (each cycle settles a
 #: 24-joint arm five times per cable).
 CYCLE_WORK = 50_000
+#: Bytes the plant with friction keeps per hole and command of a sequence
+#: (the motion's distal length, wrap angle and tension, and the
+#: mobilisation: four float64).
+BYTES_PER_HOLE_COMMAND = 32
+#: At most this many bytes of it in one chunk of the hysteresis map
+#: (:func:`cycle_chunk`).
+CYCLE_MEMORY = 256 * 2 ** 20
 
 
 @dataclass(frozen=True, repr=False)
@@ -190,25 +198,42 @@ def hysteresis_cycles(n: int, m: int, theta, amplitude: float = CYCLE_AMPLITUDE)
     n, m = as_count("n", n, 1), as_count("m", m, 0)
     th, _ = as_batch("theta", theta, n, finite=False)
     amplitude = _amplitude(amplitude)
-    path = np.array([0.0, amplitude, 0.0, -amplitude, 0.0])
-    N = th.shape[0]
-    theta_cmd = np.repeat(th, 5 * m, axis=0)
-    dL = np.zeros((5 * N * m, m))
-    for i in range(N):
-        for c in range(m):
-            dL[5 * (i * m + c):5 * (i * m + c + 1), c] = path
+    return _cycles(th, m, 0, th.shape[0] * m, amplitude)
+
+
+def _cycles(th: np.ndarray, m: int, first: int, stop: int, amplitude: float):
+    """The rows of :func:`hysteresis_cycles` of cycles ``first .. stop`` (cycle
+    ``i m + c``: configuration ``i``, cable ``c``)."""
+    g = np.arange(first, stop)
+    theta_cmd = np.repeat(th[g // max(m, 1)], 5, axis=0)
+    dL = np.zeros((5 * len(g), m))
+    dL[np.arange(5 * len(g)), np.repeat(g % max(m, 1), 5)] = np.tile([0.0, amplitude, 0.0, -amplitude, 0.0], len(g))
     return theta_cmd, dL
 
 
+def cycle_chunk(robot: Robot) -> int:
+    """How many hysteresis cycles of :func:`friction_map` run through the
+    plant in one sequence: the plant with friction keeps every hole's motion
+    for every command (:data:`BYTES_PER_HOLE_COMMAND`), so the cycles run in
+    chunks that hold at most :data:`CYCLE_MEMORY` bytes of it (each chunk
+    from the plant's start state). Every configuration of the paper's arm
+    fits in one; a 200-joint planar arm's 80 400 holes take 20 cycles a chunk."""
+    holes = 2 * sum(robot.cable_ends)
+    return max(1, CYCLE_MEMORY // (BYTES_PER_HOLE_COMMAND * 5 * max(holes, 1)))
+
+
 def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = CYCLE_AMPLITUDE,
-                 min_tension: float = 0.0, cycle_work: int = CYCLE_WORK) -> FrictionMap:
+                 min_tension: float = 0.0, cycle_work: int = CYCLE_WORK, progress: bool = False,
+                 label: str = "friction map") -> FrictionMap:
     """:class:`FrictionMap` of ``robot`` over ``theta`` (N, n) rad (rows with NaN
     are left NaN): statics with friction ``mu`` (1) pulling and releasing, and
     the hysteresis of a ``+-amplitude`` (m) cycle of every position cable
     through the plant with friction ``mu`` (the robot file's cable stiffness)
     (:func:`hysteresis_cycles`; :mod:`cdsm.calibration.plant`) at evenly
     spread configurations, at most ``cycle_work`` configurations x position
-    cables x joints."""
+    cables x joints, run in chunks of :func:`cycle_chunk` cycles (memory
+    bounded by :data:`CYCLE_MEMORY`). ``progress``: a progress line on
+    stderr (``label``) over the cycles."""
     from ..calibration import plant
 
     th, _ = as_batch("theta", theta, robot.n, finite=False)  # rows with NaN are left NaN
@@ -234,14 +259,20 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
         most = max(1, int(cycle_work) // max(m * robot.n, 1))
         if len(rows) > most:
             rows = rows[np.unique(np.linspace(0, len(rows) - 1, most).round().astype(int))]
-        theta_cmd, dL = hysteresis_cycles(robot.n, m, th[rows], amplitude)
-        obs, conv = plant.predict(robot, p, theta_cmd, dL, "absolute")
         d = plant.dims(robot)
         k = len(rows) * m
-        pos = obs[:, :d].reshape(k, 5, d)
-        good = conv.reshape(k, 5).all(axis=1)
-        w = np.linalg.norm(pos[:, 2] - pos[:, 4], axis=1)
-        loop[rows] = np.where(good, w, np.nan).reshape(len(rows), m)
+        width = np.full(k, np.nan)
+        step = cycle_chunk(robot)
+        bar = Progress(k, label, progress, unit="cycles")
+        for first in range(0, k, step):
+            stop = min(first + step, k)
+            theta_cmd, dL = _cycles(th[rows], m, first, stop, amplitude)
+            obs, conv = plant.predict(robot, p, theta_cmd, dL, "absolute")
+            pos = obs[:, :d].reshape(stop - first, 5, d)
+            good = conv.reshape(stop - first, 5).all(axis=1)
+            width[first:stop] = np.where(good, np.linalg.norm(pos[:, 2] - pos[:, 4], axis=1), np.nan)
+            bar.update(stop - first)
+        loop[rows] = width.reshape(len(rows), m)
         cycled[rows] = True
     return FrictionMap(th, robot.fk(np.where(ok[:, None], th, 0.0)), pull, release, fp, fr, loop, float(mu),
                        float(amplitude), float(min_tension), cycled)

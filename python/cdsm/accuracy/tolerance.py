@@ -43,7 +43,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..files import read_table, read_text, table_column
+from ..files import read_table, read_text
 from ..inputs import CdsmInputError, as_batch, as_tolerances
 from ..robot import Robot
 from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, monte_carlo
@@ -371,17 +371,18 @@ def _region_file(spec: str, path: str, columns: List[str], what: str) -> np.ndar
     them, or no header (or a header of other names) and exactly those columns
     in that order."""
     try:
-        cols, rows = read_table(path, f"--region {what}", headerless=columns)
+        table = read_table(path, f"--region {what}", headerless=columns)
     except CdsmInputError as exc:
         raise CdsmInputError(f"--region {spec!r}: {exc}") from None
+    cols = table.columns
     missing = [c for c in columns if c not in cols]
+    named = dict(zip(columns, columns))
     if missing and len(cols) == len(columns):  # positional columns under other names
-        rows = [{c: r[k] for c, k in zip(columns, cols)} for r in rows]
-        missing = []
+        named, missing = dict(zip(columns, cols)), []
     if missing:
         raise CdsmInputError(f"--region {spec!r}: {path!r} has no column(s) {', '.join(missing)} "
                              f"(need {', '.join(columns)}, or no header and {len(columns)} values a row)")
-    return np.stack([table_column(rows, c, path) for c in columns], axis=1)
+    return np.stack([table.numbers(named[c]) for c in columns], axis=1)
 
 
 def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, str]:

@@ -13,7 +13,7 @@ from typing import List
 import numpy as np
 
 from ..accuracy.workspace import paper_ik_seed
-from ..files import read_table, table_column, write_text
+from ..files import read_table, write_text
 from ..inputs import CdsmInputError, as_array, as_finite, as_iterations, as_vector
 from ..display import ShortRepr
 
@@ -35,7 +35,8 @@ def read_targets(path: "str | os.PathLike[str]", kind: str = "planar") -> np.nda
     if kind not in TARGET_COLUMNS:
         raise CdsmInputError(f"`kind`: expected one of {', '.join(TARGET_COLUMNS)}, got {kind!r}")
     need, extra = TARGET_COLUMNS[kind]
-    cols, rows = read_table(path, "targets")
+    table = read_table(path, "targets", read_as=lambda cols: {c: "number" for c in need + extra if c in cols})
+    cols = table.columns
     missing = [c for c in need if c not in cols]
     if missing:
         raise CdsmInputError(f"{src}: missing target columns {', '.join(missing)} (need {', '.join(need)} [m] "
@@ -45,7 +46,7 @@ def read_targets(path: "str | os.PathLike[str]", kind: str = "planar") -> np.nda
         raise CdsmInputError(f"{src}: orientation columns {', '.join(partial)} given without "
                              f"{', '.join(c for c in extra if c not in cols)}: give all of {', '.join(extra)} or none")
     use = list(need) + (list(extra) if partial else [])
-    return np.stack([table_column(rows, c, src) for c in use], axis=1)
+    return np.stack([table.numbers(c) for c in use], axis=1)
 
 
 #: Target columns per robot kind: (required position columns, optional

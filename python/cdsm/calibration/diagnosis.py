@@ -81,6 +81,7 @@ for displacement rows, ``sigma`` the noise of one reading per axis.
 from __future__ import annotations
 
 import itertools
+import os
 import warnings
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -451,10 +452,13 @@ def _fitted(prep: Prepared, effects: Sequence[str]) -> List[str]:
 
 
 class _Scorer:
-    """Fits and cross-validates candidates on one set of rows."""
+    """Fits and cross-validates candidates on one set of rows; ``bar``: a
+    progress line counting fold fits."""
 
-    def __init__(self, prep: Prepared, rows: np.ndarray, folds: int, base_error: Optional[np.ndarray] = None):
+    def __init__(self, prep: Prepared, rows: np.ndarray, folds: int, base_error: Optional[np.ndarray] = None,
+                 bar: Optional[Progress] = None):
         self.prep = prep
+        self.bar = bar
         self.rows = np.asarray(rows, int)
         k = min(folds, len(self.rows))
         self.tests = [self.rows[t] for t in _folds(len(self.rows), k)]
@@ -468,21 +472,32 @@ class _Scorer:
         self.base_error = base_error
 
     def evaluate(self, name: str, effects: Sequence[str]) -> Candidate:
+        """The candidate of ``effects``: its fit on every row and one fit per
+        fold, the folds a few at a time (as many as the robot's worker
+        threads, which run them in parallel), so that only their results are
+        held at once."""
         prep = self.prep
         fitted = _fitted(prep, effects)
         start = prep.start if prep.registered else np.zeros(plant.size(prep.robot))
-        fits = fit_folds(prep, fitted, self.scored, start)
         held = np.full(len(prep.theta_cmd), np.nan)
         k = plant.dims(prep.robot)
-        for f, t in enumerate(self.tests):
-            pr = fits[f + 1].prediction
-            if pr is not None:
-                held[t] = np.linalg.norm(pr[t, :k] - prep.measured[t, :k], axis=1)
+        step = prep.robot.threads or os.cpu_count() or 1
+        full = None
+        for first in range(0, len(self.scored), step):
+            fits = fit_folds(prep, fitted, self.scored[first:first + step], start)
+            for f, fit_ in enumerate(fits, start=first):
+                if f == 0:
+                    full = fit_
+                    continue
+                t = self.tests[f - 1]
+                if fit_.prediction is not None:
+                    held[t] = np.linalg.norm(fit_.prediction[t, :k] - prep.measured[t, :k], axis=1)
+            if self.bar is not None:
+                self.bar.update(len(fits))
         held = held[self.rows]
         fail = ~np.isfinite(held)
         if self.base_error is not None:
             held[fail] = self.base_error[fail]
-        full = fits[0]
         full.effects = list(effects)
         return Candidate(name, list(effects), full, held, int(fail.sum()))
 
@@ -965,17 +980,20 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     if prep.registered:
         library = [e for e in library if e != "frame_misalignment"]
     rows = prep.rows
-    # steps: the baseline, its held-out errors, every single effect, the selection
-    bar = Progress(len(library) + 3, "diagnose", progress)
+    # progress in fold fits: the nominal model and every single effect, then
+    # what selection, search and the checks fit (not known in advance)
     scorer = _Scorer(prep, rows, folds)
+    bar = Progress((len(library) + 1) * (scorer.k + 1), "diagnose: the nominal model and each effect", progress,
+                   unit="fold fits")
+    scorer.bar = bar
     base = scorer.evaluate("none", [])
-    bar.update(1)
     scorer.base_error = base.heldout
-    bar.update(1)
     singles = []
     for e in library:
         singles.append(scorer.evaluate(e, [e]))
-        bar.update(1)
+    bar.finish()
+    bar = Progress(None, "diagnose: selection, search and checks", progress, unit="fold fits")
+    scorer.bar = bar
     singles.sort(key=lambda c: c.heldout_rms)
     chosen, steps, alphas = None, [], []
     top = singles[0] if singles else None
@@ -1015,11 +1033,10 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     if prep.registered:
         saved, prep.registered = prep.registered, False
         fin = chosen or base
-        identity = _Scorer(prep, rows, folds).evaluate("identity frame" + (f" ({fin.name})" if chosen else ""),
-                                                      list(fin.effects))
+        identity = _Scorer(prep, rows, folds, bar=bar).evaluate(
+            "identity frame" + (f" ({fin.name})" if chosen else ""), list(fin.effects))
         prep.registered = saved
         named = stats.better(fin.heldout, identity.heldout, ALPHA) and fin.fit.bic < identity.fit.bic
-    bar.update(1)
     names = list(chosen.effects) if chosen else []
     if named:
         names = ["frame_misalignment"] + names
@@ -1050,7 +1067,7 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     if d.outliers:
         keep = np.setdiff1d(rows, d.outliers)
         if len(keep) >= 3:
-            sc = _Scorer(prep, keep, folds)
+            sc = _Scorer(prep, keep, folds, bar=bar)
             b2 = sc.evaluate("none", [])
             sc.base_error = b2.heldout
             f2 = sc.evaluate(final.name, final.effects) if chosen else b2
@@ -1063,6 +1080,7 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     r_base = _residual_xy(prep, base.fit, rows)
     size = np.linalg.norm(r_base, axis=1)
     d.feature_correlation = {k: stats.spearman(v[rows], size) for k, v in feats.items()}
+    bar.finish()
     return d
 
 

@@ -11,7 +11,10 @@ a move that was commanded but not measured: it runs (it matters for
 backlash) and is not scored. Rows run in file order, or in the order of an
 optional integer ``sequence`` column (gaps allowed; equal values are an
 error naming the rows). Lines starting with ``#`` are comments; other
-columns (e.g. ``point``) are kept as labels.
+columns (e.g. ``point``) are kept as labels. Numbers are ASCII decimal
+(:data:`cdsm.files.NUMBER_CELL`: ``-1.5e-3``, ``.5``); ``1_0``, digits of other
+scripts, ``nan`` and ``inf`` are refused with the file, row and column (an
+empty measured cell is how a row says it was not measured).
 
 Spatial arms (:func:`parse_csv` with ``cables``): ``theta_1..theta_n``,
 ``dL_1..dL_m`` on the m position-controlled cables (file order), measured
@@ -28,7 +31,7 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
-from ..files import parse_table, read_text, table_column
+from ..files import Table, parse_table, read_table
 from ..inputs import CdsmInputError, did_you_mean
 from ..display import ShortRepr
 
@@ -107,8 +110,9 @@ class Measurements(ShortRepr):
         return out
 
 
-def _sequence(rows, source: str) -> np.ndarray:
-    vals = table_column(rows, "sequence", source)
+def _sequence(table: Table) -> np.ndarray:
+    vals = table.numbers("sequence")
+    source = table.source
     if not np.all(vals == np.round(vals)):
         i = int(np.flatnonzero(vals != np.round(vals))[0])
         raise CdsmInputError(f"{source}: row {i + 1}, column 'sequence': must be an integer, got {vals[i]!r}")
@@ -122,22 +126,48 @@ def _sequence(rows, source: str) -> np.ndarray:
     return seq
 
 
+def _read_as(n: int, cables: Optional[int]):
+    """How a table's columns are kept (:func:`cdsm.files.parse_table`'s
+    ``read_as``): the columns the format gives a meaning (commands,
+    measurements, ``sequence``) as numbers, the others as text labels."""
+    def read_as(cols: List[str]) -> Dict[str, str]:
+        used = set(_used(set(cols), n, cables))
+        return {c: "number" if c in used else "text" for c in cols}
+    return read_as
+
+
+def _used(has, n: int, cables: Optional[int]) -> List[str]:
+    """The columns with a meaning in a table with columns ``has`` (the rest
+    are labels)."""
+    theta_cols = [f"theta_{i}" for i in range(1, n + 1)]
+    if cables is None:
+        meas = ("x", "y", "phi") if {"x", "y"} <= has else ("dx", "dy", "dphi")
+        return theta_cols + ["x_cmd", "y_cmd", "phi_cmd"] + [f"dL_{i}" for i in range(1, n + 1)] + \
+            list(meas) + ["sequence"]
+    meas = ("x", "y", "z", "rx", "ry", "rz") if {"x", "y", "z"} <= has else ("dx", "dy", "dz", "drx", "dry", "drz")
+    return theta_cols + [f"dL_{i}" for i in range(1, cables + 1)] + list(meas) + ["sequence"]
+
+
 def parse_csv(text: str, n: int, source: str = "<csv>", cables: Optional[int] = None) -> Measurements:
     """Parse a measurement table for a robot with ``n`` joints (format above);
     ``cables``: the position-controlled cables of a spatial arm (spatial
     columns), None for a planar arm."""
-    cols, rows = parse_table(text, source)
+    return _measurements(parse_table(text, source, read_as=_read_as(n, cables)), n, cables)
+
+
+def _measurements(table: Table, n: int, cables: Optional[int]) -> Measurements:
+    if cables is not None:
+        return _parse_spatial(table, n, cables)
+    cols, source, rows = table.columns, table.source, len(table)
     has = set(cols)
     theta_cols = [f"theta_{i}" for i in range(1, n + 1)]
     pose_cols = ["x_cmd", "y_cmd", "phi_cmd"]
-    if cables is not None:
-        return _parse_spatial(cols, rows, n, cables, source)
     if set(theta_cols) <= has:
-        theta, pose = np.stack([table_column(rows, c, source) for c in theta_cols], 1), None
+        theta, pose = np.stack([table.numbers(c) for c in theta_cols], 1), None
     elif set(pose_cols[:2]) <= has:
         theta = None
-        phi = table_column(rows, "phi_cmd", source) if "phi_cmd" in has else np.zeros(len(rows))
-        pose = np.stack([table_column(rows, "x_cmd", source), table_column(rows, "y_cmd", source), phi], 1)
+        phi = table.numbers("phi_cmd") if "phi_cmd" in has else np.zeros(rows)
+        pose = np.stack([table.numbers("x_cmd"), table.numbers("y_cmd"), phi], 1)
     else:
         raise CdsmInputError(f"{source}: missing command columns: need {', '.join(theta_cols)} "
                              f"or x_cmd, y_cmd[, phi_cmd]; found {', '.join(cols)}")
@@ -145,7 +175,7 @@ def parse_csv(text: str, n: int, source: str = "<csv>", cables: Optional[int] = 
     extra = sorted(c for c in has if c.startswith("dL_") and c not in dl_cols)
     if extra:
         raise CdsmInputError(f"{source}: columns {extra} do not fit a robot with {n} joints")
-    dL = np.stack([table_column(rows, c, source) if c in has else np.zeros(len(rows)) for c in dl_cols], 1)
+    dL = np.stack([table.numbers(c) if c in has else np.zeros(rows) for c in dl_cols], 1)
     if {"x", "y"} <= has and {"dx", "dy"} & has:
         raise CdsmInputError(f"{source}: both absolute (x, y) and displacement (dx, dy) columns; give one kind")
     if {"x", "y"} <= has:
@@ -155,7 +185,7 @@ def parse_csv(text: str, n: int, source: str = "<csv>", cables: Optional[int] = 
     else:
         raise CdsmInputError(f"{source}: missing measured columns: need x, y (absolute) or dx, dy "
                              f"(displacement); found {', '.join(cols)}")
-    measured = np.stack([table_column(rows, c, source, allow_empty=True) for c in mcols], 1)
+    measured = np.stack([table.numbers(c, allow_empty=True) for c in mcols], 1)
     half = np.isnan(measured).any(axis=1) & ~np.isnan(measured).all(axis=1)
     if half.any():
         i = int(np.flatnonzero(half)[0])
@@ -163,25 +193,30 @@ def parse_csv(text: str, n: int, source: str = "<csv>", cables: Optional[int] = 
                              "(a measurement) or both be empty (a move that was not measured)")
     if np.isnan(measured).all():
         raise CdsmInputError(f"{source}: no row carries a measurement")
-    mphi = table_column(rows, pcol, source, allow_empty=True) if pcol in has else None
-    seq = _sequence(rows, source) if "sequence" in has else None
-    used = set(theta_cols + pose_cols + dl_cols + list(mcols) + [pcol, "sequence"])
-    labels = {c: [r[c] for r in rows] for c in cols if c not in used}
+    mphi = table.numbers(pcol, allow_empty=True) if pcol in has else None
+    seq = _sequence(table) if "sequence" in has else None
+    labels = _labels(table, n, None)
     return Measurements(kind, n, dL, measured, theta, pose, mphi, labels, source, seq)
 
 
-def _parse_spatial(cols, rows, n: int, m: int, source: str) -> Measurements:
+def _labels(table: Table, n: int, cables: Optional[int]) -> Dict[str, List[str]]:
+    used = set(_used(set(table.columns), n, cables))
+    return {c: table.text(c) for c in table.columns if c not in used}
+
+
+def _parse_spatial(table: Table, n: int, m: int) -> Measurements:
+    cols, source, rows = table.columns, table.source, len(table)
     has = set(cols)
     theta_cols = [f"theta_{i}" for i in range(1, n + 1)]
     if not set(theta_cols) <= has:
         raise CdsmInputError(f"{source}: missing command columns: a spatial arm needs {', '.join(theta_cols)}; "
                              f"found {', '.join(cols)}")
-    theta = np.stack([table_column(rows, c, source) for c in theta_cols], 1)
+    theta = np.stack([table.numbers(c) for c in theta_cols], 1)
     dl_cols = [f"dL_{i}" for i in range(1, m + 1)]
     extra = sorted(c for c in has if c.startswith("dL_") and c not in dl_cols)
     if extra:
         raise CdsmInputError(f"{source}: columns {extra} do not fit a robot with {m} position-controlled cables")
-    dL = np.stack([table_column(rows, c, source) if c in has else np.zeros(len(rows)) for c in dl_cols], 1)
+    dL = np.stack([table.numbers(c) if c in has else np.zeros(rows) for c in dl_cols], 1)
     if {"x", "y", "z"} <= has:
         kind, mcols, rcols = "absolute", ("x", "y", "z"), ("rx", "ry", "rz")
     elif {"dx", "dy", "dz"} <= has:
@@ -189,7 +224,7 @@ def _parse_spatial(cols, rows, n: int, m: int, source: str) -> Measurements:
     else:
         raise CdsmInputError(f"{source}: missing measured columns: need x, y, z (absolute) or dx, dy, dz "
                              f"(displacement); found {', '.join(cols)}")
-    measured = np.stack([table_column(rows, c, source, allow_empty=True) for c in mcols], 1)
+    measured = np.stack([table.numbers(c, allow_empty=True) for c in mcols], 1)
     half = np.isnan(measured).any(axis=1) & ~np.isnan(measured).all(axis=1)
     if half.any():
         i = int(np.flatnonzero(half)[0])
@@ -200,22 +235,25 @@ def _parse_spatial(cols, rows, n: int, m: int, source: str) -> Measurements:
     if set(rcols) & has:
         if not set(rcols) <= has:
             raise CdsmInputError(f"{source}: give all of {', '.join(rcols)} (a rotation vector, rad) or none")
-        rot = np.stack([table_column(rows, c, source, allow_empty=True) for c in rcols], 1)
-    seq = _sequence(rows, source) if "sequence" in has else None
-    used = set(theta_cols + dl_cols + list(mcols) + list(rcols) + ["sequence"])
-    labels = {c: [r[c] for r in rows] for c in cols if c not in used}
-    return Measurements(kind, n, dL, measured, theta, None, None, labels, source, seq, rot)
+        rot = np.stack([table.numbers(c, allow_empty=True) for c in rcols], 1)
+    seq = _sequence(table) if "sequence" in has else None
+    return Measurements(kind, n, dL, measured, theta, None, None, _labels(table, n, m), source, seq, rot)
 
 
-def read_csv(path: "str | os.PathLike[str]", n: int, cables: Optional[int] = None) -> Measurements:
-    """Read a measurement CSV file (format in the module docstring)."""
-    return parse_csv(read_text(path, "measurement"), n, str(path), cables)
+def read_csv(path: "str | os.PathLike[str]", n: int, cables: Optional[int] = None,
+             progress: bool = False) -> Measurements:
+    """Read a measurement CSV file (format in the module docstring),
+    streamed: the file's text is not held, only the table's columns
+    (:func:`cdsm.files.read_table`; ``progress``: a progress line on stderr)."""
+    read_as = _read_as(n, cables)
+    return _measurements(read_table(path, "measurement", read_as=read_as, progress=progress), n, cables)
 
 
-def read_for(robot, path: "str | os.PathLike[str]") -> Measurements:
+def read_for(robot, path: "str | os.PathLike[str]", progress: bool = False) -> Measurements:
     """Read a measurement CSV file for ``robot`` (planar or spatial
     columns); ``path`` may also name a packaged table (``"table3"``) when
-    no such file exists — a file of that name wins."""
+    no such file exists — a file of that name wins. ``progress``: a
+    progress line on stderr while a file is read."""
     cables = len(robot.position_cables) if robot.kind == "spatial" else None
     if not os.path.exists(path) and str(path) in packaged_names():
         text = resources.files("cdsm").joinpath("data", f"{path}.csv").read_text(encoding="utf-8")
@@ -223,7 +261,7 @@ def read_for(robot, path: "str | os.PathLike[str]") -> Measurements:
     if not os.path.exists(path):
         raise CdsmInputError(f"measurement file {str(path)!r}: does not exist{did_you_mean(path, packaged_names())} "
                              f"(packaged tables, usable by name: {', '.join(packaged_names())})")
-    return read_csv(path, robot.n, cables)
+    return read_csv(path, robot.n, cables, progress)
 
 
 def packaged_names() -> List[str]:

@@ -93,7 +93,7 @@ def _diagnose_run(args) -> int:
         from ..calibration.plant import check_effects
 
         check_effects(robot, args.effects, "--effects")
-    meas = read_for(robot, args.data)
+    meas = read_for(robot, args.data, progress=show)
     report_dir = args.report  # absolute, owned by this run (cdsm.cli.paths)
     d = diagnose.diagnose(robot, meas, effects=args.effects, folds=args.folds, noise=args.noise,
                           frame=args.frame,

@@ -1,7 +1,7 @@
 """Coulomb friction of the cables in the holes: independent NumPy reference of
-``docs/model.md`` ("Friction in the holes"), written from the document alone
-and shared by the planar (:mod:`.plant`) and spatial (:mod:`.spatial_plant`)
-reference plants, which give it the cables' hole points in the base frame.
+``docs/model.md`` ("Friction in the holes"), written from the document alone;
+the reference plant (:mod:`.plant`, both kinds of arm) gives it the cables'
+hole points in the base frame.
 
 Units: SI -- m, rad, N, compliance 1/N.  Notation of the document: a cable
 ending at disk ``e`` has the hole points ``P = [B_0, A_1, B_1, ..., A_e, B_e]``

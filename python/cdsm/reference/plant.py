@@ -1,490 +1,387 @@
-"""The plant: nominal model plus unmodelled effects (``docs/model.md``, last section).
+"""The plant: the real arm as the nominal model plus unmodelled effects, one for
+both kinds of arm (``docs/model.md``, "The plant: nominal model plus unmodelled
+effects"; ``docs/spatial.md``, "The plant").
 
-Independent NumPy reference, written from the document alone.  The plant is
-the real arm as the nominal robot plus candidate effects with a flat parameter
-vector ``p`` (SI units); **all-zero parameters give the nominal model exactly**.
+Independent NumPy reference, written from the documents alone on top of the
+reference's kinematics and statics.  **All-zero parameters give the nominal model
+exactly.**  Units: SI everywhere -- m, rad, N, compliance 1/N; orientations as
+rotation vectors (rad, principal logarithm).
 
-Pipeline for one data set (:func:`plant_predict`)::
+Pipeline for one data set (:func:`plant_predict`), rows in execution order::
 
-    theta_cmd, dL, kind  --(commands, in execution order)-->  c^1, c^2, ...
+    theta_cmd, dL, kind  --commands-->  c^1, c^2, ...        (m_pos lengths each)
     c  --backlash_scan-->  r  --realised_lengths-->  L
-    L  --settle (elasticity, clearance)-->  theta  --observe-->  seen
+    L  --settle (rigid solve, then elasticity / clearance / friction)-->  theta
+    theta  --observe-->  seen (the kind's task vector)
 
-Robots are duck-typed as in :mod:`.kinematics` (``n``, ``link_before``,
-``link_after``, ``thickness``, ``holes``, ``joint_limits``) plus, where the
-statics are needed (``kappa > 0``), ``lower_tension (n,)`` N and ``mass (n,)``
-kg; optional ``gravity (2,)`` m/s^2 (absent or None: ``[0, 0]``) and optional
-``routing_length`` m (absent or None: 0).
+Notation: ``n`` joints, ``K`` disks, ``m_pos`` position-controlled cables (the
+commanded ones, file order, :func:`.robot.position_cables`; planar: the upper
+cables), ``H`` the holes of those cables (``2 e_c + 1`` each).
 
-Parameter layout (:data:`PLANT_EFFECTS`, :func:`plant_layout`), ``n`` joints:
+The parameter layout of each kind is the table of ``docs/model.md``
+(:attr:`.robot.Kind.layout`, :func:`plant_blocks`); every effect is a move of the arm's
+numbers (:func:`plant_params`, :func:`plant_arm`) or of the pipeline's
+(actuation, backlash, elasticity, clearance, friction, observation), written
+once.  The planar ``hole_height`` is one grouping of hole coordinates (every hole
+of the cables ending at a disk along its ``y``: :func:`.robot.hole_height_error`),
+the spatial ``hole_position`` every coordinate of the position cables' holes.
 
-=======================  ========  =====================================  ==========
-effect                   size      symbols                                unit
-=======================  ========  =====================================  ==========
-``actuation_scale``      1         ``s``                                  1
-``cable_offset``         n         ``o_1..o_n``                           m
-``hole_height``          n         ``dh_1..dh_n``                         m
-``link_length``          n+1       ``dl_0`` (base->joint 1), ``dl_1..n``  m
-``cable_elasticity``     1         ``kappa >= 0`` (``1/(E A)``)           1/N
-``hole_clearance``       1         ``cl >= 0``                            m
-``frame_misalignment``   3         ``alpha, fx, fy``                      rad, m, m
-``tip_offset``           2         ``tx, ty``                             m
-``backlash``             n         ``b_1..b_n >= 0`` (half-widths)        m
-``clearance_width``      1         ``dw`` (``w = 0.01 + dw > 0``)         rad
-``cable_friction``       1         ``mu >= 0`` (every cable, every hole)  1
-=======================  ========  =====================================  ==========
+Readings where the docs leave a choice (each checked against the core by the
+parity tests):
 
-Friction (``mu > 0``, :mod:`.friction`): every hole's mobilisation ``z`` runs
-over the command sequence from the straight pose (:func:`friction_motion`,
-:func:`mobilisation`) and the settled state uses the capstan tension profile.
+* ``hole_position``: cable by cable (position cables in file order), each
+  cable's holes in file order, ``[dx, dy, dz]`` per hole.
+* ``joint_axis``: "within about 25 deg of x" is ``|a . e_x| >= 0.9`` (25.8 deg;
+  :data:`AXIS_NEAR_X`), either direction of x.
+* ``m = n`` statics: the square solve of the moment balance, no floor (a
+  negative tension is kept).
+* ``m > n``: ``dL_i/dtheta_j`` of the equilibrium (rigid and elastic) is that
+  of the unshifted holes ``J0`` also in the elastic case.
+* The settled configuration is found by this module's own solver (rigid cable
+  solve, an energy descent for the elastic ``m > n`` arm, then a semismooth
+  damped Newton), not by imitating the core's path; where the core fails to
+  settle a command whose equilibrium exists, the two differ in ``converged``.
+* The parameters' physical domain (``docs/model.md``) is checked: a vector
+  outside it raises ``ValueError`` (the core predicts no row there).
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
 from . import friction as fr
 from . import sequence as sq
 from .kinematics import (
-    SimpleRobot,
-    hole_points,
-    batch_array,
-    batched_solve,
-    read_geometry,
-    levenberg_marquardt,
-    fk,
-    hole_height_error,
-    solve_cables_closed_form,
-    tensions,
-    upper_cable_lengths,
+    as_theta,
+    cross,
+    cable_jacobian,
+    cable_lengths,
+    cable_points,
+    chain_frames,
+    position_lengths,
+    task_vector,
 )
+from .robot import Robot, as_robot, force_cables, hole_height_moves, position_cables
+from .rotations import exp_so3
+from .solve import solve_cables, solve_rows
+from .statics import external_moments, min_norm_tensions, moment_matrices, tensions
 
 __all__ = [
-    "PLANT_EFFECTS",
     "CLEARANCE_WIDTH_0",
-    "plant_size",
+    "AXIS_NEAR_X",
+    "plant_blocks",
     "plant_layout",
+    "plant_size",
     "plant_params",
+    "axis_basis",
+    "tilted_axes",
     "plant_arm",
-    "clearance_shifts",
-    "arm_upper_lengths",
+    "bend_shifts",
+    "arm_lengths",
     "reference_lengths",
+    "plant_commands",
     "backlash_scan",
     "realised_lengths",
     "plant_tensions",
+    "cable_compliance",
+    "friction_factors",
+    "settling_equations",
     "settling_residual",
     "settle",
     "observe",
-    "plant_commands",
-    "plant_predict",
     "friction_motion",
     "mobilisation",
-    "friction_factors",
-    "cable_compliance",
+    "plant_predict",
 ]
 
 #: Base transition width of the hole clearance, rad (``w = 0.01 + dw``).
 CLEARANCE_WIDTH_0 = 0.01
 
-#: The effects of the flat parameter vector, in order: ``(name, size(n))``
-#: with ``size`` a function of the number of joints ``n``.
-PLANT_EFFECTS = [
-    ("actuation_scale", lambda n: 1),
-    ("cable_offset", lambda n: n),
-    ("hole_height", lambda n: n),
-    ("link_length", lambda n: n + 1),
-    ("cable_elasticity", lambda n: 1),
-    ("hole_clearance", lambda n: 1),
-    ("frame_misalignment", lambda n: 3),
-    ("tip_offset", lambda n: 2),
-    ("backlash", lambda n: n),
-    ("clearance_width", lambda n: 1),
-    ("cable_friction", lambda n: 1),
-]
+#: ``|a . e_x|`` at and above which a joint axis ``a`` counts as "within about 25 deg
+#: of x" and its tilt basis starts from ``y`` instead (``docs/model.md``: 0.9, 25.8 deg).
+AXIS_NEAR_X = 0.9
+
+_KINDS = ("absolute", "displacement", "unmeasured")
 
 
-def plant_size(n: int) -> int:
-    """Length of the flat parameter vector for ``n`` joints (``4 n + 11``)."""
-    return sum(size(n) for _, size in PLANT_EFFECTS)
+# --------------------------------------------------------------------------
+# Parameter layout and the moves of the arm's numbers
+# --------------------------------------------------------------------------
+def _hole_heights(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["dholes"] = list(hole_height_moves(robot, x))
 
 
-def plant_layout(n: int) -> dict:
-    """``{effect name: slice}`` into the flat parameter vector, in table order."""
+def _hole_points(robot: Robot, x: np.ndarray, q: dict) -> None:
+    moves, start = x.reshape(-1, 3), 0
+    for c in position_cables(robot):
+        count = robot.holes[c].shape[0]
+        q["dholes"][c] = moves[start:start + count].copy()
+        start += count
+
+
+def _links_along_x(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["doffset"][0, 0] = x[0]
+    q["dlink_after"][:, 0] = x[1:]
+    links = np.concatenate([robot.offsets[:1, 0], robot.link_after[:, 0]])
+    if not np.all(links + x > 0.1 * links):
+        raise ValueError(f"link_length: the links must stay above a tenth of nominal, got {links + x} m "
+                         f"for {links} m")
+
+
+def _offsets_and_links(robot: Robot, x: np.ndarray, q: dict) -> None:
+    moves = x.reshape(robot.n + robot.disks, 3)
+    q["doffset"], q["dlink_after"] = moves[:robot.n].copy(), moves[robot.n:].copy()
+
+
+def _turn_and_origin(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["rho"], q["t"] = np.array([0.0, 0.0, x[0]]), np.array([x[1], x[2], 0.0])
+
+
+def _rotation_and_origin(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["rho"], q["t"] = x[:3].copy(), x[3:].copy()
+
+
+def _point_in_plane(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["tip"][:2] = x
+
+
+def _point_in_space(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["tip"] = x.copy()
+
+
+def _joint_tilts(robot: Robot, x: np.ndarray, q: dict) -> None:
+    q["tilt"] = x.reshape(robot.n, 2).copy()
+
+
+#: The size rules of the kinds' layouts (:attr:`.robot.Kind.layout`): the size of a block
+#: from the arm's numbers, and the move of the plant's numbers its values make (None: the
+#: values are read as they are, :func:`plant_params`).
+_RULES = {
+    "one": (lambda r: 1, None),
+    "position cables": (lambda r: position_cables(r).size, None),
+    "disk hole heights": (lambda r: r.disks, _hole_heights),
+    "position cables' hole points": (lambda r: 3 * sum(r.holes[c].shape[0] for c in position_cables(r)),
+                                     _hole_points),
+    "first offset and links along x": (lambda r: 1 + r.disks, _links_along_x),
+    "offsets and links": (lambda r: 3 * (r.n + r.disks), _offsets_and_links),
+    "turn about z and origin in the plane": (lambda r: 3, _turn_and_origin),
+    "rotation vector and origin": (lambda r: 6, _rotation_and_origin),
+    "point in the plane": (lambda r: 2, _point_in_plane),
+    "point in space": (lambda r: 3, _point_in_space),
+    "joint tilts": (lambda r: 2 * r.n, _joint_tilts),
+}
+
+
+def plant_blocks(robot) -> list:
+    """``[(block, size), ...]`` of the flat parameter vector of ``robot``'s kind
+    (:attr:`.robot.Kind.layout`, the table of ``docs/model.md``)."""
+    robot = as_robot(robot)
+    return [(name, _RULES[rule][0](robot)) for name, rule in robot.kind.layout]
+
+
+def plant_layout(robot) -> dict:
+    """``{block: slice}`` into the flat parameter vector, in the layout's order."""
     out, start = {}, 0
-    for name, size in PLANT_EFFECTS:
-        k = size(n)
+    for name, k in plant_blocks(robot):
         out[name] = slice(start, start + k)
         start += k
     return out
 
 
-def plant_params(p, n: int) -> dict:
-    """Split and check the flat vector ``p`` (``(4n+11,)``, SI) into named arrays.
+def plant_size(robot) -> int:
+    """Length of the flat parameter vector (planar ``4n + 11``, spatial
+    ``2 m_pos + 3H + 3(n + K) + 2n + 14``)."""
+    return sum(k for _, k in plant_blocks(robot))
 
-    Keys: ``s`` (float), ``o (n,)`` m, ``dh (n,)`` m, ``dl (n+1,)`` m, ``kappa``
-    1/N, ``cl`` m, ``alpha`` rad, ``f (2,)`` m, ``t (2,)`` m, ``b (n,)`` m,
-    ``w`` rad (``0.01 + dw``), ``mu`` (1).  Raises ``ValueError`` on a wrong size
-    or when ``kappa < 0``, ``cl < 0``, some ``b_i < 0``, ``w <= 0`` or ``mu < 0``.
+
+def plant_params(robot, p) -> dict:
+    """Split and check the flat vector ``p (plant_size(robot),)`` (SI) into the
+    plant's numbers, each block as a move of the arm's or the pipeline's numbers.
+
+    Keys: ``s`` (float), ``o (m_pos,)`` m, ``b (m_pos,)`` m, ``kappa`` 1/N, ``cl`` m,
+    ``w`` rad (``0.01 + dw``), ``mu`` (1); ``dholes`` (one ``(2 e_c + 1, 3)`` m move per
+    cable: planar ``hole_height`` along ``y``, position ``+dh``, force ``-dh``, of the
+    cables ending at each disk; spatial ``hole_position`` of the position cables'),
+    ``doffset (n, 3)`` and ``dlink_after (K, 3)`` m (planar ``link_length``: ``dl_0``
+    on the first offset's ``x``, ``dl_i`` on disk ``i``'s ``link_after``), ``tilt (n,
+    2)`` rad (0 for planar arms), the instrument frame ``rho (3,)`` rad and ``t (3,)``
+    m (planar ``alpha`` about ``z``, ``fx, fy``) and the ``tip (3,)`` m.
+
+    ``ValueError`` on a wrong size or outside the physical domain of
+    ``docs/model.md``: ``kappa < 0``, ``cl < 0`` (its upper bound, "the least hole
+    radius", is not checked), some ``b < 0``, ``w`` outside ``[1e-4, 1]``, ``mu``
+    outside ``[0, 1]``, ``1 + s <= 0.1``, a planar link at or below a tenth of nominal.
     """
+    robot = as_robot(robot)
     p = np.asarray(p, dtype=float).reshape(-1)
-    if p.size != plant_size(n):
-        raise ValueError(f"plant parameters must have {plant_size(n)} entries for n = {n}, got {p.size}")
-    lay = plant_layout(n)
-    fm = p[lay["frame_misalignment"]]
-    q = dict(
-        s=float(p[lay["actuation_scale"]][0]),
-        o=p[lay["cable_offset"]].copy(),
-        dh=p[lay["hole_height"]].copy(),
-        dl=p[lay["link_length"]].copy(),
-        kappa=float(p[lay["cable_elasticity"]][0]),
-        cl=float(p[lay["hole_clearance"]][0]),
-        alpha=float(fm[0]),
-        f=fm[1:3].copy(),
-        t=p[lay["tip_offset"]].copy(),
-        b=p[lay["backlash"]].copy(),
-        w=CLEARANCE_WIDTH_0 + float(p[lay["clearance_width"]][0]),
-        mu=float(p[lay["cable_friction"]][0]),
-    )
+    if p.size != plant_size(robot):
+        raise ValueError(f"plant parameters must have {plant_size(robot)} entries for this robot, got {p.size}")
+    v = {name: p[sl] for name, sl in plant_layout(robot).items()}
+    q = dict(s=float(v["actuation_scale"][0]), o=v["cable_offset"].copy(), b=v["backlash"].copy(),
+             kappa=float(v["cable_elasticity"][0]), cl=float(v["hole_clearance"][0]),
+             w=CLEARANCE_WIDTH_0 + float(v["clearance_width"][0]), mu=float(v["cable_friction"][0]),
+             dholes=[np.zeros_like(h) for h in robot.holes], doffset=np.zeros((robot.n, 3)),
+             dlink_after=np.zeros((robot.disks, 3)), tilt=np.zeros((robot.n, 2)), rho=np.zeros(3), t=np.zeros(3),
+             tip=np.zeros(3))
+    for name, rule in robot.kind.layout:
+        move = _RULES[rule][1]
+        if move is not None:
+            move(robot, v[name], q)
     if not q["kappa"] >= 0.0:
         raise ValueError(f"cable_elasticity kappa must be >= 0, got {q['kappa']}")
     if not q["cl"] >= 0.0:
         raise ValueError(f"hole_clearance cl must be >= 0, got {q['cl']}")
     if not np.all(q["b"] >= 0.0):
         raise ValueError(f"backlash half-widths must be >= 0, got {q['b']}")
-    if not q["w"] > 0.0:
-        raise ValueError(f"clearance width w = 0.01 + dw must be > 0, got {q['w']}")
-    if not q["mu"] >= 0.0:
-        raise ValueError(f"cable_friction mu must be >= 0, got {q['mu']}")
+    if not 1e-4 <= q["w"] <= 1.0:
+        raise ValueError(f"clearance width w = 0.01 + dw must be within [1e-4, 1] rad, got {q['w']}")
+    if not 0.0 <= q["mu"] <= 1.0:
+        raise ValueError(f"cable_friction mu must be within [0, 1], got {q['mu']}")
+    if not 1.0 + q["s"] > 0.1:
+        raise ValueError(f"actuator gain 1 + s must be above 0.1, got {1.0 + q['s']}")
     return q
 
 
-# --------------------------------------------------------------------------
-# The arm
-# --------------------------------------------------------------------------
-def _robot_gravity(robot) -> np.ndarray:
-    g = getattr(robot, "gravity", None)
-    return np.zeros(2) if g is None else np.asarray(g, dtype=float).reshape(2)
+def axis_basis(axis) -> tuple:
+    """The tilt basis ``(e1, e2)`` (each ``(3,)``) of a unit joint axis ``a (3,)``.
 
-
-def _robot_routing(robot) -> float:
-    r = getattr(robot, "routing_length", None)
-    return 0.0 if r is None else float(r)
-
-
-def cable_compliance(robot) -> float:
-    """``kappa_c = 1 / (E A)``, ``A = pi d^2 / 4`` (1/N), of the robot's cable
-    (``youngs_modulus`` Pa, ``cable_diameter`` m; default the paper's steel,
-    1.8e11 Pa and 0.18 mm): friction's change of the tensions stretches the
-    cables at ``kappa + kappa_c``."""
-    E = float(getattr(robot, "youngs_modulus", 1.8e11))
-    d = float(getattr(robot, "cable_diameter", 0.18e-3))
-    return 1.0 / (E * np.pi * d * d / 4.0)
-
-
-def plant_arm(robot, p) -> SimpleRobot:
-    """The plant's arm: ``robot`` with the hole-height and link-length errors.
-
-    Every hole of pair ``i`` moves by ``dh_i`` (upper ``y += dh_i``, lower
-    ``y -= dh_i``, on every face the pair crosses, the base disk's face ``b``
-    included); ``link_before[1] += dl_0`` and ``link_after[i] += dl_i``.
-    ``mass``, ``lower_tension``, ``gravity`` (default ``[0, 0]``) and
-    ``routing_length`` (default 0) are carried over.  Returns a
-    :class:`SimpleRobot`.
+    ``e1``: ``e_x`` made perpendicular to ``a`` and normalised (``e_y`` instead
+    when ``|a . e_x| >= AXIS_NEAR_X``, ``a`` within about 25 deg of ``x``);
+    ``e2 = a x e1``.
     """
-    g = read_geometry(robot)
-    q = plant_params(p, g.n)
-    lb = g.lb.copy()
-    lb[0] += q["dl"][0]
-    la = g.la + q["dl"][1:]
-    holes = hole_height_error(robot, q["dh"])
-    arm = SimpleRobot.like(robot, holes)
-    arm.link_before = lb
-    arm.link_after = la
-    arm.gravity = _robot_gravity(robot)
-    arm.routing_length = _robot_routing(robot)
-    return arm
+    a = np.asarray(axis, dtype=float)
+    ref = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < AXIS_NEAR_X else np.array([0.0, 1.0, 0.0])
+    e1 = ref - (ref @ a) * a
+    e1 /= np.linalg.norm(e1)
+    return e1, cross(a, e1)
 
 
-def clearance_shifts(theta, cl: float, w: float) -> np.ndarray:
-    """Hole shifts ``d_k = cl tanh(theta_k / w)`` (m), ``(N, n)``; ``theta`` rad."""
-    return cl * np.tanh(np.asarray(theta, dtype=float) / w)
+def tilted_axes(axes, tilt) -> np.ndarray:
+    """Joint axes ``(n, 3)`` tilted by ``tilt (n, 2)`` rad: ``(a + d1 e1 + d2 e2) / |...|``."""
+    axes = np.asarray(axes, dtype=float)
+    out = np.empty_like(axes)
+    for j, a in enumerate(axes):
+        e1, e2 = axis_basis(a)
+        v = a + tilt[j, 0] * e1 + tilt[j, 1] * e2
+        out[j] = v / np.linalg.norm(v)
+    return out
 
 
-def _arm_upper_lengths(arm, theta: np.ndarray, cl: float, w: float) -> np.ndarray:
-    """Upper-cable lengths of ``arm`` (already perturbed) with hole clearance."""
-    g = read_geometry(arm)
-    n, N = g.n, theta.shape[0]
-    H = g.holes[0::2]  # (n cables, n+1 disks, 2 faces, 2) upper holes
-    d = clearance_shifts(theta, cl, w)  # (N, n): shift at joint k
-    # index grid: cable ci (pair ci+1), segment kk (joint kk+1)
-    ci = np.arange(n)[:, None]
-    kk = np.arange(n)[None, :]
-    mask = kk <= ci  # (n, n)
-    # d_{k+1} of the cable, if it crosses joint k+1 (kk < ci), else 0
-    d_pad = np.concatenate([d, np.zeros((N, 1))], axis=1)  # (N, n+1)
-    d_k = np.broadcast_to(d[:, None, :], (N, n, n))
-    d_next = np.where((kk < ci)[None], d_pad[:, None, 1:], 0.0)  # (N, n, n)
-
-    p = H[:, :n, 1, :]  # (n, n, 2) face b of disk k-1
-    q = H[:, 1:, 0, :]  # face a of disk k
-    b = H[:, 1:, 1, :]  # face b of disk k
-    px, py = p[None, ..., 0], p[None, ..., 1] + d_k
-    qx, qy = q[None, ..., 0], q[None, ..., 1] + d_k
-    bx, by = b[None, ..., 0], b[None, ..., 1] + d_next
-    # A_k = (lb_k, 0) + Rot(theta_k) (q' + (la_k, 0)), frame O_{k-1,b}
-    ux = qx + g.la[None, None, :]
-    uy = qy
-    c, s = np.cos(theta)[:, None, :], np.sin(theta)[:, None, :]
-    ax = g.lb[None, None, :] + c * ux - s * uy
-    ay = s * ux + c * uy
-    seg = np.hypot(ax - px, ay - py)
-    # traversal of disk k, frame O_{k,a}
-    tr = np.hypot(g.t[None, None, :] + bx - qx, by - qy)
-    return np.where(mask[None], seg + tr, 0.0).sum(axis=2)
-
-
-def arm_upper_lengths(robot, p, theta) -> np.ndarray:
-    """Geometric upper-cable lengths of the plant's arm with hole clearance, m, ``(N, n)``.
-
-    ``theta``: rad, ``(N, n)``.  Joint ``k`` shifts both holes beside it (face
-    ``b`` of disk ``k-1``, face ``a`` of disk ``k``) by
-    ``d_k = cl tanh(theta_k / w)`` along their local ``y``;
-    ``L_arm,i = sum_{k<=i} |A_k - p'| + |t_k|`` with the traversal of disk ``k``
-    ``t_k = (thickness_k + b_x - q'_x, b_y + d_{k+1} - q'_y)``, ``d_{k+1} = 0``
-    for ``k = i`` (the anchor hole does not move).  With ``cl = 0`` these are
-    the nominal (Eq. 4-5) upper lengths of :func:`plant_arm`.
+def plant_arm(robot, p) -> Robot:
+    """The plant's arm: ``robot`` with its numbers moved by the parameters (``docs/model.md``,
+    "The arm"): every hole by its ``dholes`` move (in its face frame), every joint offset
+    and disk ``link_after`` by its move and, where the kind has ``joint_axis``, every
+    joint axis tilted.  Masses, centres of mass, thicknesses, force tensions, gravity and
+    the cable material are unchanged.  Returns a new :class:`.robot.Robot`.
     """
+    robot = as_robot(robot)
+    q = plant_params(robot, p)
+    moved = dataclasses.replace(
+        robot,
+        holes=tuple(h + d for h, d in zip(robot.holes, q["dholes"])),
+        offsets=robot.offsets + q["doffset"],
+        link_after=robot.link_after + q["dlink_after"],
+    )
+    if "joint_axis" in plant_layout(robot):
+        moved = dataclasses.replace(moved, axes=tilted_axes(robot.axes, q["tilt"]))
+    return moved
+
+
+def _bend(ch: dict, K: int, cl: float, w: float) -> tuple:
+    """Clearance shifts of the bend of every disk: ``sb, sa (N, K+1, 3)`` m, index ``k = 1..K``.
+
+    ``sb[:, k]``: on face b of disk ``k - 1`` (its own frame), ``cl g (0, n_y, n_z)``;
+    ``sa[:, k]``: on face a of disk ``k``, ``-cl g (0, m_y, m_z)``; ``n = R_k e_x``,
+    ``m = R_k^T e_x``, ``R_k = R(F_(k-1)b)^T R(F_ka)`` the rotation of the motion
+    ``T_k``, ``phi = atan2(|(n_y, n_z)|, n_x)``, ``g = tanh(phi / w) / sin(phi)``
+    (``1/w`` at ``phi = 0``).
+    """
+    N = ch["tb"].shape[0]
+    sb = np.zeros((N, K + 1, 3))
+    sa = np.zeros((N, K + 1, 3))
+    if cl == 0.0:
+        return sb, sa
+    for k in range(1, K + 1):
+        Rk = np.swapaxes(ch["Rb"][:, k - 1], 1, 2) @ ch["Ra"][:, k]
+        nv, mv = Rk[:, :, 0], Rk[:, 0, :]
+        phi = np.arctan2(np.hypot(nv[:, 1], nv[:, 2]), nv[:, 0])
+        sphi = np.sin(phi)
+        g = np.where(sphi > 0.0, np.tanh(phi / w) / np.where(sphi > 0.0, sphi, 1.0), 1.0 / w)
+        sb[:, k, 1:] = (cl * g)[:, None] * nv[:, 1:]
+        sa[:, k, 1:] = -(cl * g)[:, None] * mv[:, 1:]
+    return sb, sa
+
+
+def bend_shifts(robot, p, theta) -> tuple:
+    """Hole-clearance shifts of the plant's arm at ``theta (N, n)`` rad (:func:`_bend`):
+    ``sb, sa (N, K+1, 3)`` m (index 0 unused, zero).  For a bend about ``z`` by ``theta``
+    both are ``(0, cl tanh(theta / w), 0)``: the planar shifts."""
+    robot = as_robot(robot)
     arm = plant_arm(robot, p)
-    q = plant_params(p, arm.n)
-    theta = batch_array(theta, arm.n, "theta")
-    return _arm_upper_lengths(arm, theta, q["cl"], q["w"])
+    q = plant_params(robot, p)
+    return _bend(chain_frames(arm, as_theta(arm, theta)), arm.disks, q["cl"], q["w"])
+
+
+def _arm_lengths(arm, ch: dict, cl: float, w: float) -> np.ndarray:
+    """Position-cable lengths ``(N, m)`` m of ``arm`` (already moved) with hole clearance."""
+    sb, sa = _bend(ch, arm.disks, cl, w)
+    pos = position_cables(arm)
+    N = ch["tb"].shape[0]
+    out = np.zeros((N, pos.size))
+    for i, c in enumerate(pos):
+        e, h = int(arm.cable_end[c]), arm.holes[c]
+        prev = h[0] + sb[:, 1]  # B'_0 (base face b, the identity frame), shifted by the bend of disk 1
+        for k in range(1, e + 1):
+            A = np.einsum("nij,nj->ni", ch["Ra"][:, k], h[2 * k - 1] + sa[:, k]) + ch["ta"][:, k]
+            hb = h[2 * k] + (sb[:, k + 1] if k < e else np.zeros((N, 3)))  # the anchor hole does not move
+            B = np.einsum("nij,nj->ni", ch["Rb"][:, k], hb) + ch["tb"][:, k]
+            out[:, i] += np.linalg.norm(A - prev, axis=-1) + np.linalg.norm(B - A, axis=-1)
+            prev = B
+    return out
+
+
+def arm_lengths(robot, p, theta) -> np.ndarray:
+    """Geometric position-cable lengths ``L_arm (N, m)`` m of the plant's arm at
+    ``theta (N, n)`` rad, with the hole-clearance shifts of every bend
+    (``docs/model.md``, "The arm"); with ``cl = 0`` the nominal lengths of :func:`plant_arm`."""
+    robot = as_robot(robot)
+    arm = plant_arm(robot, p)
+    q = plant_params(robot, p)
+    return _arm_lengths(arm, chain_frames(arm, as_theta(arm, theta)), q["cl"], q["w"])
 
 
 # --------------------------------------------------------------------------
 # Commands, backlash, actuation
 # --------------------------------------------------------------------------
 def reference_lengths(robot) -> np.ndarray:
-    """``L_ref (n,)`` m: straight-pose upper lengths of the *nominal* robot."""
-    return upper_cable_lengths(robot, np.zeros((1, int(robot.n))))[0]
+    """``L_ref (m_pos,)`` m: straight-pose position-cable lengths of the *nominal* robot."""
+    robot = as_robot(robot)
+    return position_lengths(robot, np.zeros((1, robot.n)))[0]
 
 
-def backlash_scan(robot, p, commands, start=None) -> np.ndarray:
-    """Lost motion per upper cable over a command sequence.
+def plant_commands(robot, theta_cmd, dL, kind) -> tuple:
+    """The command sequence of a data set (rows in execution order).
 
-    ``commands``: ``(R, n)`` m, in execution order.  The state ``r`` starts at
-    ``start`` (default ``L_ref``, the nominal straight pose).  For each command
-    ``c``, per cable: ``c - r > b`` -> ``r = c - b``; ``c - r < -b`` ->
-    ``r = c + b``; otherwise unchanged.  Returns the delivered lengths
-    ``r (R, n)`` m, one row per command (``b = 0``: ``r = c``).
-    """
-    n = int(robot.n)
-    b = plant_params(p, n)["b"]
-    commands = batch_array(commands, n, "commands")
-    r = reference_lengths(robot).copy() if start is None else np.array(start, dtype=float).reshape(n)
-    out = np.empty_like(commands)
-    for j in range(commands.shape[0]):
-        c = commands[j]
-        r = np.where(c - r > b, c - b, np.where(c - r < -b, c + b, r))
-        out[j] = r
-    return out
-
-
-def realised_lengths(robot, p, r) -> np.ndarray:
-    """Realised (rest) upper lengths ``L = L_ref + (1 + s)(r - L_ref) + o``, m, ``(R, n)``.
-
-    ``r``: delivered lengths ``(R, n)`` m (:func:`backlash_scan`).
-    """
-    n = int(robot.n)
-    q = plant_params(p, n)
-    r = batch_array(r, n, "r")
-    L_ref = reference_lengths(robot)
-    return L_ref + (1.0 + q["s"]) * (r - L_ref) + q["o"]
-
-
-# --------------------------------------------------------------------------
-# Settling
-# --------------------------------------------------------------------------
-def plant_tensions(robot, p, theta) -> np.ndarray:
-    """Upper tensions ``(N, n)`` N of the statics of the plant's arm at ``theta``.
-
-    Lower tensions ``robot.lower_tension``, gravity ``robot.gravity`` (default
-    ``[0, 0]``) on ``robot.mass``, no tip wrench; the arm is
-    :func:`plant_arm` *without* the clearance shifts.
-    """
-    arm = plant_arm(robot, p)
-    theta = batch_array(theta, arm.n, "theta")
-    gravity = arm.gravity
-    if np.any(gravity != 0.0):
-        return tensions(arm, theta, lower=robot.lower_tension, gravity=gravity, mass=robot.mass)
-    return tensions(arm, theta, lower=robot.lower_tension)
-
-
-def friction_factors(arm, theta, z, mu: float):
-    """The capstan profile of every cable of ``arm`` at ``theta (N, n)`` rad with
-    the mobilisations ``z (N, H)`` (holes cable by cable, ``2 e`` each): the gap
-    factors ``(N, 2n, n)`` (tension in the gap before disk ``k`` over the
-    routing's, 0 where the cable does not cross it) and ``ebar (N, 2n)`` (the
-    length-weighted mean factor with the routing, ``docs/model.md``)."""
-    theta = batch_array(theta, int(arm.n), "theta")
-    n, N = int(arm.n), theta.shape[0]
-    pts = hole_points(arm, theta)
-    gap = np.zeros((N, 2 * n, n))
-    ebar = np.empty((N, 2 * n))
-    start = 0
-    for c, P in enumerate(pts):
-        e = c // 2 + 1
-        beta = fr.wrap_angles(P)
-        g, _ = fr.segments(P)
-        E = fr.profile(beta, z[:, start:start + 2 * e], mu)
-        start += 2 * e
-        gap[:, c, :e] = E[:, 1::2]  # segment 2k - 1: the gap before disk k
-        ebar[:, c] = fr.mean_factor(g, E, _robot_routing(arm))
-    return gap, ebar
-
-
-def _hole_count(n: int) -> int:
-    return sum(2 * (c // 2 + 1) for c in range(2 * n))
-
-
-def _settling_F(robot, arm, q, L, theta, lower, z=None):
-    """``F = L_arm(theta) - (L + L_route)(1 + kappa T(theta)) + L_route`` (m);
-    with friction ``F = L_arm - L - (L + L_route) (kappa T_0 ebar + kappa_c (T_0 ebar
-    - T*))`` (``T_0`` from the balance with the capstan gap factors of the
-    mobilisations ``z (N, H)``, ``T*`` the frictionless balance's,
-    ``kappa_c`` :func:`cable_compliance`)."""
-    La = _arm_upper_lengths(arm, theta, q["cl"], q["w"])
-    if q["kappa"] == 0.0 and q["mu"] == 0.0:
-        return La - L
-    Lr = arm.routing_length
-    g = arm.gravity
-    grav = dict(gravity=g, mass=robot.mass) if np.any(g != 0.0) else {}
-    if q["mu"] == 0.0:
-        T = tensions(arm, theta, lower=lower, **grav)
-        return La - (L + Lr) * (1.0 + q["kappa"] * T) + Lr
-    gap, ebar = friction_factors(arm, theta, z, q["mu"])
-    T = tensions(arm, theta, lower=lower, gap=gap, **grav) * ebar[:, 0::2]
-    T0 = tensions(arm, theta, lower=lower, **grav)
-    return La - L - (L + Lr) * (q["kappa"] * T + cable_compliance(robot) * (T - T0))
-
-
-def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
-    """``F(theta) = L_arm(theta) - (L + L_route)(1 + kappa T(theta)) + L_route``, m, ``(N, n)``.
-
-    ``realised``: ``L (N, n)`` m; ``theta (N, n)`` rad; ``z (N, H)`` the
-    mobilisations (friction; default every hole at +1).  Zero at the settled
-    configuration.  With ``kappa = 0`` it is ``L_arm(theta) - L`` (the
-    tensions are not evaluated).
-    """
-    arm = plant_arm(robot, p)
-    q = plant_params(p, arm.n)
-    L = batch_array(realised, arm.n, "realised")
-    theta = batch_array(theta, arm.n, "theta")
-    lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
-        np.asarray(robot.lower_tension, dtype=float), L.shape)
-    z = np.ones((L.shape[0], _hole_count(arm.n))) if z is None else np.asarray(z, float)
-    return _settling_F(robot, arm, q, L, theta, lower, z)
-
-
-def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=100, fd_step=1e-6, z=None):
-    """Joint angles at which the plant's arm settles, per row.
-
-    Solves ``L_arm,i(theta) = (L_i + L_route)(1 + kappa T_i(theta)) - L_route``
-    (``realised`` = ``L (N, n)`` m, ``theta_seed (N, n)`` rad = ``theta_cmd``).
-    First the rigid closed-form cable solve of the plant's arm (``L_arm = L``
-    without clearance), branch nearest the seed; with ``kappa = 0`` and
-    ``cl = 0`` that is the answer.  Otherwise damped Newton (the shared LM,
-    ``delta = (J^T J + lambda I)^-1 J^T r``, ``r = -F``, tolerance ``tol`` m)
-    from the rigid answer (from the seed where the rigid solve has no real
-    branch), ``J = dF/dtheta`` by central differences of step ``fd_step`` rad.
-
-    Returns ``(theta (N, n) rad, converged (N,) bool)``.
-    """
-    arm = plant_arm(robot, p)
-    n = arm.n
-    q = plant_params(p, n)
-    L = batch_array(realised, n, "realised")
-    seed = np.array(batch_array(theta_seed, n, "theta_seed"), dtype=float)
-    if seed.shape != L.shape:
-        raise ValueError(f"theta_seed must have shape {L.shape}, got {seed.shape}")
-
-    rigid = solve_cables_closed_form(arm, L, seed=seed)
-    if q["kappa"] == 0.0 and q["cl"] == 0.0 and q["mu"] == 0.0:
-        return rigid["theta"], rigid["converged"]
-
-    theta = np.where(rigid["converged"][:, None], rigid["theta"], seed)
-    lower = None if q["kappa"] == 0.0 and q["mu"] == 0.0 else np.broadcast_to(
-        np.asarray(robot.lower_tension, dtype=float), L.shape)
-    z = np.ones((L.shape[0], _hole_count(n))) if z is None else np.asarray(z, float)
-
-    def F(th, idx):
-        return _settling_F(robot, arm, q, L[idx], th, None if lower is None else lower[idx], z[idx])
-
-    def residual(th, idx):
-        return -F(th, idx)
-
-    def step(th, r, lam, idx):
-        J = np.empty((th.shape[0], n, n))
-        for k in range(n):
-            e = np.zeros(n)
-            e[k] = fd_step
-            J[:, :, k] = (F(th + e, idx) - F(th - e, idx)) / (2.0 * fd_step)
-        Jt = np.swapaxes(J, 1, 2)
-        A = Jt @ J + lam[:, None, None] * np.eye(n)
-        return batched_solve(A, (Jt @ r[..., None])[..., 0])
-
-    with np.errstate(all="ignore"):
-        sol = levenberg_marquardt(residual, step, theta, tol, max_iter)
-    return sol["theta"], sol["converged"]
-
-
-# --------------------------------------------------------------------------
-# Observation
-# --------------------------------------------------------------------------
-def observe(robot, p, theta) -> np.ndarray:
-    """What the instrument sees at the settled ``theta (N, n)`` rad: ``(N, 3)``.
-
-    ``(x, y, phi)`` = Eq. 1-3 on the plant's arm; ``tip = (x, y) + Rot(phi)(tx, ty)``;
-    ``seen = Rot(alpha) tip + (fx, fy)`` (m) and ``phi_seen = phi + alpha`` (rad).
-    """
-    arm = plant_arm(robot, p)
-    q = plant_params(p, arm.n)
-    S = fk(arm, batch_array(theta, arm.n, "theta"))
-    phi = S[:, 2]
-    tx, ty = q["t"]
-    tip_x = S[:, 0] + np.cos(phi) * tx - np.sin(phi) * ty
-    tip_y = S[:, 1] + np.sin(phi) * tx + np.cos(phi) * ty
-    ca, sa = np.cos(q["alpha"]), np.sin(q["alpha"])
-    seen_x = ca * tip_x - sa * tip_y + q["f"][0]
-    seen_y = sa * tip_x + ca * tip_y + q["f"][1]
-    return np.stack([seen_x, seen_y, phi + q["alpha"]], axis=1)
-
-
-# --------------------------------------------------------------------------
-# Whole pipeline
-# --------------------------------------------------------------------------
-_KINDS = ("absolute", "displacement", "unmeasured")
-
-
-def plant_commands(robot, theta_cmd, dL, kind):
-    """The command sequence of a data set (rows already in execution order).
-
-    ``C = L_upper,nom(theta_cmd)``; absolute and unmeasured rows give one
-    command ``C + dL``, displacement rows two, ``C`` then ``C + dL``.  Returns
-    ``commands (R, n)`` m, ``row (R,)`` (the data row of each command) and
+    ``theta_cmd (N, n)`` rad, ``dL (N, m)`` m, ``kind`` ``N`` names.  ``C =
+    L_pos,nom(theta_cmd)``; absolute and unmeasured rows give one command
+    ``C + dL``, displacement rows two, ``C`` then ``C + dL``.  Returns
+    ``commands (R, m)`` m, ``rows (R,)`` (the data row of each command) and
     ``seeds (R, n)`` rad (that row's ``theta_cmd``).
     """
-    n = int(robot.n)
-    theta_cmd = batch_array(theta_cmd, n, "theta_cmd")
-    dL = batch_array(dL, n, "dL")
-    kind = list(kind)
+    robot = as_robot(robot)
+    pos = position_cables(robot)
+    theta_cmd = np.asarray(theta_cmd, dtype=float).reshape(-1, robot.n)
     N = theta_cmd.shape[0]
-    if dL.shape[0] != N or len(kind) != N:
-        raise ValueError(f"theta_cmd, dL and kind must have the same number of rows, "
-                         f"got {N}, {dL.shape[0]}, {len(kind)}")
+    dL = np.asarray(dL, dtype=float).reshape(N, pos.size)
+    kind = list(kind)
+    if len(kind) != N:
+        raise ValueError(f"kind must have {N} entries, got {len(kind)}")
     bad = [k for k in kind if k not in _KINDS]
     if bad:
         raise ValueError(f"kind must be one of {_KINDS}, got {bad[0]!r}")
-    C = upper_cable_lengths(robot, theta_cmd)
+    C = position_lengths(robot, theta_cmd)
     commands, rows = [], []
     for i, k in enumerate(kind):
         if k == "displacement":
@@ -492,76 +389,436 @@ def plant_commands(robot, theta_cmd, dL, kind):
             rows.append(i)
         commands.append(C[i] + dL[i])
         rows.append(i)
-    commands = np.array(commands).reshape(-1, n)
     rows = np.array(rows, dtype=np.int64)
-    return commands, rows, theta_cmd[rows]
+    return np.array(commands).reshape(-1, pos.size), rows, theta_cmd[rows]
+
+
+def backlash_scan(robot, p, commands, start=None) -> np.ndarray:
+    """Lost motion per position cable over a command sequence ``commands (R, m_pos)`` m.
+
+    The state ``r`` starts at ``start`` (default ``L_ref``, the straight pose); per
+    command ``c``: ``c - r > b`` -> ``r = c - b``; ``c - r < -b`` -> ``r = c + b``;
+    otherwise unchanged.  Returns the delivered lengths ``r (R, m_pos)`` m (``b = 0``:
+    ``r = c``).
+    """
+    b = plant_params(robot, p)["b"]
+    commands = np.asarray(commands, dtype=float)
+    r = reference_lengths(robot).copy() if start is None else np.array(start, dtype=float).reshape(b.shape)
+    out = np.empty_like(commands)
+    for j, c in enumerate(commands):
+        r = np.where(c - r > b, c - b, np.where(c - r < -b, c + b, r))
+        out[j] = r
+    return out
+
+
+def realised_lengths(robot, p, r) -> np.ndarray:
+    """Realised rest lengths ``L = L_ref + (1 + s)(r - L_ref) + o``, ``(R, m_pos)`` m, of the
+    delivered lengths ``r (R, m_pos)`` m (:func:`backlash_scan`)."""
+    q = plant_params(robot, p)
+    L_ref = reference_lengths(robot)
+    return L_ref + (1.0 + q["s"]) * (np.asarray(r, dtype=float) - L_ref) + q["o"]
+
+
+# --------------------------------------------------------------------------
+# Settling
+# --------------------------------------------------------------------------
+def plant_tensions(robot, p, theta) -> np.ndarray:
+    """Position-cable tensions ``(N, m)`` N of the plant's arm at ``theta (N, n)`` rad
+    (:func:`plant_arm`, no clearance shift): the square statics of :func:`.statics.tensions`
+    (force cables at their tension, the robot's gravity, no tip wrench), ``m_pos = n`` only."""
+    return tensions(plant_arm(robot, p), theta)
+
+
+def cable_compliance(robot) -> float:
+    """``kappa_c = 1 / (E A)``, ``A = pi d^2 / 4`` (1/N), of the robot file's cable:
+    friction's change of the tensions stretches the cables at ``kappa + kappa_c``."""
+    robot = as_robot(robot)
+    return 1.0 / (float(robot.youngs_modulus) * np.pi * float(robot.diameter) ** 2 / 4.0)
+
+
+def friction_factors(arm, theta, z, mu: float):
+    """The capstan profile of every cable of ``arm`` at ``theta (N, n)`` rad with the
+    mobilisations ``z (N, H)`` (every cable's holes, file order, ``2 e_c`` each): the
+    factor of each cable's tension in the gap of each joint over its routing
+    tension ``(N, n, m_all)`` (1 where the cable does not cross the joint: its
+    moment there is 0 anyway) and ``ebar (N, m_all)``, the length-weighted mean
+    factor with the routing (``docs/model.md``)."""
+    arm = as_robot(arm)
+    th = as_theta(arm, theta)
+    N = th.shape[0]
+    gap = np.ones((N, arm.n, arm.m))
+    ebar = np.empty((N, arm.m))
+    start = 0
+    for c, P in enumerate(cable_points(arm, th)):
+        e = int(arm.cable_end[c])
+        beta = fr.wrap_angles(P)
+        g, _ = fr.segments(P)
+        E = fr.profile(beta, z[:, start:start + 2 * e], mu)
+        start += 2 * e
+        for j in range(arm.n):
+            k = int(arm.joint_disk[j])
+            if k <= e:
+                gap[:, j, c] = E[:, 2 * k - 1]
+        ebar[:, c] = fr.mean_factor(g, E, float(arm.routing_length))
+    return gap, ebar
+
+
+def _friction_holes(robot) -> int:
+    """Every cable's turning holes, ``2 e_c`` each (friction's mobilisations)."""
+    return int(sum(2 * int(e) for e in robot.cable_end))
+
+
+def settling_equations(robot, arm, q, L, z=None):
+    """``F(theta, idx, taut=None) -> (k, n)`` of the settled state for the rows ``idx`` of the
+    realised lengths ``L (R, m)`` m on the plant's arm ``arm`` (:func:`plant_arm` of ``robot``)
+    with the numbers ``q`` (:func:`plant_params`) and the mobilisations ``z (R, H)``
+    (friction; default every hole at +1).  With friction (``docs/model.md``, "Stretch")
+    the tensions take the capstan gap factors and ``kappa + kappa_c`` acts on friction's
+    change of them.
+
+    * ``m = n``: ``L_arm(theta) - (L + L_r)(1 + kappa T(theta)) + L_r`` (m);
+    * ``m > n``, ``kappa = 0``: ``J0^T (L_arm - L) / |J0(0)|_F`` (m; ``J0`` the
+      Jacobian of the unshifted lengths, the constant scale that of the straight pose);
+    * ``m > n``, ``kappa > 0``: ``J0^T max(0, s) - kappa (tau - J0_f^T T_f)`` (m),
+      ``s = (L_arm + L_r)/(L + L_r) - 1``.
+
+    ``F.taut(theta, idx) -> (k, m)`` bool: the cables counted taut at ``theta``
+    (``s >= -1e-12``).  Given ``taut``, ``max(0, s)`` is replaced by ``s`` on the
+    taut cables and 0 on the others: the smooth piece of ``F`` whose derivative
+    the Newton step uses (a semismooth Newton; central differences across the kink
+    of ``max`` would blend the two pieces).  Without ``taut`` (the residual), ``F``
+    itself.
+
+    ``F.energy(theta, idx) -> (k,)`` (elastic arm with ``m > n`` and ``cl = 0``
+    only, else None): the potential whose gradient is ``F``,
+    ``sum_i (L_i + L_r)/2 max(0, s_i)^2 + kappa (V(theta) + sum_f T_f L_f(theta))``,
+    ``V = -sum_b mass_b g . c_b`` the gravity potential (J), ``L_f`` the force-cable
+    lengths (m): the equilibrium is its stationary point, a minimum for a stable arm.
+    """
+    pos, frc = position_cables(arm), force_cables(arm)
+    Lr = float(arm.routing_length)
+    kappa, cl, w, mu = q["kappa"], q["cl"], q["w"], q["mu"]
+    square = pos.size == arm.n
+    scale = np.linalg.norm(cable_jacobian(arm, np.zeros((1, arm.n)))[0, pos])
+    friction = mu > 0.0 and (square or kappa > 0.0)  # a rigid redundant arm: no stretch to change
+    kc = cable_compliance(arm)
+    if friction:
+        z = np.ones((L.shape[0], _friction_holes(arm))) if z is None else np.asarray(z, float)
+
+    def factors(th, idx):
+        """Gap factors (k, n, m_all) and ebar (k, m_all); ones without friction."""
+        if not friction:
+            return np.ones((th.shape[0], arm.n, arm.m)), np.ones((th.shape[0], arm.m))
+        return friction_factors(arm, th, z[idx], mu)
+
+    def strain(th, idx):
+        La = _arm_lengths(arm, chain_frames(arm, th), cl, w)
+        return (La + Lr) / (L[idx] + Lr) - 1.0
+
+    def F(th, idx, taut=None):
+        ch = chain_frames(arm, th)
+        La = _arm_lengths(arm, ch, cl, w)
+        Li = L[idx]
+        if square:
+            if kappa == 0.0 and not friction:
+                return La - Li
+            if not friction:
+                T = tensions(arm, th, frames=ch)
+                return La - (Li + Lr) * (1.0 + kappa * T) + Lr
+            gap, ebar = factors(th, idx)
+            T = tensions(arm, th, gap=gap, frames=ch) * ebar[:, pos]
+            T0 = tensions(arm, th, frames=ch)
+            return La - Li - (Li + Lr) * (kappa * T + kc * (T - T0))
+        J = cable_jacobian(arm, th)  # (k, m_all, n), unshifted holes
+        if kappa == 0.0:
+            return np.einsum("kij,ki->kj", J[:, pos, :], La - Li) / scale
+        gap, ebar = factors(th, idx)
+        J = J * np.swapaxes(gap, 1, 2)  # each cable's entry of joint j scaled by its gap's factor
+        Jp = J[:, pos, :]
+        s = (La + Lr) / (Li + Lr) - 1.0
+        pull = np.maximum(0.0, s) if taut is None else np.where(taut, s, 0.0)
+        tau = external_moments(arm, th, frames=ch)
+        force = np.einsum("kij,i->kj", J[:, frc, :], arm.cable_tension[frc])
+        return np.einsum("kij,ki->kj", Jp, pull / ebar[:, pos]) - kappa * (tau - force)
+
+    def taut(th, idx):
+        if square or kappa == 0.0:
+            return None
+        return strain(th, idx) >= -1e-12
+
+    def energy(th, idx):
+        La = cable_lengths(arm, th)  # unshifted holes: only used with cl = 0
+        Li = L[idx]
+        s = (La[:, pos] + Lr) / (Li + Lr) - 1.0
+        ch = chain_frames(arm, th)
+        V = np.zeros(th.shape[0])
+        for b in range(1, arm.disks + 1):
+            centre = np.einsum("nij,j->ni", ch["Ra"][:, b], arm.com[b - 1]) + ch["ta"][:, b]
+            V -= arm.mass[b - 1] * (centre @ arm.gravity)
+        work = La[:, frc] @ arm.cable_tension[frc]
+        return 0.5 * ((Li + Lr) * np.maximum(0.0, s) ** 2).sum(1) + kappa * (V + work)
+
+    F.taut = taut
+    F.energy = energy if (not square and kappa > 0.0 and cl == 0.0 and not friction) else None
+    return F
+
+
+def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
+    """The equations ``F (R, n)`` (m) of the settled state at ``theta (R, n)`` rad for the
+    realised lengths ``realised (R, m)`` m (:func:`settling_equations`; ``z (R, H)`` the
+    mobilisations with friction, default +1); zero when settled."""
+    robot = as_robot(robot)
+    arm = plant_arm(robot, p)
+    q = plant_params(robot, p)
+    L = np.asarray(realised, dtype=float)
+    th = as_theta(arm, theta)
+    return settling_equations(robot, arm, q, L, z)(th, np.arange(th.shape[0]))
+
+
+def _damped_newton(F, theta, tol, max_iter, h):
+    """Batched damped Newton / LM on ``F(theta, idx) = 0`` (``n`` equations, ``n`` unknowns).
+
+    Central-difference Jacobian (step ``h`` rad) of a smooth piece of ``F``
+    (``F.taut``, see :func:`settling_equations`): that of the current point, kept
+    while a row's trials are rejected, except that a rejected trial where other
+    cables are taut brings the piece of the trial's cables (the Newton step of a
+    piecewise-smooth system: the step that crosses a kink is retried on the piece
+    beyond it).  Step ``-(J^T J + lambda I)^-1 J^T F``; a trial is accepted when it
+    lowers ``|F|^2`` (``lambda <- max(lambda/10, 1e-12)``), else ``lambda <- 10
+    lambda`` (from 0: ``1e-3``).  A row stops at its first rejected trial once ``max|F| <=
+    tol`` (it has settled, and the step no longer gains: round-off), after
+    ``max_iter`` trials or at ``lambda > 1e12``.  Returns ``theta``, ``max|F|``.
+    """
+    N, n = theta.shape
+    idx_all = np.arange(N)
+    with np.errstate(all="ignore"):
+        r = F(theta, idx_all)
+    f = (r**2).sum(1)
+    lam = np.zeros(N)
+    J = np.zeros((N, n, n))
+    piece = F.taut(theta, idx_all)  # (N, m) bool or None: the piece of each row's J
+    stale = np.ones(N, dtype=bool)
+    trials = np.zeros(N, dtype=np.int64)
+    active = np.isfinite(f)
+    while active.any():
+        idx = np.flatnonzero(active & stale)
+        if idx.size:
+            taut = None if piece is None else piece[idx]
+            for k in range(n):
+                e = np.zeros(n)
+                e[k] = h
+                with np.errstate(all="ignore"):
+                    J[idx, :, k] = (F(theta[idx] + e, idx, taut) - F(theta[idx] - e, idx, taut)) / (2.0 * h)
+            stale[idx] = False
+        idx = np.flatnonzero(active)
+        Jt = np.swapaxes(J[idx], 1, 2)
+        A = Jt @ J[idx] + lam[idx, None, None] * np.eye(n)
+        delta = -solve_rows(A, (Jt @ r[idx, :, None])[..., 0])
+        trial = theta[idx] + delta
+        with np.errstate(all="ignore"):
+            r_trial = F(trial, idx)
+        f_trial = (r_trial**2).sum(1)
+        trials[idx] += 1
+        accept = f_trial < f[idx]
+        acc, rej = idx[accept], idx[~accept]
+        theta[acc], r[acc], f[acc] = trial[accept], r_trial[accept], f_trial[accept]
+        stale[acc] = True
+        if piece is not None:
+            if acc.size:
+                piece[acc] = F.taut(theta[acc], acc)
+            if rej.size:
+                with np.errstate(all="ignore"):
+                    beyond = F.taut(trial[~accept], rej)
+                other = np.any(beyond != piece[rej], axis=1)
+                piece[rej[other]] = beyond[other]
+                stale[rej[other]] = True
+        lam[acc] = np.maximum(lam[acc] / 10.0, 1e-12)
+        lam[rej] = np.where(lam[rej] == 0.0, 1e-3, 10.0 * lam[rej])
+        settled = np.abs(r[idx]).max(1) <= tol
+        active[idx] = ~(settled & ~accept) & (r[idx] != 0.0).any(1) & (trials[idx] < max_iter) & (lam[idx] <= 1e12)
+    return theta, np.abs(r).max(1)
+
+
+def _energy_descent(F, theta, switch, max_iter, h):
+    """Batched damped Newton *minimisation* of ``F.energy`` (``F`` its gradient), down
+    to ``max|F| <= switch``: step ``-(H + lambda mu I)^-1 F`` with ``H`` the symmetric
+    part of the central-difference Jacobian of ``F``'s smooth piece (``F.taut``),
+    ``mu = tr(H)/n``; a trial is accepted when it lowers the energy (``lambda <-
+    lambda/10``, 0 below ``1e-12``), else ``lambda <- 10 lambda`` (from 0: ``1e-3``);
+    ``lambda`` also grows while ``H + lambda mu I`` is not positive definite.
+
+    Descent on the energy, unlike least squares on ``F``, cannot stall where a cable
+    is at the kink of ``max(0, s)`` (``|F|^2`` has non-zero local minima there).
+    Returns ``theta``.
+    """
+    N, n = theta.shape
+    E = F.energy
+    with np.errstate(all="ignore"):
+        g = F(theta, np.arange(N))
+        e = E(theta, np.arange(N))
+    lam = np.zeros(N)
+    H = np.zeros((N, n, n))
+    stale = np.ones(N, dtype=bool)
+    trials = np.zeros(N, dtype=np.int64)
+    active = np.isfinite(e) & ~(np.abs(g).max(1) <= switch)
+    while active.any():
+        idx = np.flatnonzero(active & stale)
+        if idx.size:
+            taut = F.taut(theta[idx], idx)
+            for k in range(n):
+                d = np.zeros(n)
+                d[k] = h
+                with np.errstate(all="ignore"):
+                    H[idx, :, k] = (F(theta[idx] + d, idx, taut) - F(theta[idx] - d, idx, taut)) / (2.0 * h)
+            H[idx] = 0.5 * (H[idx] + np.swapaxes(H[idx], 1, 2))
+            stale[idx] = False
+        idx = np.flatnonzero(active)
+        mu = np.abs(np.trace(H[idx], axis1=1, axis2=2)) / n
+        A = H[idx] + (lam[idx] * mu)[:, None, None] * np.eye(n)
+        with np.errstate(all="ignore"):
+            pd = np.linalg.eigvalsh(A).min(1) > 0.0
+            delta = -solve_rows(A, g[idx])
+            trial = theta[idx] + delta
+            e_trial = E(trial, idx)
+        trials[idx] += 1
+        accept = pd & (e_trial < e[idx])
+        acc, rej = idx[accept], idx[~accept]
+        theta[acc], e[acc] = trial[accept], e_trial[accept]
+        with np.errstate(all="ignore"):
+            g[acc] = F(theta[acc], acc)
+        stale[acc] = True
+        lam[acc] = np.where(lam[acc] / 10.0 < 1e-12, 0.0, lam[acc] / 10.0)
+        lam[rej] = np.where(lam[rej] == 0.0, 1e-3, 10.0 * lam[rej])
+        active[idx] = ~(np.abs(g[idx]).max(1) <= switch) & (trials[idx] < max_iter) & (lam[idx] <= 1e12)
+    return theta
+
+
+def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=200, fd_step=1e-6, z=None):
+    """Joint angles at which the plant's arm settles, per command.
+
+    ``realised``: ``L (R, m)`` m; ``theta_seed (R, n)`` rad (the row's ``theta_cmd``).
+    First the rigid cable solve of the plant's arm (:func:`.solve.solve_cables`,
+    no clearance; least squares when ``m > n``) from the seed; for an elastic arm with
+    ``m > n`` a descent on its energy without clearance (:func:`_energy_descent`);
+    then damped Newton
+    (:func:`_damped_newton`) on the settled-state equations
+    (:func:`settling_residual`: elasticity, clearance, the redundant arm's least
+    squares or elastic equilibrium) from the rigid answer (from the seed where the
+    rigid solve failed), iterated down to round-off (a row within ``max|F| <= tol`` m
+    stops at its first trial that does not lower ``|F|^2``).  A command has settled when
+    ``max|F| <= tol`` m.  ``z (R, H)``: every
+    hole's mobilisation (friction).
+
+    Returns ``theta (R, n)`` rad and ``converged (R,)`` bool.
+    """
+    robot = as_robot(robot)
+    arm = plant_arm(robot, p)
+    q = plant_params(robot, p)
+    L = np.asarray(realised, dtype=float)
+    seed = np.array(theta_seed, dtype=float).reshape(L.shape[0], arm.n)
+    rigid = solve_cables(arm, L, seed=seed)
+    theta = np.where(np.isfinite(rigid["theta"]).all(1, keepdims=True), rigid["theta"], seed)
+    F = settling_equations(robot, arm, q, L, z)
+    if arm.n < position_cables(arm).size and q["kappa"] > 0.0:
+        # the redundant elastic arm: minimise its energy (without clearance and
+        # friction, which has none) first
+        F0 = settling_equations(robot, arm, dict(q, cl=0.0, mu=0.0), L)
+        theta = _energy_descent(F0, theta, 1e-13, max_iter, fd_step)
+    theta, res = _damped_newton(F, theta, tol, max_iter, fd_step)
+    return theta, res <= tol
+
+
+# --------------------------------------------------------------------------
+# Observation and the whole pipeline
+# --------------------------------------------------------------------------
+def observe(robot, p, theta) -> np.ndarray:
+    """What the instrument sees at the settled ``theta (N, n)`` rad: the kind's task vector
+    of the frame ``E F_end Trans(tip)`` (``docs/model.md``, "Observation"), ``F_end`` the end
+    frame of the plant's arm, ``E = (Rot(rho), t)`` the instrument frame.
+
+    Seen ``q = Rot(rho) (p_end + R_end tip) + t`` (m); planar ``(N, 3)`` ``[q_x, q_y, phi +
+    alpha]`` (``phi`` the unwrapped sum of ``theta``, ``alpha`` the frame's turn about
+    ``z``), spatial ``(N, 6)`` ``[q, log(Rot(rho) R_end)]`` (rotation vector, rad).
+    """
+    robot = as_robot(robot)
+    arm = plant_arm(robot, p)
+    q = plant_params(robot, p)
+    th = as_theta(arm, theta)
+    ch = chain_frames(arm, th)
+    p_end, R_end = ch["tb"][:, -1], ch["Rb"][:, -1]
+    E = exp_so3(q["rho"])
+    seen = (p_end + R_end @ q["tip"]) @ E.T + q["t"]
+    return task_vector(arm, seen, E @ R_end, th, turn=q["rho"][2])
 
 
 def friction_motion(robot, commands, seeds, first) -> tuple:
-    """What the friction scan needs of the nominal motion (``docs/model.md``,
-    "Sliding directions and the sticking band").
+    """What the friction scan needs of the nominal motion (``docs/model.md``, "Sliding
+    directions and the sticking band"): the nominal configuration of each command
+    ``commands (R, m)`` m -- ``seeds (R, n)`` rad itself for a displacement row's first
+    command (``first (R,)``), else the rigid cable solve of the nominal robot from the
+    seed (the seed where it fails) -- and there, per hole of every cable (file order,
+    ``2 e_c`` each): ``d (R, H)`` m the distal lengths, ``beta (R, H)`` rad the wrap
+    angles, ``tension (R, H)`` N the cable's frictionless tension ``T_hat`` (force
+    cables their set tension; position cables the square balance's, or with more
+    position cables than joints the minimum-norm set at or above 0; 0 where negative
+    or undefined); and ``d0 (H,)`` the straight pose's distal lengths."""
+    robot = as_robot(robot)
+    seeds = np.asarray(seeds, dtype=float).reshape(-1, robot.n)
+    sol = solve_cables(robot, np.asarray(commands, dtype=float), seed=seeds)
+    good = np.isfinite(sol["theta"]).all(1) & np.asarray(sol["converged"], bool) & ~np.asarray(first, bool)
+    theta = np.where(good[:, None], sol["theta"], seeds)
+    pos, frc = position_cables(robot), force_cables(robot)
 
-    ``commands (R, n)`` m, ``seeds (R, n)`` rad (each command's row
-    ``theta_cmd``), ``first (R,)`` bool (a displacement row's first command:
-    its configuration is the seed itself).  The nominal configuration of every
-    other command is the closed-form cable solve of the nominal robot from the
-    seed (the seed where it fails).  Returns ``d (R, H)`` m the distal lengths,
-    ``beta (R, H)`` rad the wrap angles, ``tension (R, H)`` N the cable's
-    frictionless tension ``T_hat`` at every hole (upper: the balance's, 0 where
-    negative or undefined; lower: its set tension) and ``d0 (H,)`` the straight
-    pose's distal lengths; holes cable by cable (``2 e`` each)."""
-    n = int(robot.n)
-    commands = batch_array(commands, n, "commands")
-    seeds = batch_array(seeds, n, "seeds")
-    sol = solve_cables_closed_form(robot, commands, seed=seeds)
-    theta = np.where(sol["converged"][:, None] & ~np.asarray(first, bool)[:, None], sol["theta"], seeds)
-    g = _robot_gravity(robot)
-    grav = dict(gravity=g, mass=robot.mass) if np.any(g != 0.0) else {}
-    T = tensions(robot, theta, lower=robot.lower_tension, **grav)
-    T = np.where(np.isfinite(T) & (T > 0.0), T, 0.0)
-    lower = np.asarray(robot.lower_tension, dtype=float)
-
-    def holes(th, Tup):
+    def holes(th):
+        if pos.size == robot.n:
+            Tp = tensions(robot, th)
+        else:
+            M = moment_matrices(robot, th)
+            b = -(external_moments(robot, th) + M[:, :, frc] @ robot.cable_tension[frc])
+            Tp, _ = min_norm_tensions(M[:, :, pos], b, 0.0)
+        T = np.tile(np.asarray(robot.cable_tension, float), (th.shape[0], 1))
+        T[:, pos] = np.where(np.isfinite(Tp) & (Tp > 0.0), Tp, 0.0)
         d, beta, ten = [], [], []
-        for c, P in enumerate(hole_points(robot, th)):
-            gseg, _ = fr.segments(P)
-            d.append(fr.distal_lengths(gseg))
+        for c, P in enumerate(cable_points(robot, th)):
+            g, _ = fr.segments(P)
+            d.append(fr.distal_lengths(g))
             beta.append(fr.wrap_angles(P))
-            tc = Tup[:, c // 2] if c % 2 == 0 else np.full(th.shape[0], lower[c // 2])
-            ten.append(np.repeat(tc[:, None], gseg.shape[1], axis=1))
+            ten.append(np.repeat(T[:, c:c + 1], g.shape[1], axis=1))
         return np.concatenate(d, 1), np.concatenate(beta, 1), np.concatenate(ten, 1)
 
-    d, beta, ten = holes(theta, T)
-    d0, _, _ = holes(np.zeros((1, n)), np.zeros((1, n)))
+    d, beta, ten = holes(theta)
+    d0, _, _ = holes(np.zeros((1, robot.n)))
     return d, beta, ten, d0[0]
 
 
 def mobilisation(robot, p, commands, seeds, first) -> np.ndarray:
-    """``z (R, H)``: every hole's mobilisation after each command of the sequence
-    (:func:`friction_motion`, :func:`.friction.mobilisation_scan` with the bands
-    ``(kappa + kappa_c) T_hat d sinh(mu beta)`` of the plant ``p``, :func:`cable_compliance`)."""
-    q = plant_params(p, int(robot.n))
+    """``z (R, H)``: every hole's mobilisation after each command (:func:`friction_motion`,
+    :func:`.friction.mobilisation_scan`, bands ``(kappa + kappa_c) T_hat d sinh(mu beta)`` of
+    ``p``, ``kappa_c = 1 / (E A)`` of the robot file's cable)."""
+    q = plant_params(robot, p)
     d, beta, ten, d0 = friction_motion(robot, commands, seeds, first)
     kf = q["kappa"] + cable_compliance(robot)
     return fr.mobilisation_scan(d, fr.band(kf, q["mu"], ten, d, beta), d0)
 
 
-def plant_predict(robot, p, theta_cmd, dL, kind):
-    """Observations of a data set under the plant ``p``.
+def plant_predict(robot, p, theta_cmd, dL, kind, tol=1e-12):
+    """Observations of a data set under the plant ``p`` (``(plant_size(robot),)``, SI).
 
-    ``theta_cmd (N, n)`` rad, ``dL (N, n)`` m, ``kind``: length-``N`` sequence
-    of ``"absolute" | "displacement" | "unmeasured"``, rows in execution order.
-    All commands form one sequence (:func:`plant_commands`); backlash runs over
-    the whole of it from the straight pose; each command settles from its
-    row's ``theta_cmd``.  Returns ``(obs (N, 3), converged (N,))``: ``obs`` is
-    ``seen`` (absolute), ``seen(C + dL) - seen(C)`` (displacement, both
-    components and ``phi``), NaN (unmeasured, and rows that did not settle); ``converged`` is True when every
-    command of the row settled (also for unmeasured rows).
+    ``theta_cmd (N, n)`` rad, ``dL (N, m)`` m (on the position cables), ``kind``:
+    ``N`` names ``"absolute" | "displacement" | "unmeasured"``, rows in execution
+    order.  All commands form one sequence (:func:`plant_commands`); backlash runs
+    over the whole of it from the straight pose; each command settles from its
+    row's ``theta_cmd``.  Returns ``(obs (N, t), converged (N,))``: ``obs`` is
+    :func:`observe` (absolute: planar ``[x, y, phi]``, spatial ``[x, y, z, rx, ry, rz]``,
+    m and rad), the difference second minus first (displacement, every component),
+    NaN (unmeasured, and rows that did not settle); ``converged``
+    is True when every command of the row settled (also for unmeasured rows).
     """
+    robot = as_robot(robot)
     commands, rows, seeds = plant_commands(robot, theta_cmd, dL, kind)
     r = backlash_scan(robot, p, commands)
     L = realised_lengths(robot, p, r)
     first = sq.first_of_pairs(rows)
-    z = mobilisation(robot, p, commands, seeds, first) if plant_params(p, int(robot.n))["mu"] > 0.0 else None
-    theta, ok = settle(robot, p, L, seeds, z=z)
+    z = mobilisation(robot, p, commands, seeds, first) if plant_params(robot, p)["mu"] > 0.0 else None
+    theta, ok = settle(robot, p, L, seeds, tol=tol, z=z)
     return sq.observations(observe(robot, p, theta), rows, ok, kind)

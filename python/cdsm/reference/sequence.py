@@ -1,6 +1,5 @@
-"""The sequence semantics of a data set, shared by the planar (:mod:`.plant`)
-and spatial (:mod:`.spatial_plant`) reference plants (``docs/model.md``, "The
-virtual prototype"): a displacement row runs two commands, an absolute or
+"""The sequence semantics of a data set, for the reference plant (:mod:`.plant`,
+both kinds of arm; ``docs/model.md``, "The virtual prototype"): a displacement row runs two commands, an absolute or
 unmeasured row one, in row order; what a row reports from the poses ``seen``
 after each command."""
 

@@ -26,7 +26,7 @@ from .. import __version__
 from ..calibration import diagnosis as diagnose
 from ..calibration import plant, stats
 from ..files import run_directory
-from .document import HEADLINE, Document
+from .document import HEADLINE, Document, literal
 from .figures import BLUE, GREEN, RED, new_figure, place, png_bytes, report_style
 
 __all__ = ["FILES", "write", "findings", "summary", "param_rows", "bound_notes", "headline_items", "next_steps",
@@ -822,8 +822,8 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Do
     doc.section(HEADLINE, "Headline")
     src = os.path.basename(prep.meas.source) if prep.meas.source else "measurements"
     ne = d.noise_estimate.source
-    doc.p(f"Data: `{src}` — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
-          f"usable); robot **{prep.robot.name}** ({prep.robot.n} joints); measurement noise "
+    doc.p(f"Data: {literal(src)} — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
+          f"usable); robot **{literal(prep.robot.name)}** ({prep.robot.n} joints); measurement noise "
           f"{'assumed ' if ne == 'assumed' else ''}{_um(d.noise)} per axis"
           f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation; "
           f"candidate library: {', '.join(c.name for c in d.singles) or 'empty'}. cdsm {__version__}. The "

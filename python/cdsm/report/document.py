@@ -5,8 +5,12 @@ A document is a title and a list of sections. The first section is the
 headline (``id="headline"``): the page opens with it — in HTML it is the
 first element of the body and holds the title (``<h1>``) and the answers —
 then comes a table of contents linking every other section by its anchor.
-Inline text knows ``**bold**``, ```code``` and ``[text](#anchor)``.
-Nothing here knows a study: the reports fill it.
+Inline text knows ``**bold**``, ```code``` and ``[text](#anchor)``; text
+from outside (a robot's name, a file name) goes in through :func:`literal`,
+which backslash-escapes what either renderer would read as markup and turns
+line breaks and other control characters into spaces, so it shows as
+written and changes no structure. Nothing here knows a study: the reports
+fill it.
 """
 
 from __future__ import annotations
@@ -16,12 +20,29 @@ import html
 import re
 from typing import Dict, List, Optional
 
-__all__ = ["Document", "HEADLINE"]
+__all__ = ["Document", "HEADLINE", "literal"]
 
 #: The id of the section every report opens with.
 HEADLINE = "headline"
 
 _LINK = re.compile(r"\[([^\]]+)\]\(#([A-Za-z0-9_-]+)\)")
+#: characters Markdown or the HTML renderer's inline rules read as markup
+_MARKUP = "\\`*_{}[]()#+-.!|<>~"
+_ESCAPED = re.compile(r"\\([" + re.escape(_MARKUP) + r"])")
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f\u2028\u2029]")
+
+
+def _cell(value) -> str:
+    """A Markdown table cell: every pipe not escaped already (by :func:`literal`) escaped."""
+    return re.sub(r"(?<!\\)((?:\\\\)*)\|", r"\1\\|", str(value))
+
+
+def literal(text: str) -> str:
+    """``text`` as inline text that shows as written in both renderers:
+    markup characters backslash-escaped (CommonMark's escapes, which the HTML
+    renderer undoes), line breaks and other control characters as spaces
+    (a name cannot start a heading, a list or a table row)."""
+    return "".join("\\" + c if c in _MARKUP else c for c in _CONTROL.sub(" ", str(text)))
 
 
 class Document:
@@ -96,8 +117,8 @@ class Document:
                 out.append("\n".join(f"- {i}" for i in b[1]))
             elif b[0] == "table":
                 hdr, rows = b[1], b[2]
-                lines = ["| " + " | ".join(str(h).replace("|", "\\|") for h in hdr) + " |", "|" + "---|" * len(hdr)]
-                lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
+                lines = ["| " + " | ".join(_cell(h) for h in hdr) + " |", "|" + "---|" * len(hdr)]
+                lines += ["| " + " | ".join(_cell(c) for c in r) + " |" for r in rows]
                 out.append("\n".join(lines))
             elif b[0] == "fig" and (pngs is None or b[1] in pngs):
                 out.append(f"![{b[2]}]({figdir}/{b[1]}.png)\n\n*{b[2]}*")
@@ -110,12 +131,15 @@ class Document:
         embedded from ``pngs`` ({name: PNG bytes}, as the run drew them:
         never read back from files another run may have replaced)."""
         def inline(t: str) -> str:
+            # escaped characters (literal) wait as private-use code points while the markup is read
+            t = _ESCAPED.sub(lambda m: chr(0xF0000 + ord(m.group(1))), t)
             t = html.escape(t)
             parts = t.split("**")
             t = "".join(f"<b>{s}</b>" if i % 2 else s for i, s in enumerate(parts))
             parts = t.split("`")
             t = "".join(f"<code>{s}</code>" if i % 2 else s for i, s in enumerate(parts))
-            return _LINK.sub(r"<a href='#\2'>\1</a>", t)
+            t = _LINK.sub(r"<a href='#\2'>\1</a>", t)
+            return re.sub("[\U000F0000-\U000F007F]", lambda m: html.escape(chr(ord(m.group()) - 0xF0000)), t)
 
         def blocks(bs) -> List[str]:
             body = []

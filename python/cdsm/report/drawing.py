@@ -100,6 +100,7 @@ def draw_arm(robot, theta=None, ax=None, cables: bool = True, title: Optional[st
         ax.set_xlim(mid[0] - half, mid[0] + half)
         ax.set_ylim(mid[1] - half, mid[1] + half)
         ax.set_zlim(mid[2] - half, mid[2] + half)
-    ax.set_title(f"{robot.name}\n{configuration_words(theta)}" if title is None else title, fontsize=10)
+    ax.set_title(f"{robot.name}\n{configuration_words(theta)}" if title is None else title, fontsize=10,
+                 parse_math=False)
     ax.legend(loc="best", fontsize=8)
     return ax

@@ -50,7 +50,9 @@ FONT = {"font.size": 10, "axes.titlesize": 10.5, "axes.labelsize": 10,
         "xtick.labelsize": 9, "ytick.labelsize": 9, "legend.fontsize": 9,
         "axes.titley": 1.0,
         # solid light grid lines: thin translucent ones vanished in the 256-colour PNGs but at their crossings
-        "grid.color": "0.86", "grid.linewidth": 0.6, "grid.alpha": 1.0}
+        "grid.color": "0.86", "grid.linewidth": 0.6, "grid.alpha": 1.0,
+        # no mathtext: a robot's name such as "arm $1" is text, not a formula (a stray "$\" raised at draw time)
+        "text.parse_math": False}
 
 
 def new_figure(w: float, h: float) -> Figure:

@@ -21,7 +21,7 @@ from .. import __version__
 from ..display import degrees
 from . import diagnosis as diagnosis_report
 from . import paper_figures
-from .document import Document
+from .document import Document, literal
 from .figures import FigureJob
 from .study import StudyReport, fmt, mm, nanmax, sci
 from .study import headline as study_headline
@@ -414,7 +414,7 @@ class PaperReport(StudyReport):
 
     def intro(self) -> str:
         r, prm = self.robot, self.study.params
-        return (f"Robot: **{r.name}**, {r.n} joints, {2 * r.n} cables — the paper's prototype geometry; cdsm "
+        return (f"Robot: **{literal(r.name)}**, {r.n} joints, {2 * r.n} cables — the paper's prototype geometry; cdsm "
                 f"{__version__}. Monte Carlo: {prm['samples']} samples, seed {prm['seed']}. All computed "
                 "quantities are SI (m, rad) in the CSV files; the text and figures show mm and degrees as the paper "
                 "does.")

@@ -26,7 +26,7 @@ from ..display import degrees
 from ..files import run_directory
 from ..study import DEFAULT_SAMPLES, DEFAULT_SOLVES, NEAR_SINGULAR, PROTOCOL_NAMES, finite_rms, worst_configurations
 from . import study_figures
-from .document import HEADLINE, Document
+from .document import HEADLINE, Document, literal
 from .figures import FigureJob, file_key, render_pngs
 
 __all__ = ["StudyReport", "write", "headline", "jump_words", "scenario_rows", "jump_rows", "mc_rows",
@@ -385,7 +385,7 @@ class StudyReport:
 
     # -- names ---------------------------------------------------------------
     def title(self) -> str:
-        return f"Tip-positioning accuracy of {self.robot.name}"
+        return f"Tip-positioning accuracy of {literal(self.robot.name)}"
 
     def html_title(self) -> str:
         return f"cdsm accuracy study — {self.robot.name}"
@@ -432,9 +432,9 @@ class StudyReport:
         kind = ("planar" if st.kind == "planar" else "spatial")
         cables = (f"{r.cables} cables ({len(pos)} position-controlled"
                   + (f", {len(force)} force-controlled" if force else "") + ")")
-        return (f"Robot **{r.name}**: a {kind} arm of {r.n} joints and {cables}; cdsm {__version__}. Monte Carlo: "
-                f"{prm['samples']} samples, seed {prm['seed']}. All computed quantities are SI (m, rad, N) in the "
-                "CSV files; the text and figures show mm and degrees.")
+        return (f"Robot **{literal(r.name)}**: a {kind} arm of {r.n} joints and {cables}; cdsm {__version__}. "
+                f"Monte Carlo: {prm['samples']} samples, seed {prm['seed']}. All computed quantities are SI (m, rad, "
+                "N) in the CSV files; the text and figures show mm and degrees.")
 
     def headline_items(self) -> List[str]:
         """The answers, in numbers."""
