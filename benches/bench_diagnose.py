@@ -15,10 +15,15 @@ base frame or in a tracker frame (1.4 m and 30° away).
    (4 joints) and the 8-joint spatial arm of ``benches/bench_scale.py``, with
    hole positions + actuation scale hidden (issue 22: <= 3 s and <= 10 s on
    2 cores); with ``--sjtu`` also the 24-joint ``sjtu_snake`` (about 3
-   minutes on 2 cores).
+   minutes on 2 cores). The 8-joint arm's commands are drawn taut
+   (``random_commands(taut=True)``): drawn at random, about 4 in 5 of them
+   need a slack cable by the nominal statics and the diagnosis could use
+   only 12 of its 60 rows (issue 34).
 
-Prints seconds, rows per second and the answer. Threads: ``--threads``
-(default 2; the robot's worker threads).
+Prints the usable rows, wall and CPU seconds (a loaded machine's wall time
+says little), rows per second and the answer. Threads:
+``--threads`` (default 2; the robot's worker threads). NumPy's BLAS threads
+are its own (``OPENBLAS_NUM_THREADS``): on a loaded machine set it to 1.
 """
 
 from __future__ import annotations
@@ -42,26 +47,30 @@ TRACKER = [np.radians(30.0), 1.4, -0.6]
 
 
 def dataset(robot: Robot, rows: int, effects=None, seed: int = 0, tracker: bool = False,
-            noise: float = 10e-6) -> measurements.Measurements:
+            noise: float = 10e-6, taut: bool = False) -> measurements.Measurements:
     """Absolute measurements (SI) of ``rows`` random commands from a virtual
     prototype with ``effects`` hidden (default: hole heights + actuation
-    scale), in the base frame or a tracker frame metres away."""
+    scale), in the base frame or a tracker frame metres away; ``taut``:
+    only commands the nominal model keeps taut."""
     hidden = dict(MIX if effects is None else effects)
     if tracker:
         hidden["frame_misalignment"] = TRACKER
     vp = plant.VirtualPrototype(robot, hidden, noise=noise, seed=seed)
-    th, dl = vp.random_commands(rows)
+    th, dl = vp.random_commands(rows, taut=taut)
     return vp.measure(th, dl)
 
 
 def timed(robot, meas, **kw):
-    t0 = time.perf_counter()
+    """Wall seconds, CPU seconds (the process's threads together) and the diagnosis."""
+    t0, c0 = time.perf_counter(), time.process_time()
     d = diagnosis.diagnose(robot, meas, **kw)
-    return time.perf_counter() - t0, d
+    return (time.perf_counter() - t0, time.process_time() - c0), d
 
 
 def line(label, rows, dt, d):
-    print(f"{label:<44s} {rows:5d} rows {dt:7.2f} s {rows / dt:8.0f} rows/s  best={d.best:<32s} "
+    dt, cpu = dt
+    print(f"{label:<44s} {rows:5d} rows ({int(d.prep.usable.sum()):5d} usable) {dt:7.2f} s (CPU {cpu:6.2f} s) "
+          f"{rows / dt:8.0f} rows/s  best={d.best:<32s} "
           f"{d.verdict:<17s} held-out {d.baseline.heldout_rms * 1e6:8.1f} -> {d.final().heldout_rms * 1e6:6.1f} µm "
           f"(floor {d.noise_floor * 1e6:.1f})", flush=True)
 
@@ -97,7 +106,7 @@ def main() -> None:
                 continue
             meas = dataset(robot, rows, plant.EXAMPLES_N3[effect], seed=100 + k)
             dt, d = timed(robot, meas)
-            total += dt
+            total += dt[0]
             line(f"  {effect}", rows, dt, d)
         print(f"  all {len(hidden)} hidden effects at {rows} rows: {total:.1f} s, "
               f"{len(hidden) * rows / total:.0f} rows/s", flush=True)
@@ -106,18 +115,18 @@ def main() -> None:
     dt, d = timed(robot, meas)
     line("  Table 3 (displacements, leave-one-out)", len(meas), dt, d)
     print("4. spatial arms, hole_position + actuation_scale hidden, whole library, 10-fold, defaults")
-    arms = (("two_universal (4 joints)", Robot.from_toml("two_universal")),
-            ("bench_scale 8-joint spatial arm", Robot.from_toml_str(spatial_toml(4))))
+    arms = (("two_universal (4 joints)", Robot.from_toml("two_universal"), False),
+            ("bench_scale 8-joint spatial arm, taut", Robot.from_toml_str(spatial_toml(4)), True))
     if args.sjtu:
-        arms += (("sjtu_snake (24 joints)", Robot.packaged("sjtu_snake")),)
+        arms += (("sjtu_snake (24 joints)", Robot.packaged("sjtu_snake"), False),)
     for rows in [int(r) for r in args.spatial.split(",") if r]:
-        for label, arm in arms:
+        for label, arm, taut in arms:
             arm.threads = args.threads
             sl = plant.layout(arm)["hole_position"]
             holes = sl.stop - sl.start
             rng = np.random.default_rng(7)
             hidden = {"hole_position": list(rng.uniform(-1.5e-4, 1.5e-4, holes)), "actuation_scale": [0.02]}
-            meas = dataset(arm, rows, hidden, seed=rows)
+            meas = dataset(arm, rows, hidden, seed=rows, taut=taut)
             dt, d = timed(arm, meas)
             line(f"  {label}", rows, dt, d)
 

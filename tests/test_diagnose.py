@@ -558,3 +558,28 @@ def test_the_folds_are_fitted_a_few_at_a_time_with_the_same_answer(mods, robot, 
         assert a.name == b.name
         np.testing.assert_array_equal(a.heldout, b.heldout)
         np.testing.assert_array_equal(a.fit.p, b.fit.p)
+
+
+def test_fold_fits_carry_no_uncertainty_and_the_same_fit(mods, robot):
+    """The cross-validation folds need only their predictions (issue 34,
+    item 4): a fit asked without uncertainty has no standard deviations,
+    correlation or singular values, and the same parameters, statistics and
+    predictions as one with them."""
+    from cdsm.calibration.fit import fit_folds
+
+    diagnose = mods["diagnose"]
+    meas = _data(mods["plant"], robot, {"hole_height": _typical(mods["plant"], robot, "hole_height", 3)}, 3)
+    prep = diagnose.prepare(robot, meas, "base")
+    scored = np.zeros((2, len(meas)), bool)
+    scored[0, prep.rows] = True
+    scored[1, prep.rows[::2]] = True
+    some = fit_folds(prep, ["hole_height"], scored, uncertainty=[True, False])
+    every = fit_folds(prep, ["hole_height"], scored)
+    assert some[1].std is None and some[1].corr is None and some[1].singular is None
+    assert np.isfinite(every[1].std).all() and every[1].corr.shape == (3, 3)
+    for a, b in zip(some, every):
+        np.testing.assert_array_equal(a.p, b.p)
+        np.testing.assert_array_equal(a.prediction, b.prediction)
+        assert (a.ssr, a.bic, a.iterations) == (b.ssr, b.bic, b.iterations)
+    np.testing.assert_array_equal(some[0].std, every[0].std)
+    np.testing.assert_array_equal(some[0].corr, every[0].corr)

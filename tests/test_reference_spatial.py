@@ -528,7 +528,7 @@ def _edit(old, new, count=1):
         (_edit('mode = "position"', 'mode = "force"\ntension = 0.3'), "cables: "),
         (_edit("offset = [0.02, 0.0, 0.0]", "offset = [nan, 0.0, 0.0]"), "linkage[1].joints[1].offset[0]"),
         (_edit("gravity = [0.0, 0.0, -9.80665]", "gravity = [0.0, 0.0, -inf]"), "gravity[2]"),
-        (_edit("thickness = 0.005", "thickness = 0.0"), "linkage[1].thickness"),
+        (_edit("thickness = 0.005", "thickness = -0.005"), "linkage[1].thickness"),  # 0 is a via plate
         (_edit("radius = 0.03\nmass", "radius = -0.03\nmass"), "linkage[1].radius"),
         (_edit("[base]\nradius = 0.03", "[base]\nradius = 0.0"), "base.radius"),
         (_edit("mass = 0.02", "mass = -0.02"), "linkage[1].mass"),

@@ -204,3 +204,138 @@ def test_spearman_published_and_hand_ranked_examples():
     assert stats.spearman([1, 2, 2, 3, np.nan], [1, 3, 2, 4, 5]) == pytest.approx(math.sqrt(0.9), rel=1e-14)
     assert math.isnan(stats.spearman([1, 2, np.nan], [1, 2, 3]))
     assert math.isnan(stats.spearman([1, 1, 1, 1], [1, 2, 3, 4]))
+
+
+# ---------------------------------------------------------------------------
+# likelihood-ratio tests of nested models and the held-out RMS of a correct
+# model (issue 34): against scipy.stats and numpy least squares on linear
+# Gaussian models, where the answers are exact
+# ---------------------------------------------------------------------------
+def _rss(X: np.ndarray, y: np.ndarray, cols) -> float:
+    """Residual sum of squares of the least-squares fit of y on X's columns ``cols`` (numpy)."""
+    beta = np.linalg.lstsq(X[:, cols], y, rcond=None)[0]
+    return float(np.sum((y - X[:, cols] @ beta) ** 2))
+
+
+def test_chi2_difference_is_the_likelihood_ratio_of_nested_linear_models():
+    from scipy import stats as sst
+
+    rng = np.random.default_rng(3)
+    sigma = 0.5
+    X = rng.normal(size=(40, 5))
+    y = X[:, :2] @ np.array([1.0, -2.0]) + 0.3 * X[:, 2] + rng.normal(0.0, sigma, 40)
+    small, big = _rss(X, y, [0, 1]), _rss(X, y, [0, 1, 2, 3])
+    stat, p = stats.chi2_difference(small, big, 2, sigma ** 2)
+    assert stat == pytest.approx((small - big) / sigma ** 2, rel=1e-12)
+    assert p == pytest.approx(sst.chi2.sf((small - big) / sigma ** 2, 2), rel=1e-10)
+    # the bigger fit worse (not nested, or not at its minimum) is no evidence; nothing added: p = 1
+    assert stats.chi2_difference(big, small, 2, sigma ** 2) == (0.0, 1.0)
+    assert stats.chi2_difference(small, big, 0, sigma ** 2)[1] == 1.0
+    with pytest.raises(ValueError):
+        stats.chi2_difference(small, big, 2, 0.0)
+
+
+def test_chi2_difference_under_the_null_is_chi_square_of_the_added_parameters():
+    """The smaller model true: the statistic is chi-square(dof) exactly
+    (Kolmogorov-Smirnov against scipy's distribution, 2000 data sets)."""
+    from scipy import stats as sst
+
+    rng = np.random.default_rng(11)
+    sigma = 2.0
+    X = rng.normal(size=(30, 6))
+    draws = []
+    for _ in range(2000):
+        y = X[:, :2] @ np.array([3.0, 1.0]) + rng.normal(0.0, sigma, 30)
+        draws.append(stats.chi2_difference(_rss(X, y, [0, 1]), _rss(X, y, [0, 1, 2, 3, 4]), 3, sigma ** 2)[0])
+    assert sst.kstest(draws, sst.chi2(3).cdf).pvalue > 0.01
+
+
+def test_f_difference_against_pure_error_of_repeats():
+    """Repeated rows (the same design row, their own noise) estimate the
+    noise; F = (drop in RSS / dof) / (pure SS / pure dof) is F(dof, pure
+    dof) under the smaller model whatever sigma (scipy.stats.f)."""
+    from scipy import stats as sst
+
+    rng = np.random.default_rng(5)
+    base = rng.normal(size=(12, 4))
+    X = np.repeat(base, 3, axis=0)  # 12 commands, 3 repeats each
+    groups = np.repeat(np.arange(12), 3)
+
+    def pure(y):
+        ss = sum(float(np.sum((y[groups == g] - y[groups == g].mean()) ** 2)) for g in range(12))
+        return ss, 12 * 2
+
+    y = X[:, 0] * 2.0 + 0.8 * X[:, 1] + rng.normal(0.0, 0.1, len(X))
+    small, big = _rss(X, y, [0]), _rss(X, y, [0, 1, 2])
+    ss, dof = pure(y)
+    stat, p = stats.f_difference(small, big, 2, ss, dof)
+    assert stat == pytest.approx(((small - big) / 2) / (ss / dof), rel=1e-12)
+    assert p == pytest.approx(sst.f.sf(stat, 2, dof), rel=1e-10)
+    draws = []
+    for sigma in (1e-3, 1.0, 50.0) * 500:  # the noise's size does not matter
+        y = X[:, 0] * 2.0 + rng.normal(0.0, sigma, len(X))
+        draws.append(stats.f_difference(_rss(X, y, [0]), _rss(X, y, [0, 1, 2]), 2, *pure(y))[0])
+    assert sst.kstest(draws, sst.f(2, 24).cdf).pvalue > 0.01
+    with pytest.raises(ValueError):
+        stats.f_difference(small, big, 2, 0.0, 3)
+
+
+def _cv_rms(A: np.ndarray, y: np.ndarray, tests) -> float:
+    """Held-out RMS of |e| per row of ordinary least squares on the folds
+    (numpy lstsq; A (n, d, k), y (n, d))."""
+    n, d, k = A.shape
+    err = np.zeros(n)
+    for t in tests:
+        train = np.ones(n, bool)
+        train[t] = False
+        x = np.linalg.lstsq(A[train].reshape(-1, k), y[train].reshape(-1), rcond=None)[0]
+        err[t] = np.linalg.norm(y[t] - A[t] @ x, axis=1)
+    return float(np.sqrt(np.mean(err ** 2)))
+
+
+@pytest.mark.parametrize("n, k, many", [(15, 6, True), (60, 12, True), (20, 1, False)])
+def test_heldout_rms_draws_match_an_independent_cross_validation(n, k, many):
+    """A linear Gaussian toy model: the held-out RMS of data simulated
+    independently (true parameters, noise, numpy least squares on 10
+    folds) has the quantiles of the draws, and the 0.99 quantile is
+    exceeded by 1 % of the independent data sets (the bound is calibrated;
+    sqrt(1 + k/n) alone, or a chi-square of n components, would not be)."""
+    rng = np.random.default_rng(100 + n + k)
+    d, sigma = 2, 1e-5
+    A = rng.normal(size=(n, d, k)) * 1e-3   # m per typical size: every direction seen far above the noise
+    A[:3] *= 8.0                              # three high-leverage rows: the folds' errors are uneven
+    order = rng.permutation(n)
+    tests = [np.sort(order[i::10]) for i in range(min(10, n))]
+    draws = stats.heldout_rms_draws(A, tests, sigma, 4000, 7)
+    truth = rng.normal(size=k)
+    sims = np.array([_cv_rms(A, A @ truth + rng.normal(0.0, sigma, (n, d)), tests) for _ in range(3000)])
+    for q in (0.1, 0.5, 0.9):
+        assert np.quantile(draws, q) == pytest.approx(np.quantile(sims, q), rel=0.02)
+    bound = np.quantile(draws, 0.99)
+    assert 12 <= np.sum(sims > bound) <= 50    # 1 % of 3000 = 30, binomial 99.9 % range
+    # the naive bound, the chi-square of n d components, misses many parameters' share
+    naive = sigma * np.sqrt(stats.chi2_ppf(0.99, n * d) / n)
+    assert (np.mean(sims > naive) > 0.05) == many
+
+
+def test_heldout_rms_draws_with_repeats_draw_the_noise_estimate_too():
+    """Compared with an estimated noise (dof_pure degrees of freedom), the
+    held-out RMS over sigma-hat: an independent simulation of both."""
+    rng = np.random.default_rng(8)
+    n, d, k, sigma, dof = 20, 2, 3, 1.0, 6
+    A = rng.normal(size=(n, d, k)) * 100.0
+    tests = [np.arange(i, n, 5) for i in range(5)]
+    draws = stats.heldout_rms_draws(A, tests, sigma, 4000, 3, dof_pure=dof)
+    sims = np.array([_cv_rms(A, rng.normal(0.0, sigma, (n, d)), tests)
+                     / np.sqrt(rng.chisquare(dof) / dof) for _ in range(3000)])
+    for q in (0.5, 0.9, 0.99):
+        assert np.quantile(draws, q) == pytest.approx(np.quantile(sims, q), rel=0.05)
+    # without the estimate's scatter the 0.99 quantile is far lower
+    assert np.quantile(stats.heldout_rms_draws(A, tests, sigma, 4000, 3), 0.99) < 0.8 * np.quantile(draws, 0.99)
+
+
+def test_signed_rank_statistic_and_pairs():
+    d = np.array([3.0, -1.0, 2.0, 0.0, np.nan, 4.0])
+    w, n, p = stats.signed_rank(d)
+    assert (w, n) == (2.0 + 3.0 + 4.0, 4)     # ranks of |d| = 1, 2, 3, 4; positive: 3, 2, 4 -> ranks 3, 2, 4
+    assert p == stats.signed_rank_p(d) == pytest.approx(2 / 16)  # W+ >= 9 of 16 sign assignments: 9, 10

@@ -31,16 +31,23 @@ Pipeline (FIGAROH-like):
    cross-validation (leave-one-out with fewer rows than folds), all folds in
    one call. A held-out row a candidate cannot predict counts with the
    nominal model's error for that row (counted in ``failures``).
-3. **Selection**: the best single effect, then forward selection, each step
-   taken only when a one-sided Wilcoxon signed-rank test on the paired
-   held-out gains in squared error says it beats the previous model —
-   **Bonferroni-corrected for the number of candidates compared at that
-   step** (family ``alpha = 0.025``) — and BIC agrees. The held-out RMS of the chosen model
-   comes from the same folds; the correction of the test is what keeps the
-   choice honest. BIC weights sit beside every candidate. **Backward
-   elimination** then drops, one at a time, an effect of the chosen
-   combination that it does not need (the combination does not beat the one
-   without it at the first step's level, or BIC disagrees). Where selection
+3. **Selection**: the best single effect (by held-out RMS), then forward
+   selection, each step taken only when the **support test** says it beats
+   the previous model — **Bonferroni-corrected for the number of candidates
+   compared at that step** (family ``alpha = 0.025``). The support test is
+   what the noise allows (docs/model.md, "The support test"): where it is
+   known (given, or estimated from repeats) a likelihood-ratio test of the
+   nested models — chi-square of the drop in the position residuals' sum of
+   squares over the noise variance, or F against the repeats' pure error,
+   with the parameters the step adds (those at a bound not counted) as
+   degrees of freedom — beside a held-out guard (the held-out RMS must
+   improve); where it is only assumed, a one-sided Wilcoxon signed-rank
+   test on the paired held-out gains in squared error, and BIC. Every
+   decision is kept (:class:`SupportTest`). The held-out RMS of the chosen
+   model comes from the same folds. BIC weights sit beside every candidate.
+   **Backward elimination** then drops, one at a time, an effect of the
+   chosen combination that it does not need (the combination is not
+   supported over the one without it at the first step's level). Where selection
    ends with a model that is not adequate, with no model while the nominal
    one is not adequate, with a model whose first effect ties with other
    single effects, or with a model holding an effect that contains another
@@ -51,7 +58,7 @@ Pipeline (FIGAROH-like):
    screened by the held-out RMS of the plant linearised at the start (same
    folds); the :data:`SEARCH_FULL` best are fitted in full, each required to
    beat the nominal model and each of its sub-combinations one effect
-   smaller under the same test, Bonferroni-corrected for the whole family;
+   smaller by the support test, Bonferroni-corrected for the whole family;
    where the greedy model holds a container, the :data:`SEARCH_TOP` best
    members built from what it contains are fitted in full too, whatever
    their screen (docs/model.md, "Nested effects").
@@ -62,20 +69,26 @@ Pipeline (FIGAROH-like):
 4. **Verdict**: the noise comes from repeated commands approached from the
    same direction, each with a reading of its own (pure error, with a 95 %
    interval), from the user
-   (``noise=``), or is assumed (10 µm per axis and reading). A model is
-   *adequate* when its held-out RMS is within 1.5x the noise floor and a
-   lack-of-fit test does not reject it at p = 0.01 (chi-square against the
-   given or assumed noise; F against pure error when the noise comes from
-   repeats). ``explained`` when a chosen model beats the nominal one and is
+   (``noise=``), or is assumed (10 µm per axis and reading; the diagnosis
+   then says how that limits its verdict). A model is *adequate* when its
+   held-out RMS is within its **adequacy bound** — the
+   :data:`ADEQUACY_QUANTILE` quantile of the held-out RMS a correct model
+   reaches on the same rows and folds, by a linearised parametric bootstrap
+   around its fit (:class:`AdequacyBound`; docs/model.md, "The adequacy
+   bound") — and a lack-of-fit test does not reject it at p = 0.01
+   (chi-square against the given or assumed noise; F against pure error
+   when the noise comes from repeats). ``explained`` when a chosen model beats the nominal one and is
    adequate, ``partly explained`` when it beats it but is not; otherwise
    ``no gap`` when the nominal model is adequate and ``unexplained`` when it
    is not. Rows whose residual stays beyond 5 sigma are flagged as outliers
    and the verdict is given with and without them.
 
 A displacement row is the difference of two readings: its noise per axis is
-``sqrt(2)`` times a reading's. The noise floor (the held-out RMS |e_xy| a
-correct model reaches) is ``sqrt(2) * sigma`` for absolute rows and ``2 sigma``
-for displacement rows, ``sigma`` the noise of one reading per axis.
+``sqrt(2)`` times a reading's. The noise floor (the RMS |e_xy| of the noise
+itself; a correct model's held-out RMS lies above it by what its fitted
+parameters add, which its adequacy bound counts) is ``sqrt(2) * sigma`` for
+absolute rows and ``2 sigma`` for displacement rows, ``sigma`` the noise of
+one reading per axis.
 """
 
 from __future__ import annotations
@@ -101,8 +114,9 @@ from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "Search", "features",
            "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES", "NEAR_FRACTION",
-           "SEARCH_TOP", "SEARCH_FULL", "nested",
-           "MAX_PARAMETER_SHARE"]
+           "SEARCH_TOP", "SEARCH_FULL", "nested", "SupportTest", "AdequacyBound", "Verdict",
+           "MAX_PARAMETER_SHARE", "ALPHA", "fold_split", "adequacy_bound", "LACK_OF_FIT_ALPHA",
+           "ADEQUACY_QUANTILE", "BOOTSTRAP_DRAWS"]
 
 #: Measurement noise assumed when none is given: 10 µm per axis and reading.
 DEFAULT_NOISE = 10e-6
@@ -120,8 +134,9 @@ SEARCH_TOP = 5
 #: the plant linearised at the start (the same folds), this many of them.
 SEARCH_FULL = 8
 #: When the greedy model is adequate, only combinations whose linearised
-#: held-out RMS is within this factor of the adequacy bound (1.5x the noise
-#: floor) are fitted in full: no other could replace it.
+#: held-out RMS is within this factor of their adequacy bound (that of the
+#: plant linearised at the start) are fitted in full: no other could replace
+#: it.
 SCREEN_MARGIN = 1.25
 #: The search fits in full only combinations with at most this many free
 #: parameters per position component of the rows (more would interpolate
@@ -131,6 +146,16 @@ MAX_PARAMETER_SHARE = 0.5
 OUTLIER_SIGMA = 5.0
 #: Family-wise level of the one-sided selection test at each step.
 ALPHA = 0.025
+#: Level of the verdict's lack-of-fit test.
+LACK_OF_FIT_ALPHA = 0.01
+#: The adequacy bound of a model is this quantile of the held-out RMS a
+#: correct model reaches on the same rows and folds (:class:`AdequacyBound`).
+ADEQUACY_QUANTILE = 0.99
+#: Simulated data sets of the linearised parametric bootstrap of the bound.
+BOOTSTRAP_DRAWS = 400
+#: Seed of the bootstrap's draws: the same draws for every model (common
+#: random numbers), so a diagnosis is reproducible.
+BOOTSTRAP_SEED = 20240601
 
 
 @dataclass(repr=False)
@@ -425,8 +450,8 @@ def _noise(prep: Prepared, given: Optional[float]) -> NoiseEstimate:
 class Candidate(ShortRepr):
     """One effect or combination: its fit on all usable rows, its held-out
     position errors |e_xy| (m, one per usable row; a row the candidate cannot
-    predict counts with the nominal model's error) and how many such
-    failures there were."""
+    predict counts with the nominal model's error), how many such failures
+    there were, what the fit fitted and the folds."""
 
     name: str
     effects: List[str]
@@ -434,13 +459,19 @@ class Candidate(ShortRepr):
     heldout: np.ndarray
     failures: int = 0
     weight: float = float("nan")
+    #: the effects the fit fitted (``effects``, and the frame when registered)
+    fitted: List[str] = field(default_factory=list)
+    #: the held-out rows of each fold (file order, 0-based)
+    folds: List[np.ndarray] = field(default_factory=list)
 
     @property
     def heldout_rms(self) -> float:
         return float(np.sqrt(np.nanmean(self.heldout ** 2))) if len(self.heldout) else float("nan")
 
 
-def _folds(n_rows: int, k: int, seed: int = 0) -> List[np.ndarray]:
+def fold_split(n_rows: int, k: int, seed: int = 0) -> List[np.ndarray]:
+    """The ``k`` held-out folds of ``n_rows`` rows the diagnosis scores on:
+    indices into the rows, each sorted (a seeded permutation dealt out)."""
     order = np.random.default_rng(seed).permutation(n_rows)
     return [np.sort(order[i::k]) for i in range(k)]
 
@@ -461,7 +492,7 @@ class _Scorer:
         self.bar = bar
         self.rows = np.asarray(rows, int)
         k = min(folds, len(self.rows))
-        self.tests = [self.rows[t] for t in _folds(len(self.rows), k)]
+        self.tests = [self.rows[t] for t in fold_split(len(self.rows), k)]
         self.k = k
         N = len(prep.theta_cmd)
         self.scored = np.zeros((k + 1, N), bool)
@@ -484,7 +515,9 @@ class _Scorer:
         step = prep.robot.threads or os.cpu_count() or 1
         full = None
         for first in range(0, len(self.scored), step):
-            fits = fit_folds(prep, fitted, self.scored[first:first + step], start)
+            chunk = self.scored[first:first + step]
+            # the folds' fits serve their predictions only: no uncertainty
+            fits = fit_folds(prep, fitted, chunk, start, uncertainty=first + np.arange(len(chunk)) == 0)
             for f, fit_ in enumerate(fits, start=first):
                 if f == 0:
                     full = fit_
@@ -499,14 +532,110 @@ class _Scorer:
         if self.base_error is not None:
             held[fail] = self.base_error[fail]
         full.effects = list(effects)
-        return Candidate(name, list(effects), full, held, int(fail.sum()))
+        return Candidate(name, list(effects), full, held, int(fail.sum()), fitted=list(fitted),
+                         folds=[np.asarray(t, int) for t in self.tests])
+
+
+@dataclass(repr=False)
+class SupportTest(ShortRepr):
+    """One support decision: whether the model ``big`` is supported over
+    the nested smaller model ``small`` (``step``: where the diagnosis asked)
+    at the level ``alpha`` (docs/model.md, "The support test"). A tie test
+    is kept the same way (:attr:`nested` false): two models not nested,
+    ``big`` beating ``small`` by the held-out signed-rank test whatever the
+    noise, a tie where it does not.
+
+    ``test``: ``"chi2"``, the likelihood ratio against the given noise,
+    ``(RSS_small - RSS_big) / (r sigma)^2`` against chi-square(``dof``);
+    ``"F"``, against the pure error of repeats, F(``dof``); both with the
+    position residuals of the fits on all rows (RSS, m²) and ``dof`` the
+    free parameters ``big`` adds (those at a bound not counted).
+    ``"signed-rank"`` where the noise is only assumed: the one-sided
+    Wilcoxon signed-rank test on the paired held-out gains in squared error
+    (statistic W+, ``dof``: the pairs). ``guard``: what must agree besides
+    the test — the held-out RMS improves (likelihood-ratio tests) or BIC
+    is lower (signed-rank) — and ``guard_passed`` whether it does."""
+
+    big: str
+    small: str
+    step: str
+    test: str
+    statistic: float
+    dof: Tuple[int, ...]
+    p_value: float
+    alpha: float
+    guard: str
+    guard_passed: bool
+    heldout_big: float
+    heldout_small: float
+
+    @property
+    def supported(self) -> bool:
+        """Nested: ``big`` is supported over ``small``; not nested: ``big``
+        beats ``small`` (no tie)."""
+        return bool(self.p_value < self.alpha and self.guard_passed)
+
+    @property
+    def nested(self) -> bool:
+        """A support test of nested models (else a tie test of two models
+        that are not nested: :meth:`_Judge.differs`)."""
+        return self.guard != NOT_NESTED
+
+    def to_json(self) -> dict:
+        return dict(big=self.big, small=self.small, step=self.step, test=self.test, statistic=self.statistic,
+                    dof=list(self.dof), p_value=self.p_value, alpha=self.alpha, guard=self.guard,
+                    guard_passed=self.guard_passed, heldout_rms_big_m=self.heldout_big,
+                    heldout_rms_small_m=self.heldout_small, supported=self.supported, nested=self.nested)
+
+
+#: The guard of a :class:`SupportTest` of two models that are not nested (a tie test).
+NOT_NESTED = "none (not nested: a tie test)"
+
+#: How an :class:`AdequacyBound` is obtained (the JSON's words).
+BOUND_METHOD = ("linearised parametric bootstrap: data sets simulated from the fitted model (its Jacobian at the "
+                "fit) plus Gaussian noise of the noise estimate at the same rows, each refitted on the same "
+                "folds (a Gaussian prior of one typical size per parameter, where the linearisation ends), "
+                "the held-out RMS's upper quantile")
+
+
+@dataclass(repr=False)
+class AdequacyBound(ShortRepr):
+    """The adequacy bound of one model on its rows and folds: ``bound`` (m),
+    the ``quantile`` of the held-out RMS a correct model reaches there, and
+    its ``median`` (m), by a linearised parametric bootstrap around the
+    model's fit (:data:`BOUND_METHOD`; ``draws`` simulated data sets,
+    ``parameters`` linearised — those at a bound held there); ``floor`` (m)
+    the noise floor; ``noise`` the noise's source (from ``"repeats"`` the
+    bootstrap also draws the noise estimate's own scatter)."""
+
+    bound: float
+    median: float
+    floor: float
+    parameters: int
+    draws: int
+    quantile: float
+    noise: str
+
+    @property
+    def factor(self) -> float:
+        """The bound over the noise floor."""
+        return self.bound / self.floor if self.floor > 0 else float("nan")
+
+    def to_json(self) -> dict:
+        return dict(bound_m=self.bound, median_m=self.median, floor_m=self.floor, factor=self.factor,
+                    quantile=self.quantile, draws=self.draws, parameters=self.parameters,
+                    noise_source=self.noise, method=BOUND_METHOD)
 
 
 @dataclass(repr=False)
 class Verdict(ShortRepr):
     """The answer for one set of rows: the verdict, whether the nominal and
-    the final model are adequate, and the lack-of-fit test of the final model
-    (``test``: ``"chi2"`` or ``"F"``, statistic, degrees of freedom, p-value)."""
+    the final model are adequate (held-out RMS within the model's
+    :class:`AdequacyBound` and the lack-of-fit test not rejected at
+    :data:`LACK_OF_FIT_ALPHA`), the lack-of-fit test of the final model
+    (``test``: ``"chi2"`` or ``"F"``, statistic, degrees of freedom,
+    p-value), the noise at which the final model would be adequate, and the
+    two bounds used."""
 
     verdict: str
     nominal_adequate: bool
@@ -516,6 +645,8 @@ class Verdict(ShortRepr):
     dof: tuple
     p_value: float
     noise_needed: float
+    bound: Optional[AdequacyBound] = None
+    nominal_bound: Optional[AdequacyBound] = None
 
 
 @dataclass(repr=False)
@@ -539,12 +670,20 @@ class Search(ShortRepr):
     picked: Optional[str]
     replaced: bool
     ties: List[str]
+    #: {name: adequacy bound (m)} of the members whose adequacy was judged
+    bounds: Dict[str, float] = field(default_factory=dict)
+    #: {name: adequacy bound (m) of the plant linearised at the start}: the
+    #: screen's margin, where the greedy model is adequate (NaN elsewhere)
+    screen_bounds: Dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict:
         return dict(reason=self.reason, family=self.family, alpha=self.alpha, picked=self.picked,
                     replaced_greedy=self.replaced, ties=self.ties, linearised_heldout_rms_m=self.screened,
+                    linearised_adequacy_bound_m={k: (v if np.isfinite(v) else None)
+                                                 for k, v in self.screen_bounds.items()},
                     tried=[dict(name=c.name, heldout_rms_m=c.heldout_rms, bic=c.fit.bic,
-                                supported=c.name in self.supported, adequate=c.name in self.adequate)
+                                supported=c.name in self.supported, adequate=c.name in self.adequate,
+                                adequacy_bound_m=self.bounds.get(c.name))
                            for c in self.tried])
 
 
@@ -579,6 +718,8 @@ class Diagnosis(ShortRepr):
     search: Optional[Search] = None
     #: effects forward selection took and backward elimination dropped
     dropped: List[str] = field(default_factory=list)
+    #: every support decision, in the order the diagnosis asked
+    support: List[SupportTest] = field(default_factory=list)
 
     def __repr__(self) -> str:
         return (f"Diagnosis(verdict={self.verdict!r}, best={self.best!r}, held-out RMS "
@@ -592,9 +733,10 @@ class Diagnosis(ShortRepr):
 
     @property
     def noise_floor(self) -> float:
-        """Expected held-out position RMS of a correct model (m):
-        ``sqrt(2) * sigma`` per row's reading count (see the module doc;
-        spatial arms: ``sqrt(3)``, three position components)."""
+        """The RMS position error of the noise alone (m): ``sqrt(2) * sigma``
+        per row's reading count (see the module doc; spatial arms:
+        ``sqrt(3)``, three position components). A correct model's held-out
+        RMS lies above it: :class:`AdequacyBound`."""
         return float(np.sqrt(plant.dims(self.prep.robot)) * self.prep.readings * self.noise)
 
     @property
@@ -608,6 +750,33 @@ class Diagnosis(ShortRepr):
 
     def final(self) -> Candidate:
         return self.chosen or self.baseline
+
+    @property
+    def support_rule(self) -> str:
+        """The support test these data allow (docs/model.md, "The support test")."""
+        return {"given": "likelihood ratio: chi-square against the given noise, beside a held-out guard (the "
+                         "held-out RMS must improve)",
+                "repeats": "likelihood ratio: F against the pure error of the repeats, beside a held-out guard "
+                           "(the held-out RMS must improve)"}.get(
+            self.noise_estimate.source, "one-sided Wilcoxon signed-rank test on the paired held-out gains in "
+                                        "squared error, and BIC (the noise is only assumed)")
+
+    @property
+    def support_limits(self) -> Optional[str]:
+        """How an assumed noise limits the verdict (None when the noise is
+        given or estimated from repeats)."""
+        if self.noise_estimate.source != "assumed":
+            return None
+        v = self.verdict_detail
+        need = (f" The final model would be adequate at a noise of {v.noise_needed * 1e6:.1f} µm or more."
+                if v is not None and not v.final_adequate else "")
+        return (f"The noise is assumed ({self.noise * 1e6:.1f} µm per axis and reading), neither given nor "
+                "estimated from repeated commands. The likelihood-ratio support test needs a known noise, so "
+                "effects are supported by the held-out signed-rank test and BIC, which need none but have "
+                "little power with few rows (at 15 rows an effect must gain on about 14 of them). Adequacy, "
+                "and with it the verdicts 'explained' and 'no gap', is judged against the assumed noise: it "
+                "holds if the real noise is at least that large, and a smaller real noise could make an "
+                "adequate model inadequate." + need)
 
     def to_json(self) -> dict:
         robot = self.prep.robot
@@ -623,7 +792,12 @@ class Diagnosis(ShortRepr):
                 return None
             return dict(verdict=v.verdict, nominal_adequate=v.nominal_adequate,
                         final_adequate=v.final_adequate,
-                        lack_of_fit=dict(test=v.test, statistic=v.statistic, dof=list(v.dof), p_value=v.p_value),
+                        lack_of_fit=dict(test=v.test, statistic=v.statistic, dof=list(v.dof), p_value=v.p_value,
+                                         alpha=LACK_OF_FIT_ALPHA),
+                        adequacy_bound_m=v.bound.bound if v.bound else None,
+                        nominal_adequacy_bound_m=v.nominal_bound.bound if v.nominal_bound else None,
+                        adequacy_bound=v.bound.to_json() if v.bound else None,
+                        nominal_adequacy_bound=v.nominal_bound.to_json() if v.nominal_bound else None,
                         noise_needed_m=v.noise_needed)
 
         ne = self.noise_estimate
@@ -660,10 +834,20 @@ class Diagnosis(ShortRepr):
             ties=self.ties, correlated_parameters=self.correlated,
             unidentifiable_parameters=self.unidentifiable,
             feature_correlation=self.feature_correlation, folds=self.folds,
-            selection_test=dict(kind="one-sided Wilcoxon signed-rank test on the paired held-out gains in "
-                                     "squared error, Bonferroni-corrected for the candidates compared at each "
-                                     "step (family alpha 0.025), and BIC",
+            selection_test=dict(kind=self.support_rule + f", Bonferroni-corrected for the candidates compared "
+                                                         f"at each step (family alpha {ALPHA})",
                                 alpha=self.alphas),
+            support=dict(rule=self.support_rule, noise_source=ne.source, limits=self.support_limits,
+                         tests=[t.to_json() for t in self.support]),
+            adequacy=dict(rule=f"held-out RMS within the model's adequacy bound (the {ADEQUACY_QUANTILE:g} "
+                               "quantile of a correct model's held-out RMS on these rows and folds) and the "
+                               f"lack-of-fit test not rejected at {LACK_OF_FIT_ALPHA:g}",
+                          method=BOUND_METHOD, quantile=ADEQUACY_QUANTILE, draws=BOOTSTRAP_DRAWS,
+                          lack_of_fit_alpha=LACK_OF_FIT_ALPHA,
+                          final=(self.verdict_detail.bound.to_json() if self.verdict_detail
+                                 and self.verdict_detail.bound else None),
+                          nominal=(self.verdict_detail.nominal_bound.to_json() if self.verdict_detail
+                                   and self.verdict_detail.nominal_bound else None)),
         )
 
 
@@ -728,44 +912,156 @@ def _residual_xy(prep: Prepared, f: Fit, rows: np.ndarray) -> np.ndarray:
     return f.prediction[rows, :k] - prep.measured[rows, :k]
 
 
-def _lack_of_fit(prep: Prepared, noise: NoiseEstimate, c: Candidate, rows: np.ndarray):
-    """The lack-of-fit test of ``c`` on ``rows``: (test, statistic, dof,
-    p-value, ssr, residual dof)."""
-    res = _residual_xy(prep, c.fit, rows)
-    ssr = float(np.nansum(res ** 2))
-    k = len(c.fit.names)
-    dof = int(np.isfinite(res).sum()) - k
-    if noise.source == "repeats" and noise.dof_pure >= 1 and dof - noise.dof_pure >= 1:
-        ss_lof, df_lof = ssr - noise.ss_pure, dof - noise.dof_pure
-        f = (max(ss_lof, 0.0) / df_lof) / (noise.ss_pure / noise.dof_pure)
-        return "F", f, (df_lof, noise.dof_pure), stats.f_sf(f, df_lof, noise.dof_pure), ssr, dof
-    chi = ssr / (prep.readings * noise.sigma) ** 2
-    return "chi2", chi, (max(dof, 1),), stats.chi2_sf(chi, max(dof, 1)), ssr, dof
+class _Judge:
+    """The two questions the diagnosis asks of its models, on one set of
+    rows with one noise estimate: is a model supported over a nested smaller
+    one (:meth:`beats`; every decision kept in ``tests``), and is it adequate
+    (:meth:`adequate`: its :class:`AdequacyBound`, computed once per model,
+    and the lack-of-fit test). docs/model.md, "The support test" and "The
+    adequacy bound"."""
+
+    def __init__(self, prep: Prepared, noise: NoiseEstimate, rows: np.ndarray):
+        self.prep = prep
+        self.noise = noise
+        self.rows = np.asarray(rows, int)
+        self.tests: Dict[tuple, SupportTest] = {}
+        self.bounds: Dict[int, AdequacyBound] = {}
+        self.limits = plant.bounds(prep.robot)
+
+    @property
+    def row_noise(self) -> float:
+        """The noise of a row per axis (m)."""
+        return self.prep.readings * self.noise.sigma
+
+    @property
+    def floor(self) -> float:
+        return float(np.sqrt(plant.dims(self.prep.robot)) * self.row_noise)
+
+    def rss(self, c: Candidate) -> float:
+        """The position residuals' sum of squares (m²) of ``c``'s fit on the rows."""
+        return float(np.nansum(_residual_xy(self.prep, c.fit, self.rows) ** 2))
+
+    def free(self, c: Candidate) -> np.ndarray:
+        """Flat indices of the parameters ``c`` fitted that are not at a bound."""
+        idx = free_parameters(self.prep.robot, c.fitted)[0]
+        lo, hi = self.limits
+        v = c.fit.p[idx]
+        return idx[(v > lo[idx]) & (v < hi[idx])]
+
+    def beats(self, big: Candidate, small: Candidate, alpha: float, step: str) -> bool:
+        """Whether ``big`` is supported over the nested ``small`` at ``alpha``
+        (:class:`SupportTest`): with a given or repeat-estimated noise, the
+        likelihood-ratio test and the held-out RMS improving; with an
+        assumed noise, the held-out signed-rank test and BIC."""
+        key = ("nested", id(big), id(small), float(alpha))
+        if key not in self.tests:
+            ne = self.noise
+            guard = big.heldout_rms < small.heldout_rms
+            if ne.source == "assumed":
+                w, pairs, p = stats.signed_rank(small.heldout ** 2 - big.heldout ** 2)
+                t = SupportTest(big.name, small.name, step, "signed-rank", w, (pairs,), p, float(alpha),
+                                "BIC lower", bool(big.fit.bic < small.fit.bic), big.heldout_rms, small.heldout_rms)
+            else:
+                dp = len(self.free(big)) - len(self.free(small))
+                rs, rb = self.rss(small), self.rss(big)
+                if ne.source == "repeats":
+                    stat, p = stats.f_difference(rs, rb, dp, ne.ss_pure, ne.dof_pure)
+                    test, dof = "F", (max(dp, 0), ne.dof_pure)
+                else:
+                    stat, p = stats.chi2_difference(rs, rb, dp, self.row_noise ** 2)
+                    test, dof = "chi2", (max(dp, 0),)
+                t = SupportTest(big.name, small.name, step, test, float(stat), dof, float(p), float(alpha),
+                                "held-out RMS improves", bool(guard), big.heldout_rms, small.heldout_rms)
+            self.tests[key] = t
+        return self.tests[key].supported
+
+    def differs(self, a: Candidate, b: Candidate, alpha: float, step: str) -> bool:
+        """Whether ``a``'s held-out errors beat ``b``'s beyond noise: models
+        not nested (two single effects, two combinations of one size), so the
+        held-out signed-rank test at ``alpha`` whatever the noise (a tie
+        where it does not); kept in ``tests`` with the guard always met."""
+        key = ("not nested", id(a), id(b), float(alpha))
+        if key not in self.tests:
+            w, pairs, p = stats.signed_rank(b.heldout ** 2 - a.heldout ** 2)
+            self.tests[key] = SupportTest(a.name, b.name, step, "signed-rank", w, (pairs,), p, float(alpha),
+                                          NOT_NESTED, True, a.heldout_rms, b.heldout_rms)
+        return self.tests[key].supported
+
+    def bound(self, c: Candidate) -> AdequacyBound:
+        """``c``'s adequacy bound: the :data:`ADEQUACY_QUANTILE` of the
+        held-out RMS of data simulated from ``c``'s fit linearised there
+        (:func:`stats.heldout_rms_draws`) on ``c``'s folds."""
+        if id(c) not in self.bounds:
+            prep, robot = self.prep, self.prep.robot
+            k = plant.dims(robot)
+            rows = np.sort(np.concatenate(c.folds)) if c.folds else self.rows
+            idx = self.free(c)
+            scale = np.array([plant.TYPICAL[b] for b, _ in plant.parameter_blocks(robot, idx)], float)
+            A = np.zeros((len(rows), k, len(idx)))
+            if len(idx):
+                o = prep.order
+                _, _, jac = plant.linearise(robot, c.fit.p, idx, prep.theta_cmd[o], prep.dL[o], prep.kinds[o])
+                J = np.empty_like(jac)
+                J[o] = jac
+                A = J[rows, :k, :] * scale
+                # a row the linearisation cannot evaluate teaches the folds nothing
+                A[~np.isfinite(A).all(axis=(1, 2))] = 0.0
+            tests = [np.searchsorted(rows, t) for t in c.folds] if c.folds else [np.arange(len(rows))]
+            draws = stats.heldout_rms_draws(A, tests, self.row_noise, BOOTSTRAP_DRAWS, BOOTSTRAP_SEED,
+                                           self.noise.dof_pure if self.noise.source == "repeats" else 0)
+            self.bounds[id(c)] = AdequacyBound(float(np.quantile(draws, ADEQUACY_QUANTILE)),
+                                               float(np.median(draws)), self.floor, len(idx), BOOTSTRAP_DRAWS,
+                                               ADEQUACY_QUANTILE, self.noise.source)
+        return self.bounds[id(c)]
+
+    def lack_of_fit(self, c: Candidate):
+        """The lack-of-fit test of ``c`` on the rows: (test, statistic, dof,
+        p-value, ssr, residual dof)."""
+        prep, noise = self.prep, self.noise
+        res = _residual_xy(prep, c.fit, self.rows)
+        ssr = float(np.nansum(res ** 2))
+        k = len(c.fit.names)
+        dof = int(np.isfinite(res).sum()) - k
+        if noise.source == "repeats" and noise.dof_pure >= 1 and dof - noise.dof_pure >= 1:
+            ss_lof, df_lof = ssr - noise.ss_pure, dof - noise.dof_pure
+            f = (max(ss_lof, 0.0) / df_lof) / (noise.ss_pure / noise.dof_pure)
+            return "F", f, (df_lof, noise.dof_pure), stats.f_sf(f, df_lof, noise.dof_pure), ssr, dof
+        chi = ssr / self.row_noise ** 2
+        return "chi2", chi, (max(dof, 1),), stats.chi2_sf(chi, max(dof, 1)), ssr, dof
+
+    def adequate(self, c: Candidate) -> Tuple[bool, tuple]:
+        """Whether ``c`` is adequate (held-out RMS within its bound, lack of
+        fit not rejected at :data:`LACK_OF_FIT_ALPHA`), and its lack-of-fit test."""
+        t = self.lack_of_fit(c)
+        return bool(c.heldout_rms <= self.bound(c).bound and t[3] >= LACK_OF_FIT_ALPHA), t
 
 
-def _adequate(prep: Prepared, noise: NoiseEstimate, c: Candidate, rows: np.ndarray, floor: float):
-    """Whether ``c`` is adequate on ``rows`` (held-out RMS within 1.5x the
-    floor and lack of fit not rejected at p = 0.01), and its test."""
-    t = _lack_of_fit(prep, noise, c, rows)
-    return (c.heldout_rms <= 1.5 * floor and t[3] >= 0.01), t
+def adequacy_bound(prep: Prepared, noise: NoiseEstimate, cand: Candidate) -> AdequacyBound:
+    """The adequacy bound of ``cand`` — fitted on the usable rows of
+    ``prep``, its held-out folds in ``cand.folds`` — with the noise
+    ``noise`` (:class:`AdequacyBound`; docs/model.md, "The adequacy
+    bound")."""
+    return _Judge(prep, noise, prep.rows).bound(cand)
 
 
-def _verdict(prep: Prepared, noise: NoiseEstimate, base: Candidate, final: Candidate, beats: bool,
-             rows: np.ndarray, floor: float) -> Verdict:
-    """Adequacy of the nominal and the final model on ``rows`` and the verdict."""
-    r = prep.readings
-    nom_ok, _ = _adequate(prep, noise, base, rows, floor)
-    fin_ok, t = _adequate(prep, noise, final, rows, floor)
+def _verdict(judge: _Judge, base: Candidate, final: Candidate, beats: bool) -> Verdict:
+    """Adequacy of the nominal and the final model on the judge's rows and the verdict."""
+    r = judge.prep.readings
+    nom_ok, _ = judge.adequate(base)
+    fin_ok, t = judge.adequate(final)
     if beats:
         verdict = "explained" if fin_ok else "partly explained"
     else:
         verdict = "no gap" if nom_ok else "unexplained"
-    # the noise (per reading and axis) at which the final model would be adequate
+    # the noise (per reading and axis) at which the final model would be
+    # adequate: the bound grows in proportion to the noise
     ssr, dof = t[4], t[5]
-    need = max(final.heldout_rms / (1.5 * np.sqrt(plant.dims(prep.robot)) * r),
-               float(np.sqrt(ssr / (r ** 2 * stats.chi2_ppf(0.99, max(dof, 1))))) if dof > 0 else 0.0)
+    b = judge.bound(final)
+    need = max(final.heldout_rms * judge.noise.sigma / b.bound if b.bound > 0 else 0.0,
+               float(np.sqrt(ssr / (r ** 2 * stats.chi2_ppf(1.0 - LACK_OF_FIT_ALPHA, max(dof, 1)))))
+               if dof > 0 else 0.0)
     return Verdict(verdict, bool(nom_ok), bool(fin_ok), t[0], float(t[1]), tuple(int(v) for v in t[2]),
-                   float(t[3]), float(need))
+                   float(t[3]), float(need), b, judge.bound(base))
 
 
 def _evaluated(scorer: "_Scorer", known: Dict[frozenset, Candidate], effects: Sequence[str]) -> Candidate:
@@ -776,17 +1072,17 @@ def _evaluated(scorer: "_Scorer", known: Dict[frozenset, Candidate], effects: Se
     return known[key]
 
 
-def _prune(scorer: "_Scorer", known: Dict[frozenset, Candidate], chosen: Optional[Candidate],
+def _prune(judge: _Judge, scorer: "_Scorer", known: Dict[frozenset, Candidate], chosen: Optional[Candidate],
            alpha: float) -> Tuple[Optional[Candidate], List[str]]:
     """Backward elimination of the chosen combination: while one of its
-    effects is not needed (the combination does not beat the one without it
-    by the selection test at ``alpha`` and BIC), drop the effect whose loss
-    hurts least. Returns the model kept and the effects dropped."""
+    effects is not needed (the combination is not supported over the one
+    without it at ``alpha``: :meth:`_Judge.beats`), drop the effect whose
+    loss hurts least. Returns the model kept and the effects dropped."""
     dropped: List[str] = []
     while chosen is not None and len(chosen.effects) >= 2:
         subs = [_evaluated(scorer, known, [x for x in chosen.effects if x != e]) for e in chosen.effects]
         weak = [(e, c) for e, c in zip(chosen.effects, subs)
-                if not (stats.better(chosen.heldout, c.heldout, alpha) and chosen.fit.bic < c.fit.bic)]
+                if not judge.beats(chosen, c, alpha, "backward elimination")]
         if not weak:
             break
         e, chosen = min(weak, key=lambda t: t[1].heldout_rms)
@@ -794,9 +1090,9 @@ def _prune(scorer: "_Scorer", known: Dict[frozenset, Candidate], chosen: Optiona
     return chosen, dropped
 
 
-def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate], noise: NoiseEstimate,
-            rows: np.ndarray, floor: float, base: Candidate, singles: List[Candidate],
-            chosen: Optional[Candidate], ties: List[str], max_combination: int) -> Optional[Search]:
+def _search(judge: _Judge, scorer: "_Scorer", known: Dict[frozenset, Candidate], base: Candidate,
+            singles: List[Candidate], chosen: Optional[Candidate], ties: List[str],
+            max_combination: int) -> Optional[Search]:
     """The search beyond greedy (module doc, step 3): runs where forward
     selection ends with a model that is not adequate, with none while the
     nominal model is not adequate, with a model whose first effect ties
@@ -804,12 +1100,12 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     contains another library effect (:func:`nested`)."""
     if len(singles) < 2 or max_combination < 2:
         return None
-    chosen_ok = chosen is not None and _adequate(prep, noise, chosen, rows, floor)[0]
-    nest = [] if chosen is None else nested(prep, chosen.effects, [c.name for c in singles],
-                                            prep.readings * noise.sigma)
+    prep, rows = judge.prep, judge.rows
+    chosen_ok = chosen is not None and judge.adequate(chosen)[0]
+    nest = [] if chosen is None else nested(prep, chosen.effects, [c.name for c in singles], judge.row_noise)
     if chosen is not None and not chosen_ok:
         why = ["forward selection ended with a model that is not adequate"]
-    elif chosen is None and not _adequate(prep, noise, base, rows, floor)[0]:
+    elif chosen is None and not judge.adequate(base)[0]:
         why = ["forward selection chose no effect and the nominal model is not adequate"]
     elif chosen is not None and ties:
         why = [f"single effects tie with `{singles[0].name}`: {', '.join(ties)}"]
@@ -846,12 +1142,12 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
         built = [c for c in combos if set(c) <= parts and any(small in c for _, small in nest)]
     a = ALPHA / len(combos)
     free = [free_parameters(prep.robot, _fitted(prep, c))[:2] for c in combos]
-    screen = _screen(prep, scorer, free)
+    screen, screen_bound = _screen(prep, scorer, free, judge.row_noise if chosen_ok else None)
     # a combination with more free parameters than half the position
     # components of the rows is not fitted in full: it would interpolate them
     observed = len(rows) * plant.dims(prep.robot)
     fittable = [i for i in np.argsort(screen, kind="stable") if len(free[i][0]) <= MAX_PARAMETER_SHARE * observed]
-    ranked = [combos[i] for i in fittable if not chosen_ok or screen[i] <= SCREEN_MARGIN * 1.5 * floor]
+    ranked = [combos[i] for i in fittable if not chosen_ok or screen[i] <= SCREEN_MARGIN * screen_bound[i]]
     fresh = [c for c in ranked if frozenset(c) not in known][:SEARCH_FULL]
     fresh += [c for c in (combos[i] for i in fittable)
               if c in built and c not in fresh and frozenset(c) not in known][:SEARCH_TOP]
@@ -859,7 +1155,7 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
     tried += [_evaluated(scorer, known, c) for c in fresh if c not in ranked]
 
     def beats(c: Candidate, other: Candidate) -> bool:
-        return stats.better(c.heldout, other.heldout, a) and c.fit.bic < other.fit.bic
+        return judge.beats(c, other, a, "search")
 
     # every effect of a supported combination is needed: it beats the nominal
     # model and each combination one effect smaller, under the family's level
@@ -875,7 +1171,7 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
              and all(known[frozenset(c)] is not t for t in tried)]
     tried = tried + extra
     supported += [c for c in extra if needed(c)]
-    adequate = [c for c in supported if _adequate(prep, noise, c, rows, floor)[0]]
+    adequate = [c for c in supported if judge.adequate(c)[0]]
     if adequate or chosen_ok:
         # the adequate model with the fewest effects, then the lowest held-out
         # RMS; where an effect contains others the count of effects is no
@@ -889,10 +1185,13 @@ def _search(prep: Prepared, scorer: "_Scorer", known: Dict[frozenset, Candidate]
         pick = min(pool, key=lambda c: c.heldout_rms) if pool else None
         rivals = supported
     tie = [] if pick is None else [c.name for c in rivals if c is not pick and len(c.effects) == len(pick.effects)
-                                   and not stats.better(pick.heldout, c.heldout, ALPHA)]
+                                   and not judge.differs(pick, c, ALPHA, "search: ties")]
+    bounds = {c.name: judge.bounds[id(c)].bound for c in tried + ([chosen] if chosen is not None else [])
+              if id(c) in judge.bounds}
     return Search(reason, len(combos), float(a), {"+".join(c): float(v) for c, v in zip(combos, screen)}, tried,
                   [c.name for c in supported], [c.name for c in adequate],
-                  pick.name if pick is not None else None, pick is not None and pick is not chosen, tie)
+                  pick.name if pick is not None else None, pick is not None and pick is not chosen, tie, bounds,
+                  {"+".join(c): float(v) for c, v in zip(combos, screen_bound)})
 
 
 def nested(prep: Prepared, effects: Sequence[str], library: Sequence[str], sigma: float) -> List[Tuple[str, str]]:
@@ -933,15 +1232,19 @@ def nested(prep: Prepared, effects: Sequence[str], library: Sequence[str], sigma
     return out
 
 
-def _screen(prep: Prepared, scorer: "_Scorer", free: Sequence[Tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+def _screen(prep: Prepared, scorer: "_Scorer", free: Sequence[Tuple[np.ndarray, np.ndarray]],
+            noise: Optional[float] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Held-out RMS (m) of a linear least-squares fit of the plant linearised
     at the start, for each combination's free parameters ``free`` (indices,
     typical sizes: :func:`free_parameters` of what it fits), on the scorer's
-    folds. Orders the search only."""
+    folds, and, given the noise of a row per axis ``noise`` (m), each
+    combination's adequacy bound there (:func:`stats.heldout_rms_draws` on the same
+    Jacobian and folds; NaN without ``noise``). Orders the search only."""
     rows, J, res, col = _linearised(prep)
     where = {int(i): j for j, i in enumerate(rows)}
     tests = [np.array([where[int(i)] for i in t if int(i) in where], int) for t in scorer.tests]
     out = np.full(len(free), np.inf)
+    bound = np.full(len(free), np.nan)
     for n, (idx, scale) in enumerate(free):
         A = J[:, :, [col[int(i)] for i in idx]] * scale
         err = np.full(len(rows), np.nan)
@@ -952,7 +1255,10 @@ def _screen(prep: Prepared, scorer: "_Scorer", free: Sequence[Tuple[np.ndarray, 
             err[t] = np.linalg.norm(res[t] - A[t] @ x, axis=1)
         if np.isfinite(err).any():
             out[n] = float(np.sqrt(np.nanmean(err ** 2)))
-    return out
+        if noise is not None:
+            bound[n] = float(np.quantile(stats.heldout_rms_draws(A, tests, noise, BOOTSTRAP_DRAWS, BOOTSTRAP_SEED),
+                                          ADEQUACY_QUANTILE))
+    return out, bound
 
 
 def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] = None,
@@ -995,12 +1301,15 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     bar = Progress(None, "diagnose: selection, search and checks", progress, unit="fold fits")
     scorer.bar = bar
     singles.sort(key=lambda c: c.heldout_rms)
+    # the noise decides the support test (docs/model.md, "The support test")
+    ne = _noise(prep, noise)
+    judge = _Judge(prep, ne, rows)
     chosen, steps, alphas = None, [], []
     top = singles[0] if singles else None
     if top is not None:
         a = ALPHA / len(singles)
         alphas.append(a)
-        if stats.better(top.heldout, base.heldout, a) and top.fit.bic < base.fit.bic:
+        if judge.beats(top, base, a, "forward selection, step 1"):
             chosen = top
             steps.append(top)
     while chosen is not None and len(chosen.effects) < max_combination:
@@ -1012,18 +1321,18 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
         nxt = trials[0]
         a = ALPHA / len(trials)
         alphas.append(a)
-        if stats.better(nxt.heldout, chosen.heldout, a) and nxt.fit.bic < chosen.fit.bic:
+        if judge.beats(nxt, chosen, a, f"forward selection, step {len(steps) + 1}"):
             chosen = nxt
             steps.append(nxt)
         else:
             break
     known: Dict[frozenset, Candidate] = {frozenset(c.effects): c for c in singles + steps}
-    chosen, dropped = _prune(scorer, known, chosen, alphas[0]) if alphas else (chosen, [])
-    ne = _noise(prep, noise)
-    floor = float(np.sqrt(plant.dims(robot)) * prep.readings * ne.sigma)
-    ties = [c.name for c in singles[1:] if not stats.better(top.heldout, c.heldout, ALPHA)
+    chosen, dropped = _prune(judge, scorer, known, chosen, alphas[0]) if alphas else (chosen, [])
+    # single effects the held-out errors cannot tell from the best one (not
+    # nested: the paired signed-rank test, whatever the noise)
+    ties = [c.name for c in singles[1:] if not judge.differs(top, c, ALPHA, "ties of the first single effect")
             and c.heldout_rms < base.heldout_rms] if top is not None else []
-    search = _search(prep, scorer, known, ne, rows, floor, base, singles, chosen, ties, max_combination)
+    search = _search(judge, scorer, known, base, singles, chosen, ties, max_combination)
     if search is not None and search.replaced:
         chosen = next(c for c in search.tried if c.name == search.picked)
     # the registration is named only when it beats the identity frame for the
@@ -1036,13 +1345,14 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
         identity = _Scorer(prep, rows, folds, bar=bar).evaluate(
             "identity frame" + (f" ({fin.name})" if chosen else ""), list(fin.effects))
         prep.registered = saved
-        named = stats.better(fin.heldout, identity.heldout, ALPHA) and fin.fit.bic < identity.fit.bic
+        named = judge.beats(fin, identity, ALPHA, "registration")
     names = list(chosen.effects) if chosen else []
     if named:
         names = ["frame_misalignment"] + names
     d = Diagnosis("+".join(names) or "none", base, singles, chosen, steps, ne, prep, identity=identity,
                   registration_named=named, folds=int(scorer.k), alphas=[float(a) for a in alphas],
                   search=search, dropped=dropped)
+    d.support = list(judge.tests.values())
     pool = [base] + singles + [c for c in steps if len(c.effects) > 1]
     if chosen is not None and all(c is not chosen for c in pool):
         pool.append(chosen)
@@ -1059,7 +1369,7 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
                 if abs(c[i, j]) > 0.95:
                     d.correlated.append(f"{nm[i]} ~ {nm[j]} (corr {c[i, j]:+.3f})")
     d.unidentifiable = [n for n, s in zip(final.fit.names, final.fit.std) if not np.isfinite(s)]
-    d.verdict_detail = _verdict(prep, ne, base, final, chosen is not None, rows, d.noise_floor)
+    d.verdict_detail = _verdict(judge, base, final, chosen is not None)
     # outliers: rows whose residual stays beyond 5 sigma after the fit
     res = _residual_xy(prep, final.fit, rows)
     z = np.abs(res).max(axis=1) / (prep.readings * d.noise)
@@ -1071,9 +1381,10 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
             b2 = sc.evaluate("none", [])
             sc.base_error = b2.heldout
             f2 = sc.evaluate(final.name, final.effects) if chosen else b2
-            beats2 = chosen is not None and stats.better(f2.heldout, b2.heldout, alphas[0]) \
-                and f2.fit.bic < b2.fit.bic
-            d.verdict_without_outliers = _verdict(prep, ne, b2, f2, beats2, keep, d.noise_floor)
+            judge2 = _Judge(prep, ne, keep)
+            beats2 = chosen is not None and judge2.beats(f2, b2, alphas[0], "without the outliers")
+            d.verdict_without_outliers = _verdict(judge2, b2, f2, beats2)
+            d.support += list(judge2.tests.values())
     # where the gap lies: residual sizes against configuration features
     feats = features(prep)
     d.features = feats

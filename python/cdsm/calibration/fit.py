@@ -31,15 +31,17 @@ class Fit(ShortRepr):
     the data), correlation, singular values of the column-scaled Jacobian,
     fit statistics on the rows it saw (``rms`` per axis, m; ``ssr`` m²;
     ``n_obs`` residual components; AIC, BIC), and its predictions of every
-    row (``prediction`` (N, 3), ``predicted`` (N,) settled)."""
+    row (``prediction`` (N, 3), ``predicted`` (N,) settled). ``std``,
+    ``corr`` and ``singular`` are ``None`` where not computed (a
+    cross-validation fold's fit: :func:`fit_folds`)."""
 
     effects: List[str]
     p: np.ndarray
     names: List[str]
     values: np.ndarray
-    std: np.ndarray
-    corr: np.ndarray
-    singular: np.ndarray
+    std: Optional[np.ndarray]
+    corr: Optional[np.ndarray]
+    singular: Optional[np.ndarray]
     rms: float
     ssr: float
     n_obs: int
@@ -74,11 +76,15 @@ def free_parameters(robot: Robot, effects: Sequence[str]):
 
 
 def fit_folds(prep, effects: Sequence[str], scored: np.ndarray, start: Optional[np.ndarray] = None,
-              max_iter: int = FIT_ITERATIONS) -> List[Fit]:
+              max_iter: int = FIT_ITERATIONS, uncertainty=True) -> List[Fit]:
     """One fit of ``effects`` per row of ``scored`` ((F, N) bool over the
     prepared rows, file order: the rows each fit trains on), from the flat
     parameters ``start`` (default zeros), all in one call of the Rust core
-    (folds in parallel; the rows run in the prepared execution order)."""
+    (folds in parallel; the rows run in the prepared execution order).
+    ``uncertainty`` (bool, or (F,) bool per fit): the fits whose standard
+    deviations, correlation and singular values are computed (an SVD and a
+    pseudo-inverse of the Jacobian each); the others carry ``None`` there
+    (cross-validation folds need only their predictions)."""
     robot = prep.robot
     idx, scale, names = free_parameters(robot, effects)
     sc = np.atleast_2d(np.asarray(scored, bool))
@@ -91,7 +97,8 @@ def fit_folds(prep, effects: Sequence[str], scored: np.ndarray, start: Optional[
                                sc[:, o].reshape(-1).tolist(), idx.tolist(), scale.tolist(),
                                np.ascontiguousarray(p0, float), 1e-12, 100, as_iterations("max_iter", max_iter),
                                robot.threads)
-    return [_summary(list(effects), idx, scale, names, r, o, plant.width(robot)) for r in raw]
+    want = np.broadcast_to(np.asarray(uncertainty, bool), (len(raw),))
+    return [_summary(list(effects), idx, scale, names, r, o, plant.width(robot), bool(u)) for r, u in zip(raw, want)]
 
 
 def fit(prep, effects: Sequence[str], rows: Optional[np.ndarray] = None, start: Optional[np.ndarray] = None,
@@ -104,8 +111,8 @@ def fit(prep, effects: Sequence[str], rows: Optional[np.ndarray] = None, start: 
     return fit_folds(prep, effects, scored[None], start, max_iter)[0]
 
 
-def _summary(effects, idx, scale, names, r, order, width: int) -> Fit:
-    """Uncertainty and statistics of one fit from its Jacobian (m, k) in scaled
+def _summary(effects, idx, scale, names, r, order, width: int, uncertainty: bool = True) -> Fit:
+    """Uncertainty (``uncertainty``: else ``None``) and statistics of one fit from its Jacobian (m, k) in scaled
     parameters (given as the triangular factor R of its QR, which has the same
     ``J^T J`` and singular values): covariance ``sigma^2 (J^T J)^+`` with ``sigma^2 = ssr/(m - k)``;
     a parameter with a share in a direction the data cannot see (a singular
@@ -118,7 +125,9 @@ def _summary(effects, idx, scale, names, r, order, width: int) -> Fit:
     p = np.array(r.p)
     z = p[idx] / scale if k else np.zeros(0)
     J = np.asarray(r.r_factor).reshape(-1, k) if k else np.zeros((0, 0))  # R of J = QR: same J^T J
-    if k and m and J.size and np.isfinite(J).all() and np.isfinite(cost):
+    if not uncertainty:
+        sv = std = corr = None
+    elif k and m and J.size and np.isfinite(J).all() and np.isfinite(cost):
         sigma2 = cost / max(m - k, 1)
         col = np.maximum(np.linalg.norm(J, axis=0), 1e-300)
         # full V: with fewer rows than parameters the directions beyond the

@@ -44,14 +44,15 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..inputs import CdsmInputError, as_array, as_batch, as_finite, as_iterations
+from ..inputs import CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations
 from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
            "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
-           "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths"]
+           "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths",
+           "taut_commands"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
 #: Rust core's layout: :func:`layout` gives any robot's).
@@ -356,15 +357,88 @@ class VirtualPrototype:
         return Measurements(kind, self.robot.n, d, meas, theta=t, source="virtual prototype")
 
     def random_commands(self, rows: int, seed: Optional[int] = None, limit: float = np.radians(30.0),
-                        dl: float = 1e-3, kind: str = "absolute") -> Tuple[np.ndarray, np.ndarray]:
-        """Random commands within ±limit (rad) with upper-cable extras within ±dl
-        (m; for displacement data one cable per row gets ±dl exactly)."""
+                        dl: float = 1e-3, kind: str = "absolute", taut: bool = False, min_tension: float = 0.0,
+                        max_draws: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
+        """``rows`` random commands: joint angles ``theta`` (rows, n), rad,
+        uniform within ±``limit`` rad, and extras ``dL`` (rows, m), m, on the
+        m position-controlled cables (a planar arm's upper cables), uniform
+        within ±``dl`` m — for ``kind="displacement"`` one cable per row gets
+        ±``dl`` exactly and the others 0. Seeded: ``seed``, default the
+        prototype's ``seed + 1``; the same seed gives the same commands.
+
+        ``taut=True`` (for planning an experiment the nominal model can use):
+        only commands the nominal model keeps taut (:func:`taut_commands`:
+        every position cable's tension above ``min_tension``, N, under the
+        robot file's loads, at the commanded angles and where the command's
+        lengths + dL take the nominal arm — the rows the diagnosis does not
+        flag as needing a slack cable). Rejection sampling: candidates are
+        drawn as above in batches of ``max(rows, 100)`` and the first ``rows``
+        taut ones kept in draw order; after ``max_draws`` candidates (default
+        ``max(1000, 100 * rows)``) without ``rows`` taut ones a
+        :class:`CdsmInputError` says how many were tried and the acceptance
+        rate (narrow ``limit``, lower ``min_tension`` or raise ``max_draws``).
+        ``taut=False`` (default) draws exactly as before, without statics."""
+        rows = as_count("rows", rows)
+        limit, dl = as_finite("limit", limit), as_finite("dl", dl)
+        if limit < 0.0 or dl < 0.0:
+            raise CdsmInputError(f"`{'limit' if limit < 0.0 else 'dl'}`: expected a half-width >= 0, got "
+                                 f"{limit if limit < 0.0 else dl!r}")
+        if kind not in ("absolute", "displacement"):
+            raise CdsmInputError(f"`kind`: expected 'absolute' or 'displacement', got {kind!r}")
+        if not isinstance(taut, (bool, np.bool_)):
+            raise CdsmInputError(f"`taut`: expected True or False, got {taut!r}")
+        min_tension = as_finite("min_tension", min_tension)
+        if min_tension < 0.0:
+            raise CdsmInputError(f"`min_tension`: expected a tension >= 0 N, got {min_tension!r}")
+        if not taut and (min_tension != 0.0 or max_draws is not None):
+            raise CdsmInputError(f"`{'min_tension' if min_tension != 0.0 else 'max_draws'}`: applies only "
+                                 "with taut=True (commands drawn without statics otherwise)")
+        draws = max(1000, 100 * rows) if max_draws is None else as_count("max_draws", max_draws, 1)
         rng = np.random.default_rng(self.seed + 1 if seed is None else seed)
-        n, w = self.robot.n, commands(self.robot)
-        theta = rng.uniform(-limit, limit, (rows, n))
-        d = np.zeros((rows, w))
-        if kind == "displacement":
-            d[np.arange(rows), rng.integers(0, w, rows)] = rng.choice([-dl, dl], rows)
-        else:
-            d = rng.uniform(-dl, dl, (rows, w))
-        return theta, d
+        if not taut:
+            return _draw_commands(self.robot, rng, rows, limit, dl, kind)
+        kept, tried, found = [(np.zeros((0, self.robot.n)), np.zeros((0, commands(self.robot))))], 0, 0
+        while found < rows and tried < draws:
+            theta, d = _draw_commands(self.robot, rng, max(rows, 100), limit, dl, kind)
+            use = min(len(theta), draws - tried)  # the last batch is drawn whole: the same stream whatever max_draws
+            ok = taut_commands(self.robot, theta[:use], d[:use], kind, min_tension)
+            kept.append((theta[:use][ok], d[:use][ok]))
+            tried, found = tried + use, found + int(ok.sum())
+        if found < rows:
+            raise CdsmInputError(
+                f"random_commands: {found} of {tried} commands drawn (acceptance rate {found / tried:.2%}) keep "
+                f"every position cable above {min_tension:g} N by the nominal statics; {rows} asked for within "
+                f"`max_draws` = {draws} (narrow `limit`, lower `min_tension` or raise `max_draws`)")
+        return (np.concatenate([t for t, _ in kept])[:rows], np.concatenate([d for _, d in kept])[:rows])
+
+
+def _draw_commands(robot: Robot, rng: np.random.Generator, rows: int, limit: float, dl: float,
+                   kind: str) -> Tuple[np.ndarray, np.ndarray]:
+    """``rows`` commands (theta (rows, n) rad, dL (rows, m) m) from ``rng``
+    (:meth:`VirtualPrototype.random_commands`)."""
+    n, w = robot.n, commands(robot)
+    theta = rng.uniform(-limit, limit, (rows, n))
+    d = np.zeros((rows, w))
+    if kind == "displacement":
+        d[np.arange(rows), rng.integers(0, w, rows)] = rng.choice([-dl, dl], rows)
+    else:
+        d = rng.uniform(-dl, dl, (rows, w))
+    return theta, d
+
+
+def taut_commands(robot: Robot, theta_cmd, dL=None, kind="absolute", min_tension: float = 0.0) -> np.ndarray:
+    """(N,) bool: the commands (``theta_cmd`` (N, n) or (n,) rad, ``dL`` (N, m) m on
+    the position-controlled cables, ``kind`` as :func:`predict`) at which the
+    nominal model keeps every position cable taut: the nominal plant settles,
+    and its statics (:meth:`Robot.feasible`: the robot file's force-cable
+    tensions and gravity) holds the arm with every position-cable tension
+    above ``min_tension`` (N) both at ``theta_cmd`` and at the angles the
+    nominal plant settles at for the command's lengths + dL. With
+    ``min_tension = 0`` these are the rows the diagnosis can use (it flags
+    the others as needing a slack cable)."""
+    t, _ = as_batch("theta_cmd", theta_cmd, robot.n)
+    reached, settles = settle(robot, np.zeros(size(robot)), t, dL, kind)
+    ok = settles & robot.feasible(t, min_tension)
+    if settles.any():
+        ok[settles] &= robot.feasible(reached[settles], min_tension)
+    return ok

@@ -23,6 +23,9 @@ closed-form cable solve and pose IK).
 numbers, backlash, actuation, hole clearance, settling, friction, observation).
 ``friction``: Coulomb friction of the cables in the holes (capstan profile, wrap
 angles, sticking bands, the mobilisation scan); ``sequence``: the rows of a data set.
+``elastic``: elastic arms (joint springs, cables commanded in displacement through a
+series stiffness, slack cables): the forward statics as the minimum of the potential
+energy, its derivatives, joint Coulomb friction along a sequence (``ref.elastic.*``).
 """
 
 from .robot import *  # noqa: F401,F403
@@ -39,7 +42,7 @@ from .closed_form import *  # noqa: F401,F403
 from .closed_form import __all__ as _closed_form_all
 from .plant import *  # noqa: F401,F403
 from .plant import __all__ as _plant_all
-from . import friction  # noqa: F401
+from . import elastic, friction  # noqa: F401
 
 __all__ = (list(_robot_all) + list(_rotations_all) + list(_kinematics_all) + list(_solve_all)
            + list(_statics_all) + list(_closed_form_all) + list(_plant_all))

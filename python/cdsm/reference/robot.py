@@ -48,6 +48,9 @@ __all__ = [
     "as_robot",
     "position_cables",
     "force_cables",
+    "displacement_cables",
+    "axis_class",
+    "AXIS_CLASS_TOL",
     "used_hole_mask",
     "hole_height_moves",
     "hole_height_error",
@@ -66,7 +69,11 @@ STANDARD_GRAVITY = 9.80665
 #: Joint limit of the paper prototype, rad (35 deg).
 PAPER_JOINT_LIMIT = float(np.deg2rad(35.0))
 
-_MODES = ("position", "force")
+_MODES = ("position", "force", "displacement")
+
+#: A joint axis within this angle (rad) of the perpendicular to, or of the direction of, its
+#: frame's x axis (the backbone) is a bending, or a torsion, joint of a ``[backbone]``.
+AXIS_CLASS_TOL = 1e-9
 
 
 # --------------------------------------------------------------------------
@@ -178,7 +185,16 @@ class Robot:
     ``youngs_modulus`` float              Pa
     ``diameter``      float               m
     ``routing_length`` float              m, every cable's path behind the base disk
+    ``joint_stiffness`` ``(n,)``          N m/rad, the joint's spring (0: a free joint)
+    ``rest_angle``    ``(n,)``            rad, the spring's rest angle
+    ``cable_stiffness`` ``(m,)``          N/m, a displacement cable's actuator (inf:
+                                          rigid; inf for the other modes)
+    ``pretension``    ``(m,)``            N, a displacement cable's tension at ``d = 0``
+                                          in the rest pose (0 for the other modes)
+    ``max_tension``   ``(m,)``            N, a displacement cable's cap (inf: none)
     ================  ==================  ===============================================
+
+    The last five default to a free, unloaded arm (``docs/model.md``, "Elastic arms").
     """
 
     name: str
@@ -201,6 +217,20 @@ class Robot:
     youngs_modulus: float = DEFAULT_YOUNGS_MODULUS
     diameter: float = DEFAULT_DIAMETER
     routing_length: float = 0.0
+    joint_stiffness: np.ndarray = None
+    rest_angle: np.ndarray = None
+    cable_stiffness: np.ndarray = None
+    pretension: np.ndarray = None
+    max_tension: np.ndarray = None
+
+    def __post_init__(self):
+        n, m = int(self.axes.shape[0]), int(self.cable_end.shape[0])
+        for name, size, default in (("joint_stiffness", n, 0.0), ("rest_angle", n, 0.0),
+                                    ("cable_stiffness", m, np.inf), ("pretension", m, 0.0),
+                                    ("max_tension", m, np.inf)):
+            value = getattr(self, name)
+            value = np.full(size, default) if value is None else np.array(value, dtype=float).reshape(size)
+            setattr(self, name, value)
 
     @property
     def n(self) -> int:
@@ -306,8 +336,29 @@ def position_cables(robot: Robot) -> np.ndarray:
 
 
 def force_cables(robot: Robot) -> np.ndarray:
-    """Indices (0-based, file order) of the force-controlled cables, ``(m - m_pos,)`` int."""
+    """Indices (0-based, file order) of the force-controlled cables, ``(m_f,)`` int."""
     return np.array([c for c, mode in enumerate(robot.cable_mode) if mode == "force"], dtype=np.int64)
+
+
+def displacement_cables(robot: Robot) -> np.ndarray:
+    """Indices (0-based, file order) of the cables commanded in displacement through a
+    series stiffness (``docs/model.md``, "Elastic arms"), ``(m_d,)`` int."""
+    return np.array([c for c, mode in enumerate(robot.cable_mode) if mode == "displacement"], dtype=np.int64)
+
+
+def axis_class(axis) -> str | None:
+    """How a ``[backbone]`` reads a joint of unit ``axis (3,)`` (in the joint's frame, whose
+    ``x`` is the backbone's direction there): ``"bending"`` when the axis is perpendicular
+    to ``x`` (``|a_x| <= AXIS_CLASS_TOL``), ``"torsion"`` when it lies along ``x``
+    (``sqrt(a_y^2 + a_z^2) <= AXIS_CLASS_TOL``), else None (a backbone derives no
+    stiffness for it)."""
+    a = np.asarray(axis, dtype=float)
+    a = a / np.linalg.norm(a)
+    if abs(a[0]) <= AXIS_CLASS_TOL:
+        return "bending"
+    if math.hypot(a[1], a[2]) <= AXIS_CLASS_TOL:
+        return "torsion"
+    return None
 
 
 def hole_height_moves(robot: Robot, dh) -> tuple:
@@ -437,9 +488,10 @@ class PlanarView:
 
 def _planar_robot(name, link_before, link_after, thickness, holes, joint_limits=None, mass=None,
                   lower_tension=None, gravity=None, youngs_modulus=DEFAULT_YOUNGS_MODULUS,
-                  diameter=DEFAULT_DIAMETER, routing_length=0.0) -> Robot:
+                  diameter=DEFAULT_DIAMETER, routing_length=0.0, joint_stiffness=None, rest_angle=None) -> Robot:
     """The desugar of the planar shorthand (``docs/model.md``, "The arm model"), from
-    the planar layout ``holes (2n, n+1, 2, 2)`` m (unused entries ignored)."""
+    the planar layout ``holes (2n, n+1, 2, 2)`` m (unused entries ignored); the joint
+    springs ``joint_stiffness (n,)`` N m/rad and ``rest_angle (n,)`` rad (default free)."""
     lb = np.asarray(link_before, dtype=float).reshape(-1)
     n = lb.size
     if n < 1:
@@ -480,6 +532,8 @@ def _planar_robot(name, link_before, link_after, thickness, holes, joint_limits=
         youngs_modulus=float(youngs_modulus),
         diameter=float(diameter),
         routing_length=float(routing_length),
+        joint_stiffness=joint_stiffness,
+        rest_angle=rest_angle,
     )
 
 
@@ -605,7 +659,7 @@ def _read_planar(doc: dict, name: str) -> Robot:
     if general:
         raise ValueError(f'kind: a planar file is written in the planar shorthand; {general[0]!r} belongs to '
                          f'the general form (kind = "spatial")')
-    _known_keys(doc, {"kind", "name", "n", "gravity", "cable", "linkage"}, "")
+    _known_keys(doc, {"kind", "name", "n", "gravity", "cable", "linkage", "backbone"}, "")
     linkages = _table_list(_required(doc, "linkage", ""), "linkage")
     n = len(linkages)
     if n == 0:
@@ -614,8 +668,8 @@ def _read_planar(doc: dict, name: str) -> Robot:
         raise ValueError(f"n: declares {doc['n']!r} joints but {n} [[linkage]] tables are given")
     gravity = _vector(doc["gravity"], 2, "gravity") if "gravity" in doc else np.zeros(2)
     keys = {"link_before", "link_after", "thickness", "hole_height", "upper_holes", "lower_holes", "mass",
-            "lower_tension", "joint_limits"}
-    lb, la, t, mass, lower, limits = [], [], [], [], [], []
+            "lower_tension", "joint_limits", "stiffness", "rest_angle"}
+    lb, la, t, mass, lower, limits, springs = [], [], [], [], [], [], []
     holes = np.zeros((2 * n, n + 1, 2, 2))
     mask = used_hole_mask(n)
     for i, lk in enumerate(linkages):
@@ -627,6 +681,7 @@ def _read_planar(doc: dict, name: str) -> Robot:
         mass.append(_non_negative(lk.get("mass", 0.0), f"{f}.mass"))
         lower.append(_non_negative(lk.get("lower_tension", 0.0), f"{f}.lower_tension"))
         limits.append(_limits(lk.get("joint_limits"), f"{f}.joint_limits"))
+        springs.append(_spring(lk, "stiffness", "rest_angle", limits[-1], f))
         count = 2 * i + 3  # base face b, then faces a, b of disks 1..i+1
         if "hole_height" in lk and not ({"upper_holes", "lower_holes"} & set(lk)):
             h = _positive(lk["hole_height"], f"{f}.hole_height")
@@ -643,14 +698,92 @@ def _read_planar(doc: dict, name: str) -> Robot:
             raise ValueError(f"{f}.hole_height: give either hole_height or both upper_holes and lower_holes")
         for s, pts in enumerate(sides):
             holes[2 * i + s][mask[2 * i + s]] = pts  # C order: base face b, then disks' faces a, b
-    return _planar_robot(name, lb, la, t, holes, limits, mass, lower, gravity, **_material(doc))
+    stiffness, rest = _joint_springs(doc, springs, np.tile([0.0, 0.0, 1.0], (n, 1)), np.arange(1, n + 1),
+                                     [f"linkage[{i + 1}]" for i in range(n)], "stiffness")
+    return _planar_robot(name, lb, la, t, holes, limits, mass, lower, gravity, **_material(doc),
+                         joint_stiffness=stiffness, rest_angle=rest)
+
+
+def _spring(table: dict, stiffness_key: str, rest_key: str, limits: np.ndarray, field: str) -> tuple:
+    """A joint's ``(stiffness or None, rest)``: ``stiffness`` N m/rad >= 0 (None when not
+    given), ``rest`` rad within the joint's limits (default 0)."""
+    k = _non_negative(table[stiffness_key], f"{field}.{stiffness_key}") if stiffness_key in table else None
+    rest = _number(table[rest_key], f"{field}.{rest_key}") if rest_key in table else 0.0
+    if not limits[0] <= rest <= limits[1]:
+        raise ValueError(f"{field}.{rest_key}: {rest!r} rad is outside the joint's limits "
+                         f"[{limits[0]!r}, {limits[1]!r}] rad")
+    return k, rest
+
+
+def _joint_springs(doc: dict, springs: list, axes: np.ndarray, joint_disk: np.ndarray, fields: list,
+                   stiffness_key: str) -> tuple:
+    """Every joint's stiffness ``(n,)`` N m/rad and rest angle ``(n,)`` rad: as given
+    (``springs``, ``(stiffness or None, rest)`` per joint; a joint without one is free),
+    or derived from the ``[backbone]`` table (``docs/model.md``, "Elastic arms"; a joint
+    stiffness given beside it is refused).  ``axes (n, 3)`` unit, ``joint_disk (n,)``
+    1-based, ``fields`` the joints' field names (the axis is ``{field}.axis`` when it is
+    written, as in the general form)."""
+    rest = np.array([r for _, r in springs], dtype=float)
+    if "backbone" not in doc:
+        return np.array([0.0 if k is None else k for k, _ in springs]), rest
+    for (k, _), f in zip(springs, fields):
+        if k is not None:
+            raise ValueError(f"{f}.{stiffness_key}: give either joint stiffnesses or a [backbone], not both "
+                             f"(the backbone derives every joint's stiffness)")
+    return _backbone_stiffness(_table(doc["backbone"], "backbone"), axes, joint_disk, fields), rest
+
+
+def _backbone_stiffness(table: dict, axes: np.ndarray, joint_disk: np.ndarray, fields: list) -> np.ndarray:
+    """Joint stiffnesses ``(n,)`` N m/rad of a ``[backbone]``: a solid rod (``radius`` m,
+    ``youngs_modulus`` E and ``shear_modulus`` G, Pa) in ``[[backbone.segments]]``
+    (``length`` m, ``links``: the number of consecutive disks it spans, base to tip; the
+    links add up to the disks).  A joint of a disk of segment ``s`` has ``l = length_s /
+    links_s`` and ``k = E I / l`` (bending, ``I = pi r^4 / 4``) or ``k = G J / l``
+    (torsion, ``J = pi r^4 / 2``) by :func:`axis_class`; an axis neither is refused."""
+    _known_keys(table, {"youngs_modulus", "shear_modulus", "radius", "segments"}, "backbone")
+    E = _positive(_required(table, "youngs_modulus", "backbone"), "backbone.youngs_modulus")
+    G = _positive(table["shear_modulus"], "backbone.shear_modulus") if "shear_modulus" in table else None
+    r = _positive(_required(table, "radius", "backbone"), "backbone.radius")
+    segments = _table_list(_required(table, "segments", "backbone"), "backbone.segments")
+    if not segments:
+        raise ValueError("backbone.segments: at least one segment is needed")
+    link = []  # the link length l of every disk, base to tip
+    for i, sg in enumerate(segments, start=1):
+        f = f"backbone.segments[{i}]"
+        _known_keys(sg, {"length", "links"}, f)
+        length = _positive(_required(sg, "length", f), f"{f}.length")
+        links = _required(sg, "links", f)
+        if isinstance(links, bool) or not isinstance(links, int) or links < 1:
+            raise ValueError(f"{f}.links: must be a whole number of disks >= 1, got {links!r}")
+        link += [length / links] * links
+    K = int(joint_disk.max())
+    if len(link) != K:
+        raise ValueError(f"backbone.segments: the segments' links add up to {len(link)} but the arm has {K} "
+                         f"disks (one link per disk, base to tip)")
+    area_moment = math.pi * r**4 / 4.0  # I, m^4
+    out = np.empty(len(axes))
+    for j, (a, k, f) in enumerate(zip(axes, joint_disk, fields)):
+        link_length = link[int(k) - 1]
+        kind = axis_class(a)
+        if kind == "bending":
+            out[j] = E * area_moment / link_length
+        elif kind == "torsion":
+            if G is None:
+                raise ValueError(f"backbone.shear_modulus: missing ({f} is a torsion joint: its axis lies along "
+                                 f"the backbone)")
+            out[j] = G * 2.0 * area_moment / link_length
+        else:
+            raise ValueError(f"{f}.axis: a [backbone] derives bending joints (axis perpendicular to the "
+                             f"backbone, the joint frame's x) and torsion joints (axis along x); "
+                             f"{[float(v) for v in a]} is neither")
+    return out
 
 
 def _read_general(doc: dict, name: str) -> Robot:
     """The general form: ``gravity``, ``[base]``, ``[[linkage]]`` with ``joints``,
     ``[[cables]]``, ``[cable]`` (``docs/spatial.md``).  Defaults where the spec gives
     none: joint ``offset`` ``[0, 0, 0]``, ``mass`` 0 kg, ``com`` the disk centre."""
-    _known_keys(doc, {"kind", "name", "gravity", "base", "linkage", "cables", "cable"}, "")
+    _known_keys(doc, {"kind", "name", "gravity", "base", "linkage", "cables", "cable", "backbone"}, "")
     gravity = _vector(doc["gravity"], 3, "gravity") if "gravity" in doc else np.zeros(3)
     base = _table(_required(doc, "base", ""), "base")
     _known_keys(base, {"radius"}, "base")
@@ -659,19 +792,27 @@ def _read_general(doc: dict, name: str) -> Robot:
     radii = [base_radius] + [d["radius"] for d in disks]
     cables = _general_cables(_table_list(_required(doc, "cables", ""), "cables"), radii)
     n = len(joints)
+    axes = np.array([j["axis"] for j in joints]).reshape(n, 3)
+    joint_disk = np.array([j["disk"] for j in joints], dtype=np.int64)
+    stiffness, rest = _joint_springs(doc, [j["spring"] for j in joints], axes, joint_disk,
+                                     [j["field"] for j in joints], "stiffness")
     n_pos = sum(c["mode"] == "position" for c in cables)
-    if n_pos < n:
-        raise ValueError(
-            f"cables: {n_pos} position-controlled cables for {n} joints (mode = \"position\" needed on at least {n})"
-        )
+    n_cmd = n_pos + sum(c["mode"] == "displacement" for c in cables)
+    n_free = int(np.sum(stiffness == 0.0))
+    if n_cmd < n_free:
+        if n_free == n and n_cmd == n_pos:
+            raise ValueError(f"cables: {n_pos} position-controlled cables for {n} joints (mode = \"position\" "
+                             f"needed on at least {n})")
+        raise ValueError(f"cables: {n_cmd} position or displacement cables for {n_free} joints without stiffness "
+                         f"(at least as many commanded cables as free joints are needed)")
     K = len(disks)
     return Robot(
         name=name,
         kind=KINDS["spatial"],
-        axes=np.array([j["axis"] for j in joints]).reshape(n, 3),
+        axes=axes,
         offsets=np.array([j["offset"] for j in joints]).reshape(n, 3),
         joint_limits=np.array([j["limits"] for j in joints]).reshape(n, 2),
-        joint_disk=np.array([j["disk"] for j in joints], dtype=np.int64),
+        joint_disk=joint_disk,
         link_after=np.array([d["link_after"] for d in disks]).reshape(K, 3),
         thickness=np.array([d["thickness"] for d in disks]),
         radius=np.array([d["radius"] for d in disks]),
@@ -684,12 +825,18 @@ def _read_general(doc: dict, name: str) -> Robot:
         cable_tension=np.array([c["tension"] for c in cables], dtype=float),
         holes=tuple(c["holes"] for c in cables),
         **_material(doc),
+        joint_stiffness=stiffness,
+        rest_angle=rest,
+        cable_stiffness=np.array([c["stiffness"] for c in cables], dtype=float),
+        pretension=np.array([c["pretension"] for c in cables], dtype=float),
+        max_tension=np.array([c["max_tension"] for c in cables], dtype=float),
     )
 
 
 def _general_linkages(linkages: list) -> tuple:
-    """Joints (axis, offset, limits, disk) and disks (link_after, thickness, radius,
-    mass, com) of the general form's ``[[linkage]]`` tables."""
+    """Joints (axis, offset, limits, disk, spring ``(stiffness or None, rest)``, field) and
+    disks (link_after, thickness, radius, mass, com) of the general form's ``[[linkage]]``
+    tables.  A disk's ``thickness`` may be 0: a via plate (its two faces coincide)."""
     if not linkages:
         raise ValueError("linkage: at least one linkage is needed")
     joints, disks = [], []
@@ -701,15 +848,16 @@ def _general_linkages(linkages: list) -> tuple:
             raise ValueError(f"{f}.joints: every linkage needs at least one joint")
         for i, jt in enumerate(table, start=1):
             fj = f"{f}.joints[{i}]"
-            _known_keys(jt, {"axis", "offset", "limits"}, fj)
+            _known_keys(jt, {"axis", "offset", "limits", "stiffness", "rest"}, fj)
             a = _vector(_required(jt, "axis", fj), 3, f"{fj}.axis")
             norm = float(np.linalg.norm(a))
             if not norm > 0.0 or not math.isfinite(norm):
                 raise ValueError(f"{fj}.axis: must be a non-zero vector (it is normalised), got {jt['axis']!r}")
+            limits = _limits(jt.get("limits"), f"{fj}.limits")
             joints.append(dict(axis=a / norm, disk=k,
                                offset=_vector(jt["offset"], 3, f"{fj}.offset") if "offset" in jt else np.zeros(3),
-                               limits=_limits(jt.get("limits"), f"{fj}.limits")))
-        t = _positive(_required(lk, "thickness", f), f"{f}.thickness")
+                               limits=limits, spring=_spring(jt, "stiffness", "rest", limits, fj), field=fj))
+        t = _non_negative(_required(lk, "thickness", f), f"{f}.thickness")
         disks.append(dict(
             link_after=_vector(_required(lk, "link_after", f), 3, f"{f}.link_after"),
             thickness=t,
@@ -722,26 +870,42 @@ def _general_linkages(linkages: list) -> tuple:
 
 def _general_cables(cables: list, radii: list) -> list:
     """The general form's ``[[cables]]``: end, mode, tension, holes (radius + angle, or
-    explicit points within their disks' ``radii``, index 0 the base)."""
+    explicit points within their disks' ``radii``, index 0 the base); a displacement
+    cable's actuator ``stiffness`` N/m (default inf: rigid), ``pretension`` N (default 0)
+    and ``max_tension`` N (default inf: no cap)."""
     if not cables:
         raise ValueError("cables: at least one cable is needed")
     K = len(radii) - 1
     out = []
     for c, cb in enumerate(cables, start=1):
         f = f"cables[{c}]"
-        _known_keys(cb, {"end", "mode", "tension", "radius", "angle", "holes"}, f)
+        _known_keys(cb, {"end", "mode", "tension", "radius", "angle", "holes", "stiffness", "pretension",
+                         "max_tension"}, f)
         end = _required(cb, "end", f)
         if isinstance(end, bool) or not isinstance(end, int) or not 1 <= end <= K:
             raise ValueError(f"{f}.end: must be a disk index in 1..{K}, got {end!r}")
         mode = _required(cb, "mode", f)
         if mode not in _MODES:
-            raise ValueError(f'{f}.mode: must be "position" or "force", got {mode!r}')
+            raise ValueError(f'{f}.mode: must be "position", "force" or "displacement", got {mode!r}')
         if mode == "force":
             tension = _positive(_required(cb, "tension", f), f"{f}.tension")
         elif "tension" in cb:
             raise ValueError(f"{f}.tension: only force-controlled cables carry a tension")
         else:
             tension = float("nan")
+        actuator = dict(stiffness=math.inf, pretension=0.0, max_tension=math.inf)
+        for key in actuator:
+            if key in cb and mode != "displacement":
+                raise ValueError(f'{f}.{key}: only displacement cables (mode = "displacement") have a {key}')
+        if mode == "displacement":
+            if "stiffness" in cb:
+                actuator["stiffness"] = _positive(cb["stiffness"], f"{f}.stiffness")
+            actuator["pretension"] = _non_negative(cb.get("pretension", 0.0), f"{f}.pretension")
+            if "max_tension" in cb:
+                actuator["max_tension"] = _positive(cb["max_tension"], f"{f}.max_tension")
+                if not actuator["max_tension"] > actuator["pretension"]:
+                    raise ValueError(f"{f}.max_tension: must exceed the pretension ({actuator['pretension']!r} N), "
+                                     f"got {cb['max_tension']!r}")
         polar = "radius" in cb or "angle" in cb
         if polar and "holes" in cb:
             raise ValueError(f"{f}.holes: give either radius + angle or holes, not both")
@@ -769,7 +933,7 @@ def _general_cables(cables: list, radii: list) -> list:
             h = np.tile([0.0, r * math.cos(a), r * math.sin(a)], (count, 1))
         else:
             raise ValueError(f"{f}.holes: missing (give radius + angle, or holes)")
-        out.append(dict(end=end, mode=mode, tension=tension, holes=h))
+        out.append(dict(end=end, mode=mode, tension=tension, holes=h, **actuator))
     return out
 
 

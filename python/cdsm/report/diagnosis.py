@@ -30,8 +30,8 @@ from .document import HEADLINE, Document, literal
 from .figures import BLUE, GREEN, RED, new_figure, place, png_bytes, report_style
 
 __all__ = ["FILES", "write", "findings", "summary", "param_rows", "bound_notes", "headline_items", "next_steps",
-           "figures",
-           "residual_map_figure", "residual_bars_figure", "candidates_figure", "features_figure"]
+           "figures", "residual_map_figure", "residual_bars_figure", "candidates_figure", "features_figure",
+           "test_rows", "tests_text"]
 
 #: the files the report writes beside ``figures/`` (:func:`write`)
 FILES = ("report.md", "report.html", "diagnosis.json", "residuals.csv", "suggested.csv")
@@ -241,14 +241,16 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     lof = (f"lack-of-fit test ({'F against pure error' if v.test == 'F' else 'chi-square against the noise'}): "
            f"p = {v.p_value:.2g}")
     if d.verdict == "no gap":
+        nb = v.nominal_bound.bound if v.nominal_bound else float("nan")
         out["answer"].append(
             f"**No gap beyond measurement noise** (verdict: no gap). The nominal model's held-out RMS position "
-            f"error is {_um(b_rms)}, within 1.5× the noise floor {_um(floor)}, and the {lof}; no effect of the "
-            "library improves it significantly. Answer: **none**.")
+            f"error is {_um(b_rms)}, within its adequacy bound {_um(nb)} ({nb / floor:.2f}× the noise floor "
+            f"{_um(floor)}: see [the tests](#tests)), and the {lof}; no effect of the library improves it "
+            "significantly. Answer: **none**.")
     elif d.verdict == "unexplained":
         top = d.singles[0] if d.singles else None
-        extra = (f" The best single candidate, `{top.name}`, reaches {_um(top.heldout_rms)}, which the "
-                 "corrected paired held-out test (and BIC) cannot tell apart from the nominal model on these rows."
+        extra = (f" The best single candidate, `{top.name}`, reaches {_um(top.heldout_rms)}, which "
+                 f"{_support_words(d)} cannot tell apart from the nominal model on these rows."
                  if top is not None else "")
         out["answer"].append(
             f"**The gap stays unexplained** (verdict: unexplained). The nominal model misses the measurements "
@@ -366,7 +368,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         if len(d.steps) > 1:
             out["which"].append("Forward selection: " + " → ".join(
                 f"`{c.name}` {_um(c.heldout_rms)}" for c in d.steps) + " (each step kept only when it beats the "
-                "previous one on held-out rows beyond noise and lowers BIC).")
+                f"previous one by {_support_words(d)}: see [the tests](#tests)).")
     elif d.singles:
         t = d.singles[0]
         out["which"].append(
@@ -423,6 +425,63 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         out["flagged"].extend(f"{names[i]}: {why}" for i, why in sorted(prep.flags.items()))
     else:
         out["flagged"].append(f"All {len(prep.meas)} rows were usable.")
+    return out
+
+
+def _support_words(d: diagnose.Diagnosis) -> str:
+    """The support test of ``d`` in a few words."""
+    src = d.noise_estimate.source
+    if src == "assumed":
+        return "the corrected paired held-out test (and BIC)"
+    return ("the corrected likelihood-ratio test against the " + ("given noise" if src == "given" else
+                                                                 "pure error of the repeats")
+            + " (and a lower held-out RMS)")
+
+
+def test_rows(d: diagnose.Diagnosis) -> List[List[str]]:
+    """One row per test of ``d``, in the order asked: where, the model, the
+    one it is tested against (nested: a support test; not nested: a tie
+    test), the test, its statistic, degrees of freedom, p-value and level,
+    the guard and the decision."""
+    out = []
+    for t in d.support:
+        stat = f"{t.statistic:.3g}" if np.isfinite(t.statistic) else "—"
+        out.append([t.step, f"`{t.big}`", f"`{t.small}`", {"chi2": "χ² (LR)", "F": "F (LR)"}.get(t.test, t.test),
+                    stat, ", ".join(str(v) for v in t.dof), f"{t.p_value:.2g}", f"{t.alpha:.2g}",
+                    f"{t.guard}: {'yes' if t.guard_passed else 'no'}" if t.nested else "— (not nested)",
+                    ("**supported**" if t.supported else "no") if t.nested else ("differs" if t.supported else "tie")])
+    return out
+
+
+def tests_text(d: diagnose.Diagnosis) -> List[str]:
+    """The paragraphs of the report's section on the tests behind the
+    verdict: the support rule (and how an assumed noise limits it), the
+    adequacy bounds used and how they were obtained, the lack-of-fit test."""
+    v = d.verdict_detail
+    out = [f"Support test: {d.support_rule}, at the family-corrected levels below (docs/model.md, \"The support "
+           "test\"). Each row asks whether a model beats the nested smaller one (or, for two models not nested, "
+           "whether the held-out errors tell them apart: a tie where they do not): the likelihood ratio's statistic "
+           "is the drop in the position residuals' sum of squares over the noise variance (χ², degrees of "
+           "freedom: the parameters added that are not at a bound), or that drop per parameter over the pure "
+           "error's mean square (F); the signed-rank statistic is W+ over the rows' held-out gains."]
+    if d.support_limits:
+        out.append("**" + d.support_limits + "**")
+    if v is not None and v.bound is not None:
+        b, nb = v.bound, v.nominal_bound
+        fin = d.final()
+        out.append(
+            f"Adequacy (docs/model.md, \"The adequacy bound\"): a model is adequate when its held-out RMS is within "
+            f"its bound and the lack-of-fit test does not reject it at {diagnose.LACK_OF_FIT_ALPHA:g}. The bound is "
+            f"the {b.quantile:g} quantile of the held-out RMS a correct model would reach on these rows and folds, "
+            f"by a linearised parametric bootstrap around the model's fit ({b.draws} data sets simulated from the "
+            f"fitted model's Jacobian plus the noise, refitted on the same folds). "
+            + (f"`{d.best}`: held-out {_um(fin.heldout_rms)} against its bound {_um(b.bound)} "
+               f"({b.factor:.2f}× the floor, median {_um(b.median)}, {b.parameters} parameters); the "
+               if d.chosen is not None else "The ")
+            + f"nominal model: held-out {_um(d.baseline.heldout_rms)} against {_um(nb.bound)} ({nb.factor:.2f}× the "
+            f"floor, {nb.parameters} parameters). Lack of fit of the final model: "
+            + (f"F = {v.statistic:.3g} ({v.dof[0]}, {v.dof[1]} dof)" if v.test == "F" and len(v.dof) > 1 else
+               f"χ² = {v.statistic:.3g} ({v.dof[0]} dof)") + f", p = {v.p_value:.2g}.")
     return out
 
 
@@ -880,6 +939,12 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Do
                 f"{c.fit.rms * 1e6:.1f}", f"{c.fit.bic - b.fit.bic:+.1f}",
                 "; ".join(f"{lab} {txt}" for _, lab, txt, _, _ in param_rows(d, c))] for c in cands])
     fig("candidates")
+    doc.section("tests", "The tests behind the verdict")
+    for t in tests_text(d):
+        doc.p(t)
+    if d.support:
+        doc.table(["step", "model", "against", "test", "statistic", "dof", "p", "level", "guard", "decision"],
+                  test_rows(d))
     doc.section("identifiability", "Identifiability")
     for t in f["identifiability"]:
         doc.p(t)
@@ -896,7 +961,8 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None) -> Do
         doc.p(f["flagged"][0])
     doc.section("files", "Files")
     doc.ul(["`diagnosis.json` — the diagnosis (SI units; keys `best`, `baseline.heldout_rms_m`, `effects` best "
-            "first with `name`, `params`, `heldout_rms_m`)",
+            "first with `name`, `params`, `heldout_rms_m`; `support.tests` each test's statistic, `dof`, "
+            "`p_value`; `adequacy` the bounds used and how they were obtained)",
             "`residuals.csv` — per row: commanded tip, gap of the nominal and final model, held-out errors, "
             "features, flag (SI units)"]
            + (["`suggested.csv` — the suggested configurations"] if suggestion is not None else [])
