@@ -379,21 +379,11 @@ pub struct Loads<'a> {
 /// has one solution, returned even where a cable would have to push (then
 /// not feasible; NaN where it is singular), feasible when every tension is
 /// strictly above the floor. More: the minimum-norm set at or above the
-/// floor (`crate::qp`), NaN rows where none exists.
+/// floor (`crate::qp`), NaN rows where none exists. With `sliding`, friction
+/// in the holes in a bounding sliding state (`docs/model.md`, "Friction in
+/// the holes"; `None`: frictionless): the tensions are then the routing's (at
+/// the actuators).
 pub fn tensions(
-    model: &Model,
-    theta: &[f64],
-    loads: &Loads,
-    floor: f64,
-    threads: usize,
-) -> Result<(Vec<f64>, Vec<bool>)> {
-    tensions_sliding(model, theta, loads, floor, None, threads)
-}
-
-/// [`tensions`] with friction in the holes in a bounding sliding state
-/// (`docs/model.md`, "Friction in the holes"; `None`: frictionless): the
-/// tensions are the routing's (at the actuators).
-pub fn tensions_sliding(
     model: &Model,
     theta: &[f64],
     loads: &Loads,

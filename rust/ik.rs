@@ -36,6 +36,7 @@ impl TaskMask {
         weights: [1.0, 1.0, 1.0],
     };
     /// Position only; the attitude is free.
+    #[cfg(test)]
     pub const POSITION: TaskMask = TaskMask {
         weights: [1.0, 1.0, 0.0],
     };
@@ -281,17 +282,17 @@ pub fn ik_closed_form(
     }
 }
 
-/// Pose IK of one target (full pose): `theta` holds the seed on entry and the
-/// answer on exit.
-pub fn ik(robot: &Robot, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions) -> Status {
-    IkSolver::new(robot, TaskMask::POSE, *opts).solve(pose, theta)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geometry::ArmGeometry;
     use crate::lm::Reason;
+
+    /// Pose IK of one target (full pose): `theta` holds the seed on entry
+    /// and the answer on exit.
+    fn ik(robot: &Robot, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions) -> Status {
+        IkSolver::new(robot, TaskMask::POSE, *opts).solve(pose, theta)
+    }
 
     #[test]
     fn ik_reaches_a_forward_pose() {

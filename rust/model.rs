@@ -255,10 +255,6 @@ fn kind_of_table(table: &toml::Table) -> Result<String> {
     Ok(kind)
 }
 
-/// The earlier name of [`Model`], for the spatial code written before the
-/// one model.
-pub type SpatialRobot = Model;
-
 impl Model {
     /// Parses and validates a robot description of either kind: a spatial
     /// file as written, a planar file through [`Robot::from_table`] and

@@ -266,7 +266,7 @@ impl<const K: usize> Jet<K> {
 
 impl Dual {
     /// The variable itself: derivative 1.
-    #[inline]
+    #[cfg(test)]
     pub fn var(v: f64) -> Dual {
         Jet { v, d: [1.0] }
     }
@@ -276,7 +276,7 @@ impl Dual {
         Jet { v, d: [d] }
     }
     /// The derivative.
-    #[inline]
+    #[cfg(test)]
     pub fn der(self) -> f64 {
         self.d[0]
     }

@@ -21,7 +21,8 @@ pub struct CableMaterial {
     pub diameter: f64,
     /// Length of each upper cable's path behind the base disk, from the base
     /// disk to the actuator (m, default 0). It carries the cable's tension and
-    /// stretches with it (see `statics.rs`).
+    /// stretches with it (`docs/model.md`, "Statics, slack cables and cable
+    /// elasticity").
     pub routing_length: f64,
 }
 

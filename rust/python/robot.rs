@@ -640,7 +640,7 @@ impl CoreRobot {
                         Sliding::releasing(mu)
                     }
                 });
-                arm::tensions_sliding(&self.model, t, &loads, min_tension, sliding, threads)
+                arm::tensions(&self.model, t, &loads, min_tension, sliding, threads)
             })
             .map_err(err)?;
         Ok(TensionResult::new(py, tension, feasible))
