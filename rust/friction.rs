@@ -26,11 +26,17 @@ use crate::tension::{Balance, Wrench};
 /// says friction alone does not explain the data).
 pub const MU_MAX: f64 = 1.0;
 
-/// An error naming `friction` unless `0 <= mu <= MU_MAX` (NaN refused).
-pub fn check_mu(mu: f64) -> Result<()> {
+/// The typical friction coefficient of a cable in a hole (1; oiled or greased
+/// steel on metal, `docs/model.md`, "Friction in the holes"): the default of
+/// the friction studies and the typical size of the plant's `cable_friction`.
+pub const MU_TYPICAL: f64 = 0.15;
+
+/// An error naming the field `name` unless `0 <= mu <= MU_MAX` (NaN refused):
+/// the one check of the friction coefficient's domain.
+pub fn check_mu(name: &str, mu: f64) -> Result<()> {
     if !(0.0..=MU_MAX).contains(&mu) {
         return Err(CdsmError::Option {
-            name: "friction".into(),
+            name: name.into(),
             problem: format!("the friction coefficient must be within [0, {MU_MAX}], got {mu}"),
         });
     }
@@ -373,7 +379,7 @@ impl Sliding {
     /// An error naming `friction` unless `0 <= mu <= MU_MAX` ([`check_mu`])
     /// and the mobilisations are within `[-1, 1]`.
     pub fn check(&self) -> Result<()> {
-        check_mu(self.mu)?;
+        check_mu("friction", self.mu)?;
         if !(self.position.abs() <= 1.0 && self.force.abs() <= 1.0) {
             return Err(CdsmError::Option {
                 name: "sliding".into(),

@@ -26,6 +26,10 @@ HIST_BINS: int
 QUANTITIES: int
 REASONS: List[str]
 CLEARANCE_WIDTH: float
+FRICTION_TYPICAL: float
+FRICTION_MAX: float
+
+def check_friction(name: str, mu: float) -> None: ...
 
 def hist_edges() -> F64: ...
 def simd_instruction_set() -> str: ...

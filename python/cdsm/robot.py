@@ -677,10 +677,8 @@ class Robot:
         if not isinstance(sliding, str) or sliding not in ("pull", "release"):
             raise CdsmInputError(f"`sliding`: expected 'pull' or 'release' (one sliding state for every row), "
                                  f"got {sliding!r}")
-        if friction is not None:
+        if friction is not None:  # its domain: the core's (friction::check_mu)
             friction = as_finite("friction", friction)
-            if not 0.0 <= friction <= 1.0:
-                raise CdsmInputError(f"`friction`: the coefficient must be within [0, 1], got {friction}")
         rows = t.shape[0]
 
         def rowed(name, value, width):

@@ -28,6 +28,9 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("QUANTITIES", crate::accuracy::QUANTITIES)?;
     m.add("REASONS", crate::lm::Reason::NAMES.to_vec())?;
     m.add("CLEARANCE_WIDTH", crate::plant::CLEARANCE_WIDTH)?;
+    m.add("FRICTION_TYPICAL", crate::friction::MU_TYPICAL)?;
+    m.add("FRICTION_MAX", crate::friction::MU_MAX)?;
+    m.add_function(wrap_pyfunction!(robot::check_friction, m)?)?;
     m.add_function(wrap_pyfunction!(robot::hist_edges, m)?)?;
     m.add_function(wrap_pyfunction!(robot::simd_instruction_set, m)?)?;
     Ok(())

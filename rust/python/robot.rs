@@ -818,6 +818,13 @@ pub fn robot_kind(text: &str) -> PyResult<String> {
 }
 
 /// Edges (m) of the Monte-Carlo histogram's regular bins (see `accuracy::hist_edges`).
+/// `None` if `mu` is a friction coefficient of the physical domain (`[0,
+/// FRICTION_MAX]`); an error naming the field `name` otherwise.
+#[pyfunction]
+pub fn check_friction(name: &str, mu: f64) -> PyResult<()> {
+    crate::friction::check_mu(name, mu).map_err(err)
+}
+
 #[pyfunction]
 pub fn hist_edges<'py>(py: Python<'py>) -> Array<'py> {
     vec1(py, accuracy::hist_edges().to_vec())

@@ -44,6 +44,7 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import _cdsm
 from ..inputs import CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations
 from ..robot import Robot
 from .measurements import KIND_CODES, Measurements
@@ -81,13 +82,14 @@ SPATIAL_EFFECTS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_pos
 # in, and the size of generated test effects): 2 % actuation error, 0.2 mm
 # offsets and holes, 0.3 mm links, a polymer-like compliance (E A ~ 50 N),
 # 0.15 mm clearance and a 10 mrad transition, 5 mrad / 5 mm frame, 1 mm tip
-# offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt, friction
-# 0.15 (greased steel on metal, docs/model.md "Friction in the holes").
+# offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt, the core's
+# typical friction 0.15 (greased steel on metal, docs/model.md "Friction in
+# the holes").
 TYPICAL: Dict[str, float] = {
     "actuation_scale": 0.02, "cable_offset": 2e-4, "hole_height": 2e-4, "hole_position": 2e-4,
     "link_length": 3e-4, "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "clearance_width": 0.01,
     "frame_misalignment": 5e-3, "tip_offset": 1e-3, "backlash": 3e-5, "joint_axis": 1e-2,
-    "cable_friction": 0.15,
+    "cable_friction": _cdsm.FRICTION_TYPICAL,
 }
 assert set(BLOCKS) | set(SPATIAL_EFFECTS) <= set(TYPICAL), "a typical size per parameter block"
 
