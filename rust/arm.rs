@@ -11,9 +11,9 @@ use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
 use crate::friction::{Holes, Profile, Sliding};
 use crate::ik::{IkMethod, SpatialIk, SpatialMask, TaskMask};
-use crate::kinds::{log_so3, Frame, Kind, Planar, Se3, Spatial, Vector};
+use crate::kinds::{log_so3, Frame, Group, Se3, Spatial, Vector, Visit};
 use crate::lm::Reason;
-use crate::model::{self, Model};
+use crate::model::Model;
 use crate::qp::min_norm_active;
 use crate::real::pack::Pack;
 use crate::real::Lane;
@@ -28,12 +28,12 @@ use std::ops::Range;
 
 /// A row-wise map over `theta (N, n)` producing `width` values per row from
 /// the chain of the configuration (after [`Chain::at`] and [`Chain::world`]).
-fn map_chain<K: Kind>(
+fn map_chain<G: Group>(
     model: &Model,
     theta: &[f64],
     width: usize,
     threads: usize,
-    f: impl Fn(&mut Chain<f64, K::Frame<f64>>, &mut [f64]) + Sync,
+    f: impl Fn(&mut Chain<f64, G::Frame<f64>>, &mut [f64]) + Sync,
 ) -> Result<Vec<f64>> {
     let n = model.n();
     let rows = rows_of("theta", theta, n)?;
@@ -208,7 +208,7 @@ type P = Pack<PACK>;
 /// through the Newton phase on lanes ([`CableNewton`], compiled for the
 /// machine's instruction set by `pulp`'s dispatch), the rows that leave it
 /// through [`CableSolve`] from their seeds.
-pub fn solve_cables_general<K: Kind>(
+pub fn solve_cables_general<G: Group>(
     model: &Model,
     lengths: &[f64],
     seed: Option<&[f64]>,
@@ -223,7 +223,7 @@ pub fn solve_cables_general<K: Kind>(
     Broadcast::traversals(model, model, &model.position_cables(), &mut traverse);
     let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
-        arch.dispatch(SolveRows::<K> {
+        arch.dispatch(SolveRows::<G> {
             model,
             traverse: &traverse,
             lengths,
@@ -237,17 +237,17 @@ pub fn solve_cables_general<K: Kind>(
 }
 
 /// The rows `rows` of [`solve_cables_general`], in packs.
-struct SolveRows<'a, K> {
+struct SolveRows<'a, G> {
     model: &'a Model,
     traverse: &'a [f64],
     lengths: &'a [f64],
     seed: Option<&'a [f64]>,
     opts: &'a SolveOptions,
     rows: Range<usize>,
-    kind: PhantomData<K>,
+    kind: PhantomData<G>,
 }
 
-impl<K: Kind> WithSimd for SolveRows<'_, K> {
+impl<G: Group> WithSimd for SolveRows<'_, G> {
     type Output = BatchSolution;
 
     #[inline(always)]
@@ -264,8 +264,8 @@ impl<K: Kind> WithSimd for SolveRows<'_, K> {
         let (n, m) = (model.n(), model.position_cables().len());
         let arm = Broadcast::new(model, traverse);
         let mut out = BatchSolution::with_capacity(rows.len(), n);
-        let mut lanes = CableNewton::<P, K::Frame<P>>::new(model, *opts);
-        let mut solver = CableSolve::<K::Frame<f64>>::new(model, *opts);
+        let mut lanes = CableNewton::<P, G::Frame<P>>::new(model, *opts);
+        let mut solver = CableSolve::<G::Frame<f64>>::new(model, *opts);
         let mut th = vec![0.0; n];
         let limits = model.limits();
         let seed_of = |i: usize, k: usize| seed.map_or(0.0, |s| s[i * n + k]);
@@ -394,13 +394,42 @@ pub fn tensions(
     if let Some(s) = sliding {
         s.check()?;
     }
-    match model.kind {
-        model::Kind::Planar => tensions_k::<Planar>(model, theta, loads, floor, sliding, threads),
-        model::Kind::Spatial => tensions_k::<Spatial>(model, theta, loads, floor, sliding, threads),
+    model.kind.visit(Tensions {
+        model,
+        theta,
+        loads,
+        floor,
+        sliding,
+        threads,
+    })
+}
+
+/// [`tensions`] over the model's motion group.
+struct Tensions<'a> {
+    model: &'a Model,
+    theta: &'a [f64],
+    loads: &'a Loads<'a>,
+    floor: f64,
+    sliding: Option<Sliding>,
+    threads: usize,
+}
+
+impl Visit for Tensions<'_> {
+    type Out = Result<(Vec<f64>, Vec<bool>)>;
+    fn visit<G: Group>(self) -> Self::Out {
+        let Tensions {
+            model,
+            theta,
+            loads,
+            floor,
+            sliding,
+            threads,
+        } = self;
+        tensions_k::<G>(model, theta, loads, floor, sliding, threads)
     }
 }
 
-fn tensions_k<K: Kind>(
+fn tensions_k<G: Group>(
     model: &Model,
     theta: &[f64],
     loads: &Loads,
@@ -426,7 +455,7 @@ fn tensions_k<K: Kind>(
     let g = loads.gravity.unwrap_or(model.gravity);
     let m = model.position_cables().len();
     let parts = split_rows(rows, threads, |r| {
-        let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
+        let mut chain = Chain::<f64, G::Frame<f64>>::new(model);
         let mut bal = Balance::<f64>::new(model);
         let mut t = vec![0.0; m];
         let mut out = (Vec::with_capacity(r.len() * m), Vec::with_capacity(r.len()));

@@ -17,7 +17,7 @@ use faer::Mat;
 
 use crate::chain::{Chain, Numbers};
 use crate::error::{CdsmError, Result};
-use crate::kinds::{cross, Frame, Kind, Vector};
+use crate::kinds::{cross, Frame, Group, Vector};
 use crate::model::{Mode, Model};
 use crate::real::Real;
 use crate::tension::{Balance, Wrench};
@@ -256,12 +256,12 @@ pub struct Motion {
 
 impl Motion {
     /// The motion through the nominal configurations `configs` (`(R, n)`, rad).
-    pub fn new<K: Kind>(model: &Model, configs: &[f64]) -> Motion {
+    pub fn new<G: Group>(model: &Model, configs: &[f64]) -> Motion {
         let n = model.n();
         let holes = Holes::of(model);
         let h = holes.total;
         let rows = configs.len() / n.max(1);
-        let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
+        let mut chain = Chain::<f64, G::Frame<f64>>::new(model);
         let mut bal = Balance::<f64>::new(model);
         let mut t = vec![0.0; model.cables.len()];
         let mut out = Motion {

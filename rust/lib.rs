@@ -10,6 +10,7 @@ pub mod batch;
 pub mod cables;
 pub mod chain;
 pub mod compensate;
+pub mod effect;
 pub mod error;
 pub mod fit;
 pub mod friction;

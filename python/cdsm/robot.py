@@ -12,8 +12,10 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple
+from types import MappingProxyType
+from typing import Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -23,13 +25,27 @@ from .inputs import (CdsmDataWarning, CdsmInputError, as_array, as_batch, as_cou
                      did_you_mean)
 from .display import ShortRepr, degrees
 
-__all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
+__all__ = ["Robot", "Solution", "KINDS", "kind_facts", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
            "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "PLAUSIBLE_LENGTH", "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 
 #: The robot kinds.
 KINDS = ("planar", "spatial")
+
+
+@lru_cache(maxsize=None)
+def kind_facts(kind: str) -> Mapping:
+    """The facts of the arm kind ``kind`` (``"planar"`` or ``"spatial"``), the
+    Rust core's (``rust/kinds.rs``, ``KindInfo``), read-only: ``dim`` (2, 3),
+    ``task`` (3, 6), ``task_axes`` and ``task_units``, ``rotation``
+    (``"angle"``: phi; ``"vector"``: a rotation vector), ``quantities`` and
+    ``quantity_units`` (a Monte-Carlo study's, per sample), ``hole_grouping``
+    and ``layout`` (the plant's parameter blocks in order). Lists are tuples.
+    :class:`CdsmInputError` naming ``kind`` for another name."""
+    facts = _cdsm.kind_info(kind)
+    return MappingProxyType({k: tuple(v) if isinstance(v, list) else v for k, v in facts.items()})
+
 
 #: The longest straight arm (m) taken without a warning about its unit.
 PLAUSIBLE_LENGTH = 10.0
@@ -311,7 +327,7 @@ class Robot:
     @property
     def task(self) -> int:
         """Width of the task vector: 3 (planar ``[x, y, phi]``) or 6 (spatial)."""
-        return 3 if self.kind == "planar" else 6
+        return kind_facts(self.kind)["task"]
 
     @property
     def joint_limits(self) -> np.ndarray:
@@ -328,8 +344,7 @@ class Robot:
         """Gravity, m/s^2, base frame: planar the in-plane ``[gx, gy]`` (2,),
         spatial ``(3,)``. The default of every statics call (robot file
         ``gravity``; 0: a horizontal plane)."""
-        g = np.array(self.core.gravity)
-        return g[:2] if self.kind == "planar" else g
+        return np.array(self.core.gravity)[:kind_facts(self.kind)["dim"]]
 
     @property
     def straight_length(self) -> float:

@@ -16,6 +16,7 @@ use pyo3::prelude::*;
 fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robot::CoreRobot>()?;
     m.add_function(wrap_pyfunction!(robot::robot_kind, m)?)?;
+    m.add_function(wrap_pyfunction!(robot::kind_info, m)?)?;
     results::register(m)?;
     m.add(
         "CdsmInputError",

@@ -20,7 +20,7 @@ from .. import _cdsm
 from ..files import check_path, json_safe, read_npz, write_npz
 from ..inputs import CdsmInputError, as_batch, as_count, as_finite, as_tolerances
 from ..progress import Progress
-from ..robot import Robot
+from ..robot import Robot, kind_facts
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 from ..display import ShortRepr
 
@@ -31,13 +31,13 @@ __all__ = ["QUANTILE_BOUND", "hist_quantile", "MonteCarlo", "monte_carlo", "mont
            "summary", "save_npz", "load_npz"]
 
 DEFAULT_PERCENTILES = (50.0, 95.0, 99.0)
-QUANTITY_UNITS = ("m", "m", "rad", "m")
-
-
-QUANTITY_NAMES = ("dX", "dY", "dphi", "dXY")
+#: The quantities of a planar arm's study: dX, dY (m), dphi (rad), |d(X, Y)| (m)
+#: (the core's, :func:`cdsm.robot.kind_facts`).
+QUANTITY_NAMES = kind_facts("planar")["quantities"]
+QUANTITY_UNITS = kind_facts("planar")["quantity_units"]
 #: The quantities of a spatial arm's study: dX, dY, dZ, |d(X, Y, Z)| (m), rotation angle (rad).
-SPATIAL_QUANTITY_NAMES = ("dX", "dY", "dZ", "dXYZ", "rot")
-SPATIAL_QUANTITY_UNITS = ("m", "m", "m", "m", "rad")
+SPATIAL_QUANTITY_NAMES = kind_facts("spatial")["quantities"]
+SPATIAL_QUANTITY_UNITS = kind_facts("spatial")["quantity_units"]
 
 
 @dataclass(repr=False)
@@ -262,10 +262,9 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     if robot.kind == "spatial":
         st = robot.core.monte_carlo(theta0, dl, None, dh if np.any(dh_tol) else None, method, 1e-12, 100,
                                     bool(check_slack), th)
-        names = SPATIAL_QUANTITY_NAMES
     else:
         st = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
-        names = QUANTITY_NAMES
+    names = kind_facts(robot.kind)["quantities"]
     q = st.quantities
     return MonteCarlo(theta0=theta0, count=st.count.astype(np.int64), failed=st.failed.astype(np.int64),
                       sum=st.sum.reshape(-1, q), sum_sq=st.sum_sq.reshape(-1, q),

@@ -46,7 +46,7 @@ import numpy as np
 
 from .. import _cdsm
 from ..inputs import CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations
-from ..robot import Robot
+from ..robot import Robot, kind_facts
 from .measurements import KIND_CODES, Measurements
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
@@ -56,16 +56,22 @@ __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "E
            "taut_commands"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
-#: Rust core's layout: :func:`layout` gives any robot's).
-BLOCKS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_height", "link_length", "cable_elasticity",
-                           "hole_clearance", "frame_misalignment", "tip_offset", "backlash", "clearance_width",
-                           "cable_friction")
+#: Rust core's layout of the kind, ``kind_facts("planar")["layout"]``:
+#: :func:`layout` gives any robot's with its sizes).
+BLOCKS: Tuple[str, ...] = kind_facts("planar")["layout"]
 
 #: The blocks an effect of the library fits (default: the block of its name).
 EFFECT_BLOCKS: Dict[str, Tuple[str, ...]] = {"hole_clearance": ("hole_clearance", "clearance_width")}
 
+
+def _library(blocks: Sequence[str]) -> Tuple[str, ...]:
+    """The effects of a layout's blocks: each block but those another effect
+    fits with its own (:data:`EFFECT_BLOCKS`), in the layout's order."""
+    return tuple(b for b in blocks if not any(b in v[1:] for v in EFFECT_BLOCKS.values()))
+
+
 #: The effects of the diagnosis library of planar arms.
-EFFECTS: Tuple[str, ...] = tuple(b for b in BLOCKS if not any(b in v[1:] for v in EFFECT_BLOCKS.values()))
+EFFECTS: Tuple[str, ...] = _library(BLOCKS)
 
 #: The effects with memory: what a row shows depends on the direction the
 #: cables moved before it (backlash's dead band, friction's sliding state).
@@ -74,9 +80,7 @@ MEMORY_EFFECTS: Tuple[str, ...] = ("backlash", "cable_friction")
 #: The effects of the diagnosis library of spatial arms (``hole_position``
 #: in 3-D where a planar arm has ``hole_height``; ``joint_axis``: each
 #: joint's axis tilted by two angles).
-SPATIAL_EFFECTS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_position", "link_length",
-                                    "cable_elasticity", "frame_misalignment", "tip_offset", "backlash",
-                                    "hole_clearance", "joint_axis", "cable_friction")
+SPATIAL_EFFECTS: Tuple[str, ...] = _library(kind_facts("spatial")["layout"])
 
 # A magnitude a real prototype could have, per block (the unit the fit works
 # in, and the size of generated test effects): 2 % actuation error, 0.2 mm
@@ -101,8 +105,8 @@ MAX_PARAMETER = 1e3
 
 
 def effects_of(robot) -> Tuple[str, ...]:
-    """The diagnosis library of a robot's kind."""
-    return SPATIAL_EFFECTS if robot.kind == "spatial" else EFFECTS
+    """The diagnosis library of a robot's kind (its layout's effects)."""
+    return _library(kind_facts(robot.kind)["layout"])
 
 
 def check_effects(robot, effects: Sequence[str], field: str = "effects") -> List[str]:
@@ -120,12 +124,12 @@ def check_effects(robot, effects: Sequence[str], field: str = "effects") -> List
 
 def width(robot) -> int:
     """Observed components per row: 3 ([x, y, phi]) planar, 6 ([x, y, z, rx, ry, rz]) spatial."""
-    return 6 if robot.kind == "spatial" else 3
+    return kind_facts(robot.kind)["task"]
 
 
 def dims(robot) -> int:
     """Position components per row: 2 planar, 3 spatial."""
-    return 3 if robot.kind == "spatial" else 2
+    return kind_facts(robot.kind)["dim"]
 
 
 def command_lengths(robot, theta) -> np.ndarray:
