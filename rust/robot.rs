@@ -2,6 +2,7 @@
 //! lower-cable tensions and joint limits (SI units), read from TOML.
 
 use crate::error::Result;
+use crate::limits::Limits;
 use crate::robot_file::{
     bad, coordinates, from_table, joint_limits, non_negative, positive, positive_length,
     robot_name, toml_table, Exact, MAX_LENGTH,
@@ -20,7 +21,8 @@ pub struct CableMaterial {
     pub diameter: f64,
     /// Length of each upper cable's path behind the base disk, from the base
     /// disk to the actuator (m, default 0). It carries the cable's tension and
-    /// stretches with it (see `statics.rs`).
+    /// stretches with it (`docs/model.md`, "Statics, slack cables and cable
+    /// elasticity").
     pub routing_length: f64,
     /// The controller's premise (default `true`): it pays the frictionless
     /// stretch of this cable (`1 / (E A)`) out with its commands, so the
@@ -63,6 +65,12 @@ impl CableMaterial {
         }
         Ok(())
     }
+}
+
+/// Index of `holes[c, d, f, 0]` in the flat hole array of an `n`-joint arm.
+#[inline]
+pub fn hole_index(n: usize, c: usize, d: usize, f: usize) -> usize {
+    ((c * (n + 1) + d) * 2 + f) * 2
 }
 
 /// A planar CDSM with `n` joints and `2n` cables (see `docs/model.md`).
@@ -146,7 +154,12 @@ impl Robot {
     /// Index of `holes[c, d, f, 0]` in the flat hole array.
     #[inline]
     pub fn hole_index(&self, c: usize, d: usize, f: usize) -> usize {
-        crate::geometry::hole_index(self.n(), c, d, f)
+        hole_index(self.n(), c, d, f)
+    }
+
+    /// The joint-limit box.
+    pub fn limits(&self) -> Limits<&[[f64; 2]]> {
+        Limits(&self.joint_limits)
     }
 
     /// Parses and validates a TOML robot description (format in README).

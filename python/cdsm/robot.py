@@ -12,8 +12,10 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple
+from types import MappingProxyType
+from typing import Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -24,13 +26,27 @@ from .inputs import (CdsmDataWarning, CdsmInputError, as_array, as_batch, as_cou
 from .display import ShortRepr, degrees
 from .kinds import KINDS as _KIND_OBJECTS, PLANAR, SPATIAL, Kind, kind_of
 
-__all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
+__all__ = ["Robot", "Solution", "KINDS", "kind_facts", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
            "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "PLAUSIBLE_LENGTH", "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 
 #: The robot kinds (:class:`cdsm.kinds.Kind`, strings).
 KINDS = tuple(_KIND_OBJECTS.values())
+
+
+@lru_cache(maxsize=None)
+def kind_facts(kind: str) -> Mapping:
+    """The facts of the arm kind ``kind`` (``"planar"`` or ``"spatial"``), the
+    Rust core's (``rust/kinds.rs``, ``KindInfo``), read-only: ``dim`` (2, 3),
+    ``task`` (3, 6), ``task_axes`` and ``task_units``, ``rotation``
+    (``"angle"``: phi; ``"vector"``: a rotation vector), ``quantities`` and
+    ``quantity_units`` (a Monte-Carlo study's, per sample), ``hole_grouping``
+    and ``layout`` (the plant's parameter blocks in order). Lists are tuples.
+    :class:`CdsmInputError` naming ``kind`` for another name."""
+    facts = _cdsm.kind_info(kind)
+    return MappingProxyType({k: tuple(v) if isinstance(v, list) else v for k, v in facts.items()})
+
 
 #: The longest straight arm (m) taken without a warning about its unit.
 PLAUSIBLE_LENGTH = 10.0
@@ -674,10 +690,8 @@ class Robot:
         if not isinstance(sliding, str) or sliding not in ("pull", "release"):
             raise CdsmInputError(f"`sliding`: expected 'pull' or 'release' (one sliding state for every row), "
                                  f"got {sliding!r}")
-        if friction is not None:
+        if friction is not None:  # its domain: the core's (friction::check_mu)
             friction = as_finite("friction", friction)
-            if not 0.0 <= friction <= 1.0:
-                raise CdsmInputError(f"`friction`: the coefficient must be within [0, 1], got {friction}")
         rows = t.shape[0]
 
         def rowed(name, value, width):

@@ -13,6 +13,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
+from .. import _cdsm
 from ..inputs import CdsmInputError, as_batch, as_count, as_finite
 from ..progress import Progress
 from ..robot import Robot
@@ -26,8 +27,8 @@ __all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation", "load_r
 #: Standard gravity, m/s^2.
 STANDARD_GRAVITY = 9.80665
 #: The typical friction coefficient of a cable in a hole (oiled or greased steel
-#: on metal; ``docs/model.md``, "Friction in the holes").
-FRICTION = 0.15
+#: on metal; ``docs/model.md``, "Friction in the holes"): the core's.
+FRICTION: float = _cdsm.FRICTION_TYPICAL
 #: The amplitude of the cable cycle of the hysteresis map, m.
 CYCLE_AMPLITUDE = 1e-3
 #: The hysteresis cycles of a friction map run at evenly spread
@@ -240,8 +241,7 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
 
     th, _ = as_batch("theta", theta, robot.n, finite=False)  # rows with NaN are left NaN
     mu = as_finite("mu", mu)
-    if not 0.0 <= mu <= 1.0:
-        raise CdsmInputError(f"`mu`: the friction coefficient must be within [0, 1], got {mu}")
+    _cdsm.check_friction("mu", mu)
     amplitude = _amplitude(amplitude)
     min_tension = as_finite("min_tension", min_tension)
     cycle_work = as_count("cycle_work", cycle_work, 1)
