@@ -5,6 +5,7 @@
 //! throughput in solves (elements) per second.
 
 use cdsm::cables::CableGeometry;
+use cdsm::planar;
 use cdsm::simd;
 use cdsm::solve::solve_cables_closed_form;
 use cdsm::Robot;
@@ -106,7 +107,7 @@ fn main() {
     // sanity: the two paths agree on this workload
     let (mut th2, mut res2, mut ok2) = (theta.clone(), residual.clone(), ok.clone());
     scalar_loop(&geom, &target, &seed, &mut theta, &mut residual, &mut ok);
-    simd::solve_cables_closed_form_batch(&geom, &target, &seed, &mut th2, &mut res2, &mut ok2);
+    planar::solve_cables_closed_form_batch(&geom, &target, &seed, &mut th2, &mut res2, &mut ok2);
     assert_eq!(ok, ok2);
     let dmax = theta
         .iter()
@@ -137,7 +138,7 @@ fn main() {
         "closed_form_anchor_workload/simd_batch",
         rows as u64,
         || {
-            simd::solve_cables_closed_form_batch(
+            planar::solve_cables_closed_form_batch(
                 &geom,
                 black_box(&target),
                 black_box(&seed),
@@ -151,7 +152,7 @@ fn main() {
         "closed_form_anchor_workload/simd_batch_forced_scalar_fallback",
         rows as u64,
         || {
-            simd::solve_cables_closed_form_batch_in(
+            planar::solve_cables_closed_form_batch_in(
                 pulp::Arch::Scalar,
                 &geom,
                 black_box(&target),

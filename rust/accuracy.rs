@@ -2,15 +2,15 @@
 //! length errors and hole-location errors, one scenario at a time or as a
 //! Monte-Carlo study reduced to per-configuration statistics.
 
-use crate::batch::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
 use crate::chain::Chain;
 use crate::error::{CdsmError, Result};
 use crate::kinds::Se2;
 use crate::kinematics::fk;
 use crate::model::Model;
+use crate::planar::cable_lanes::{closed_form_block, ClosedFormBlock, BLOCK_ROWS};
 use crate::robot::Robot;
-use crate::simd::cables::{closed_form_block, ClosedFormBlock, BLOCK_ROWS};
+use crate::rows::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::simd::math::atan2_slice;
 use crate::solve::{cs_difference, CableMethod, CableSolver, SolveOptions};
 use crate::tension::{Balance, Wrench};
@@ -67,7 +67,7 @@ pub fn deviation(
             let st = solver.solve(&perturbed, &target, &mut th);
             let (p0, p) = (fk(robot, t0), solver.pose(&th));
             ds.extend((0..3).map(|k| if st.converged { p[k] - p0[k] } else { f64::NAN }));
-            sol.push(robot, &th, st);
+            sol.push_row(&th, st, robot.limits().contains(&th));
         }
         (ds, sol)
     });

@@ -6,17 +6,20 @@
 //! the only ones of a spatial arm. SI units; arrays row-major.
 
 use crate::accuracy::McStats;
-use crate::batch::{self, rows_exactly, rows_of, seeds, split_rows, BatchSolution};
+use crate::batch;
 use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
 use crate::friction::{Holes, Profile, Sliding};
 use crate::ik::{IkMethod, SpatialIk, SpatialMask, TaskMask};
-use crate::kinds::{log_so3, Frame, Kind, Planar, Se3, Spatial, Vector};
+use crate::kinds::{log_so3, Frame, Group, Se3, Spatial, Vector, Visit};
 use crate::lm::Reason;
-use crate::model::{self, Model};
+use crate::model::Model;
 use crate::qp::min_norm_active;
+use crate::real::pack::Pack;
 use crate::real::Lane;
-use crate::simd::pack::Pack;
+use crate::rows::{
+    row_of, rows_exactly, rows_of, seeds, shared_or_rows, split_rows, BatchSolution,
+};
 use crate::solve::{CableMethod, CableNewton, CableSolve, SolveOptions};
 use crate::tension::{Balance, Wrench};
 use pulp::{Simd, WithSimd};
@@ -25,12 +28,12 @@ use std::ops::Range;
 
 /// A row-wise map over `theta (N, n)` producing `width` values per row from
 /// the chain of the configuration (after [`Chain::at`] and [`Chain::world`]).
-fn map_chain<K: Kind>(
+fn map_chain<G: Group>(
     model: &Model,
     theta: &[f64],
     width: usize,
     threads: usize,
-    f: impl Fn(&mut Chain<f64, K::Frame<f64>>, &mut [f64]) + Sync,
+    f: impl Fn(&mut Chain<f64, G::Frame<f64>>, &mut [f64]) + Sync,
 ) -> Result<Vec<f64>> {
     let n = model.n();
     let rows = rows_of("theta", theta, n)?;
@@ -126,20 +129,13 @@ pub fn cable_jacobian(model: &Model, theta: &[f64], threads: usize) -> Result<Ve
     }
 }
 
-/// Whether every angle lies within its joint's limits.
-pub fn within_limits_of(model: &Model, theta: &[f64]) -> bool {
-    theta
-        .iter()
-        .zip(&model.joints)
-        .all(|(t, j)| *t >= j.limits[0] && *t <= j.limits[1])
-}
-
 /// Joint-limit checks `(N,)`.
 pub fn within_limits(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<bool>> {
     let n = model.n();
     let rows = rows_of("theta", theta, n)?;
+    let limits = model.limits();
     Ok(split_rows(rows, threads, |r| {
-        r.map(|i| within_limits_of(model, &theta[i * n..(i + 1) * n]))
+        r.map(|i| limits.contains(&theta[i * n..(i + 1) * n]))
             .collect::<Vec<bool>>()
     })
     .concat())
@@ -212,7 +208,7 @@ type P = Pack<PACK>;
 /// through the Newton phase on lanes ([`CableNewton`], compiled for the
 /// machine's instruction set by `pulp`'s dispatch), the rows that leave it
 /// through [`CableSolve`] from their seeds.
-pub fn solve_cables_general<K: Kind>(
+pub fn solve_cables_general<G: Group>(
     model: &Model,
     lengths: &[f64],
     seed: Option<&[f64]>,
@@ -222,12 +218,12 @@ pub fn solve_cables_general<K: Kind>(
     let (n, m) = (model.n(), model.position_cables().len());
     let rows = rows_of("lengths", lengths, m)?;
     let seed = seeds(seed, rows, n)?;
-    batch::check_options(opts)?;
+    opts.check()?;
     let mut traverse = Vec::new();
     Broadcast::traversals(model, model, &model.position_cables(), &mut traverse);
     let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
-        arch.dispatch(SolveRows::<K> {
+        arch.dispatch(SolveRows::<G> {
             model,
             traverse: &traverse,
             lengths,
@@ -241,17 +237,17 @@ pub fn solve_cables_general<K: Kind>(
 }
 
 /// The rows `rows` of [`solve_cables_general`], in packs.
-struct SolveRows<'a, K> {
+struct SolveRows<'a, G> {
     model: &'a Model,
     traverse: &'a [f64],
     lengths: &'a [f64],
     seed: Option<&'a [f64]>,
     opts: &'a SolveOptions,
     rows: Range<usize>,
-    kind: PhantomData<K>,
+    kind: PhantomData<G>,
 }
 
-impl<K: Kind> WithSimd for SolveRows<'_, K> {
+impl<G: Group> WithSimd for SolveRows<'_, G> {
     type Output = BatchSolution;
 
     #[inline(always)]
@@ -268,9 +264,10 @@ impl<K: Kind> WithSimd for SolveRows<'_, K> {
         let (n, m) = (model.n(), model.position_cables().len());
         let arm = Broadcast::new(model, traverse);
         let mut out = BatchSolution::with_capacity(rows.len(), n);
-        let mut lanes = CableNewton::<P, K::Frame<P>>::new(model, *opts);
-        let mut solver = CableSolve::<K::Frame<f64>>::new(model, *opts);
+        let mut lanes = CableNewton::<P, G::Frame<P>>::new(model, *opts);
+        let mut solver = CableSolve::<G::Frame<f64>>::new(model, *opts);
         let mut th = vec![0.0; n];
+        let limits = model.limits();
         let seed_of = |i: usize, k: usize| seed.map_or(0.0, |s| s[i * n + k]);
         for start in rows.clone().step_by(PACK) {
             let count = PACK.min(rows.end - start);
@@ -301,7 +298,7 @@ impl<K: Kind> WithSimd for SolveRows<'_, K> {
                         solver.solve(model, model, &lengths[i * m..(i + 1) * m], &mut th)
                     }
                 };
-                out.push_row(&th, st, within_limits_of(model, &th));
+                out.push_row(&th, st, limits.contains(&th));
             }
         }
         out
@@ -344,11 +341,12 @@ pub fn ik(
             let n = model.n();
             let rows = rows_of("target", target, 6)?;
             let seed = seeds(seed, rows, n)?;
-            batch::check_options(opts)?;
+            opts.check()?;
             let parts = split_rows(rows, threads, |r| {
                 let mut out = BatchSolution::with_capacity(r.len(), n);
                 let mut solver = SpatialIk::new(model, mask, *opts);
                 let mut th = vec![0.0; n];
+                let limits = model.limits();
                 for i in r {
                     match seed {
                         Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
@@ -356,7 +354,7 @@ pub fn ik(
                     }
                     let t: [f64; 6] = std::array::from_fn(|k| target[i * 6 + k]);
                     let st = solver.solve(&t, &mut th);
-                    out.push_row(&th, st, within_limits_of(model, &th));
+                    out.push_row(&th, st, limits.contains(&th));
                 }
                 out
             });
@@ -375,61 +373,17 @@ pub struct Loads<'a> {
     pub wrench: Option<&'a [f64]>,
 }
 
-/// Per-row or shared values of a batch: `(width,)` or `(rows, width)`.
-fn shared_or_rows<'a>(
-    name: &str,
-    v: Option<&'a [f64]>,
-    width: usize,
-    rows: usize,
-) -> Result<Option<(&'a [f64], bool)>> {
-    let Some(v) = v else {
-        return Ok(None);
-    };
-    crate::error::check_finite(name, v)?;
-    if v.len() == width {
-        Ok(Some((v, false)))
-    } else if v.len() == rows * width {
-        Ok(Some((v, true)))
-    } else {
-        Err(CdsmError::Shape {
-            name: name.into(),
-            expected: format!("({width},) or ({rows}, {width})"),
-            got: format!("{} values", v.len()),
-        })
-    }
-}
-
-fn row_of(v: Option<(&[f64], bool)>, width: usize, i: usize) -> Option<&[f64]> {
-    v.map(|(v, per_row)| {
-        if per_row {
-            &v[i * width..(i + 1) * width]
-        } else {
-            v
-        }
-    })
-}
-
 /// The position-cable tensions at a batch of configurations `(N, m_pos)`
 /// (N) and whether they hold the arm with every tension above `floor` (N)
 /// `(N,)`, under `loads`. As many position cables as joints: the balance
 /// has one solution, returned even where a cable would have to push (then
 /// not feasible; NaN where it is singular), feasible when every tension is
 /// strictly above the floor. More: the minimum-norm set at or above the
-/// floor (`crate::qp`), NaN rows where none exists.
+/// floor (`crate::qp`), NaN rows where none exists. With `sliding`, friction
+/// in the holes in a bounding sliding state (`docs/model.md`, "Friction in
+/// the holes"; `None`: frictionless): the tensions are then the routing's (at
+/// the actuators).
 pub fn tensions(
-    model: &Model,
-    theta: &[f64],
-    loads: &Loads,
-    floor: f64,
-    threads: usize,
-) -> Result<(Vec<f64>, Vec<bool>)> {
-    tensions_sliding(model, theta, loads, floor, None, threads)
-}
-
-/// [`tensions`] with friction in the holes in a bounding sliding state
-/// (`docs/model.md`, "Friction in the holes"; `None`: frictionless): the
-/// tensions are the routing's (at the actuators).
-pub fn tensions_sliding(
     model: &Model,
     theta: &[f64],
     loads: &Loads,
@@ -440,13 +394,42 @@ pub fn tensions_sliding(
     if let Some(s) = sliding {
         s.check()?;
     }
-    match model.kind {
-        model::Kind::Planar => tensions_k::<Planar>(model, theta, loads, floor, sliding, threads),
-        model::Kind::Spatial => tensions_k::<Spatial>(model, theta, loads, floor, sliding, threads),
+    model.kind.visit(Tensions {
+        model,
+        theta,
+        loads,
+        floor,
+        sliding,
+        threads,
+    })
+}
+
+/// [`tensions`] over the model's motion group.
+struct Tensions<'a> {
+    model: &'a Model,
+    theta: &'a [f64],
+    loads: &'a Loads<'a>,
+    floor: f64,
+    sliding: Option<Sliding>,
+    threads: usize,
+}
+
+impl Visit for Tensions<'_> {
+    type Out = Result<(Vec<f64>, Vec<bool>)>;
+    fn visit<G: Group>(self) -> Self::Out {
+        let Tensions {
+            model,
+            theta,
+            loads,
+            floor,
+            sliding,
+            threads,
+        } = self;
+        tensions_k::<G>(model, theta, loads, floor, sliding, threads)
     }
 }
 
-fn tensions_k<K: Kind>(
+fn tensions_k<G: Group>(
     model: &Model,
     theta: &[f64],
     loads: &Loads,
@@ -472,7 +455,7 @@ fn tensions_k<K: Kind>(
     let g = loads.gravity.unwrap_or(model.gravity);
     let m = model.position_cables().len();
     let parts = split_rows(rows, threads, |r| {
-        let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
+        let mut chain = Chain::<f64, G::Frame<f64>>::new(model);
         let mut bal = Balance::<f64>::new(model);
         let mut t = vec![0.0; m];
         let mut out = (Vec::with_capacity(r.len() * m), Vec::with_capacity(r.len()));
@@ -571,7 +554,7 @@ pub fn monte_carlo(
     let m = model.position_cables().len();
     let rows = rows_of("theta0", theta0, n)?;
     let samples = crate::accuracy::check_samples(rows_of("dl", dl, m)?)?;
-    batch::check_options(opts)?;
+    opts.check()?;
     let nominal_holes = model.flat_holes();
     let h = nominal_holes.len();
     let models: Vec<Model> = match dholes {

@@ -1,186 +1,19 @@
-//! Batched, multi-threaded drivers over rows of configurations. Threads are
-//! `std::thread::scope` workers over contiguous row ranges (no rayon).
+//! The planar arm's batch drivers (its fast paths): forward kinematics
+//! and its Jacobian by angle addition, cable lengths and Jacobians from the
+//! segment coefficients, the pose IK (closed form across SIMD lanes, or
+//! damped least squares) and the cable solve (closed form across SIMD
+//! lanes, then Newton), each over rows in threads ([`crate::rows`]).
 
 use crate::cables::CableGeometry;
-use crate::error::{check_finite, check_rows, CdsmError, Result};
+use crate::error::{check_finite, CdsmError, Result};
 use crate::ik::{check_closed_form, ik_closed_form, IkMethod, IkSolver, TaskMask};
 use crate::kinematics;
 use crate::lm::Reason;
+use crate::planar::cable_lanes::solve_cables_closed_form_batch_in;
+use crate::planar::ik_lanes::ik_closed_form_batch;
 use crate::robot::Robot;
-use crate::simd::cables::solve_cables_closed_form_batch_in;
-use crate::simd::ik::ik_closed_form_batch;
+use crate::rows::{map_rows, rows_of, seeds, split_rows, BatchSolution};
 use crate::solve::{self, CableMethod, SolveOptions, Status};
-use std::ops::Range;
-
-/// Number of worker threads: `0` means all available cores.
-pub fn resolve_threads(threads: usize) -> usize {
-    if threads > 0 {
-        threads
-    } else {
-        std::thread::available_parallelism().map_or(1, |n| n.get())
-    }
-}
-
-/// Runs `work` on contiguous ranges of `0..rows` in up to `threads` scoped
-/// threads and returns the per-range results in row order. A range whose
-/// thread the system cannot start (too many threads) is worked by the
-/// calling thread: the result does not depend on how many start.
-pub fn split_rows<T: Send>(
-    rows: usize,
-    threads: usize,
-    work: impl Fn(Range<usize>) -> T + Sync,
-) -> Vec<T> {
-    let threads = resolve_threads(threads).min(rows.max(1));
-    if threads <= 1 {
-        return vec![work(0..rows)];
-    }
-    let per = rows.div_ceil(threads);
-    std::thread::scope(|s| {
-        let w = &work;
-        let started: Vec<_> = (0..threads)
-            .map(|t| {
-                let r = (t * per).min(rows)..((t + 1) * per).min(rows);
-                std::thread::Builder::new()
-                    .spawn_scoped(s, {
-                        let r = r.clone();
-                        move || w(r)
-                    })
-                    .map_err(|_| r)
-            })
-            .collect();
-        started
-            .into_iter()
-            .map(|h| match h {
-                Ok(h) => h.join().expect("worker thread panicked"),
-                Err(r) => w(r),
-            })
-            .collect()
-    })
-}
-
-/// Per-row `f64` map: `f(row_index, out_row)` fills `width` outputs per row.
-pub fn map_rows(
-    rows: usize,
-    width: usize,
-    threads: usize,
-    f: impl Fn(usize, &mut [f64]) + Sync,
-) -> Vec<f64> {
-    split_rows(rows, threads, |r| {
-        let mut out = vec![0.0; r.len() * width];
-        for (j, i) in r.enumerate() {
-            f(i, &mut out[j * width..(j + 1) * width]);
-        }
-        out
-    })
-    .concat()
-}
-
-/// Results of a batch of solves, one entry per row. Every batch solve of the
-/// crate (cable solves, pose IK, deviations, elastic solves) assembles its
-/// rows with [`BatchSolution::push`] and joins its threads' parts with
-/// [`BatchSolution::extend`].
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct BatchSolution {
-    /// `(N, n)` row-major joint angles (rad).
-    pub theta: Vec<f64>,
-    pub converged: Vec<bool>,
-    pub iterations: Vec<u32>,
-    /// max |residual| per row (m, or rad for phi).
-    pub residual: Vec<f64>,
-    /// All angles within the joint limits.
-    pub within_limits: Vec<bool>,
-    /// Why each solve ended ([`crate::lm::Reason`] as `u8`).
-    pub reason: Vec<u8>,
-}
-
-impl BatchSolution {
-    pub(crate) fn with_capacity(rows: usize, n: usize) -> Self {
-        BatchSolution {
-            theta: Vec::with_capacity(rows * n),
-            converged: Vec::with_capacity(rows),
-            iterations: Vec::with_capacity(rows),
-            residual: Vec::with_capacity(rows),
-            within_limits: Vec::with_capacity(rows),
-            reason: Vec::with_capacity(rows),
-        }
-    }
-
-    /// Appends one row: the angles and the status of their solve.
-    pub(crate) fn push(&mut self, robot: &Robot, theta: &[f64], st: Status) {
-        self.push_row(theta, st, kinematics::within_limits(robot, theta));
-    }
-
-    /// Appends one row whose joint-limit flag is known.
-    pub(crate) fn push_row(&mut self, theta: &[f64], st: Status, within_limits: bool) {
-        self.theta.extend_from_slice(theta);
-        self.push_status(st, within_limits);
-    }
-
-    /// Appends the status of a row whose angles are already in `theta`.
-    pub(crate) fn push_status(&mut self, st: Status, within_limits: bool) {
-        self.converged.push(st.converged);
-        self.iterations.push(st.iterations);
-        self.residual.push(st.residual);
-        self.within_limits.push(within_limits);
-        self.reason.push(st.reason as u8);
-    }
-
-    /// Appends the rows of `other` after those of `self`.
-    pub(crate) fn extend(&mut self, other: BatchSolution) {
-        self.theta.extend(other.theta);
-        self.converged.extend(other.converged);
-        self.iterations.extend(other.iterations);
-        self.residual.extend(other.residual);
-        self.within_limits.extend(other.within_limits);
-        self.reason.extend(other.reason);
-    }
-
-    /// The parts' rows in order (one part is moved, not copied).
-    pub(crate) fn concat(parts: Vec<BatchSolution>) -> Self {
-        let mut parts = parts.into_iter();
-        let mut out = parts.next().unwrap_or_default();
-        for p in parts {
-            out.extend(p);
-        }
-        out
-    }
-}
-
-/// Validates a flat `(N, width)` batch; returns `N`.
-pub fn rows_of(name: &str, values: &[f64], width: usize) -> Result<usize> {
-    let rows = check_rows(name, values, width)?;
-    check_finite(name, values).map_err(|e| match e {
-        CdsmError::NonFinite { name, index, value } => CdsmError::NonFiniteAt {
-            name,
-            row: index / width,
-            column: index % width,
-            value,
-        },
-        e => e,
-    })?;
-    Ok(rows)
-}
-
-/// Validates a flat `(rows, width)` batch that must have exactly `rows` rows.
-pub fn rows_exactly(name: &str, values: &[f64], width: usize, rows: usize) -> Result<()> {
-    let got = rows_of(name, values, width)?;
-    if got != rows {
-        return Err(CdsmError::Shape {
-            name: name.into(),
-            expected: format!("({rows}, {width})"),
-            got: format!("({got}, {width})"),
-        });
-    }
-    Ok(())
-}
-
-/// Seeds: `None` gives zeros, otherwise `(N, n)` checked against `rows`.
-pub fn seeds(seed: Option<&[f64]>, rows: usize, n: usize) -> Result<Option<&[f64]>> {
-    if let Some(s) = seed {
-        rows_exactly("seed", s, n, rows)?;
-    }
-    Ok(seed)
-}
 
 /// Batched forward kinematics: `(N, n)` -> `(N, 3)`.
 pub fn fk(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
@@ -189,17 +22,6 @@ pub fn fk(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
     Ok(map_rows(rows, 3, threads, |i, out| {
         out.copy_from_slice(&kinematics::fk(robot, &theta[i * n..(i + 1) * n]));
     }))
-}
-
-/// Batched joint-limit check: `(N, n)` -> `(N,)`.
-pub fn within_limits(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<bool>> {
-    let n = robot.n();
-    let rows = rows_of("theta", theta, n)?;
-    Ok(split_rows(rows, threads, |r| {
-        r.map(|i| kinematics::within_limits(robot, &theta[i * n..(i + 1) * n]))
-            .collect::<Vec<bool>>()
-    })
-    .concat())
 }
 
 /// Batched pose Jacobian: `(N, n)` -> `(N, 3, n)`.
@@ -251,7 +73,7 @@ pub fn ik(
     let n = robot.n();
     let rows = rows_of("pose", pose, 3)?;
     let seed = seeds(seed, rows, n)?;
-    check_options(opts)?;
+    opts.check()?;
     check_finite("mask", &mask.weights)?;
     if mask.weights.iter().all(|w| *w == 0.0) || mask.weights.iter().any(|w| *w < 0.0) {
         return Err(CdsmError::Option {
@@ -282,7 +104,7 @@ pub fn ik(
                 IkMethod::Lm => solver.solve(&p, &mut th),
                 IkMethod::ClosedForm => ik_closed_form(robot, &p, &mut th, opts),
             };
-            out.push(robot, &th, st);
+            out.push_row(&th, st, robot.limits().contains(&th));
         }
         out
     });
@@ -344,7 +166,7 @@ fn ik_closed_form_rows(
                 let p = [pose[3 * i], pose[3 * i + 1], pose[3 * i + 2]];
                 ik_closed_form(robot, &p, th, opts)
             };
-            out.push(robot, th, st);
+            out.push_row(th, st, robot.limits().contains(th));
         }
         out
     });
@@ -363,7 +185,7 @@ pub fn solve_cables(
     let n = robot.n();
     let rows = rows_of("upper", upper, n)?;
     let seed = seeds(seed, rows, n)?;
-    check_options(opts)?;
+    opts.check()?;
     let g = CableGeometry::new(robot, None);
     let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
@@ -385,7 +207,7 @@ pub fn solve_cables(
             for i in 0..m {
                 let th = &mut out.theta[i * n..(i + 1) * n];
                 let st = solver.solve(&g, &upper[i * n..(i + 1) * n], th);
-                let within = kinematics::within_limits(robot, th);
+                let within = robot.limits().contains(th);
                 out.push_status(st, within);
             }
             return out;
@@ -413,7 +235,7 @@ pub fn solve_cables(
         for i in 0..m {
             let rows_i = i * n..(i + 1) * n;
             let th = &mut theta[rows_i.clone()];
-            let within = kinematics::within_limits(robot, th);
+            let within = robot.limits().contains(th);
             if ok[i] && solver.accepts(residual[i], within) {
                 (converged[i], within_limits[i]) = (true, within);
                 continue;
@@ -423,7 +245,7 @@ pub fn solve_cables(
             converged[i] = st.converged;
             iterations[i] = st.iterations;
             residual[i] = st.residual;
-            within_limits[i] = kinematics::within_limits(robot, th);
+            within_limits[i] = robot.limits().contains(th);
             reason[i] = st.reason as u8;
         }
         BatchSolution {
@@ -436,21 +258,4 @@ pub fn solve_cables(
         }
     });
     Ok(BatchSolution::concat(parts))
-}
-
-/// Rejects solver options outside their domain.
-pub fn check_options(opts: &SolveOptions) -> Result<()> {
-    if !(opts.tol.is_finite() && opts.tol > 0.0) {
-        return Err(CdsmError::Option {
-            name: "tol".into(),
-            problem: format!("must be positive and finite, got {}", opts.tol),
-        });
-    }
-    if opts.max_iter == 0 {
-        return Err(CdsmError::Option {
-            name: "max_iter".into(),
-            problem: "must be at least 1".into(),
-        });
-    }
-    Ok(())
 }

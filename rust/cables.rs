@@ -169,6 +169,7 @@ impl CableGeometry {
     /// Both angles of joint `k` that give segment `k` of cable `c` the length
     /// `s` (m): `atan2(R, Q) ± acos((s² − P) / hypot(Q, R))`. `None` when no
     /// angle does (the paper's "one-to-many" has two branches or none).
+    #[cfg(test)]
     pub fn joint_branches(&self, c: usize, k: usize, s: f64) -> Option<[f64; 2]> {
         let b = self.joint_solution(c, k, s)?;
         Some([b.angle(1.0), b.angle(-1.0)])
@@ -224,7 +225,7 @@ impl Branches {
     }
 
     /// Angle of the branch `mid + sign · half` (rad).
-    #[inline]
+    #[cfg(test)]
     pub fn angle(&self, sign: f64) -> f64 {
         self.mid + sign * self.cos_half.acos()
     }

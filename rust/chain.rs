@@ -21,7 +21,7 @@
 //! and axis in that frame). The traversal of disk `k` is the constant
 //! `|thickness_k e_x + b_k - a_k|`.
 
-use crate::kinds::{Frame, Vector};
+use crate::kinds::{Frame, Se3, Vector};
 use crate::model::Model;
 use crate::real::Arith;
 
@@ -518,10 +518,20 @@ impl<S: Arith, F: Frame<S>> Chain<S, F> {
     }
 }
 
+/// Length of the straight arm along its chain (m): the distance of the
+/// end frame's origin from the base at `theta = 0`.
+pub fn straight_length(model: &Model) -> f64 {
+    let mut chain = Chain::<f64, Se3<f64>>::new(model);
+    chain.at(model, model, &vec![0.0; model.n()]);
+    chain.world(model, model);
+    let p = chain.end().origin();
+    (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinds::{Se2, Se3};
+    use crate::kinds::Se2;
     use crate::real::Dual;
     use crate::robot::Robot;
 

@@ -16,13 +16,13 @@
 //! friction"), so a target approached from the other side gets other
 //! commands.
 
-use crate::batch::{rows_exactly, split_rows};
 use crate::chain::Chain;
 use crate::error::{CdsmError, Result};
-use crate::kinds::{Frame, Kind, Planar, Spatial};
+use crate::kinds::{Frame, Group, Visit};
 use crate::lm::{self, Lm, Problem, Step, Workspace};
-use crate::model::{self, Model};
+use crate::model::Model;
 use crate::plant::{position_lengths, Plant, SettleWork};
+use crate::rows::{rows_exactly, split_rows};
 use crate::solve::SolveOptions;
 
 /// Appends the command that makes the screws deliver `delivered` (m) from
@@ -70,10 +70,10 @@ pub struct Compensation {
 
 /// One target as a problem of the shared solver; the unknowns are the
 /// delivered lengths.
-struct Target<'a, K: Kind> {
-    plant: &'a Plant<'a, K>,
-    work: SettleWork<'a, K>,
-    chain: Chain<f64, K::Frame<f64>>,
+struct Target<'a, G: Group> {
+    plant: &'a Plant<'a, G>,
+    work: SettleWork<'a, G>,
+    chain: Chain<f64, G::Frame<f64>>,
     target: &'a [f64],
     weights: &'a [f64],
     active: &'a [usize],
@@ -84,7 +84,7 @@ struct Target<'a, K: Kind> {
     dseen: Vec<f64>,
 }
 
-impl<K: Kind> Target<'_, K> {
+impl<G: Group> Target<'_, G> {
     fn settle(&mut self, r: &[f64]) -> bool {
         self.plant.actuate(r, &mut self.real);
         self.theta.copy_from_slice(self.seed);
@@ -93,7 +93,7 @@ impl<K: Kind> Target<'_, K> {
     }
 }
 
-impl<K: Kind> Problem for Target<'_, K> {
+impl<G: Group> Problem for Target<'_, G> {
     fn dims(&self) -> (usize, usize) {
         (self.active.len(), self.real.len())
     }
@@ -149,9 +149,19 @@ pub fn compensate(
     let args = (
         p, theta_cmd, targets, weights, start, opts, tol, max_iter, threads,
     );
-    match model.kind {
-        model::Kind::Planar => compensate_k::<Planar>(model, args),
-        model::Kind::Spatial => compensate_k::<Spatial>(model, args),
+    model.kind.visit(Compensate { model, args })
+}
+
+/// [`compensate`] over the model's motion group.
+struct Compensate<'a> {
+    model: &'a Model,
+    args: Args<'a>,
+}
+
+impl Visit for Compensate<'_> {
+    type Out = Result<Compensation>;
+    fn visit<G: Group>(self) -> Self::Out {
+        compensate_k::<G>(self.model, self.args)
     }
 }
 
@@ -167,11 +177,11 @@ type Args<'a> = (
     usize,
 );
 
-fn compensate_k<K: Kind>(model: &Model, args: Args) -> Result<Compensation> {
+fn compensate_k<G: Group>(model: &Model, args: Args) -> Result<Compensation> {
     let (p, theta_cmd, targets, weights, start, opts, tol, max_iter, threads) = args;
     let n = model.n();
-    let task = <K::Frame<f64> as Frame<f64>>::TASK;
-    let rows = crate::batch::rows_of("targets", targets, task)?;
+    let task = <G::Frame<f64> as Frame<f64>>::TASK;
+    let rows = crate::rows::rows_of("targets", targets, task)?;
     rows_exactly("theta_cmd", theta_cmd, n, rows)?;
     crate::error::check_finite("weights", weights)?;
     if weights.len() != task {
@@ -194,7 +204,7 @@ fn compensate_k<K: Kind>(model: &Model, args: Args) -> Result<Compensation> {
             problem: format!("must be positive and finite, got {tol}"),
         });
     }
-    let plant = Plant::<K>::new(model, p)?;
+    let plant = Plant::<G>::new(model, p)?;
     let m = plant.reference_lengths().len();
     if let Some(s) = start {
         rows_exactly("start", s, m, 1)?;

@@ -26,11 +26,11 @@
 //! capped transition: the side the flags say). SI units: m, rad, N, N m,
 //! N/m, N m/rad, J.
 
-use crate::batch::split_rows;
 use crate::chain::{Chain, Numbers};
 use crate::error::{check_finite, CdsmError, Result};
-use crate::kinds::{cross, Frame, Se3};
-use crate::model::{Kind, Mode, Model};
+use crate::kinds::{cross, Frame, Kind, Se3};
+use crate::model::{Mode, Model};
+use crate::rows::split_rows;
 use crate::solve::{CableMethod, SolveOptions};
 use faer::linalg::solvers::Solve;
 use faer::Mat;

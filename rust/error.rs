@@ -1,4 +1,5 @@
-//! Errors of the core. No Python here: `python.rs` maps them to exceptions.
+//! Errors of the core. No Python here: the binding (`python/convert.rs`)
+//! maps them to exceptions.
 
 use thiserror::Error;
 

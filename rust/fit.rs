@@ -12,10 +12,20 @@
 //! times the angle); components not measured are NaN in `measured` and left
 //! out.
 
-use crate::batch::split_rows;
 use crate::error::{CdsmError, Result};
 use crate::lm::{self, Damping, Lm, Problem, Step, Workspace};
-use crate::plant::Predictions;
+use crate::rows::split_rows;
+
+/// Predictions of `K` plants for one data set: observations `(K, N, TASK)`
+/// (NaN for unmeasured rows and rows that did not settle), converged
+/// `(K, N)`, and the configuration each row's last command settles at
+/// `(K, N, n)` (rad).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Predictions {
+    pub observation: Vec<f64>,
+    pub converged: Vec<bool>,
+    pub theta: Vec<f64>,
+}
 
 /// A plant the diagnosis can fit: predictions of a data set's rows for a
 /// flat parameter vector, and their derivatives with respect to some of the

@@ -17,11 +17,31 @@ use faer::Mat;
 
 use crate::chain::{Chain, Numbers};
 use crate::error::{CdsmError, Result};
-use crate::kinds::{cross, Frame, Kind, Vector};
+use crate::kinds::{cross, Frame, Group, Vector};
 use crate::model::{Mode, Model};
-use crate::plant::MAX_FRICTION;
 use crate::real::Real;
 use crate::tension::{Balance, Wrench};
+
+/// The largest friction coefficient of the physical domain (1; a fit at it
+/// says friction alone does not explain the data).
+pub const MU_MAX: f64 = 1.0;
+
+/// The typical friction coefficient of a cable in a hole (1; oiled or greased
+/// steel on metal, `docs/model.md`, "Friction in the holes"): the default of
+/// the friction studies and the typical size of the plant's `cable_friction`.
+pub const MU_TYPICAL: f64 = 0.15;
+
+/// An error naming the field `name` unless `0 <= mu <= MU_MAX` (NaN refused):
+/// the one check of the friction coefficient's domain.
+pub fn check_mu(name: &str, mu: f64) -> Result<()> {
+    if !(0.0..=MU_MAX).contains(&mu) {
+        return Err(CdsmError::Option {
+            name: name.into(),
+            problem: format!("the friction coefficient must be within [0, {MU_MAX}], got {mu}"),
+        });
+    }
+    Ok(())
+}
 
 /// Where every cable's holes sit in a flat per-hole vector: cable `c` has
 /// `2 e_c` of them from `start[c]`.
@@ -236,12 +256,12 @@ pub struct Motion {
 
 impl Motion {
     /// The motion through the nominal configurations `configs` (`(R, n)`, rad).
-    pub fn new<K: Kind>(model: &Model, configs: &[f64]) -> Motion {
+    pub fn new<G: Group>(model: &Model, configs: &[f64]) -> Motion {
         let n = model.n();
         let holes = Holes::of(model);
         let h = holes.total;
         let rows = configs.len() / n.max(1);
-        let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
+        let mut chain = Chain::<f64, G::Frame<f64>>::new(model);
         let mut bal = Balance::<f64>::new(model);
         let mut t = vec![0.0; model.cables.len()];
         let mut out = Motion {
@@ -356,18 +376,10 @@ impl Sliding {
         }
     }
 
-    /// An error naming `friction` unless `0 <= mu <= MAX_FRICTION` and the
-    /// mobilisations are within `[-1, 1]`.
+    /// An error naming `friction` unless `0 <= mu <= MU_MAX` ([`check_mu`])
+    /// and the mobilisations are within `[-1, 1]`.
     pub fn check(&self) -> Result<()> {
-        if !(self.mu >= 0.0 && self.mu <= MAX_FRICTION) {
-            return Err(CdsmError::Option {
-                name: "friction".into(),
-                problem: format!(
-                    "the friction coefficient must be within [0, {MAX_FRICTION}], got {}",
-                    self.mu
-                ),
-            });
-        }
+        check_mu("friction", self.mu)?;
         if !(self.position.abs() <= 1.0 && self.force.abs() <= 1.0) {
             return Err(CdsmError::Option {
                 name: "sliding".into(),

@@ -11,11 +11,11 @@
 //! `u = q + (link_after[k], 0)`, so `|v|^2 = P + Q cos(theta_k) + R sin(theta_k)`.
 
 use crate::real::Real;
-use crate::robot::Robot;
+use crate::robot::{hole_index, Robot};
 
 /// Links, disks and holes of an arm in any scalar (m): implemented by the
-/// robot description ([`Robot`], `f64`) and by [`Arm`] (an owned arm, e.g. the
-/// plant's perturbed one in dual numbers). The geometry is written once, in
+/// robot description ([`Robot`], `f64`) and by [`WithHoles`] (its numbers
+/// with other holes). The geometry is written once, in
 /// the provided methods.
 pub trait ArmGeometry<S: Real> {
     /// Number of joints.
@@ -116,12 +116,6 @@ pub trait ArmGeometry<S: Real> {
     }
 }
 
-/// Index of `holes[c, d, f, 0]` in the flat hole array of an `n`-joint arm.
-#[inline]
-pub fn hole_index(n: usize, c: usize, d: usize, f: usize) -> usize {
-    ((c * (n + 1) + d) * 2 + f) * 2
-}
-
 /// Pair (0-based) of cable `c`: cable `c` crosses joints `0..=pair(c)`.
 #[inline]
 pub fn pair(c: usize) -> usize {
@@ -184,53 +178,6 @@ impl ArmGeometry<f64> for WithHoles<'_> {
     }
 }
 
-/// An owned arm in any scalar (m): links, disks and holes (flat
-/// `(2n, n+1, 2, 2)` C-order: cable, disk, face (a, b), (x, y)).
-#[derive(Debug, Clone)]
-pub struct Arm<S> {
-    pub link_before: Vec<S>,
-    pub link_after: Vec<S>,
-    pub thickness: Vec<S>,
-    pub holes: Vec<S>,
-}
-
-impl<S: Real> Arm<S> {
-    /// The arm of `robot`, with other hole positions `holes` (flat, m) if given.
-    pub fn of(robot: &Robot, holes: Option<&[f64]>) -> Arm<S> {
-        let cv = |v: &[f64]| v.iter().map(|x| S::cst(*x)).collect::<Vec<S>>();
-        Arm {
-            link_before: cv(&robot.link_before),
-            link_after: cv(&robot.link_after),
-            thickness: cv(&robot.thickness),
-            holes: cv(holes.unwrap_or(&robot.holes)),
-        }
-    }
-}
-
-impl<S: Real> ArmGeometry<S> for Arm<S> {
-    #[inline]
-    fn n(&self) -> usize {
-        self.link_before.len()
-    }
-    #[inline]
-    fn link_before(&self, k: usize) -> S {
-        self.link_before[k]
-    }
-    #[inline]
-    fn link_after(&self, k: usize) -> S {
-        self.link_after[k]
-    }
-    #[inline]
-    fn thickness(&self, k: usize) -> S {
-        self.thickness[k]
-    }
-    #[inline]
-    fn hole(&self, c: usize, d: usize, f: usize) -> [S; 2] {
-        let i = hole_index(self.link_before.len(), c, d, f);
-        [self.holes[i], self.holes[i + 1]]
-    }
-}
-
 /// The vector through a disk from its face-`a` hole to its face-`b` hole, in
 /// face `a`'s frame: `(thickness + b_x - a_x, (b_y + shift_b) - (a_y + shift_a))`.
 #[inline]
@@ -275,7 +222,7 @@ impl<S: Real> Segment<S> {
     /// Length and its derivative with respect to the joint angle,
     /// `d|v|/dtheta = (Rot u) x v / |v|` (m, m/rad). Minus the derivative is
     /// the moment arm of a unit tension about the joint (statics).
-    #[inline]
+    #[cfg(test)]
     pub fn length_and_derivative(&self, cs: (S, S)) -> (S, S) {
         let r = self.rotated_u(cs);
         let v = [self.w[0] + r[0], self.w[1] + r[1]];
@@ -306,6 +253,53 @@ impl Segment<f64> {
 mod tests {
     use super::*;
     use crate::real::{Arith, Dual};
+
+    /// An owned arm in any scalar (m): links, disks and holes (flat
+    /// `(2n, n+1, 2, 2)` C-order: cable, disk, face (a, b), (x, y)).
+    #[derive(Debug, Clone)]
+    struct Arm<S> {
+        link_before: Vec<S>,
+        link_after: Vec<S>,
+        thickness: Vec<S>,
+        holes: Vec<S>,
+    }
+
+    impl<S: Real> Arm<S> {
+        /// The arm of `robot`, with other hole positions `holes` (flat, m) if given.
+        fn of(robot: &Robot, holes: Option<&[f64]>) -> Arm<S> {
+            let cv = |v: &[f64]| v.iter().map(|x| S::cst(*x)).collect::<Vec<S>>();
+            Arm {
+                link_before: cv(&robot.link_before),
+                link_after: cv(&robot.link_after),
+                thickness: cv(&robot.thickness),
+                holes: cv(holes.unwrap_or(&robot.holes)),
+            }
+        }
+    }
+
+    impl<S: Real> ArmGeometry<S> for Arm<S> {
+        #[inline]
+        fn n(&self) -> usize {
+            self.link_before.len()
+        }
+        #[inline]
+        fn link_before(&self, k: usize) -> S {
+            self.link_before[k]
+        }
+        #[inline]
+        fn link_after(&self, k: usize) -> S {
+            self.link_after[k]
+        }
+        #[inline]
+        fn thickness(&self, k: usize) -> S {
+            self.thickness[k]
+        }
+        #[inline]
+        fn hole(&self, c: usize, d: usize, f: usize) -> [S; 2] {
+            let i = hole_index(self.link_before.len(), c, d, f);
+            [self.holes[i], self.holes[i + 1]]
+        }
+    }
 
     #[test]
     fn pqr_form_equals_the_vector_length() {

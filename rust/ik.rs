@@ -12,11 +12,12 @@ use crate::chain::Chain;
 use crate::error::{CdsmError, Result};
 use crate::geometry::ArmGeometry;
 use crate::kinds::{exp_so3, log_so3, Se3};
-use crate::kinematics::{fk_jacobian, within_limits};
+use crate::kinematics::fk_jacobian;
+use crate::limits::Limits;
 use crate::lm::{self, Lm, Problem, Reason, Step, Workspace};
 use crate::model::Model;
 use crate::robot::Robot;
-use crate::solve::{at_limit, clamp_to_limits, clamp_to_limits_box, SolveOptions, Status};
+use crate::solve::{SolveOptions, Status};
 use std::f64::consts::{PI, TAU};
 
 /// Task-space coordinates of a planar arm: `x`, `y` (m), `phi` (rad).
@@ -35,6 +36,7 @@ impl TaskMask {
         weights: [1.0, 1.0, 1.0],
     };
     /// Position only; the attitude is free.
+    #[cfg(test)]
     pub const POSITION: TaskMask = TaskMask {
         weights: [1.0, 1.0, 0.0],
     };
@@ -64,7 +66,8 @@ struct PoseProblem<'a, const N: usize> {
     active: [usize; PLANAR_TASK],
     m: usize,
     jac: &'a mut [[f64; 3]],
-    enforce_limits: bool,
+    /// The joint-limit box when the limits are enforced.
+    limits: Option<Limits<&'a [[f64; 2]]>>,
 }
 
 impl<const N: usize> Problem for PoseProblem<'_, N> {
@@ -95,13 +98,13 @@ impl<const N: usize> Problem for PoseProblem<'_, N> {
     }
 
     fn project(&self, x: &mut [f64]) {
-        if self.enforce_limits {
-            clamp_to_limits(self.robot, x);
+        if let Some(l) = &self.limits {
+            l.clamp(x);
         }
     }
 
     fn on_bound(&self, x: &[f64]) -> bool {
-        self.enforce_limits && at_limit(self.robot, x)
+        self.limits.as_ref().is_some_and(|l| l.on_bound(x))
     }
 }
 
@@ -141,7 +144,7 @@ impl<'a> IkSolver<'a> {
                 active,
                 m,
                 jac: &mut s.jac,
-                enforce_limits: s.opts.enforce_limits,
+                limits: s.opts.enforce_limits.then(|| s.robot.limits()),
             };
             lm::solve(&mut p, theta, &s.lm, &mut s.ws)
         }
@@ -255,9 +258,10 @@ pub fn ik_closed_form(
     };
     let other = if nearest == plus.0 { minus.0 } else { plus.0 };
     let mut reason = Reason::Converged;
-    let pick = if !opts.enforce_limits || within_limits(robot, &nearest) {
+    let limits = robot.limits();
+    let pick = if !opts.enforce_limits || limits.contains(&nearest) {
         nearest
-    } else if within_limits(robot, &other) {
+    } else if limits.contains(&other) {
         other
     } else {
         reason = Reason::OutsideLimits;
@@ -278,17 +282,17 @@ pub fn ik_closed_form(
     }
 }
 
-/// Pose IK of one target (full pose): `theta` holds the seed on entry and the
-/// answer on exit.
-pub fn ik(robot: &Robot, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions) -> Status {
-    IkSolver::new(robot, TaskMask::POSE, *opts).solve(pose, theta)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::geometry::ArmGeometry;
     use crate::lm::Reason;
+
+    /// Pose IK of one target (full pose): `theta` holds the seed on entry
+    /// and the answer on exit.
+    fn ik(robot: &Robot, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions) -> Status {
+        IkSolver::new(robot, TaskMask::POSE, *opts).solve(pose, theta)
+    }
 
     #[test]
     fn ik_reaches_a_forward_pose() {
@@ -374,7 +378,7 @@ struct SpatialPose<'a> {
     target_r: M3,
     chain: Chain<f64, Se3<f64>>,
     jac: Vec<f64>,
-    limits: Option<Vec<[f64; 2]>>,
+    limits: Option<Limits>,
 }
 
 impl Problem for SpatialPose<'_> {
@@ -434,14 +438,12 @@ impl Problem for SpatialPose<'_> {
 
     fn project(&self, x: &mut [f64]) {
         if let Some(l) = &self.limits {
-            clamp_to_limits_box(l, x);
+            l.clamp(x);
         }
     }
 
     fn on_bound(&self, x: &[f64]) -> bool {
-        self.limits
-            .as_ref()
-            .is_some_and(|l| x.iter().zip(l).any(|(t, b)| *t <= b[0] || *t >= b[1]))
+        self.limits.as_ref().is_some_and(|l| l.on_bound(x))
     }
 }
 
@@ -474,10 +476,7 @@ impl<'a> SpatialIk<'a> {
             target_r: exp_so3([target[3], target[4], target[5]]),
             chain: Chain::new(self.model),
             jac: vec![0.0; 6 * n],
-            limits: self
-                .opts
-                .enforce_limits
-                .then(|| self.model.joints.iter().map(|j| j.limits).collect()),
+            limits: self.opts.enforce_limits.then(|| self.model.limits()),
         };
         let lm = Lm::equations(
             Step::levenberg(self.mask.rows(), n),

@@ -5,7 +5,14 @@
 //! any unit axis). The geometry, statics, plant and fit are written once
 //! over [`Frame`]; the planar kind is the case whose frames carry one angle
 //! and a 2-D origin, so its algorithms cost what the plane costs.
+//!
+//! The kind of a model is data: [`Kind`], whose facts (task axes, position
+//! dimension, attitude form, Monte-Carlo quantities, the plant's parameter
+//! layout) are one static [`KindInfo`] each; [`Kind::visit`] is the one
+//! place that turns it into the motion group as a type ([`Group`]: [`Planar`]
+//! for SE(2), [`Spatial`] for SE(3)).
 
+use crate::effect::{Effect, Size};
 use crate::real::{Arith, Real};
 
 /// A vector of the arm's space: `[S; 2]` in the plane, `[S; 3]` in space.
@@ -629,28 +636,249 @@ impl<S: Arith> Frame<S> for Se3<S> {
     }
 }
 
-/// An arm kind as a type: its frames in any scalar.
-pub trait Kind: Copy + Send + Sync + std::fmt::Debug + 'static {
+/// A motion group as a type: its frames in any scalar ([`Se2`] for planar
+/// arms, [`Se3`] for spatial ones). The algorithms written once over the arm
+/// are generic over it; [`Kind::visit`] picks it from the model's kind.
+pub trait Group: Copy + Send + Sync + std::fmt::Debug + 'static {
     type Frame<S: Arith>: Frame<S>;
 }
 
-/// The planar kind: SE(2) frames.
+/// The planar group: SE(2) frames.
 #[derive(Debug, Clone, Copy)]
 pub struct Planar;
-/// The spatial kind: SE(3) frames.
+/// The spatial group: SE(3) frames.
 #[derive(Debug, Clone, Copy)]
 pub struct Spatial;
 
-impl Kind for Planar {
+impl Group for Planar {
     type Frame<S: Arith> = Se2<S>;
 }
-impl Kind for Spatial {
+impl Group for Spatial {
     type Frame<S: Arith> = Se3<S>;
+}
+
+/// The kind of an arm: which motion group its joints span and which task
+/// space it is measured in. Every fact that differs between the kinds is
+/// data of [`KindInfo`] ([`Kind::info`]); the one place that turns the kind
+/// into a type is [`Kind::visit`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// Parallel joint axes (`z`), a planar chain: task `[x, y, phi]`.
+    Planar,
+    /// Axes anywhere in 3-D: task `[x, y, z, rx, ry, rz]`.
+    Spatial,
+}
+
+/// How a task vector holds the end frame's attitude.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Rotation {
+    /// One angle about `z` (rad).
+    Angle,
+    /// A rotation vector (rad, 3 components).
+    Vector,
+}
+
+impl Rotation {
+    pub fn name(self) -> &'static str {
+        match self {
+            Rotation::Angle => "angle",
+            Rotation::Vector => "vector",
+        }
+    }
+}
+
+/// How the errors of an arm's holes group.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum HoleGrouping {
+    /// One coherent group per disk: every hole of the cables ending there
+    /// moved along its face's `y`, a position cable's by `+dh`, a force
+    /// cable's by `-dh` (a planar arm's hole height, `docs/model.md`).
+    PerEndDisk,
+    /// One group per cable: every coordinate of its holes, each its own error.
+    PerCable,
+}
+
+impl HoleGrouping {
+    pub fn name(self) -> &'static str {
+        match self {
+            HoleGrouping::PerEndDisk => "per_end_disk",
+            HoleGrouping::PerCable => "per_cable",
+        }
+    }
+}
+
+/// The facts of an arm kind, one static table per kind.
+#[derive(Debug)]
+pub struct KindInfo {
+    /// `"planar"` or `"spatial"`.
+    pub name: &'static str,
+    /// Dimension of the arm's space: 2 or 3.
+    pub dim: usize,
+    /// Width of the task vector: 3 (`x, y, phi`) or 6 (`x, y, z, rx, ry, rz`).
+    pub task: usize,
+    /// The task vector's components and their units.
+    pub task_axes: &'static [(&'static str, &'static str)],
+    /// How the task vector holds the attitude (its last `task - dim` components).
+    pub rotation: Rotation,
+    /// The quantities of a Monte-Carlo study, per sample, and their units
+    /// (`crate::accuracy::monte_carlo` for planar arms, `crate::arm::monte_carlo`).
+    pub quantities: &'static [(&'static str, &'static str)],
+    /// How hole errors group ([`crate::model::Structure`]).
+    pub holes: HoleGrouping,
+    /// The plant's parameter blocks in the order of its flat vector
+    /// (`docs/model.md`, "Parameters"): the planar one in the order of
+    /// cdsm 0.1, the spatial one in the order of cdsm 0.2 with the effects
+    /// added since at its end.
+    pub layout: &'static [(Effect, Size)],
+}
+
+static PLANAR: KindInfo = KindInfo {
+    name: "planar",
+    dim: 2,
+    task: 3,
+    task_axes: &[("x", "m"), ("y", "m"), ("phi", "rad")],
+    rotation: Rotation::Angle,
+    quantities: &[("dX", "m"), ("dY", "m"), ("dphi", "rad"), ("dXY", "m")],
+    holes: HoleGrouping::PerEndDisk,
+    layout: &[
+        (Effect::ActuationScale, Size::One),
+        (Effect::CableOffset, Size::PerPositionCable),
+        (Effect::HoleHeight, Size::PerDisk),
+        (Effect::LinkLength, Size::LinkLengths),
+        (Effect::CableElasticity, Size::One),
+        (Effect::HoleClearance, Size::One),
+        (Effect::FrameMisalignment, Size::Instrument),
+        (Effect::TipOffset, Size::Point),
+        (Effect::Backlash, Size::PerPositionCable),
+        (Effect::ClearanceWidth, Size::One),
+        (Effect::CableFriction, Size::One),
+    ],
+};
+
+static SPATIAL: KindInfo = KindInfo {
+    name: "spatial",
+    dim: 3,
+    task: 6,
+    task_axes: &[
+        ("x", "m"),
+        ("y", "m"),
+        ("z", "m"),
+        ("rx", "rad"),
+        ("ry", "rad"),
+        ("rz", "rad"),
+    ],
+    rotation: Rotation::Vector,
+    quantities: &[
+        ("dX", "m"),
+        ("dY", "m"),
+        ("dZ", "m"),
+        ("dXYZ", "m"),
+        ("rot", "rad"),
+    ],
+    holes: HoleGrouping::PerCable,
+    layout: &[
+        (Effect::ActuationScale, Size::One),
+        (Effect::CableOffset, Size::PerPositionCable),
+        (Effect::HolePosition, Size::PerPositionHoleCoord),
+        (Effect::LinkLength, Size::LinkVectors),
+        (Effect::CableElasticity, Size::One),
+        (Effect::FrameMisalignment, Size::Instrument),
+        (Effect::TipOffset, Size::Point),
+        (Effect::Backlash, Size::PerPositionCable),
+        (Effect::HoleClearance, Size::One),
+        (Effect::ClearanceWidth, Size::One),
+        (Effect::JointAxis, Size::PerJointTilt),
+        (Effect::CableFriction, Size::One),
+    ],
+};
+
+/// Something done with the arm's motion group as a type: the body of a
+/// [`Kind::visit`].
+pub trait Visit {
+    type Out;
+    fn visit<G: Group>(self) -> Self::Out;
+}
+
+impl Kind {
+    /// Both kinds.
+    pub const ALL: [Kind; 2] = [Kind::Planar, Kind::Spatial];
+
+    /// The kind's facts.
+    pub fn info(self) -> &'static KindInfo {
+        match self {
+            Kind::Planar => &PLANAR,
+            Kind::Spatial => &SPATIAL,
+        }
+    }
+
+    /// The kind named `name` (`"planar"` or `"spatial"`).
+    pub fn named(name: &str) -> Option<Kind> {
+        Kind::ALL.into_iter().find(|k| k.info().name == name)
+    }
+
+    /// `"planar"` or `"spatial"`.
+    pub fn name(self) -> &'static str {
+        self.info().name
+    }
+
+    /// Dimension of the arm's space: 2 or 3.
+    pub fn dim(self) -> usize {
+        self.info().dim
+    }
+
+    /// Width of the task vector: 3 (`x, y, phi`) or 6 (`x, y, z, rx, ry, rz`).
+    pub fn task(self) -> usize {
+        self.info().task
+    }
+
+    /// `v` over the kind's motion group ([`Se2`] or [`Se3`] frames): the one
+    /// dispatch from the kind as data to the kind as a type.
+    pub fn visit<V: Visit>(self, v: V) -> V::Out {
+        match self {
+            Kind::Planar => v.visit::<Planar>(),
+            Kind::Spatial => v.visit::<Spatial>(),
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The kind's table agrees with its motion group's frames and with the
+    /// Monte-Carlo kernels' widths.
+    #[test]
+    fn kind_facts_agree_with_the_frames_and_kernels() {
+        fn agree<G: Group>(kind: Kind) {
+            let info = kind.info();
+            assert_eq!(info.task, <G::Frame<f64> as Frame<f64>>::TASK);
+            assert_eq!(info.dim, <G::Frame<f64> as Frame<f64>>::DIM);
+            assert_eq!(info.task, <G::Frame<f64> as Frame<f64>>::INSTRUMENT);
+            assert_eq!(info.task_axes.len(), info.task);
+            assert_eq!(Kind::named(info.name), Some(kind));
+        }
+        agree::<Planar>(Kind::Planar);
+        agree::<Spatial>(Kind::Spatial);
+        assert_eq!(
+            Kind::Planar.info().quantities.len(),
+            crate::accuracy::QUANTITIES
+        );
+        assert_eq!(
+            Kind::Spatial.info().quantities.len(),
+            crate::arm::SPATIAL_QUANTITIES
+        );
+        assert_eq!(Kind::named("other"), None);
+        // the one dispatch picks the kind's group
+        struct Task;
+        impl Visit for Task {
+            type Out = usize;
+            fn visit<G: Group>(self) -> usize {
+                <G::Frame<f64> as Frame<f64>>::TASK
+            }
+        }
+        assert_eq!(Kind::Planar.visit(Task), 3);
+        assert_eq!(Kind::Spatial.visit(Task), 6);
+    }
     use crate::real::{Dual, Jet};
 
     fn close3(a: [[f64; 3]; 3], b: [[f64; 3]; 3], tol: f64) -> bool {

@@ -1,5 +1,5 @@
-//! The homogeneous-transform chain of Eq. (1)–(3): joint angles to end pose,
-//! its Jacobian, and the joint-limit check. The chain itself is written once
+//! The homogeneous-transform chain of Eq. (1)–(3): joint angles to end pose
+//! and its Jacobian. The chain itself is written once
 //! in [`crate::geometry::ArmGeometry::fk`].
 
 use crate::geometry::ArmGeometry;
@@ -45,14 +45,6 @@ pub fn fk_jacobian(robot: &Robot, theta: &[f64], jac: &mut [[f64; 3]]) -> [f64; 
         *col = [-(y - jy), x - jx, 1.0];
     }
     [x, y, phi]
-}
-
-/// Whether every angle lies within the robot's joint limits (inclusive).
-pub fn within_limits(robot: &Robot, theta: &[f64]) -> bool {
-    theta
-        .iter()
-        .zip(&robot.joint_limits)
-        .all(|(t, l)| *t >= l[0] && *t <= l[1])
 }
 
 #[cfg(test)]

@@ -1219,7 +1219,7 @@ mod tests {
 
     #[test]
     fn lane_solves_match_faer_lane_by_lane() {
-        use crate::simd::pack::Pack;
+        use crate::real::pack::Pack;
         // four systems per pack (n = 8): random, one with a zero leading
         // entry (it must pivot), one singular (its lane comes back false);
         // each lane equals faer's LU (and, SPD, its Cholesky) to 1e-12 and

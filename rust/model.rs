@@ -10,6 +10,8 @@
 //! planar closed forms serve it. SI units.
 
 use crate::error::{CdsmError, Result};
+use crate::kinds::{HoleGrouping, Kind};
+use crate::limits::Limits;
 use crate::robot::{CableMaterial, Robot};
 use crate::robot_file::{
     bad, coordinates, from_table, joint_limits, non_negative, positive, positive_length,
@@ -17,40 +19,31 @@ use crate::robot_file::{
 };
 use serde::Deserialize;
 
-/// The kind of an arm: which motion group its joints span and which task
-/// space it is measured in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
-    /// Parallel joint axes (`z`), a planar chain: task `[x, y, phi]`.
-    Planar,
-    /// Axes anywhere in 3-D: task `[x, y, z, rx, ry, rz]`.
-    Spatial,
+/// A group of hole coordinates that one error moves together: `coords`
+/// index [`Model::flat_holes`], each moved by `coef` times the group's error
+/// if `coherent` (one number for the group), each by its own error otherwise.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct HoleGroup {
+    pub coords: Vec<usize>,
+    pub coefs: Vec<f64>,
+    pub coherent: bool,
 }
 
-impl Kind {
-    /// `"planar"` or `"spatial"`.
-    pub fn name(self) -> &'static str {
-        match self {
-            Kind::Planar => "planar",
-            Kind::Spatial => "spatial",
-        }
-    }
-
-    /// Dimension of the arm's space: 2 or 3.
-    pub fn dim(self) -> usize {
-        match self {
-            Kind::Planar => 2,
-            Kind::Spatial => 3,
-        }
-    }
-
-    /// Width of the task vector: 3 (`x, y, phi`) or 6 (`x, y, z, rx, ry, rz`).
-    pub fn task(self) -> usize {
-        match self {
-            Kind::Planar => 3,
-            Kind::Spatial => 6,
-        }
-    }
+/// The facts derived from one model's structure that algorithms and reports
+/// ask instead of the kind: the cables by control mode, whether they come in
+/// upper/lower pairs, and how hole errors group ([`HoleGroup`], by the kind's
+/// [`HoleGrouping`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Structure {
+    /// The position-controlled cables (file order).
+    pub position: Vec<usize>,
+    /// The force-controlled cables (file order).
+    pub force: Vec<usize>,
+    /// Cables in pairs ending at each disk in turn, position then force (a
+    /// planar file's upper and lower cables).
+    pub pairs: bool,
+    /// The hole groups.
+    pub hole_groups: Vec<HoleGroup>,
 }
 
 /// One revolute joint: a unit `axis` and the `offset` from the previous frame
@@ -185,6 +178,8 @@ struct MaterialFile {
     diameter: f64,
     #[serde(default)]
     routing_length: f64,
+    #[serde(default = "crate::robot::feed_forward_default")]
+    stretch_feed_forward: bool,
 }
 
 #[derive(Deserialize)]
@@ -367,10 +362,6 @@ fn kind_of_table(table: &toml::Table) -> Result<String> {
     }
     Ok(kind)
 }
-
-/// The earlier name of [`Model`], for the spatial code written before the
-/// one model.
-pub type SpatialRobot = Model;
 
 impl Model {
     /// Parses and validates a robot description of either kind: a spatial
@@ -714,6 +705,9 @@ impl Model {
             w,
             format!("routing_length = {}", toml_f(self.cable.routing_length)),
         );
+        if !self.cable.stretch_feed_forward {
+            line(w, "stretch_feed_forward = false".into());
+        }
         if let Some(r) = self.planar() {
             line(w, format!("\n# {} linkages", r.n()));
             for i in 0..r.n() {
@@ -830,6 +824,7 @@ impl Model {
                     youngs_modulus: c.youngs_modulus,
                     diameter: c.diameter,
                     routing_length: c.routing_length,
+                    stretch_feed_forward: c.stretch_feed_forward,
                 };
                 m.validate()?;
                 m
@@ -838,6 +833,7 @@ impl Model {
                 youngs_modulus: 1.8e11,
                 diameter: 0.18e-3,
                 routing_length: 0.0,
+                stretch_feed_forward: true,
             },
         };
         let gravity = finite3("gravity", f.gravity.map_or([0.0; 3], |g| g.0))?;
@@ -1063,15 +1059,73 @@ impl Model {
         Ok(())
     }
 
-    /// Length of the straight arm along its chain (m): the distance of the
-    /// end frame's origin from the base at `theta = 0`.
-    pub fn straight_length(&self) -> f64 {
-        use crate::kinds::{Frame, Se3};
-        let mut chain = crate::chain::Chain::<f64, Se3<f64>>::new(self);
-        chain.at(self, self, &vec![0.0; self.n()]);
-        chain.world(self, self);
-        let p = chain.end().origin();
-        (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt()
+    /// The joint-limit box (rad).
+    pub fn limits(&self) -> Limits {
+        Limits(self.joints.iter().map(|j| j.limits).collect())
+    }
+
+    /// The facts derived from this arm's structure ([`Structure`]).
+    pub fn structure(&self) -> Structure {
+        let by_mode = |mode| -> Vec<usize> {
+            (0..self.cables.len())
+                .filter(|c| self.cables[*c].mode == mode)
+                .collect()
+        };
+        // cables in pairs: 2k of them, cable 2i position and 2i + 1 force, both
+        // ending at disk i + 1 (a planar file's upper and lower cables)
+        let k = self.disks.len();
+        let pairs = self.cables.len() == 2 * k
+            && self.cables.iter().enumerate().all(|(c, cable)| {
+                let mode = if c % 2 == 0 {
+                    Mode::Position
+                } else {
+                    Mode::Force
+                };
+                cable.end == c / 2 + 1 && cable.mode == mode
+            });
+        let mut start = Vec::with_capacity(self.cables.len());
+        let mut at = 0;
+        for c in &self.cables {
+            start.push(at);
+            at += 3 * c.holes.len();
+        }
+        let grouping = self.kind.info().holes;
+        let hole_groups = match grouping {
+            HoleGrouping::PerEndDisk => (1..=k)
+                .map(|d| {
+                    let mut g = HoleGroup::default();
+                    for (c, cable) in self.cables.iter().enumerate() {
+                        if cable.end != d {
+                            continue;
+                        }
+                        let sign = if cable.mode == Mode::Position {
+                            1.0
+                        } else {
+                            -1.0
+                        };
+                        for h in 0..cable.holes.len() {
+                            g.coords.push(start[c] + 3 * h + 1);
+                            g.coefs.push(sign);
+                        }
+                    }
+                    g.coherent = true;
+                    g
+                })
+                .collect(),
+            HoleGrouping::PerCable => (0..self.cables.len())
+                .map(|c| HoleGroup {
+                    coords: (start[c]..start[c] + 3 * self.cables[c].holes.len()).collect(),
+                    coefs: vec![1.0; 3 * self.cables[c].holes.len()],
+                    coherent: false,
+                })
+                .collect(),
+        };
+        Structure {
+            position: by_mode(Mode::Position),
+            force: by_mode(Mode::Force),
+            pairs,
+            hole_groups,
+        }
     }
 
     /// Indices of the position-controlled cables (file order).

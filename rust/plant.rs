@@ -16,81 +16,27 @@
 //! Jacobian of the predictions with respect to the parameters follows from
 //! the implicit function theorem at the settled configuration.
 
-use crate::batch::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::cables::CableGeometry;
-use crate::chain::{ArmNumbers, Chain};
+use crate::chain::{straight_length, ArmNumbers, Chain};
+pub use crate::effect::Effect;
+use crate::effect::Size;
 use crate::error::{CdsmError, Result};
-use crate::fit::FitModel;
-use crate::friction::{mobilisation, Holes, Motion, Profile};
-use crate::kinds::{Frame, Kind, Planar, Spatial, Vector};
+use crate::fit::{FitModel, Predictions};
+use crate::friction::{mobilisation, Holes, Motion, Profile, MU_MAX};
+use crate::kinds::{Frame, Group, Kind, Rotation, Vector, Visit};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
-use crate::model::{self, Mode, Model};
+use crate::model::{Mode, Model};
 use crate::real::{Arith, Jet, Real};
 use crate::robot::Robot;
+use crate::rows::{
+    row_of, rows_exactly, rows_of, seeds, shared_or_rows, split_rows, BatchSolution,
+};
 use crate::solve::CableSolve;
 use crate::solve::{CableMethod, CableSolver, SolveOptions};
 use crate::tension::{Balance, Wrench};
 
-/// The effects of the library, by name.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Effect {
-    /// `s`: realised `= L_ref + (1 + s)(delivered - L_ref) + o` (1).
-    ActuationScale,
-    /// `o` per position cable (m).
-    CableOffset,
-    /// Planar: the holes of the cables ending at disk `i` moved along their
-    /// local `y`, position cable `+dh_i`, force cable `-dh_i` (m, one per disk).
-    HoleHeight,
-    /// Spatial: every hole of the position cables moved, `[x, y, z]` in its face frame (m).
-    HolePosition,
-    /// Planar: `link_before[1]` and every `link_after` lengthened (m, `n + 1`);
-    /// spatial: every joint offset, then every disk's `link_after` moved by a 3-vector (m).
-    LinkLength,
-    /// Compliance `kappa >= 0` of the position cables (1/N).
-    CableElasticity,
-    /// Clearance `cl` of the holes beside every bend (m).
-    HoleClearance,
-    /// The clearance's transition width, `w = 0.01 rad + dw` (rad).
-    ClearanceWidth,
-    /// The instrument frame: planar `alpha, fx, fy`; spatial rotation vector, translation (rad, m).
-    FrameMisalignment,
-    /// The measured point in the end frame (m; 2 planar, 3 spatial).
-    TipOffset,
-    /// Dead-band half-width `b >= 0` per position cable (m).
-    Backlash,
-    /// Spatial: every joint axis tilted by two angles (rad).
-    JointAxis,
-    /// Coulomb friction `mu` of every cable in every hole (1;
-    /// `docs/model.md`, "Friction in the holes", [`crate::friction`]).
-    CableFriction,
-}
-
-impl Effect {
-    pub fn name(self) -> &'static str {
-        match self {
-            Effect::ActuationScale => "actuation_scale",
-            Effect::CableOffset => "cable_offset",
-            Effect::HoleHeight => "hole_height",
-            Effect::HolePosition => "hole_position",
-            Effect::LinkLength => "link_length",
-            Effect::CableElasticity => "cable_elasticity",
-            Effect::HoleClearance => "hole_clearance",
-            Effect::ClearanceWidth => "clearance_width",
-            Effect::FrameMisalignment => "frame_misalignment",
-            Effect::TipOffset => "tip_offset",
-            Effect::Backlash => "backlash",
-            Effect::JointAxis => "joint_axis",
-            Effect::CableFriction => "cable_friction",
-        }
-    }
-}
-
 /// The clearance's transition width at `clearance_width = 0` (rad).
 pub const CLEARANCE_WIDTH: f64 = 0.01;
-
-/// The largest friction coefficient of the physical domain (a fit at it
-/// says friction alone does not explain the data).
-pub const MAX_FRICTION: f64 = 1.0;
 
 /// The flat parameter vector of a model's plant: its effects in order, each
 /// with its offset and size.
@@ -107,56 +53,52 @@ impl Layout {
     }
 }
 
-/// The layout of `model`'s plant (`docs/model.md`, "Parameters"): the
-/// planar one in the order of cdsm 0.1 (`n` joints = `n` position cables),
-/// the spatial one in the order of cdsm 0.2 with the effects added since at
-/// its end.
-pub fn layout(model: &Model) -> Layout {
+/// The number of parameters `size` gives a block of `model`'s plant.
+pub fn block_size(model: &Model, size: Size) -> usize {
     let (n, k) = (model.n(), model.disks.len());
-    let m = model.position_cables().len();
-    let sizes: Vec<(Effect, usize)> = match model.kind {
-        model::Kind::Planar => vec![
-            (Effect::ActuationScale, 1),
-            (Effect::CableOffset, m),
-            (Effect::HoleHeight, k),
-            (Effect::LinkLength, n + 1),
-            (Effect::CableElasticity, 1),
-            (Effect::HoleClearance, 1),
-            (Effect::FrameMisalignment, 3),
-            (Effect::TipOffset, 2),
-            (Effect::Backlash, m),
-            (Effect::ClearanceWidth, 1),
-            (Effect::CableFriction, 1),
-        ],
-        model::Kind::Spatial => {
-            let holes: usize = model
+    let info = model.kind.info();
+    match size {
+        Size::One => 1,
+        Size::PerPositionCable => model.position_cables().len(),
+        Size::PerDisk => k,
+        Size::PerPositionHoleCoord => {
+            3 * model
                 .position_cables()
                 .iter()
                 .map(|c| model.cables[*c].holes.len())
-                .sum();
-            vec![
-                (Effect::ActuationScale, 1),
-                (Effect::CableOffset, m),
-                (Effect::HolePosition, 3 * holes),
-                (Effect::LinkLength, 3 * (n + k)),
-                (Effect::CableElasticity, 1),
-                (Effect::FrameMisalignment, 6),
-                (Effect::TipOffset, 3),
-                (Effect::Backlash, m),
-                (Effect::HoleClearance, 1),
-                (Effect::ClearanceWidth, 1),
-                (Effect::JointAxis, 2 * n),
-                (Effect::CableFriction, 1),
-            ]
+                .sum::<usize>()
         }
-    };
-    let mut blocks = Vec::with_capacity(sizes.len());
+        Size::LinkLengths => 1 + k,
+        Size::LinkVectors => 3 * (n + k),
+        Size::Instrument => info.task,
+        Size::Point => info.dim,
+        Size::PerJointTilt => 2 * n,
+    }
+}
+
+/// The layout of `model`'s plant (`docs/model.md`, "Parameters"): its kind's
+/// blocks ([`crate::kinds::KindInfo::layout`]) sized by its structure.
+pub fn layout(model: &Model) -> Layout {
+    let rules = model.kind.info().layout;
+    let mut blocks = Vec::with_capacity(rules.len());
     let mut total = 0;
-    for (e, s) in sizes {
+    for &(e, size) in rules {
+        let s = block_size(model, size);
         blocks.push((e, total, s));
         total += s;
     }
     Layout { blocks, total }
+}
+
+/// The size rule of `e`'s block in `model`'s layout, if its kind has the effect.
+fn size_rule(model: &Model, e: Effect) -> Option<Size> {
+    model
+        .kind
+        .info()
+        .layout
+        .iter()
+        .find(|b| b.0 == e)
+        .map(|b| b.1)
 }
 
 /// The SI unit of a plant parameter.
@@ -194,7 +136,8 @@ pub struct Parameter {
 /// meaning of each block: `docs/model.md`, "Parameters"). Cables, joints
 /// and disks are numbered from 1 as in the robot file.
 pub fn parameters(model: &Model) -> Vec<Parameter> {
-    let planar = model.kind == model::Kind::Planar;
+    let info = model.kind.info();
+    let link_lengths = size_rule(model, Effect::LinkLength) == Some(Size::LinkLengths);
     let pos = model.position_cables();
     let xyz = ["x", "y", "z"];
     let cable = |c: usize| format!("cable {} (to disk {})", c + 1, model.cables[c].end);
@@ -234,7 +177,7 @@ pub fn parameters(model: &Model) -> Vec<Parameter> {
                     }
                 }
             }
-            Effect::LinkLength if planar => {
+            Effect::LinkLength if link_lengths => {
                 put("base → joint 1".into(), Unit::Metre);
                 for (i, d) in model.disks.iter().enumerate() {
                     put(
@@ -261,7 +204,7 @@ pub fn parameters(model: &Model) -> Vec<Parameter> {
                 format!("transition width w − {CLEARANCE_WIDTH} rad"),
                 Unit::Radian,
             ),
-            Effect::FrameMisalignment if planar => {
+            Effect::FrameMisalignment if info.rotation == Rotation::Angle => {
                 put("instrument frame rotation".into(), Unit::Radian);
                 for x in &xyz[..2] {
                     put(format!("instrument frame {x}"), Unit::Metre);
@@ -279,7 +222,7 @@ pub fn parameters(model: &Model) -> Vec<Parameter> {
                 }
             }
             Effect::TipOffset => {
-                for x in &xyz[..if planar { 2 } else { 3 }] {
+                for x in &xyz[..info.dim] {
                     put(format!("tip offset {x} (end frame)"), Unit::Metre);
                 }
             }
@@ -311,7 +254,7 @@ fn least_hole_radius(model: &Model) -> f64 {
 /// actuator gain above a tenth of nominal, non-negative compliance, clearance
 /// and backlash, a clearance below the least hole radius, a transition width
 /// in `[1e-4, 1]` rad, planar links above a tenth of their nominal length,
-/// friction in `[0, MAX_FRICTION]`.
+/// friction in `[0, MU_MAX]`.
 pub fn bounds(model: &Model) -> (Vec<f64>, Vec<f64>) {
     let lay = layout(model);
     let mut lo = vec![f64::NEG_INFINITY; lay.total];
@@ -334,9 +277,9 @@ pub fn bounds(model: &Model) -> (Vec<f64>, Vec<f64>) {
             Effect::Backlash => lo[o..o + s].fill(0.0),
             Effect::CableFriction => {
                 lo[o] = 0.0;
-                hi[o] = MAX_FRICTION;
+                hi[o] = MU_MAX;
             }
-            Effect::LinkLength if model.kind == model::Kind::Planar => {
+            Effect::LinkLength if size_rule(model, e) == Some(Size::LinkLengths) => {
                 lo[o] = -0.9 * model.joints[0].offset[0];
                 for (i, d) in model.disks.iter().enumerate() {
                     lo[o + 1 + i] = -0.9 * d.link_after[0];
@@ -386,10 +329,12 @@ struct Params<S> {
     backlash: Vec<S>,
     /// Friction coefficient in the holes (1).
     mu: S,
-    /// The compliance of the robot file's cable, `1 / (E A)` (1/N): the
-    /// change friction makes to the tensions stretches the cables at
-    /// `kappa + kc` (`docs/model.md`, "Friction in the holes").
-    kc: f64,
+    /// The compliance whose frictionless stretch the controller feeds
+    /// forward (1/N): the robot file's cable's `1 / (E A)` with
+    /// `stretch_feed_forward` and as many position cables as joints, else 0.
+    /// A cable has one compliance, `kappa + kff`, whatever makes its tension
+    /// (`docs/model.md`, "Friction in the holes").
+    kff: f64,
     /// The plant's arm: the model's numbers, moved.
     arm: ArmNumbers<S>,
 }
@@ -432,7 +377,7 @@ impl<S: Real> Params<S> {
             }
         }
         if let Some((o, s)) = lay.find(Effect::LinkLength) {
-            if model.kind == model::Kind::Planar {
+            if size_rule(model, Effect::LinkLength) == Some(Size::LinkLengths) {
                 arm.offset[0][0] += v(o);
                 for (i, la) in arm.link_after.iter_mut().enumerate() {
                     la[0] += v(o + 1 + i);
@@ -472,7 +417,13 @@ impl<S: Real> Params<S> {
             tip: span(Effect::TipOffset),
             backlash: span(Effect::Backlash),
             mu: one(Effect::CableFriction),
-            kc: model.cable.compliance(),
+            // with more position cables than joints the statics fix no
+            // frictionless tensions to feed forward: kappa is the whole compliance
+            kff: if pos.len() == model.n() {
+                model.cable.fed_forward()
+            } else {
+                0.0
+            },
             arm,
         }
     }
@@ -491,9 +442,10 @@ impl<S: Real> Params<S> {
         self.mu.val() != 0.0 || self.mu.is_variable()
     }
 
-    /// The compliance friction's change of the tensions stretches at (1/N).
+    /// The cable's one compliance (1/N): every tension stretches it, friction's
+    /// change of the tensions too.
     fn friction_compliance(&self) -> S {
-        self.kappa + self.kc
+        self.kappa + self.kff
     }
 }
 
@@ -545,7 +497,8 @@ pub struct Sequence {
     row: Vec<usize>,
     /// First and last command of each row.
     span: Vec<[usize; 2]>,
-    kind: Vec<RowKind>,
+    /// What each row measured.
+    reading: Vec<RowKind>,
     theta_cmd: Vec<f64>,
     /// The nominal motion the friction's sliding directions follow, made
     /// the first time a plant with friction settles the sequence.
@@ -554,58 +507,36 @@ pub struct Sequence {
 
 /// The lengths of `model`'s position cables at `theta` (rad), m.
 pub fn position_lengths(model: &Model, theta: &[f64]) -> Vec<f64> {
-    Lengths::new(model).at(model, theta).to_vec()
+    position_lengths_rows(model, theta)
 }
 
-/// The position cables' lengths of one model at configuration after
-/// configuration, with its buffers.
-pub enum Lengths {
-    Planar(
-        Chain<f64, <Planar as Kind>::Frame<f64>>,
-        Vec<usize>,
-        Vec<f64>,
-    ),
-    Spatial(
-        Chain<f64, <Spatial as Kind>::Frame<f64>>,
-        Vec<usize>,
-        Vec<f64>,
-    ),
+/// The lengths of `model`'s position cables at every configuration of
+/// `theta (N, n)` (rad): `(N, m)` m.
+pub fn position_lengths_rows(model: &Model, theta: &[f64]) -> Vec<f64> {
+    model.kind.visit(PositionLengths { model, theta })
 }
 
-impl Lengths {
-    pub fn new(model: &Model) -> Self {
+/// [`position_lengths_rows`] over the model's motion group: one chain, one
+/// configuration after another.
+struct PositionLengths<'a> {
+    model: &'a Model,
+    theta: &'a [f64],
+}
+
+impl Visit for PositionLengths<'_> {
+    type Out = Vec<f64>;
+    fn visit<G: Group>(self) -> Vec<f64> {
+        let model = self.model;
         let pos = model.position_cables();
-        let out = vec![0.0; pos.len()];
-        match model.kind {
-            model::Kind::Planar => Lengths::Planar(Chain::new(model), pos, out),
-            model::Kind::Spatial => Lengths::Spatial(Chain::new(model), pos, out),
-        }
-    }
-
-    /// The lengths (m) at `theta` (rad).
-    pub fn at(&mut self, model: &Model, theta: &[f64]) -> &[f64] {
-        fn fill<F: Frame<f64>>(
-            ch: &mut Chain<f64, F>,
-            model: &Model,
-            pos: &[usize],
-            out: &mut [f64],
-            theta: &[f64],
-        ) {
+        let mut ch = Chain::<f64, G::Frame<f64>>::new(model);
+        let mut out = Vec::with_capacity(self.theta.len() / model.n().max(1) * pos.len());
+        for theta in self.theta.chunks_exact(model.n()) {
             ch.at(model, model, theta);
-            for (o, c) in out.iter_mut().zip(pos) {
-                *o = ch.cable_length(model, model, *c, None);
+            for c in &pos {
+                out.push(ch.cable_length(model, model, *c, None));
             }
         }
-        match self {
-            Lengths::Planar(ch, pos, out) => {
-                fill(ch, model, pos, out, theta);
-                out
-            }
-            Lengths::Spatial(ch, pos, out) => {
-                fill(ch, model, pos, out, theta);
-                out
-            }
-        }
+        out
     }
 }
 
@@ -629,13 +560,13 @@ impl Sequence {
             command: Vec::with_capacity(2 * rows * m),
             row: Vec::with_capacity(2 * rows),
             span: Vec::with_capacity(rows),
-            kind: data.kind.to_vec(),
+            reading: data.kind.to_vec(),
             theta_cmd: data.theta_cmd.to_vec(),
             motion: std::sync::OnceLock::new(),
         };
-        let mut lengths = Lengths::new(model);
+        let lengths = position_lengths_rows(model, data.theta_cmd);
         for i in 0..rows {
-            let c = lengths.at(model, &data.theta_cmd[i * n..(i + 1) * n]);
+            let c = &lengths[i * m..(i + 1) * m];
             let first = seq.row.len();
             if data.kind[i] == RowKind::Displacement {
                 seq.command.extend_from_slice(c);
@@ -669,10 +600,10 @@ impl Sequence {
     /// configuration, the rigid cable solve of its nominal lengths from its
     /// row's `theta_cmd` (a displacement row's first command: `theta_cmd`
     /// itself; `theta_cmd` where the solve fails).
-    pub fn motion<K: Kind>(&self, model: &Model) -> &Motion {
+    pub fn motion<G: Group>(&self, model: &Model) -> &Motion {
         self.motion.get_or_init(|| {
             let n = self.n;
-            let nominal = Plant::<K>::new(model, &vec![0.0; layout(model).total])
+            let nominal = Plant::<G>::new(model, &vec![0.0; layout(model).total])
                 .expect("the nominal plant is physical");
             let mut work = SettleWork::new(&nominal, SolveOptions::default());
             let mut configs = Vec::with_capacity(self.len() * n);
@@ -681,7 +612,7 @@ impl Sequence {
                 let row = self.row[j];
                 let seed = &self.theta_cmd[row * n..(row + 1) * n];
                 th.copy_from_slice(seed);
-                let first = self.kind[row] == RowKind::Displacement && self.span[row][0] == j;
+                let first = self.reading[row] == RowKind::Displacement && self.span[row][0] == j;
                 if !first
                     && !nominal.settle(
                         &self.command[j * self.m..(j + 1) * self.m],
@@ -693,7 +624,7 @@ impl Sequence {
                 }
                 configs.extend_from_slice(&th);
             }
-            Motion::new::<K>(model, &configs)
+            Motion::new::<G>(model, &configs)
         })
     }
 }
@@ -882,10 +813,16 @@ fn equations<S: Real, F: Frame<S>>(
         }
         for i in 0..n {
             let stretch = if friction {
-                // kappa T ebar + kc (T ebar - T*): the frictionless stretch at
-                // kappa, friction's change of it at kappa + kc
+                // (kappa + kff) T ebar - kff T*: the whole stretch at the
+                // cable's one compliance, less the frictionless stretch the
+                // controller feeds forward
                 let t = b.tension[i] * b.profile.mean[b.pos[i]];
-                (real[i] + route) * (prm.kappa * t + (t - b.tension0[i]) * prm.kc)
+                let whole = prm.kappa * t;
+                if prm.kff == 0.0 {
+                    (real[i] + route) * whole
+                } else {
+                    (real[i] + route) * (whole + (t - b.tension0[i]) * prm.kff)
+                }
             } else if elastic {
                 (real[i] + route) * prm.kappa * b.tension[i]
             } else {
@@ -975,7 +912,7 @@ enum Rigid {
 }
 
 /// One plant (parameters `p`, flat), ready to settle and observe commands.
-pub struct Plant<'a, K: Kind> {
+pub struct Plant<'a, G: Group> {
     model: &'a Model,
     p: Vec<f64>,
     lay: Layout,
@@ -984,7 +921,7 @@ pub struct Plant<'a, K: Kind> {
     cprm: Params<J>,
     l_ref: Vec<f64>,
     rigid: Rigid,
-    _kind: std::marker::PhantomData<K>,
+    _kind: std::marker::PhantomData<G>,
 }
 
 /// The planar description of a planar model's numbers (for its closed forms).
@@ -1017,7 +954,7 @@ fn planar_robot(model: &Model, arm: &ArmNumbers<f64>) -> Robot {
     r
 }
 
-impl<'a, K: Kind> Plant<'a, K> {
+impl<'a, G: Group> Plant<'a, G> {
     /// The plant of `model` with the flat parameters `p` (see [`layout`]);
     /// an error when `p` has the wrong length or leaves the physical domain.
     pub fn new(model: &'a Model, p: &[f64]) -> Result<Self> {
@@ -1042,7 +979,7 @@ impl<'a, K: Kind> Plant<'a, K> {
         let prm = Params::<f64>::unpack(model, &lay, p, |_, v| v);
         let cprm = Params::<J>::unpack(model, &lay, p, |_, v| J::cst(v));
         let l_ref = position_lengths(model, &vec![0.0; model.n()]);
-        let rigid = if model.kind == model::Kind::Planar {
+        let rigid = if model.kind == Kind::Planar {
             let r = planar_robot(model, &prm.arm);
             let g = CableGeometry::new(&r, None);
             Rigid::Planar(Box::new(r), g)
@@ -1071,7 +1008,7 @@ impl<'a, K: Kind> Plant<'a, K> {
     pub fn mobilisation(&self, seq: &Sequence) -> Vec<f64> {
         if self.prm.friction() {
             mobilisation(
-                seq.motion::<K>(self.model),
+                seq.motion::<G>(self.model),
                 self.prm.mu,
                 self.prm.friction_compliance(),
             )
@@ -1086,7 +1023,7 @@ impl<'a, K: Kind> Plant<'a, K> {
     /// sliding state a motion through them leaves at each.
     pub fn mobilisation_along(&self, configs: &[f64]) -> Vec<f64> {
         if self.prm.friction() {
-            let motion = Motion::new::<K>(self.model, configs);
+            let motion = Motion::new::<G>(self.model, configs);
             mobilisation(&motion, self.prm.mu, self.prm.friction_compliance())
         } else {
             Vec::new()
@@ -1141,7 +1078,7 @@ impl<'a, K: Kind> Plant<'a, K> {
     /// Settles the arm for realised lengths `real` (m); `theta` holds the
     /// seed on entry (the commanded configuration) and the answer on exit.
     /// `work` must have been made for this plant ([`SettleWork::new`]).
-    pub fn settle(&self, real: &[f64], theta: &mut [f64], work: &mut SettleWork<'_, K>) -> bool {
+    pub fn settle(&self, real: &[f64], theta: &mut [f64], work: &mut SettleWork<'_, G>) -> bool {
         self.settle_status(real, theta, work).converged
     }
 
@@ -1151,7 +1088,7 @@ impl<'a, K: Kind> Plant<'a, K> {
         &self,
         real: &[f64],
         theta: &mut [f64],
-        work: &mut SettleWork<'_, K>,
+        work: &mut SettleWork<'_, G>,
     ) -> crate::solve::Status {
         let (n, m) = (self.model.n(), real.len());
         work.start.copy_from_slice(theta);
@@ -1178,7 +1115,7 @@ impl<'a, K: Kind> Plant<'a, K> {
         let step = if m == n
             && !self.prm.elastic()
             && !self.prm.friction()
-            && self.model.kind == model::Kind::Planar
+            && matches!(self.rigid, Rigid::Planar(..))
         {
             Step::Triangular
         } else {
@@ -1192,7 +1129,7 @@ impl<'a, K: Kind> Plant<'a, K> {
     }
 
     /// What the instrument sees at `theta` (the task vector, `TASK` values).
-    pub fn observe(&self, theta: &[f64], chain: &mut Chain<f64, K::Frame<f64>>, out: &mut [f64]) {
+    pub fn observe(&self, theta: &[f64], chain: &mut Chain<f64, G::Frame<f64>>, out: &mut [f64]) {
         observe(self.model, &self.prm, theta, chain, out)
     }
 
@@ -1205,7 +1142,7 @@ impl<'a, K: Kind> Plant<'a, K> {
         real: &[f64],
         theta: &[f64],
         jac: &mut [f64],
-        work: &mut SettleWork<'_, K>,
+        work: &mut SettleWork<'_, G>,
     ) -> bool {
         let (n, m) = (theta.len(), real.len());
         // directions: theta (n), then each realised length (m)
@@ -1233,7 +1170,7 @@ impl<'a, K: Kind> Plant<'a, K> {
 }
 
 /// Per-thread buffers of the settles of one plant.
-pub struct SettleWork<'a, K: Kind> {
+pub struct SettleWork<'a, G: Group> {
     opts: SolveOptions,
     /// The loads the settles hold the arm against (default the robot file's).
     pub loads: Loads,
@@ -1241,17 +1178,17 @@ pub struct SettleWork<'a, K: Kind> {
     /// Newton first; the batch elastic solve starts damped, `1e-3`).
     pub lambda0: f64,
     planar: Option<CableSolver<'a>>,
-    general: CableSolve<K::Frame<f64>>,
+    general: CableSolve<G::Frame<f64>>,
     start: Vec<f64>,
-    jet: JetWork<K>,
+    jet: JetWork<G>,
     ws: Workspace,
     /// The mobilisation of every hole ([`Holes`]) at the command settled
     /// (friction; missing entries count as `+1`, the start state).
     pub mobil: Vec<f64>,
 }
 
-impl<'a, K: Kind> SettleWork<'a, K> {
-    pub fn new(plant: &'a Plant<K>, opts: SolveOptions) -> Self {
+impl<'a, G: Group> SettleWork<'a, G> {
+    pub fn new(plant: &'a Plant<G>, opts: SolveOptions) -> Self {
         let model = plant.model;
         let planar = match &plant.rigid {
             Rigid::Planar(r, _) => Some(CableSolver::new(r, CableMethod::Auto, opts)),
@@ -1273,15 +1210,15 @@ impl<'a, K: Kind> SettleWork<'a, K> {
 
 /// The settle of one command as a problem of the shared solver: the
 /// equations of the settled state with their Jacobian in jets.
-struct SettleProblem<'a, 'b, K: Kind> {
-    plant: &'a Plant<'a, K>,
+struct SettleProblem<'a, 'b, G: Group> {
+    plant: &'a Plant<'a, G>,
     loads: &'b Loads,
     real: &'a [f64],
     mobil: &'b [f64],
-    work: &'b mut JetWork<K>,
+    work: &'b mut JetWork<G>,
 }
 
-impl<K: Kind> Problem for SettleProblem<'_, '_, K> {
+impl<G: Group> Problem for SettleProblem<'_, '_, G> {
     fn dims(&self) -> (usize, usize) {
         let n = self.plant.model.n();
         (n, n)
@@ -1328,11 +1265,11 @@ impl<K: Kind> Problem for SettleProblem<'_, '_, K> {
 }
 
 /// Buffers of the forward-mode evaluations at one command.
-pub struct JetWork<K: Kind> {
+pub struct JetWork<G: Group> {
     /// The loads of the implicit derivatives (the robot file's).
     loads: Loads,
-    fbuf: Buffers<f64, K::Frame<f64>>,
-    buf: Buffers<J, K::Frame<J>>,
+    fbuf: Buffers<f64, G::Frame<f64>>,
+    buf: Buffers<J, G::Frame<J>>,
     theta: Vec<J>,
     real: Vec<J>,
     mobil: Vec<J>,
@@ -1347,11 +1284,11 @@ pub struct JetWork<K: Kind> {
     rhs: Vec<f64>,
 }
 
-impl<K: Kind> JetWork<K> {
+impl<G: Group> JetWork<G> {
     fn new(model: &Model) -> Self {
         let n = model.n();
         let m = model.position_cables().len();
-        let task = <K::Frame<J> as Frame<J>>::TASK;
+        let task = <G::Frame<J> as Frame<J>>::TASK;
         JetWork {
             loads: Loads::of(model),
             fbuf: Buffers::new(model),
@@ -1384,16 +1321,16 @@ struct Chunk<'a> {
 /// `dO/dx = O_x - O_theta E_theta^-1 E_x` (`out`: `(TASK, dirs)` row-major).
 /// Direction `g` of the combined list `theta_0..theta_{n-1}, x_0..` sits in
 /// slot `g % JET` of chunk `g / JET`. False where `E_theta` is singular.
-fn implicit_derivatives<'c, K: Kind>(
+fn implicit_derivatives<'c, G: Group>(
     model: &Model,
     theta: &[f64],
     dirs: usize,
     chunk: impl Fn(usize) -> Chunk<'c>,
-    w: &mut JetWork<K>,
+    w: &mut JetWork<G>,
     out: &mut [f64],
 ) -> bool {
     let n = theta.len();
-    let task = <K::Frame<J> as Frame<J>>::TASK;
+    let task = <G::Frame<J> as Frame<J>>::TASK;
     let total = n + dirs;
     w.df.resize(n * total, 0.0);
     w.dobs.resize(task * total, 0.0);
@@ -1441,17 +1378,6 @@ fn implicit_derivatives<'c, K: Kind>(
     true
 }
 
-/// Predictions of `K` plants for one data set: observations `(K, N, TASK)`
-/// (NaN for unmeasured rows and rows that did not settle), converged
-/// `(K, N)`, and the configuration each row's last command settles at
-/// `(K, N, n)` (rad).
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Predictions {
-    pub observation: Vec<f64>,
-    pub converged: Vec<bool>,
-    pub theta: Vec<f64>,
-}
-
 /// Every command of a data set settled by one plant: the configurations,
 /// observations and flags (the state a fit keeps between a trial and its
 /// Jacobian).
@@ -1464,15 +1390,15 @@ pub struct Settled {
 
 /// The settled configurations and observations of every command of `seq`
 /// for one plant (in parallel over the commands).
-fn settle_all<K: Kind>(
-    plant: &Plant<K>,
+fn settle_all<G: Group>(
+    plant: &Plant<G>,
     seq: &Sequence,
     opts: &SolveOptions,
     threads: usize,
 ) -> Settled {
     let n = seq.n;
     let m = seq.m;
-    let task = <K::Frame<f64> as Frame<f64>>::TASK;
+    let task = <G::Frame<f64> as Frame<f64>>::TASK;
     let real = plant.realised(seq);
     let mobil = plant.mobilisation(seq);
     let h = mobil.len() / seq.len().max(1);
@@ -1513,7 +1439,12 @@ fn settle_all<K: Kind>(
 }
 
 impl Settled {
-    fn new<K: Kind>(plant: &Plant<K>, seq: &Sequence, opts: &SolveOptions, threads: usize) -> Self {
+    fn new<G: Group>(
+        plant: &Plant<G>,
+        seq: &Sequence,
+        opts: &SolveOptions,
+        threads: usize,
+    ) -> Self {
         settle_all(plant, seq, opts, threads)
     }
 
@@ -1528,7 +1459,7 @@ impl Settled {
                 &self.obs[b * task..(b + 1) * task],
             );
             for k in 0..task {
-                let v = match seq.kind[i] {
+                let v = match seq.reading[i] {
                     RowKind::Absolute => ob[k],
                     RowKind::Displacement => ob[k] - oa[k],
                     RowKind::Unmeasured => f64::NAN,
@@ -1551,9 +1482,9 @@ impl Settled {
     /// `(N, TASK, k)` derivatives of the rows' observations with respect to
     /// the parameters `free` (NaN rows where not defined); `plant` must be
     /// the one that settled.
-    fn jacobian<K: Kind>(
+    fn jacobian<G: Group>(
         &self,
-        plant: &Plant<K>,
+        plant: &Plant<G>,
         seq: &Sequence,
         free: &[usize],
         threads: usize,
@@ -1565,18 +1496,18 @@ impl Settled {
                 problem: format!("parameter index {f} is beyond the {total} parameters"),
             });
         }
-        let task = <K::Frame<f64> as Frame<f64>>::TASK;
+        let task = <G::Frame<f64> as Frame<f64>>::TASK;
         let kf = free.len();
         let dcmd = command_derivatives(plant, seq, &self.theta, &self.ok, free, threads);
         let mut jac = vec![f64::NAN; seq.rows() * task * kf];
         for (i, [a, b]) in seq.span.iter().enumerate() {
-            if !(self.ok[*a] && self.ok[*b]) || seq.kind[i] == RowKind::Unmeasured {
+            if !(self.ok[*a] && self.ok[*b]) || seq.reading[i] == RowKind::Unmeasured {
                 continue;
             }
             for c in 0..task {
                 for q in 0..kf {
                     let vb = dcmd[(b * task + c) * kf + q];
-                    jac[(i * task + c) * kf + q] = match seq.kind[i] {
+                    jac[(i * task + c) * kf + q] = match seq.reading[i] {
                         RowKind::Displacement => vb - dcmd[(a * task + c) * kf + q],
                         _ => vb,
                     };
@@ -1590,8 +1521,8 @@ impl Settled {
 /// The derivatives `(commands, TASK, k)` of every command's observation
 /// with respect to the parameters `free`, by the implicit function theorem
 /// at the settled `theta` (NaN where a command did not settle).
-fn command_derivatives<K: Kind>(
-    plant: &Plant<K>,
+fn command_derivatives<G: Group>(
+    plant: &Plant<G>,
     seq: &Sequence,
     theta: &[f64],
     ok: &[bool],
@@ -1600,7 +1531,7 @@ fn command_derivatives<K: Kind>(
 ) -> Vec<f64> {
     let (n, m) = (seq.n, seq.m);
     let model = plant.model;
-    let task = <K::Frame<f64> as Frame<f64>>::TASK;
+    let task = <G::Frame<f64> as Frame<f64>>::TASK;
     let kf = free.len();
     // chunk c carries directions c*JET.. of theta_0..theta_{n-1}, free_0..free_{k-1}
     let chunks: Vec<(Params<J>, Vec<J>, Vec<J>)> = (0..(n + kf).div_ceil(JET))
@@ -1617,7 +1548,7 @@ fn command_derivatives<K: Kind>(
             });
             let real = realised(seq, &prm, &plant.l_ref);
             let mobil = if prm.friction() {
-                mobilisation(seq.motion::<K>(model), prm.mu, prm.friction_compliance())
+                mobilisation(seq.motion::<G>(model), prm.mu, prm.friction_compliance())
             } else {
                 Vec::new()
             };
@@ -1627,7 +1558,7 @@ fn command_derivatives<K: Kind>(
     let h = chunks[0].2.len() / seq.len().max(1);
     let parts = split_rows(seq.len(), threads, |range| {
         let mut out = vec![f64::NAN; range.len() * task * kf];
-        let mut w = JetWork::<K>::new(model);
+        let mut w = JetWork::<G>::new(model);
         for (local, j) in range.enumerate() {
             if !ok[j] {
                 continue;
@@ -1655,16 +1586,6 @@ fn command_derivatives<K: Kind>(
     parts.concat()
 }
 
-/// Calls `$f::<K>($args)` with `K` the model's kind.
-macro_rules! by_kind {
-    ($model:expr, $f:ident ( $($arg:expr),* )) => {
-        match $model.kind {
-            model::Kind::Planar => $f::<Planar>($($arg),*),
-            model::Kind::Spatial => $f::<Spatial>($($arg),*),
-        }
-    };
-}
-
 /// Observed components per row of a model's measurements: 3 planar, 6 spatial.
 pub fn width(model: &Model) -> usize {
     model.kind.task()
@@ -1680,10 +1601,32 @@ pub fn predict(
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<Predictions> {
-    by_kind!(model, predict_k(model, params, rows, opts, threads))
+    model.kind.visit(Predict {
+        model,
+        params,
+        rows,
+        opts,
+        threads,
+    })
 }
 
-fn predict_k<K: Kind>(
+/// [`predict`] over the model's motion group.
+struct Predict<'a> {
+    model: &'a Model,
+    params: &'a [f64],
+    rows: &'a Rows<'a>,
+    opts: &'a SolveOptions,
+    threads: usize,
+}
+
+impl Visit for Predict<'_> {
+    type Out = Result<Predictions>;
+    fn visit<G: Group>(self) -> Self::Out {
+        predict_k::<G>(self.model, self.params, self.rows, self.opts, self.threads)
+    }
+}
+
+fn predict_k<G: Group>(
     model: &Model,
     params: &[f64],
     rows: &Rows,
@@ -1692,13 +1635,13 @@ fn predict_k<K: Kind>(
 ) -> Result<Predictions> {
     let n = model.n();
     let total = layout(model).total;
-    let task = <K::Frame<f64> as Frame<f64>>::TASK;
+    let task = <G::Frame<f64> as Frame<f64>>::TASK;
     let k = rows_of("params", params, total)?;
     let seq = Sequence::new(model, rows)?;
     let mut out = Predictions::default();
     for j in 0..k {
         let p = &params[j * total..(j + 1) * total];
-        match Plant::<K>::new(model, p) {
+        match Plant::<G>::new(model, p) {
             Ok(plant) => {
                 let pr = Settled::new(&plant, &seq, opts, threads).predictions(&seq, task);
                 out.observation.extend(pr.observation);
@@ -1736,10 +1679,35 @@ pub fn linearise(
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<Linearised> {
-    by_kind!(model, linearise_k(model, p, free, rows, opts, threads))
+    model.kind.visit(Linearise {
+        model,
+        p,
+        free,
+        rows,
+        opts,
+        threads,
+    })
 }
 
-fn linearise_k<K: Kind>(
+/// [`linearise`] over the model's motion group.
+struct Linearise<'a> {
+    model: &'a Model,
+    p: &'a [f64],
+    free: &'a [usize],
+    rows: &'a Rows<'a>,
+    opts: &'a SolveOptions,
+    threads: usize,
+}
+
+impl Visit for Linearise<'_> {
+    type Out = Result<Linearised>;
+    fn visit<G: Group>(self) -> Self::Out {
+        let s = self;
+        linearise_k::<G>(s.model, s.p, s.free, s.rows, s.opts, s.threads)
+    }
+}
+
+fn linearise_k<G: Group>(
     model: &Model,
     p: &[f64],
     free: &[usize],
@@ -1748,9 +1716,9 @@ fn linearise_k<K: Kind>(
     threads: usize,
 ) -> Result<Linearised> {
     let seq = Sequence::new(model, rows)?;
-    let plant = Plant::<K>::new(model, p)?;
+    let plant = Plant::<G>::new(model, p)?;
     let settled = Settled::new(&plant, &seq, opts, threads);
-    let task = <K::Frame<f64> as Frame<f64>>::TASK;
+    let task = <G::Frame<f64> as Frame<f64>>::TASK;
     let predictions = settled.predictions(&seq, task);
     let jacobian = settled.jacobian(&plant, &seq, free, threads)?;
     Ok(Linearised {
@@ -1761,15 +1729,15 @@ fn linearise_k<K: Kind>(
 
 /// The plant of a model on one data set, for the diagnosis fit
 /// ([`crate::fit`]): exact Jacobians by the implicit function theorem.
-pub struct PlantFit<'a, K: Kind> {
+pub struct PlantFit<'a, G: Group> {
     pub model: &'a Model,
     pub seq: &'a Sequence,
     /// Settle options.
     pub opts: SolveOptions,
-    pub _kind: std::marker::PhantomData<K>,
+    pub _kind: std::marker::PhantomData<G>,
 }
 
-impl<'a, K: Kind> PlantFit<'a, K> {
+impl<'a, G: Group> PlantFit<'a, G> {
     pub fn new(model: &'a Model, seq: &'a Sequence, opts: SolveOptions) -> Self {
         PlantFit {
             model,
@@ -1780,7 +1748,7 @@ impl<'a, K: Kind> PlantFit<'a, K> {
     }
 }
 
-impl<K: Kind> FitModel for PlantFit<'_, K> {
+impl<G: Group> FitModel for PlantFit<'_, G> {
     type State = Settled;
 
     fn rows(&self) -> usize {
@@ -1788,12 +1756,12 @@ impl<K: Kind> FitModel for PlantFit<'_, K> {
     }
 
     fn width(&self) -> usize {
-        <K::Frame<f64> as Frame<f64>>::TASK
+        <G::Frame<f64> as Frame<f64>>::TASK
     }
 
     fn weights(&self) -> Vec<f64> {
-        let l = self.model.straight_length();
-        let dim = <K::Frame<f64> as Frame<f64>>::DIM;
+        let l = straight_length(self.model);
+        let dim = <G::Frame<f64> as Frame<f64>>::DIM;
         (0..self.width())
             .map(|c| if c < dim { 1.0 } else { l })
             .collect()
@@ -1808,7 +1776,7 @@ impl<K: Kind> FitModel for PlantFit<'_, K> {
     }
 
     fn settle(&self, p: &[f64]) -> Option<Settled> {
-        let plant = Plant::<K>::new(self.model, p).ok()?;
+        let plant = Plant::<G>::new(self.model, p).ok()?;
         Some(Settled::new(&plant, self.seq, &self.opts, 1))
     }
 
@@ -1817,7 +1785,7 @@ impl<K: Kind> FitModel for PlantFit<'_, K> {
     }
 
     fn jacobian(&self, p: &[f64], state: &Settled, free: &[usize]) -> Option<Vec<f64>> {
-        let plant = Plant::<K>::new(self.model, p).ok()?;
+        let plant = Plant::<G>::new(self.model, p).ok()?;
         state.jacobian(&plant, self.seq, free, 1).ok()
     }
 }
@@ -1859,13 +1827,45 @@ pub fn solve_elastic(
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<ElasticSolution> {
-    by_kind!(
+    model.kind.visit(SolveElastic {
         model,
-        solve_elastic_k(model, lengths, seed, loads, min_tension, opts, threads)
-    )
+        lengths,
+        seed,
+        loads,
+        min_tension,
+        opts,
+        threads,
+    })
 }
 
-fn solve_elastic_k<K: Kind>(
+/// [`solve_elastic`] over the model's motion group.
+struct SolveElastic<'a> {
+    model: &'a Model,
+    lengths: &'a [f64],
+    seed: Option<&'a [f64]>,
+    loads: &'a LoadRows<'a>,
+    min_tension: f64,
+    opts: &'a SolveOptions,
+    threads: usize,
+}
+
+impl Visit for SolveElastic<'_> {
+    type Out = Result<ElasticSolution>;
+    fn visit<G: Group>(self) -> Self::Out {
+        let s = self;
+        solve_elastic_k::<G>(
+            s.model,
+            s.lengths,
+            s.seed,
+            s.loads,
+            s.min_tension,
+            s.opts,
+            s.threads,
+        )
+    }
+}
+
+fn solve_elastic_k<G: Group>(
     model: &Model,
     lengths: &[f64],
     seed: Option<&[f64]>,
@@ -1876,8 +1876,8 @@ fn solve_elastic_k<K: Kind>(
 ) -> Result<ElasticSolution> {
     let (n, m) = (model.n(), model.position_cables().len());
     let rows = rows_of("lengths", lengths, m)?;
-    let seed = crate::batch::seeds(seed, rows, n)?;
-    crate::batch::check_options(opts)?;
+    let seed = seeds(seed, rows, n)?;
+    opts.check()?;
     if !min_tension.is_finite() {
         return Err(CdsmError::Option {
             name: "min_tension".into(),
@@ -1886,29 +1886,8 @@ fn solve_elastic_k<K: Kind>(
     }
     let nf = model.cables.len() - m;
     let cw = 3 + model.kind.task() - model.kind.dim();
-    let per_row = |name: &str, v: Option<&[f64]>, width: usize| -> Result<bool> {
-        match v {
-            None => Ok(false),
-            Some(v) => {
-                crate::error::check_finite(name, v)?;
-                if v.len() == width {
-                    Ok(false)
-                } else if v.len() == rows * width {
-                    Ok(true)
-                } else {
-                    Err(CdsmError::Shape {
-                        name: name.into(),
-                        expected: format!("({width},) or ({rows}, {width})"),
-                        got: format!("{} values", v.len()),
-                    })
-                }
-            }
-        }
-    };
-    let (force_rows, wrench_rows) = (
-        per_row("lower", loads.force, nf)?,
-        per_row("tip_wrench", loads.wrench, cw)?,
-    );
+    let force_rows = shared_or_rows("lower", loads.force, nf, rows)?;
+    let wrench_rows = shared_or_rows("tip_wrench", loads.wrench, cw, rows)?;
     if let Some(g) = loads.gravity {
         crate::error::check_finite("gravity", &g)?;
     }
@@ -1922,31 +1901,23 @@ fn solve_elastic_k<K: Kind>(
         .find(Effect::CableElasticity)
         .expect("every kind has elasticity")
         .0] = kappa;
-    let plant = Plant::<K>::new(model, &p)?;
+    let plant = Plant::<G>::new(model, &p)?;
     let route = model.cable.routing_length;
     let parts = split_rows(rows, threads, |r| {
         let mut out = ElasticSolution::default();
         let mut work = SettleWork::new(&plant, *opts);
         work.lambda0 = crate::lm::LAMBDA_RESTART;
-        let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
+        let mut chain = Chain::<f64, G::Frame<f64>>::new(model);
         let mut bal = Balance::<f64>::new(model);
         let (mut th, mut t) = (vec![0.0; n], vec![0.0; m]);
+        let limits = model.limits();
         for i in r {
             match seed {
                 Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
                 None => th.fill(0.0),
             }
-            fn pick(v: Option<&[f64]>, w: usize, rows_given: bool, i: usize) -> Option<&[f64]> {
-                v.map(|v| {
-                    if rows_given {
-                        &v[i * w..(i + 1) * w]
-                    } else {
-                        v
-                    }
-                })
-            }
-            let force = pick(loads.force, nf, force_rows, i);
-            let wrench = pick(loads.wrench, cw, wrench_rows, i);
+            let force = row_of(force_rows, nf, i);
+            let wrench = row_of(wrench_rows, cw, i);
             work.loads = Loads {
                 gravity: loads.gravity.unwrap_or(model.gravity),
                 force: force.map(|f| f.to_vec()),
@@ -1981,8 +1952,7 @@ fn solve_elastic_k<K: Kind>(
                     *tk = s.max(0.0) / kappa;
                 }
             }
-            out.solution
-                .push_row(&th, st, crate::arm::within_limits_of(model, &th));
+            out.solution.push_row(&th, st, limits.contains(&th));
             out.tension.extend_from_slice(&t);
             out.feasible.push(t.iter().all(|v| *v > min_tension));
         }
@@ -2000,8 +1970,99 @@ fn solve_elastic_k<K: Kind>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinds::Planar;
 
     const TWO_UNIVERSAL: &str = include_str!("../python/cdsm/robots/two_universal.toml");
+
+    /// Every packaged robot file.
+    const PACKAGED: [&str; 8] = [
+        include_str!("../python/cdsm/robots/paper.toml"),
+        include_str!("../python/cdsm/robots/paper_reversed_weights.toml"),
+        include_str!("../python/cdsm/robots/paper_vertical.toml"),
+        include_str!("../python/cdsm/robots/paper_vertical_reversed_weights.toml"),
+        include_str!("../python/cdsm/robots/serpentine8.toml"),
+        include_str!("../python/cdsm/robots/two_universal.toml"),
+        include_str!("../python/cdsm/robots/paper_spatial.toml"),
+        include_str!("../python/cdsm/robots/sjtu_snake.toml"),
+    ];
+
+    /// The layout is the parameter vector's meaning (model files, the
+    /// library's search order): the kind's table must give the blocks the
+    /// plant had before the kind was data, written out here as they were.
+    #[test]
+    fn layout_from_the_kind_table_is_the_blocks_of_before() {
+        use Effect::*;
+        for text in PACKAGED {
+            let model = Model::from_toml(text).unwrap();
+            let (n, k) = (model.n(), model.disks.len());
+            let m = model.position_cables().len();
+            let want: Vec<(Effect, usize)> = if model.kind == Kind::Planar {
+                vec![
+                    (ActuationScale, 1),
+                    (CableOffset, m),
+                    (HoleHeight, k),
+                    (LinkLength, n + 1),
+                    (CableElasticity, 1),
+                    (HoleClearance, 1),
+                    (FrameMisalignment, 3),
+                    (TipOffset, 2),
+                    (Backlash, m),
+                    (ClearanceWidth, 1),
+                    (CableFriction, 1),
+                ]
+            } else {
+                let holes: usize = model
+                    .position_cables()
+                    .iter()
+                    .map(|c| model.cables[*c].holes.len())
+                    .sum();
+                vec![
+                    (ActuationScale, 1),
+                    (CableOffset, m),
+                    (HolePosition, 3 * holes),
+                    (LinkLength, 3 * (n + k)),
+                    (CableElasticity, 1),
+                    (FrameMisalignment, 6),
+                    (TipOffset, 3),
+                    (Backlash, m),
+                    (HoleClearance, 1),
+                    (ClearanceWidth, 1),
+                    (JointAxis, 2 * n),
+                    (CableFriction, 1),
+                ]
+            };
+            let lay = layout(&model);
+            let got: Vec<(Effect, usize)> = lay.blocks.iter().map(|b| (b.0, b.2)).collect();
+            assert_eq!(got, want, "{}", model.name);
+            assert_eq!(lay.total, want.iter().map(|b| b.1).sum::<usize>());
+            assert_eq!(parameters(&model).len(), lay.total);
+        }
+    }
+
+    /// The planar hole groups of the model's structure move the holes as the
+    /// plant's `hole_height` effect does: group `g`'s error on disk `g + 1`.
+    #[test]
+    fn planar_hole_groups_are_the_hole_height_effect() {
+        for text in &PACKAGED[..5] {
+            let model = Model::from_toml(text).unwrap();
+            let groups = model.structure().hole_groups;
+            let lay = layout(&model);
+            let (o, s) = lay.find(Effect::HoleHeight).unwrap();
+            assert_eq!(groups.len(), s);
+            for (g, group) in groups.iter().enumerate() {
+                assert!(group.coherent);
+                let mut p = vec![0.0; lay.total];
+                p[o + g] = 1e-3 * (g + 1) as f64;
+                let moved = Params::<f64>::unpack(&model, &lay, &p, |_, v| v).arm.holes;
+                let mut want = model.flat_holes();
+                for (i, c) in group.coords.iter().zip(&group.coefs) {
+                    want[*i] += c * p[o + g];
+                }
+                let got: Vec<f64> = moved.iter().flatten().flatten().copied().collect();
+                assert_eq!(got, want, "{} disk {}", model.name, g + 1);
+            }
+        }
+    }
 
     fn data(n: usize, m: usize, rows: usize) -> (Vec<f64>, Vec<f64>, Vec<RowKind>) {
         let mut th = Vec::new();

@@ -1,11 +1,13 @@
 //! Scalars the models are written over: `f64`, [`Jet`]s that carry
 //! derivatives along `K` directions (forward mode; [`Dual`] is `Jet<1>`),
-//! and lane packs of several rows at once ([`crate::simd::pack::Pack`]).
+//! and lane packs of several rows at once ([`pack::Pack`]).
 //! The plant, the statics and the cable geometry are generic over [`Real`],
 //! so one code path gives values and exact derivatives (no finite
 //! differences); the geometry of a configuration (frames, cable lengths and
 //! their Jacobian) only needs [`Arith`], so it also runs on lanes ([`Lane`]:
 //! `f64` is the one-lane case).
+
+pub mod pack;
 
 use std::ops::{Add, AddAssign, BitAnd, BitOr, Div, Mul, MulAssign, Neg, Not, Sub, SubAssign};
 
@@ -264,7 +266,7 @@ impl<const K: usize> Jet<K> {
 
 impl Dual {
     /// The variable itself: derivative 1.
-    #[inline]
+    #[cfg(test)]
     pub fn var(v: f64) -> Dual {
         Jet { v, d: [1.0] }
     }
@@ -274,7 +276,7 @@ impl Dual {
         Jet { v, d: [d] }
     }
     /// The derivative.
-    #[inline]
+    #[cfg(test)]
     pub fn der(self) -> f64 {
         self.d[0]
     }

@@ -2,6 +2,7 @@
 //! lower-cable tensions and joint limits (SI units), read from TOML.
 
 use crate::error::Result;
+use crate::limits::Limits;
 use crate::robot_file::{
     bad, coordinates, from_table, joint_limits, non_negative, positive, positive_length,
     robot_name, toml_table, Exact, MAX_LENGTH,
@@ -20,14 +21,31 @@ pub struct CableMaterial {
     pub diameter: f64,
     /// Length of each upper cable's path behind the base disk, from the base
     /// disk to the actuator (m, default 0). It carries the cable's tension and
-    /// stretches with it (see `statics.rs`).
+    /// stretches with it (`docs/model.md`, "Statics, slack cables and cable
+    /// elasticity").
     pub routing_length: f64,
+    /// The controller's premise (default `true`): it pays the frictionless
+    /// stretch of this cable (`1 / (E A)`) out with its commands, so the
+    /// plant's `cable_elasticity` is the compliance beyond it; `false`: it
+    /// commands the rigid model's lengths and `cable_elasticity` is the whole
+    /// compliance (`docs/model.md`, "Commands and their order").
+    pub stretch_feed_forward: bool,
 }
 
 impl CableMaterial {
     /// The compliance of the cable, `1 / (E A)` with `A = pi d^2 / 4` (1/N).
     pub fn compliance(&self) -> f64 {
         1.0 / (self.youngs_modulus * std::f64::consts::PI * self.diameter * self.diameter / 4.0)
+    }
+
+    /// The compliance whose frictionless stretch the controller feeds
+    /// forward (1/N): [`Self::compliance`] with `stretch_feed_forward`, else 0.
+    pub fn fed_forward(&self) -> f64 {
+        if self.stretch_feed_forward {
+            self.compliance()
+        } else {
+            0.0
+        }
     }
 
     /// Checks that the numbers are physical (positive modulus and diameter,
@@ -47,6 +65,12 @@ impl CableMaterial {
         }
         Ok(())
     }
+}
+
+/// Index of `holes[c, d, f, 0]` in the flat hole array of an `n`-joint arm.
+#[inline]
+pub fn hole_index(n: usize, c: usize, d: usize, f: usize) -> usize {
+    ((c * (n + 1) + d) * 2 + f) * 2
 }
 
 /// A planar CDSM with `n` joints and `2n` cables (see `docs/model.md`).
@@ -91,6 +115,13 @@ struct CableFile {
     diameter: f64,
     #[serde(default)]
     routing_length: f64,
+    #[serde(default = "feed_forward_default")]
+    stretch_feed_forward: bool,
+}
+
+/// A robot file's `[cable] stretch_feed_forward` when it does not say.
+pub(crate) fn feed_forward_default() -> bool {
+    true
 }
 
 #[derive(Deserialize)]
@@ -123,7 +154,12 @@ impl Robot {
     /// Index of `holes[c, d, f, 0]` in the flat hole array.
     #[inline]
     pub fn hole_index(&self, c: usize, d: usize, f: usize) -> usize {
-        crate::geometry::hole_index(self.n(), c, d, f)
+        hole_index(self.n(), c, d, f)
+    }
+
+    /// The joint-limit box.
+    pub fn limits(&self) -> Limits<&[[f64; 2]]> {
+        Limits(&self.joint_limits)
     }
 
     /// Parses and validates a TOML robot description (format in README).
@@ -163,11 +199,13 @@ impl Robot {
                 youngs_modulus: c.youngs_modulus,
                 diameter: c.diameter,
                 routing_length: c.routing_length,
+                stretch_feed_forward: c.stretch_feed_forward,
             },
             None => CableMaterial {
                 youngs_modulus: 1.8e11,
                 diameter: 0.18e-3,
                 routing_length: 0.0,
+                stretch_feed_forward: true,
             },
         };
         let mut robot = Robot {
@@ -382,6 +420,27 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("`n`"), "{e}");
+    }
+
+    #[test]
+    fn stretch_feed_forward_defaults_to_true_and_names_its_field() {
+        let base = "[cable]\nyoungs_modulus = 1.8e11\ndiameter = 0.18e-3\n[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
+        let r = Robot::from_toml(base).unwrap();
+        assert!(r.cable.stretch_feed_forward);
+        assert_eq!(r.cable.fed_forward(), r.cable.compliance());
+        let rigid = base.replace(
+            "diameter = 0.18e-3\n",
+            "diameter = 0.18e-3\nstretch_feed_forward = false\n",
+        );
+        let r = Robot::from_toml(&rigid).unwrap();
+        assert!(!r.cable.stretch_feed_forward);
+        assert_eq!(r.cable.fed_forward(), 0.0);
+        let bad = base.replace(
+            "diameter = 0.18e-3\n",
+            "diameter = 0.18e-3\nstretch_feed_forward = 1\n",
+        );
+        let e = Robot::from_toml(&bad).unwrap_err().to_string();
+        assert!(e.contains("stretch_feed_forward"), "{e}");
     }
 
     #[test]

@@ -25,15 +25,15 @@
 //! `dS/ddh_i = -J_pose · (dL_upper/dtheta)^-1 [:, i] · sum_holes dL_{2i}/dy`.
 //! Units: m/m for x, y; rad/m for phi.
 
-use crate::batch::{map_rows, rows_of};
 use crate::cables::CableGeometry;
 use crate::chain::{Chain, Numbers};
 use crate::error::Result;
 use crate::geometry::{pair, traversal_vector, ArmGeometry};
-use crate::kinds::{Frame, Kind, Planar, Spatial, Vector};
+use crate::kinds::{Frame, Group, Vector, Visit};
 use crate::kinematics::fk_jacobian;
-use crate::model::{self, Model};
+use crate::model::Model;
 use crate::robot::Robot;
+use crate::rows::{map_rows, rows_of};
 
 /// Sensitivities of a batch of configurations (row-major, flat).
 #[derive(Debug, Clone, PartialEq)]
@@ -256,7 +256,7 @@ pub fn rms_amplification(
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let n = robot.n();
     let rows = rows_of("theta", theta, n)?;
-    crate::batch::rows_exactly("tol", tol, 2 * n, 1)?;
+    crate::rows::rows_exactly("tol", tol, 2 * n, 1)?;
     if !(h > 0.0 && h.is_finite()) {
         return Err(crate::error::CdsmError::Option {
             name: "h".into(),
@@ -305,13 +305,30 @@ pub fn general(
     with_holes: bool,
     threads: usize,
 ) -> Result<Sensitivities> {
-    match model.kind {
-        model::Kind::Planar => general_k::<Planar>(model, theta, with_holes, threads),
-        model::Kind::Spatial => general_k::<Spatial>(model, theta, with_holes, threads),
+    model.kind.visit(General {
+        model,
+        theta,
+        with_holes,
+        threads,
+    })
+}
+
+/// [`general`] over the model's motion group.
+struct General<'a> {
+    model: &'a Model,
+    theta: &'a [f64],
+    with_holes: bool,
+    threads: usize,
+}
+
+impl Visit for General<'_> {
+    type Out = Result<Sensitivities>;
+    fn visit<G: Group>(self) -> Self::Out {
+        general_k::<G>(self.model, self.theta, self.with_holes, self.threads)
     }
 }
 
-fn general_k<K: Kind>(
+fn general_k<G: Group>(
     model: &Model,
     theta: &[f64],
     with_holes: bool,
@@ -332,7 +349,7 @@ fn general_k<K: Kind>(
     }
     let width = task * m + 1 + if with_holes { task * hl } else { 0 };
     let flat = map_rows(rows, width, threads, |i, out| {
-        let mut chain = Chain::<f64, K::Frame<f64>>::new(model);
+        let mut chain = Chain::<f64, G::Frame<f64>>::new(model);
         let th = &theta[i * n..(i + 1) * n];
         chain.at(model, model, th);
         chain.world(model, model);

@@ -8,9 +8,10 @@
 
 use crate::cables::CableGeometry;
 use crate::chain::{Broadcast, Chain, Numbers};
+use crate::error::{CdsmError, Result};
 use crate::geometry::ArmGeometry;
 use crate::kinds::Frame;
-use crate::kinematics::within_limits;
+use crate::limits::Limits;
 use crate::lm::{self, Blocks, Damping, Lm, Problem, Reason, Step, Workspace};
 use crate::model::Model;
 use crate::real::Lane;
@@ -26,6 +27,25 @@ pub struct SolveOptions {
     pub max_iter: u32,
     /// Project every trial onto the joint-limit box.
     pub enforce_limits: bool,
+}
+
+impl SolveOptions {
+    /// Rejects options outside their domain, naming the option.
+    pub fn check(&self) -> Result<()> {
+        if !(self.tol.is_finite() && self.tol > 0.0) {
+            return Err(CdsmError::Option {
+                name: "tol".into(),
+                problem: format!("must be positive and finite, got {}", self.tol),
+            });
+        }
+        if self.max_iter == 0 {
+            return Err(CdsmError::Option {
+                name: "max_iter".into(),
+                problem: "must be at least 1".into(),
+            });
+        }
+        Ok(())
+    }
 }
 
 impl Default for SolveOptions {
@@ -64,26 +84,6 @@ pub fn closed_form_status(residual: Option<f64>, tol: f64) -> Status {
             reason: Reason::Stalled,
         },
     }
-}
-
-/// The joint-limit box of a robot as the solver's bounds.
-pub(crate) fn clamp_to_limits(robot: &Robot, theta: &mut [f64]) {
-    clamp_to_limits_box(&robot.joint_limits, theta);
-}
-
-/// `theta` clamped into the box `limits` (`[lo, hi]` per joint, rad).
-pub(crate) fn clamp_to_limits_box(limits: &[[f64; 2]], theta: &mut [f64]) {
-    for (t, l) in theta.iter_mut().zip(limits) {
-        *t = t.clamp(l[0], l[1]);
-    }
-}
-
-/// Whether some joint sits on its limit.
-pub(crate) fn at_limit(robot: &Robot, theta: &[f64]) -> bool {
-    theta
-        .iter()
-        .zip(&robot.joint_limits)
-        .any(|(t, l)| *t <= l[0] || *t >= l[1])
 }
 
 /// Closed-form cable solve in cos/sin form, joint by joint (triangular): for
@@ -171,7 +171,6 @@ pub enum CableMethod {
 /// known at compile time (small arms: the solver's loops then have constant
 /// trip counts), else 0 (any `n`, taken from `target`).
 struct CableProblem<'a, const N: usize> {
-    robot: &'a Robot,
     geom: &'a CableGeometry,
     target: &'a [f64],
     /// `(cos, sin)` and segment lengths of the last evaluation (its Jacobian
@@ -181,7 +180,8 @@ struct CableProblem<'a, const N: usize> {
     roots_n: [[f64; N]; N],
     cs: &'a mut [(f64, f64)],
     roots: &'a mut [f64],
-    enforce_limits: bool,
+    /// The joint-limit box when the limits are enforced.
+    limits: Option<Limits<&'a [[f64; 2]]>>,
 }
 
 impl<const N: usize> CableProblem<'_, N> {
@@ -246,13 +246,13 @@ impl<const N: usize> Problem for CableProblem<'_, N> {
     }
 
     fn project(&self, x: &mut [f64]) {
-        if self.enforce_limits {
-            clamp_to_limits(self.robot, x);
+        if let Some(l) = &self.limits {
+            l.clamp(x);
         }
     }
 
     fn on_bound(&self, x: &[f64]) -> bool {
-        self.enforce_limits && at_limit(self.robot, x)
+        self.limits.as_ref().is_some_and(|l| l.on_bound(x))
     }
 }
 
@@ -307,14 +307,13 @@ impl<'a> CableSolver<'a> {
             theta: &mut [f64],
         ) -> Status {
             let mut p = CableProblem::<N> {
-                robot: s.robot,
                 geom,
                 target,
                 cs_n: [(1.0, 0.0); N],
                 roots_n: [[0.0; N]; N],
                 cs: &mut s.cs,
                 roots: &mut s.roots,
-                enforce_limits: s.opts.enforce_limits,
+                limits: s.opts.enforce_limits.then(|| s.robot.limits()),
             };
             lm::solve_undamped_first::<_, N>(&mut p, theta, &s.lm, &mut s.ws)
         }
@@ -365,12 +364,13 @@ impl<'a> CableSolver<'a> {
     ) -> Status {
         let ok = closed.is_some();
         let mut closed = closed;
-        let mut in_box = !self.opts.enforce_limits || within_limits(self.robot, theta);
+        let limits = self.robot.limits();
+        let mut in_box = !self.opts.enforce_limits || limits.contains(theta);
         if ok && !in_box {
             // an answer a rounding outside a limit (a configuration on the
             // limit): the limit itself, when its lengths still match
             let mut on = theta.to_vec();
-            clamp_to_limits(self.robot, &mut on);
+            limits.clamp(&mut on);
             let mut l = vec![0.0; 2 * self.robot.n()];
             geom.lengths(&on, &mut l);
             let r = target
@@ -501,7 +501,7 @@ struct GeneralProblem<'a, F: Frame<f64>, N> {
     target: &'a [f64],
     chain: &'a mut Chain<f64, F>,
     blocks: Option<&'a Blocks>,
-    limits: Option<&'a [[f64; 2]]>,
+    limits: Option<Limits<&'a [[f64; 2]]>>,
 }
 
 impl<F: Frame<f64>, N: Numbers<f64>> Problem for GeneralProblem<'_, F, N> {
@@ -537,14 +537,13 @@ impl<F: Frame<f64>, N: Numbers<f64>> Problem for GeneralProblem<'_, F, N> {
     }
 
     fn project(&self, x: &mut [f64]) {
-        if let Some(l) = self.limits {
-            clamp_to_limits_box(l, x);
+        if let Some(l) = &self.limits {
+            l.clamp(x);
         }
     }
 
     fn on_bound(&self, x: &[f64]) -> bool {
-        self.limits
-            .is_some_and(|l| x.iter().zip(l).any(|(t, b)| *t <= b[0] || *t >= b[1]))
+        self.limits.as_ref().is_some_and(|l| l.on_bound(x))
     }
 }
 
@@ -605,7 +604,7 @@ pub struct CableSolve<F: Frame<f64>> {
     cables: Vec<usize>,
     blocks: Option<Blocks>,
     opts: SolveOptions,
-    limits: Vec<[f64; 2]>,
+    limits: Limits,
     ws: Workspace,
     traverse: Vec<f64>,
     /// The chain at the last evaluation (the answer's when the solve
@@ -620,7 +619,7 @@ impl<F: Frame<f64>> CableSolve<F> {
             blocks: cable_blocks(model, &cables),
             cables,
             opts,
-            limits: model.joints.iter().map(|j| j.limits).collect(),
+            limits: model.limits(),
             ws: Workspace::default(),
             traverse: Vec::with_capacity(model.cables.len()),
             chain: Chain::new(model),
@@ -646,7 +645,10 @@ impl<F: Frame<f64>> CableSolve<F> {
             target,
             chain: &mut self.chain,
             blocks: self.blocks.as_ref(),
-            limits: self.opts.enforce_limits.then_some(&self.limits[..]),
+            limits: self
+                .opts
+                .enforce_limits
+                .then(|| Limits(self.limits.bounds())),
         };
         lm::solve(&mut p, theta, &general_lm(m, n, &self.opts), &mut self.ws)
     }
@@ -945,14 +947,13 @@ mod tests {
             ];
             let seed = [uniform(0.6), uniform(0.6), uniform(0.6)];
             let problem = || CableProblem::<3> {
-                robot: &r,
                 geom: &g,
                 target: &target,
                 cs_n: [(1.0, 0.0); 3],
                 roots_n: [[0.0; 3]; 3],
                 cs: &mut [],
                 roots: &mut [],
-                enforce_limits: false,
+                limits: None,
             };
             let (mut a, mut b) = (seed, seed);
             let sa = lm::solve(&mut problem(), &mut a, &lm, &mut ws.0);

@@ -159,6 +159,28 @@ def test_friction_input_errors(cdsm):
         r.tensions([0.1, 0.1, 0.1], friction=float("nan"))
 
 
+def test_the_friction_default_and_domain_are_the_cores(cdsm):
+    """One default (0.15) and one domain ([0, 1]), both the core's
+    (``rust/friction.rs``: MU_TYPICAL, MU_MAX, check_mu): the statics' default,
+    the plant's typical size, and the errors of the statics and the friction
+    map, each naming its own field."""
+    from cdsm import _cdsm
+    from cdsm.accuracy import statics
+    from cdsm.calibration import plant
+
+    assert _cdsm.FRICTION_TYPICAL == 0.15 and _cdsm.FRICTION_MAX == 1.0
+    assert statics.FRICTION == _cdsm.FRICTION_TYPICAL == plant.TYPICAL["cable_friction"]
+    r = cdsm.Robot.paper()
+    for mu in (-0.1, 1.5):
+        with pytest.raises(cdsm.CdsmInputError,
+                           match=rf"^`friction`: the friction coefficient must be within \[0, 1\], got {mu}$"):
+            r.tensions([0.1, 0.1, 0.1], friction=mu)
+        with pytest.raises(cdsm.CdsmInputError,
+                           match=rf"^`mu`: the friction coefficient must be within \[0, 1\], got {mu}$"):
+            statics.friction_map(r, [[0.1, 0.1, 0.1]], mu=mu)
+    assert _cdsm.check_friction("mu", 1.0) is None and _cdsm.check_friction("mu", 0.0) is None
+
+
 # --------------------------------------------------------------------------
 # The plant: parity, the frictionless limit, the hysteresis loop
 # --------------------------------------------------------------------------

@@ -226,12 +226,22 @@ def _scenario_columns(head, slug, axes, units, tail) -> Tuple[Tuple[str, str], .
             + tuple(tail))
 
 
+def _core(kind: str) -> dict:
+    """The facts the Rust core holds for ``kind`` (``rust/kinds.rs``,
+    ``KindInfo``: one copy, the core's): dimension, task axes and units, the
+    attitude's form, the Monte-Carlo quantities and units."""
+    f = _cdsm.kind_info(kind)
+    return dict(dim=int(f["dim"]), task_axes=tuple(f["task_axes"]), task_units=tuple(f["task_units"]),
+                rotation=str(f["rotation"]), quantities=tuple(f["quantities"]),
+                quantity_units=tuple(f["quantity_units"]))
+
+
 PLANAR = Kind(
-    "planar", dim=2, task_axes=("x", "y", "phi"), task_units=("m", "m", "rad"), rotation="angle",
+    "planar", **_core("planar"),
     masks={"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}, mask_weights=True, mask_hint=" or 3 weights",
     target_arg="pose", command_arg="upper", summed_angles=True, pair_holes=True,
     core_wrench_rows=(0, 1, 3), core_wrench_width=4,
-    quantities=("dX", "dY", "dphi", "dXY"), quantity_units=("m", "m", "rad", "m"), default_samples=1000,
+    default_samples=1000,
     hole_error_arg="dh", hole_scenarios=(("hole", "disk{disk}", "{size:+g} mm on disk {disk}'s holes"),),
     cable_scenario_label="{size:+g} mm on cable {cable}", grid_protocols=True, no_grid_reason="", singular="pose",
     csv={"scenarios": _scenario_columns(
@@ -264,11 +274,10 @@ PLANAR = Kind(
                mc_caption="; mean signed dX (red), dY (blue), dphi (green)", limit_notes=""))
 
 SPATIAL = Kind(
-    "spatial", dim=3, task_axes=("x", "y", "z", "rx", "ry", "rz"), task_units=("m", "m", "m", "rad", "rad", "rad"),
-    rotation="vector", masks={"position": "position", "pointing": "pointing", "pose": "pose"}, mask_weights=False,
-    mask_hint=" for a spatial arm", target_arg="target", command_arg="lengths", summed_angles=False,
+    "spatial", **_core("spatial"), masks={"position": "position", "pointing": "pointing", "pose": "pose"},
+    mask_weights=False, mask_hint=" for a spatial arm", target_arg="target", command_arg="lengths", summed_angles=False,
     pair_holes=False, core_wrench_rows=(0, 1, 2, 3, 4, 5), core_wrench_width=6,
-    quantities=("dX", "dY", "dZ", "dXYZ", "rot"), quantity_units=("m", "m", "m", "m", "rad"), default_samples=200,
+    default_samples=200,
     hole_error_arg="dholes",
     hole_scenarios=(("radial", "radial{cable}", "{size:+g} mm radially on cable {cable}'s holes"),
                     ("normal", "normal{cable}", "{size:+g} mm along the disk normal on cable {cable}'s holes")),

@@ -12,8 +12,10 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple
+from types import MappingProxyType
+from typing import Dict, List, Mapping, Optional, Tuple
 
 import numpy as np
 
@@ -25,13 +27,27 @@ from .display import ShortRepr, degrees
 from .elastic import XTOL, Equilibrium, EquilibriumDerivatives
 from .kinds import KINDS as _KIND_OBJECTS, PLANAR, SPATIAL, Kind, kind_of
 
-__all__ = ["Robot", "Solution", "KINDS", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
+__all__ = ["Robot", "Solution", "KINDS", "kind_facts", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
            "SPATIAL_MASKS", "IK_METHODS", "MAX_THREADS", "PLAUSIBLE_LENGTH", "packaged_robots"]
 
 _ROBOTS = Path(__file__).parent / "robots"
 
 #: The robot kinds (:class:`cdsm.kinds.Kind`, strings).
 KINDS = tuple(_KIND_OBJECTS.values())
+
+
+@lru_cache(maxsize=None)
+def kind_facts(kind: str) -> Mapping:
+    """The facts of the arm kind ``kind`` (``"planar"`` or ``"spatial"``), the
+    Rust core's (``rust/kinds.rs``, ``KindInfo``), read-only: ``dim`` (2, 3),
+    ``task`` (3, 6), ``task_axes`` and ``task_units``, ``rotation``
+    (``"angle"``: phi; ``"vector"``: a rotation vector), ``quantities`` and
+    ``quantity_units`` (a Monte-Carlo study's, per sample), ``hole_grouping``
+    and ``layout`` (the plant's parameter blocks in order). Lists are tuples.
+    :class:`CdsmInputError` naming ``kind`` for another name."""
+    facts = _cdsm.kind_info(kind)
+    return MappingProxyType({k: tuple(v) if isinstance(v, list) else v for k, v in facts.items()})
+
 
 #: The longest straight arm (m) taken without a warning about its unit.
 PLAUSIBLE_LENGTH = 10.0
@@ -422,6 +438,15 @@ class Robot:
         return self.core.routing_length
 
     @property
+    def stretch_feed_forward(self) -> bool:
+        """The controller's premise (robot file ``[cable] stretch_feed_forward``, default
+        True): it pays the cable's frictionless stretch (compliance ``1 / (E A)``, 1/N) out
+        with its commands, so the plant's ``cable_elasticity`` is the compliance beyond the
+        cable's; False: it commands the rigid model's lengths and ``cable_elasticity`` is
+        the whole compliance (``docs/model.md``, "Commands and their order")."""
+        return self.core.stretch_feed_forward
+
+    @property
     def axial_stiffness(self) -> float:
         """Cable axial stiffness E A, N (A = pi d^2 / 4)."""
         return self.core.axial_stiffness
@@ -666,10 +691,8 @@ class Robot:
         if not isinstance(sliding, str) or sliding not in ("pull", "release"):
             raise CdsmInputError(f"`sliding`: expected 'pull' or 'release' (one sliding state for every row), "
                                  f"got {sliding!r}")
-        if friction is not None:
+        if friction is not None:  # its domain: the core's (friction::check_mu)
             friction = as_finite("friction", friction)
-            if not 0.0 <= friction <= 1.0:
-                raise CdsmInputError(f"`friction`: the coefficient must be within [0, 1], got {friction}")
         rows = t.shape[0]
 
         def rowed(name, value, width):
@@ -773,12 +796,17 @@ class Robot:
                      self.threads)
 
     def with_cable(self, youngs_modulus: Optional[float] = None, diameter: Optional[float] = None,
-                   routing_length: Optional[float] = None) -> "Robot":
-        """The same robot with another cable material (Pa, m) or routing length (m)."""
+                   routing_length: Optional[float] = None,
+                   stretch_feed_forward: Optional[bool] = None) -> "Robot":
+        """The same robot with another cable material (Pa, m), routing length (m) or
+        controller premise (:attr:`stretch_feed_forward`, True or False)."""
         e = self.youngs_modulus if youngs_modulus is None else as_finite("youngs_modulus", youngs_modulus)
         d = self.cable_diameter if diameter is None else as_finite("diameter", diameter)
         r = self.routing_length if routing_length is None else as_finite("routing_length", routing_length)
-        return Robot(self.core.with_cable(e, d, r), self.threads)
+        f = self.stretch_feed_forward if stretch_feed_forward is None else stretch_feed_forward
+        if not isinstance(f, (bool, np.bool_)):
+            raise CdsmInputError(f"`stretch_feed_forward`: expected True or False, got {f!r}")
+        return Robot(self.core.with_cable(e, d, r, bool(f)), self.threads)
 
     def solve_cables_elastic(self, lengths, seed=None, lower=None, tip_wrench=None, gravity=None,
                              min_tension: float = 0.0, tol: float = 1e-12, max_iter: int = 100,

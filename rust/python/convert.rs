@@ -52,7 +52,7 @@ pub fn options(tol: f64, max_iter: u32, enforce_limits: bool) -> PyResult<SolveO
         max_iter,
         enforce_limits,
     };
-    crate::batch::check_options(&o).map_err(err)?;
+    o.check().map_err(err)?;
     Ok(o)
 }
 

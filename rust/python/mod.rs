@@ -16,6 +16,7 @@ use pyo3::prelude::*;
 fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<robot::CoreRobot>()?;
     m.add_function(wrap_pyfunction!(robot::robot_kind, m)?)?;
+    m.add_function(wrap_pyfunction!(robot::kind_info, m)?)?;
     results::register(m)?;
     m.add(
         "CdsmInputError",
@@ -30,6 +31,9 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("ELASTIC_REASONS", crate::elastic::REASONS.to_vec())?;
     m.add("ELASTIC_XTOL", crate::elastic::XTOL)?;
     m.add("CLEARANCE_WIDTH", crate::plant::CLEARANCE_WIDTH)?;
+    m.add("FRICTION_TYPICAL", crate::friction::MU_TYPICAL)?;
+    m.add("FRICTION_MAX", crate::friction::MU_MAX)?;
+    m.add_function(wrap_pyfunction!(robot::check_friction, m)?)?;
     m.add_function(wrap_pyfunction!(robot::hist_edges, m)?)?;
     m.add_function(wrap_pyfunction!(robot::simd_instruction_set, m)?)?;
     Ok(())

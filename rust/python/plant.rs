@@ -5,8 +5,8 @@
 use super::convert::{err, kinds, opt_slice, options, slice, vec1, Arr, Array};
 use super::results::{CompensationResult, PlantFit, PlantPrediction};
 use crate::fit::{self, FitSpec};
-use crate::kinds::{Kind, Planar, Spatial};
-use crate::model::{self, Model};
+use crate::kinds::{Group, Visit};
+use crate::model::Model;
 use crate::plant::{self, PlantFit as Fit, Rows, Sequence};
 use pyo3::prelude::*;
 
@@ -118,14 +118,14 @@ pub struct FitArgs<'a> {
     pub fit_iter: u32,
 }
 
-fn fit_k<K: Kind>(
+fn fit_k<G: Group>(
     model: &Model,
     seq: &Sequence,
     o: crate::solve::SolveOptions,
     a: &FitArgs,
     threads: usize,
 ) -> crate::Result<Vec<crate::fit::FitResult>> {
-    let m = Fit::<K>::new(model, seq, o);
+    let m = Fit::<G>::new(model, seq, o);
     let spec = FitSpec {
         model: &m,
         measured: a.measured,
@@ -135,6 +135,22 @@ fn fit_k<K: Kind>(
         max_iter: a.fit_iter,
     };
     fit::fit_folds(&spec, a.scored, threads)
+}
+
+/// [`fit_k`] over the model's motion group.
+struct FitVisit<'a> {
+    model: &'a Model,
+    seq: &'a Sequence,
+    o: crate::solve::SolveOptions,
+    args: &'a FitArgs<'a>,
+    threads: usize,
+}
+
+impl Visit for FitVisit<'_> {
+    type Out = crate::Result<Vec<crate::fit::FitResult>>;
+    fn visit<G: Group>(self) -> Self::Out {
+        fit_k::<G>(self.model, self.seq, self.o, self.args, self.threads)
+    }
 }
 
 /// Fits the plant parameters `free` on every fold's scored rows.
@@ -151,10 +167,13 @@ pub fn fit(
     let fits = py
         .detach(|| {
             let seq = Sequence::new(model, &data.rows())?;
-            match model.kind {
-                model::Kind::Planar => fit_k::<Planar>(model, &seq, o, &args, threads),
-                model::Kind::Spatial => fit_k::<Spatial>(model, &seq, o, &args, threads),
-            }
+            model.kind.visit(FitVisit {
+                model,
+                seq: &seq,
+                o,
+                args: &args,
+                threads,
+            })
         })
         .map_err(err)?;
     fits.into_iter().map(|f| PlantFit::new(py, f)).collect()

@@ -4,12 +4,12 @@
 
 use super::convert::vec1;
 use crate::accuracy::McStats;
-use crate::batch::BatchSolution;
 use crate::compensate::Compensation;
 use crate::elastic::{Derivatives, Equilibria};
 use crate::fit::FitResult;
+use crate::fit::Predictions;
 use crate::plant::ElasticSolution;
-use crate::plant::Predictions;
+use crate::rows::BatchSolution;
 use crate::sensitivity::Sensitivities;
 use numpy::PyArray1;
 use pyo3::prelude::*;

@@ -18,11 +18,12 @@ use crate::arm::{self, Loads, Task};
 use crate::error::CdsmError;
 use crate::friction::Sliding;
 use crate::ik::{SpatialMask, TaskMask};
+use crate::kinds::Kind;
 use crate::model::{Mode, Model};
 use crate::robot::{CableMaterial, Robot};
 use numpy::PyArray1;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyDict, PyList};
 
 /// A validated arm (SI units); see `cdsm.Robot` for the documented API.
 #[pyclass(frozen, module = "cdsm._cdsm")]
@@ -117,6 +118,27 @@ impl CoreRobot {
     fn kind(&self) -> &'static str {
         self.model.kind.name()
     }
+    /// The facts of this arm's structure (`model::Structure`): `position`,
+    /// `force` (cable indices by control mode), `pairs` (upper/lower pairs
+    /// per disk), `hole_groups` (each a dict of `coords`, indices into the
+    /// flat holes, `coefs` and `coherent`).
+    fn structure<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let s = self.model.structure();
+        let d = PyDict::new(py);
+        d.set_item("position", s.position)?;
+        d.set_item("force", s.force)?;
+        d.set_item("pairs", s.pairs)?;
+        let groups = PyList::empty(py);
+        for g in s.hole_groups {
+            let gd = PyDict::new(py);
+            gd.set_item("coords", g.coords)?;
+            gd.set_item("coefs", g.coefs)?;
+            gd.set_item("coherent", g.coherent)?;
+            groups.append(gd)?;
+        }
+        d.set_item("hole_groups", groups)?;
+        Ok(d)
+    }
     #[getter]
     fn n(&self) -> usize {
         self.model.n()
@@ -146,7 +168,7 @@ impl CoreRobot {
     /// Distance of the straight arm's tip from the base (m).
     #[getter]
     fn straight_length(&self) -> f64 {
-        self.model.straight_length()
+        crate::chain::straight_length(&self.model)
     }
     /// Number of cables.
     #[getter]
@@ -243,6 +265,12 @@ impl CoreRobot {
     fn routing_length(&self) -> f64 {
         self.model.cable.routing_length
     }
+
+    #[getter]
+    fn stretch_feed_forward(&self) -> bool {
+        self.model.cable.stretch_feed_forward
+    }
+
     #[getter]
     fn axial_stiffness(&self) -> f64 {
         let d = self.model.cable.diameter;
@@ -268,17 +296,22 @@ impl CoreRobot {
         }
     }
 
-    /// The same arm with another cable material / routing length (validated).
+    /// The same arm with another cable material / routing length (validated)
+    /// and controller premise (`None`: this arm's).
+    #[pyo3(signature = (youngs_modulus, diameter, routing_length, stretch_feed_forward=None))]
     fn with_cable(
         &self,
         youngs_modulus: f64,
         diameter: f64,
         routing_length: f64,
+        stretch_feed_forward: Option<bool>,
     ) -> PyResult<Self> {
         let cable = CableMaterial {
             youngs_modulus,
             diameter,
             routing_length,
+            stretch_feed_forward: stretch_feed_forward
+                .unwrap_or(self.model.cable.stretch_feed_forward),
         };
         match self.model.planar() {
             Some(r) => {
@@ -659,7 +692,7 @@ impl CoreRobot {
                         Sliding::releasing(mu)
                     }
                 });
-                arm::tensions_sliding(&self.model, t, &loads, min_tension, sliding, threads)
+                arm::tensions(&self.model, t, &loads, min_tension, sliding, threads)
             })
             .map_err(err)?;
         Ok(TensionResult::new(py, tension, feasible))
@@ -953,6 +986,49 @@ impl CoreRobot {
     }
 }
 
+/// The facts of the arm kind `name` (`kinds::KindInfo`): `name`, `dim`,
+/// `task`, `task_axes` and `task_units`, `rotation` (`"angle"` or
+/// `"vector"`), `quantities` and `quantity_units` (a Monte-Carlo study's),
+/// `hole_grouping`, `layout` (the plant's blocks in order, each its effect's
+/// name).
+#[pyfunction]
+pub fn kind_info<'py>(py: Python<'py>, name: &str) -> PyResult<Bound<'py, PyDict>> {
+    let kind = Kind::named(name).ok_or_else(|| {
+        err(CdsmError::Option {
+            name: "kind".into(),
+            problem: format!("must be \"planar\" or \"spatial\", got {name:?}"),
+        })
+    })?;
+    let info = kind.info();
+    let d = PyDict::new(py);
+    d.set_item("name", info.name)?;
+    d.set_item("dim", info.dim)?;
+    d.set_item("task", info.task)?;
+    d.set_item(
+        "task_axes",
+        info.task_axes.iter().map(|a| a.0).collect::<Vec<_>>(),
+    )?;
+    d.set_item(
+        "task_units",
+        info.task_axes.iter().map(|a| a.1).collect::<Vec<_>>(),
+    )?;
+    d.set_item("rotation", info.rotation.name())?;
+    d.set_item(
+        "quantities",
+        info.quantities.iter().map(|q| q.0).collect::<Vec<_>>(),
+    )?;
+    d.set_item(
+        "quantity_units",
+        info.quantities.iter().map(|q| q.1).collect::<Vec<_>>(),
+    )?;
+    d.set_item("hole_grouping", info.holes.name())?;
+    d.set_item(
+        "layout",
+        info.layout.iter().map(|b| b.0.name()).collect::<Vec<_>>(),
+    )?;
+    Ok(d)
+}
+
 /// The `kind` of a robot description: `"planar"` or `"spatial"`.
 #[pyfunction]
 pub fn robot_kind(text: &str) -> PyResult<String> {
@@ -960,6 +1036,13 @@ pub fn robot_kind(text: &str) -> PyResult<String> {
 }
 
 /// Edges (m) of the Monte-Carlo histogram's regular bins (see `accuracy::hist_edges`).
+/// `None` if `mu` is a friction coefficient of the physical domain (`[0,
+/// FRICTION_MAX]`); an error naming the field `name` otherwise.
+#[pyfunction]
+pub fn check_friction(name: &str, mu: f64) -> PyResult<()> {
+    crate::friction::check_mu(name, mu).map_err(err)
+}
+
 #[pyfunction]
 pub fn hist_edges<'py>(py: Python<'py>) -> Array<'py> {
     vec1(py, accuracy::hist_edges().to_vec())

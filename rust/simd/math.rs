@@ -439,14 +439,18 @@ impl LaneFn<2, 1> for Atan2Fn {
         [atan2(simd, x[0], x[1])]
     }
 }
+#[cfg(test)]
 struct AcosFn;
+#[cfg(test)]
 impl LaneFn<1, 1> for AcosFn {
     #[inline(always)]
     fn apply<S: Simd>(&self, simd: S, x: [S::f64s; 1]) -> [S::f64s; 1] {
         [acos(simd, x[0])]
     }
 }
+#[cfg(test)]
 struct SqrtFn;
+#[cfg(test)]
 impl LaneFn<1, 1> for SqrtFn {
     #[inline(always)]
     fn apply<S: Simd>(&self, simd: S, x: [S::f64s; 1]) -> [S::f64s; 1] {
@@ -511,11 +515,13 @@ pub fn atan2_slice(y: &[f64], x: &[f64], out: &mut [f64]) {
 }
 
 /// `acos` of every element (see [`acos`]), with run-time dispatch.
+#[cfg(test)]
 pub fn acos_slice(x: &[f64], out: &mut [f64]) {
     run(pulp::Arch::new(), [x], [out], AcosFn);
 }
 
 /// `sqrt` of every element (see [`sqrt`]), with run-time dispatch.
+#[cfg(test)]
 pub fn sqrt_slice(x: &[f64], out: &mut [f64]) {
     run(pulp::Arch::new(), [x], [out], SqrtFn);
 }

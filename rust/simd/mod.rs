@@ -7,29 +7,20 @@
 //!
 //! * [`math`]: lane-wise `sqrt`, `sin_cos`, `atan2`, `acos`, each within
 //!   1 ulp (bounds and domains in their docs).
-//! * [`cables`]: the closed-form cable solve of [`crate::solve`] across
-//!   rows, with the scalar code's semantics, as a lane kernel and a
-//!   row-major batch function.
-//! * [`ik`]: the closed-form pose IK of 3-joint arms across rows.
 //! * [`lanes`]: `K` vectors in lockstep with arithmetic operators, the
-//!   building block of both.
-//! * [`pack`]: `W` rows as one scalar of the code written over
-//!   [`crate::real::Arith`] (the chain, the general cable solve's Newton
-//!   phase), vectorised by the compiler inside a dispatch.
+//!   building block of the kernels.
+//!
+//! The kernels built on them sit with what they compute: the planar
+//! closed forms across rows in [`crate::planar`], and `W` rows as one
+//! scalar of the code written over [`crate::real::Arith`] (the chain, the
+//! general cable solve's Newton phase) in [`crate::real::pack`].
 //!
 //! The kernels use no fused multiply-add, so every instruction set (and the
 //! scalar fallback) gives the same bits.
 
-pub mod cables;
-pub mod ik;
 pub mod lanes;
 pub mod math;
-pub mod pack;
 
-pub use cables::{
-    closed_form_lanes, closed_form_lanes_x, solve_cables_closed_form_batch,
-    solve_cables_closed_form_batch_in,
-};
 pub use lanes::{Lanes, Mask};
 
 struct InstructionSet;

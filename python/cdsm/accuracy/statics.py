@@ -13,6 +13,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
+from .. import _cdsm
 from ..inputs import CdsmInputError, as_batch, as_count, as_finite
 from ..progress import Progress
 from ..robot import Robot
@@ -26,8 +27,8 @@ __all__ = ["FeasibilityMap", "feasibility_map", "elastic_tip_deviation", "load_r
 #: Standard gravity, m/s^2.
 STANDARD_GRAVITY = 9.80665
 #: The typical friction coefficient of a cable in a hole (oiled or greased steel
-#: on metal; ``docs/model.md``, "Friction in the holes").
-FRICTION = 0.15
+#: on metal; ``docs/model.md``, "Friction in the holes"): the core's.
+FRICTION: float = _cdsm.FRICTION_TYPICAL
 #: The amplitude of the cable cycle of the hysteresis map, m.
 CYCLE_AMPLITUDE = 1e-3
 #: The hysteresis cycles of a friction map run at evenly spread
@@ -228,7 +229,9 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
     """:class:`FrictionMap` of ``robot`` over ``theta`` (N, n) rad (rows with NaN
     are left NaN): statics with friction ``mu`` (1) pulling and releasing, and
     the hysteresis of a ``+-amplitude`` (m) cycle of every position cable
-    through the plant with friction ``mu`` (the robot file's cable stiffness)
+    through the plant with friction ``mu`` and the robot file's cable (its
+    stretch fed forward, or, with rigid commands, its compliance ``1 / (E A)``
+    as ``cable_elasticity``: ``docs/model.md``, "Commands and their order")
     (:func:`hysteresis_cycles`; :mod:`cdsm.calibration.plant`) at evenly
     spread configurations, at most ``cycle_work`` configurations x position
     cables x joints, run in chunks of :func:`cycle_chunk` cycles (memory
@@ -238,8 +241,7 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
 
     th, _ = as_batch("theta", theta, robot.n, finite=False)  # rows with NaN are left NaN
     mu = as_finite("mu", mu)
-    if not 0.0 <= mu <= 1.0:
-        raise CdsmInputError(f"`mu`: the friction coefficient must be within [0, 1], got {mu}")
+    _cdsm.check_friction("mu", mu)
     amplitude = _amplitude(amplitude)
     min_tension = as_finite("min_tension", min_tension)
     cycle_work = as_count("cycle_work", cycle_work, 1)
@@ -254,7 +256,10 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
         release[ok] = robot.tensions(t, friction=mu, sliding="release", min_tension=min_tension)
         fp[ok] = robot.feasible(t, friction=mu, sliding="pull", min_tension=min_tension)
         fr[ok] = robot.feasible(t, friction=mu, sliding="release", min_tension=min_tension)
-        p = plant.params(robot, {"cable_friction": [mu]})
+        effects = {"cable_friction": [mu]}
+        if not robot.stretch_feed_forward:
+            effects["cable_elasticity"] = [1.0 / robot.axial_stiffness]
+        p = plant.params(robot, effects)
         rows = np.flatnonzero(ok)
         most = max(1, int(cycle_work) // max(m * robot.n, 1))
         if len(rows) > most:

@@ -44,8 +44,9 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import _cdsm
 from ..inputs import CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations
-from ..robot import Robot
+from ..robot import Robot, kind_facts
 from .measurements import KIND_CODES, Measurements
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
@@ -55,16 +56,22 @@ __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "E
            "taut_commands"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
-#: Rust core's layout: :func:`layout` gives any robot's).
-BLOCKS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_height", "link_length", "cable_elasticity",
-                           "hole_clearance", "frame_misalignment", "tip_offset", "backlash", "clearance_width",
-                           "cable_friction")
+#: Rust core's layout of the kind, ``kind_facts("planar")["layout"]``:
+#: :func:`layout` gives any robot's with its sizes).
+BLOCKS: Tuple[str, ...] = kind_facts("planar")["layout"]
 
 #: The blocks an effect of the library fits (default: the block of its name).
 EFFECT_BLOCKS: Dict[str, Tuple[str, ...]] = {"hole_clearance": ("hole_clearance", "clearance_width")}
 
+
+def _library(blocks: Sequence[str]) -> Tuple[str, ...]:
+    """The effects of a layout's blocks: each block but those another effect
+    fits with its own (:data:`EFFECT_BLOCKS`), in the layout's order."""
+    return tuple(b for b in blocks if not any(b in v[1:] for v in EFFECT_BLOCKS.values()))
+
+
 #: The effects of the diagnosis library of planar arms.
-EFFECTS: Tuple[str, ...] = tuple(b for b in BLOCKS if not any(b in v[1:] for v in EFFECT_BLOCKS.values()))
+EFFECTS: Tuple[str, ...] = _library(BLOCKS)
 
 #: The effects with memory: what a row shows depends on the direction the
 #: cables moved before it (backlash's dead band, friction's sliding state).
@@ -73,21 +80,20 @@ MEMORY_EFFECTS: Tuple[str, ...] = ("backlash", "cable_friction")
 #: The effects of the diagnosis library of spatial arms (``hole_position``
 #: in 3-D where a planar arm has ``hole_height``; ``joint_axis``: each
 #: joint's axis tilted by two angles).
-SPATIAL_EFFECTS: Tuple[str, ...] = ("actuation_scale", "cable_offset", "hole_position", "link_length",
-                                    "cable_elasticity", "frame_misalignment", "tip_offset", "backlash",
-                                    "hole_clearance", "joint_axis", "cable_friction")
+SPATIAL_EFFECTS: Tuple[str, ...] = _library(kind_facts("spatial")["layout"])
 
 # A magnitude a real prototype could have, per block (the unit the fit works
 # in, and the size of generated test effects): 2 % actuation error, 0.2 mm
 # offsets and holes, 0.3 mm links, a polymer-like compliance (E A ~ 50 N),
 # 0.15 mm clearance and a 10 mrad transition, 5 mrad / 5 mm frame, 1 mm tip
-# offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt, friction
-# 0.15 (greased steel on metal, docs/model.md "Friction in the holes").
+# offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt, the core's
+# typical friction 0.15 (greased steel on metal, docs/model.md "Friction in
+# the holes").
 TYPICAL: Dict[str, float] = {
     "actuation_scale": 0.02, "cable_offset": 2e-4, "hole_height": 2e-4, "hole_position": 2e-4,
     "link_length": 3e-4, "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "clearance_width": 0.01,
     "frame_misalignment": 5e-3, "tip_offset": 1e-3, "backlash": 3e-5, "joint_axis": 1e-2,
-    "cable_friction": 0.15,
+    "cable_friction": _cdsm.FRICTION_TYPICAL,
 }
 assert set(BLOCKS) | set(SPATIAL_EFFECTS) <= set(TYPICAL), "a typical size per parameter block"
 
@@ -99,8 +105,8 @@ MAX_PARAMETER = 1e3
 
 
 def effects_of(robot) -> Tuple[str, ...]:
-    """The diagnosis library of a robot's kind."""
-    return SPATIAL_EFFECTS if robot.kind == "spatial" else EFFECTS
+    """The diagnosis library of a robot's kind (its layout's effects)."""
+    return _library(kind_facts(robot.kind)["layout"])
 
 
 def check_effects(robot, effects: Sequence[str], field: str = "effects") -> List[str]:
@@ -118,12 +124,12 @@ def check_effects(robot, effects: Sequence[str], field: str = "effects") -> List
 
 def width(robot) -> int:
     """Observed components per row: 3 ([x, y, phi]) planar, 6 ([x, y, z, rx, ry, rz]) spatial."""
-    return 6 if robot.kind == "spatial" else 3
+    return kind_facts(robot.kind)["task"]
 
 
 def dims(robot) -> int:
     """Position components per row: 2 planar, 3 spatial."""
-    return 3 if robot.kind == "spatial" else 2
+    return kind_facts(robot.kind)["dim"]
 
 
 def command_lengths(robot, theta) -> np.ndarray:

@@ -85,7 +85,7 @@ __all__ = [
     "backlash_scan",
     "realised_lengths",
     "plant_tensions",
-    "cable_compliance",
+    "fed_forward_compliance",
     "friction_factors",
     "settling_equations",
     "settling_residual",
@@ -429,10 +429,15 @@ def plant_tensions(robot, p, theta) -> np.ndarray:
     return tensions(plant_arm(robot, p), theta)
 
 
-def cable_compliance(robot) -> float:
-    """``kappa_c = 1 / (E A)``, ``A = pi d^2 / 4`` (1/N), of the robot file's cable:
-    friction's change of the tensions stretches the cables at ``kappa + kappa_c``."""
+def fed_forward_compliance(robot) -> float:
+    """``kappa_ff`` (1/N): the compliance whose frictionless stretch the controller feeds
+    forward (``docs/model.md``, "Commands and their order"): ``1 / (E A)``, ``A = pi d^2 /
+    4``, of the robot file's cable when the file says ``stretch_feed_forward`` (the
+    default) and the arm has as many position cables as joints, else 0.  The cable's one
+    compliance is ``kappa + kappa_ff``."""
     robot = as_robot(robot)
+    if not robot.stretch_feed_forward or position_cables(robot).size != robot.n:
+        return 0.0
     return 1.0 / (float(robot.youngs_modulus) * np.pi * float(robot.diameter) ** 2 / 4.0)
 
 
@@ -473,8 +478,9 @@ def settling_equations(robot, arm, q, L, z=None):
     realised lengths ``L (R, m)`` m on the plant's arm ``arm`` (:func:`plant_arm` of ``robot``)
     with the numbers ``q`` (:func:`plant_params`) and the mobilisations ``z (R, H)``
     (friction; default every hole at +1).  With friction (``docs/model.md``, "Stretch")
-    the tensions take the capstan gap factors and ``kappa + kappa_c`` acts on friction's
-    change of them.
+    the tensions take the capstan gap factors and the cable stretches at its one
+    compliance ``kappa + kappa_ff`` under them, less the frictionless stretch
+    ``kappa_ff T*`` fed forward (:func:`fed_forward_compliance`).
 
     * ``m = n``: ``L_arm(theta) - (L + L_r)(1 + kappa T(theta)) + L_r`` (m);
     * ``m > n``, ``kappa = 0``: ``J0^T (L_arm - L) / |J0(0)|_F`` (m; ``J0`` the
@@ -501,7 +507,7 @@ def settling_equations(robot, arm, q, L, z=None):
     square = pos.size == arm.n
     scale = np.linalg.norm(cable_jacobian(arm, np.zeros((1, arm.n)))[0, pos])
     friction = mu > 0.0 and (square or kappa > 0.0)  # a rigid redundant arm: no stretch to change
-    kc = cable_compliance(arm)
+    kff = fed_forward_compliance(arm)
     if friction:
         z = np.ones((L.shape[0], _friction_holes(arm))) if z is None else np.asarray(z, float)
 
@@ -527,8 +533,10 @@ def settling_equations(robot, arm, q, L, z=None):
                 return La - (Li + Lr) * (1.0 + kappa * T) + Lr
             gap, ebar = factors(th, idx)
             T = tensions(arm, th, gap=gap, frames=ch) * ebar[:, pos]
+            if kff == 0.0:
+                return La - Li - (Li + Lr) * kappa * T
             T0 = tensions(arm, th, frames=ch)
-            return La - Li - (Li + Lr) * (kappa * T + kc * (T - T0))
+            return La - Li - (Li + Lr) * ((kappa + kff) * T - kff * T0)
         J = cable_jacobian(arm, th)  # (k, m_all, n), unshifted holes
         if kappa == 0.0:
             return np.einsum("kij,ki->kj", J[:, pos, :], La - Li) / scale
@@ -793,11 +801,11 @@ def friction_motion(robot, commands, seeds, first) -> tuple:
 
 def mobilisation(robot, p, commands, seeds, first) -> np.ndarray:
     """``z (R, H)``: every hole's mobilisation after each command (:func:`friction_motion`,
-    :func:`.friction.mobilisation_scan`, bands ``(kappa + kappa_c) T_hat d sinh(mu beta)`` of
-    ``p``, ``kappa_c = 1 / (E A)`` of the robot file's cable)."""
+    :func:`.friction.mobilisation_scan`, bands ``(kappa + kappa_ff) T_hat d sinh(mu beta)`` of
+    ``p``: the cable's one compliance, :func:`fed_forward_compliance`)."""
     q = plant_params(robot, p)
     d, beta, ten, d0 = friction_motion(robot, commands, seeds, first)
-    kf = q["kappa"] + cable_compliance(robot)
+    kf = q["kappa"] + fed_forward_compliance(robot)
     return fr.mobilisation_scan(d, fr.band(kf, q["mu"], ten, d, beta), d0)
 
 

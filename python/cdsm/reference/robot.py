@@ -185,6 +185,8 @@ class Robot:
     ``youngs_modulus`` float              Pa
     ``diameter``      float               m
     ``routing_length`` float              m, every cable's path behind the base disk
+    ``stretch_feed_forward`` bool         the controller feeds the cable's frictionless
+                                          stretch forward (``docs/model.md``, "Commands")
     ``joint_stiffness`` ``(n,)``          N m/rad, the joint's spring (0: a free joint)
     ``rest_angle``    ``(n,)``            rad, the spring's rest angle
     ``cable_stiffness`` ``(m,)``          N/m, a displacement cable's actuator (inf:
@@ -217,6 +219,7 @@ class Robot:
     youngs_modulus: float = DEFAULT_YOUNGS_MODULUS
     diameter: float = DEFAULT_DIAMETER
     routing_length: float = 0.0
+    stretch_feed_forward: bool = True
     joint_stiffness: np.ndarray = None
     rest_angle: np.ndarray = None
     cable_stiffness: np.ndarray = None
@@ -261,7 +264,7 @@ class Robot:
         shorthand with ``hole_height``.  ``joint_limits`` ``(n, 2)`` rad (default
         ``[-pi, pi]``), ``mass`` ``(n,)`` kg and ``lower_tension`` ``(n,)`` N (default
         0), in-plane ``gravity`` ``(2,)`` m/s^2 (default none); ``material``:
-        ``youngs_modulus``, ``diameter``, ``routing_length``."""
+        ``youngs_modulus``, ``diameter``, ``routing_length``, ``stretch_feed_forward``."""
         h = np.asarray(hole_height, dtype=float).reshape(-1)
         n = h.size
         holes = np.zeros((2 * n, n + 1, 2, 2))
@@ -293,7 +296,7 @@ class Robot:
         object with the planar attributes (``link_before``, ``link_after``,
         ``thickness`` ``(n,)`` m, ``holes`` ``(2n, n+1, 2, 2)`` m, ``joint_limits``
         ``(n, 2)`` rad; optional ``mass``, ``lower_tension``, in-plane ``gravity``,
-        ``routing_length``, ``youngs_modulus``, ``cable_diameter``) such as
+        ``routing_length``, ``youngs_modulus``, ``cable_diameter``, ``stretch_feed_forward``) such as
         ``cdsm.Robot``."""
         if isinstance(robot, Robot):
             return dataclasses.replace(robot)
@@ -308,6 +311,7 @@ class Robot:
             youngs_modulus=float(opt("youngs_modulus", DEFAULT_YOUNGS_MODULUS)),
             diameter=float(opt("cable_diameter", opt("diameter", DEFAULT_DIAMETER))),
             routing_length=float(opt("routing_length", 0.0)),
+            stretch_feed_forward=bool(opt("stretch_feed_forward", True)),
         )
 
     def with_holes(self, holes) -> "Robot":
@@ -488,7 +492,8 @@ class PlanarView:
 
 def _planar_robot(name, link_before, link_after, thickness, holes, joint_limits=None, mass=None,
                   lower_tension=None, gravity=None, youngs_modulus=DEFAULT_YOUNGS_MODULUS,
-                  diameter=DEFAULT_DIAMETER, routing_length=0.0, joint_stiffness=None, rest_angle=None) -> Robot:
+                  diameter=DEFAULT_DIAMETER, routing_length=0.0, stretch_feed_forward=True, joint_stiffness=None,
+                  rest_angle=None) -> Robot:
     """The desugar of the planar shorthand (``docs/model.md``, "The arm model"), from
     the planar layout ``holes (2n, n+1, 2, 2)`` m (unused entries ignored); the joint
     springs ``joint_stiffness (n,)`` N m/rad and ``rest_angle (n,)`` rad (default free)."""
@@ -532,6 +537,7 @@ def _planar_robot(name, link_before, link_after, thickness, holes, joint_limits=
         youngs_modulus=float(youngs_modulus),
         diameter=float(diameter),
         routing_length=float(routing_length),
+        stretch_feed_forward=bool(stretch_feed_forward),
         joint_stiffness=joint_stiffness,
         rest_angle=rest_angle,
     )
@@ -619,10 +625,13 @@ def _load_toml(text: str) -> dict:
 
 def _material(doc: dict) -> dict:
     """The optional ``[cable]`` table: ``youngs_modulus`` Pa, ``diameter`` m,
-    ``routing_length`` m (defaults steel, 0.18 mm, 0 m)."""
+    ``routing_length`` m (defaults steel, 0.18 mm, 0 m), ``stretch_feed_forward`` (default true)."""
     table = _table(doc.get("cable", {}), "cable")
-    _known_keys(table, {"youngs_modulus", "diameter", "routing_length"}, "cable")
-    return dict(
+    _known_keys(table, {"youngs_modulus", "diameter", "routing_length", "stretch_feed_forward"}, "cable")
+    feed = table.get("stretch_feed_forward", True)
+    if not isinstance(feed, bool):
+        raise ValueError(f"cable.stretch_feed_forward: must be true or false, got {feed!r}")
+    return dict(stretch_feed_forward=feed,
         youngs_modulus=_positive(table.get("youngs_modulus", DEFAULT_YOUNGS_MODULUS), "cable.youngs_modulus"),
         diameter=_positive(table.get("diameter", DEFAULT_DIAMETER), "cable.diameter"),
         routing_length=_non_negative(table.get("routing_length", 0.0), "cable.routing_length"),

@@ -74,11 +74,6 @@ def mm(x_m, nd: int = 3) -> str:
     return s if s == "—" else f"{s} mm"
 
 
-def _deg(x_rad, nd: int = 3) -> str:
-    s = fmt(None if x_rad is None else np.degrees(x_rad), nd)
-    return s if s == "—" else f"{s}°"
-
-
 def _pct(a: float, nd: int = 1) -> str:
     s = fmt(None if a is None else 100.0 * a, nd)
     return s if s == "—" else f"{s} %"

@@ -12,8 +12,8 @@
 //! that `f64`'s [`Lane::cos_sin`] also runs, so lane `i` of every result
 //! has the bits of the same operations on the `f64`s of row `i`.
 
-use super::math::sin_cos_quick;
-use crate::real::{Arith, Lane};
+use super::{Arith, Lane};
+use crate::simd::math::sin_cos_quick;
 use std::ops::{Add, AddAssign, BitAnd, BitOr, Div, Mul, MulAssign, Neg, Not, Sub, SubAssign};
 
 /// `W` lanes of `f64`.

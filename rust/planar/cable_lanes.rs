@@ -10,14 +10,14 @@
 //!
 //! [`solve_cables_closed_form_batch`] is [`crate::solve::solve_cables_closed_form`]
 //! over row-major batches, seeds given as angles: the seed's cos/sin come from
-//! [`super::math::sin_cos`] and the angle from [`super::math::atan2`] (each
+//! [`crate::simd::math::sin_cos`] and the angle from [`crate::simd::math::atan2`] (each
 //! within 1 ulp of libm), so its angles agree with the scalar path to a few
 //! 1e-16 rad (the branch can differ from the scalar one only when the seed is
 //! within ~1e-16 of equidistant from both branches).
 
-use super::lanes::{Lanes, Mask};
-use super::math::{atan2_lanes, sin_cos_lanes};
 use crate::cables::CableGeometry;
+use crate::simd::lanes::{Lanes, Mask};
+use crate::simd::math::{atan2_lanes, sin_cos_lanes};
 use pulp::{Simd, WithSimd};
 
 /// Segment `seg = [P, Q, R]`: `sqrt(max(P + Q cos + R sin, 0))`, the scalar

@@ -4,14 +4,14 @@
 //! Every lane does what the scalar function does — the wrist, `c2`, both
 //! branches, the branch nearest the seed (ties to `sin theta_2 <= 0`), the
 //! residual from the forward kinematics — with the lane-wise `acos`, `atan2`
-//! and `sin_cos` of [`super::math`] (each within 1 ulp of libm), so its
+//! and `sin_cos` of [`crate::simd::math`] (each within 1 ulp of libm), so its
 //! angles agree with the scalar function's to a few 1e-16 rad. Lanes the
 //! kernel does not settle — out of reach, or a branch more than pi from the
 //! seed (whole turns to remove) — are marked for the scalar function.
 
-use super::lanes::{Lanes, Mask};
-use super::math::{acos_lanes, atan2_lanes, sin_cos_lanes};
 use crate::robot::Robot;
+use crate::simd::lanes::{Lanes, Mask};
+use crate::simd::math::{acos_lanes, atan2_lanes, sin_cos_lanes};
 use pulp::{Simd, WithSimd};
 use std::f64::consts::PI;
 
