@@ -227,7 +227,7 @@ fn nominal_tensions<F: Frame<f64>>(
     let mut p = 0;
     for (o, cable) in out.iter_mut().zip(&model.cables) {
         *o = match cable.mode {
-            Mode::Force => cable.tension,
+            Mode::Force | Mode::Displacement => cable.tension,
             Mode::Position => {
                 p += 1;
                 t[p - 1]
@@ -395,7 +395,7 @@ impl Sliding {
         for (c, cable) in model.cables.iter().enumerate() {
             let v = match cable.mode {
                 Mode::Position => self.position,
-                Mode::Force => self.force,
+                Mode::Force | Mode::Displacement => self.force,
             };
             z[holes.start[c]..holes.start[c] + 2 * cable.end].fill(v);
         }

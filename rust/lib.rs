@@ -11,6 +11,7 @@ pub mod cables;
 pub mod chain;
 pub mod compensate;
 pub mod effect;
+pub mod elastic;
 pub mod error;
 pub mod fit;
 pub mod friction;

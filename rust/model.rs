@@ -14,7 +14,8 @@ use crate::kinds::{HoleGrouping, Kind};
 use crate::limits::Limits;
 use crate::robot::{CableMaterial, Robot};
 use crate::robot_file::{
-    bad, coordinates, from_table, joint_limits, positive_length, robot_name, toml_table, Exact,
+    bad, coordinates, from_table, joint_limits, non_negative, positive, positive_length,
+    robot_name, toml_table, Exact, MAX_LENGTH,
 };
 use serde::Deserialize;
 
@@ -52,6 +53,10 @@ pub struct Joint {
     pub axis: [f64; 3],
     pub offset: [f64; 3],
     pub limits: [f64; 2],
+    /// The joint's spring (N m/rad, `docs/model.md` "Elastic arms"; 0: a
+    /// free joint, today's) and its rest angle (rad).
+    pub stiffness: f64,
+    pub rest: f64,
 }
 
 /// One disk and the joints before it.
@@ -77,6 +82,32 @@ pub enum Mode {
     Position,
     /// Its tension is held (N).
     Force,
+    /// Its actuator moves by a commanded displacement (m, positive = pull)
+    /// through a series stiffness ([`Actuator`]; `docs/model.md`, "Elastic
+    /// arms"): read by the elastic statics ([`crate::elastic`]).
+    Displacement,
+}
+
+/// The actuator of a displacement cable (`docs/model.md`, "Cables: position,
+/// force, displacement"); the other modes hold the defaults.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Actuator {
+    /// The actuator's stiffness `k_a` (N/m; infinite: rigid).
+    pub stiffness: f64,
+    /// The tension at `d = 0` in the rest pose (N).
+    pub pretension: f64,
+    /// The cap of the tension (N; infinite: none).
+    pub max_tension: f64,
+}
+
+impl Default for Actuator {
+    fn default() -> Self {
+        Actuator {
+            stiffness: f64::INFINITY,
+            pretension: 0.0,
+            max_tension: f64::INFINITY,
+        }
+    }
 }
 
 /// One cable: the disk it ends at (1-based), its mode, its tension (force
@@ -88,6 +119,8 @@ pub struct Cable {
     pub mode: Mode,
     pub tension: f64,
     pub holes: Vec<[f64; 3]>,
+    /// A displacement cable's actuator (the default for the other modes).
+    pub actuator: Actuator,
 }
 
 /// A cable-driven serpentine arm of either kind.
@@ -117,6 +150,25 @@ struct File {
     base: BaseFile,
     linkage: Vec<LinkageFile>,
     cables: Vec<CableFile>,
+    backbone: Option<BackboneFile>,
+}
+
+/// A `[backbone]`: a solid elastic rod lumped into the joints
+/// (`docs/model.md`, "Joint springs").
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct BackboneFile {
+    youngs_modulus: f64,
+    shear_modulus: Option<f64>,
+    radius: f64,
+    segments: Vec<SegmentFile>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SegmentFile {
+    length: f64,
+    links: i64,
 }
 
 #[derive(Deserialize)]
@@ -140,8 +192,10 @@ struct BaseFile {
 #[serde(deny_unknown_fields)]
 struct JointFile {
     axis: Exact<3>,
-    offset: Exact<3>,
+    offset: Option<Exact<3>>,
     limits: Option<Exact<2>>,
+    stiffness: Option<f64>,
+    rest: Option<f64>,
 }
 
 #[derive(Deserialize)]
@@ -165,6 +219,66 @@ struct CableFile {
     radius: Option<f64>,
     angle: Option<f64>,
     holes: Option<Vec<Exact<3>>>,
+    stiffness: Option<f64>,
+    pretension: Option<f64>,
+    max_tension: Option<f64>,
+}
+
+/// Within this (of a unit axis's components) a joint's axis is
+/// perpendicular to, or along, its frame's `x` (the backbone): a bending or
+/// a torsion joint of a `[backbone]`.
+pub const AXIS_CLASS_TOL: f64 = 1e-9;
+
+/// How a `[backbone]` reads a joint (`docs/model.md`, "Joint springs").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum AxisClass {
+    /// The axis is perpendicular to the backbone: `k = E I / l`.
+    Bending,
+    /// The axis lies along the backbone: `k = G J / l`.
+    Torsion,
+}
+
+/// The class of a unit `axis` in its joint's frame, `None` for neither.
+pub fn axis_class(a: [f64; 3]) -> Option<AxisClass> {
+    if a[0].abs() <= AXIS_CLASS_TOL {
+        Some(AxisClass::Bending)
+    } else if a[1].hypot(a[2]) <= AXIS_CLASS_TOL {
+        Some(AxisClass::Torsion)
+    } else {
+        None
+    }
+}
+
+/// A `[backbone]` table, its errors named under `backbone.`.
+fn backbone_file(t: toml::Table) -> Result<BackboneFile> {
+    from_table(t).map_err(|e| match e {
+        CdsmError::Robot { field, problem } if field == "<file>" => bad("backbone".into(), problem),
+        CdsmError::Robot { field, problem } => bad(format!("backbone.{field}"), problem),
+        other => other,
+    })
+}
+
+/// The error of segments whose links do not add up to the disks.
+fn links_error(links: usize, disks: usize) -> CdsmError {
+    bad(
+        "backbone.segments".into(),
+        format!(
+            "the segments' links add up to {links} (or more) but the arm has {disks} disks (one \
+             link per disk, base to tip)"
+        ),
+    )
+}
+
+/// A number of a robot file's table (an integer is taken as it is).
+fn number(field: String, v: &toml::Value) -> Result<f64> {
+    match v {
+        toml::Value::Float(x) => Ok(*x),
+        toml::Value::Integer(i) => Ok(*i as f64),
+        other => Err(bad(
+            field,
+            format!("must be a number, got {}", other.type_str()),
+        )),
+    }
 }
 
 fn finite3(field: &str, v: [f64; 3]) -> Result<[f64; 3]> {
@@ -262,9 +376,203 @@ impl Model {
     /// the same field paths in errors; no text in between).
     pub fn from_table(table: toml::Table) -> Result<Model> {
         match kind_of_table(&table)?.as_str() {
-            "planar" => Ok(Model::from_planar(&Robot::from_table(table)?)),
+            "planar" => Model::from_planar_table(table),
             _ => Model::from_spatial_table(table),
         }
+    }
+
+    /// A planar description: [`Robot::from_table`] and [`Model::from_planar`],
+    /// with the joint springs of its `[[linkage]]` tables (`stiffness`,
+    /// `rest_angle`) or of its `[backbone]` (`docs/model.md`, "Joint springs").
+    fn from_planar_table(mut table: toml::Table) -> Result<Model> {
+        let backbone = match table.remove("backbone") {
+            None => None,
+            Some(toml::Value::Table(t)) => Some(backbone_file(t)?),
+            Some(v) => {
+                return Err(bad(
+                    "backbone".into(),
+                    format!("must be a table, got {}", v.type_str()),
+                ))
+            }
+        };
+        let mut given = Vec::new();
+        if let Some(toml::Value::Array(links)) = table.get_mut("linkage") {
+            for (i, l) in links.iter_mut().enumerate() {
+                let Some(l) = l.as_table_mut() else {
+                    continue; // the planar reader names it
+                };
+                let mut take = |key: &str| -> Result<Option<f64>> {
+                    match l.remove(key) {
+                        None => Ok(None),
+                        Some(v) => number(format!("linkage[{i}].{key}"), &v).map(Some),
+                    }
+                };
+                given.push((take("stiffness")?, take("rest_angle")?));
+            }
+        }
+        let mut model = Model::from_planar(&Robot::from_table(table)?);
+        let fields = (0..model.n()).map(|i| format!("linkage[{i}]")).collect();
+        model.set_springs(&given, fields, "stiffness", "rest_angle", backbone)?;
+        model.check_enough_cables()?;
+        Ok(model)
+    }
+
+    /// Sets every joint's spring (`docs/model.md`, "Joint springs"): as
+    /// `given` (per joint `(stiffness, rest)`, N m/rad and rad, each
+    /// optional: a free joint at rest 0), or derived from a `backbone`
+    /// (a joint's stiffness beside it is refused); rest angles within the
+    /// joint's limits. `fields` name the joints' tables.
+    fn set_springs(
+        &mut self,
+        given: &[(Option<f64>, Option<f64>)],
+        fields: Vec<String>,
+        stiffness_key: &str,
+        rest_key: &str,
+        backbone: Option<BackboneFile>,
+    ) -> Result<()> {
+        for (j, ((k, rest), f)) in given.iter().zip(&fields).enumerate() {
+            let joint = &mut self.joints[j];
+            if let Some(k) = k {
+                joint.stiffness = non_negative(format!("{f}.{stiffness_key}"), *k, "N m/rad")?;
+            }
+            let r = rest.unwrap_or(0.0);
+            let [lo, hi] = joint.limits;
+            if !(r.is_finite() && lo <= r && r <= hi) {
+                return Err(bad(
+                    format!("{f}.{rest_key}"),
+                    format!("{r} rad is outside the joint's limits [{lo}, {hi}] rad"),
+                ));
+            }
+            joint.rest = r;
+        }
+        let Some(b) = backbone else {
+            return Ok(());
+        };
+        if let Some(f) = given.iter().zip(&fields).find(|((k, _), _)| k.is_some()) {
+            return Err(bad(
+                format!("{}.{stiffness_key}", f.1),
+                "give either joint stiffnesses or a [backbone], not both (the backbone derives \
+                 every joint's stiffness)",
+            ));
+        }
+        let e = positive("backbone.youngs_modulus".into(), b.youngs_modulus, "Pa")?;
+        let g = b
+            .shear_modulus
+            .map(|g| positive("backbone.shear_modulus".into(), g, "Pa"))
+            .transpose()?;
+        let r = positive_length("backbone.radius".into(), b.radius)?;
+        if b.segments.is_empty() {
+            return Err(bad(
+                "backbone.segments".into(),
+                "at least one segment is needed",
+            ));
+        }
+        let mut link = Vec::new(); // the link length of every disk, base to tip
+        for (i, sg) in b.segments.iter().enumerate() {
+            let f = format!("backbone.segments[{i}]");
+            let length = positive_length(format!("{f}.length"), sg.length)?;
+            if sg.links < 1 {
+                return Err(bad(
+                    format!("{f}.links"),
+                    format!("must be a whole number of disks >= 1, got {}", sg.links),
+                ));
+            }
+            let links = sg.links as usize;
+            if link.len() + links > self.disks.len() {
+                return Err(links_error(link.len() + links, self.disks.len()));
+            }
+            link.extend(std::iter::repeat_n(length / links as f64, links));
+        }
+        if link.len() != self.disks.len() {
+            return Err(links_error(link.len(), self.disks.len()));
+        }
+        let area = std::f64::consts::PI * r.powi(4) / 4.0; // I, m^4
+        for (d, disk) in self.disks.iter().enumerate() {
+            for j in disk.joints.clone() {
+                let a = self.joints[j].axis;
+                let f = &fields[j];
+                self.joints[j].stiffness = match axis_class(a) {
+                    Some(AxisClass::Bending) => e * area / link[d],
+                    Some(AxisClass::Torsion) => match g {
+                        Some(g) => g * 2.0 * area / link[d],
+                        None => {
+                            return Err(bad(
+                                "backbone.shear_modulus".into(),
+                                format!(
+                                    "missing ({f} is a torsion joint: its axis lies along the \
+                                     backbone)"
+                                ),
+                            ))
+                        }
+                    },
+                    None => {
+                        return Err(bad(
+                            format!("{f}.axis"),
+                            format!(
+                                "a [backbone] derives bending joints (axis perpendicular to the \
+                                 backbone, the joint frame's x) and torsion joints (axis along \
+                                 x); {a:?} is neither"
+                            ),
+                        ))
+                    }
+                };
+            }
+        }
+        Ok(())
+    }
+
+    /// `docs/model.md`, "Enough cables": at least as many position or
+    /// displacement cables as joints of stiffness 0 (today's rule, as many
+    /// position cables as joints, for an arm without springs and
+    /// displacement cables).
+    fn check_enough_cables(&self) -> Result<()> {
+        let m = self.position_cables().len();
+        let commanded = m + self.displacement_cables().len();
+        let free = self.joints.iter().filter(|j| j.stiffness == 0.0).count();
+        if commanded >= free {
+            return Ok(());
+        }
+        if free == self.n() && commanded == m {
+            return Err(bad(
+                "cables".into(),
+                format!(
+                    "{m} position-controlled cables cannot determine {} joints (at least as many are needed)",
+                    self.n()
+                ),
+            ));
+        }
+        Err(bad(
+            "cables".into(),
+            format!(
+                "{commanded} position or displacement cables for {free} joints without stiffness \
+                 (at least as many commanded cables as free joints are needed)"
+            ),
+        ))
+    }
+
+    /// This arm with the joint springs of `other` (same joints).
+    fn with_springs_of(mut self, other: &Model) -> Model {
+        for (j, o) in self.joints.iter_mut().zip(&other.joints) {
+            j.stiffness = o.stiffness;
+            j.rest = o.rest;
+        }
+        self
+    }
+
+    /// Whether the arm has anything of "Elastic arms" (`docs/model.md`): a
+    /// joint spring, a rest angle other than 0, or a displacement cable.
+    pub fn is_elastic(&self) -> bool {
+        self.joints
+            .iter()
+            .any(|j| j.stiffness != 0.0 || j.rest != 0.0)
+            || self.cables.iter().any(|c| c.mode == Mode::Displacement)
+    }
+
+    /// Indices of the displacement cables (file order).
+    pub fn displacement_cables(&self) -> Vec<usize> {
+        (0..self.cables.len())
+            .filter(|c| self.cables[*c].mode == Mode::Displacement)
+            .collect()
     }
 
     /// A planar arm as the one model: joint `i` about `z` at the offset
@@ -298,6 +606,7 @@ impl Model {
                         0.0
                     },
                     holes,
+                    actuator: Actuator::default(),
                 }
             })
             .collect();
@@ -330,6 +639,8 @@ impl Model {
                 axis: [0.0, 0.0, 1.0],
                 offset: [robot.link_before[i], 0.0, 0.0],
                 limits: robot.joint_limits[i],
+                stiffness: 0.0,
+                rest: 0.0,
             })
             .collect();
         Model {
@@ -351,7 +662,7 @@ impl Model {
         if let Some(p) = self.planar() {
             let mut r = p.clone();
             r.cable = cable;
-            return Ok(Model::from_planar(&r));
+            return Ok(Model::from_planar(&r).with_springs_of(self));
         }
         let mut m = self.clone();
         m.cable = cable;
@@ -408,6 +719,11 @@ impl Model {
                 line(w, format!("mass = {}", toml_f(r.mass[i])));
                 line(w, format!("lower_tension = {}", toml_f(r.lower_tension[i])));
                 line(w, format!("joint_limits = {}", toml_fs(&r.joint_limits[i])));
+                let joint = &self.joints[i];
+                if joint.stiffness != 0.0 || joint.rest != 0.0 {
+                    line(w, format!("stiffness = {}", toml_f(joint.stiffness)));
+                    line(w, format!("rest_angle = {}", toml_f(joint.rest)));
+                }
                 for (key, c) in [("upper_holes", 2 * i), ("lower_holes", 2 * i + 1)] {
                     let pts: Vec<String> = self.cables[c]
                         .holes
@@ -428,8 +744,17 @@ impl Model {
             let joints: Vec<String> = self.joints[d.joints.clone()]
                 .iter()
                 .map(|j| {
+                    let spring = if j.stiffness != 0.0 || j.rest != 0.0 {
+                        format!(
+                            ", stiffness = {}, rest = {}",
+                            toml_f(j.stiffness),
+                            toml_f(j.rest)
+                        )
+                    } else {
+                        String::new()
+                    };
                     format!(
-                        "  {{ axis = {}, offset = {}, limits = {} }},",
+                        "  {{ axis = {}, offset = {}, limits = {}{spring} }},",
                         toml_fs(&j.axis),
                         toml_fs(&j.offset),
                         toml_fs(&j.limits)
@@ -452,6 +777,17 @@ impl Model {
                 Mode::Force => {
                     line(w, "mode = \"force\"".into());
                     line(w, format!("tension = {}", toml_f(c.tension)));
+                }
+                Mode::Displacement => {
+                    line(w, "mode = \"displacement\"".into());
+                    let a = &c.actuator;
+                    if a.stiffness.is_finite() {
+                        line(w, format!("stiffness = {}", toml_f(a.stiffness)));
+                    }
+                    line(w, format!("pretension = {}", toml_f(a.pretension)));
+                    if a.max_tension.is_finite() {
+                        line(w, format!("max_tension = {}", toml_f(a.max_tension)));
+                    }
                 }
             }
             let pts: Vec<String> = c.holes.iter().map(|h| toml_fs(h)).collect();
@@ -503,6 +839,7 @@ impl Model {
         let gravity = finite3("gravity", f.gravity.map_or([0.0; 3], |g| g.0))?;
         let base_radius = positive_length("base.radius".into(), f.base.radius)?;
         let (mut joints, mut disks) = (Vec::new(), Vec::new());
+        let (mut springs, mut spring_fields) = (Vec::new(), Vec::new());
         for (k, l) in f.linkage.iter().enumerate() {
             let field = |name: &str| format!("linkage[{k}].{name}");
             if l.joints.is_empty() {
@@ -521,11 +858,22 @@ impl Model {
                 let lim = joint_limits(jfield("limits"), jf.limits)?;
                 joints.push(Joint {
                     axis,
-                    offset: coordinates(jfield("offset"), jf.offset.0)?,
+                    offset: coordinates(jfield("offset"), jf.offset.map_or([0.0; 3], |o| o.0))?,
                     limits: lim,
+                    stiffness: 0.0,
+                    rest: 0.0,
                 });
+                springs.push((jf.stiffness, jf.rest));
+                spring_fields.push(format!("linkage[{k}].joints[{j}]"));
             }
-            let thickness = positive_length(field("thickness"), l.thickness)?;
+            // 0: a via plate (docs/model.md, "Joint springs")
+            let thickness = non_negative(field("thickness"), l.thickness, "m")?;
+            if thickness > MAX_LENGTH {
+                return Err(bad(
+                    field("thickness"),
+                    format!("must be at most {MAX_LENGTH} m, got {thickness}"),
+                ));
+            }
             if !(l.mass.is_finite() && l.mass >= 0.0) {
                 return Err(bad(
                     field("mass"),
@@ -558,6 +906,13 @@ impl Model {
             }
             let (mode, tension) = match (cf.mode.as_str(), cf.tension) {
                 ("position", None) => (Mode::Position, 0.0),
+                ("displacement", None) => (Mode::Displacement, 0.0),
+                ("displacement", Some(_)) => {
+                    return Err(bad(
+                        field("tension"),
+                        "only force-controlled cables carry a tension",
+                    ))
+                }
                 ("position", Some(_)) => {
                     return Err(bad(
                         field("tension"),
@@ -575,7 +930,7 @@ impl Model {
                 (m, _) => {
                     return Err(bad(
                         field("mode"),
-                        format!("must be \"position\" or \"force\", got {m:?}"),
+                        format!("must be \"position\", \"force\" or \"displacement\", got {m:?}"),
                     ))
                 }
             };
@@ -611,14 +966,48 @@ impl Model {
             for (i, h) in holes.iter().enumerate() {
                 coordinates(format!("cables[{c}].holes[{i}]"), *h)?;
             }
+            let mut actuator = Actuator::default();
+            for (key, given) in [
+                ("stiffness", cf.stiffness),
+                ("pretension", cf.pretension),
+                ("max_tension", cf.max_tension),
+            ] {
+                if given.is_some() && mode != Mode::Displacement {
+                    return Err(bad(
+                        field(key),
+                        format!("only displacement cables (mode = \"displacement\") have a {key}"),
+                    ));
+                }
+            }
+            if mode == Mode::Displacement {
+                if let Some(k) = cf.stiffness {
+                    actuator.stiffness = positive(field("stiffness"), k, "N/m")?;
+                }
+                actuator.pretension =
+                    non_negative(field("pretension"), cf.pretension.unwrap_or(0.0), "N")?;
+                if let Some(t) = cf.max_tension {
+                    let t = positive(field("max_tension"), t, "N")?;
+                    if t <= actuator.pretension {
+                        return Err(bad(
+                            field("max_tension"),
+                            format!(
+                                "must exceed the pretension ({} N), got {t}",
+                                actuator.pretension
+                            ),
+                        ));
+                    }
+                    actuator.max_tension = t;
+                }
+            }
             cables.push(Cable {
                 end: cf.end,
                 mode,
                 tension,
                 holes,
+                actuator,
             });
         }
-        let robot = Model {
+        let mut robot = Model {
             name: robot_name(f.name)?,
             kind: Kind::Spatial,
             joints,
@@ -630,16 +1019,8 @@ impl Model {
             planar: None,
         };
         robot.check_holes()?;
-        let m = robot.position_cables().len();
-        if m < robot.n() {
-            return Err(bad(
-                "cables".into(),
-                format!(
-                    "{m} position-controlled cables cannot determine {} joints (at least as many are needed)",
-                    robot.n()
-                ),
-            ));
-        }
+        robot.set_springs(&springs, spring_fields, "stiffness", "rest", f.backbone)?;
+        robot.check_enough_cables()?;
         Ok(robot)
     }
 
@@ -884,7 +1265,7 @@ impl Model {
                     holes[at + 1] = h[1];
                 }
             }
-            r = Model::from_planar(&p.with_holes(&holes)?);
+            r = Model::from_planar(&p.with_holes(&holes)?).with_springs_of(self);
         }
         Ok(r)
     }

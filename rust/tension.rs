@@ -159,6 +159,9 @@ impl<S: Real> Balance<S> {
             let entry = match cable.mode {
                 Mode::Position => Ok(i),
                 Mode::Force => Err(S::cst(force.map_or(cable.tension, |v| v[f]))),
+                // a displacement cable (an elastic arm's: crate::elastic) holds
+                // nothing in the rigid statics
+                Mode::Displacement => Err(S::cst(0.0)),
             };
             if let Some(gap) = gap {
                 Self::enter(&self.row, &mut self.a0, &mut self.b0, self.m, entry);
@@ -167,9 +170,10 @@ impl<S: Real> Balance<S> {
                 }
             }
             Self::enter(&self.row, &mut self.a, &mut self.b, self.m, entry);
-            match entry {
-                Ok(_) => i += 1,
-                Err(_) => f += 1,
+            match cable.mode {
+                Mode::Position => i += 1,
+                Mode::Force => f += 1,
+                Mode::Displacement => {}
             }
         }
     }
@@ -334,6 +338,7 @@ mod tests {
                 ch.cable_jacobian_row(&m, &m, c, &mut row);
                 let tc = match cable.mode {
                     Mode::Force => cable.tension,
+                    Mode::Displacement => 0.0,
                     Mode::Position => t[m.position_cables().iter().position(|p| *p == c).unwrap()],
                 };
                 work += tc * row[j];

@@ -25,6 +25,8 @@ HIST_PER_DECADE: int
 HIST_BINS: int
 QUANTITIES: int
 REASONS: List[str]
+ELASTIC_REASONS: List[str]
+ELASTIC_XTOL: float
 CLEARANCE_WIDTH: float
 FRICTION_TYPICAL: float
 FRICTION_MAX: float
@@ -69,6 +71,29 @@ class ElasticResult:
     solution: SolveResult
     tension: F64
     feasible: Bool
+
+class EquilibriumResult:
+    theta: F64
+    tension: F64
+    slack: Bool
+    capped: Bool
+    converged: Bool
+    reason: U8
+    iterations: U32
+    gradient: F64
+    energy: F64
+
+class EquilibriumDerivatives:
+    theta_lengths: F64
+    theta_displacements: F64
+    theta_wrench: F64
+    task_lengths: F64
+    task_displacements: F64
+    task_wrench: F64
+    tension_lengths: F64
+    tension_displacements: F64
+    tension_wrench: F64
+    definite: Bool
 
 class PlantPrediction:
     observation: F64
@@ -196,6 +221,21 @@ class CoreRobot:
     def solve_elastic(self, lengths: F64, seed: Optional[F64], force: Optional[F64], tip_wrench: Optional[F64],
                       gravity: Optional[Sequence[float]], min_tension: float, tol: float, max_iter: int,
                       threads: int) -> ElasticResult: ...
+    @property
+    def joint_stiffness(self) -> F64: ...
+    @property
+    def rest_angles(self) -> F64: ...
+    @property
+    def displacement_cables(self) -> List[int]: ...
+    @property
+    def cable_modes(self) -> List[str]: ...
+    @property
+    def actuators(self) -> Tuple[F64, F64, F64]: ...
+    def elastic_cables(self) -> Tuple[F64, F64]: ...
+    def equilibrium(self, lengths: F64, displacements: F64, tip_wrench: F64, seed: Optional[F64], sequence: bool,
+                    xtol: float, max_iter: int, threads: int) -> EquilibriumResult: ...
+    def equilibrium_derivatives(self, lengths: F64, displacements: F64, tip_wrench: F64, theta: F64,
+                                threads: int) -> EquilibriumDerivatives: ...
     def plant_effects(self) -> List[Tuple[str, int]]: ...
     def plant_parameters(self) -> List[Tuple[str, str, str]]: ...
     def plant_bounds(self) -> Tuple[F64, F64]: ...

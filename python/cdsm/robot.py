@@ -24,6 +24,7 @@ from .files import read_text
 from .inputs import (CdsmDataWarning, CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations, as_vector,
                      did_you_mean)
 from .display import ShortRepr, degrees
+from .elastic import XTOL, Equilibrium, EquilibriumDerivatives
 from .kinds import KINDS as _KIND_OBJECTS, PLANAR, SPATIAL, Kind, kind_of
 
 __all__ = ["Robot", "Solution", "KINDS", "kind_facts", "ElasticSolution", "CdsmInputError", "REASONS", "TASK_MASKS",
@@ -848,6 +849,130 @@ class Robot:
         m = len(self.position_cables)
         return ElasticSolution.from_core(res.solution, self.n, single, self, tension=res.tension.reshape(-1, m),
                                          _feasible=res.feasible)
+
+
+    # ---- elastic arms (docs/model.md, "Elastic arms") --------------------
+    @property
+    def joint_stiffness(self) -> np.ndarray:
+        """Every joint's spring stiffness ``(n,)`` N m/rad (0: a free joint), as
+        given per joint or derived from the file's ``[backbone]``."""
+        return np.asarray(self.core.joint_stiffness)
+
+    @property
+    def rest_angles(self) -> np.ndarray:
+        """Every joint spring's rest angle ``(n,)`` rad."""
+        return np.asarray(self.core.rest_angles)
+
+    @property
+    def displacement_cables(self) -> List[int]:
+        """Indices (0-based, file order) of the cables commanded in displacement
+        through a series stiffness."""
+        return list(self.core.displacement_cables)
+
+    @property
+    def cable_modes(self) -> List[str]:
+        """Every cable's mode: ``"position"``, ``"force"`` or ``"displacement"``."""
+        return list(self.core.cable_modes)
+
+    @property
+    def is_elastic(self) -> bool:
+        """Whether the arm has joint springs (or rest angles) or displacement
+        cables: its statics is :meth:`equilibrium`; the rigid solves and
+        statics refuse it."""
+        return bool(np.any(self.joint_stiffness != 0.0) or np.any(self.rest_angles != 0.0)
+                    or self.displacement_cables)
+
+    def elastic_cables(self) -> Dict[str, np.ndarray]:
+        """Every cable's ``rest_length (m,)`` m (its path at the rest angles) and
+        ``series_stiffness (m,)`` N/m (``1 / (1/k_a + (L0 + L_r)/(E A))``; NaN but
+        for displacement cables) and the actuators' ``stiffness`` N/m (inf:
+        rigid), ``pretension`` N and ``max_tension`` N (inf: none)."""
+        rest, ks = self.core.elastic_cables()
+        k, p, cap = self.core.actuators
+        return dict(rest_length=np.asarray(rest), series_stiffness=np.asarray(ks), stiffness=np.asarray(k),
+                    pretension=np.asarray(p), max_tension=np.asarray(cap))
+
+    def _elastic_commands(self, lengths, displacements, tip_wrench) -> Tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                              int, bool]:
+        """The commands as flat arrays, the number of rows and whether they came 1-D."""
+        parts, rows, single = [], None, None
+        for name, value, width in (("lengths", lengths, len(self.position_cables)),
+                                   ("displacements", displacements, len(self.displacement_cables))):
+            if value is None:
+                if width:
+                    raise CdsmInputError(f"`{name}`: the arm has {width} such cables; give `{name}` (N, {width}) m")
+                parts.append(None)
+                continue
+            if not width:
+                raise CdsmInputError(f"`{name}`: the arm has no such cables (give None)")
+            arr, one = as_batch(name, value, width)
+            if rows is not None and arr.shape[0] != rows:
+                raise CdsmInputError(f"`{name}`: {arr.shape[0]} rows, the other commands {rows}")
+            rows, single = arr.shape[0], one if single is None else single and one
+            parts.append(arr)
+        if tip_wrench is None:
+            w = np.zeros(0)
+        else:
+            w, one = as_batch("tip_wrench", tip_wrench, self.task)
+            if not one:
+                if rows is not None and w.shape[0] != rows:
+                    raise CdsmInputError(f"`tip_wrench`: {w.shape[0]} rows, the commands {rows}")
+                rows, single = w.shape[0], False
+        rows = 1 if rows is None else rows
+        single = True if single is None else single
+        flat = [np.zeros(0) if a is None else a.reshape(-1) for a in parts]
+        return flat[0], flat[1], np.ascontiguousarray(w).reshape(-1), rows, single
+
+    def equilibrium(self, lengths=None, displacements=None, tip_wrench=None, seed=None, sequence: bool = False,
+                    xtol: float = XTOL, max_iter: int = 100) -> Equilibrium:
+        """The frictionless forward statics of an elastic arm (``docs/model.md``,
+        "Elastic arms"): per row of commands, the configuration that minimises
+        the potential energy (joint springs, the elastic cables' stretch with
+        slack cables carrying nothing, force cables, gravity, the tip force),
+        for any number of joints and cables.
+
+        Commands: ``lengths (N, m_pos)`` m of the position cables (order of
+        :attr:`position_cables`), ``displacements (N, m_d)`` m of the
+        displacement cables (order of :attr:`displacement_cables`, positive =
+        pull); each needed when the arm has such cables. ``tip_wrench`` the
+        kind's rows (planar ``[Fx, Fy, Mz]`` N, N, N m; spatial ``[Fx, Fy, Fz,
+        0, 0, 0]``: a spatial tip moment has no potential and is refused),
+        ``(t,)`` or ``(N, t)``. ``seed`` ``(n,)`` or ``(N, n)`` rad (default:
+        the rest angles; for an arm without springs and with at least as many
+        position cables as joints the rigid cable solve). ``sequence``: solve
+        the rows in order, each from the previous row's answer (the first from
+        ``seed``): the warm start along a recorded sequence (one thread).
+
+        Newton's method with an Armijo line search on the potential, using the
+        structure (per-disk blocks plus the taut cables' low-rank term);
+        converged when the unshifted step is at most ``xtol`` rad. A row that
+        does not converge is flagged with its reason. Returns an
+        :class:`~cdsm.elastic.Equilibrium`.
+        """
+        L, d, w, rows, single = self._elastic_commands(lengths, displacements, tip_wrench)
+        if seed is None:
+            s = None
+        elif sequence:
+            s = as_vector("seed", seed, self.n)
+        else:
+            s = self._seed(seed, rows).reshape(-1)
+        res = self.core.equilibrium(L, d, w, s, bool(sequence), as_finite("xtol", xtol),
+                                    as_iterations("max_iter", max_iter), self.threads)
+        return Equilibrium.from_core(res, self.n, self.cables, single)
+
+    def equilibrium_derivatives(self, theta, lengths=None, displacements=None,
+                                tip_wrench=None) -> EquilibriumDerivatives:
+        """Derivatives of the equilibria ``theta (N, n)`` rad (:meth:`equilibrium`
+        of the same commands) by the implicit function theorem: ``dq/dp =
+        -H^-1 dg/dp`` per commanded length (m), displacement (m) and wrench row
+        (N, N m), and the task vector's and tensions' derivatives
+        (:class:`~cdsm.elastic.EquilibriumDerivatives`). At a cable's slack (or
+        cap) transition: the one-sided derivative of the side its flag says."""
+        L, d, w, rows, single = self._elastic_commands(lengths, displacements, tip_wrench)
+        th, one = as_batch("theta", theta, self.n)
+        res = self.core.equilibrium_derivatives(L, d, w, th.reshape(-1), self.threads)
+        widths = (len(self.position_cables), len(self.displacement_cables), self.task)
+        return EquilibriumDerivatives.from_core(res, self.n, self.task, self.cables, widths, single and one)
 
 
 @dataclass(frozen=True, repr=False)

@@ -28,6 +28,8 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("HIST_BINS", crate::accuracy::HIST_BINS)?;
     m.add("QUANTITIES", crate::accuracy::QUANTITIES)?;
     m.add("REASONS", crate::lm::Reason::NAMES.to_vec())?;
+    m.add("ELASTIC_REASONS", crate::elastic::REASONS.to_vec())?;
+    m.add("ELASTIC_XTOL", crate::elastic::XTOL)?;
     m.add("CLEARANCE_WIDTH", crate::plant::CLEARANCE_WIDTH)?;
     m.add("FRICTION_TYPICAL", crate::friction::MU_TYPICAL)?;
     m.add("FRICTION_MAX", crate::friction::MU_MAX)?;

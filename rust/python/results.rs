@@ -5,6 +5,7 @@
 use super::convert::vec1;
 use crate::accuracy::McStats;
 use crate::compensate::Compensation;
+use crate::elastic::{Derivatives, Equilibria};
 use crate::fit::FitResult;
 use crate::fit::Predictions;
 use crate::plant::ElasticSolution;
@@ -29,6 +30,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PlantFit>()?;
     m.add_class::<CompensationResult>()?;
     m.add_class::<TensionResult>()?;
+    m.add_class::<EquilibriumResult>()?;
+    m.add_class::<EquilibriumDerivatives>()?;
     Ok(())
 }
 
@@ -240,6 +243,74 @@ impl TensionResult {
         TensionResult {
             tension: arr(py, tension),
             feasible: arr(py, feasible),
+        }
+    }
+}
+
+/// Frictionless equilibria of an elastic arm (`crate::elastic`), row-major:
+/// `theta (N*n)` rad, `tension (N*m)` N, `slack`, `capped (N*m)`,
+/// `converged`, `reason` (codes of `ELASTIC_REASONS`), `iterations`,
+/// `gradient` (N m, max |dU/dq|), `energy` (J).
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct EquilibriumResult {
+    pub theta: A<f64>,
+    pub tension: A<f64>,
+    pub slack: A<bool>,
+    pub capped: A<bool>,
+    pub converged: A<bool>,
+    pub reason: A<u8>,
+    pub iterations: A<u32>,
+    pub gradient: A<f64>,
+    pub energy: A<f64>,
+}
+
+impl EquilibriumResult {
+    pub fn new(py: Python<'_>, e: Equilibria) -> EquilibriumResult {
+        EquilibriumResult {
+            theta: arr(py, e.theta),
+            tension: arr(py, e.tension),
+            slack: arr(py, e.slack),
+            capped: arr(py, e.capped),
+            converged: arr(py, e.converged),
+            reason: arr(py, e.reason),
+            iterations: arr(py, e.iterations),
+            gradient: arr(py, e.gradient),
+            energy: arr(py, e.energy),
+        }
+    }
+}
+
+/// Derivatives of equilibria by the implicit function theorem, row-major
+/// per row (`crate::elastic::Derivatives`): `theta_*` `(n, p)`, `task_*`
+/// `(t, p)`, `tension_*` `(m, p)` for `p` the lengths, displacements and
+/// wrench rows; `definite (N,)`.
+#[pyclass(frozen, get_all, module = "cdsm._cdsm")]
+pub struct EquilibriumDerivatives {
+    pub theta_lengths: A<f64>,
+    pub theta_displacements: A<f64>,
+    pub theta_wrench: A<f64>,
+    pub task_lengths: A<f64>,
+    pub task_displacements: A<f64>,
+    pub task_wrench: A<f64>,
+    pub tension_lengths: A<f64>,
+    pub tension_displacements: A<f64>,
+    pub tension_wrench: A<f64>,
+    pub definite: A<bool>,
+}
+
+impl EquilibriumDerivatives {
+    pub fn new(py: Python<'_>, d: Derivatives) -> EquilibriumDerivatives {
+        EquilibriumDerivatives {
+            theta_lengths: arr(py, d.theta_lengths),
+            theta_displacements: arr(py, d.theta_displacements),
+            theta_wrench: arr(py, d.theta_wrench),
+            task_lengths: arr(py, d.task_lengths),
+            task_displacements: arr(py, d.task_displacements),
+            task_wrench: arr(py, d.task_wrench),
+            tension_lengths: arr(py, d.tension_lengths),
+            tension_displacements: arr(py, d.tension_displacements),
+            tension_wrench: arr(py, d.tension_wrench),
+            definite: arr(py, d.definite),
         }
     }
 }

@@ -10,8 +10,8 @@ use super::convert::{
 };
 use super::plant::{self, Data, FitArgs};
 use super::results::{
-    CompensationResult, DeviationResult, ElasticResult, MonteCarloStats, PlantFit, PlantPrediction,
-    SensitivityResult, SolveResult, TensionResult,
+    CompensationResult, DeviationResult, ElasticResult, EquilibriumDerivatives, EquilibriumResult,
+    MonteCarloStats, PlantFit, PlantPrediction, SensitivityResult, SolveResult, TensionResult,
 };
 use crate::accuracy::{self, HoleErrors};
 use crate::arm::{self, Loads, Task};
@@ -57,6 +57,19 @@ impl CoreRobot {
                 "`{call}`: available for planar arms only (this arm is spatial)"
             ))
         })
+    }
+
+    /// An error naming `call` for an elastic arm (joint springs, rest
+    /// angles or displacement cables): the rigid solves and statics do not
+    /// model them; its statics is `equilibrium` (`crate::elastic`).
+    fn rigid(&self, call: &str) -> PyResult<()> {
+        if self.model.is_elastic() {
+            return Err(CdsmInputError::new_err(format!(
+                "`{call}`: available for rigid arms only (this arm has joint springs or \
+                 displacement cables: its statics is `equilibrium`)"
+            )));
+        }
+        Ok(())
     }
 
     /// A batched map of `theta (N, n)`, run with the GIL released.
@@ -497,6 +510,7 @@ impl CoreRobot {
         enforce_limits: bool,
         threads: usize,
     ) -> PyResult<SolveResult> {
+        self.rigid("solve_cables")?;
         let u = slice("lengths", &lengths)?;
         let s = opt_slice("seed", &seed)?;
         let m = self::method(method)?;
@@ -521,6 +535,7 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<DeviationResult> {
+        self.rigid("deviation")?;
         let r = self.planar("deviation")?;
         let t = slice("theta0", &theta0)?;
         let d = slice("dl", &dl)?;
@@ -552,6 +567,7 @@ impl CoreRobot {
         check_slack: bool,
         threads: usize,
     ) -> PyResult<MonteCarloStats> {
+        self.rigid("monte_carlo")?;
         let t = slice("theta0", &theta0)?;
         let d = slice("dl", &dl)?;
         let (dh, dholes) = (opt_slice("dh", &dh)?, opt_slice("dholes", &dholes)?);
@@ -596,6 +612,7 @@ impl CoreRobot {
         holes: bool,
         threads: usize,
     ) -> PyResult<SensitivityResult> {
+        self.rigid("sensitivity")?;
         let t = slice("theta", &theta)?;
         let s = py
             .detach(|| match self.model.planar() {
@@ -618,6 +635,7 @@ impl CoreRobot {
         h: f64,
         threads: usize,
     ) -> PyResult<(Array<'py>, Array<'py>)> {
+        self.rigid("rms_amplification")?;
         let r = self.planar("rms_amplification")?;
         let t = slice("theta", &theta)?;
         let tl = slice("tol", &tol)?;
@@ -649,6 +667,7 @@ impl CoreRobot {
         friction: Option<f64>,
         pulling: bool,
     ) -> PyResult<TensionResult> {
+        self.rigid("tensions")?;
         let t = slice("theta", &theta)?;
         let gravity = match gravity {
             None => None,
@@ -696,6 +715,7 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<ElasticResult> {
+        self.rigid("solve_elastic")?;
         let u = slice("lengths", &lengths)?;
         let s = opt_slice("seed", &seed)?;
         let gravity = match gravity {
@@ -719,6 +739,124 @@ impl CoreRobot {
             })
             .map_err(err)?;
         ElasticResult::new(py, out)
+    }
+
+    // ---- elastic arms (crate::elastic) ----------------------------------
+    /// Every joint's spring stiffness (N m/rad; 0: free).
+    #[getter]
+    fn joint_stiffness<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.joints.iter().map(|j| j.stiffness).collect())
+    }
+
+    /// Every joint's rest angle (rad).
+    #[getter]
+    fn rest_angles<'py>(&self, py: Python<'py>) -> Array<'py> {
+        vec1(py, self.model.joints.iter().map(|j| j.rest).collect())
+    }
+
+    /// Indices of the displacement cables (file order).
+    #[getter]
+    fn displacement_cables(&self) -> Vec<usize> {
+        self.model.displacement_cables()
+    }
+
+    /// Every cable's mode: "position", "force" or "displacement".
+    #[getter]
+    fn cable_modes(&self) -> Vec<&'static str> {
+        self.model
+            .cables
+            .iter()
+            .map(|c| match c.mode {
+                Mode::Position => "position",
+                Mode::Force => "force",
+                Mode::Displacement => "displacement",
+            })
+            .collect()
+    }
+
+    /// Per cable: actuator stiffness (N/m, inf: rigid), pretension (N), cap
+    /// (N, inf: none); the defaults for cables other than displacement ones.
+    #[getter]
+    fn actuators<'py>(&self, py: Python<'py>) -> (Array<'py>, Array<'py>, Array<'py>) {
+        let a: Vec<_> = self.model.cables.iter().map(|c| c.actuator).collect();
+        (
+            vec1(py, a.iter().map(|x| x.stiffness).collect()),
+            vec1(py, a.iter().map(|x| x.pretension).collect()),
+            vec1(py, a.iter().map(|x| x.max_tension).collect()),
+        )
+    }
+
+    /// Every cable's rest length (m, at the rest angles) and series
+    /// stiffness (N/m; NaN but for displacement cables).
+    fn elastic_cables<'py>(&self, py: Python<'py>) -> (Array<'py>, Array<'py>) {
+        let e = crate::elastic::Elastic::new(&self.model);
+        (
+            vec1(py, e.rest_lengths().to_vec()),
+            vec1(py, e.series_stiffness().to_vec()),
+        )
+    }
+
+    /// Frictionless equilibria (`crate::elastic::equilibria`): commands
+    /// `lengths (N*m_pos)`, `displacements (N*m_d)` m, `tip_wrench` (the
+    /// kind's rows, one or per row; empty: none), `seed (n)` or `(N*n)` rad.
+    #[pyo3(signature = (lengths, displacements, tip_wrench, seed, sequence, xtol, max_iter, threads))]
+    #[allow(clippy::too_many_arguments)]
+    fn equilibrium(
+        &self,
+        py: Python<'_>,
+        lengths: Arr<'_>,
+        displacements: Arr<'_>,
+        tip_wrench: Arr<'_>,
+        seed: Option<Arr<'_>>,
+        sequence: bool,
+        xtol: f64,
+        max_iter: u32,
+        threads: usize,
+    ) -> PyResult<EquilibriumResult> {
+        let batch = crate::elastic::Batch {
+            lengths: slice("lengths", &lengths)?,
+            displacements: slice("displacements", &displacements)?,
+            wrench: slice("tip_wrench", &tip_wrench)?,
+        };
+        let s = opt_slice("seed", &seed)?;
+        let out = py
+            .detach(|| {
+                crate::elastic::equilibria(
+                    &self.model,
+                    &batch,
+                    s,
+                    sequence,
+                    xtol,
+                    max_iter,
+                    threads,
+                )
+            })
+            .map_err(err)?;
+        Ok(EquilibriumResult::new(py, out))
+    }
+
+    /// Derivatives of equilibria `theta (N*n)` rad by the implicit function
+    /// theorem (`crate::elastic::derivatives`); commands as `equilibrium`.
+    #[pyo3(signature = (lengths, displacements, tip_wrench, theta, threads))]
+    fn equilibrium_derivatives(
+        &self,
+        py: Python<'_>,
+        lengths: Arr<'_>,
+        displacements: Arr<'_>,
+        tip_wrench: Arr<'_>,
+        theta: Arr<'_>,
+        threads: usize,
+    ) -> PyResult<EquilibriumDerivatives> {
+        let batch = crate::elastic::Batch {
+            lengths: slice("lengths", &lengths)?,
+            displacements: slice("displacements", &displacements)?,
+            wrench: slice("tip_wrench", &tip_wrench)?,
+        };
+        let t = slice("theta", &theta)?;
+        let out = py
+            .detach(|| crate::elastic::derivatives(&self.model, &batch, t, threads))
+            .map_err(err)?;
+        Ok(EquilibriumDerivatives::new(py, out))
     }
 
     // ---- the plant -----------------------------------------------------
@@ -750,6 +888,7 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<PlantPrediction> {
+        self.rigid("plant_predict")?;
         let data = Data::of(&theta_cmd, &dl, &kind)?;
         plant::predict(py, &self.model, params, &data, tol, max_iter, threads)
     }
@@ -768,6 +907,7 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<PlantPrediction> {
+        self.rigid("plant_linearise")?;
         let data = Data::of(&theta_cmd, &dl, &kind)?;
         plant::linearise(
             py,
@@ -801,6 +941,7 @@ impl CoreRobot {
         fit_iter: u32,
         threads: usize,
     ) -> PyResult<Vec<PlantFit>> {
+        self.rigid("plant_fit")?;
         let data = Data::of(&theta_cmd, &dl, &kind)?;
         let args = FitArgs {
             measured: slice("measured", &measured)?,
@@ -828,6 +969,7 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<CompensationResult> {
+        self.rigid("compensate")?;
         plant::compensate(
             py,
             &self.model,
