@@ -206,6 +206,26 @@ class Robot:
         return _plausible(cls(_cdsm.CoreRobot.from_data(data)))
 
     @classmethod
+    def from_opencr(cls, config: "str | os.PathLike[str] | dict") -> "Robot":
+        """A tendon-driven continuum robot from an OpenCR-MuJoCo generation
+        config (https://github.com/ContinuumRoboticsLab/opencr-mujoco): a
+        JSON file's path, a packaged config's name (``"ftdcr_v4_sysid"``,
+        :data:`cdsm.interop.opencr.PACKAGED`) or the parsed JSON object,
+        built as OpenCR's generator builds its model
+        (:func:`cdsm.interop.opencr.robot_data`: elastic joints from the
+        backbone rod, one displacement tendon per actuator, OpenCR's order).
+        cdsm's backbone runs along ``x``: OpenCR's ``(x, y, z)`` is cdsm's
+        ``(y, z, x)``. SI units. Settle it with :meth:`equilibrium`."""
+        from .interop import opencr
+
+        if isinstance(config, dict):
+            return cls.from_data(opencr.robot_data(config))
+        path = config
+        if isinstance(config, str) and config in opencr.PACKAGED and not os.path.exists(config):
+            path = opencr.packaged(config)
+        return cls.from_data(opencr.robot_data(opencr.load_config(path)))
+
+    @classmethod
     def from_caspr(cls, bodies_xml: "str | os.PathLike[str]", cables_xml: "str | os.PathLike[str]",
                    cable_set: Optional[str] = None) -> "Robot":
         """A spatial robot from a CASPR multi-link model (https://github.com/darwinlau/CASPR):
@@ -476,10 +496,10 @@ class Robot:
                  [[str(d + 1), _vec(la, 4), f"{t:.4g}", f"{r:.4g}", f"{m:.4g}"]
                   for d, (la, t, r, m) in enumerate(zip(self.disk_link_after, self.disk_thickness,
                                                         self.radii[1:], self.mass))])
-        pos = set(self.position_cables)
         cab_rows = []
-        for c, (e, h, t) in enumerate(zip(self.cable_ends, self.holes_by_cable(), self.cable_tensions)):
-            mode = "position" if c in pos else f"force, {t:.4g} N"
+        for c, (e, h, t, m) in enumerate(zip(self.cable_ends, self.holes_by_cable(), self.cable_tensions,
+                                            self.cable_modes)):
+            mode = f"force, {t:.4g} N" if m == "force" else m
             cab_rows.append([str(c + 1), str(e), mode, _vec(h[0], 4), _vec(h[-1], 4)])
         cables = (["cable", "ends at disk", "mode", "base hole (m)", "last hole (m)"], cab_rows)
         return {"joints": joints, "disks": disks, "cables": cables}
