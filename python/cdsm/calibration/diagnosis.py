@@ -206,6 +206,12 @@ class Prepared(ShortRepr):
         return np.flatnonzero(self.usable)
 
     @property
+    def group_count(self) -> Optional[int]:
+        """The number of fold groups among the usable rows (None: rows are
+        dealt out one by one)."""
+        return None if self.groups is None else int(len(np.unique(self.groups[self.rows])))
+
+    @property
     def readings(self) -> float:
         """Noise of a row per axis over the noise of one reading: 1 (absolute)
         or sqrt(2) (displacement: two readings)."""
@@ -853,8 +859,7 @@ class Diagnosis(ShortRepr):
             ties=self.ties, correlated_parameters=self.correlated,
             unidentifiable_parameters=self.unidentifiable,
             feature_correlation=self.feature_correlation, folds=self.folds,
-            folds_by=(dict(column=prep.group_column, groups=int(len(np.unique(prep.groups[prep.rows]))))
-                      if prep.groups is not None else None),
+            folds_by=(dict(column=prep.group_column, groups=prep.group_count) if prep.groups is not None else None),
             selection_test=dict(kind=self.support_rule + f", Bonferroni-corrected for the candidates compared "
                                                          f"at each step (family alpha {ALPHA})",
                                 alpha=self.alphas),

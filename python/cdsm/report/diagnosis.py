@@ -516,7 +516,7 @@ def summary(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
     how far the gap shrinks, the largest gaps, the next measurements; then
     the rows used and the flagged ones."""
     lines = [_plain(item) for item in headline_items(d, suggestion)]
-    by = (f" over {len(np.unique(d.prep.groups[d.prep.rows]))} groups of {d.prep.group_column!r}"
+    by = (f" over {d.prep.group_count} groups of {d.prep.group_column!r}"
           if d.prep.groups is not None else "")
     lines.append(f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
                  f"{d.folds}-fold cross-validation{by}")
