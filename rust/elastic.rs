@@ -43,6 +43,11 @@ pub const XTOL: f64 = 1e-12;
 pub const SHIFT: f64 = 1e-3;
 /// Halvings of the line search before a row is declared stuck.
 pub const HALVINGS: usize = 50;
+/// A structured step at most this long (rad) is followed by the chord test
+/// of convergence ([`Elastic::chord_step`]): the next step with this step's
+/// factorisation, the Newton step to a relative `~1e-6` there; a test that
+/// fails goes on as Newton (the next point's own Hessian).
+pub const CHORD: f64 = 1e-6;
 /// A full unshifted step whose predicted decrease is below this many ulps of
 /// `U`'s rounding level is taken as it is (`docs/model.md`, step 4).
 pub const ROUNDING_ULPS: f64 = 64.0;
@@ -90,6 +95,11 @@ pub struct Elastic {
     dis: Vec<usize>,
     /// Joint ranges of the disks (the blocks of `D`).
     blocks: Vec<std::ops::Range<usize>>,
+    /// Per cable, its reach: the joints before the end of its last disk
+    /// (its length depends on `q[..reach]` alone).
+    reach: Vec<usize>,
+    /// Every disk has two joints (the blocks are the pairs `2d, 2d + 1`).
+    pairs: bool,
     /// Gravity acts on some mass.
     gravity: bool,
     planar: bool,
@@ -204,6 +214,11 @@ struct Work {
     gap_l: Vec<f64>,
     gap_va: Vec<[f64; 3]>,
     maxj: usize,
+    /// Per gap: `1 / length` (1/m; 0 at length 0).
+    gap_inv: Vec<f64>,
+    /// How much of the geometry ([`Elastic::geometry`]) is of the chain's
+    /// configuration: 0 none, 1 the gaps and lengths, 2 with `G`.
+    level: u8,
     /// `U` (J), its rounding level (J), `g` (N m).
     u: f64,
     scale: f64,
@@ -282,6 +297,31 @@ fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
     }
 }
 
+/// The inverse (`n x n` row-major, into `out`) of `L L^T`, `l` from
+/// [`cholesky`].
+fn invert_from_cholesky(l: &[f64], n: usize, out: &mut [f64]) {
+    match n {
+        1 => out[0] = 1.0 / (l[0] * l[0]),
+        2 => {
+            let (ia, ic) = (1.0 / l[0], 1.0 / l[3]);
+            let m10 = -l[2] * ia * ic;
+            out[0] = ia * ia + m10 * m10;
+            out[1] = m10 * ic;
+            out[2] = out[1];
+            out[3] = ic * ic;
+        }
+        _ => {
+            for j in 0..n {
+                let col = &mut out[j * n..(j + 1) * n];
+                col.fill(0.0);
+                col[j] = 1.0;
+                cholesky_solve(l, n, col);
+            }
+        }
+    }
+}
+
+
 impl Elastic {
     /// The elastic statics' data of `model`.
     pub fn new(model: &Model) -> Elastic {
@@ -321,6 +361,19 @@ impl Elastic {
             pos: model.position_cables(),
             dis: model.displacement_cables(),
             blocks: model.disks.iter().map(|d| d.joints.clone()).collect(),
+            reach: model
+                .cables
+                .iter()
+                .map(|c| match c.end {
+                    0 => 0,
+                    e => model.disks[e - 1].joints.end,
+                })
+                .collect(),
+            pairs: model
+                .disks
+                .iter()
+                .enumerate()
+                .all(|(d, disk)| disk.joints == (2 * d..2 * d + 2)),
             gravity: model.gravity.iter().any(|g| *g != 0.0)
                 && model.disks.iter().any(|d| d.mass > 0.0),
             planar: model.kind == Kind::Planar,
@@ -423,6 +476,8 @@ impl Elastic {
             gap_l: vec![0.0; gaps],
             gap_va: vec![[0.0; 3]; gaps * maxj],
             maxj,
+            gap_inv: vec![0.0; gaps],
+            level: 0,
             u: 0.0,
             scale: 0.0,
             g: vec![0.0; self.n],
@@ -438,7 +493,8 @@ impl Elastic {
     }
 
     /// `U` at `q` and, with `order >= 1`, `g`, with `order >= 2` the parts
-    /// of `H`, into `w`.
+    /// of `H`, into `w`: the geometry of `q` ([`Elastic::geometry`]), then
+    /// the laws and loads on it ([`Elastic::apply`]).
     fn evaluate(
         &self,
         model: &Model,
@@ -448,14 +504,140 @@ impl Elastic {
         order: u8,
         w: &mut Work,
     ) {
+        w.chain.at(model, model, q);
+        w.level = 0;
+        self.geometry(model, order, w);
+        self.apply(model, laws, wrench, q, order, w);
+    }
+
+    /// What of `U` and its derivatives depends on the configuration of the
+    /// last [`Chain::at`] alone (not on the laws), up to `order`, from the
+    /// level `w` holds: the cables' gaps and lengths (0), their gradients
+    /// `G` (1, with every gap's moment arms); one pass over the gaps. (The
+    /// gaps' curvature, needed of the cables that pull alone, is
+    /// [`Elastic::curvature`].)
+    fn geometry(&self, model: &Model, order: u8, w: &mut Work) {
         let n = self.n;
-        let ch = &mut w.chain;
-        ch.at(model, model, q);
+        let from = w.level;
+        let to = order.min(1) + 1;
+        if from >= to {
+            return;
+        }
+        let ch = &w.chain;
+        let maxj = w.maxj;
+        let mut at = 0;
+        for (c, cable) in model.cables.iter().enumerate() {
+            let mut l = self.traverse[c];
+            let row = &mut w.grad_l[c * n..(c + 1) * n];
+            for k in 1..=cable.end {
+                if from == 0 {
+                    let a = ch.local[k - 1].point(cable.holes[2 * k - 1]);
+                    let v = sub3(a, cable.holes[2 * k - 2]);
+                    let lk = norm3(v);
+                    l += lk;
+                    w.gap_a[at] = a;
+                    w.gap_v[at] = v;
+                    w.gap_l[at] = lk;
+                }
+                let blk = model.disks[k - 1].joints.clone();
+                let vas = &mut w.gap_va[at * maxj..(at + 1) * maxj];
+                let v = w.gap_v[at];
+                if from <= 1 && to >= 2 {
+                    // `G`: a cable's row is 0 past the joints of its last disk
+                    // (zeros from `work`, never written)
+                    let (a, l) = (w.gap_a[at], w.gap_l[at]);
+                    let inv = if l > 0.0 { 1.0 / l } else { 0.0 };
+                    w.gap_inv[at] = inv;
+                    for (i, j) in blk.clone().enumerate() {
+                        let va = cross(ch.joint_w[j], sub3(a, ch.joint_p[j]));
+                        vas[i] = va;
+                        row[j] = dot3(v, va) * inv;
+                    }
+                }
+                at += 1;
+            }
+            if from == 0 {
+                w.len[c] = l;
+            }
+        }
+        w.level = to;
+    }
+
+    /// Adds the cables' curvature to `D` ([`Work::d`] holding the springs):
+    /// `T_c d2l/dq_a dq_b` of every gap of the cables that pull, from the
+    /// geometry of order 1 `w` holds and its tensions. Per pair `ia <= ib` of
+    /// the gap's disk's joints, `d2l/dq_a dq_b = ((v_a + v x w_a) . v_b - u_a
+    /// u_b) / l` with `u_j = dl/dq_j` (`v . (w_a x v_b) = (v x w_a) . v_b`).
+    fn add_curvature(&self, model: &Model, w: &mut Work) {
+        let n = self.n;
+        let Work {
+            chain: ch,
+            grad_l,
+            gap_v,
+            gap_va,
+            gap_inv,
+            maxj,
+            t,
+            d,
+            ..
+        } = w;
+        let maxj = *maxj;
+        let mut at = 0;
+        for (c, cable) in model.cables.iter().enumerate() {
+            let tc = t[c];
+            if tc == 0.0 {
+                at += cable.end;
+                continue;
+            }
+            let row = &grad_l[c * n..(c + 1) * n];
+            for k in 1..=cable.end {
+                let blk = model.disks[k - 1].joints.clone();
+                let s = blk.len();
+                let vas = &gap_va[at * maxj..(at + 1) * maxj];
+                let (v, inv) = (gap_v[at], gap_inv[at]);
+                at += 1;
+                let db = &mut d[k - 1];
+                for ia in 0..s {
+                    let wa = ch.joint_w[blk.start + ia];
+                    let va = vas[ia];
+                    let e = [
+                        va[0] + v[1] * wa[2] - v[2] * wa[1],
+                        va[1] + v[2] * wa[0] - v[0] * wa[2],
+                        va[2] + v[0] * wa[1] - v[1] * wa[0],
+                    ];
+                    let ua = row[blk.start + ia];
+                    for ib in ia..s {
+                        let h = (dot3(e, vas[ib]) - ua * row[blk.start + ib]) * inv;
+                        let th = tc * h;
+                        db[ia * s + ib] += th;
+                        if ia != ib {
+                            db[ib * s + ia] += th;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// `U` and, up to `order`, `g` and the parts of `H` at `q` (rad) from the
+    /// geometry `w` holds of `q` (at least of `order`, at most 1): the
+    /// springs, the cables' laws, the loads.
+    fn apply(
+        &self,
+        model: &Model,
+        laws: &Laws,
+        wrench: &[f64; 6],
+        q: &[f64],
+        order: u8,
+        w: &mut Work,
+    ) {
+        let n = self.n;
         let force = [wrench[0], wrench[1], wrench[2]];
         let tip_force = force.iter().any(|v| *v != 0.0);
+        let mz = wrench[5];
         w.loads = self.gravity || tip_force;
-        if w.loads || order >= 1 {
-            ch.world(model, model);
+        if w.loads || (order >= 1 && mz != 0.0) {
+            w.chain.world(model, model);
         }
         // springs
         let mut u = 0.0;
@@ -464,21 +646,9 @@ impl Elastic {
             u += 0.5 * kj * dq * dq;
         }
         let mut scale = u;
-        // cables: lengths (and the gaps kept for the derivatives)
-        let mut at = 0;
-        for (c, cable) in model.cables.iter().enumerate() {
-            let mut l = self.traverse[c];
-            for k in 1..=cable.end {
-                let a = ch.local[k - 1].point(cable.holes[2 * k - 1]);
-                let v = sub3(a, cable.holes[2 * k - 2]);
-                let lk = norm3(v);
-                l += lk;
-                w.gap_a[at] = a;
-                w.gap_v[at] = v;
-                w.gap_l[at] = lk;
-                at += 1;
-            }
-            w.len[c] = l;
+        // cables
+        for c in 0..model.cables.len() {
+            let l = w.len[c];
             let (t, energy, sigma) = if laws.elastic[c] {
                 let s = laws.p[c] + laws.k[c] * (l - laws.l[c]);
                 (
@@ -496,6 +666,7 @@ impl Elastic {
             scale += energy.abs() + t.abs() * l;
         }
         // loads: gravity on the disks' centres of mass, the tip force, a planar moment
+        let ch = &w.chain;
         if w.loads {
             for (b, disk) in model.disks.iter().enumerate() {
                 if self.gravity && disk.mass > 0.0 {
@@ -511,7 +682,6 @@ impl Elastic {
                 scale += norm3(force) * norm3(p);
             }
         }
-        let mz = wrench[5];
         if mz != 0.0 {
             let phi: f64 = q.iter().sum();
             u -= mz * phi;
@@ -526,29 +696,18 @@ impl Elastic {
         for (((gj, qj), rj), kj) in w.g.iter_mut().zip(q).zip(&self.rest).zip(&self.k) {
             *gj = kj * (qj - rj);
         }
-        w.grad_l.fill(0.0);
-        let mut at = 0;
-        for (c, cable) in model.cables.iter().enumerate() {
-            let row = &mut w.grad_l[c * n..(c + 1) * n];
-            for k in 1..=cable.end {
-                let (a, v, l) = (w.gap_a[at], w.gap_v[at], w.gap_l[at]);
-                let inv = if l > 0.0 { 1.0 / l } else { 0.0 };
-                for (i, j) in model.disks[k - 1].joints.clone().enumerate() {
-                    let va = cross(ch.joint_w[j], sub3(a, ch.joint_p[j]));
-                    w.gap_va[at * w.maxj + i] = va;
-                    row[j] = dot3(v, va) * inv;
-                }
-                at += 1;
-            }
+        for c in 0..model.cables.len() {
             let t = w.t[c];
             if t != 0.0 {
-                for (gj, rj) in w.g.iter_mut().zip(row.iter()) {
+                let reach = self.reach[c];
+                let row = &w.grad_l[c * n..c * n + reach];
+                for (gj, rj) in w.g[..reach].iter_mut().zip(row) {
                     *gj += t * rj;
                 }
             }
         }
         if w.loads || mz != 0.0 {
-            ch.joints_world(model);
+            w.chain.joints_world(model);
         }
         if w.loads {
             if order >= 2 {
@@ -603,35 +762,7 @@ impl Elastic {
                 db[i * s + i] = self.k[j];
             }
         }
-        let mut at = 0;
-        for (c, cable) in model.cables.iter().enumerate() {
-            let t = w.t[c];
-            for k in 1..=cable.end {
-                let (v, l) = (w.gap_v[at], w.gap_l[at]);
-                let vas = &w.gap_va[at * w.maxj..(at + 1) * w.maxj];
-                at += 1;
-                if t == 0.0 || l <= 0.0 {
-                    continue;
-                }
-                let blk = &self.blocks[k - 1];
-                let s = blk.len();
-                let db = &mut w.d[k - 1];
-                let l3 = l * l * l;
-                for (ib, _) in blk.clone().enumerate() {
-                    let xb = vas[ib];
-                    let vxb = dot3(v, xb);
-                    for (ia, ja) in blk.clone().enumerate().take(ib + 1) {
-                        let va = vas[ia];
-                        let vab = cross(w.chain.joint_w[ja], xb);
-                        let h = (dot3(va, xb) + dot3(v, vab)) / l - dot3(v, va) * vxb / l3;
-                        db[ia * s + ib] += t * h;
-                        if ia != ib {
-                            db[ib * s + ia] += t * h;
-                        }
-                    }
-                }
-            }
-        }
+        self.add_curvature(model, w);
         for c in 0..model.cables.len() {
             let s = w.sigma[c];
             w.c[c] = if laws.elastic[c] && s > 0.0 && s < laws.cap[c] {
@@ -682,7 +813,8 @@ impl Elastic {
     /// every block of `D` is positive definite (then `H` is, `tau = 0`),
     /// else by the dense Cholesky with the shift. `None`: no shift helps.
     fn step(&self, w: &Work, s: &mut [f64], scratch: &mut Scratch) -> Option<f64> {
-        if !w.loads && self.structured(w, s, scratch) {
+        scratch.structured = !w.loads && self.structured(w, s, scratch);
+        if scratch.structured {
             return Some(0.0);
         }
         self.dense_step(w, s, scratch)
@@ -692,70 +824,179 @@ impl Elastic {
     /// positive definite.
     fn structured(&self, w: &Work, s: &mut [f64], sc: &mut Scratch) -> bool {
         let n = self.n;
-        if sc.blocks.len() != self.blocks.len() {
-            sc.blocks = w.d.clone();
-        }
-        for (d, blk) in self.blocks.iter().enumerate() {
-            let b = &mut sc.blocks[d];
-            b.copy_from_slice(&w.d[d]);
-            if !cholesky(b, blk.len()) {
-                return false;
-            }
+        if !self.invert_blocks(w, sc) {
+            return false;
         }
         sc.taut.clear();
         sc.taut.extend((0..w.c.len()).filter(|c| w.c[*c] > 0.0));
         let mt = sc.taut.len();
-        // X = D^-1 [g, G_t] (columns), column-major n x (1 + mt)
-        sc.x.clear();
-        sc.x.extend_from_slice(&w.g);
-        for &c in &sc.taut {
-            sc.x.extend_from_slice(&w.grad_l[c * n..(c + 1) * n]);
+        // X = D^-1 [g, G_t] (columns), column-major n x (1 + mt); a cable's
+        // column only up to its reach (its gradient is 0 past it)
+        let mut x = std::mem::take(&mut sc.x);
+        x.clear();
+        x.resize(n * (1 + mt), 0.0);
+        self.block_solve(sc, &w.g, &mut x[..n], n);
+        for (i, &c) in sc.taut.iter().enumerate() {
+            let r = self.reach[c];
+            let col = &mut x[(1 + i) * n..(2 + i) * n];
+            self.block_solve(sc, &w.grad_l[c * n..c * n + r], col, r);
         }
-        for col in 0..=mt {
-            let x = &mut sc.x[col * n..(col + 1) * n];
-            for (d, blk) in self.blocks.iter().enumerate() {
-                cholesky_solve(&sc.blocks[d], blk.len(), &mut x[blk.clone()]);
-            }
-        }
+        sc.x = x;
         for (sj, xj) in s.iter_mut().zip(&sc.x[..n]) {
             *sj = -xj;
         }
         if mt == 0 {
             return true;
         }
-        // S = C^-1 + G_t^T D^-1 G_t, y = S^-1 G_t^T D^-1 g
+        // S = C^-1 + G_t^T D^-1 G_t (symmetric: one triangle), y = G_t^T D^-1 g
         sc.small.clear();
         sc.small.resize(mt * mt, 0.0);
         sc.y.clear();
         sc.y.resize(mt, 0.0);
         for (a, &ca) in sc.taut.iter().enumerate() {
-            let ga = &w.grad_l[ca * n..(ca + 1) * n];
-            for b in 0..mt {
-                let xb = &sc.x[(1 + b) * n..(2 + b) * n];
-                sc.small[a * mt + b] = dot(ga, xb);
+            let ra = self.reach[ca];
+            let ga = &w.grad_l[ca * n..ca * n + ra];
+            for b in 0..=a {
+                let r = ra.min(self.reach[sc.taut[b]]);
+                let xb = &sc.x[(1 + b) * n..(1 + b) * n + r];
+                let v = dot4(&ga[..r], xb);
+                sc.small[a * mt + b] = v;
+                sc.small[b * mt + a] = v;
             }
             sc.small[a * mt + a] += 1.0 / w.c[ca];
-            sc.y[a] = dot(ga, &sc.x[..n]);
-        }
-        // symmetric by construction up to rounding: take the mean
-        for a in 0..mt {
-            for b in 0..a {
-                let m = 0.5 * (sc.small[a * mt + b] + sc.small[b * mt + a]);
-                sc.small[a * mt + b] = m;
-                sc.small[b * mt + a] = m;
-            }
+            sc.y[a] = dot4(ga, &sc.x[..ra]);
         }
         if !cholesky(&mut sc.small, mt) {
             return false;
         }
         cholesky_solve(&sc.small, mt, &mut sc.y);
-        for (b, yb) in sc.y.iter().enumerate() {
-            let xb = &sc.x[(1 + b) * n..(2 + b) * n];
-            for j in 0..n {
-                s[j] += yb * xb[j];
+        for (b, &cb) in sc.taut.iter().enumerate() {
+            let r = self.reach[cb];
+            let yb = sc.y[b];
+            let xb = &sc.x[(1 + b) * n..(1 + b) * n + r];
+            for (sj, xj) in s[..r].iter_mut().zip(xb) {
+                *sj += yb * xj;
             }
         }
         true
+    }
+
+    /// The convergence test of [`CHORD`]: with `w` at order 1 at a point
+    /// a small structured step from the last factorised one, and the same
+    /// taut cables, the step `s` of that factorisation (the Newton step to
+    /// within a relative change of `H` over the small step); true when it is
+    /// finite and at most `xtol` (rad; `s` then holds it).
+    fn chord_step(
+        &self,
+        laws: &Laws,
+        w: &Work,
+        s: &mut [f64],
+        sc: &mut Scratch,
+        xtol: f64,
+    ) -> bool {
+        let n = self.n;
+        if !(w.u.is_finite() && w.g.iter().all(|v| v.is_finite())) {
+            return false;
+        }
+        // the same taut cables
+        let mut i = 0;
+        for (c, &sig) in w.sigma.iter().enumerate() {
+            let taut = laws.elastic[c] && sig > 0.0 && sig < laws.cap[c];
+            let was = sc.taut.get(i) == Some(&c);
+            if taut != was {
+                return false;
+            }
+            i += usize::from(was);
+        }
+        let mt = sc.taut.len();
+        let mut x0 = std::mem::take(&mut sc.y0);
+        x0.clear();
+        x0.resize(n, 0.0);
+        self.block_solve(sc, &w.g, &mut x0, n);
+        sc.y.clear();
+        for (a, &c) in sc.taut.iter().enumerate() {
+            let r = self.reach[c];
+            sc.y.push(dot4(&sc.gt[a * n..a * n + r], &x0[..r]));
+        }
+        if mt > 0 {
+            cholesky_solve(&sc.small, mt, &mut sc.y);
+        }
+        for (sj, xj) in s.iter_mut().zip(&x0) {
+            *sj = -xj;
+        }
+        for (b, &cb) in sc.taut.iter().enumerate() {
+            let r = self.reach[cb];
+            let yb = sc.y[b];
+            let xb = &sc.x[(1 + b) * n..(1 + b) * n + r];
+            for (sj, xj) in s[..r].iter_mut().zip(xb) {
+                *sj += yb * xj;
+            }
+        }
+        sc.y0 = x0;
+        s.iter().all(|v| v.abs() <= xtol)
+    }
+
+    /// Every block of `D`'s inverse into `sc`: false when one is not
+    /// positive definite (its Cholesky factorisation fails).
+    fn invert_blocks(&self, w: &Work, sc: &mut Scratch) -> bool {
+        if self.pairs {
+            // 2 x 2: pivots `a` and `e - c^2 / a`, the inverse by its adjugate
+            sc.pairs.resize(self.blocks.len(), [0.0; 3]);
+            for (b, inv) in w.d.iter().zip(sc.pairs.iter_mut()) {
+                let (a, c, e) = (b[0], b[2], b[3]);
+                if !(a > 0.0 && a.is_finite()) {
+                    return false;
+                }
+                let p = e - c * c / a;
+                if !(p > 0.0 && p.is_finite()) {
+                    return false;
+                }
+                let r = 1.0 / (a * p);
+                *inv = [e * r, -c * r, a * r];
+            }
+            return true;
+        }
+        if sc.blocks.len() != self.blocks.len() {
+            sc.blocks = w.d.clone();
+            sc.chol = w.d.clone();
+        }
+        for (d, blk) in self.blocks.iter().enumerate() {
+            let b = &mut sc.chol[d];
+            b.copy_from_slice(&w.d[d]);
+            if !cholesky(b, blk.len()) {
+                return false;
+            }
+            invert_from_cholesky(b, blk.len(), &mut sc.blocks[d]);
+        }
+        true
+    }
+
+    /// `out[..r] = D^-1 rhs[..r]` with the blocks' inverses of
+    /// [`Elastic::invert_blocks`], for `r` at a block's end (the blocks past
+    /// it are not read nor written).
+    fn block_solve(&self, sc: &Scratch, rhs: &[f64], out: &mut [f64], r: usize) {
+        if self.pairs {
+            for ((o, x), inv) in out[..r]
+                .chunks_exact_mut(2)
+                .zip(rhs[..r].chunks_exact(2))
+                .zip(&sc.pairs)
+            {
+                o[0] = inv[0] * x[0] + inv[1] * x[1];
+                o[1] = inv[1] * x[0] + inv[2] * x[1];
+            }
+            return;
+        }
+        for (d, blk) in self.blocks.iter().enumerate() {
+            if blk.start >= r {
+                break;
+            }
+            let s = blk.len();
+            let bi = &sc.blocks[d];
+            let x = &rhs[blk.clone()];
+            for (i, o) in out[blk.clone()].iter_mut().enumerate() {
+                *o = dot(&bi[i * s..(i + 1) * s], x);
+            }
+        }
     }
 
     fn dense_step(&self, w: &Work, s: &mut [f64], sc: &mut Scratch) -> Option<f64> {
@@ -802,13 +1043,32 @@ impl Elastic {
         w: &mut Work,
         sc: &mut Scratch,
     ) -> (Reason, u32) {
+        self.newton_at(model, laws, wrench, q, xtol, max_iter, w, sc, false)
+    }
+
+    /// [`Elastic::newton`]; with `placed`, `w` holds the geometry of `q`
+    /// (the last evaluation was at `q`, with any laws: the previous row's
+    /// answer along a sequence), not computed again.
+    #[allow(clippy::too_many_arguments)]
+    fn newton_at(
+        &self,
+        model: &Model,
+        laws: &Laws,
+        wrench: &[f64; 6],
+        q: &mut [f64],
+        xtol: f64,
+        max_iter: u32,
+        w: &mut Work,
+        sc: &mut Scratch,
+        placed: bool,
+    ) -> (Reason, u32) {
         let n = self.n;
         let mut s = std::mem::take(&mut sc.s);
         let mut trial = std::mem::take(&mut sc.trial);
         s.resize(n, 0.0);
         trial.resize(n, 0.0);
         let out = self.descend(
-            model, laws, wrench, q, xtol, max_iter, w, sc, &mut s, &mut trial,
+            model, laws, wrench, q, xtol, max_iter, w, sc, &mut s, &mut trial, placed,
         );
         sc.s = s;
         sc.trial = trial;
@@ -828,6 +1088,7 @@ impl Elastic {
         sc: &mut Scratch,
         s: &mut [f64],
         trial: &mut [f64],
+        mut placed: bool,
     ) -> (Reason, u32) {
         let n = self.n;
         let mut it = 0;
@@ -835,7 +1096,11 @@ impl Elastic {
         // evaluated to the second order, then accepted)
         let mut fresh = false;
         while it < max_iter {
-            if !fresh {
+            if placed {
+                self.geometry(model, 1, w);
+                self.apply(model, laws, wrench, q, 2, w);
+                placed = false;
+            } else if !fresh {
                 self.evaluate(model, laws, wrench, q, 2, w);
             }
             fresh = false;
@@ -863,6 +1128,12 @@ impl Elastic {
                 }
                 continue;
             }
+            // a small structured step: the next step is likely the last (at
+            // most `xtol`), tested first with this step's factorisation
+            let chord = tau == 0.0 && sc.structured && big <= CHORD;
+            if chord {
+                sc.keep_taut_rows(w, self);
+            }
             let u0 = w.u;
             let mut t = 1.0;
             let mut ok = false;
@@ -870,12 +1141,17 @@ impl Elastic {
                 for j in 0..n {
                     trial[j] = q[j] + t * s[j];
                 }
-                // the full step usually passes: its derivatives serve the next step
-                let order = if t == 1.0 { 2 } else { 0 };
+                // the full step usually passes: its derivatives serve the next
+                // step (its curvature once the chord test has not ended the solve)
+                let order = match (t == 1.0, chord) {
+                    (true, true) => 1,
+                    (true, false) => 2,
+                    (false, _) => 0,
+                };
                 self.evaluate(model, laws, wrench, trial, order, w);
                 if w.u <= u0 + ARMIJO * t * slope {
                     ok = true;
-                    fresh = order == 2;
+                    fresh = order >= 1;
                     break;
                 }
                 t *= 0.5;
@@ -884,6 +1160,15 @@ impl Elastic {
                 return (Reason::LineSearch, it);
             }
             q.copy_from_slice(trial);
+            if fresh && chord && it < max_iter {
+                if self.chord_step(laws, w, s, sc, xtol) {
+                    for (qj, sj) in q.iter_mut().zip(s.iter()) {
+                        *qj += sj;
+                    }
+                    return (Reason::Converged, it + 1);
+                }
+                self.apply(model, laws, wrench, q, 2, w);
+            }
         }
         (Reason::IterationLimit, it)
     }
@@ -987,17 +1272,53 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// [`dot`] summed in four lanes (not one chain of additions).
+fn dot4(a: &[f64], b: &[f64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (a, b) = (&a[..n], &b[..n]);
+    let mut acc = [0.0; 4];
+    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let (ra, rb) = (ca.remainder(), cb.remainder());
+    for (x, y) in ca.zip(cb) {
+        for i in 0..4 {
+            acc[i] += x[i] * y[i];
+        }
+    }
+    let tail: f64 = ra.iter().zip(rb).map(|(x, y)| x * y).sum();
+    (acc[0] + acc[1]) + (acc[2] + acc[3]) + tail
+}
+
 /// Buffers of the Newton step.
 #[derive(Debug, Clone, Default)]
 struct Scratch {
     s: Vec<f64>,
     trial: Vec<f64>,
+    /// Per block of `D`: its inverse, its Cholesky factor; when every block
+    /// is a pair of joints, their inverses `[i00, i01, i11]` instead.
     blocks: Vec<Vec<f64>>,
+    chol: Vec<Vec<f64>>,
+    pairs: Vec<[f64; 3]>,
+    /// The last step was structured; its taut cables, their rows of `G`
+    /// (`taut x n`, kept for [`Elastic::chord_step`]).
+    structured: bool,
     taut: Vec<usize>,
+    gt: Vec<f64>,
+    y0: Vec<f64>,
     x: Vec<f64>,
     small: Vec<f64>,
     y: Vec<f64>,
     h: Vec<f64>,
+}
+
+impl Scratch {
+    /// Keeps the rows of `G` of the last structured step's taut cables.
+    fn keep_taut_rows(&mut self, w: &Work, el: &Elastic) {
+        let n = el.n;
+        self.gt.clear();
+        for &c in &self.taut {
+            self.gt.extend_from_slice(&w.grad_l[c * n..(c + 1) * n]);
+        }
+    }
 }
 
 /// A batch of commands: `lengths (N, m_pos)` m, `displacements (N, m_d)`
@@ -1192,8 +1513,17 @@ pub fn equilibria(
         let mut sc = Scratch::default();
         for (i, wrench) in wr.iter().enumerate() {
             let laws = el.laws(model, &batch.commands(i, mp, md, *wrench))?;
-            let (reason, it) = el.newton(
-                model, &laws, wrench, &mut q, xtol, max_iter, &mut w, &mut sc,
+            // from the second row on, `w` holds the geometry of the previous answer
+            let (reason, it) = el.newton_at(
+                model,
+                &laws,
+                wrench,
+                &mut q,
+                xtol,
+                max_iter,
+                &mut w,
+                &mut sc,
+                i > 0,
             );
             let e = el.answer(model, &laws, wrench, q.clone(), reason, it, &mut w);
             out.push(e);
@@ -1531,6 +1861,103 @@ mod tests {
         for (x, y) in a.iter().zip(&b) {
             assert!((x - y).abs() <= 1e-10 * scale, "{x} vs {y}");
         }
+    }
+
+    #[test]
+    fn the_structured_step_of_one_joint_disks_is_the_dense_one() {
+        // the paper's planar arm with springs, no loads: 1 x 1 blocks
+        let text = include_str!("../python/cdsm/robots/paper.toml").replace(
+            "[[linkage]]\n",
+            "[[linkage]]\nstiffness = 2.0\nrest_angle = 0.02\n",
+        );
+        let m = Model::from_toml(&text).unwrap();
+        let el = Elastic::new(&m);
+        assert!(!el.pairs && m.position_cables().len() == 3);
+        let at = [0.1, -0.2, 0.3];
+        let mut ch = Chn::new(&m);
+        ch.at(&m, &m, &at);
+        let lengths: Vec<f64> = m
+            .position_cables()
+            .iter()
+            .map(|&c| ch.cable_length(&m, &m, c, None) - 1e-5)
+            .collect();
+        let cmd = Commands {
+            lengths: &lengths,
+            displacements: &[],
+            wrench: [0.0; 6],
+        };
+        // three taut cables (1e-5 m stretched) and the springs
+        let (a, b) = el.steps(&m, &cmd, &at).unwrap();
+        let (a, b) = (a.unwrap(), b.unwrap());
+        let scale = b.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(scale > 1e-6, "{b:?}");
+        for (x, y) in a.iter().zip(&b) {
+            assert!((x - y).abs() <= 1e-10 * scale, "{x} vs {y}");
+        }
+    }
+
+    #[test]
+    fn a_block_inverse_is_the_inverse() {
+        for n in 1..=3 {
+            // a symmetric positive definite n x n
+            let a: Vec<f64> = (0..n * n)
+                .map(|k| {
+                    let (i, j) = (k / n, k % n);
+                    if i == j {
+                        3.0 + i as f64
+                    } else {
+                        0.5 + 0.1 * (i + j) as f64
+                    }
+                })
+                .collect();
+            let mut l = a.clone();
+            assert!(cholesky(&mut l, n));
+            let mut inv = vec![0.0; n * n];
+            invert_from_cholesky(&l, n, &mut inv);
+            for i in 0..n {
+                for j in 0..n {
+                    let e: f64 = (0..n).map(|k| a[i * n + k] * inv[k * n + j]).sum();
+                    let want = if i == j { 1.0 } else { 0.0 };
+                    assert!((e - want).abs() < 1e-14, "{n}: ({i}, {j}) {e}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_sequence_is_its_rows_each_from_the_previous_answer() {
+        // the sequence starts each row on the previous answer's geometry,
+        // kept, not computed again: the same answers, bit for bit
+        let m = ftdcr();
+        let el = Elastic::new(&m);
+        let rows = 8;
+        let d: Vec<f64> = (0..rows * 9)
+            .map(|k| {
+                let (i, c) = ((k / 9) as f64, (k % 9) as f64);
+                0.004 * ((0.7 * c + 0.4 * i).sin()) - 0.001
+            })
+            .collect();
+        let batch = Batch {
+            lengths: &[],
+            displacements: &d,
+            wrench: &[],
+        };
+        let seq = equilibria(&m, &batch, None, true, XTOL, 100, 1).unwrap();
+        let mut q = el.rest.clone();
+        for i in 0..rows {
+            let cmd = Commands {
+                lengths: &[],
+                displacements: &d[i * 9..(i + 1) * 9],
+                wrench: [0.0; 6],
+            };
+            let e = el.equilibrium(&m, &cmd, &q, XTOL, 100).unwrap();
+            assert!(e.converged, "{i}: {:?}", e.reason);
+            assert_eq!(e.theta, seq.theta[i * 60..(i + 1) * 60], "{i}");
+            assert_eq!(e.tension, seq.tension[i * 9..(i + 1) * 9], "{i}");
+            assert_eq!(e.iterations, seq.iterations[i], "{i}");
+            q = e.theta;
+        }
+        assert!(seq.slack.iter().any(|s| *s) && seq.slack.iter().any(|s| !*s));
     }
 
     #[test]
