@@ -46,7 +46,7 @@ import numpy as np
 from ..files import read_table, read_text
 from ..inputs import CdsmInputError, as_batch, as_tolerances
 from ..robot import Robot
-from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, monte_carlo
+from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, hole_error_sizes, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 from .sensitivity import error_matrix, linear_percentile, sensitivities, tolerance_vector
 from .sampling import sample_configurations
@@ -54,7 +54,8 @@ from .workspace import joint_grid, paper_ik_seed
 
 __all__ = ["HIST_RESOLUTION", "pooled_percentile", "Allocation", "allocate", "distribution",
            "region_cells", "load_tolerances", "parse_region", "SpatialAllocation", "hole_tolerances",
-           "spatial_tolerances", "load_spatial_tolerances", "SPATIAL_REGION_DEFAULT"]
+           "spatial_tolerances", "load_spatial_tolerances", "SPATIAL_REGION_DEFAULT", "error_tolerances",
+           "read_tolerances"]
 
 #: Relative bound of the Monte-Carlo quantiles the allocation reads
 #: (:data:`cdsm.accuracy.montecarlo.QUANTILE_BOUND`, 0.498 %).
@@ -336,13 +337,7 @@ def load_tolerances(path: str, n: int) -> Tuple[np.ndarray, np.ndarray]:
     ``cable_length_tol_m`` — (n,) per upper cable, m — and
     ``hole_height_tol_m`` — (n,) per disk, m (a scalar applies to all; other
     keys are ignored). Returns (dl_tol, dh_tol), each (n,) m."""
-    text = read_text(path, "tolerance")
-    try:
-        data = json.loads(text)
-    except ValueError as exc:
-        raise CdsmInputError(f"tolerance file {path!r}: not valid JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise CdsmInputError(f"tolerance file {path!r}: expected a JSON object")
+    data = _tolerance_json(path)
     out = []
     for key in ("cable_length_tol_m", "hole_height_tol_m"):
         if key not in data:
@@ -430,7 +425,7 @@ def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, st
             raise CdsmInputError(f"--region {spec!r}: expected sobol:N with N >= 1 configurations")
         theta = sample_configurations(robot, count, "sobol", seed=seed)
         return theta, f"{count} configurations sampled in the joint box (scrambled Sobol, seed {seed})"
-    if kind == "poses" and robot.kind == "spatial":
+    if kind == "poses" and not robot.kind.pose_regions:
         raise CdsmInputError(f"--region {spec!r}: poses are planar (x, y, phi); for a spatial robot give "
                              "joints:FILE.csv or sobol:N")
     if kind == "poses":
@@ -459,37 +454,48 @@ def hole_tolerances(robot, per_cable) -> np.ndarray:
     return np.repeat(np.asarray(per_cable, dtype=np.float64), sizes)
 
 
-def spatial_tolerances(robot, dl_tol, dh_tol, source: str = "") -> Tuple[np.ndarray, np.ndarray]:
-    """(m_pos,) and (3 H,) tolerances, m, of a spatial arm: ``dl_tol`` a
-    scalar or one per position-controlled cable; ``dh_tol`` a scalar, one per
-    cable (every coordinate of its holes) or one per hole coordinate."""
+def error_tolerances(robot, dl_tol, dh_tol, source: str = "",
+                     names: Tuple[str, str] = ("dl_tol", "dh_tol")) -> Tuple[np.ndarray, np.ndarray]:
+    """The tolerances, m, of the errors a Monte Carlo draws
+    (:func:`~cdsm.accuracy.montecarlo.error_widths`), either kind:
+    (m_pos,) from ``dl_tol``, a scalar or one per position-controlled cable;
+    (h,) from ``dh_tol``, a scalar, one per hole group (planar: a disk's
+    hole height; spatial: every coordinate of a cable's holes) or one per
+    hole error (spatial: per hole coordinate). ``names``: the two inputs'
+    names in error messages (after ``source``)."""
     pre = f"{source}: " if source else ""
-    m, cables, flat = len(robot.position_cables), robot.cables, len(robot.flat_holes)
+    m, sizes = len(robot.position_cables), hole_error_sizes(robot)
+    groups, errors = len(sizes), int(sizes.sum())
     out = []
-    for key, value, sizes in (("cable_length_tol_m", dl_tol, (m,)), ("hole_tol_m", dh_tol, (cables, flat))):
+    for key, value, widths in ((names[0], dl_tol, (m,)), (names[1], dh_tol, (groups, errors))):
         try:
             arr = np.asarray(value, dtype=np.float64)
         except (TypeError, ValueError):
             raise CdsmInputError(f"{pre}`{key}` is not a number or a list of numbers") from None
-        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in sizes):
-            want = (f"{m} values (one per position-controlled cable)" if key[0] == "c" else
-                    f"{cables} values (one per cable's holes) or {flat} (one per hole coordinate)")
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in widths):
+            want = (f"{m} values (one per position-controlled cable)" if key == names[0] else
+                    f"{groups} values ({robot.kind.words['hole_group_each']})"
+                    + (f" or {errors} (one per hole coordinate)" if errors != groups else ""))
             raise CdsmInputError(f"{pre}`{key}` needs a number or {want}, got shape {arr.shape}")
-        if key == "hole_tol_m" and arr.ndim == 1 and arr.shape[0] == cables and cables != flat:
-            arr = hole_tolerances(robot, arr)
+        if key == names[1] and arr.ndim == 1 and arr.shape[0] == groups and groups != errors:
+            arr = np.repeat(arr, sizes)
         try:
-            out.append(as_tolerances(key, arr, sizes[-1]))
+            out.append(as_tolerances(key, arr, widths[-1]))
         except CdsmInputError as exc:
             raise CdsmInputError(f"{pre}{exc}") from None
     return out[0], out[1]
 
 
-def load_spatial_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
-    """Tolerances of a spatial arm from a JSON file (as ``cdsm tolerance
-    --json`` writes it for one): ``cable_length_tol_m`` — a number or one
-    per position-controlled cable, m — and ``hole_tol_m`` — a number, one per
-    cable (every coordinate of its holes) or one per hole coordinate, m
-    (other keys are ignored). Returns (dl_tol (m_pos,), dh_tol (3 H,)), m."""
+def spatial_tolerances(robot, dl_tol, dh_tol, source: str = "") -> Tuple[np.ndarray, np.ndarray]:
+    """(m_pos,) and (3 H,) tolerances, m, of a spatial arm: ``dl_tol`` a
+    scalar or one per position-controlled cable; ``dh_tol`` a scalar, one per
+    cable (every coordinate of its holes) or one per hole coordinate
+    (:func:`error_tolerances` under a tolerance file's names)."""
+    return error_tolerances(robot, dl_tol, dh_tol, source, ("cable_length_tol_m", "hole_tol_m"))
+
+
+def _tolerance_json(path: str) -> dict:
+    """The JSON object of a tolerance file (a clear error otherwise)."""
     text = read_text(path, "tolerance")
     try:
         data = json.loads(text)
@@ -497,13 +503,35 @@ def load_spatial_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
         raise CdsmInputError(f"tolerance file {path!r}: not valid JSON ({exc})") from None
     if not isinstance(data, dict):
         raise CdsmInputError(f"tolerance file {path!r}: expected a JSON object")
-    for key in ("cable_length_tol_m", "hole_tol_m"):
+    return data
+
+
+def read_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
+    """Tolerances of an arm of either kind from a JSON file (as ``cdsm
+    tolerance --json`` writes it): ``cable_length_tol_m`` — a number or one
+    per position-controlled cable, m — and the kind's hole key
+    (:attr:`~cdsm.kinds.Kind.hole_tolerance_key`: planar
+    ``hole_height_tol_m``, a number or one per disk; spatial ``hole_tol_m``,
+    a number, one per cable (every coordinate of its holes) or one per hole
+    coordinate), m (other keys are ignored). Returns (dl_tol (m_pos,),
+    dh_tol) as :func:`error_tolerances`, m."""
+    data = _tolerance_json(path)
+    hole_key = robot.kind.hole_tolerance_key
+    for key in ("cable_length_tol_m", hole_key):
         if key not in data:
             extra = (" (`hole_height_tol_m` is the planar per-disk tolerance; a spatial robot takes `hole_tol_m` "
                      "per cable's holes or per hole coordinate)" if key == "hole_tol_m"
                      and "hole_height_tol_m" in data else "")
             raise CdsmInputError(f"tolerance file {path!r}: missing key {key!r}{extra}")
-    return spatial_tolerances(robot, data["cable_length_tol_m"], data["hole_tol_m"], f"tolerance file {path!r}")
+    return error_tolerances(robot, data["cable_length_tol_m"], data[hole_key], f"tolerance file {path!r}",
+                            ("cable_length_tol_m", hole_key))
+
+
+def load_spatial_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
+    """Tolerances of a spatial arm from a JSON file: :func:`read_tolerances`
+    (``cable_length_tol_m`` and ``hole_tol_m``; returns (dl_tol (m_pos,),
+    dh_tol (3 H,)), m)."""
+    return read_tolerances(path, robot)
 
 
 @dataclass

@@ -16,6 +16,7 @@ from ..accuracy.workspace import paper_ik_seed
 from ..files import read_table, write_text
 from ..inputs import CdsmInputError, as_array, as_finite, as_iterations, as_vector
 from ..display import ShortRepr
+from ..kinds import KINDS, kind_of
 
 __all__ = ["Compensation", "compensate", "read_targets", "TARGET_COLUMNS"]
 
@@ -50,10 +51,8 @@ def read_targets(path: "str | os.PathLike[str]", kind: str = "planar") -> np.nda
 
 
 #: Target columns per robot kind: (required position columns, optional
-#: orientation columns).
-TARGET_COLUMNS = {"planar": (("x", "y"), ("phi",)), "spatial": (("x", "y", "z"), ("rx", "ry", "rz"))}
-#: Header of the orientation error column of a commands table, per kind.
-ROTATION_ERROR = {"planar": "predicted_phi_error", "spatial": "predicted_rotation_error"}
+#: orientation columns) — the kind's position and rotation axes.
+TARGET_COLUMNS = {name: (k.position_axes, k.rotation_axes) for name, k in KINDS.items()}
 
 
 # ---------------------------------------------------------------------------
@@ -112,22 +111,20 @@ class Compensation(ShortRepr):
         the nominal configuration) and dL_1..dL_n (m, the correction), flags.
         Undefined numbers are written as ``nan``; floats by ``repr`` (exact)."""
         n = self.theta_cmd.shape[1]
-        pos, rot = TARGET_COLUMNS[self.kind]
+        kind = kind_of(self.kind)
+        pos, rot, rot_err = kind.position_axes, kind.rotation_axes, kind.words["rotation_error"]
         has_phi = self.targets.shape[1] > len(pos)
         cab = list(range(1, self.commands.shape[1] + 1))
         head = list(pos) + (list(rot) if has_phi else []) + [f"L_{i}" for i in cab] + \
             ["converged", "predicted_error", "predicted_error_nominal"] + \
-            ([ROTATION_ERROR[self.kind]] if has_phi else []) + \
+            ([rot_err] if has_phi else []) + \
             [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in cab] + ["flags"]
         buf = io.StringIO()
         buf.write(f"# cdsm compensate: upper-cable length commands from model {self.model_name!r}\n")
         buf.write(f"# SI units: {', '.join(pos)}, L_i, dL_i, predicted_error* in m; {', '.join(rot)}, theta_i, "
-                  f"{ROTATION_ERROR[self.kind]} in rad\n")
-        buf.write("# L_i = nominal upper length at theta_cmd + dL_i; converged 1/0; flags empty when fine\n"
-                  if self.kind == "planar" else
-                  "# L_i, dL_i: the i-th position-controlled cable (as dL_i in measurement files; robot-file cables "
-                  + ", ".join(str(c + 1) for c in self.cable_indices) + "); L_i = nominal length at theta_cmd "
-                  "+ dL_i; converged 1/0; flags empty when fine\n")
+                  f"{rot_err} in rad\n")
+        cables = ", ".join(str(c + 1) for c in self.cable_indices)
+        buf.write(f"# {kind.words['commands_note'].format(cables=cables)}\n")
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(head)
         for i in range(len(self)):
