@@ -108,7 +108,7 @@ def test_one_tolerance_reader_for_both_kinds(cdsm, tmp_path):
     assert dh.tolist() == [v for c, v in enumerate(per_cable) for _ in range(3 * (2 * s.cable_ends[c] + 1))]
     with pytest.raises(cdsm.CdsmInputError, match="missing key 'hole_height_tol_m'"):
         tolerance.read_tolerances(str(g), p)
-    with pytest.raises(cdsm.CdsmInputError, match=r"`dh_tol` needs a number or 3 values \(one per disk's holes\)"):
+    with pytest.raises(cdsm.CdsmInputError, match=r"`dh_tol` needs 3 values \(one per disk's holes\) or a number"):
         tolerance.error_tolerances(p, 1e-3, [1e-4, 1e-4])
     with pytest.raises(cdsm.CdsmInputError, match=r"8 values \(one per cable's holes\) or 96"):
         tolerance.error_tolerances(s, 1e-3, [1e-4, 1e-4])

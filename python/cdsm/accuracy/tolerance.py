@@ -476,7 +476,7 @@ def error_tolerances(robot, dl_tol, dh_tol, source: str = "",
             want = (f"{m} values (one per position-controlled cable)" if key == names[0] else
                     f"{groups} values ({robot.kind.words['hole_group_each']})"
                     + (f" or {errors} (one per hole coordinate)" if errors != groups else ""))
-            raise CdsmInputError(f"{pre}`{key}` needs a number or {want}, got shape {arr.shape}")
+            raise CdsmInputError(f"{pre}`{key}` needs {want} or a number, got shape {arr.shape}")
         if key == names[1] and arr.ndim == 1 and arr.shape[0] == groups and groups != errors:
             arr = np.repeat(arr, sizes)
         try:
