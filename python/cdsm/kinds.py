@@ -95,6 +95,16 @@ class Kind(str):
     joined by ``", "`` / ``" / "`` — or ``"protocol"``, ``"label_figure"``,
     ``"solved_of"``): ``"single_errors"`` and ``"mc_mean"`` (the mean signed
     deviation; none for a spatial arm).
+    ``compensation`` the policy of :func:`cdsm.calibration.compensate`:
+    ``shapes`` (the target shapes, in its error), ``ik_seed`` (the nominal
+    IK's seed: ``"paper"``, the paper's seed, or ``"zeros"``),
+    ``zero_rotation_first`` (targets without a rotation: the pose at
+    rotation 0 first, the position alone where that fails — planar — or the
+    position alone at once), ``unreachable`` and ``slack`` (flags; the
+    second a template over ``min_tension``), ``position_error`` and
+    ``rotation_error`` ((N, k) differences -> (N,) norms: the planar
+    ``hypot`` and ``|dphi|``, else the 2-norm), ``cable_ids`` (the table
+    names the robot file's cables).
     ``headline_aliases``: the extra names (cdsm 0.2's) of headline numbers,
     ``(alias, name)`` pairs, by where they are set (``"mc"``, ``"single"``).
 
@@ -154,6 +164,7 @@ class Kind(str):
     singular: str
     csv: Dict[str, Tuple[Tuple[str, str], ...]]
     report_tables: Dict[str, Tuple[Tuple[str, str], ...]]
+    compensation: Dict[str, object]
     headline_aliases: Dict[str, Tuple[Tuple[str, str], ...]]
     figure: Dict[str, object]
     words: Dict[str, str]
@@ -301,6 +312,11 @@ PLANAR = Kind(
                    "mc_mean": (("protocol", "protocol"), ("max |mean dX| (mm)", "mm:max_abs_mean_dx_m"),
                                ("max |mean dY| (mm)", "mm:max_abs_mean_dy_m"),
                                ("max |mean dphi| (deg)", "deg:max_abs_mean_dphi_rad"))},
+    compensation=dict(shapes="(N, 3) or (N, 2)", ik_seed="paper", zero_rotation_first=True,
+                      unreachable="unreachable: the nominal pose IK finds no configuration",
+                      slack="slack cable: an upper cable tension <= {min_tension:g} N at the predicted configuration",
+                      position_error=lambda d: np.hypot(d[:, 0], d[:, 1]), rotation_error=lambda d: np.abs(d[:, 0]),
+                      cable_ids=False),
     headline_aliases={"mc": (("mc_max_dxy_m", "mc_max_m"), ("mc_max_p95_dxy_m", "mc_max_p95_m")),
                       "single": (("worst_single_dxy_m", "worst_single_m"),)},
     figure=dict(projections=False, equal=False, ticks=4, mc_wgap=0.85, row_wgap=1.3, rotation_overview=False,
@@ -361,6 +377,11 @@ SPATIAL = Kind(
                                      ("RMS / max rotation (deg)", "deg:rms_rotation_rad/max_rotation_rad"),
                                      ("jump points", "jump_points")),
                    "mc_mean": ()},
+    compensation=dict(shapes="(N, 3) or (N, 6) for a spatial arm", ik_seed="zeros", zero_rotation_first=False,
+                      unreachable="unreachable: the nominal IK finds no configuration",
+                      slack="slack cable: no tension set >= {min_tension:g} N holds the predicted configuration",
+                      position_error=lambda d: np.linalg.norm(d, axis=1),
+                      rotation_error=lambda d: np.linalg.norm(d, axis=1), cable_ids=True),
     headline_aliases={"mc": (), "single": ()},
     figure=dict(projections=True, equal=True, ticks=3, mc_wgap=0.95, row_wgap=1.05, rotation_overview=True,
                 projection="3d", disk_angles=tuple(np.linspace(0.0, 2.0 * np.pi, 48)), disk_lw=1),

@@ -48,14 +48,14 @@ from ..inputs import CdsmInputError, as_batch, as_tolerances
 from ..robot import Robot
 from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, hole_error_sizes, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
-from .sensitivity import error_matrix, linear_percentile, sensitivities, tolerance_vector
+from .sensitivity import error_matrix, linear_percentile, sensitivities
 from .sampling import sample_configurations
 from .workspace import joint_grid, paper_ik_seed
 
 __all__ = ["HIST_RESOLUTION", "pooled_percentile", "Allocation", "allocate", "distribution",
            "region_cells", "load_tolerances", "parse_region", "SpatialAllocation", "hole_tolerances",
            "spatial_tolerances", "load_spatial_tolerances", "SPATIAL_REGION_DEFAULT", "error_tolerances",
-           "read_tolerances"]
+           "read_tolerances", "default_configurations"]
 
 #: Relative bound of the Monte-Carlo quantiles the allocation reads
 #: (:data:`cdsm.accuracy.montecarlo.QUANTILE_BOUND`, 0.498 %).
@@ -289,44 +289,54 @@ def region_cells(xy: np.ndarray, k: int = 3) -> np.ndarray:
     return ij[:, 1] * k + ij[:, 0]
 
 
+def default_configurations(robot: Robot) -> np.ndarray:
+    """(N, n) rad: where an allocation or a distribution applies the errors
+    by default — the paper's ±30°/5° joint grid where its grid protocols
+    apply (planar arms: :attr:`cdsm.kinds.Kind.grid_protocols`), else 1000
+    configurations sampled in the joint box (scrambled Sobol, seed 0)."""
+    return joint_grid(robot.n) if robot.kind.grid_protocols else sample_configurations(robot, 1000)
+
+
 def distribution(robot: Robot, dl_tol, dh_tol, theta=None, percentiles: Sequence[float] = (50, 95, 99),
                  samples: int = 1000, seed: int = 0, cells: int = 3, mc: Optional[MonteCarlo] = None) -> dict:
-    """Tip-error distribution over a region for given tolerances (m; scalars or
-    (n,)): Monte Carlo in the Rust core at every configuration ``theta (N, n)``
-    (default the ±30°/5° joint grid). Returns ``pooled`` {P: m} over the whole
+    """Tip-error distribution over a region for given tolerances (m, as
+    :func:`error_tolerances` takes them: planar scalars or (n,)): Monte Carlo
+    in the Rust core at every configuration ``theta (N, n)`` (default
+    :func:`default_configurations`). Returns ``pooled`` {P: m} over the whole
     region, ``per_config`` (N, len(percentiles)) m, and ``regions``: one row
-    per non-empty cell of a ``cells``×``cells`` grid over the nominal tip
-    (X, Y) with its bounds (m), configuration count and pooled percentiles (m).
-    Spatial arms: ``dl_tol`` per position-controlled cable, ``dh_tol`` as
-    :func:`spatial_tolerances` takes it; cells over the two axes along which
-    the tips spread most (``axes``; row keys named after them).
+    per non-empty cell of a ``cells``×``cells`` grid over the nominal tips
+    along the two position axes along which they spread most (``axes``; a
+    planar arm's X, Y; row keys named after them) with its bounds (m),
+    configuration count and pooled percentiles (m). Spatial arms:
+    ``dl_tol`` per position-controlled cable, ``dh_tol`` per cable's holes
+    or per hole coordinate.
     """
-    if robot.kind == "spatial":
-        return _distribution_spatial(robot, dl_tol, dh_tol, theta, percentiles, samples, seed, cells, mc)
-    t = joint_grid(robot.n) if theta is None else theta
+    t = default_configurations(robot) if theta is None else theta
     t, _ = as_batch("theta", t, robot.n)
-    tol = tolerance_vector(robot, dl_tol, dh_tol)
-    n = robot.n
+    dl, dh = error_tolerances(robot, dl_tol, dh_tol)
     if mc is None:
-        mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:n], dh_tol=tol[n:],
-                         progress=False)
-    xy = robot.fk(t)[:, :2]
-    cell = region_cells(xy, cells)
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
+        mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=dl, dh_tol=dh, progress=False)
+    tips = robot.fk(t)[:, :robot.kind.dim]
+    axes = sorted(np.argsort(-np.ptp(tips, axis=0), kind="stable")[:2])
+    names = [robot.kind.position_axes[k] for k in axes]
+    uv = tips[:, axes]
+    cell = region_cells(uv, cells)
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
     w = (hi - lo) / cells
     rows = []
     for c in range(cells * cells):
         sel = np.flatnonzero(cell == c)
         if len(sel) == 0:
             continue
-        ix, iy = c % cells, c // cells
-        rows.append(dict(cell=int(c), x_lo_m=float(lo[0] + ix * w[0]), x_hi_m=float(lo[0] + (ix + 1) * w[0]),
-                         y_lo_m=float(lo[1] + iy * w[1]), y_hi_m=float(lo[1] + (iy + 1) * w[1]),
-                         configurations=int(len(sel)),
-                         **{f"p{p:g}_m": pooled_percentile(mc, p, sel) for p in percentiles}))
+        iu, iv = c % cells, c // cells
+        rows.append({"cell": int(c),
+                     f"{names[0]}_lo_m": float(lo[0] + iu * w[0]), f"{names[0]}_hi_m": float(lo[0] + (iu + 1) * w[0]),
+                     f"{names[1]}_lo_m": float(lo[1] + iv * w[1]), f"{names[1]}_hi_m": float(lo[1] + (iv + 1) * w[1]),
+                     "configurations": int(len(sel)),
+                     **{f"p{p:g}_m": pooled_percentile(mc, p, sel) for p in percentiles}})
     per = np.stack([mc.percentile(p) for p in percentiles], axis=1)
-    return dict(pooled={float(p): pooled_percentile(mc, p) for p in percentiles}, per_config=per,
-                regions=rows, cell=cell, mc=mc, dl_tol_m=tol[:n], dh_tol_m=tol[n:])
+    return dict(pooled={float(p): pooled_percentile(mc, p) for p in percentiles}, per_config=per, regions=rows,
+                cell=cell, mc=mc, dl_tol_m=dl, dh_tol_m=dh, axes=names)
 
 
 # ---------------------------------------------------------------------------
@@ -660,32 +670,3 @@ def _allocate_spatial(robot, target_m, theta, percentile, weights, base, shape, 
                     weights=None if weights is None else np.asarray(weights, float).ravel().tolist(),
                     base_m=[float(v) for v in np.asarray(base, float).ravel()], robot=robot.name, n=robot.n,
                     position_cables=[c + 1 for c in robot.position_cables]))
-
-
-def _distribution_spatial(robot, dl_tol, dh_tol, theta, percentiles, samples, seed, cells, mc) -> dict:
-    t = sample_configurations(robot, 1000) if theta is None else theta
-    t, _ = as_batch("theta", t, robot.n)
-    dl, dh = spatial_tolerances(robot, dl_tol, dh_tol)
-    if mc is None:
-        mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=dl, dh_tol=dh, progress=False)
-    tips = robot.fk(t)[:, :3]
-    axes = sorted(np.argsort(-np.ptp(tips, axis=0), kind="stable")[:2])
-    names = ["xyz"[k] for k in axes]
-    uv = tips[:, axes]
-    cell = region_cells(uv, cells)
-    lo, hi = uv.min(axis=0), uv.max(axis=0)
-    w = (hi - lo) / cells
-    rows = []
-    for c in range(cells * cells):
-        sel = np.flatnonzero(cell == c)
-        if len(sel) == 0:
-            continue
-        iu, iv = c % cells, c // cells
-        rows.append({"cell": int(c),
-                     f"{names[0]}_lo_m": float(lo[0] + iu * w[0]), f"{names[0]}_hi_m": float(lo[0] + (iu + 1) * w[0]),
-                     f"{names[1]}_lo_m": float(lo[1] + iv * w[1]), f"{names[1]}_hi_m": float(lo[1] + (iv + 1) * w[1]),
-                     "configurations": int(len(sel)),
-                     **{f"p{p:g}_m": pooled_percentile(mc, p, sel) for p in percentiles}})
-    per = np.stack([mc.percentile(p) for p in percentiles], axis=1)
-    return dict(pooled={float(p): pooled_percentile(mc, p) for p in percentiles}, per_config=per, regions=rows,
-                cell=cell, mc=mc, dl_tol_m=dl, dh_tol_m=dh, axes=names)
