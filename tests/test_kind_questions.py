@@ -24,8 +24,6 @@ PACKAGED = ("paper", "serpentine8", "paper_spatial", "two_universal", "sjtu_snak
 ALLOWED = {
     "accuracy/configurations.py": 1,  # rms_and_gradient: the core's planar RMS vs numpy over the sensitivities (S12)
     "accuracy/scenarios.py": 1,  # deviation: the core's planar deviation vs solve_cables + fk_matrix (S11)
-    "accuracy/tolerance.py": 1,  # allocate: Allocation vs SpatialAllocation, two equal-effect rules (P3)
-    "cli/tolerance.py": 1,  # the two allocations' reports (P3)
 }
 KIND_BY_NAME = re.compile(r"""\.kind\s*(==|!=)\s*["'](planar|spatial)["']""")
 
@@ -169,3 +167,35 @@ def test_compensating_no_targets_gives_an_empty_table_for_either_kind(cdsm, name
     head = [line for line in (tmp_path / "c.csv").read_text().splitlines() if not line.startswith("#")]
     axes = r.kind.task_axes if width == r.kind.task else r.kind.position_axes
     assert head[0].split(",")[:len(axes) + 1] == list(axes) + ["L_1"] and len(head) == 1
+
+
+def test_one_allocation_for_both_kinds_keeps_each_kinds_result(cdsm):
+    """One allocate: the result type and its hole field by the kind's
+    tolerance key, the tolerances one per position cable and per hole group,
+    the default region the kind's (joint grid / Sobol sample)."""
+    from cdsm.accuracy import tolerance
+    from cdsm.accuracy.workspace import joint_grid
+
+    p, s = cdsm.Robot.paper(), cdsm.Robot.packaged("two_universal")
+    assert np.array_equal(tolerance.default_configurations(p), joint_grid(3))
+    assert tolerance.default_configurations(s).shape == (1000, s.n)
+    for r, result in ((p, tolerance.Allocation), (s, tolerance.SpatialAllocation)):
+        th = np.radians([[10.0] * r.n, [-15.0] * r.n, [20.0] + [-5.0] * (r.n - 1)])
+        a = tolerance.allocate(r, 1e-3, th, samples=12, rel_tol=0.2, max_evals=12)
+        assert type(a) is result
+        holes = getattr(a, r.kind.hole_tolerance_key)
+        assert a.cable_length_tol_m.shape == (len(r.position_cables),)
+        assert holes.shape == (len(r.core.structure()["hole_groups"]),)
+        with pytest.raises(cdsm.CdsmInputError, match=r"`weights`: need 2 or"):
+            tolerance.allocate(r, 1e-3, th, weights=[1.0, 2.0, 3.0], samples=4)
+
+
+def test_cli_tolerance_json_names_the_region_axes_for_either_kind(cdsm, tmp_path, capsys):
+    from cdsm.cli import main
+
+    out = tmp_path / "p.json"
+    assert main(["tolerance", "--robot", "paper", "--target-mm", "2", "--samples", "10",
+                 "--region", "grid:-20:20:20", "--json", str(out), "--quiet"]) == 0
+    data = json.loads(out.read_text())
+    assert data["region_axes"] == ["x", "y"] and len(data["hole_height_tol_m"]) == 3
+    assert "per upper cable" in capsys.readouterr().out

@@ -103,8 +103,19 @@ class Kind(str):
     position alone at once), ``unreachable`` and ``slack`` (flags; the
     second a template over ``min_tension``), ``position_error`` and
     ``rotation_error`` ((N, k) differences -> (N,) norms: the planar
-    ``hypot`` and ``|dphi|``, else the 2-norm), ``cable_ids`` (the table
-    names the robot file's cables).
+    ``hypot`` and ``|dphi|``, else the 2-norm). ``cable_numbers``: results
+    name the commanded cables by their numbers in the robot file (spatial;
+    a planar arm's are upper cables 1..n). ``allocation`` the policy of
+    :func:`cdsm.accuracy.tolerance.allocate`: ``equal_effect`` (the
+    equal-effect shape: ``"per_error"``, the weight over each error's RMS
+    effect in mm, or ``"per_group"``, over each group's root sum of squares,
+    a group of no effect at the largest of the others) and ``weights`` (how
+    many weights, a template over ``count``, ``m``, ``groups``, ``finite``);
+    for ``cdsm tolerance``: ``region`` (the default ``--region``), ``robot``
+    (the robot in its progress line), ``cables_line`` and ``holes_line``
+    (the answer's lines, templates over ``cables``, the commanded cables'
+    numbers, and ``groups``, the count of hole groups) and ``evaluations``
+    (the Monte-Carlo evaluations in the last line, a template, "" for none).
     ``headline_aliases``: the extra names (cdsm 0.2's) of headline numbers,
     ``(alias, name)`` pairs, by where they are set (``"mc"``, ``"single"``).
 
@@ -165,6 +176,8 @@ class Kind(str):
     csv: Dict[str, Tuple[Tuple[str, str], ...]]
     report_tables: Dict[str, Tuple[Tuple[str, str], ...]]
     compensation: Dict[str, object]
+    cable_numbers: bool
+    allocation: Dict[str, str]
     headline_aliases: Dict[str, Tuple[Tuple[str, str], ...]]
     figure: Dict[str, object]
     words: Dict[str, str]
@@ -315,8 +328,11 @@ PLANAR = Kind(
     compensation=dict(shapes="(N, 3) or (N, 2)", ik_seed="paper", zero_rotation_first=True,
                       unreachable="unreachable: the nominal pose IK finds no configuration",
                       slack="slack cable: an upper cable tension <= {min_tension:g} N at the predicted configuration",
-                      position_error=lambda d: np.hypot(d[:, 0], d[:, 1]), rotation_error=lambda d: np.abs(d[:, 0]),
-                      cable_ids=False),
+                      position_error=lambda d: np.hypot(d[:, 0], d[:, 1]), rotation_error=lambda d: np.abs(d[:, 0])),
+    cable_numbers=False,
+    allocation=dict(equal_effect="per_error", weights="2n = {count} positive{finite} numbers (n cables then n disks)",
+                    region="grid:-30:30:5", robot="robot", cables_line="cable length tolerance (mm, per upper cable): ",
+                    holes_line="hole height tolerance (mm, per disk):         ", evaluations=""),
     headline_aliases={"mc": (("mc_max_dxy_m", "mc_max_m"), ("mc_max_p95_dxy_m", "mc_max_p95_m")),
                       "single": (("worst_single_dxy_m", "worst_single_m"),)},
     figure=dict(projections=False, equal=False, ticks=4, mc_wgap=0.85, row_wgap=1.3, rotation_overview=False,
@@ -381,7 +397,15 @@ SPATIAL = Kind(
                       unreachable="unreachable: the nominal IK finds no configuration",
                       slack="slack cable: no tension set >= {min_tension:g} N holds the predicted configuration",
                       position_error=lambda d: np.linalg.norm(d, axis=1),
-                      rotation_error=lambda d: np.linalg.norm(d, axis=1), cable_ids=True),
+                      rotation_error=lambda d: np.linalg.norm(d, axis=1)),
+    cable_numbers=True,
+    allocation=dict(equal_effect="per_group",
+                    weights="{count} positive{finite} numbers ({m} position-controlled cables then {groups} cables' "
+                            "holes)",
+                    region="sobol:1000", robot="spatial robot",
+                    cables_line="cable length tolerance (mm, per position-controlled cable {cables}): ",
+                    holes_line="hole tolerance (mm, every coordinate of each cable's holes, cables 1..{groups}): ",
+                    evaluations=" ({evaluations} Monte-Carlo evaluations)"),
     headline_aliases={"mc": (), "single": ()},
     figure=dict(projections=True, equal=True, ticks=3, mc_wgap=0.95, row_wgap=1.05, rotation_overview=True,
                 projection="3d", disk_angles=tuple(np.linspace(0.0, 2.0 * np.pi, 48)), disk_lw=1),

@@ -245,7 +245,7 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension:
     _flag_outcome(r, flags, rows, conv, seen, th_pred, err, min_tension, slack)
     return Compensation(arr.copy(), commands, theta, commands - nominal, nominal, conv, err, err0, rerr, th_pred,
                         ["; ".join(f) for f in flags], model.name, str(kind),
-                        list(r.position_cables) if policy["cable_ids"] else None)
+                        list(r.position_cables) if kind.cable_numbers else None)
 
 
 def _solve_rows(model, theta, full, reach, weights, m: int, start, tol, max_iter):
