@@ -109,7 +109,7 @@ from ..progress import Progress
 from ..robot import Robot
 from . import plant, stats
 from .fit import Fit, fit_folds, free_parameters
-from .measurements import KIND_CODES, Measurements
+from .measurements import KIND_CODES, Measurements, commanded_cables
 from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "Search", "features",
@@ -947,6 +947,8 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     |theta_2| (rad), the smallest upper tension (N), the tip sensitivity to the
     upper cables (m/m), the cable that carries dL, and X, Y (m)."""
     robot, th = prep.robot, prep.theta_cmd
+    if robot.is_elastic:
+        return _elastic_features(prep)
     if robot.kind == "spatial":
         return _spatial_features(robot, th, prep.dL)
     sv = singular_values(robot, th)
@@ -974,6 +976,42 @@ def _least_tension(tension: np.ndarray) -> np.ndarray:
     least = np.where(np.isnan(tension), np.inf, tension).min(axis=1, initial=np.inf)
     least[slack] = np.nan
     return least
+
+
+def _elastic_features(prep: Prepared) -> Dict[str, np.ndarray]:
+    """An elastic arm's features at the nominal equilibrium of each row's
+    commands (settled along the execution order): the largest |joint angle|
+    and the tip's bend (the angle between the end frame's and the base's
+    ``x``, the backbone; rad), X, Y, Z (m), the most pulled cable (1-based:
+    the largest ``-dL``), the slack cables (count) and the largest tension
+    (N)."""
+    robot = prep.robot
+    o = prep.order
+    cables = commanded_cables(robot)
+    lengths = robot.cable_lengths(prep.theta_cmd[o])[:, cables] + prep.dL[o]
+    rest = robot.elastic_cables()["rest_length"]
+    pos = [j for j, c in enumerate(cables) if c in set(robot.position_cables)]
+    dis = [j for j, c in enumerate(cables) if c in set(robot.displacement_cables)]
+    eq = robot.equilibrium(lengths=lengths[:, pos] if pos else None,
+                           displacements=(rest[[cables[j] for j in dis]] - lengths[:, dis]) if dis else None,
+                           sequence=True)
+    th = np.empty_like(eq.theta)
+    th[o] = eq.theta
+    frame = robot.fk_matrix(th)
+    pose = frame[:, :3, 3]
+    tension, slack = np.empty_like(eq.tension), np.empty_like(eq.slack)
+    tension[o], slack[o] = eq.tension, eq.slack
+    pulled = -prep.dL
+    return {
+        "max |joint angle| (rad)": np.abs(th).max(axis=1),
+        "tip bend (rad)": np.arccos(np.clip(frame[:, 0, 0], -1.0, 1.0)),
+        "X (m)": pose[:, 0],
+        "Y (m)": pose[:, 1],
+        "Z (m)": pose[:, 2],
+        "most pulled cable (index)": (pulled.argmax(axis=1) + 1).astype(float),
+        "slack cables (count)": slack.sum(axis=1).astype(float),
+        "max cable tension (N)": tension.max(axis=1),
+    }
 
 
 def _spatial_features(robot, th: np.ndarray, dl: np.ndarray) -> Dict[str, np.ndarray]:
