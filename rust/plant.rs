@@ -2279,6 +2279,8 @@ mod tests {
                         Effect::Backlash => 3e-5,
                         Effect::JointAxis => 4e-3,
                         Effect::CableFriction => 0.2,
+                        Effect::JointStiffness => 0.05,
+                        Effect::CableAngle => 0.01,
                     };
             }
         }
@@ -2287,6 +2289,21 @@ mod tests {
 
     fn planar() -> Model {
         Model::from_planar(&Robot::paper())
+    }
+
+    /// FTDCR v4: three segments of 20 joints (its tendons end at stations
+    /// 10, 20, 30), its nine tendons commanded; every parameter labelled.
+    #[test]
+    fn an_elastic_arm_has_its_segments_and_commanded_cables() {
+        let m = Model::from_toml(include_str!("../tests/data/opencr/ftdcr_v4.toml")).unwrap();
+        assert_eq!(segments(&m), vec![0..20, 20..40, 40..60]);
+        assert_eq!(commanded_cables(&m), (0..9).collect::<Vec<_>>());
+        let lay = layout(&m);
+        assert_eq!(lay.find(Effect::JointStiffness).map(|b| b.1), Some(3));
+        assert_eq!(lay.find(Effect::CableAngle).map(|b| b.1), Some(9));
+        assert_eq!(lay.find(Effect::CableOffset).map(|b| b.1), Some(9));
+        assert!(lay.find(Effect::CableFriction).is_none());
+        assert_eq!(parameters(&m).len(), lay.total);
     }
 
     #[test]

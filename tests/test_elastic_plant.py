@@ -15,6 +15,7 @@ from cdsm import CdsmInputError
 from cdsm.calibration import plant
 from cdsm.calibration.diagnosis import Prepared
 from cdsm.calibration.fit import fit
+from cdsm.calibration.measurements import commanded_cables
 from cdsm.reference import elastic, read_robot
 from cdsm.robot import kind_facts
 from elastic_cases import mixed_text, rod_toml
@@ -44,7 +45,7 @@ def commands(robot, rows: int, seed: int, lo: float = 0.0, hi: float = 1.5e-3):
     ``theta_cmd`` = rest, ``dL`` = minus the displacements on the displacement cables,
     1 to 2 mm shorter than nominal on the position cables (taut)."""
     rng = np.random.default_rng(seed)
-    cmd = plant.commanded_cables(robot)
+    cmd = commanded_cables(robot)
     pos = [robot.cable_modes[c] == "position" for c in cmd]
     d = rng.uniform(lo, hi, (rows, len(cmd)))
     d[:, pos] = rng.uniform(1e-3, 2e-3, (rows, sum(pos)))
@@ -84,7 +85,7 @@ def test_an_elastic_arm_has_its_blocks_and_a_rigid_arm_its_kinds():
     assert "joint_stiffness" in plant.effects_of(robot) and "cable_friction" not in plant.effects_of(robot)
     mixed = cdsm.Robot.from_toml_str(mixed_text())
     # the mixed arm commands its three displacement cables and its position cable
-    assert plant.commanded_cables(mixed) == [0, 1, 2, 4]
+    assert commanded_cables(mixed) == [0, 1, 2, 4]
     assert len(elastic.segments(read_robot(mixed_text()))) == 3
     for name in ("paper", "paper_spatial", "serpentine8", "two_universal", "sjtu_snake"):
         r = cdsm.Robot.packaged(name)

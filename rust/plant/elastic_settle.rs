@@ -258,6 +258,15 @@ enum Moves {
     Observation,
 }
 
+/// One chunk of [`JET`] free directions: the plant's parameters seeded
+/// along them, the realised lengths and cable laws in jets, what they move.
+struct Directions {
+    prm: Params<J>,
+    real: Vec<J>,
+    laws: Laws<J>,
+    moves: Moves,
+}
+
 /// What the parameter `i` of the layout moves.
 fn moves(lay: &super::Layout, i: usize) -> Moves {
     let e = lay
@@ -301,7 +310,7 @@ pub(super) fn command_derivatives<G: Group>(
         &mut Chain::<f64, G::Frame<f64>>::new(model),
     );
     // chunk c carries the directions free[c*JET..]
-    let chunks: Vec<(Params<J>, Vec<J>, Laws<J>, Moves)> = (0..kf.div_ceil(JET))
+    let chunks: Vec<Directions> = (0..kf.div_ceil(JET))
         .map(|c| {
             let prm = Params::<J>::unpack(model, &plant.lay, &plant.p, |i, v| {
                 let mut d = [0.0; JET];
@@ -319,17 +328,22 @@ pub(super) fn command_derivatives<G: Group>(
                 .iter()
                 .map(|i| moves(&plant.lay, *i))
                 .collect();
-            let kind = if kinds.contains(&Moves::Arm) {
+            let moves = if kinds.contains(&Moves::Arm) {
                 Moves::Arm
             } else if kinds.contains(&Moves::Lengths) {
                 Moves::Lengths
             } else {
                 Moves::Observation
             };
-            (prm, real, laws, kind)
+            Directions {
+                prm,
+                real,
+                laws,
+                moves,
+            }
         })
         .collect();
-    let lengths = chunks.iter().any(|c| c.3 == Moves::Lengths);
+    let lengths = chunks.iter().any(|c| c.moves == Moves::Lengths);
     let parts = split_rows(seq.len(), threads, |range| {
         let mut out = vec![f64::NAN; range.len() * task * kf];
         let mut w = Grad::<J, G::Frame<J>> {
@@ -394,11 +408,19 @@ pub(super) fn command_derivatives<G: Group>(
                 *a = J::cst(*v);
             }
             let dst = &mut out[local * task * kf..(local + 1) * task * kf];
-            for (ci, (prm, realc, laws, kind)) in chunks.iter().enumerate() {
+            for (ci, ch) in chunks.iter().enumerate() {
+                let (prm, realc) = (&ch.prm, &ch.real);
                 let width = JET.min(kf - ci * JET);
-                match kind {
+                match ch.moves {
                     Moves::Arm => {
-                        gradient(model, prm, laws, &realc[j * m..(j + 1) * m], &qc, &mut w);
+                        gradient(
+                            model,
+                            prm,
+                            &ch.laws,
+                            &realc[j * m..(j + 1) * m],
+                            &qc,
+                            &mut w,
+                        );
                         let rhs = Mat::<f64>::from_fn(n, width, |a, s| w.g[a].d[s]);
                         let y = llt.solve(&rhs);
                         for (a, d) in dq.iter_mut().enumerate() {

@@ -30,9 +30,9 @@ Rows run in sequence (backlash and friction have memory): give them in execution
 Elastic arms (:attr:`Robot.is_elastic`: joint springs or displacement cables;
 ``docs/model.md``, "Elastic arms in the plant") have the same plant with the
 settle their frictionless equilibrium, each command warm-started from the
-previous one. Their commanded cables (:func:`commanded_cables`, the width of
-``dL``) are the position and displacement cables in file order: ``theta_cmd``
-the rest angles and ``dL = -d`` commands the displacements ``d`` (m).
+previous one. Their commanded cables (:func:`.measurements.commanded_cables`,
+the width of ``dL``) are the position and displacement cables in file order:
+``theta_cmd`` the rest angles and ``dL = -d`` commands the displacements ``d`` (m).
 ``cable_offset``, ``backlash`` and ``hole_position`` act per commanded cable;
 they have no ``cable_elasticity``, ``hole_clearance`` or ``cable_friction``
 block, and two of their own:
@@ -67,13 +67,13 @@ import numpy as np
 from .. import _cdsm
 from ..inputs import CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations
 from ..robot import Robot, kind_facts
-from .measurements import KIND_CODES, Measurements
+from .measurements import KIND_CODES, Measurements, commanded_cables
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
            "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
            "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths",
-           "taut_commands", "commanded_cables"]
+           "taut_commands"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
 #: Rust core's layout of the kind, ``kind_facts("planar")["layout"]``:
@@ -158,26 +158,14 @@ def dims(robot) -> int:
     return kind_facts(robot.kind)["dim"]
 
 
-def commanded_cables(robot) -> List[int]:
-    """Indices (0-based, file order) of the cables the plant commands: a rigid
-    arm's position-controlled cables (a planar arm's upper cables); an elastic
-    arm's (:attr:`Robot.is_elastic`) position and displacement cables in file
-    order (force cables keep their set tension). A row's command is their
-    lengths at ``theta_cmd`` plus ``dL``: a displacement cable's ``dL`` is minus
-    its displacement (m, its rest length ``L0 - d``)."""
-    if robot.is_elastic:
-        return [c for c, mode in enumerate(robot.cable_modes) if mode != "force"]
-    return list(robot.position_cables)
-
-
 def command_lengths(robot, theta) -> np.ndarray:
-    """The nominal lengths (m) of the commanded cables (:func:`commanded_cables`)
+    """The nominal lengths (m) of the commanded cables (:func:`.measurements.commanded_cables`)
     at ``theta`` (N, n) rad."""
     return robot.cable_lengths(theta)[..., commanded_cables(robot)]
 
 
 def commands(robot) -> int:
-    """Commanded cables per row (the width of ``dL``, :func:`commanded_cables`):
+    """Commanded cables per row (the width of ``dL``, :func:`.measurements.commanded_cables`):
     the position-controlled cables of a rigid arm (n upper cables of a planar
     arm), the position and displacement cables of an elastic arm."""
     return len(commanded_cables(robot))
