@@ -82,7 +82,12 @@ def test_an_elastic_arm_has_its_blocks_and_a_rigid_arm_its_kinds():
     assert labels == ["segment of joints 1–8 (springs 1 + s)", "segment of joints 9–16 (springs 1 + s)"]
     lo, hi = plant.bounds(robot)
     assert (lo[lay["joint_stiffness"]] == -0.9).all() and (hi[lay["cable_angle"]] == np.pi).all()
-    assert "joint_stiffness" in plant.effects_of(robot) and "cable_friction" not in plant.effects_of(robot)
+    # the default library: the per-hole, per-link and per-axis geometry only when named
+    assert plant.effects_of(robot) == ("actuation_scale", "cable_offset", "frame_misalignment", "tip_offset",
+                                       "backlash", "joint_stiffness", "cable_angle")
+    assert plant.check_effects(robot, ["hole_position", "joint_axis"]) == ["hole_position", "joint_axis"]
+    with pytest.raises(CdsmInputError, match="cable_friction"):
+        plant.check_effects(robot, ["cable_friction"])
     mixed = cdsm.Robot.from_toml_str(mixed_text())
     # the mixed arm commands its three displacement cables and its position cable
     assert commanded_cables(mixed) == [0, 1, 2, 4]

@@ -72,8 +72,8 @@ from .measurements import KIND_CODES, Measurements, commanded_cables
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
            "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
-           "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths",
-           "taut_commands"]
+           "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "effects_of", "check_effects", "width", "dims", "commands",
+           "command_lengths", "taut_commands"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
 #: Rust core's layout of the kind, ``kind_facts("planar")["layout"]``:
@@ -125,21 +125,31 @@ assert set(BLOCKS) | set(SPATIAL_EFFECTS) <= set(TYPICAL), "a typical size per p
 MAX_PARAMETER = 1e3
 
 
+#: Blocks of an elastic arm's plant outside its default library: the geometry of
+#: every hole, link and joint axis of the lumped joints (FTDCR v4: 1107, 270 and 120
+#: numbers), fitted only when named (:func:`check_effects`); a tendon's hole errors
+#: are its ``cable_angle`` and ``cable_offset`` in the library.
+ELASTIC_GEOMETRY: Tuple[str, ...] = ("hole_position", "link_length", "joint_axis")
+
+
 def effects_of(robot) -> Tuple[str, ...]:
     """The diagnosis library of a robot: its kind's layout's effects; an elastic
     arm's (:attr:`Robot.is_elastic`) its own layout's (:func:`layout`: without
     ``cable_elasticity``, ``hole_clearance`` and ``cable_friction``, with
-    ``joint_stiffness`` and, spatial, ``cable_angle``)."""
+    ``joint_stiffness`` and, spatial, ``cable_angle``) but :data:`ELASTIC_GEOMETRY`."""
     if robot.is_elastic:
-        return _library([name for name, k in robot.core.plant_effects() if k])
+        return _library([name for name, k in robot.core.plant_effects() if k and name not in ELASTIC_GEOMETRY])
     return _library(kind_facts(robot.kind)["layout"])
 
 
 def check_effects(robot, effects: Sequence[str], field: str = "effects") -> List[str]:
-    """``effects`` as a list, each one of the library of ``robot``'s kind;
+    """``effects`` as a list, each one of the library of ``robot``'s kind (an
+    elastic arm's also the :data:`ELASTIC_GEOMETRY` blocks of its layout);
     :class:`CdsmInputError` naming ``field``, the unknown names and the
     kind's library otherwise."""
     known = effects_of(robot)
+    if robot.is_elastic:
+        known += tuple(b for b, k in robot.core.plant_effects() if k and b in ELASTIC_GEOMETRY)
     names = list(effects)
     bad = [e for e in names if e not in known]
     if bad:
