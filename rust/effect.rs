@@ -35,6 +35,13 @@ pub enum Effect {
     /// Coulomb friction `mu` of every cable in every hole (1;
     /// `docs/model.md`, "Friction in the holes", [`crate::friction`]).
     CableFriction,
+    /// Elastic arms: a relative change `s > -1` of every joint spring of a
+    /// segment, `k_j -> (1 + s) k_j` (1, one per segment: the joints between
+    /// consecutive cable terminations, [`crate::plant::segments`]).
+    JointStiffness,
+    /// Spatial elastic arms: every hole of a commanded cable rotated by an
+    /// angle about its disk's backbone axis `x` (rad, one per commanded cable).
+    CableAngle,
 }
 
 impl Effect {
@@ -53,6 +60,8 @@ impl Effect {
             Effect::Backlash => "backlash",
             Effect::JointAxis => "joint_axis",
             Effect::CableFriction => "cable_friction",
+            Effect::JointStiffness => "joint_stiffness",
+            Effect::CableAngle => "cable_angle",
         }
     }
 }

@@ -19,12 +19,14 @@ use crate::rows::split_rows;
 /// Predictions of `K` plants for one data set: observations `(K, N, TASK)`
 /// (NaN for unmeasured rows and rows that did not settle), converged
 /// `(K, N)`, and the configuration each row's last command settles at
-/// `(K, N, n)` (rad).
+/// `(K, N, n)` (rad); why each row did not settle (`(K, N)`, codes of
+/// [`crate::plant::REASONS`]).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Predictions {
     pub observation: Vec<f64>,
     pub converged: Vec<bool>,
     pub theta: Vec<f64>,
+    pub reason: Vec<u8>,
 }
 
 /// A plant the diagnosis can fit: predictions of a data set's rows for a

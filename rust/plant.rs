@@ -35,6 +35,25 @@ use crate::solve::CableSolve;
 use crate::solve::{CableMethod, CableSolver, SolveOptions};
 use crate::tension::{Balance, Wrench};
 
+mod elastic_settle;
+
+/// Why a row was not predicted, by code: 0-4 the elastic settle's
+/// ([`crate::elastic::REASONS`]), then a rigid settle that did not converge
+/// and a parameter set outside the physical domain.
+pub const REASONS: [&str; 7] = [
+    "converged",
+    "iteration limit",
+    "line search",
+    "not finite",
+    "not a minimum",
+    "did not settle",
+    "not physical",
+];
+/// [`REASONS`]' code of a rigid settle that did not converge.
+const NOT_SETTLED: u8 = 5;
+/// [`REASONS`]' code of a parameter set outside the physical domain.
+const NOT_PHYSICAL: u8 = 6;
+
 /// The clearance's transition width at `clearance_width = 0` (rad).
 pub const CLEARANCE_WIDTH: f64 = 0.01;
 
@@ -53,17 +72,64 @@ impl Layout {
     }
 }
 
+/// The cables the plant commands (`docs/model.md`, "The plant"): a rigid
+/// arm's position cables; an elastic arm's ([`Model::is_elastic`]) elastic
+/// cables, position and displacement, in model order (force cables keep
+/// their set tension).
+pub fn commanded_cables(model: &Model) -> Vec<usize> {
+    if model.is_elastic() {
+        (0..model.cables.len())
+            .filter(|c| model.cables[*c].mode != Mode::Force)
+            .collect()
+    } else {
+        model.position_cables()
+    }
+}
+
+/// The segments of an arm (`docs/model.md`, "Elastic arms"): the joints
+/// between consecutive cable terminations (the disks where some cable
+/// ends), base to tip; joints beyond the last termination are a segment of
+/// their own.
+pub fn segments(model: &Model) -> Vec<std::ops::Range<usize>> {
+    let mut ends: Vec<usize> = model.cables.iter().map(|c| c.end).collect();
+    ends.push(model.disks.len());
+    ends.sort_unstable();
+    ends.dedup();
+    let mut out = Vec::with_capacity(ends.len());
+    let mut start = 0;
+    for e in ends {
+        if e == 0 {
+            continue;
+        }
+        let stop = model.disks[e - 1].joints.end;
+        if stop > start {
+            out.push(start..stop);
+            start = stop;
+        }
+    }
+    out
+}
+
+/// The effects the elastic settle does not model (`docs/model.md`, "The
+/// plant", elastic arms): the extra compliance, the holes' clearance and
+/// friction have no block on an elastic arm.
+const NOT_ELASTIC: [Effect; 4] = [
+    Effect::CableElasticity,
+    Effect::HoleClearance,
+    Effect::ClearanceWidth,
+    Effect::CableFriction,
+];
+
 /// The number of parameters `size` gives a block of `model`'s plant.
 pub fn block_size(model: &Model, size: Size) -> usize {
     let (n, k) = (model.n(), model.disks.len());
     let info = model.kind.info();
     match size {
         Size::One => 1,
-        Size::PerPositionCable => model.position_cables().len(),
+        Size::PerPositionCable => commanded_cables(model).len(),
         Size::PerDisk => k,
         Size::PerPositionHoleCoord => {
-            3 * model
-                .position_cables()
+            3 * commanded_cables(model)
                 .iter()
                 .map(|c| model.cables[*c].holes.len())
                 .sum::<usize>()
@@ -77,15 +143,33 @@ pub fn block_size(model: &Model, size: Size) -> usize {
 }
 
 /// The layout of `model`'s plant (`docs/model.md`, "Parameters"): its kind's
-/// blocks ([`crate::kinds::KindInfo::layout`]) sized by its structure.
+/// blocks ([`crate::kinds::KindInfo::layout`]) sized by its structure; an
+/// elastic arm's without the blocks the elastic settle does not model and
+/// with its own at the end: `joint_stiffness` (one per [`segments`], when
+/// some joint has a spring) and, spatial, `cable_angle` (one per commanded
+/// cable). A rigid arm's layout is its kind's.
 pub fn layout(model: &Model) -> Layout {
     let rules = model.kind.info().layout;
-    let mut blocks = Vec::with_capacity(rules.len());
+    let elastic = model.is_elastic();
+    let mut blocks = Vec::with_capacity(rules.len() + 2);
     let mut total = 0;
-    for &(e, size) in rules {
-        let s = block_size(model, size);
+    let mut put = |e: Effect, s: usize| {
         blocks.push((e, total, s));
         total += s;
+    };
+    for &(e, size) in rules {
+        if elastic && NOT_ELASTIC.contains(&e) {
+            continue;
+        }
+        put(e, block_size(model, size));
+    }
+    if elastic {
+        if model.joints.iter().any(|j| j.stiffness > 0.0) {
+            put(Effect::JointStiffness, segments(model).len());
+        }
+        if model.kind == Kind::Spatial {
+            put(Effect::CableAngle, commanded_cables(model).len());
+        }
     }
     Layout { blocks, total }
 }
@@ -138,7 +222,7 @@ pub struct Parameter {
 pub fn parameters(model: &Model) -> Vec<Parameter> {
     let info = model.kind.info();
     let link_lengths = size_rule(model, Effect::LinkLength) == Some(Size::LinkLengths);
-    let pos = model.position_cables();
+    let pos = commanded_cables(model);
     let xyz = ["x", "y", "z"];
     let cable = |c: usize| format!("cable {} (to disk {})", c + 1, model.cables[c].end);
     let lay = layout(model);
@@ -233,6 +317,26 @@ pub fn parameters(model: &Model) -> Vec<Parameter> {
                 }
             }
             Effect::CableFriction => put("μ (every cable, every hole)".into(), Unit::One),
+            Effect::JointStiffness => {
+                for r in segments(model) {
+                    put(
+                        format!(
+                            "segment of joints {}–{} (springs 1 + s)",
+                            r.start + 1,
+                            r.end
+                        ),
+                        Unit::One,
+                    );
+                }
+            }
+            Effect::CableAngle => {
+                for &c in &pos {
+                    put(
+                        format!("{} about the backbone axis", cable(c)),
+                        Unit::Radian,
+                    );
+                }
+            }
         }
         debug_assert_eq!(out.len() - before, s, "{}", e.name());
     }
@@ -254,7 +358,8 @@ fn least_hole_radius(model: &Model) -> f64 {
 /// actuator gain above a tenth of nominal, non-negative compliance, clearance
 /// and backlash, a clearance below the least hole radius, a transition width
 /// in `[1e-4, 1]` rad, planar links above a tenth of their nominal length,
-/// friction in `[0, MU_MAX]`.
+/// friction in `[0, MU_MAX]`; joint springs above a tenth of nominal
+/// (`s >= -0.9`), cable angles in `[-pi, pi]` rad.
 pub fn bounds(model: &Model) -> (Vec<f64>, Vec<f64>) {
     let lay = layout(model);
     let mut lo = vec![f64::NEG_INFINITY; lay.total];
@@ -278,6 +383,11 @@ pub fn bounds(model: &Model) -> (Vec<f64>, Vec<f64>) {
             Effect::CableFriction => {
                 lo[o] = 0.0;
                 hi[o] = MU_MAX;
+            }
+            Effect::JointStiffness => lo[o..o + s].fill(-0.9),
+            Effect::CableAngle => {
+                lo[o..o + s].fill(-std::f64::consts::PI);
+                hi[o..o + s].fill(std::f64::consts::PI);
             }
             Effect::LinkLength if size_rule(model, e) == Some(Size::LinkLengths) => {
                 lo[o] = -0.9 * model.joints[0].offset[0];
@@ -329,6 +439,8 @@ struct Params<S> {
     backlash: Vec<S>,
     /// Friction coefficient in the holes (1).
     mu: S,
+    /// Elastic arms: every joint's spring factor `1 + s` of its segment (1, `n`).
+    spring: Vec<S>,
     /// The compliance whose frictionless stretch the controller feeds
     /// forward (1/N): the robot file's cable's `1 / (E A)` with
     /// `stretch_feed_forward` and as many position cables as joints, else 0.
@@ -351,7 +463,26 @@ impl<S: Real> Params<S> {
         };
         let one = |e: Effect| lay.find(e).map_or(z, |(o, _)| v(o));
         let pos = model.position_cables();
+        let commanded = commanded_cables(model);
         let mut arm = ArmNumbers::<S>::of(model);
+        let mut spring = vec![S::cst(1.0); model.n()];
+        if let Some((o, _)) = lay.find(Effect::JointStiffness) {
+            for (s, r) in segments(model).into_iter().enumerate() {
+                let f = v(o + s) + 1.0;
+                spring[r].fill(f);
+            }
+        }
+        if let Some((o, _)) = lay.find(Effect::CableAngle) {
+            // about the disk frames' x, the backbone axis
+            for (i, &c) in commanded.iter().enumerate() {
+                let (sn, cs) = v(o + i).sin_cos();
+                for h in arm.holes[c].iter_mut() {
+                    let (y, z) = (h[1], h[2]);
+                    h[1] = y * cs - z * sn;
+                    h[2] = y * sn + z * cs;
+                }
+            }
+        }
         if let Some((o, _)) = lay.find(Effect::HoleHeight) {
             for (c, cable) in model.cables.iter().enumerate() {
                 let dh = v(o + cable.end - 1);
@@ -367,7 +498,7 @@ impl<S: Real> Params<S> {
         }
         if let Some((o, _)) = lay.find(Effect::HolePosition) {
             let mut k = o;
-            for &c in &pos {
+            for &c in &commanded {
                 for h in arm.holes[c].iter_mut() {
                     for x in h.iter_mut() {
                         *x += v(k);
@@ -417,6 +548,7 @@ impl<S: Real> Params<S> {
             tip: span(Effect::TipOffset),
             backlash: span(Effect::Backlash),
             mu: one(Effect::CableFriction),
+            spring,
             // with more position cables than joints the statics fix no
             // frictionless tensions to feed forward: kappa is the whole compliance
             kff: if pos.len() == model.n() {
@@ -476,7 +608,8 @@ impl RowKind {
 }
 
 /// A data set's commands in execution order: `theta_cmd (N, n)` rad,
-/// `dl (N, m)` m (the position cables, file order) and each row's kind.
+/// `dl (N, m)` m (the commanded cables, [`commanded_cables`], file order)
+/// and each row's kind.
 #[derive(Debug, Clone, Copy)]
 pub struct Rows<'a> {
     pub theta_cmd: &'a [f64],
@@ -513,21 +646,36 @@ pub fn position_lengths(model: &Model, theta: &[f64]) -> Vec<f64> {
 /// The lengths of `model`'s position cables at every configuration of
 /// `theta (N, n)` (rad): `(N, m)` m.
 pub fn position_lengths_rows(model: &Model, theta: &[f64]) -> Vec<f64> {
-    model.kind.visit(PositionLengths { model, theta })
+    model.kind.visit(PositionLengths {
+        model,
+        theta,
+        cables: model.position_cables(),
+    })
 }
 
-/// [`position_lengths_rows`] over the model's motion group: one chain, one
-/// configuration after another.
+/// The lengths of `model`'s commanded cables ([`commanded_cables`]) at
+/// every configuration of `theta (N, n)` (rad): `(N, m)` m.
+pub fn commanded_lengths_rows(model: &Model, theta: &[f64]) -> Vec<f64> {
+    model.kind.visit(PositionLengths {
+        model,
+        theta,
+        cables: commanded_cables(model),
+    })
+}
+
+/// The lengths of some cables over the model's motion group: one chain,
+/// one configuration after another.
 struct PositionLengths<'a> {
     model: &'a Model,
     theta: &'a [f64],
+    cables: Vec<usize>,
 }
 
 impl Visit for PositionLengths<'_> {
     type Out = Vec<f64>;
     fn visit<G: Group>(self) -> Vec<f64> {
         let model = self.model;
-        let pos = model.position_cables();
+        let pos = self.cables;
         let mut ch = Chain::<f64, G::Frame<f64>>::new(model);
         let mut out = Vec::with_capacity(self.theta.len() / model.n().max(1) * pos.len());
         for theta in self.theta.chunks_exact(model.n()) {
@@ -543,7 +691,7 @@ impl Visit for PositionLengths<'_> {
 impl Sequence {
     pub fn new(model: &Model, data: &Rows) -> Result<Sequence> {
         let n = model.n();
-        let m = model.position_cables().len();
+        let m = commanded_cables(model).len();
         let rows = rows_of("theta_cmd", data.theta_cmd, n)?;
         rows_exactly("dl", data.dl, m, rows)?;
         if data.kind.len() != rows {
@@ -564,7 +712,7 @@ impl Sequence {
             theta_cmd: data.theta_cmd.to_vec(),
             motion: std::sync::OnceLock::new(),
         };
-        let lengths = position_lengths_rows(model, data.theta_cmd);
+        let lengths = commanded_lengths_rows(model, data.theta_cmd);
         for i in 0..rows {
             let c = &lengths[i * m..(i + 1) * m];
             let first = seq.row.len();
@@ -978,8 +1126,8 @@ impl<'a, G: Group> Plant<'a, G> {
         }
         let prm = Params::<f64>::unpack(model, &lay, p, |_, v| v);
         let cprm = Params::<J>::unpack(model, &lay, p, |_, v| J::cst(v));
-        let l_ref = position_lengths(model, &vec![0.0; model.n()]);
-        let rigid = if model.kind == Kind::Planar {
+        let l_ref = commanded_lengths_rows(model, &vec![0.0; model.n()]);
+        let rigid = if model.kind == Kind::Planar && !model.is_elastic() {
             let r = planar_robot(model, &prm.arm);
             let g = CableGeometry::new(&r, None);
             Rigid::Planar(Box::new(r), g)
@@ -1386,6 +1534,8 @@ pub struct Settled {
     theta: Vec<f64>,
     obs: Vec<f64>,
     ok: Vec<bool>,
+    /// Per command, a code of [`REASONS`].
+    reason: Vec<u8>,
 }
 
 /// The settled configurations and observations of every command of `seq`
@@ -1411,6 +1561,7 @@ fn settle_all<G: Group>(
             theta: Vec::with_capacity(range.len() * n),
             obs: Vec::with_capacity(range.len() * task),
             ok: Vec::with_capacity(range.len()),
+            reason: Vec::with_capacity(range.len()),
         };
         for j in range {
             let row = seq.row[j];
@@ -1426,6 +1577,7 @@ fn settle_all<G: Group>(
                 out.obs.extend(std::iter::repeat_n(f64::NAN, task));
             }
             out.ok.push(ok);
+            out.reason.push(if ok { 0 } else { NOT_SETTLED });
         }
         out
     });
@@ -1434,6 +1586,7 @@ fn settle_all<G: Group>(
         all.theta.extend(p.theta);
         all.obs.extend(p.obs);
         all.ok.extend(p.ok);
+        all.reason.extend(p.reason);
     }
     all
 }
@@ -1445,6 +1598,9 @@ impl Settled {
         opts: &SolveOptions,
         threads: usize,
     ) -> Self {
+        if plant.model.is_elastic() {
+            return elastic_settle::settle_all(plant, seq, opts);
+        }
         settle_all(plant, seq, opts, threads)
     }
 
@@ -1467,6 +1623,11 @@ impl Settled {
                 out.observation.push(if conv { v } else { f64::NAN });
             }
             out.converged.push(conv);
+            out.reason.push(if self.ok[*a] {
+                self.reason[*b]
+            } else {
+                self.reason[*a]
+            });
             out.theta
                 .extend(self.theta[b * n..(b + 1) * n].iter().map(|t| {
                     if conv {
@@ -1498,7 +1659,11 @@ impl Settled {
         }
         let task = <G::Frame<f64> as Frame<f64>>::TASK;
         let kf = free.len();
-        let dcmd = command_derivatives(plant, seq, &self.theta, &self.ok, free, threads);
+        let dcmd = if plant.model.is_elastic() {
+            elastic_settle::command_derivatives(plant, seq, &self.theta, &self.ok, free, threads)
+        } else {
+            command_derivatives(plant, seq, &self.theta, &self.ok, free, threads)
+        };
         let mut jac = vec![f64::NAN; seq.rows() * task * kf];
         for (i, [a, b]) in seq.span.iter().enumerate() {
             if !(self.ok[*a] && self.ok[*b]) || seq.reading[i] == RowKind::Unmeasured {
@@ -1647,11 +1812,14 @@ fn predict_k<G: Group>(
                 out.observation.extend(pr.observation);
                 out.converged.extend(pr.converged);
                 out.theta.extend(pr.theta);
+                out.reason.extend(pr.reason);
             }
             Err(CdsmError::Option { .. }) => {
                 out.observation
                     .extend(std::iter::repeat_n(f64::NAN, task * seq.rows()));
                 out.converged.extend(std::iter::repeat_n(false, seq.rows()));
+                out.reason
+                    .extend(std::iter::repeat_n(NOT_PHYSICAL, seq.rows()));
                 out.theta
                     .extend(std::iter::repeat_n(f64::NAN, n * seq.rows()));
             }
@@ -2111,6 +2279,8 @@ mod tests {
                         Effect::Backlash => 3e-5,
                         Effect::JointAxis => 4e-3,
                         Effect::CableFriction => 0.2,
+                        Effect::JointStiffness => 0.05,
+                        Effect::CableAngle => 0.01,
                     };
             }
         }
@@ -2119,6 +2289,21 @@ mod tests {
 
     fn planar() -> Model {
         Model::from_planar(&Robot::paper())
+    }
+
+    /// FTDCR v4: three segments of 20 joints (its tendons end at stations
+    /// 10, 20, 30), its nine tendons commanded; every parameter labelled.
+    #[test]
+    fn an_elastic_arm_has_its_segments_and_commanded_cables() {
+        let m = Model::from_toml(include_str!("../tests/data/opencr/ftdcr_v4.toml")).unwrap();
+        assert_eq!(segments(&m), vec![0..20, 20..40, 40..60]);
+        assert_eq!(commanded_cables(&m), (0..9).collect::<Vec<_>>());
+        let lay = layout(&m);
+        assert_eq!(lay.find(Effect::JointStiffness).map(|b| b.1), Some(3));
+        assert_eq!(lay.find(Effect::CableAngle).map(|b| b.1), Some(9));
+        assert_eq!(lay.find(Effect::CableOffset).map(|b| b.1), Some(9));
+        assert!(lay.find(Effect::CableFriction).is_none());
+        assert_eq!(parameters(&m).len(), lay.total);
     }
 
     #[test]

@@ -216,3 +216,25 @@ def test_opencrs_own_models_reach_its_published_errors_in_the_core(opencr, cdsm,
     assert _mean_aligned_rms(robot, val) * 1e3 == pytest.approx(val_mm, abs=0.005)
     text = str(robot)
     assert text.count("displacement") >= 9 and "force, 0 N" not in text
+
+
+def test_the_core_settles_where_opencrs_own_mujoco_model_settles_on_300_train_rows(cdsm):
+    """Issue 35 item 4: OpenCR's own MuJoCo model of FTDCR v4 (its generator, its
+    simulator), stepped 10 s per row on the first 300 train rows
+    (``tests/data/opencr/opencr_settled_train300.csv``, its README says how): the
+    core's equilibria along the same commands put the tip where MuJoCo's tip site
+    settles, and pull the tendons with MuJoCo's tensions."""
+    table = np.genfromtxt(ROOT / "tests" / "data" / "opencr" / "opencr_settled_train300.csv", delimiter=",",
+                          names=True, dtype=None, encoding="utf-8")
+    cmd = np.stack([table[f"cmd_k{k}_m"] for k in range(9)], axis=1)
+    mujoco_tip = np.stack([table[f"tip10s_{c}_m"] for c in "xyz"], axis=1)
+    tension = np.stack([table[f"T10s_k{k}_N"] for k in range(9)], axis=1)
+    robot = cdsm.Robot.load("ftdcr_v4_sysid")
+    eq = robot.equilibrium(displacements=cmd, sequence=True)
+    assert eq.converged.all() and len(cmd) == 300
+    tip = np.asarray(robot.fk(eq.theta))[:, :3]
+    # OpenCR's (x, y, z) is cdsm's (y, z, x)
+    np.testing.assert_allclose(tip, mujoco_tip[:, [2, 0, 1]], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(eq.tension, tension, rtol=0, atol=1e-7)
+    # the slack tendons are the ones MuJoCo's actuators leave at zero force
+    np.testing.assert_array_equal(eq.slack, tension == 0.0)

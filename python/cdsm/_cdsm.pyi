@@ -27,6 +27,7 @@ QUANTITIES: int
 REASONS: List[str]
 ELASTIC_REASONS: List[str]
 ELASTIC_XTOL: float
+PLANT_REASONS: List[str]
 CLEARANCE_WIDTH: float
 FRICTION_TYPICAL: float
 FRICTION_MAX: float
@@ -99,6 +100,7 @@ class PlantPrediction:
     observation: F64
     converged: Bool
     theta: F64
+    reason: U8
     jacobian: Optional[F64]
 
 class PlantFit:

@@ -41,6 +41,10 @@ class Kind(str):
 
     Solves: ``masks`` the pose-IK masks by name, each the core's argument
     (planar three weights on ``x, y, phi``; spatial the name itself);
+    ``default_mask`` the mask the configuration choice matches targets on
+    (:mod:`cdsm.accuracy.configurations`: planar ``"pose"``, spatial
+    ``"position"``: the end origin, so an arm of more than three joints has
+    a null space);
     ``mask_weights`` whether weights may be given instead of a name;
     ``target_arg`` and ``command_arg`` the kind's names of the IK targets and
     of the commanded cable lengths (in error messages); ``summed_angles``: a
@@ -55,12 +59,20 @@ class Kind(str):
 
     Monte Carlo: ``quantities`` and ``quantity_units`` the columns of the
     statistics, ``norm`` the index of the position error's norm,
-    ``norm_label`` / ``norm_slug`` its words (``"|d(X, Y)|"``, ``"dxy"``),
+    ``norm_label`` / ``norm_short`` / ``norm_slug`` its words
+    (``"|d(X, Y)|"``, ``"|dXY|"``, ``"dxy"``),
     ``default_samples`` the samples per configuration of a study.
 
     The study (``cdsm paper``, :mod:`cdsm.study`): ``hole_error_arg`` the
     argument a hole error is given by (``"dh"``: planar, one height error
-    per disk; ``"dholes"``: spatial, every hole coordinate);
+    per disk; ``"dholes"``: spatial, every hole coordinate), the core's
+    argument of the Monte Carlo too; ``hole_grouping`` the core's grouping
+    of the hole errors (``"per_end_disk"``, ``"per_cable"``: the groups of
+    ``CoreRobot.structure()``), ``hole_group`` a group's label (a format
+    template over its 1-based index), ``hole_tolerance_key`` the key of the
+    hole tolerances in a tolerance file (``cdsm tolerance --json``);
+    ``pose_regions`` whether a region may be given as target poses
+    (``poses:FILE.csv``, :func:`cdsm.accuracy.tolerance.parse_region`);
     ``hole_scenarios`` the single hole errors, each ``(error, key, label)``
     (``key`` and ``label`` format templates over ``cable``, ``disk``,
     ``size``); ``cable_scenario_label`` the label of a cable-length error;
@@ -76,6 +88,34 @@ class Kind(str):
     ``"montecarlo"`` (``montecarlo.csv``) — the second a key the report's row
     builders know (:mod:`cdsm.report.study`; ``"max_abs:2"`` is the max
     ``|.|`` of task coordinate 2, ``"mean:4"`` the mean of quantity 4).
+    ``report_tables`` = {table: ((header, cell), ...)} the report's tables
+    that differ between the kinds (:mod:`cdsm.report.study`; a header is a
+    template over ``q``, the position error's name; a cell names a column of
+    the study's rows — ``"mm:a,b"`` / ``"deg:a/b"`` the columns in mm or deg
+    joined by ``", "`` / ``" / "`` — or ``"protocol"``, ``"label_figure"``,
+    ``"solved_of"``): ``"single_errors"`` and ``"mc_mean"`` (the mean signed
+    deviation; none for a spatial arm).
+    ``compensation`` the policy of :func:`cdsm.calibration.compensate`:
+    ``shapes`` (the target shapes, in its error), ``ik_seed`` (the nominal
+    IK's seed: ``"paper"``, the paper's seed, or ``"zeros"``),
+    ``zero_rotation_first`` (targets without a rotation: the pose at
+    rotation 0 first, the position alone where that fails — planar — or the
+    position alone at once), ``unreachable`` and ``slack`` (flags; the
+    second a template over ``min_tension``), ``position_error`` and
+    ``rotation_error`` ((N, k) differences -> (N,) norms: the planar
+    ``hypot`` and ``|dphi|``, else the 2-norm). ``cable_numbers``: results
+    name the commanded cables by their numbers in the robot file (spatial;
+    a planar arm's are upper cables 1..n). ``allocation`` the policy of
+    :func:`cdsm.accuracy.tolerance.allocate`: ``equal_effect`` (the
+    equal-effect shape: ``"per_error"``, the weight over each error's RMS
+    effect in mm, or ``"per_group"``, over each group's root sum of squares,
+    a group of no effect at the largest of the others) and ``weights`` (how
+    many weights, a template over ``count``, ``m``, ``groups``, ``finite``);
+    for ``cdsm tolerance``: ``region`` (the default ``--region``), ``robot``
+    (the robot in its progress line), ``cables_line`` and ``holes_line``
+    (the answer's lines, templates over ``cables``, the commanded cables'
+    numbers, and ``groups``, the count of hole groups) and ``evaluations``
+    (the Monte-Carlo evaluations in the last line, a template, "" for none).
     ``headline_aliases``: the extra names (cdsm 0.2's) of headline numbers,
     ``(alias, name)`` pairs, by where they are set (``"mc"``, ``"single"``).
 
@@ -90,6 +130,7 @@ class Kind(str):
     drawing samples its outline: a planar face is its diameter across the
     plane) and ``disk_lw`` (the outline's line width, points);
     ``words`` the phrases that differ: the error sources (``cables_per``,
+    ``hole_group_each``,
     ``holes_per``, ``cables_every``, ``holes_every``), the Jacobian of the
     singular measure (``singular_of``), the overview's rows and columns
     (``overview_layout``) and the force cables' loads (``force_loads``, a
@@ -110,6 +151,7 @@ class Kind(str):
     task_units: Tuple[str, ...]
     rotation: str
     masks: Dict[str, object]
+    default_mask: str
     mask_weights: bool
     mask_hint: str
     target_arg: str
@@ -122,12 +164,20 @@ class Kind(str):
     quantity_units: Tuple[str, ...]
     default_samples: int
     hole_error_arg: str
+    hole_grouping: str
+    hole_group: str
+    hole_tolerance_key: str
+    pose_regions: bool
     hole_scenarios: Tuple[Tuple[str, str, str], ...]
     cable_scenario_label: str
     grid_protocols: bool
     no_grid_reason: str
     singular: str
     csv: Dict[str, Tuple[Tuple[str, str], ...]]
+    report_tables: Dict[str, Tuple[Tuple[str, str], ...]]
+    compensation: Dict[str, object]
+    cable_numbers: bool
+    allocation: Dict[str, str]
     headline_aliases: Dict[str, Tuple[Tuple[str, str], ...]]
     figure: Dict[str, object]
     words: Dict[str, str]
@@ -171,6 +221,13 @@ class Kind(str):
         """CSV names of the position coordinates (``x_m``, ``y_m``[, ``z_m``])."""
         return self.pose_columns[:self.dim]
 
+    @property
+    def hole_errors_per_coordinate(self) -> bool:
+        """Whether a hole error is one hole coordinate's (spatial: ``dholes``,
+        the core's ``holes`` sensitivities) rather than a coherent group's
+        (planar: one disk's hole height, ``dh``, the core's ``pair``)."""
+        return self.hole_error_arg == "dholes"
+
     # ---- the Monte Carlo's quantities ------------------------------------------
     @property
     def norm(self) -> int:
@@ -181,6 +238,11 @@ class Kind(str):
     def norm_label(self) -> str:
         """The position error's norm in prose: ``|d(X, Y)|`` or ``|d(X, Y, Z)|``."""
         return "|d(" + ", ".join(a.upper() for a in self.position_axes) + ")|"
+
+    @property
+    def norm_short(self) -> str:
+        """The position error's norm in a command's summary: ``|dXY|`` or ``|dXYZ|``."""
+        return f"|{self.quantities[self.norm]}|"
 
     @property
     def norm_slug(self) -> str:
@@ -233,16 +295,18 @@ def _core(kind: str) -> dict:
     f = _cdsm.kind_info(kind)
     return dict(dim=int(f["dim"]), task_axes=tuple(f["task_axes"]), task_units=tuple(f["task_units"]),
                 rotation=str(f["rotation"]), quantities=tuple(f["quantities"]),
-                quantity_units=tuple(f["quantity_units"]))
+                quantity_units=tuple(f["quantity_units"]), hole_grouping=str(f["hole_grouping"]))
 
 
 PLANAR = Kind(
     "planar", **_core("planar"),
-    masks={"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}, mask_weights=True, mask_hint=" or 3 weights",
+    masks={"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}, default_mask="pose", mask_weights=True,
+    mask_hint=" or 3 weights",
     target_arg="pose", command_arg="upper", summed_angles=True, pair_holes=True,
     core_wrench_rows=(0, 1, 3), core_wrench_width=4,
     default_samples=1000,
-    hole_error_arg="dh", hole_scenarios=(("hole", "disk{disk}", "{size:+g} mm on disk {disk}'s holes"),),
+    hole_error_arg="dh", hole_group="disk {}'s holes", hole_tolerance_key="hole_height_tol_m", pose_regions=True,
+    hole_scenarios=(("hole", "disk{disk}", "{size:+g} mm on disk {disk}'s holes"),),
     cable_scenario_label="{size:+g} mm on cable {cable}", grid_protocols=True, no_grid_reason="", singular="pose",
     csv={"scenarios": _scenario_columns(
             (("scenario", "key"), ("label", "label"), ("figure", "figure"), ("protocol", "protocol"),
@@ -254,11 +318,27 @@ PLANAR = Kind(
          "montecarlo": (("x_m", "tip:0"), ("y_m", "tip:1"), ("samples", "samples"), ("failed", "failed"),
                         ("mean_dx_m", "mean:0"), ("mean_dy_m", "mean:1"), ("mean_dphi_rad", "mean:2"),
                         ("mean_dxy_m", "mean:3"), ("p95_dxy_m", "p95"), ("max_dxy_m", "max:3"))},
+    report_tables={"single_errors": (("scenario", "label_figure"), ("protocol", "protocol"), ("solved", "solved"),
+                                     ("unreachable", "unreachable"), ("no solution after", "no_solution_after_error"),
+                                     ("RMS {q} (mm)", "mm:rms_dxy_m"), ("max {q} (mm)", "mm:max_dxy_m"),
+                                     ("max |dphi| (deg)", "deg:max_abs_dphi_rad"), ("jump points", "jump_points")),
+                   "mc_mean": (("protocol", "protocol"), ("max |mean dX| (mm)", "mm:max_abs_mean_dx_m"),
+                               ("max |mean dY| (mm)", "mm:max_abs_mean_dy_m"),
+                               ("max |mean dphi| (deg)", "deg:max_abs_mean_dphi_rad"))},
+    compensation=dict(shapes="(N, 3) or (N, 2)", ik_seed="paper", zero_rotation_first=True,
+                      unreachable="unreachable: the nominal pose IK finds no configuration",
+                      slack="slack cable: an upper cable tension <= {min_tension:g} N at the predicted configuration",
+                      position_error=lambda d: np.hypot(d[:, 0], d[:, 1]), rotation_error=lambda d: np.abs(d[:, 0])),
+    cable_numbers=False,
+    allocation=dict(equal_effect="per_error", weights="2n = {count} positive{finite} numbers (n cables then n disks)",
+                    region="grid:-30:30:5", robot="robot", cables_line="cable length tolerance (mm, per upper cable): ",
+                    holes_line="hole height tolerance (mm, per disk):         ", evaluations=""),
     headline_aliases={"mc": (("mc_max_dxy_m", "mc_max_m"), ("mc_max_p95_dxy_m", "mc_max_p95_m")),
                       "single": (("worst_single_dxy_m", "worst_single_m"),)},
     figure=dict(projections=False, equal=False, ticks=4, mc_wgap=0.85, row_wgap=1.3, rotation_overview=False,
                 projection=None, disk_angles=(np.pi, 0.0), disk_lw=3),
-    words=dict(cables_per="per upper cable", holes_per="per disk's holes", cables_every="every upper cable",
+    words=dict(hole_group_each="one per disk's holes",
+               cables_per="per upper cable", holes_per="per disk's holes", cables_every="every upper cable",
                holes_every="every disk's hole height",
                singular_of="pose Jacobian d[X, Y, L·phi]/dtheta (all joints zero loses X)",
                overview_layout="columns: cable −, cable +, disk −, disk +; rows: pairs 1..n",
@@ -271,14 +351,21 @@ PLANAR = Kind(
                scenario_caption="{label} ({figure}): dX red, dY blue, dphi green (negative purple, zero grey) over "
                                 "the tip positions, one row per protocol; black rings: jump points; crosses: "
                                 "unreachable or unsolved.",
-               mc_caption="; mean signed dX (red), dY (blue), dphi (green)", limit_notes=""))
+               mc_caption="; mean signed dX (red), dY (blue), dphi (green)", limit_notes="",
+               single_errors="Each single error: ±1 mm on one upper (position-controlled) cable, or ±0.35 mm on "
+                             "one disk's holes (the hole height of its pair, on every face).",
+               mean_note="The errors are symmetric about zero, so the mean signed deviation is much smaller than "
+                         "the typical deviation: the maps show mean, 95th percentile and max of |d(X, Y)| as well.",
+               rotation_error="predicted_phi_error",
+               commands_note="L_i = nominal upper length at theta_cmd + dL_i; converged 1/0; flags empty when fine"))
 
 SPATIAL = Kind(
     "spatial", **_core("spatial"), masks={"position": "position", "pointing": "pointing", "pose": "pose"},
+    default_mask="position",
     mask_weights=False, mask_hint=" for a spatial arm", target_arg="target", command_arg="lengths", summed_angles=False,
     pair_holes=False, core_wrench_rows=(0, 1, 2, 3, 4, 5), core_wrench_width=6,
     default_samples=200,
-    hole_error_arg="dholes",
+    hole_error_arg="dholes", hole_group="cable {}'s holes", hole_tolerance_key="hole_tol_m", pose_regions=False,
     hole_scenarios=(("radial", "radial{cable}", "{size:+g} mm radially on cable {cable}'s holes"),
                     ("normal", "normal{cable}", "{size:+g} mm along the disk normal on cable {cable}'s holes")),
     cable_scenario_label="{size:+g} mm on cable {cable}'s length", grid_protocols=False,
@@ -300,10 +387,30 @@ SPATIAL = Kind(
                         ("mean_dz_m", "mean:2"), ("mean_dxyz_m", "mean:3"), ("p95_dxyz_m", "p95"),
                         ("max_dxyz_m", "max:3"), ("std_dxyz_m", "std:3"), ("mean_rotation_rad", "mean:4"),
                         ("max_rotation_rad", "max:4"))},
+    report_tables={"single_errors": (("scenario", "scenario"), ("error", "label"), ("solved", "solved_of"),
+                                     ("RMS {q} (mm)", "mm:rms_dxyz_m"), ("max {q} (mm)", "mm:max_dxyz_m"),
+                                     ("max |dX|, |dY|, |dZ| (mm)", "mm:max_abs_dx_m,max_abs_dy_m,max_abs_dz_m"),
+                                     ("RMS / max rotation (deg)", "deg:rms_rotation_rad/max_rotation_rad"),
+                                     ("jump points", "jump_points")),
+                   "mc_mean": ()},
+    compensation=dict(shapes="(N, 3) or (N, 6) for a spatial arm", ik_seed="zeros", zero_rotation_first=False,
+                      unreachable="unreachable: the nominal IK finds no configuration",
+                      slack="slack cable: no tension set >= {min_tension:g} N holds the predicted configuration",
+                      position_error=lambda d: np.linalg.norm(d, axis=1),
+                      rotation_error=lambda d: np.linalg.norm(d, axis=1)),
+    cable_numbers=True,
+    allocation=dict(equal_effect="per_group",
+                    weights="{count} positive{finite} numbers ({m} position-controlled cables then {groups} cables' "
+                            "holes)",
+                    region="sobol:1000", robot="spatial robot",
+                    cables_line="cable length tolerance (mm, per position-controlled cable {cables}): ",
+                    holes_line="hole tolerance (mm, every coordinate of each cable's holes, cables 1..{groups}): ",
+                    evaluations=" ({evaluations} Monte-Carlo evaluations)"),
     headline_aliases={"mc": (), "single": ()},
     figure=dict(projections=True, equal=True, ticks=3, mc_wgap=0.95, row_wgap=1.05, rotation_overview=True,
                 projection="3d", disk_angles=tuple(np.linspace(0.0, 2.0 * np.pi, 48)), disk_lw=1),
-    words=dict(cables_per="per position cable", holes_per="per hole coordinate", cables_every="every position cable",
+    words=dict(hole_group_each="one per cable's holes",
+               cables_per="per position cable", holes_per="per hole coordinate", cables_every="every position cable",
                holes_every="every coordinate of every hole",
                singular_of="position Jacobian (directions the arm never moves in left out)",
                overview_layout="rows: position cables; columns: ±1 mm length, ±0.35 mm holes radial, along the normal",
@@ -318,7 +425,15 @@ SPATIAL = Kind(
                                 "projections; black rings: jump points.",
                mc_caption="; the 95th percentile on the other projections; histogram over every sample.",
                limit_notes="**Hole clearance** is an effect of the diagnosis library, not a manufacturing error "
-                           "scenario of this study."))
+                           "scenario of this study.",
+               single_errors="Each single error: ±1 mm on a position-controlled cable's length; ±0.35 mm on all its "
+                             "holes along the radius in each face plane (outward); ±0.35 mm on all its holes along "
+                             "the disk normal. Holes of force-controlled cables do not move the tip of the rigid "
+                             "model (their lengths are not commanded): no scenario of their own.",
+               mean_note="", rotation_error="predicted_rotation_error",
+               commands_note="L_i, dL_i: the i-th position-controlled cable (as dL_i in measurement files; "
+                             "robot-file cables {cables}); L_i = nominal length at theta_cmd + dL_i; converged 1/0; "
+                             "flags empty when fine"))
 
 if len(PLANAR.quantities) != _cdsm.QUANTITIES:  # the core decides what a planar Monte Carlo returns
     raise ImportError(f"cdsm.kinds: the core's planar Monte Carlo returns {_cdsm.QUANTITIES} quantities, "

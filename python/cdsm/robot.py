@@ -184,6 +184,30 @@ class Robot:
         return cls.from_toml_str(read_text(path, "robot"))
 
     @classmethod
+    def load(cls, source: "str | os.PathLike[str]") -> "Robot":
+        """A robot by the one rule every command's ``--robot`` follows: a
+        robot file (TOML, either kind), an OpenCR generation config (a
+        ``.json`` file: :meth:`from_opencr`), or — when no such file exists —
+        the name of a packaged robot (:func:`packaged_robots`, e.g.
+        ``"two_universal"``) or of a packaged OpenCR config
+        (:data:`cdsm.interop.opencr.PACKAGED`, e.g. ``"ftdcr_v4"``, the real
+        FTDCR v4's design). A name that is none of these says so and lists
+        the names. SI units."""
+        from .interop import opencr
+
+        name = os.fspath(source)
+        if os.path.exists(name):
+            return cls.from_opencr(name) if name.lower().endswith(".json") else cls.from_toml(name)
+        configs = list(opencr.CONFIGS)
+        if name in configs:
+            return cls.from_opencr(name)
+        if name in packaged_robots():
+            return cls.packaged(name)
+        known = list(packaged_robots()) + configs
+        raise CdsmInputError(f"robot file {name!r}: does not exist, and no packaged robot has that name"
+                             f"{did_you_mean(name, known)} (packaged: {', '.join(known)})")
+
+    @classmethod
     def from_toml_str(cls, text: str) -> "Robot":
         """Parse a robot description given as TOML text (either kind). A
         description whose straight arm is longer than

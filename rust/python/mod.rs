@@ -30,6 +30,7 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("REASONS", crate::lm::Reason::NAMES.to_vec())?;
     m.add("ELASTIC_REASONS", crate::elastic::REASONS.to_vec())?;
     m.add("ELASTIC_XTOL", crate::elastic::XTOL)?;
+    m.add("PLANT_REASONS", crate::plant::REASONS.to_vec())?;
     m.add("CLEARANCE_WIDTH", crate::plant::CLEARANCE_WIDTH)?;
     m.add("FRICTION_TYPICAL", crate::friction::MU_TYPICAL)?;
     m.add("FRICTION_MAX", crate::friction::MU_MAX)?;

@@ -158,6 +158,8 @@ pub struct PlantPrediction {
     pub observation: A<f64>,
     pub converged: A<bool>,
     pub theta: A<f64>,
+    /// Codes of `plant::REASONS` (`PLANT_REASONS`).
+    pub reason: A<u8>,
     pub jacobian: Option<A<f64>>,
 }
 
@@ -167,6 +169,7 @@ impl PlantPrediction {
             observation: arr(py, p.observation),
             converged: arr(py, p.converged),
             theta: arr(py, p.theta),
+            reason: arr(py, p.reason),
             jacobian: jacobian.map(|j| arr(py, j)),
         }
     }

@@ -888,7 +888,6 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<PlantPrediction> {
-        self.rigid("plant_predict")?;
         let data = Data::of(&theta_cmd, &dl, &kind)?;
         plant::predict(py, &self.model, params, &data, tol, max_iter, threads)
     }
@@ -907,7 +906,6 @@ impl CoreRobot {
         max_iter: u32,
         threads: usize,
     ) -> PyResult<PlantPrediction> {
-        self.rigid("plant_linearise")?;
         let data = Data::of(&theta_cmd, &dl, &kind)?;
         plant::linearise(
             py,
@@ -941,7 +939,6 @@ impl CoreRobot {
         fit_iter: u32,
         threads: usize,
     ) -> PyResult<Vec<PlantFit>> {
-        self.rigid("plant_fit")?;
         let data = Data::of(&theta_cmd, &dl, &kind)?;
         let args = FitArgs {
             measured: slice("measured", &measured)?,

@@ -45,7 +45,7 @@ from ..robot import Robot
 from .montecarlo import monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 from .sensitivity import sensitivities, tolerance_vector
-from .tolerance import pooled_percentile
+from .tolerance import error_tolerances, pooled_percentile
 
 __all__ = ["rms_amplification", "rms_and_gradient", "ik_branches", "best_configurations", "null_space_optimize",
            "path_configurations", "compare_with_default"]
@@ -88,17 +88,19 @@ def rms_and_gradient(robot: Robot, theta, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_T
 
 
 def _rows(robot: Robot, mask: Optional[str]) -> np.ndarray:
-    """The task rows a mask matches: planar ``"pose"`` (x, y, phi) or
-    ``"position"`` (x, y); spatial ``"position"`` (x, y, z) or ``"pose"``."""
-    mask = ("pose" if robot.kind == "planar" else "position") if mask is None else mask
-    rows = {"pose": np.arange(robot.task), "position": np.arange(2 if robot.kind == "planar" else 3)}
+    """The task rows a mask matches (default the kind's
+    :attr:`~cdsm.kinds.Kind.default_mask`): ``"pose"`` every task coordinate
+    (planar x, y, phi), ``"position"`` the position's (x, y or x, y, z)."""
+    kind = robot.kind
+    rows = {"pose": np.arange(kind.task), "position": np.arange(kind.dim)}
+    mask = _mask_name(robot, mask)
     if mask not in rows:
         raise CdsmInputError(f"`mask`: expected 'pose' or 'position', got {mask!r}")
     return rows[mask]
 
 
 def _mask_name(robot: Robot, mask: Optional[str]) -> str:
-    return ("pose" if robot.kind == "planar" else "position") if mask is None else mask
+    return robot.kind.default_mask if mask is None else mask
 
 
 def _pose_ok(robot: Robot, theta: np.ndarray, poses: np.ndarray, sol, mask=None) -> np.ndarray:
@@ -305,10 +307,7 @@ def compare_with_default(robot: Robot, poses, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_
     p, _ = as_batch("poses", poses, robot.task)
     res = best if best is not None else best_configurations(robot, p, dl_tol, dh_tol, iters, mask=mask)
     ok = res["ok"]
-    if robot.kind == "spatial":
-        from .tolerance import spatial_tolerances
-
-        dl_tol, dh_tol = spatial_tolerances(robot, dl_tol, dh_tol)
+    dl_tol, dh_tol = error_tolerances(robot, dl_tol, dh_tol)  # a spatial hole tolerance per cable: per coordinate
     kw = dict(samples=samples, seed=seed, dl_tol=dl_tol, dh_tol=dh_tol, progress=False)
     md = monte_carlo(robot, res["theta_default"][ok], **kw)
     mb = monte_carlo(robot, res["theta_best"][ok], **kw)

@@ -29,6 +29,7 @@ __all__ = ["QUANTILE_BOUND", "hist_quantile", "MonteCarlo", "monte_carlo", "mont
            "sample_errors",
            "QUANTITY_NAMES", "QUANTITY_UNITS", "SPATIAL_QUANTITY_NAMES", "SPATIAL_QUANTITY_UNITS",
            "DEFAULT_PERCENTILES", "percentile_key", "percentile_text", "error_widths",
+           "hole_error_sizes",
            "summary", "save_npz", "load_npz"]
 
 DEFAULT_PERCENTILES = (50.0, 95.0, 99.0)
@@ -234,13 +235,22 @@ def hist_quantile(hist: np.ndarray, p: float, above: Optional[np.ndarray] = None
     return np.where(total > 0, out, np.nan)
 
 
+def hole_error_sizes(robot) -> np.ndarray:
+    """(G,) how many hole errors each hole group of the arm draws (the
+    groups of the core's ``CoreRobot.structure()``, in their order): one for
+    a coherent group (a planar disk's hole height moves every hole of its
+    pair by one error), one per hole coordinate otherwise (a spatial cable's
+    holes: each coordinate its own error)."""
+    groups = robot.core.structure()["hole_groups"]
+    return np.array([1 if g["coherent"] else len(g["coords"]) for g in groups], dtype=np.int64)
+
+
 def error_widths(robot) -> Tuple[int, int]:
-    """How many cable-length and hole errors a sample draws: planar (n, n)
-    (upper cables, disks' hole heights); spatial (position-controlled cables,
-    every hole coordinate)."""
-    if robot.kind == "spatial":
-        return len(robot.position_cables), len(robot.flat_holes)
-    return robot.n, robot.n
+    """How many cable-length and hole errors a sample draws: one per
+    position-controlled cable, and :func:`hole_error_sizes` summed — planar
+    (n, n) (upper cables, disks' hole heights); spatial (position-controlled
+    cables, every hole coordinate)."""
+    return len(robot.position_cables), int(hole_error_sizes(robot).sum())
 
 
 def chunk_sizes(samples: int, chunk: int):
@@ -261,11 +271,10 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     not depend on it. This is the unit of work of local and cluster runs."""
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
     th = robot.threads if threads is None else as_count("threads", threads)
-    if robot.kind == "spatial":
-        st = robot.core.monte_carlo(theta0, dl, None, dh if np.any(dh_tol) else None, method, 1e-12, 100,
-                                    bool(check_slack), th)
-    else:
-        st = robot.core.monte_carlo(theta0, dl, dh, None, method, 1e-12, 100, bool(check_slack), th)
+    # the hole errors go by the kind's argument (per-disk heights or every coordinate), none when all are 0
+    holes = {"dh": None, "dholes": None}
+    holes[robot.kind.hole_error_arg] = dh if np.any(dh_tol) else None
+    st = robot.core.monte_carlo(theta0, dl, holes["dh"], holes["dholes"], method, 1e-12, 100, bool(check_slack), th)
     names = robot.kind.quantities
     q = st.quantities
     return MonteCarlo(theta0=theta0, count=st.count.astype(np.int64), failed=st.failed.astype(np.int64),

@@ -269,8 +269,7 @@ def position_singular_values(robot, theta) -> np.ndarray:
     x, y of the pose Jacobian)."""
     t, _ = as_batch("theta", theta, robot.n)
     j = robot.fk_jacobian(t)
-    rows = 3 if robot.kind == "spatial" else 2
-    return np.linalg.svd(j[:, :rows, :], compute_uv=False)
+    return np.linalg.svd(j[:, :robot.kind.dim, :], compute_uv=False)
 
 
 def singular_measure(robot, theta, rel: float = 1e-12, probes: int = 16) -> np.ndarray:

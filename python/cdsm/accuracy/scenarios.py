@@ -58,7 +58,7 @@ def _theta0(robot: Robot, theta0, poses, ik_seed):
     if theta0 is not None:
         t, _ = as_batch("theta0", theta0, robot.n)
         return t, None
-    p, _ = as_batch("poses", poses, 6 if robot.kind == "spatial" else 3)
+    p, _ = as_batch("poses", poses, robot.kind.task)
     sol = robot.ik(p, seed=ik_seed)
     return np.ascontiguousarray(np.atleast_2d(sol.theta)), sol
 

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..robot import Robot
-from .montecarlo import monte_carlo
+from .montecarlo import hole_error_sizes, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, deviation
 from .workspace import jump_points, singular_values, sweep
 from ..display import ShortRepr
@@ -62,19 +62,28 @@ class Sensitivities(ShortRepr):
     holes: Optional[np.ndarray]
     ok: np.ndarray
 
+    @property
+    def hole_errors(self) -> Optional[np.ndarray]:
+        """The sensitivities to the hole errors a Monte Carlo draws
+        (:func:`cdsm.accuracy.montecarlo.error_widths`): :attr:`pair` (planar,
+        per disk's hole height) or :attr:`holes` (spatial, per hole
+        coordinate); None if not computed."""
+        return self.pair if self.pair is not None else self.holes
+
 
 def sensitivities(robot: Robot, theta, holes: bool = False) -> Sensitivities:
     """Analytic tip sensitivities (Rust core) over ``theta (N, n)`` rad (or (n,))."""
     t, _ = as_batch("theta", theta, robot.n)
     res = robot.core.sensitivity(t, bool(holes), robot.threads)
     ok = np.asarray(res.ok, bool)
-    if robot.kind == "spatial":
-        m = len(robot.position_cables)
-        hs = None if res.holes is None else res.holes.reshape(-1, 6, len(robot.flat_holes))
-        return Sensitivities(t, res.cable.reshape(-1, 6, m), None, hs, ok)
-    n = robot.n
-    hs = None if res.holes is None else res.holes.reshape((-1, 3) + robot.holes.shape)
-    return Sensitivities(t, res.cable.reshape(-1, 3, n), res.pair.reshape(-1, 3, n), hs, ok)
+    kind = robot.kind
+    rows = (-1, kind.task)
+    # hole coordinates in the kind's layout: the planar (2n, n+1, 2, 2), else flat as ``flat_holes``
+    layout = robot.holes.shape if kind.pair_holes else robot.flat_holes.shape
+    hs = None if res.holes is None else res.holes.reshape(rows + layout)
+    # per coherent hole group (a planar disk's hole height); none where every coordinate is its own error
+    pair = None if kind.hole_errors_per_coordinate else res.pair.reshape(rows + (robot.n,))
+    return Sensitivities(t, res.cable.reshape(rows + (len(robot.position_cables),)), pair, hs, ok)
 
 
 def sensitivity(robot: Robot, theta) -> np.ndarray:
@@ -222,9 +231,8 @@ def amplification_maps(robot: Robot, protocol: str = "attitude0", ws=None) -> di
     for name, m in (("cable", cab), ("hole", hol)):
         out[f"{name}_worst"] = np.where(ok, np.linalg.norm(np.abs(m).sum(axis=2), axis=1), np.nan)
         out[f"{name}_rms"] = np.where(ok, np.sqrt((m ** 2).sum(axis=(1, 2)) / 3.0), np.nan)
-    d = 2 if robot.kind == "planar" else 3
     out["xy"] = ws.poses[:, :2]
-    out["tip"] = ws.poses[:, :d]
+    out["tip"] = ws.poses[:, :robot.kind.dim]
     out["ok"] = ok
     out["protocol"] = ws.protocol
     return out
@@ -235,11 +243,9 @@ def _position_blocks(robot: Robot, theta: np.ndarray):
     position (d = 2 planar, 3 spatial) to the position-cable lengths and to
     the hole errors (planar: each disk's hole height; spatial: every hole
     coordinate), m/m."""
-    if robot.kind == "planar":
-        s = sensitivities(robot, theta)
-        return s.cable[:, :2, :], s.pair[:, :2, :]
-    s = sensitivities(robot, theta, holes=True)
-    return s.cable[:, :3, :], s.holes[:, :3, :]
+    s = sensitivities(robot, theta, holes=robot.kind.hole_errors_per_coordinate)
+    d = robot.kind.dim
+    return s.cable[:, :d, :], s.hole_errors[:, :d, :]
 
 
 def position_matrix(robot: Robot, theta) -> np.ndarray:
@@ -320,16 +326,10 @@ def error_budget(robot: Robot, theta, dl_tol, dh_tol, percentile: float = 95.0, 
     lin_rows = m[::max(1, -(-len(m) * samples * work // 100_000_000))]
     pos = robot.position_cables
     mp = len(pos)
-    if robot.kind == "planar":
-        hole_cols = np.arange(robot.n)
-        hole_groups = [f"disk {i + 1}'s holes" for i in range(robot.n)]
-        hole_of_col = hole_cols
-        dht = as_tolerances("dh_tol", dh_tol, robot.n)
-    else:
-        sizes = [3 * (2 * e + 1) for e in robot.cable_ends]
-        hole_of_col = np.repeat(np.arange(robot.cables), sizes)
-        hole_groups = [f"cable {c + 1}'s holes" for c in range(robot.cables)]
-        dht = as_tolerances("dh_tol", dh_tol, len(robot.flat_holes))
+    sizes = hole_error_sizes(robot)  # the hole errors of each group (the core's structure)
+    hole_of_col = np.repeat(np.arange(len(sizes)), sizes)
+    hole_groups = [robot.kind.hole_group.format(g + 1) for g in range(len(sizes))]
+    dht = as_tolerances("dh_tol", dh_tol, int(sizes.sum()))
     dlt = as_tolerances("dl_tol", dl_tol, mp)
     groups = tuple([f"cable {c + 1}" for c in pos] + hole_groups)
     kinds = tuple(["length"] * mp + ["holes"] * len(hole_groups))

@@ -13,19 +13,23 @@ instead sets ``shape_j = w_j / rms_region |d(x, y)/de_j|`` (every error
 contributes equally to the linear tip variance). The linear picture that
 starts the search is :mod:`cdsm.accuracy.sensitivity`.
 
-Spatial arms (:func:`allocate` dispatches on ``robot.kind``): the errors are
-uniform in ``±tc_j`` on every position-controlled cable's length and in
+Spatial arms (the same :func:`allocate`, its groups from the core's hole
+structure and its policy from the kind, :attr:`cdsm.kinds.Kind.allocation`):
+the errors are uniform in ``±tc_j`` on every position-controlled cable's
+length and in
 ``±th_c`` on every coordinate (x, y, z) of every hole of cable ``c`` (one
 tolerance per cable's holes; each coordinate an independent error);
 ``shape = w * [base_cable ... ; base_hole ...]``, or with
 ``shape="equal-effect"`` ``w`` over the RMS (over the region) of the error
 group's linear effect on |d(x, y, z)| (a hole group: the root sum of squares
 over its coordinates), so every group adds equally to the linear tip
-variance. The linear first guess, as for planar arms, comes from the
-sensitivities of :mod:`cdsm.accuracy.sensitivity` (the general ones of the
-one model); Monte Carlo then brackets and bisects ``alpha``
-(:class:`SpatialAllocation`). Regions are cut over the two axes along which
-the tips spread most.
+variance (a group of no effect gets the largest tolerance of the others;
+the planar rule instead caps the effect below at 1e-12). The linear first
+guess, as for planar arms, comes from the sensitivities of
+:mod:`cdsm.accuracy.sensitivity` (the general ones of the one model); Monte
+Carlo then brackets and bisects ``alpha`` (:class:`SpatialAllocation`).
+Regions are cut over the two position axes along which the tips spread most
+(a planar arm's X, Y).
 
 The pooled percentile over a region merges the per-configuration histograms
 of the Monte-Carlo study (:attr:`cdsm.accuracy.MonteCarlo.hist`; 232 log
@@ -45,16 +49,18 @@ import numpy as np
 
 from ..files import read_table, read_text
 from ..inputs import CdsmInputError, as_batch, as_tolerances
+from ..kinds import SPATIAL
 from ..robot import Robot
-from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, monte_carlo
+from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, hole_error_sizes, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
-from .sensitivity import error_matrix, linear_percentile, sensitivities, tolerance_vector
+from .sensitivity import linear_percentile, position_matrix
 from .sampling import sample_configurations
 from .workspace import joint_grid, paper_ik_seed
 
 __all__ = ["HIST_RESOLUTION", "pooled_percentile", "Allocation", "allocate", "distribution",
            "region_cells", "load_tolerances", "parse_region", "SpatialAllocation", "hole_tolerances",
-           "spatial_tolerances", "load_spatial_tolerances", "SPATIAL_REGION_DEFAULT"]
+           "spatial_tolerances", "load_spatial_tolerances", "SPATIAL_REGION_DEFAULT", "error_tolerances",
+           "read_tolerances", "default_configurations"]
 
 #: Relative bound of the Monte-Carlo quantiles the allocation reads
 #: (:data:`cdsm.accuracy.montecarlo.QUANTILE_BOUND`, 0.498 %).
@@ -147,24 +153,52 @@ class Allocation(Verdicts):
         )
 
 
-def _shape(robot: Robot, m: np.ndarray, weights, base, shape: str) -> np.ndarray:
-    n = robot.n
-    w = np.ones(2 * n) if weights is None else np.asarray(weights, dtype=np.float64).reshape(-1)
+def _shape(robot: Robot, em: np.ndarray, weights, base, shape: str, sizes: np.ndarray) -> np.ndarray:
+    """(m_pos + G,) the tolerance shape of :func:`allocate`, per error group:
+    the m_pos position-controlled cables, then the G hole groups (``sizes``:
+    :func:`~cdsm.accuracy.montecarlo.hole_error_sizes`); ``em`` the linear
+    map (N, d, m_pos + sum(sizes)) of every error to the tip position."""
+    groups = [len(robot.position_cables), len(sizes)]
+    count = sum(groups)
+    w = np.ones(count) if weights is None else np.asarray(weights, dtype=np.float64).reshape(-1)
     if w.size == 2:
-        w = np.repeat(w, n)
-    if w.size != 2 * n or not np.isfinite(w).all() or (w <= 0).any():
-        raise CdsmInputError(f"`weights`: need 2 or 2n = {2 * n} positive numbers "
-                             f"(n cables then n disks), got {weights}")
+        w = np.repeat(w, groups)
+    if w.size != count or not np.isfinite(w).all() or (w <= 0).any():
+        what = robot.kind.allocation["weights"].format(count=count, m=groups[0], groups=groups[1], finite="")
+        raise CdsmInputError(f"`weights`: need 2 or {what}, got {weights}")
     if shape == "ratio":
         b = np.asarray(base, dtype=np.float64).reshape(-1)
         if b.size != 2 or not np.isfinite(b).all() or (b <= 0).any():
             raise CdsmInputError(f"`base`: need two positive lengths (cable, hole), m, got {base}")
-        return w * np.repeat(b, n)
+        return w * np.repeat(b, groups)
     if shape == "equal-effect":
-        ok = np.isfinite(m).all(axis=(1, 2))
-        rms = np.sqrt((m[ok] ** 2).sum(axis=1).mean(axis=0))
-        return w / np.maximum(rms, 1e-12) * 1e-3
+        ok = np.isfinite(em).all(axis=(1, 2))
+        per_error = np.sqrt((em[ok] ** 2).sum(axis=1).mean(axis=0))  # RMS over the region of each error's effect
+        return _EQUAL_EFFECT[robot.kind.allocation["equal_effect"]](w, per_error, groups[0], sizes)
     raise CdsmInputError(f"`shape`: expected 'ratio' or 'equal-effect', got {shape!r}")
+
+
+def _equal_effect_per_error(w: np.ndarray, per_error: np.ndarray, m: int, sizes: np.ndarray) -> np.ndarray:
+    """Planar rule: ``w`` over each error's RMS effect (every group one
+    error), in mm (an effect below 1e-12 counts as 1e-12)."""
+    return w / np.maximum(per_error, 1e-12) * 1e-3
+
+
+def _equal_effect_per_group(w: np.ndarray, per_error: np.ndarray, m: int, sizes: np.ndarray) -> np.ndarray:
+    """Spatial rule: ``w`` over each group's effect (a hole group: the root
+    sum of squares over its coordinates); a group with no effect is not
+    constrained: it gets the largest shape of the others."""
+    holes = np.sqrt(np.add.reduceat(per_error[m:] ** 2, np.cumsum(np.concatenate([[0], sizes[:-1]]))))
+    effect = np.concatenate([per_error[:m], holes])
+    with np.errstate(divide="ignore"):
+        shp = np.where(effect > 0, w / np.where(effect > 0, effect, 1.0), 0.0)
+    if not (shp > 0).any():
+        raise CdsmInputError("the linear model gives no tip error over this region (no sensitivity)")
+    return np.where(shp > 0, shp, shp.max())
+
+
+#: The equal-effect rules of the kinds (:attr:`cdsm.kinds.Kind.allocation`, ``"equal_effect"``).
+_EQUAL_EFFECT = {"per_error": _equal_effect_per_error, "per_group": _equal_effect_per_group}
 
 
 def _scale_search(simulate, shp: np.ndarray, target: float, percentile: float, a0: float, up: Tuple[float, float],
@@ -220,11 +254,13 @@ def _scale_search(simulate, shp: np.ndarray, target: float, percentile: float, a
 def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0,
              weights=None, base=(PAPER_DL_TOL, PAPER_DH_TOL), shape: str = "ratio",
              samples: int = 1000, seed: int = 0, rel_tol: float = 0.01,
-             max_evals: int = 30, progress: bool = False) -> Allocation:
+             max_evals: int = 30, progress: bool = False):
     """Largest tolerances (common scale ``alpha`` of the cost shape, see the
-    module doc) such that the pooled ``percentile`` of |d(x, y)| over the
-    configurations ``theta (N, n)`` rad (errors applied at these angles;
-    default the ±30°/5° joint grid) stays within ``target_m``.
+    module doc) such that the pooled ``percentile`` of the tip position
+    error (|d(x, y)|, spatial |d(x, y, z)|) over the configurations ``theta
+    (N, n)`` rad (errors applied at these angles; default
+    :func:`default_configurations`: the ±30°/5° joint grid, spatial 1000
+    Sobol samples of the joint box) stays within ``target_m``.
 
     1. Sensitivities (Rust) -> linear model -> ``alpha_lin = T / P_lin(1)``
        (the linear percentile is proportional to alpha).
@@ -233,46 +269,51 @@ def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0
        alpha until ``hi / lo <= 1 + rel_tol``; the answer is ``lo``, verified
        ``achieved(lo) <= T``, and ``achieved(1.25 lo) > T`` is evaluated.
 
-    Spatial arms return a :class:`SpatialAllocation` (module doc; ``theta``
-    defaults to 1000 Sobol samples of the joint box; ``weights``: 2 or
-    ``m_pos + cables`` numbers).
+    The tolerances are one per position-controlled cable and one per hole
+    group (planar: a disk's hole height; spatial: every coordinate of a
+    cable's holes); ``weights``: 2 or one per group. Planar arms return an
+    :class:`Allocation`, spatial arms a :class:`SpatialAllocation` (the
+    kind's :attr:`~cdsm.kinds.Kind.hole_tolerance_key` names the hole
+    tolerances in both).
     """
-    if robot.kind == "spatial":
-        return _allocate_spatial(robot, target_m, theta, percentile, weights, base, shape, samples, seed,
-                                 rel_tol, max_evals, progress)
-    t = joint_grid(robot.n) if theta is None else theta
+    kind = robot.kind
+    t = default_configurations(robot) if theta is None else theta
     t, _ = as_batch("theta", t, robot.n)
     target = float(target_m)
     if not (np.isfinite(target) and target > 0):
         raise CdsmInputError(f"`target_m`: must be positive and finite, got {target_m}")
     if not 0.0 < float(percentile) < 100.0:
         raise CdsmInputError(f"`percentile`: must be within (0, 100), got {percentile}")
-    n = robot.n
-    sens = sensitivities(robot, t)
-    m = error_matrix(sens)
-    shp = _shape(robot, m, weights, base, shape)
-    p_lin1 = linear_percentile(m, shp, percentile, seed=seed)
+    m, sizes = len(robot.position_cables), hole_error_sizes(robot)
+    em = position_matrix(robot, t)
+    shp = _shape(robot, em, weights, base, shape, sizes)
+
+    def per_error(tol: np.ndarray) -> np.ndarray:  # a hole group's tolerance on each of its errors
+        return np.concatenate([tol[:m], np.repeat(tol[m:], sizes)])
+
+    p_lin1 = linear_percentile(em, per_error(shp), percentile, seed=seed)
     if not (np.isfinite(p_lin1) and p_lin1 > 0):
         raise CdsmInputError("the linear model gives no tip error over this region (no sensitivity)")
     a_lin = target / p_lin1
     lo, run, history = _scale_search(
-        lambda tol: monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:n], dh_tol=tol[n:],
-                                progress=False),
+        lambda tol: monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:m],
+                                dh_tol=per_error(tol)[m:], progress=False),
         shp, target, percentile, a_lin, (1.02, 1.3), (0.5, 0.98), rel_tol, max_evals, progress)
     mc = run(lo)
     ach = pooled_percentile(mc, percentile)
     ach_i = pooled_percentile(mc, percentile, interpolate=True)
     a125 = pooled_percentile(run(1.25 * lo), percentile)
     tol = lo * shp
-    return Allocation(
-        cable_length_tol_m=tol[:n], hole_height_tol_m=tol[n:], achieved_m=ach,
-        achieved_1p25_m=a125, target_m=target, percentile=float(percentile), alpha=float(lo),
-        shape=shp, linear_m=float(lo * p_lin1), alpha_linear=float(a_lin),
-        failed=int(mc.failed.sum()), history=history,
-        params=dict(achieved_interpolated_m=ach_i, samples=int(samples), seed=int(seed), configurations=int(len(t)),
-                    shape=shape, weights=None if weights is None else np.asarray(weights, float).ravel().tolist(),
-                    base_m=[float(v) for v in np.asarray(base, float).ravel()],
-                    robot=robot.name, n=n))
+    params = dict(achieved_interpolated_m=ach_i, samples=int(samples), seed=int(seed), configurations=int(len(t)),
+                  shape=shape, weights=None if weights is None else np.asarray(weights, float).ravel().tolist(),
+                  base_m=[float(v) for v in np.asarray(base, float).ravel()], robot=robot.name, n=robot.n)
+    if kind.cable_numbers:  # the commanded cables by their numbers in the robot file
+        params["position_cables"] = [c + 1 for c in robot.position_cables]
+    result = _ALLOCATIONS[kind.hole_tolerance_key]
+    return result(cable_length_tol_m=tol[:m], **{kind.hole_tolerance_key: tol[m:]}, achieved_m=ach,
+                  achieved_1p25_m=a125, target_m=target, percentile=float(percentile), alpha=float(lo), shape=shp,
+                  linear_m=float(lo * p_lin1), alpha_linear=float(a_lin), failed=int(mc.failed.sum()),
+                  history=history, params=params)
 
 
 # ---------------------------------------------------------------------------
@@ -288,44 +329,54 @@ def region_cells(xy: np.ndarray, k: int = 3) -> np.ndarray:
     return ij[:, 1] * k + ij[:, 0]
 
 
+def default_configurations(robot: Robot) -> np.ndarray:
+    """(N, n) rad: where an allocation or a distribution applies the errors
+    by default — the paper's ±30°/5° joint grid where its grid protocols
+    apply (planar arms: :attr:`cdsm.kinds.Kind.grid_protocols`), else 1000
+    configurations sampled in the joint box (scrambled Sobol, seed 0)."""
+    return joint_grid(robot.n) if robot.kind.grid_protocols else sample_configurations(robot, 1000)
+
+
 def distribution(robot: Robot, dl_tol, dh_tol, theta=None, percentiles: Sequence[float] = (50, 95, 99),
                  samples: int = 1000, seed: int = 0, cells: int = 3, mc: Optional[MonteCarlo] = None) -> dict:
-    """Tip-error distribution over a region for given tolerances (m; scalars or
-    (n,)): Monte Carlo in the Rust core at every configuration ``theta (N, n)``
-    (default the ±30°/5° joint grid). Returns ``pooled`` {P: m} over the whole
+    """Tip-error distribution over a region for given tolerances (m, as
+    :func:`error_tolerances` takes them: planar scalars or (n,)): Monte Carlo
+    in the Rust core at every configuration ``theta (N, n)`` (default
+    :func:`default_configurations`). Returns ``pooled`` {P: m} over the whole
     region, ``per_config`` (N, len(percentiles)) m, and ``regions``: one row
-    per non-empty cell of a ``cells``×``cells`` grid over the nominal tip
-    (X, Y) with its bounds (m), configuration count and pooled percentiles (m).
-    Spatial arms: ``dl_tol`` per position-controlled cable, ``dh_tol`` as
-    :func:`spatial_tolerances` takes it; cells over the two axes along which
-    the tips spread most (``axes``; row keys named after them).
+    per non-empty cell of a ``cells``×``cells`` grid over the nominal tips
+    along the two position axes along which they spread most (``axes``; a
+    planar arm's X, Y; row keys named after them) with its bounds (m),
+    configuration count and pooled percentiles (m). Spatial arms:
+    ``dl_tol`` per position-controlled cable, ``dh_tol`` per cable's holes
+    or per hole coordinate.
     """
-    if robot.kind == "spatial":
-        return _distribution_spatial(robot, dl_tol, dh_tol, theta, percentiles, samples, seed, cells, mc)
-    t = joint_grid(robot.n) if theta is None else theta
+    t = default_configurations(robot) if theta is None else theta
     t, _ = as_batch("theta", t, robot.n)
-    tol = tolerance_vector(robot, dl_tol, dh_tol)
-    n = robot.n
+    dl, dh = error_tolerances(robot, dl_tol, dh_tol)
     if mc is None:
-        mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:n], dh_tol=tol[n:],
-                         progress=False)
-    xy = robot.fk(t)[:, :2]
-    cell = region_cells(xy, cells)
-    lo, hi = xy.min(axis=0), xy.max(axis=0)
+        mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=dl, dh_tol=dh, progress=False)
+    tips = robot.fk(t)[:, :robot.kind.dim]
+    axes = sorted(np.argsort(-np.ptp(tips, axis=0), kind="stable")[:2])
+    names = [robot.kind.position_axes[k] for k in axes]
+    uv = tips[:, axes]
+    cell = region_cells(uv, cells)
+    lo, hi = uv.min(axis=0), uv.max(axis=0)
     w = (hi - lo) / cells
     rows = []
     for c in range(cells * cells):
         sel = np.flatnonzero(cell == c)
         if len(sel) == 0:
             continue
-        ix, iy = c % cells, c // cells
-        rows.append(dict(cell=int(c), x_lo_m=float(lo[0] + ix * w[0]), x_hi_m=float(lo[0] + (ix + 1) * w[0]),
-                         y_lo_m=float(lo[1] + iy * w[1]), y_hi_m=float(lo[1] + (iy + 1) * w[1]),
-                         configurations=int(len(sel)),
-                         **{f"p{p:g}_m": pooled_percentile(mc, p, sel) for p in percentiles}))
+        iu, iv = c % cells, c // cells
+        rows.append({"cell": int(c),
+                     f"{names[0]}_lo_m": float(lo[0] + iu * w[0]), f"{names[0]}_hi_m": float(lo[0] + (iu + 1) * w[0]),
+                     f"{names[1]}_lo_m": float(lo[1] + iv * w[1]), f"{names[1]}_hi_m": float(lo[1] + (iv + 1) * w[1]),
+                     "configurations": int(len(sel)),
+                     **{f"p{p:g}_m": pooled_percentile(mc, p, sel) for p in percentiles}})
     per = np.stack([mc.percentile(p) for p in percentiles], axis=1)
-    return dict(pooled={float(p): pooled_percentile(mc, p) for p in percentiles}, per_config=per,
-                regions=rows, cell=cell, mc=mc, dl_tol_m=tol[:n], dh_tol_m=tol[n:])
+    return dict(pooled={float(p): pooled_percentile(mc, p) for p in percentiles}, per_config=per, regions=rows,
+                cell=cell, mc=mc, dl_tol_m=dl, dh_tol_m=dh, axes=names)
 
 
 # ---------------------------------------------------------------------------
@@ -336,13 +387,7 @@ def load_tolerances(path: str, n: int) -> Tuple[np.ndarray, np.ndarray]:
     ``cable_length_tol_m`` — (n,) per upper cable, m — and
     ``hole_height_tol_m`` — (n,) per disk, m (a scalar applies to all; other
     keys are ignored). Returns (dl_tol, dh_tol), each (n,) m."""
-    text = read_text(path, "tolerance")
-    try:
-        data = json.loads(text)
-    except ValueError as exc:
-        raise CdsmInputError(f"tolerance file {path!r}: not valid JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise CdsmInputError(f"tolerance file {path!r}: expected a JSON object")
+    data = _tolerance_json(path)
     out = []
     for key in ("cable_length_tol_m", "hole_height_tol_m"):
         if key not in data:
@@ -430,7 +475,7 @@ def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, st
             raise CdsmInputError(f"--region {spec!r}: expected sobol:N with N >= 1 configurations")
         theta = sample_configurations(robot, count, "sobol", seed=seed)
         return theta, f"{count} configurations sampled in the joint box (scrambled Sobol, seed {seed})"
-    if kind == "poses" and robot.kind == "spatial":
+    if kind == "poses" and not robot.kind.pose_regions:
         raise CdsmInputError(f"--region {spec!r}: poses are planar (x, y, phi); for a spatial robot give "
                              "joints:FILE.csv or sobol:N")
     if kind == "poses":
@@ -448,7 +493,7 @@ def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, st
 # spatial arms
 # ---------------------------------------------------------------------------
 #: The default region of a spatial robot's allocation (``--region``).
-SPATIAL_REGION_DEFAULT = "sobol:1000"
+SPATIAL_REGION_DEFAULT = SPATIAL.allocation["region"]
 
 
 def hole_tolerances(robot, per_cable) -> np.ndarray:
@@ -459,37 +504,48 @@ def hole_tolerances(robot, per_cable) -> np.ndarray:
     return np.repeat(np.asarray(per_cable, dtype=np.float64), sizes)
 
 
-def spatial_tolerances(robot, dl_tol, dh_tol, source: str = "") -> Tuple[np.ndarray, np.ndarray]:
-    """(m_pos,) and (3 H,) tolerances, m, of a spatial arm: ``dl_tol`` a
-    scalar or one per position-controlled cable; ``dh_tol`` a scalar, one per
-    cable (every coordinate of its holes) or one per hole coordinate."""
+def error_tolerances(robot, dl_tol, dh_tol, source: str = "",
+                     names: Tuple[str, str] = ("dl_tol", "dh_tol")) -> Tuple[np.ndarray, np.ndarray]:
+    """The tolerances, m, of the errors a Monte Carlo draws
+    (:func:`~cdsm.accuracy.montecarlo.error_widths`), either kind:
+    (m_pos,) from ``dl_tol``, a scalar or one per position-controlled cable;
+    (h,) from ``dh_tol``, a scalar, one per hole group (planar: a disk's
+    hole height; spatial: every coordinate of a cable's holes) or one per
+    hole error (spatial: per hole coordinate). ``names``: the two inputs'
+    names in error messages (after ``source``)."""
     pre = f"{source}: " if source else ""
-    m, cables, flat = len(robot.position_cables), robot.cables, len(robot.flat_holes)
+    m, sizes = len(robot.position_cables), hole_error_sizes(robot)
+    groups, errors = len(sizes), int(sizes.sum())
     out = []
-    for key, value, sizes in (("cable_length_tol_m", dl_tol, (m,)), ("hole_tol_m", dh_tol, (cables, flat))):
+    for key, value, widths in ((names[0], dl_tol, (m,)), (names[1], dh_tol, (groups, errors))):
         try:
             arr = np.asarray(value, dtype=np.float64)
         except (TypeError, ValueError):
             raise CdsmInputError(f"{pre}`{key}` is not a number or a list of numbers") from None
-        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in sizes):
-            want = (f"{m} values (one per position-controlled cable)" if key[0] == "c" else
-                    f"{cables} values (one per cable's holes) or {flat} (one per hole coordinate)")
-            raise CdsmInputError(f"{pre}`{key}` needs a number or {want}, got shape {arr.shape}")
-        if key == "hole_tol_m" and arr.ndim == 1 and arr.shape[0] == cables and cables != flat:
-            arr = hole_tolerances(robot, arr)
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in widths):
+            want = (f"{m} values (one per position-controlled cable)" if key == names[0] else
+                    f"{groups} values ({robot.kind.words['hole_group_each']})"
+                    + (f" or {errors} (one per hole coordinate)" if errors != groups else ""))
+            raise CdsmInputError(f"{pre}`{key}` needs {want} or a number, got shape {arr.shape}")
+        if key == names[1] and arr.ndim == 1 and arr.shape[0] == groups and groups != errors:
+            arr = np.repeat(arr, sizes)
         try:
-            out.append(as_tolerances(key, arr, sizes[-1]))
+            out.append(as_tolerances(key, arr, widths[-1]))
         except CdsmInputError as exc:
             raise CdsmInputError(f"{pre}{exc}") from None
     return out[0], out[1]
 
 
-def load_spatial_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
-    """Tolerances of a spatial arm from a JSON file (as ``cdsm tolerance
-    --json`` writes it for one): ``cable_length_tol_m`` — a number or one
-    per position-controlled cable, m — and ``hole_tol_m`` — a number, one per
-    cable (every coordinate of its holes) or one per hole coordinate, m
-    (other keys are ignored). Returns (dl_tol (m_pos,), dh_tol (3 H,)), m."""
+def spatial_tolerances(robot, dl_tol, dh_tol, source: str = "") -> Tuple[np.ndarray, np.ndarray]:
+    """(m_pos,) and (3 H,) tolerances, m, of a spatial arm: ``dl_tol`` a
+    scalar or one per position-controlled cable; ``dh_tol`` a scalar, one per
+    cable (every coordinate of its holes) or one per hole coordinate
+    (:func:`error_tolerances` under a tolerance file's names)."""
+    return error_tolerances(robot, dl_tol, dh_tol, source, ("cable_length_tol_m", "hole_tol_m"))
+
+
+def _tolerance_json(path: str) -> dict:
+    """The JSON object of a tolerance file (a clear error otherwise)."""
     text = read_text(path, "tolerance")
     try:
         data = json.loads(text)
@@ -497,13 +553,35 @@ def load_spatial_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
         raise CdsmInputError(f"tolerance file {path!r}: not valid JSON ({exc})") from None
     if not isinstance(data, dict):
         raise CdsmInputError(f"tolerance file {path!r}: expected a JSON object")
-    for key in ("cable_length_tol_m", "hole_tol_m"):
+    return data
+
+
+def read_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
+    """Tolerances of an arm of either kind from a JSON file (as ``cdsm
+    tolerance --json`` writes it): ``cable_length_tol_m`` — a number or one
+    per position-controlled cable, m — and the kind's hole key
+    (:attr:`~cdsm.kinds.Kind.hole_tolerance_key`: planar
+    ``hole_height_tol_m``, a number or one per disk; spatial ``hole_tol_m``,
+    a number, one per cable (every coordinate of its holes) or one per hole
+    coordinate), m (other keys are ignored). Returns (dl_tol (m_pos,),
+    dh_tol) as :func:`error_tolerances`, m."""
+    data = _tolerance_json(path)
+    hole_key = robot.kind.hole_tolerance_key
+    for key in ("cable_length_tol_m", hole_key):
         if key not in data:
             extra = (" (`hole_height_tol_m` is the planar per-disk tolerance; a spatial robot takes `hole_tol_m` "
                      "per cable's holes or per hole coordinate)" if key == "hole_tol_m"
                      and "hole_height_tol_m" in data else "")
             raise CdsmInputError(f"tolerance file {path!r}: missing key {key!r}{extra}")
-    return spatial_tolerances(robot, data["cable_length_tol_m"], data["hole_tol_m"], f"tolerance file {path!r}")
+    return error_tolerances(robot, data["cable_length_tol_m"], data[hole_key], f"tolerance file {path!r}",
+                            ("cable_length_tol_m", hole_key))
+
+
+def load_spatial_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
+    """Tolerances of a spatial arm from a JSON file: :func:`read_tolerances`
+    (``cable_length_tol_m`` and ``hole_tol_m``; returns (dl_tol (m_pos,),
+    dh_tol (3 H,)), m)."""
+    return read_tolerances(path, robot)
 
 
 @dataclass
@@ -558,106 +636,6 @@ class SpatialAllocation(Verdicts):
         )
 
 
-def _spatial_error_matrix(robot, theta) -> np.ndarray:
-    """(N, 3, m_pos + 3H) d(x, y, z)/d[dl (position cables), every hole
-    coordinate] (m/m) of a spatial arm at ``theta`` (the general sensitivities)."""
-    sens = sensitivities(robot, theta, holes=True)
-    return np.concatenate([sens.cable[:, :3, :], sens.holes[:, :3, :]], axis=2)
-
-
-def _spatial_expand(robot, group_tol: np.ndarray) -> np.ndarray:
-    """(m_pos + 3H,) tolerance of every error from (m_pos + cables,) per group."""
-    m = len(robot.position_cables)
-    return np.concatenate([group_tol[:m], hole_tolerances(robot, group_tol[m:])])
-
-
-def _spatial_shape(robot, weights, base, shape: str, em: np.ndarray) -> np.ndarray:
-    m, cables = len(robot.position_cables), robot.cables
-    if shape not in ("ratio", "equal-effect"):
-        raise CdsmInputError(f"`shape`: expected 'ratio' or 'equal-effect', got {shape!r}")
-    w = np.ones(m + cables) if weights is None else np.asarray(weights, dtype=np.float64).reshape(-1)
-    if w.size == 2:
-        w = np.repeat(w, [m, cables])
-    if w.size != m + cables or not np.isfinite(w).all() or (w <= 0).any():
-        raise CdsmInputError(f"`weights`: need 2 or {m + cables} positive numbers ({m} position-controlled "
-                             f"cables then {cables} cables' holes), got {weights}")
-    if shape == "equal-effect":
-        ok = np.isfinite(em).all(axis=(1, 2))
-        per_error = np.sqrt((em[ok] ** 2).sum(axis=1).mean(axis=0))    # RMS over the region, per error
-        sizes = [3 * (2 * e + 1) for e in robot.cable_ends]
-        holes = np.sqrt(np.add.reduceat(per_error[m:] ** 2, np.cumsum([0] + sizes[:-1])))
-        effect = np.concatenate([per_error[:m], holes])
-        with np.errstate(divide="ignore"):
-            shp = np.where(effect > 0, w / np.where(effect > 0, effect, 1.0), 0.0)
-        if not (shp > 0).any():
-            raise CdsmInputError("the linear model gives no tip error over this region (no sensitivity)")
-        # a group that moves nothing is not constrained: give it the largest tolerance of the others
-        return np.where(shp > 0, shp, shp.max())
-    b = np.asarray(base, dtype=np.float64).reshape(-1)
-    if b.size != 2 or not np.isfinite(b).all() or (b <= 0).any():
-        raise CdsmInputError(f"`base`: need two positive lengths (cable, hole), m, got {base}")
-    return w * np.repeat(b, [m, cables])
-
-
-def _allocate_spatial(robot, target_m, theta, percentile, weights, base, shape, samples, seed, rel_tol,
-                      max_evals, progress) -> SpatialAllocation:
-    t = sample_configurations(robot, 1000) if theta is None else theta
-    t, _ = as_batch("theta", t, robot.n)
-    target = float(target_m)
-    if not (np.isfinite(target) and target > 0):
-        raise CdsmInputError(f"`target_m`: must be positive and finite, got {target_m}")
-    if not 0.0 < float(percentile) < 100.0:
-        raise CdsmInputError(f"`percentile`: must be within (0, 100), got {percentile}")
-    m = len(robot.position_cables)
-    em = _spatial_error_matrix(robot, t)
-    shp = _spatial_shape(robot, weights, base, shape, em)
-    p_lin1 = linear_percentile(em, _spatial_expand(robot, shp), percentile, seed=seed)
-    if not (np.isfinite(p_lin1) and p_lin1 > 0):
-        raise CdsmInputError("the linear model gives no tip error over this region (no sensitivity)")
-    a_lin = target / p_lin1
-    lo, run, history = _scale_search(
-        lambda tol: monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:m],
-                                dh_tol=hole_tolerances(robot, tol[m:]), progress=False),
-        shp, target, percentile, a_lin, (1.02, 1.3), (0.5, 0.98), rel_tol, max_evals, progress)
-    mc = run(lo)
-    ach = pooled_percentile(mc, percentile)
-    a125 = pooled_percentile(run(1.25 * lo), percentile)
-    tol = lo * shp
-    return SpatialAllocation(
-        cable_length_tol_m=tol[:m], hole_tol_m=tol[m:], achieved_m=ach, achieved_1p25_m=a125, target_m=target,
-        percentile=float(percentile), alpha=float(lo), shape=shp, failed=int(mc.failed.sum()),
-        linear_m=float(lo * p_lin1), alpha_linear=float(a_lin), history=history,
-        params=dict(achieved_interpolated_m=pooled_percentile(mc, percentile, interpolate=True),
-                    samples=int(samples), seed=int(seed), configurations=int(len(t)), shape=shape,
-                    weights=None if weights is None else np.asarray(weights, float).ravel().tolist(),
-                    base_m=[float(v) for v in np.asarray(base, float).ravel()], robot=robot.name, n=robot.n,
-                    position_cables=[c + 1 for c in robot.position_cables]))
-
-
-def _distribution_spatial(robot, dl_tol, dh_tol, theta, percentiles, samples, seed, cells, mc) -> dict:
-    t = sample_configurations(robot, 1000) if theta is None else theta
-    t, _ = as_batch("theta", t, robot.n)
-    dl, dh = spatial_tolerances(robot, dl_tol, dh_tol)
-    if mc is None:
-        mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=dl, dh_tol=dh, progress=False)
-    tips = robot.fk(t)[:, :3]
-    axes = sorted(np.argsort(-np.ptp(tips, axis=0), kind="stable")[:2])
-    names = ["xyz"[k] for k in axes]
-    uv = tips[:, axes]
-    cell = region_cells(uv, cells)
-    lo, hi = uv.min(axis=0), uv.max(axis=0)
-    w = (hi - lo) / cells
-    rows = []
-    for c in range(cells * cells):
-        sel = np.flatnonzero(cell == c)
-        if len(sel) == 0:
-            continue
-        iu, iv = c % cells, c // cells
-        rows.append({"cell": int(c),
-                     f"{names[0]}_lo_m": float(lo[0] + iu * w[0]), f"{names[0]}_hi_m": float(lo[0] + (iu + 1) * w[0]),
-                     f"{names[1]}_lo_m": float(lo[1] + iv * w[1]), f"{names[1]}_hi_m": float(lo[1] + (iv + 1) * w[1]),
-                     "configurations": int(len(sel)),
-                     **{f"p{p:g}_m": pooled_percentile(mc, p, sel) for p in percentiles}})
-    per = np.stack([mc.percentile(p) for p in percentiles], axis=1)
-    return dict(pooled={float(p): pooled_percentile(mc, p) for p in percentiles}, per_config=per, regions=rows,
-                cell=cell, mc=mc, dl_tol_m=dl, dh_tol_m=dh, axes=names)
+#: The result type of an allocation, by the kind's name of its hole tolerances
+#: (:attr:`cdsm.kinds.Kind.hole_tolerance_key`: the field the type holds them in).
+_ALLOCATIONS = {"hole_height_tol_m": Allocation, "hole_tol_m": SpatialAllocation}

@@ -16,6 +16,7 @@ from ..accuracy.workspace import paper_ik_seed
 from ..files import read_table, write_text
 from ..inputs import CdsmInputError, as_array, as_finite, as_iterations, as_vector
 from ..display import ShortRepr
+from ..kinds import KINDS, kind_of
 
 __all__ = ["Compensation", "compensate", "read_targets", "TARGET_COLUMNS"]
 
@@ -49,11 +50,12 @@ def read_targets(path: "str | os.PathLike[str]", kind: str = "planar") -> np.nda
     return np.stack([table.numbers(c) for c in use], axis=1)
 
 
+#: The nominal IK's seed of a compensation, by the kind's policy (:attr:`cdsm.kinds.Kind.compensation`).
+_IK_SEEDS = {"paper": paper_ik_seed, "zeros": np.zeros}
+
 #: Target columns per robot kind: (required position columns, optional
-#: orientation columns).
-TARGET_COLUMNS = {"planar": (("x", "y"), ("phi",)), "spatial": (("x", "y", "z"), ("rx", "ry", "rz"))}
-#: Header of the orientation error column of a commands table, per kind.
-ROTATION_ERROR = {"planar": "predicted_phi_error", "spatial": "predicted_rotation_error"}
+#: orientation columns) — the kind's position and rotation axes.
+TARGET_COLUMNS = {name: (k.position_axes, k.rotation_axes) for name, k in KINDS.items()}
 
 
 # ---------------------------------------------------------------------------
@@ -112,22 +114,20 @@ class Compensation(ShortRepr):
         the nominal configuration) and dL_1..dL_n (m, the correction), flags.
         Undefined numbers are written as ``nan``; floats by ``repr`` (exact)."""
         n = self.theta_cmd.shape[1]
-        pos, rot = TARGET_COLUMNS[self.kind]
+        kind = kind_of(self.kind)
+        pos, rot, rot_err = kind.position_axes, kind.rotation_axes, kind.words["rotation_error"]
         has_phi = self.targets.shape[1] > len(pos)
         cab = list(range(1, self.commands.shape[1] + 1))
         head = list(pos) + (list(rot) if has_phi else []) + [f"L_{i}" for i in cab] + \
             ["converged", "predicted_error", "predicted_error_nominal"] + \
-            ([ROTATION_ERROR[self.kind]] if has_phi else []) + \
+            ([rot_err] if has_phi else []) + \
             [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in cab] + ["flags"]
         buf = io.StringIO()
         buf.write(f"# cdsm compensate: upper-cable length commands from model {self.model_name!r}\n")
         buf.write(f"# SI units: {', '.join(pos)}, L_i, dL_i, predicted_error* in m; {', '.join(rot)}, theta_i, "
-                  f"{ROTATION_ERROR[self.kind]} in rad\n")
-        buf.write("# L_i = nominal upper length at theta_cmd + dL_i; converged 1/0; flags empty when fine\n"
-                  if self.kind == "planar" else
-                  "# L_i, dL_i: the i-th position-controlled cable (as dL_i in measurement files; robot-file cables "
-                  + ", ".join(str(c + 1) for c in self.cable_indices) + "); L_i = nominal length at theta_cmd "
-                  "+ dL_i; converged 1/0; flags empty when fine\n")
+                  f"{rot_err} in rad\n")
+        cables = ", ".join(str(c + 1) for c in self.cable_indices)
+        buf.write(f"# {kind.words['commands_note'].format(cables=cables)}\n")
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(head)
         for i in range(len(self)):
@@ -164,53 +164,60 @@ class Compensation(ShortRepr):
 
 def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension: float = 0.0,
                enforce_limits: bool = False, start=None) -> Compensation:
-    """Upper-cable length commands that put the fitted plant's tip on ``poses``.
+    """Commands of the position-controlled cables (planar: the upper
+    cables) that put the fitted plant's tip on ``poses``, either kind.
 
-    poses: (N, 3) [x, y, phi] (m, m, rad) or (N, 2) [x, y], run in this order
-    (backlash has memory; ``start`` (n,) m: the lengths the screws hold before
-    the first target, default the straight pose). Each row: the nominal
-    configuration ``theta_cmd`` is the nominal pose IK of the target from the
-    paper's seed (:func:`cdsm.accuracy.workspace.paper_ik_seed`; without phi,
-    the IK of (x, y, 0) — for n = 3 the paper's branch — or of the position
-    alone (task mask ``"position"``) when that fails or leaves the joint
-    limits). The Rust core then finds, by the shared damped least squares
+    poses: (N, task) the full targets or (N, dim) their positions alone
+    (planar: [x, y, phi] (m, m, rad) or [x, y]; spatial: [x, y, z] (m) and
+    optionally the rotation vector (rad)), run in this order (backlash has
+    memory; ``start`` (m_pos,) m: the lengths the screws hold before the
+    first target, default the straight pose). Each row: the nominal
+    configuration ``theta_cmd`` is the nominal IK of the target from the
+    kind's seed — planar the paper's seed
+    (:func:`cdsm.accuracy.workspace.paper_ik_seed`; without phi, the IK of
+    (x, y, 0) — for n = 3 the paper's branch — or of the position alone
+    (task mask ``"position"``) when that fails or leaves the joint limits);
+    spatial theta = 0 (mask ``"pose"``, or ``"position"`` without a
+    rotation). The Rust core then finds, by the shared damped least squares
     with the plant's exact Jacobian, the lengths the screws must deliver so
-    that the fitted plant's tip meets the target — residual [x, y(, phi·L)],
-    L the straight arm length (m/rad), converged when its largest component
-    is <= ``tol`` (m) — and commands them through the backlash in order. The
-    commands are ``upper_lengths(theta_cmd) + dL``.
+    that the fitted plant's tip meets the target — residual [position(,
+    rotation·L)], L the straight arm length (m/rad), converged when its
+    largest component is <= ``tol`` (m) — and commands them through the
+    backlash in order. The commands are the nominal lengths at
+    ``theta_cmd`` + ``dL``.
 
     Flags: ``unreachable`` (nominal IK fails), ``outside the joint limits``
     (the nominal IK answer leaves them: flagged, and left out only with
-    ``enforce_limits``), ``slack cable`` (an upper tension <= ``min_tension``
-    N at the predicted configuration of the fitted arm), ``joint limits``
-    (that configuration leaves the limits), ``not converged``.
+    ``enforce_limits``), ``slack cable`` (planar: an upper tension <=
+    ``min_tension`` N at the predicted configuration of the fitted arm;
+    spatial: no tension set >= ``min_tension`` N holds it), ``joint
+    limits`` (that configuration leaves the limits), ``not converged``.
     """
     r = model.robot
-    if r.kind == "spatial":
-        return _compensate_spatial(model, poses, tol, max_iter, min_tension, enforce_limits, start)
-    n = r.n
-    arr = as_array("poses", poses)
-    if arr.ndim == 1:
-        arr = arr[None, :]
-    if arr.ndim != 2 or arr.shape[1] not in (2, 3):
-        raise CdsmInputError(f"`poses`: expected shape (N, 3) or (N, 2), got {np.shape(poses)}")
+    kind = r.kind
+    policy = kind.compensation
+    n, m, dim = r.n, len(r.position_cables), kind.dim
+    arr = np.atleast_2d(as_array("poses", poses))
+    if arr.ndim != 2 or arr.shape[1] not in (dim, kind.task):
+        raise CdsmInputError(f"`poses`: expected shape {policy['shapes']}, got {np.shape(poses)}")
     if not np.isfinite(arr).all():
         i, j = np.argwhere(~np.isfinite(arr))[0]
         raise CdsmInputError(f"`poses`: non-finite value {arr[i, j]} at row {i}, column {j}")
     N = len(arr)
-    has_phi = arr.shape[1] == 3
+    has_rot = arr.shape[1] == kind.task
+    full = arr if has_rot else np.column_stack([arr, np.zeros((N, kind.task - dim))])
     flags: List[List[str]] = [[] for _ in range(N)]
-    seed = paper_ik_seed(n)
-    full = arr if has_phi else np.column_stack([arr, np.zeros(N)])
+    seed = _IK_SEEDS[policy["ik_seed"]](n)
+    # without a rotation: the pose at rotation 0 first (planar), or the position alone at once (spatial)
+    first = "pose" if has_rot or policy["zero_rotation_first"] else "position"
     theta = np.zeros((N, n))
     reach = np.zeros(N, bool)
     if N:
-        sol = r.ik(full, seed=seed)
+        sol = r.ik(full, seed=seed, mask=first)
         theta = np.array(sol.theta, dtype=float).reshape(N, n)
         reach = np.asarray(sol.converged, bool).reshape(N)
-    if not has_phi and N:
-        # (x, y, 0) unreachable or outside the limits: position-only IK
+    if first == "pose" and not has_rot and N:
+        # the pose at rotation 0 unreachable or outside the limits: position-only IK
         idx = np.flatnonzero(~(reach & r.within_limits(theta)))
         if len(idx):
             s2 = r.ik(full[idx], seed=seed, mask="position")
@@ -219,7 +226,7 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension:
             theta[idx[ok2]] = th2[ok2]
             reach[idx[ok2]] = True
     for i in np.flatnonzero(~reach):
-        flags[i].append("unreachable: the nominal pose IK finds no configuration")
+        flags[i].append(policy["unreachable"])
     lim = r.within_limits(theta) if N else np.zeros(0, bool)
     for i in np.flatnonzero(reach & ~lim):
         flags[i].append("outside the joint limits: the nominal IK answer leaves them"
@@ -227,61 +234,18 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension:
     if enforce_limits:
         reach &= lim
     L = r.straight_length
-    weights = [1.0, 1.0, L if has_phi else 0.0]
-    commands, nominal, th_pred, conv, seen, seen0 = _solve_rows(model, theta, full, reach, weights, n, start,
-                                                                tol, max_iter)
-    rows = np.flatnonzero(reach)
-    err = np.hypot(seen[:, 0] - full[:, 0], seen[:, 1] - full[:, 1])
-    err0 = np.hypot(seen0[:, 0] - full[:, 0], seen0[:, 1] - full[:, 1])
-    perr = np.abs(seen[:, 2] - full[:, 2]) if has_phi else np.full(N, np.nan)
-    _flag_outcome(r, flags, rows, conv, seen, th_pred, err, min_tension,
-                  f"slack cable: an upper cable tension <= {min_tension:g} N at the predicted configuration")
-    dL = commands - nominal
-    return Compensation(arr.copy(), commands, theta, dL, nominal, conv, err, err0, perr, th_pred,
-                        ["; ".join(f) for f in flags], model.name)
-
-
-def _compensate_spatial(model, poses, tol, max_iter, min_tension, enforce_limits, start) -> Compensation:
-    """:func:`compensate` for a spatial arm: ``poses`` (N, 3) [x, y, z] (m) or
-    (N, 6) with the rotation vector (rad); the nominal configuration is the
-    spatial IK of the target from theta = 0 (mask ``"position"`` or
-    ``"pose"``); commands on the position-controlled cables; residual [x, y,
-    z(, rotation · L)]."""
-    r = model.robot
-    n, m = r.n, len(r.position_cables)
-    arr = np.atleast_2d(as_array("poses", poses))
-    if arr.ndim != 2 or arr.shape[1] not in (3, 6):
-        raise CdsmInputError(f"`poses`: expected shape (N, 3) or (N, 6) for a spatial arm, got {np.shape(poses)}")
-    if not np.isfinite(arr).all():
-        i, j = np.argwhere(~np.isfinite(arr))[0]
-        raise CdsmInputError(f"`poses`: non-finite value {arr[i, j]} at row {i}, column {j}")
-    N = len(arr)
-    has_rot = arr.shape[1] == 6
-    full = arr if has_rot else np.column_stack([arr, np.zeros((N, 3))])
-    flags: List[List[str]] = [[] for _ in range(N)]
-    sol = r.ik(full, seed=np.zeros(n), mask="pose" if has_rot else "position")
-    theta = np.atleast_2d(sol.theta)
-    reach = np.atleast_1d(sol.converged)
-    for i in np.flatnonzero(~reach):
-        flags[i].append("unreachable: the nominal IK finds no configuration")
-    lim = r.within_limits(theta)
-    for i in np.flatnonzero(reach & ~lim):
-        flags[i].append("outside the joint limits: the nominal IK answer leaves them"
-                        + (" (not compensated: enforce_limits)" if enforce_limits else ""))
-    if enforce_limits:
-        reach &= lim
-    L = r.straight_length
-    weights = [1.0, 1.0, 1.0] + ([L] * 3 if has_rot else [0.0] * 3)
+    weights = [1.0] * dim + [L if has_rot else 0.0] * (kind.task - dim)
     commands, nominal, th_pred, conv, seen, seen0 = _solve_rows(model, theta, full, reach, weights, m, start,
                                                                 tol, max_iter)
     rows = np.flatnonzero(reach)
-    err = np.linalg.norm(seen[:, :3] - full[:, :3], axis=1)
-    err0 = np.linalg.norm(seen0[:, :3] - full[:, :3], axis=1)
-    rerr = np.linalg.norm(seen[:, 3:] - full[:, 3:], axis=1) if has_rot else np.full(N, np.nan)
-    _flag_outcome(r, flags, rows, conv, seen, th_pred, err, min_tension,
-                  f"slack cable: no tension set >= {min_tension:g} N holds the predicted configuration")
+    err = policy["position_error"](seen[:, :dim] - full[:, :dim])
+    err0 = policy["position_error"](seen0[:, :dim] - full[:, :dim])
+    rerr = policy["rotation_error"](seen[:, dim:] - full[:, dim:]) if has_rot else np.full(N, np.nan)
+    slack = policy["slack"].format(min_tension=min_tension)
+    _flag_outcome(r, flags, rows, conv, seen, th_pred, err, min_tension, slack)
     return Compensation(arr.copy(), commands, theta, commands - nominal, nominal, conv, err, err0, rerr, th_pred,
-                        ["; ".join(f) for f in flags], model.name, "spatial", list(r.position_cables))
+                        ["; ".join(f) for f in flags], model.name, str(kind),
+                        list(r.position_cables) if kind.cable_numbers else None)
 
 
 def _solve_rows(model, theta, full, reach, weights, m: int, start, tol, max_iter):

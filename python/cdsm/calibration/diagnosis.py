@@ -109,14 +109,14 @@ from ..progress import Progress
 from ..robot import Robot
 from . import plant, stats
 from .fit import Fit, fit_folds, free_parameters
-from .measurements import KIND_CODES, Measurements
+from .measurements import KIND_CODES, Measurements, commanded_cables
 from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "Search", "features",
            "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES", "NEAR_FRACTION",
            "SEARCH_TOP", "SEARCH_FULL", "nested", "SupportTest", "AdequacyBound", "Verdict",
            "MAX_PARAMETER_SHARE", "ALPHA", "fold_split", "adequacy_bound", "LACK_OF_FIT_ALPHA",
-           "ADEQUACY_QUANTILE", "BOOTSTRAP_DRAWS"]
+           "ADEQUACY_QUANTILE", "BOOTSTRAP_DRAWS", "ESTIMATED", "neighbour_noise"]
 
 #: Measurement noise assumed when none is given: 10 µm per axis and reading.
 DEFAULT_NOISE = 10e-6
@@ -278,7 +278,8 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "auto") -> Prepared:
     # the robot's loads (lower tensions, gravity), at the command and after dL
     reached = np.zeros_like(theta)
     reached[order] = np.where(np.isfinite(settled), settled, 0.0)
-    taut = robot.feasible(theta) & robot.feasible(reached)
+    # an elastic arm's statics carries slack cables (docs/model.md, "Elastic arms"): nothing to check
+    taut = np.ones(N, bool) if robot.is_elastic else robot.feasible(theta) & robot.feasible(reached)
     for i in np.flatnonzero(ok & settles & observed & ~taut):
         flags[int(i)] = ("the nominal model needs a slack upper cable here under the robot's loads (lower "
                          "tensions, gravity): a taut-cable model cannot predict this row")
@@ -414,12 +415,19 @@ def repeat_groups(prep: Prepared, decimals: int = 9) -> List[np.ndarray]:
     return [np.array(v) for v in keys.values() if len(v) >= 2]
 
 
+#: The noise sources that estimate the noise from the data, with degrees of
+#: freedom: the support and lack-of-fit tests are F tests against them.
+ESTIMATED = ("repeats", "neighbours")
+
+
 @dataclass(repr=False)
 class NoiseEstimate(ShortRepr):
     """The noise of one reading per axis (m), where it came from
-    (``"repeats"``, ``"given"``, ``"assumed"``), its 95 % interval (repeats),
-    and the pure error the repeats give (sum of squares m², degrees of
-    freedom)."""
+    (``"repeats"``, ``"neighbours"``, ``"given"``, ``"assumed"``), its 95 %
+    interval (estimated), and the pure error the estimate gives (sum of
+    squares m², degrees of freedom; ``"neighbours"``: the variance of a row
+    per axis times its effective degrees of freedom, see
+    :func:`neighbour_noise`)."""
 
     sigma: float
     source: str
@@ -430,6 +438,39 @@ class NoiseEstimate(ShortRepr):
     #: rows (file order, 0-based) that copy an earlier row bit for bit
     #: (:attr:`Prepared.copies`): copies, not repeats
     duplicates: Tuple[int, ...] = ()
+
+
+def neighbour_noise(prep: Prepared) -> Tuple[float, float, int]:
+    """The noise of a row per axis estimated from neighbouring rows, for
+    data that sample continuous motions (:attr:`Measurements.sampled`): the
+    difference-based estimator of Gasser, Sroka and Jennen-Steinmetz
+    (Biometrika 73, 1986) on the residuals ``e`` of the model the fits start
+    from, over every three consecutive usable rows of one fold group in
+    execution order: pseudo-residuals ``(e[i-1] - 2 e[i] + e[i+1]) / sqrt(6)``
+    per position axis, whose mean square is the noise variance when the
+    model's error changes smoothly from row to row. Returns the variance
+    (m²), the sum of squares (m²) and the effective degrees of freedom
+    ``18 t k / 35`` (``t`` triples, ``k`` axes: the pseudo-residuals of
+    overlapping triples are correlated, ``Var = (35/18) 2 sigma^4 / t`` per
+    axis for Gaussian noise); ``(nan, 0, 0)`` without triples. What changes
+    between neighbouring rows faster than the motion (jitter, a jump at a
+    reversal) counts as noise; what neighbours share (drift, the history of
+    a pattern) does not: docs/model.md, "The support test"."""
+    robot = prep.robot
+    k = plant.dims(robot)
+    o = prep.order
+    obs, _ = plant.predict(robot, prep.start, prep.theta_cmd[o], prep.dL[o], prep.kinds[o])
+    e = obs[:, :k] - prep.measured[o, :k]
+    group = (prep.groups if prep.groups is not None else
+             np.asarray(prep.meas.labels[prep.meas.fold_groups], str) if prep.meas.fold_groups else
+             np.zeros(len(o), str))[o]
+    ok = prep.usable[o] & np.isfinite(e).all(axis=1)
+    mid = np.flatnonzero(ok[1:-1] & ok[:-2] & ok[2:] & (group[1:-1] == group[:-2]) & (group[1:-1] == group[2:])) + 1
+    if not len(mid):
+        return float("nan"), 0.0, 0
+    pseudo = (e[mid - 1] - 2.0 * e[mid] + e[mid + 1]) / np.sqrt(6.0)
+    ss = float(np.sum(pseudo ** 2))
+    return ss / pseudo.size, ss, int(round(18.0 * pseudo.size / 35.0))
 
 
 def _noise(prep: Prepared, given: Optional[float]) -> NoiseEstimate:
@@ -450,6 +491,14 @@ def _noise(prep: Prepared, given: Optional[float]) -> NoiseEstimate:
         ci = (float(np.sqrt(ss / stats.chi2_ppf(0.975, dof) / r2)),
               float(np.sqrt(ss / stats.chi2_ppf(0.025, dof) / r2)))
         return NoiseEstimate(sigma, "repeats", ci, ss, dof, len(groups), dup)
+    if prep.meas.sampled:
+        var, _, nu = neighbour_noise(prep)
+        if nu >= 2 and var > 0:
+            r2 = prep.readings ** 2
+            sigma = float(np.sqrt(var / r2))
+            ci = (float(np.sqrt(var * nu / stats.chi2_ppf(0.975, nu) / r2)),
+                  float(np.sqrt(var * nu / stats.chi2_ppf(0.025, nu) / r2)))
+            return NoiseEstimate(sigma, "neighbours", ci, var * nu, nu, 0, dup)
     return NoiseEstimate(DEFAULT_NOISE, "assumed", None, ss, dof, len(groups), dup)
 
 
@@ -782,14 +831,26 @@ class Diagnosis(ShortRepr):
         return {"given": "likelihood ratio: chi-square against the given noise, beside a held-out guard (the "
                          "held-out RMS must improve)",
                 "repeats": "likelihood ratio: F against the pure error of the repeats, beside a held-out guard "
-                           "(the held-out RMS must improve)"}.get(
+                           "(the held-out RMS must improve)",
+                "neighbours": "likelihood ratio: F against the noise of neighbouring rows, beside a held-out "
+                              "guard (the held-out RMS must improve)"}.get(
             self.noise_estimate.source, "one-sided Wilcoxon signed-rank test on the paired held-out gains in "
                                         "squared error, and BIC (the noise is only assumed)")
 
     @property
     def support_limits(self) -> Optional[str]:
-        """How an assumed noise limits the verdict (None when the noise is
-        given or estimated from repeats)."""
+        """How an assumed noise, or one estimated from neighbouring rows,
+        limits the verdict (None when the noise is given or estimated from
+        repeats)."""
+        if self.noise_estimate.source == "neighbours":
+            return (f"The noise ({self.noise * 1e6:.1f} µm per axis and reading) is estimated from neighbouring "
+                    "rows of each motion (the data hold no repeated command): it holds what changes from one "
+                    "row to the next (the tracker's jitter, a jump at a reversal) and not what neighbours share "
+                    "(drift over minutes, the history of a pattern). With one repetition the data cannot tell "
+                    "such a shared error from a missing effect: 'not adequate' may be the robot not repeating "
+                    "itself, and a support test against this noise counts a history or drift the model lacks "
+                    "as signal. Repeats of the patterns (at the start and the end of a session) would "
+                    "separate them.")
         if self.noise_estimate.source != "assumed":
             return None
         v = self.verdict_detail
@@ -886,6 +947,8 @@ def features(prep: Prepared) -> Dict[str, np.ndarray]:
     |theta_2| (rad), the smallest upper tension (N), the tip sensitivity to the
     upper cables (m/m), the cable that carries dL, and X, Y (m)."""
     robot, th = prep.robot, prep.theta_cmd
+    if robot.is_elastic:
+        return _elastic_features(prep)
     if robot.kind == "spatial":
         return _spatial_features(robot, th, prep.dL)
     sv = singular_values(robot, th)
@@ -913,6 +976,42 @@ def _least_tension(tension: np.ndarray) -> np.ndarray:
     least = np.where(np.isnan(tension), np.inf, tension).min(axis=1, initial=np.inf)
     least[slack] = np.nan
     return least
+
+
+def _elastic_features(prep: Prepared) -> Dict[str, np.ndarray]:
+    """An elastic arm's features at the nominal equilibrium of each row's
+    commands (settled along the execution order): the largest |joint angle|
+    and the tip's bend (the angle between the end frame's and the base's
+    ``x``, the backbone; rad), X, Y, Z (m), the most pulled cable (1-based:
+    the largest ``-dL``), the slack cables (count) and the largest tension
+    (N)."""
+    robot = prep.robot
+    o = prep.order
+    cables = commanded_cables(robot)
+    lengths = robot.cable_lengths(prep.theta_cmd[o])[:, cables] + prep.dL[o]
+    rest = robot.elastic_cables()["rest_length"]
+    pos = [j for j, c in enumerate(cables) if c in set(robot.position_cables)]
+    dis = [j for j, c in enumerate(cables) if c in set(robot.displacement_cables)]
+    eq = robot.equilibrium(lengths=lengths[:, pos] if pos else None,
+                           displacements=(rest[[cables[j] for j in dis]] - lengths[:, dis]) if dis else None,
+                           sequence=True)
+    th = np.empty_like(eq.theta)
+    th[o] = eq.theta
+    frame = robot.fk_matrix(th)
+    pose = frame[:, :3, 3]
+    tension, slack = np.empty_like(eq.tension), np.empty_like(eq.slack)
+    tension[o], slack[o] = eq.tension, eq.slack
+    pulled = -prep.dL
+    return {
+        "max |joint angle| (rad)": np.abs(th).max(axis=1),
+        "tip bend (rad)": np.arccos(np.clip(frame[:, 0, 0], -1.0, 1.0)),
+        "X (m)": pose[:, 0],
+        "Y (m)": pose[:, 1],
+        "Z (m)": pose[:, 2],
+        "most pulled cable (index)": (pulled.argmax(axis=1) + 1).astype(float),
+        "slack cables (count)": slack.sum(axis=1).astype(float),
+        "max cable tension (N)": tension.max(axis=1),
+    }
 
 
 def _spatial_features(robot, th: np.ndarray, dl: np.ndarray) -> Dict[str, np.ndarray]:
@@ -990,7 +1089,7 @@ class _Judge:
             else:
                 dp = len(self.free(big)) - len(self.free(small))
                 rs, rb = self.rss(small), self.rss(big)
-                if ne.source == "repeats":
+                if ne.source in ESTIMATED:
                     stat, p = stats.f_difference(rs, rb, dp, ne.ss_pure, ne.dof_pure)
                     test, dof = "F", (max(dp, 0), ne.dof_pure)
                 else:
@@ -1034,7 +1133,7 @@ class _Judge:
                 A[~np.isfinite(A).all(axis=(1, 2))] = 0.0
             tests = [np.searchsorted(rows, t) for t in c.folds] if c.folds else [np.arange(len(rows))]
             draws = stats.heldout_rms_draws(A, tests, self.row_noise, BOOTSTRAP_DRAWS, BOOTSTRAP_SEED,
-                                           self.noise.dof_pure if self.noise.source == "repeats" else 0)
+                                           self.noise.dof_pure if self.noise.source in ESTIMATED else 0)
             self.bounds[id(c)] = AdequacyBound(float(np.quantile(draws, ADEQUACY_QUANTILE)),
                                                float(np.median(draws)), self.floor, len(idx), BOOTSTRAP_DRAWS,
                                                ADEQUACY_QUANTILE, self.noise.source)
@@ -1052,6 +1151,10 @@ class _Judge:
             ss_lof, df_lof = ssr - noise.ss_pure, dof - noise.dof_pure
             f = (max(ss_lof, 0.0) / df_lof) / (noise.ss_pure / noise.dof_pure)
             return "F", f, (df_lof, noise.dof_pure), stats.f_sf(f, df_lof, noise.dof_pure), ssr, dof
+        if noise.source == "neighbours" and dof >= 1:
+            # an independent estimate of the noise: F of the residual mean square over it
+            f = (ssr / dof) / (noise.ss_pure / noise.dof_pure)
+            return "F", f, (dof, noise.dof_pure), stats.f_sf(f, dof, noise.dof_pure), ssr, dof
         chi = ssr / self.row_noise ** 2
         return "chi2", chi, (max(dof, 1),), stats.chi2_sf(chi, max(dof, 1)), ssr, dof
 
@@ -1296,7 +1399,8 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     :mod:`cdsm.calibration.plant`; with registered absolute data the frame is
     always fitted and named only when it beats the identity frame). noise:
     measurement noise per axis and reading (m); default: estimated from
-    repeats, else assumed (:data:`DEFAULT_NOISE`). max_combination: the
+    repeats, else from neighbouring rows where the rows sample continuous
+    motions (:func:`neighbour_noise`), else assumed (:data:`DEFAULT_NOISE`). max_combination: the
     largest combination forward selection and the search may build. frame:
     ``"auto"`` (absolute data near the nominal predictions are taken in the
     base frame with ``frame_misalignment`` a candidate, farther ones
@@ -1304,12 +1408,15 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     fitted with every candidate) or ``"base"`` (the base frame). folds_by:
     a label column of ``meas`` whose rows of one value are held out together
     (:func:`fold_split`; e.g. a motion pattern: neighbouring keypoints of one
-    pattern are not independent readings); default: rows one by one.
+    pattern are not independent readings); default: the measurements' own
+    grouping (:attr:`Measurements.fold_groups`: an OpenCR recording's
+    pattern), else rows one by one.
     """
     library = plant.check_effects(robot, plant.effects_of(robot) if effects is None else effects)
     if noise is not None and not (np.isfinite(noise) and noise > 0):
         raise CdsmInputError(f"`noise`: must be a positive number of m, got {noise}")
     prep = prepare(robot, meas, frame)
+    folds_by = meas.fold_groups if folds_by is None else folds_by
     if folds_by is not None:
         if folds_by not in meas.labels:
             raise CdsmInputError(f"`folds_by`: no label column {folds_by!r} in {meas.source or 'the measurements'} "

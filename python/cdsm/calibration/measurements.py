@@ -17,9 +17,22 @@ scripts, ``nan`` and ``inf`` are refused with the file, row and column (an
 empty measured cell is how a row says it was not measured).
 
 Spatial arms (:func:`parse_csv` with ``cables``): ``theta_1..theta_n``,
-``dL_1..dL_m`` on the m position-controlled cables (file order), measured
+``dL_1..dL_m`` on the m commanded cables (file order), measured
 ``x, y, z`` or ``dx, dy, dz`` (m) and optionally the rotation vector
 ``rx, ry, rz`` / ``drx, dry, drz`` (rad).
+
+The commanded cables (:func:`commanded_cables`) are the position cables of
+a rigid arm and the elastic cables (position and displacement cables, in
+the robot's order) of an elastic one: a displacement ``d`` (m, positive =
+pull) is the command ``theta`` = the rest angles, ``dL = -d``.
+
+OpenCR-MuJoCo's system-identification recordings (``tdcr_sysid_*.csv``,
+recognised by their ``servo_<id>_mm`` and ``tip_*`` columns;
+:func:`cdsm.interop.opencr.read_sysid`) are read as such commands
+(:func:`from_recording`): mm become m, the servo columns in their order are
+the tendons ``k0..k{T-1}`` (checked against the ``tendon<k>_id<hw>`` labels),
+``pattern_label`` is kept, and its pattern (the label without ``_hold``) is
+the rows' default fold group.
 """
 
 from __future__ import annotations
@@ -36,7 +49,7 @@ from ..inputs import CdsmInputError, did_you_mean
 from ..display import ShortRepr
 
 __all__ = ["Measurements", "parse_csv", "read_csv", "read_for", "packaged", "packaged_names", "after_reversals",
-           "KIND_CODES"]
+           "KIND_CODES", "commanded_cables", "from_recording"]
 
 #: Row kinds of the plant's data sets, by code (see ``docs/model.md``).
 KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
@@ -66,6 +79,13 @@ class Measurements(ShortRepr):
     source: str = ""
     sequence: Optional[np.ndarray] = None
     measured_rot: Optional[np.ndarray] = None
+    #: the label column whose values group rows for cross-validation by
+    #: default (rows of one value held out together), or None: row by row
+    fold_groups: Optional[str] = None
+    #: the rows sample continuous motions: in execution order, neighbouring
+    #: rows of one fold group are neighbours in command and time (the
+    #: diagnosis may then estimate the noise from neighbouring rows)
+    sampled: bool = False
 
     def __len__(self) -> int:
         return len(self.measured)
@@ -249,15 +269,57 @@ def read_csv(path: "str | os.PathLike[str]", n: int, cables: Optional[int] = Non
     return _measurements(read_table(path, "measurement", read_as=read_as, progress=progress), n, cables)
 
 
+def commanded_cables(robot) -> List[int]:
+    """The cables a row commands (0-based, the robot's order): the position
+    cables, and an elastic arm's displacement cables (force cables keep
+    their set tension)."""
+    return sorted(list(robot.position_cables) + list(robot.displacement_cables))
+
+
+def from_recording(robot, rec) -> Measurements:
+    """Measurements of an OpenCR recording (:class:`cdsm.interop.opencr.Recording`,
+    SI units) for ``robot``: each row commands the tendons' displacements
+    ``d`` (m, positive = pull; the recording's tendons ``k0..`` are the
+    robot's commanded cables in order) from the rest angles (``theta`` =
+    :attr:`Robot.rest_angles`, ``dL = -d``); the tip (m, the tracker's frame)
+    is an absolute reading; rows run in file order (the timestamps must not
+    decrease); labels ``pattern_label``, ``pattern`` (the default fold group)
+    and ``timestamp`` (s)."""
+    cables = commanded_cables(robot)
+    T = rec.commands.shape[1]
+    if T != len(cables):
+        raise CdsmInputError(f"recording {rec.path!r}: {T} servo columns (tendons k0..k{T - 1}), but the robot "
+                             f"commands {len(cables)} cable(s); give the robot of the recording "
+                             "(e.g. --robot ftdcr_v4 for FTDCR v4's files)")
+    back = np.flatnonzero(np.diff(rec.time) < 0)
+    if len(back):
+        i = int(back[0]) + 1
+        raise CdsmInputError(f"recording {rec.path!r}: row {i + 1}, column 'timestamp': {rec.time[i]!r} is "
+                             f"earlier than the row before ({rec.time[i - 1]!r}); rows run in file order")
+    N = len(rec.tip)
+    theta = np.tile(np.asarray(robot.rest_angles, float), (N, 1))
+    labels = {"pattern_label": list(rec.labels), "pattern": list(rec.groups),
+              "timestamp": [repr(float(t)) for t in rec.time]}
+    return Measurements("absolute", robot.n, -np.asarray(rec.commands, float), np.asarray(rec.tip, float),
+                        theta=theta, labels=labels, source=rec.path, fold_groups="pattern", sampled=True)
+
+
 def read_for(robot, path: "str | os.PathLike[str]", progress: bool = False) -> Measurements:
-    """Read a measurement CSV file for ``robot`` (planar or spatial
-    columns); ``path`` may also name a packaged table (``"table3"``) when
-    no such file exists — a file of that name wins. ``progress``: a
-    progress line on stderr while a file is read."""
-    cables = len(robot.position_cables) if robot.kind == "spatial" else None
+    """Read a measurement CSV file for ``robot`` (the columns of its kind,
+    or an OpenCR recording: :func:`from_recording`); ``path`` may also name
+    a packaged table (``"table3"``, ``"ftdcr_v4_train"``) when no such file
+    exists — a file of that name wins. ``progress``: a progress line on
+    stderr while a file is read."""
+    from ..interop import opencr
+
+    cables = len(commanded_cables(robot)) if robot.kind == "spatial" else None
     if not os.path.exists(path) and str(path) in packaged_names():
+        if str(path) in opencr.RECORDINGS:
+            return from_recording(robot, opencr.read_sysid(opencr.packaged(str(path))))
         text = resources.files("cdsm").joinpath("data", f"{path}.csv").read_text(encoding="utf-8")
         return parse_csv(text, robot.n, f"cdsm/data/{path}.csv", cables)
+    if os.path.isfile(path) and opencr.is_sysid(path):
+        return from_recording(robot, opencr.read_sysid(path))
     if not os.path.exists(path):
         raise CdsmInputError(f"measurement file {str(path)!r}: does not exist{did_you_mean(path, packaged_names())} "
                              f"(packaged tables, usable by name: {', '.join(packaged_names())})")
@@ -265,9 +327,12 @@ def read_for(robot, path: "str | os.PathLike[str]", progress: bool = False) -> M
 
 
 def packaged_names() -> List[str]:
-    """Names of the measurement tables shipped with cdsm (``cdsm/data/*.csv``)."""
-    return sorted(p.name[:-4] for p in resources.files("cdsm").joinpath("data").iterdir()
-                  if p.name.endswith(".csv"))
+    """Names of the measurement tables shipped with cdsm (``cdsm/data/*.csv``)
+    and of the packaged OpenCR recordings (``"ftdcr_v4_train"``, ...)."""
+    from ..interop import opencr
+
+    return sorted([p.name[:-4] for p in resources.files("cdsm").joinpath("data").iterdir()
+                   if p.name.endswith(".csv")] + list(opencr.RECORDINGS))
 
 
 def packaged(name: str, n: int = 3) -> Measurements:
@@ -276,6 +341,9 @@ def packaged(name: str, n: int = 3) -> Measurements:
     if name not in packaged_names():
         raise CdsmInputError(f"`name`: no packaged measurement table {name!r}{did_you_mean(name, packaged_names())} "
                              f"(packaged: {', '.join(packaged_names())})")
+    if not resources.files("cdsm").joinpath("data", f"{name}.csv").is_file():
+        raise CdsmInputError(f"`name`: {name!r} is a recording of an OpenCR robot: read it for its robot, "
+                             f"read_for(Robot.load('ftdcr_v4'), {name!r})")
     text = resources.files("cdsm").joinpath("data", f"{name}.csv").read_text(encoding="utf-8")
     return parse_csv(text, n, f"cdsm/data/{name}.csv")
 

@@ -27,6 +27,26 @@ cable_friction         1            Coulomb friction mu of every cable in every 
 
 Rows run in sequence (backlash and friction have memory): give them in execution order.
 
+Elastic arms (:attr:`Robot.is_elastic`: joint springs or displacement cables;
+``docs/model.md``, "Elastic arms in the plant") have the same plant with the
+settle their frictionless equilibrium, each command warm-started from the
+previous one. Their commanded cables (:func:`.measurements.commanded_cables`,
+the width of ``dL``) are the position and displacement cables in file order:
+``theta_cmd`` the rest angles and ``dL = -d`` commands the displacements ``d`` (m).
+``cable_offset``, ``backlash`` and ``hole_position`` act per commanded cable;
+they have no ``cable_elasticity``, ``hole_clearance`` or ``cable_friction``
+block, and two of their own:
+
+=====================  ===========  ================================================
+effect                 parameters   meaning
+=====================  ===========  ================================================
+joint_stiffness        segments     s > -1 per segment (the joints between
+                                    consecutive cable terminations): its springs
+                                    k -> (1 + s) k, 1
+cable_angle            m_c          spatial: every hole of a commanded cable turned
+                                    about the backbone axis x of its disk, rad
+=====================  ===========  ================================================
+
 Spatial arms (``robot.kind == "spatial"``, ``docs/spatial.md``) have their own
 plant in the Rust core with the effects that carry over (:data:`SPATIAL_EFFECTS`:
 ``actuation_scale``, ``cable_offset`` and ``backlash`` on the
@@ -47,13 +67,13 @@ import numpy as np
 from .. import _cdsm
 from ..inputs import CdsmInputError, as_array, as_batch, as_count, as_finite, as_iterations
 from ..robot import Robot, kind_facts
-from .measurements import KIND_CODES, Measurements
+from .measurements import KIND_CODES, Measurements, commanded_cables
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
            "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
-           "SPATIAL_EFFECTS", "effects_of", "check_effects", "width", "dims", "commands", "command_lengths",
-           "taut_commands"]
+           "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "effects_of", "check_effects", "width", "dims", "commands",
+           "command_lengths", "taut_commands"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
 #: Rust core's layout of the kind, ``kind_facts("planar")["layout"]``:
@@ -88,12 +108,13 @@ SPATIAL_EFFECTS: Tuple[str, ...] = _library(kind_facts("spatial")["layout"])
 # 0.15 mm clearance and a 10 mrad transition, 5 mrad / 5 mm frame, 1 mm tip
 # offset, 30 µm of backlash, 10 mrad (0.6 deg) of joint-axis tilt, the core's
 # typical friction 0.15 (greased steel on metal, docs/model.md "Friction in
-# the holes").
+# the holes"); elastic arms: 10 % of a segment's joint springs, 20 mrad
+# (1.1 deg) of a cable's angle about the backbone.
 TYPICAL: Dict[str, float] = {
     "actuation_scale": 0.02, "cable_offset": 2e-4, "hole_height": 2e-4, "hole_position": 2e-4,
     "link_length": 3e-4, "cable_elasticity": 0.02, "hole_clearance": 1.5e-4, "clearance_width": 0.01,
     "frame_misalignment": 5e-3, "tip_offset": 1e-3, "backlash": 3e-5, "joint_axis": 1e-2,
-    "cable_friction": _cdsm.FRICTION_TYPICAL,
+    "cable_friction": _cdsm.FRICTION_TYPICAL, "joint_stiffness": 0.1, "cable_angle": 0.02,
 }
 assert set(BLOCKS) | set(SPATIAL_EFFECTS) <= set(TYPICAL), "a typical size per parameter block"
 
@@ -104,16 +125,31 @@ assert set(BLOCKS) | set(SPATIAL_EFFECTS) <= set(TYPICAL), "a typical size per p
 MAX_PARAMETER = 1e3
 
 
+#: Blocks of an elastic arm's plant outside its default library: the geometry of
+#: every hole, link and joint axis of the lumped joints (FTDCR v4: 1107, 270 and 120
+#: numbers), fitted only when named (:func:`check_effects`); a tendon's hole errors
+#: are its ``cable_angle`` and ``cable_offset`` in the library.
+ELASTIC_GEOMETRY: Tuple[str, ...] = ("hole_position", "link_length", "joint_axis")
+
+
 def effects_of(robot) -> Tuple[str, ...]:
-    """The diagnosis library of a robot's kind (its layout's effects)."""
+    """The diagnosis library of a robot: its kind's layout's effects; an elastic
+    arm's (:attr:`Robot.is_elastic`) its own layout's (:func:`layout`: without
+    ``cable_elasticity``, ``hole_clearance`` and ``cable_friction``, with
+    ``joint_stiffness`` and, spatial, ``cable_angle``) but :data:`ELASTIC_GEOMETRY`."""
+    if robot.is_elastic:
+        return _library([name for name, k in robot.core.plant_effects() if k and name not in ELASTIC_GEOMETRY])
     return _library(kind_facts(robot.kind)["layout"])
 
 
 def check_effects(robot, effects: Sequence[str], field: str = "effects") -> List[str]:
-    """``effects`` as a list, each one of the library of ``robot``'s kind;
+    """``effects`` as a list, each one of the library of ``robot``'s kind (an
+    elastic arm's also the :data:`ELASTIC_GEOMETRY` blocks of its layout);
     :class:`CdsmInputError` naming ``field``, the unknown names and the
     kind's library otherwise."""
     known = effects_of(robot)
+    if robot.is_elastic:
+        known += tuple(b for b, k in robot.core.plant_effects() if k and b in ELASTIC_GEOMETRY)
     names = list(effects)
     bad = [e for e in names if e not in known]
     if bad:
@@ -133,15 +169,16 @@ def dims(robot) -> int:
 
 
 def command_lengths(robot, theta) -> np.ndarray:
-    """The nominal lengths (m) of the commanded cables at ``theta`` (N, n) rad:
-    the position-controlled cables (a planar arm's upper cables)."""
-    return robot.position_lengths(theta)
+    """The nominal lengths (m) of the commanded cables (:func:`.measurements.commanded_cables`)
+    at ``theta`` (N, n) rad."""
+    return robot.cable_lengths(theta)[..., commanded_cables(robot)]
 
 
 def commands(robot) -> int:
-    """Commanded cables per row (the width of ``dL``): the position-controlled
-    cables (n upper cables of a planar arm)."""
-    return len(robot.position_cables)
+    """Commanded cables per row (the width of ``dL``, :func:`.measurements.commanded_cables`):
+    the position-controlled cables of a rigid arm (n upper cables of a planar
+    arm), the position and displacement cables of an elastic arm."""
+    return len(commanded_cables(robot))
 
 # Hidden effects for 3-joint robots, ~1-2x TYPICAL with mixed signs: every
 # effect of the library and a two-effect mixture (SI). The virtual-prototype

@@ -17,16 +17,24 @@ def _list_args(p: argparse.ArgumentParser) -> None:
 @options(_list_args)
 def _list_run(args) -> int:
     from ..calibration import measurements
+    from ..inputs import CdsmInputError
+    from ..interop import opencr
     from ..robot import Robot, packaged_robots
 
+    configs = list(opencr.CONFIGS)
     if args.what in (None, "robots"):
         print("robots (--robot NAME):")
-        for name in packaged_robots():
-            r = Robot.packaged(name)
+        for name in list(packaged_robots()) + configs:
+            try:
+                r = Robot.load(name)
+            except CdsmInputError as exc:  # an OpenCR config of a kind cdsm does not read
+                print(f"  {name:<36s} not readable: {exc}")
+                continue
             print(f"  {name:<36s} {r.kind:<8s} {r.n:2d} joints, {r.cables:2d} cables  {r.name}")
     if args.what in (None, "data"):
         print("measurement tables (cdsm diagnose NAME):")
         for name in measurements.packaged_names():
-            m = measurements.packaged(name)
-            print(f"  {name:<36s} {m.kind:<12s} {len(m):3d} rows, {m.n} joints  {m.source}")
+            # a recording is read for its robot (OpenCR's files: FTDCR v4)
+            m = measurements.read_for(Robot.load("ftdcr_v4") if name in opencr.RECORDINGS else Robot.paper(), name)
+            print(f"  {name:<36s} {m.kind:<12s} {len(m):4d} rows, {m.n} joints  {m.source}")
     return 0

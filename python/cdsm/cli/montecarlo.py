@@ -83,9 +83,9 @@ def _montecarlo_run(args) -> int:
     import numpy as np
 
     from .. import __version__
-    from ..accuracy import distributed, montecarlo, workspace
+    from ..accuracy import distributed, montecarlo
     from ..accuracy.scenarios import PAPER_DH_TOL, PAPER_DL_TOL
-    from ..accuracy.tolerance import load_spatial_tolerances, load_tolerances
+    from ..accuracy.tolerance import read_tolerances
 
     t0 = time.perf_counter()
     show = not args.quiet
@@ -93,32 +93,11 @@ def _montecarlo_run(args) -> int:
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise UserError(f"--timeout: expected a positive number of seconds, got {args.timeout}")
     robot = load_robot(args.robot)
-    spatial = robot.kind == "spatial"
-    if spatial:
-        theta0, poses, params = _spatial_configurations(args, robot)
-        dl_tol, dh_tol = (load_spatial_tolerances(args.tolerances, robot) if args.tolerances is not None
-                          else (PAPER_DL_TOL, PAPER_DH_TOL))
-        desc = f"{len(theta0)} configurations (sampled, {params['sampling']})"
-    else:
-        if args.configurations is not None:
-            raise UserError("--configurations: for spatial robots only (planar robots: --range and --step)")
-        protocol = args.protocol or "attitude0"
-        step = 5.0 if args.step is None else args.step
-        grid_range = 30.0 if args.grid_range is None else args.grid_range
-        if args.tolerances is not None:
-            dl_tol, dh_tol = load_tolerances(args.tolerances, robot.n)
-        else:
-            dl_tol, dh_tol = PAPER_DL_TOL, PAPER_DH_TOL
-        r = math.radians(grid_range)
-        grid = workspace.joint_grid(robot.n, -r, r, math.radians(step))
-        ws = workspace.sweep(robot, protocol, grid=grid)
-        ok = ws.reachable
-        if not ok.any():
-            raise UserError("no configuration of the grid is reachable")
-        theta0, poses = ws.theta0[ok], ws.poses[ok]
-        params = dict(protocol=protocol, grid_step_deg=step, grid_range_deg=grid_range,
-                      configurations=int(ok.sum()), unreachable=ws.n_unreachable)
-        desc = f"{int(ok.sum())} configurations ({protocol}, {ws.n_unreachable} unreachable)"
+    # the paper's joint grid where its protocols apply (planar), else configurations sampled in the joint box
+    configurations = _grid_configurations if robot.kind.grid_protocols else _sampled_configurations
+    theta0, poses, params, desc = configurations(args, robot)
+    dl_tol, dh_tol = ((PAPER_DL_TOL, PAPER_DH_TOL) if args.tolerances is None
+                      else read_tolerances(args.tolerances, robot))
     if show:
         where = args.scheduler or "local threads"
         print(f"cdsm montecarlo: robot {robot.name!r}, {desc}, {args.samples} samples in chunks of "
@@ -135,7 +114,7 @@ def _montecarlo_run(args) -> int:
     written = out if out.endswith(".npz") else out + ".npz"
     worst = np.nanmax(arrays["max_abs"][:, 3]) if (mc.count > 0).any() else float("nan")
     pmax = np.nanmax(arrays["dxy_percentiles"], axis=0) if (mc.count > 0).any() else []
-    norm = "|dXYZ|" if spatial else "|dXY|"
+    norm = robot.kind.norm_short
     print(f"{written}: {len(mc.count)} configurations x {args.samples} samples, "
           f"{int(mc.failed.sum())} failed solves; max {norm} {worst * 1e3:.3f} mm; "
           + ", ".join(f"worst p{montecarlo.percentile_text(p)} {v * 1e3:.3f} mm"
@@ -152,10 +131,35 @@ def _montecarlo_run(args) -> int:
 SPATIAL_CONFIGURATIONS = 2197
 
 
-def _spatial_configurations(args, robot):
-    """Joint angles (N, n) rad, end poses (N, 6) and run parameters of a
-    spatial robot's study: a scrambled Sobol sample (seed 0) of the joint
-    box, within +-``--range`` degrees when given."""
+def _grid_configurations(args, robot):
+    """Joint angles (N, n) rad, end poses (N, 3), run parameters and their
+    description of a planar robot's study: the reachable configurations of
+    the joint grid (``--range``, ``--step``) under ``--protocol``."""
+    import math
+
+    from ..accuracy import workspace
+
+    if args.configurations is not None:
+        raise UserError("--configurations: for spatial robots only (planar robots: --range and --step)")
+    protocol = args.protocol or "attitude0"
+    step = 5.0 if args.step is None else args.step
+    grid_range = 30.0 if args.grid_range is None else args.grid_range
+    r = math.radians(grid_range)
+    grid = workspace.joint_grid(robot.n, -r, r, math.radians(step))
+    ws = workspace.sweep(robot, protocol, grid=grid)
+    ok = ws.reachable
+    if not ok.any():
+        raise UserError("no configuration of the grid is reachable")
+    params = dict(protocol=protocol, grid_step_deg=step, grid_range_deg=grid_range,
+                  configurations=int(ok.sum()), unreachable=ws.n_unreachable)
+    return (ws.theta0[ok], ws.poses[ok], params,
+            f"{int(ok.sum())} configurations ({protocol}, {ws.n_unreachable} unreachable)")
+
+
+def _sampled_configurations(args, robot):
+    """Joint angles (N, n) rad, end poses (N, 6), run parameters and their
+    description of a spatial robot's study: a scrambled Sobol sample (seed
+    0) of the joint box, within +-``--range`` degrees when given."""
     import math
 
     import numpy as np
@@ -177,4 +181,4 @@ def _spatial_configurations(args, robot):
     theta = sample_configurations(robot, count, method="sobol", seed=0, limits=limits)
     params = dict(protocol="joint", sampling="scrambled Sobol, seed 0", grid_range_deg=args.grid_range,
                   configurations=int(count), unreachable=0)
-    return theta, robot.fk(theta), params
+    return theta, robot.fk(theta), params, f"{len(theta)} configurations (sampled, {params['sampling']})"

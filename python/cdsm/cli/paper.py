@@ -68,7 +68,7 @@ def _paper_run(args) -> int:
     h = report.headline(st)
     print(f"report: {paths['report_html']}")
     print(f"        {paths['report_md']}")
-    q = "|dXYZ|" if robot.kind == "spatial" else "|dXY|"
+    q = robot.kind.norm_short
     for p in st.workspaces:
         line = (f"{p}: worst single-error {q} {h[f'worst_single_m_{p}'] * 1e3:.2f} mm, {jump_words(h, p)}, "
                 f"unreachable {h[f'unreachable_{p}']}, Monte Carlo max {q} "

@@ -103,8 +103,9 @@ def seed_int(text: str) -> int:
 
 
 #: The help of every command's ``--robot``.
-ROBOT_HELP = ("robot description: a TOML file (SI units) or the name of a packaged robot (`cdsm list` shows "
-              "them); default: the paper's 3-joint prototype")
+ROBOT_HELP = ("robot description: a TOML file (SI units), an OpenCR generation config (.json), or the name of a "
+              "packaged robot (`cdsm list` shows them: e.g. two_universal, ftdcr_v4); default: the paper's 3-joint "
+              "prototype")
 
 
 def add_robot_option(p: argparse.ArgumentParser) -> None:
@@ -113,8 +114,9 @@ def add_robot_option(p: argparse.ArgumentParser) -> None:
 
 
 def load_robot(path: Optional[str]):
-    """The robot of ``--robot`` (a TOML file, or the name of a packaged robot
-    file such as ``two_universal``), or the paper's prototype."""
+    """The robot of ``--robot`` (:meth:`cdsm.Robot.load`: a TOML file, an
+    OpenCR config, or the name of a packaged robot such as ``two_universal``
+    or ``ftdcr_v4``), or the paper's prototype."""
     from ..inputs import CdsmInputError
     from ..robot import Robot
 
@@ -123,7 +125,7 @@ def load_robot(path: Optional[str]):
     if os.path.isdir(path):
         raise UserError(f"robot file {path!r}: is a directory")
     try:
-        return Robot.from_toml(path)
+        return Robot.load(path)
     except CdsmInputError as exc:
         msg = str(exc)
         if path in msg:

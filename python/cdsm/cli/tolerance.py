@@ -60,6 +60,7 @@ def _float_list(name: str, text: str) -> List[float]:
 @options(_tolerance_args)
 def _tolerance_run(args) -> int:
     from ..accuracy import tolerance
+    from ..accuracy.montecarlo import hole_error_sizes
     from ..files import write_json
 
     t0 = time.perf_counter()
@@ -68,39 +69,34 @@ def _tolerance_run(args) -> int:
     if not 0.0 < args.percentile < 100.0:
         raise UserError(f"--percentile: must be within (0, 100), got {args.percentile}")
     robot = load_robot(args.robot)
-    if robot.kind == "spatial":
-        m, cables = len(robot.position_cables), robot.cables
-        inputs = _inputs(args, robot, tolerance.SPATIAL_REGION_DEFAULT, m + cables,
-                         f"{m + cables} positive finite numbers ({m} position-controlled cables then {cables} "
-                         "cables' holes)")
-        return _spatial_run(args, robot, t0, *inputs)
-    region, theta, desc, weights, base = _inputs(args, robot, "grid:-30:30:5", 2 * robot.n,
-                                                 f"2n = {2 * robot.n} positive finite numbers (n cables then "
-                                                 "n disks)")
+    kind = robot.kind
+    words = kind.allocation
+    m, groups = len(robot.position_cables), len(hole_error_sizes(robot))
+    region, theta, desc, weights, base = _inputs(args, robot, words["region"], m + groups,
+                                                 words["weights"].format(count=m + groups, m=m, groups=groups,
+                                                                         finite=" finite"))
     show = not args.quiet
     if show:
-        print(f"cdsm tolerance: robot {robot.name!r} ({robot.n} joints), region {desc}, "
+        print(f"cdsm tolerance: {words['robot']} {robot.name!r} ({robot.n} joints), region {desc}, "
               f"P{args.percentile:g} <= {args.target_mm:g} mm, {args.samples} samples", file=sys.stderr)
     a = tolerance.allocate(robot, args.target_mm * 1e-3, theta, percentile=args.percentile,
                            weights=weights, base=[b * 1e-3 for b in base], shape=args.shape,
                            samples=args.samples, seed=args.seed, progress=show)
-    dist = tolerance.distribution(robot, a.cable_length_tol_m, a.hole_height_tol_m, theta,
+    holes = getattr(a, kind.hole_tolerance_key)
+    dist = tolerance.distribution(robot, a.cable_length_tol_m, holes, theta,
                                   percentiles=(50.0, args.percentile), samples=args.samples,
                                   seed=args.seed, cells=args.cells)
     out = a.to_json()
-    out["region"] = region
-    out["region_description"] = desc
-    out["regions"] = dist["regions"]
-    print("cable length tolerance (mm, per upper cable): "
-          + ", ".join(f"±{v * 1e3:.4f}" for v in a.cable_length_tol_m))
-    print("hole height tolerance (mm, per disk):         "
-          + ", ".join(f"±{v * 1e3:.4f}" for v in a.hole_height_tol_m))
-    print(f"achieved P{args.percentile:g} |d(x, y)| = {a.achieved_m * 1e3:.4f} mm "
+    out.update(region=region, region_description=desc, regions=dist["regions"], region_axes=dist["axes"])
+    cables = ", ".join(str(c + 1) for c in robot.position_cables)
+    print(words["cables_line"].format(cables=cables) + ", ".join(f"±{v * 1e3:.4f}" for v in a.cable_length_tol_m))
+    print(words["holes_line"].format(groups=groups) + ", ".join(f"±{v * 1e3:.4f}" for v in holes))
+    print(f"achieved P{args.percentile:g} {kind.norm_label.lower()} = {a.achieved_m * 1e3:.4f} mm "
           f"(target {args.target_mm:g} mm; within ±{tolerance.HIST_RESOLUTION * 100:.1f} % of the sample quantile; "
           f"interpolated {out['achieved_interpolated_mm']:.4f} mm); "
           f"with every tolerance x1.25: {a.achieved_1p25_m * 1e3:.4f} mm")
-    print(f"linear estimate {a.linear_m * 1e3:.4f} mm; failed solves {a.failed}; "
-          f"done in {time.perf_counter() - t0:.1f} s")
+    print(f"linear estimate {a.linear_m * 1e3:.4f} mm{words['evaluations'].format(evaluations=len(a.history))}; "
+          f"failed solves {a.failed}; done in {time.perf_counter() - t0:.1f} s")
     if args.json:
         write_json(args.json, out, "--json", indent=2)
         print(f"json: {args.json}")
@@ -124,41 +120,3 @@ def _inputs(args, robot, default_region: str, width: int, what: str):
     if len(base) != 2 or min(base) <= 0:
         raise UserError(f"--base-mm {args.base_mm!r}: expected two positive numbers C,H (mm)")
     return region, theta, desc, weights, base
-
-
-def _spatial_run(args, robot, t0: float, region: str, theta, desc: str, weights, base) -> int:
-    """``cdsm tolerance`` on a spatial robot: ± tolerances on the
-    position-controlled cables' lengths and on every coordinate of each
-    cable's holes: the linear first guess from the sensitivities, then
-    bisection on a common scale with the Monte Carlo."""
-    from ..accuracy import tolerance
-    from ..files import write_json
-
-    cables = robot.cables
-    show = not args.quiet
-    if show:
-        print(f"cdsm tolerance: spatial robot {robot.name!r} ({robot.n} joints), region {desc}, "
-              f"P{args.percentile:g} <= {args.target_mm:g} mm, {args.samples} samples", file=sys.stderr)
-    a = tolerance.allocate(robot, args.target_mm * 1e-3, theta, percentile=args.percentile, weights=weights,
-                           base=[b * 1e-3 for b in base], shape=args.shape, samples=args.samples, seed=args.seed,
-                           progress=show)
-    dist = tolerance.distribution(robot, a.cable_length_tol_m, a.hole_tol_m, theta,
-                                  percentiles=(50.0, args.percentile), samples=args.samples, seed=args.seed,
-                                  cells=args.cells)
-    out = a.to_json()
-    out.update(region=region, region_description=desc, regions=dist["regions"], region_axes=dist["axes"])
-    pos = robot.position_cables
-    print(f"cable length tolerance (mm, per position-controlled cable {', '.join(str(c + 1) for c in pos)}): "
-          + ", ".join(f"±{v * 1e3:.4f}" for v in a.cable_length_tol_m))
-    print(f"hole tolerance (mm, every coordinate of each cable's holes, cables 1..{cables}): "
-          + ", ".join(f"±{v * 1e3:.4f}" for v in a.hole_tol_m))
-    print(f"achieved P{args.percentile:g} |d(x, y, z)| = {a.achieved_m * 1e3:.4f} mm "
-          f"(target {args.target_mm:g} mm; within ±{tolerance.HIST_RESOLUTION * 100:.1f} % of the sample quantile; "
-          f"interpolated {out['achieved_interpolated_mm']:.4f} mm); "
-          f"with every tolerance x1.25: {a.achieved_1p25_m * 1e3:.4f} mm")
-    print(f"linear estimate {a.linear_m * 1e3:.4f} mm ({len(a.history)} Monte-Carlo evaluations); failed solves "
-          f"{a.failed}; done in {time.perf_counter() - t0:.1f} s")
-    if args.json:
-        write_json(args.json, out, "--json", indent=2)
-        print(f"json: {args.json}")
-    return 0

@@ -39,7 +39,8 @@ from ..display import ShortRepr
 from ..files import read_table
 from ..inputs import CdsmInputError
 
-__all__ = ["robot_data", "load_config", "read_sysid", "Recording", "packaged", "PACKAGED", "INEXTENSIBLE_MODULUS", "MM"]
+__all__ = ["robot_data", "load_config", "read_sysid", "is_sysid", "CONFIGS", "RECORDINGS", "Recording", "packaged",
+           "PACKAGED", "INEXTENSIBLE_MODULUS", "MM"]
 
 #: Young's modulus (Pa) written for OpenCR's tendons, which it models as
 #: inextensible: E A / L is then about 1e21 N/m beside kp of 1e3-1e4 N/m.
@@ -55,8 +56,11 @@ MM = 1e-3
 
 #: The packaged files of OpenCR's FTDCR v4 (``cdsm/data/ftdcr_v4/``, MIT
 #: licence, its README says from where), by name: its generation configs and
-#: its recordings.
+#: its recordings. ``"ftdcr_v4"`` is the design (written by cdsm: the
+#: ``ftdcr_v4_sysid`` config with the design tendon layout, segment offsets
+#: 0, 30, 60 degrees, no per-tendon corrections and no pretension).
 PACKAGED = {
+    "ftdcr_v4": "ftdcr_v4_design.json",
     "ftdcr_v4_sysid": "ftdcr_v4_sysid.json",
     "ftdcr_v4_sysid_0326": "ftdcr_v4_sysid_0326.json",
     "ftdcr_v4_sysid_tension": "ftdcr_v4_sysid_tension.json",
@@ -65,6 +69,12 @@ PACKAGED = {
     "ftdcr_v4_train": "tdcr_sysid_20260511-183002_train.csv",
     "ftdcr_v4_val": "tdcr_sysid_20260511-183002_val.csv",
 }
+
+#: The packaged generation configs (robots, :meth:`cdsm.Robot.load` by name;
+#: ``ftdcr_v4_sysid_tension`` drives its tendons in force, which cdsm does not
+#: read yet) and recordings (:func:`cdsm.calibration.measurements.read_for`).
+CONFIGS = ("ftdcr_v4", "ftdcr_v4_sysid", "ftdcr_v4_sysid_0326", "ftdcr_v4_sysid_tension")
+RECORDINGS = tuple(k for k, v in PACKAGED.items() if v.endswith(".csv"))
 
 
 def packaged(name: str) -> str:
@@ -313,6 +323,22 @@ class Recording(ShortRepr):
 
 
 _SERVO = re.compile(r"servo_(\d+)_mm")
+
+
+def is_sysid(path: "str | os.PathLike[str]") -> bool:
+    """Whether the file at ``path`` reads as an OpenCR sysid recording: its
+    header (the first line that is not a ``#`` comment) has a
+    ``servo_<id>_mm`` column and ``tip_x``. A file that cannot be read as
+    UTF-8 text is not one (its reader then says why)."""
+    try:
+        with open(path, encoding="utf-8-sig") as f:
+            for line in f:
+                if line.strip() and not line.lstrip().startswith("#"):
+                    cols = [c.strip() for c in line.split(",")]
+                    return "tip_x" in cols and any(_SERVO.fullmatch(c) for c in cols)
+    except (OSError, UnicodeDecodeError):
+        return False
+    return False
 _PULL = re.compile(r"tendon(\d+)_id(\d+)_pull")
 
 

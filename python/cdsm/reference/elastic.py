@@ -43,8 +43,10 @@ import dataclasses
 
 import numpy as np
 
-from .kinematics import as_theta, cable_lengths, cable_points, chain_frames, cross, fk_jacobian
+from . import sequence as sq
+from .kinematics import as_theta, cable_lengths, cable_points, chain_frames, cross, fk_jacobian, task_vector
 from .robot import Robot, as_robot, displacement_cables, force_cables, position_cables
+from .rotations import exp_so3
 from .solve import solve_cables
 
 __all__ = [
@@ -58,6 +60,10 @@ __all__ = [
     "equilibrium_sequence",
     "derivatives",
     "friction_sequence",
+    "segments",
+    "commanded_cables",
+    "plant_arm",
+    "plant_predict",
     "newton_step",
     "structured_step",
     "ARMIJO",
@@ -720,3 +726,109 @@ def _project(prev, x, orthant, kinked):
     """``prev + x`` with every kinked joint's ``x_j`` that left its orthant set to 0."""
     out = np.where(kinked & (orthant != 0.0) & (np.sign(x) != orthant), 0.0, x)
     return prev + out
+
+
+# --------------------------------------------------------------------------
+# The plant of an elastic arm (docs/model.md, "The plant", "Elastic arms")
+# --------------------------------------------------------------------------
+def commanded_cables(robot: Robot) -> np.ndarray:
+    """The cables an elastic arm's plant commands: its position and displacement cables
+    in file order, ``(m_c,)`` int (force cables keep their set tension)."""
+    robot = as_robot(robot)
+    return np.array([c for c, mode in enumerate(robot.cable_mode) if mode != "force"], dtype=np.int64)
+
+
+def segments(robot: Robot) -> list:
+    """The segments of an arm: the joints between consecutive cable terminations (the
+    disks where some cable ends), base to tip, each a list of 0-based joint indices; the
+    joints beyond the last termination are a segment of their own."""
+    robot = as_robot(robot)
+    ends = sorted(set(int(e) for e in robot.cable_end) | {robot.disks})
+    out, start = [], 0
+    for e in ends:
+        joints = [j for j in range(robot.n) if start < robot.joint_disk[j] <= e]
+        if joints:
+            out.append(joints)
+        start = e
+    return out
+
+
+def plant_arm(robot: Robot, joint_stiffness=None, cable_angle=None) -> Robot:
+    """The plant's arm of an elastic ``robot``: every joint spring of segment ``s``
+    (:func:`segments`) scaled by ``1 + joint_stiffness[s]``; every hole of commanded
+    cable ``i`` (:func:`commanded_cables`) turned by ``cable_angle[i]`` rad about its
+    face frame's ``x`` (the backbone axis): ``(x, y, z) -> (x, y cos a - z sin a, y sin a
+    + z cos a)``."""
+    robot = as_robot(robot)
+    k = robot.joint_stiffness.copy()
+    if joint_stiffness is not None:
+        for s, joints in zip(np.asarray(joint_stiffness, float), segments(robot)):
+            k[joints] *= 1.0 + s
+    holes = [h.copy() for h in robot.holes]
+    if cable_angle is not None:
+        for a, c in zip(np.asarray(cable_angle, float), commanded_cables(robot)):
+            ca, sa = np.cos(a), np.sin(a)
+            h = robot.holes[c]
+            holes[c] = np.stack([h[:, 0], h[:, 1] * ca - h[:, 2] * sa, h[:, 1] * sa + h[:, 2] * ca], axis=1)
+    return dataclasses.replace(robot, joint_stiffness=k, holes=tuple(holes))
+
+
+def plant_predict(robot: Robot, theta_cmd, dL, kind, effects=None, xtol: float = XTOL, max_iter: int = 100):
+    """Observations of a data set by the plant of an elastic arm, rows in execution order.
+
+    ``theta_cmd (N, n)`` rad, ``dL (N, m_c)`` m on the commanded cables, ``kind`` ``N``
+    names (``"absolute"``, ``"displacement"``, ``"unmeasured"``).  ``effects``: a dict of
+    ``actuation_scale`` ``s``, ``cable_offset`` ``o (m_c,)`` m, ``backlash`` ``b (m_c,)``
+    m, ``joint_stiffness`` ``(segments,)``, ``cable_angle (m_c,)`` rad,
+    ``frame_misalignment`` (spatial ``[rho (3) rad, t (3) m]``) and ``tip_offset`` (3,) m.
+
+    The commands ``c = L_c,nom(theta_cmd) + dL`` (a displacement row two, without and
+    with ``dL``) run through the dead band from the straight pose's lengths ``L_ref``
+    (``c - r > b``: ``r = c - b``; ``< -b``: ``r = c + b``) and the actuators, ``l = L_ref
+    + (1 + s)(r - L_ref) + o``: each commanded cable's rest length.  The plant's arm
+    (:func:`plant_arm`) settles at the minimum of its potential, each command from the
+    previous command's answer (:func:`equilibrium_sequence`: a position cable's commanded
+    length ``l``, a displacement cable's displacement ``L0 - l`` with ``L0`` the plant
+    arm's rest length, so that its rest length is ``l``); the instrument sees ``Rot(rho)
+    (p_end + R_end tip) + t`` and the attitude ``Rot(rho) R_end``.
+
+    Returns ``obs (N, t)``, ``converged (N,)`` (:func:`.sequence.observations`).
+    """
+    robot = as_robot(robot)
+    e = dict(effects or {})
+    cmd = commanded_cables(robot)
+    theta_cmd = np.asarray(theta_cmd, float).reshape(-1, robot.n)
+    dL = np.asarray(dL, float).reshape(len(theta_cmd), cmd.size)
+    kind = list(kind)
+    C = cable_lengths(robot, theta_cmd)[:, cmd]
+    commands, rows = [], []
+    for i, k in enumerate(kind):
+        if k == "displacement":
+            commands.append(C[i])
+            rows.append(i)
+        commands.append(C[i] + dL[i])
+        rows.append(i)
+    commands, rows = np.array(commands), np.array(rows)
+    L_ref = cable_lengths(robot, np.zeros((1, robot.n)))[0, cmd]
+    b = np.asarray(e.get("backlash", np.zeros(cmd.size)), float)
+    r, delivered = L_ref.copy(), np.empty_like(commands)
+    for j, c in enumerate(commands):
+        r = np.where(c - r > b, c - b, np.where(c - r < -b, c + b, r))
+        delivered[j] = r
+    s = float(np.atleast_1d(e.get("actuation_scale", 0.0))[0])
+    rest = L_ref + (1.0 + s) * (delivered - L_ref) + np.asarray(e.get("cable_offset", np.zeros(cmd.size)), float)
+    arm = plant_arm(robot, e.get("joint_stiffness"), e.get("cable_angle"))
+    modes = np.array([robot.cable_mode[c] for c in cmd])
+    pos, dis = modes == "position", modes == "displacement"
+    L0 = rest_lengths(arm)[cmd]
+    sol = equilibrium_sequence(arm, lengths=rest[:, pos] if pos.any() else None,
+                               displacements=(L0[dis] - rest[:, dis]) if dis.any() else None,
+                               xtol=xtol, max_iter=max_iter)
+    theta, ok = sol["theta"], np.asarray(sol["converged"], bool)
+    frame = np.asarray(e.get("frame_misalignment", np.zeros(6)), float)
+    tip = np.asarray(e.get("tip_offset", np.zeros(3)), float)
+    ch = chain_frames(arm, as_theta(arm, theta))
+    p_end, R_end = ch["tb"][:, -1], ch["Rb"][:, -1]
+    E = exp_so3(frame[:3])
+    seen = (p_end + R_end @ tip) @ E.T + frame[3:]
+    return sq.observations(task_vector(arm, seen, E @ R_end, theta), rows, ok, kind)

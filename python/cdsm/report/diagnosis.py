@@ -235,12 +235,17 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     if ne.source == "repeats":
         ntxt = (f"{_um(d.noise)} per axis and reading, estimated from {ne.groups} groups of repeated commands "
                 f"approached from the same direction (95 % interval {_um(ne.ci[0])}–{_um(ne.ci[1])})")
+    elif ne.source == "neighbours":
+        ntxt = (f"{_um(d.noise)} per axis and reading, estimated from neighbouring rows of each motion (no "
+                f"repeated commands; 95 % interval {_um(ne.ci[0])}–{_um(ne.ci[1])}): see the support limits")
     elif ne.source == "given":
         ntxt = f"{_um(d.noise)} per axis and reading, as given"
     else:
         ntxt = (f"{_um(d.noise)} per axis and reading, **assumed** (no repeated commands in the data and "
                 "none given)")
-    lof = (f"lack-of-fit test ({'F against pure error' if v.test == 'F' else 'chi-square against the noise'}): "
+    against = ("F against the noise of neighbouring rows" if ne.source == "neighbours" else "F against pure error"
+               if v.test == "F" else "chi-square against the noise")
+    lof = (f"lack-of-fit test ({against}): "
            f"p = {v.p_value:.2g}")
     if d.verdict == "no gap":
         nb = v.nominal_bound.bound if v.nominal_bound else float("nan")
@@ -435,8 +440,9 @@ def _support_words(d: diagnose.Diagnosis) -> str:
     src = d.noise_estimate.source
     if src == "assumed":
         return "the corrected paired held-out test (and BIC)"
-    return ("the corrected likelihood-ratio test against the " + ("given noise" if src == "given" else
-                                                                 "pure error of the repeats")
+    return ("the corrected likelihood-ratio test against the " + {"given": "given noise",
+                                                                 "neighbours": "noise of neighbouring rows"}.get(
+                                                                     src, "pure error of the repeats")
             + " (and a lower held-out RMS)")
 
 

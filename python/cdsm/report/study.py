@@ -87,6 +87,33 @@ def _pname(p: str) -> str:
     return PROTOCOL_NAMES.get(p, p)
 
 
+def _cell(spec: str, row: dict):
+    """One cell of a kind's report table (:attr:`cdsm.kinds.Kind.report_tables`)
+    from a row of the study's rows: ``"mm:a,b"`` / ``"deg:a/b"`` the columns
+    in mm or degrees joined by ``", "`` / ``" / "``; ``"protocol"`` its
+    name; ``"label_figure"`` the label and the paper's figure; ``"solved_of"``
+    solved / configurations; another name the column as it is."""
+    unit, _, keys = spec.rpartition(":")
+    if unit:
+        sep = " / " if "/" in keys else ", "
+        scale = (lambda v: v * 1e3) if unit == "mm" else np.degrees
+        return sep.join(fmt(scale(row[k])) for k in keys.replace("/", ",").split(","))
+    if spec == "protocol":
+        return _pname(row["protocol"])
+    if spec == "label_figure":
+        return row["label"] + (f" ({row['figure']})" if row["figure"] else "")
+    if spec == "solved_of":
+        return f"{row['solved']}/{row['configurations']}"
+    return row[spec]
+
+
+def _kind_table(doc: Document, spec, rows: List[dict], q: str) -> None:
+    """A kind's report table (``spec``: (header template over ``q``, cell)
+    pairs, :func:`_cell`) over ``rows``; nothing for an empty ``spec``."""
+    if spec:
+        doc.table([h.format(q=q) for h, _ in spec], [[_cell(c, r) for _, c in spec] for r in rows])
+
+
 def _q(study) -> str:
     """The position error's name: |d(X, Y)| (planar) or |d(X, Y, Z)|."""
     return study.kind.norm_label
@@ -582,27 +609,8 @@ class StudyReport:
         st = self.study
         q = _q(st)
         srows = scenario_rows(st)
-        if st.kind == "spatial":
-            doc.p("Each single error: ±1 mm on a position-controlled cable's length; ±0.35 mm on all its holes "
-                  "along the radius in each face plane (outward); ±0.35 mm on all its holes along the disk normal. "
-                  "Holes of force-controlled cables do not move the tip of the rigid model (their lengths are not "
-                  "commanded): no scenario of their own.")
-            doc.table(["scenario", "error", "solved", f"RMS {q} (mm)", f"max {q} (mm)", "max |dX|, |dY|, |dZ| (mm)",
-                       "RMS / max rotation (deg)", "jump points"],
-                      [[r["scenario"], r["label"], f"{r['solved']}/{r['configurations']}", fmt(r["rms_dxyz_m"] * 1e3),
-                        fmt(r["max_dxyz_m"] * 1e3),
-                        ", ".join(fmt(r[k] * 1e3) for k in ("max_abs_dx_m", "max_abs_dy_m", "max_abs_dz_m")),
-                        f"{fmt(np.degrees(r['rms_rotation_rad']))} / {fmt(np.degrees(r['max_rotation_rad']))}",
-                        r["jump_points"]] for r in srows])
-        else:
-            doc.p("Each single error: ±1 mm on one upper (position-controlled) cable, or ±0.35 mm on one disk's "
-                  "holes (the hole height of its pair, on every face).")
-            doc.table(["scenario", "protocol", "solved", "unreachable", "no solution after", f"RMS {q} (mm)",
-                       f"max {q} (mm)", "max |dphi| (deg)", "jump points"],
-                      [[r["label"] + (f" ({r['figure']})" if r["figure"] else ""), _pname(r["protocol"]), r["solved"],
-                        r["unreachable"], r["no_solution_after_error"], fmt(r["rms_dxy_m"] * 1e3),
-                        fmt(r["max_dxy_m"] * 1e3), fmt(np.degrees(r["max_abs_dphi_rad"])), r["jump_points"]]
-                       for r in srows])
+        doc.p(st.kind.words["single_errors"])
+        _kind_table(doc, st.kind.report_tables["single_errors"], srows, q)
         for para in self.single_findings():
             doc.p(para)
         many = len({r.scenario.key for r in st.scenarios}) > study_figures.MAX_SCENARIO_FIGURES
@@ -825,12 +833,9 @@ class StudyReport:
                       "The statistics are over the converged samples; the pooled percentiles count every failure "
                       "as larger than every bin, so they are bounds. A failure means the perturbed lengths have no "
                       "configuration near the nominal one (a cable fold, a singular state or the joint limits).")
-        if st.kind == "planar":
-            doc.table(["protocol", "max |mean dX| (mm)", "max |mean dY| (mm)", "max |mean dphi| (deg)"],
-                      [[_pname(r["protocol"]), fmt(r["max_abs_mean_dx_m"] * 1e3), fmt(r["max_abs_mean_dy_m"] * 1e3),
-                        fmt(np.degrees(r["max_abs_mean_dphi_rad"]))] for r in rows])
-            doc.p("The errors are symmetric about zero, so the mean signed deviation is much smaller than the "
-                  "typical deviation: the maps show mean, 95th percentile and max of |d(X, Y)| as well.")
+        _kind_table(doc, st.kind.report_tables["mc_mean"], rows, q)
+        if st.kind.words["mean_note"]:
+            doc.p(st.kind.words["mean_note"])
         for r in rows:
             if np.isfinite(r["slack_share"]):
                 doc.p(f"{_pname(r['protocol'])}: {_pct(r['slack_share'])} of the converged samples need a slack "
