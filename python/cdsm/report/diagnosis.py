@@ -493,6 +493,10 @@ def tests_text(d: diagnose.Diagnosis) -> List[str]:
     return out
 
 
+#: The outliers a summary names (the JSON lists every one).
+OUTLIERS_SHOWN = 12
+
+
 def outlier_note(d: diagnose.Diagnosis, names: List[str]) -> str:
     """The outliers, said against the noise they were judged by: a noise
     that was assumed, not estimated, is called so, and when every row is
@@ -501,10 +505,21 @@ def outlier_note(d: diagnose.Diagnosis, names: List[str]) -> str:
     ne = d.noise_estimate.source
     against = (f"beyond 5σ of the **assumed** noise ({_um(d.noise)} per axis; no repeats to estimate it)"
                if ne == "assumed" else f"beyond 5σ of the noise ({_um(d.noise)} per axis, {ne})")
-    text = f"Rows with a residual {against} after the fit: {', '.join(names[i] for i in d.outliers)}."
-    if ne == "assumed" and len(d.outliers) >= max(3, int(d.prep.usable.sum()) // 2):
+    shown = [names[i] for i in d.outliers[:OUTLIERS_SHOWN]]
+    more = len(d.outliers) - len(shown)
+    listed = ", ".join(shown) + (f", ... ({len(d.outliers)} rows in all; the JSON lists every one)" if more > 0
+                                 else "")
+    text = f"Rows with a residual {against} after the fit: {listed}."
+    many = len(d.outliers) >= max(3, int(d.prep.usable.sum()) // 2)
+    if ne == "assumed" and many:
         text += (" So many rows cannot all be outliers: the assumed noise is too small for these data, or the "
                  "model misses an effect; give the noise (`--noise`) or repeat some commands to estimate it.")
+    elif ne == "neighbours" and many:
+        text += (" So many rows cannot all be outliers: the model misses an error larger than the noise of "
+                 "neighbouring rows that neighbours share (a history, a drift, an effect outside the library), "
+                 "or the robot repeats itself less well than neighbouring rows show.")
+        if w is not None:
+            text += f" Without them the verdict is **{w.verdict}**."
     elif w is not None:
         text += f" Without them the verdict is **{w.verdict}**."
     return text
