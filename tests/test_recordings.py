@@ -133,3 +133,18 @@ def test_a_diagnosis_of_sampled_data_estimates_its_noise_and_says_what_it_allows
     assert d.prep.group_column == "pattern" and d.prep.group_count == 5
     # nothing to explain: the data are the nominal model plus noise
     assert d.verdict == "no gap"
+
+
+def test_an_error_neighbours_share_is_no_outlier_list_but_a_missing_effect():
+    # a slow wave along each motion (1 mm, outside the library): every row is "beyond 5 sigma" of the
+    # neighbours' noise, so the summary names a few rows, counts them all and says what so many mean
+    from cdsm.report import diagnosis as report
+
+    robot, meas = _sampled(SIGMA, trend=lambda i, p: 1e-3 * np.sin(np.pi * i / 59) * np.array([1.0, 0.5, 0.0]))
+    d = diagnosis.diagnose(robot, meas, effects=["cable_offset"], folds=5, frame="base")
+    assert d.noise_estimate.source == "neighbours" and len(d.outliers) > report.OUTLIERS_SHOWN
+    line = next(t for t in report.summary(d) if t.startswith("Rows with a residual"))
+    assert f"({len(d.outliers)} rows in all; the JSON lists every one)" in line
+    assert line.count("row ") == report.OUTLIERS_SHOWN
+    assert "cannot all be outliers" in line and "neighbours share" in line
+    assert len(d.to_json()["outliers"]) == len(d.outliers)

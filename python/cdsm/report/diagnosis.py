@@ -167,6 +167,36 @@ def _commanded_xy(d: diagnose.Diagnosis) -> np.ndarray:
     return xy
 
 
+def _map_axes(d: diagnose.Diagnosis) -> Tuple[List[int], List[str]]:
+    """The two position axes a residual map shows: X, Y of a planar arm; of
+    a spatial one the two along which the rows' tips spread most (the
+    lateral plane of a continuum robot along ``x``)."""
+    names = [a for a in ("X", "Y", "Z") if f"{a} (m)" in d.features]
+    if len(names) == 2:
+        return [0, 1], names
+    rows = d.prep.rows
+    spread = [float(np.ptp(np.asarray(d.features[f"{a} (m)"], float)[rows])) if len(rows) else 0.0 for a in names]
+    pick = sorted(np.argsort(spread, kind="stable")[::-1][:2].tolist())
+    return pick, [names[i] for i in pick]
+
+
+def _in_base_frame(d: diagnose.Diagnosis, gap: np.ndarray, fit) -> np.ndarray:
+    """``gap`` (N, k) m as measured, in the robot's base frame: registered
+    data are read in the measuring frame ``y = R f + t``, so a gap turns by
+    ``R^T`` of the frame ``fit`` registered (unchanged in the base frame)."""
+    if not d.prep.registered:
+        return gap
+    a = fit.p[plant.effect_indices(d.prep.robot, "frame_misalignment")]
+    if gap.shape[1] == 2:
+        c, s = np.cos(a[0]), np.sin(a[0])
+        r = np.array([[c, -s], [s, c]])
+    else:
+        from scipy.spatial.transform import Rotation
+
+        r = Rotation.from_rotvec(a[:3]).as_matrix()
+    return gap @ r
+
+
 def _gaps(d: diagnose.Diagnosis) -> Tuple[np.ndarray, np.ndarray]:
     """(N, 2) gap = measured − model (m) of the baseline and of the final
     model (fit on all usable rows); NaN for flagged rows."""
@@ -493,6 +523,10 @@ def tests_text(d: diagnose.Diagnosis) -> List[str]:
     return out
 
 
+#: The outliers a summary names (the JSON lists every one).
+OUTLIERS_SHOWN = 12
+
+
 def outlier_note(d: diagnose.Diagnosis, names: List[str]) -> str:
     """The outliers, said against the noise they were judged by: a noise
     that was assumed, not estimated, is called so, and when every row is
@@ -501,10 +535,21 @@ def outlier_note(d: diagnose.Diagnosis, names: List[str]) -> str:
     ne = d.noise_estimate.source
     against = (f"beyond 5σ of the **assumed** noise ({_um(d.noise)} per axis; no repeats to estimate it)"
                if ne == "assumed" else f"beyond 5σ of the noise ({_um(d.noise)} per axis, {ne})")
-    text = f"Rows with a residual {against} after the fit: {', '.join(names[i] for i in d.outliers)}."
-    if ne == "assumed" and len(d.outliers) >= max(3, int(d.prep.usable.sum()) // 2):
+    shown = [names[i] for i in d.outliers[:OUTLIERS_SHOWN]]
+    more = len(d.outliers) - len(shown)
+    listed = ", ".join(shown) + (f", ... ({len(d.outliers)} rows in all; the JSON lists every one)" if more > 0
+                                 else "")
+    text = f"Rows with a residual {against} after the fit: {listed}."
+    many = len(d.outliers) >= max(3, int(d.prep.usable.sum()) // 2)
+    if ne == "assumed" and many:
         text += (" So many rows cannot all be outliers: the assumed noise is too small for these data, or the "
                  "model misses an effect; give the noise (`--noise`) or repeat some commands to estimate it.")
+    elif ne == "neighbours" and many:
+        text += (" So many rows cannot all be outliers: the model misses an error larger than the noise of "
+                 "neighbouring rows that neighbours share (a history, a drift, an effect outside the library), "
+                 "or the robot repeats itself less well than neighbouring rows show.")
+        if w is not None:
+            text += f" Without them the verdict is **{w.verdict}**."
     elif w is not None:
         text += f" Without them the verdict is **{w.verdict}**."
     return text
@@ -587,7 +632,8 @@ def _away_offsets(xy: np.ndarray, points: float = 7.0) -> np.ndarray:
     return out
 
 
-def _arrow_panel(ax, xy, g, k, names, usable, labels=None, window=None, ref=None, title=""):
+def _arrow_panel(ax, xy, g, k, names, usable, labels=None, window=None, ref=None, title="",
+                 xlabel="commanded tip X (mm)"):
     """Arrows of the gap ``g`` (N, 2) m at ``xy`` (N, 2) mm, ``k`` mm of plot
     per m; the rows ``labels`` (N,) bool labelled (parted from their nearest
     neighbour); square ``window`` (centre (2,), half width) in mm; a
@@ -612,7 +658,7 @@ def _arrow_panel(ax, xy, g, k, names, usable, labels=None, window=None, ref=None
     ax.set_xlim(cx - half, cx + half)
     ax.set_ylim(cy - half, cy + half)
     ax.set_aspect("equal", adjustable="box")
-    ax.set_xlabel("commanded tip X (mm)")
+    ax.set_xlabel(xlabel)
     ax.grid(True)
     ax.set_title(title, loc="left", fontsize=9.5)
 
@@ -637,8 +683,16 @@ def residual_map_figure(d: diagnose.Diagnosis):
     nominal model, the chosen model (only when one is chosen: the same arrow
     scale), and a zoom on the densest group of close rows with its own scale
     and each row's label beside it."""
-    xy = _commanded_xy(d) * 1e3
-    g_b, g_f = _gaps(d)
+    idx, axis_names = _map_axes(d)
+    # an elastic arm's rows command tendons: its tips are the nominal model's equilibria
+    where = "nominal" if d.prep.robot.is_elastic else "commanded"
+    xlabel = f"{where} tip {axis_names[0]} (mm)"
+    xy = (_commanded_xy(d) if idx == [0, 1] else
+          np.stack([d.features[f"{a} (m)"] for a in axis_names], 1).astype(float)) * 1e3
+    full_b, full_f = _gaps(d)
+    # arrows at base-frame tips point in the base frame
+    g_b, g_f = (_in_base_frame(d, g, c.fit)[:, idx] for g, c in ((full_b, d.baseline), (full_f, d.final())))
+    fit_rms = {id(g_b): full_b, id(g_f): full_f}
     names = _row_names(d)
     fin = np.isfinite(xy).all(1)
     span = float(np.nanmax(np.ptp(xy[fin], axis=0))) if fin.sum() > 1 else 1.0
@@ -658,11 +712,12 @@ def residual_map_figure(d: diagnose.Diagnosis):
         fig = new_figure(min(3.45 * cols + 0.3, 10.4), 3.95)
         axes = np.atleast_1d(fig.subplots(1, cols))
         for ax, (g, title) in zip(axes, panels):
-            rms = float(np.sqrt(np.nanmean(np.sum(g[np.isfinite(g).all(1)] ** 2, 1)))) if np.isfinite(g).any() \
-                else float("nan")
+            full = fit_rms[id(g)]  # the RMS of every position component, not only the two shown
+            rms = float(np.sqrt(np.nanmean(np.sum(full[np.isfinite(full).all(1)] ** 2, 1)))) \
+                if np.isfinite(full).any() else float("nan")
             _arrow_panel(ax, xy, g, k, names, d.prep.usable, labels=show, window=window, ref=_ref_arrow(gmax),
-                         title=f"{title} (fit RMS {_um(rms)})")
-        axes[0].set_ylabel("commanded tip Y (mm)")
+                         title=f"{title} (fit RMS {_um(rms)})", xlabel=xlabel)
+        axes[0].set_ylabel(f"{where} tip {axis_names[1]} (mm)")
         if zoom is not None:
             from matplotlib.patches import Rectangle
 
@@ -677,7 +732,7 @@ def residual_map_figure(d: diagnose.Diagnosis):
             zmax = float(np.nanmax(zm)) if np.isfinite(zm).any() else 1.0
             kz = 0.3 * half / max(zmax, 1e-300)
             ax = axes[-1]
-            _arrow_panel(ax, xy, g, kz, names, d.prep.usable, window=((cx, cy), half),
+            _arrow_panel(ax, xy, g, kz, names, d.prep.usable, window=((cx, cy), half), xlabel=xlabel,
                          ref=_ref_arrow(zmax), title=f"zoom on rows {', '.join(_short_name(names[i], i) for i in zoom)}"
                          f"\n({panels[-1][1]}, own arrow scale)")
             # labels in a column right of the window, leader lines to their points
