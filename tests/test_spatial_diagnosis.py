@@ -298,3 +298,24 @@ def test_a_rank_deficient_fit_gives_correlations_not_overflow_warnings(cdsm):
     c = f.corr[np.isfinite(f.corr)]
     assert c.size and np.abs(c).max() <= 1.0
     assert np.isnan(f.std).any()
+
+
+def test_the_residual_map_draws_the_same_gaps_whatever_frame_the_tracker_reads_in(cdsm, arm):
+    """The gap arrows stand at the tips in the robot's base frame, so they point in the base frame: the
+    same arm read without noise by trackers in two frames gives the same arrows; drawn as the trackers'
+    own components they turned with each tracker."""
+    from cdsm.calibration import diagnosis, plant
+    from cdsm.report import diagnosis as report
+
+    robot, _ = arm
+    arrows = []
+    for frame in ([0.3, -0.2, 0.5, 1.2, -0.4, 0.3], [-1.1, 0.4, 2.0, -0.5, 0.8, 0.2]):
+        vp = plant.VirtualPrototype(robot, {"frame_misalignment": frame, "tip_offset": [1e-3, -5e-4, 2e-4]},
+                                    noise=0.0, seed=5)
+        th, dl = vp.random_commands(30, limit=0.4)
+        d = diagnosis.diagnose(robot, vp.measure(th, dl), noise=10e-6, effects=["tip_offset"])
+        assert d.prep.registered
+        fig = report.residual_map_figure(d)
+        q = fig.axes[0].collections[-1]  # the nominal model's arrows
+        arrows.append(np.stack([np.asarray(q.U), np.asarray(q.V)], 1))
+    np.testing.assert_allclose(arrows[0], arrows[1], rtol=0, atol=1e-6 * np.abs(arrows[0]).max())
