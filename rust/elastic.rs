@@ -321,7 +321,6 @@ fn invert_from_cholesky(l: &[f64], n: usize, out: &mut [f64]) {
     }
 }
 
-
 impl Elastic {
     /// The elastic statics' data of `model`.
     pub fn new(model: &Model) -> Elastic {
