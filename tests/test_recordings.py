@@ -148,3 +148,20 @@ def test_an_error_neighbours_share_is_no_outlier_list_but_a_missing_effect():
     assert line.count("row ") == report.OUTLIERS_SHOWN
     assert "cannot all be outliers" in line and "neighbours share" in line
     assert len(d.to_json()["outliers"]) == len(d.outliers)
+
+
+def test_an_elastic_arms_features_are_those_of_its_equilibrium(v4):
+    # where the gap lies is judged against where the arm is: a tendon pulled alone bends the tip towards it,
+    # the eight paid out hang slack (the recording's tendon-pull pattern)
+    prep = diagnosis.prepare(v4, read_for(v4, "ftdcr_v4_tendon_pull"))
+    f = diagnosis.features(prep)
+    labels = prep.meas.labels["pattern_label"]
+    pulls = -prep.dL
+    i = max((j for j in range(len(labels)) if "tendon0" in labels[j]), key=lambda j: pulls[j, 0])
+    assert pulls[i, 0] > 4e-3
+    assert f["most pulled cable (index)"][i] == 1.0
+    assert f["slack cables (count)"][i] == 8.0
+    assert f["tip bend (rad)"][i] > 0.3 and f["max cable tension (N)"][i] > 1.0
+    assert f["tip bend (rad)"][0] < 0.02  # the first row: every servo within 0.11 mm of home
+    # the tip of a bent arm is nearer the base along the backbone than the straight arm's 186.5 mm
+    assert f["X (m)"][i] < 0.1865 - 1e-3
