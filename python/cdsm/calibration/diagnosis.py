@@ -449,13 +449,16 @@ def neighbour_noise(prep: Prepared) -> Tuple[float, float, int]:
     execution order: pseudo-residuals ``(e[i-1] - 2 e[i] + e[i+1]) / sqrt(6)``
     per position axis, whose mean square is the noise variance when the
     model's error changes smoothly from row to row. Returns the variance
-    (m²), the sum of squares (m²) and the effective degrees of freedom
-    ``18 t k / 35`` (``t`` triples, ``k`` axes: the pseudo-residuals of
-    overlapping triples are correlated, ``Var = (35/18) 2 sigma^4 / t`` per
-    axis for Gaussian noise); ``(nan, 0, 0)`` without triples. What changes
-    between neighbouring rows faster than the motion (jitter, a jump at a
-    reversal) counts as noise; what neighbours share (drift, the history of
-    a pattern) does not: docs/model.md, "The support test"."""
+    (m²), the pseudo-residuals' sum of squares (m²) and their effective
+    degrees of freedom: ``18 t k / 35`` for Gaussian noise (``t`` triples,
+    ``k`` axes: the pseudo-residuals of overlapping triples are correlated,
+    ``Var = (35/18) 2 sigma^4 / t`` per axis), times ``2 / (kappa - 1)`` for
+    their kurtosis ``kappa`` where it exceeds a Gaussian's 3 (a few jumps
+    make the estimate that much less certain), never more than the Gaussian
+    value; ``(nan, 0, 0)`` without triples. What changes between
+    neighbouring rows faster than the motion (jitter, a jump at a reversal)
+    counts as noise; what neighbours share (drift, the history of a
+    pattern) does not: docs/model.md, "Rows, repeats and copies"."""
     robot = prep.robot
     k = plant.dims(robot)
     o = prep.order
@@ -470,7 +473,10 @@ def neighbour_noise(prep: Prepared) -> Tuple[float, float, int]:
         return float("nan"), 0.0, 0
     pseudo = (e[mid - 1] - 2.0 * e[mid] + e[mid + 1]) / np.sqrt(6.0)
     ss = float(np.sum(pseudo ** 2))
-    return ss / pseudo.size, ss, int(round(18.0 * pseudo.size / 35.0))
+    var = ss / pseudo.size
+    kurtosis = float(np.mean(pseudo ** 4)) / var ** 2 if var > 0 else 3.0
+    nu = 18.0 * pseudo.size / 35.0 * min(1.0, 2.0 / max(kurtosis - 1.0, 1e-300))
+    return var, ss, max(int(round(nu)), 1)
 
 
 def _noise(prep: Prepared, given: Optional[float]) -> NoiseEstimate:

@@ -692,12 +692,12 @@ def residual_map_figure(d: diagnose.Diagnosis):
     full_b, full_f = _gaps(d)
     # arrows at base-frame tips point in the base frame
     g_b, g_f = (_in_base_frame(d, g, c.fit)[:, idx] for g, c in ((full_b, d.baseline), (full_f, d.final())))
-    fit_rms = {id(g_b): full_b, id(g_f): full_f}
     names = _row_names(d)
     fin = np.isfinite(xy).all(1)
     span = float(np.nanmax(np.ptp(xy[fin], axis=0))) if fin.sum() > 1 else 1.0
     span = span if span > 0 else 1.0
     panels = [(g_b, "nominal model")] + ([(g_f, f"chosen model: {d.best}")] if d.chosen is not None else [])
+    fulls = [full_b, full_f]  # each panel's gaps in every position component (the title's RMS)
     groups = _clusters(xy, 0.07 * span) if fin.sum() <= 60 else []
     zoom = groups[0] if groups and len(groups[0]) >= 2 else None
     cols = len(panels) + (zoom is not None)
@@ -711,8 +711,7 @@ def residual_map_figure(d: diagnose.Diagnosis):
     with report_style():
         fig = new_figure(min(3.45 * cols + 0.3, 10.4), 3.95)
         axes = np.atleast_1d(fig.subplots(1, cols))
-        for ax, (g, title) in zip(axes, panels):
-            full = fit_rms[id(g)]  # the RMS of every position component, not only the two shown
+        for ax, (g, title), full in zip(axes, panels, fulls):
             rms = float(np.sqrt(np.nanmean(np.sum(full[np.isfinite(full).all(1)] ** 2, 1)))) \
                 if np.isfinite(full).any() else float("nan")
             _arrow_panel(ax, xy, g, k, names, d.prep.usable, labels=show, window=window, ref=_ref_arrow(gmax),
