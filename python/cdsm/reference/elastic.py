@@ -800,15 +800,7 @@ def plant_predict(robot: Robot, theta_cmd, dL, kind, effects=None, xtol: float =
     theta_cmd = np.asarray(theta_cmd, float).reshape(-1, robot.n)
     dL = np.asarray(dL, float).reshape(len(theta_cmd), cmd.size)
     kind = list(kind)
-    C = cable_lengths(robot, theta_cmd)[:, cmd]
-    commands, rows = [], []
-    for i, k in enumerate(kind):
-        if k == "displacement":
-            commands.append(C[i])
-            rows.append(i)
-        commands.append(C[i] + dL[i])
-        rows.append(i)
-    commands, rows = np.array(commands), np.array(rows)
+    commands, rows = sq.commands(cable_lengths(robot, theta_cmd)[:, cmd], dL, kind)
     L_ref = cable_lengths(robot, np.zeros((1, robot.n)))[0, cmd]
     b = np.asarray(e.get("backlash", np.zeros(cmd.size)), float)
     r, delivered = L_ref.copy(), np.empty_like(commands)

@@ -381,16 +381,8 @@ def plant_commands(robot, theta_cmd, dL, kind) -> tuple:
     bad = [k for k in kind if k not in _KINDS]
     if bad:
         raise ValueError(f"kind must be one of {_KINDS}, got {bad[0]!r}")
-    C = position_lengths(robot, theta_cmd)
-    commands, rows = [], []
-    for i, k in enumerate(kind):
-        if k == "displacement":
-            commands.append(C[i])
-            rows.append(i)
-        commands.append(C[i] + dL[i])
-        rows.append(i)
-    rows = np.array(rows, dtype=np.int64)
-    return np.array(commands).reshape(-1, pos.size), rows, theta_cmd[rows]
+    commands, rows = sq.commands(position_lengths(robot, theta_cmd).reshape(N, pos.size), dL, kind)
+    return commands, rows, theta_cmd[rows]
 
 
 def backlash_scan(robot, p, commands, start=None) -> np.ndarray:

@@ -7,7 +7,23 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["first_of_pairs", "observations"]
+__all__ = ["commands", "first_of_pairs", "observations"]
+
+
+def commands(C: np.ndarray, dL: np.ndarray, kind) -> tuple:
+    """The command sequence of ``N`` rows: ``C (N, m)`` m the lengths each
+    row's command starts from, ``dL (N, m)`` m its extra; an absolute or
+    unmeasured row one command ``C + dL``, a displacement row two, ``C`` then
+    ``C + dL``. Returns ``commands (R, m)`` m and ``rows (R,)`` (each
+    command's row)."""
+    out, rows = [], []
+    for i, k in enumerate(kind):
+        if k == "displacement":
+            out.append(C[i])
+            rows.append(i)
+        out.append(C[i] + dL[i])
+        rows.append(i)
+    return np.array(out).reshape(-1, C.shape[1]), np.array(rows, dtype=np.int64)
 
 
 def first_of_pairs(rows: np.ndarray) -> np.ndarray:
