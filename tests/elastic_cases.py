@@ -1,11 +1,12 @@
 """Elastic arms shared by the tests of the NumPy reference (``test_reference_elastic.py``)
 and of the core (``test_elastic.py``): a backbone rod of any number of stations, a mixed
-arm with every term of the potential, recorded FTDCR v4 commands and bad robot-file
+arm with every term of the potential, a sprung planar arm, recorded FTDCR v4 commands and bad robot-file
 edits.  SI units."""
 
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -127,3 +128,15 @@ BAD_FIELDS = [
     (edit_text('mode = "displacement"', 'mode = "slack"'), "cables[1].mode"),
     (edit_text("thickness = 0.0", "thickness = -0.001"), "linkage[1].thickness"),
 ]
+
+
+def planar_text() -> str:
+    """The paper's planar arm with a spring on every joint and rest angles, upright under
+    gravity."""
+    base = (ROOT / "python" / "cdsm" / "robots" / "paper.toml").read_text(encoding="utf-8")
+    parts = base.split("[[linkage]]\n")
+    springs = ["stiffness = 0.05\nrest_angle = 0.02\n", "stiffness = 0.03\nrest_angle = -0.01\n",
+               "stiffness = 0.02\nrest_angle = 0.0\n"]
+    text = parts[0] + "".join("[[linkage]]\n" + s + p for s, p in zip(springs, parts[1:]))
+    assert not re.search(r"(?m)^gravity", text)
+    return "gravity = [-9.80665, 0.0]\n" + text

@@ -17,7 +17,7 @@ import pytest
 import cdsm
 from conftest import ROOT
 from cdsm import CdsmInputError
-from elastic_cases import BAD_FIELDS, EI, FTDCR_ROWS, OPENCR, TENDON, mixed_text, rod_toml
+from elastic_cases import BAD_FIELDS, EI, FTDCR_ROWS, OPENCR, TENDON, mixed_text, planar_text, rod_toml
 from cdsm.reference import elastic, position_lengths, read_robot
 from cdsm.robot import packaged_robots
 
@@ -29,18 +29,6 @@ ROWS = np.array(list(FTDCR_ROWS.values()))
 def zero_based(field: str) -> str:
     """A field as the core names it: array elements from 0 (the reference's from 1)."""
     return re.sub(r"\[(\d+)\]", lambda m: f"[{int(m.group(1)) - 1}]", field)
-
-
-def planar_text() -> str:
-    """The paper's planar arm with a spring on every joint and rest angles, upright under
-    gravity."""
-    base = (ROOT / "python" / "cdsm" / "robots" / "paper.toml").read_text(encoding="utf-8")
-    parts = base.split("[[linkage]]\n")
-    springs = ["stiffness = 0.05\nrest_angle = 0.02\n", "stiffness = 0.03\nrest_angle = -0.01\n",
-               "stiffness = 0.02\nrest_angle = 0.0\n"]
-    text = parts[0] + "".join("[[linkage]]\n" + s + p for s, p in zip(springs, parts[1:]))
-    assert not re.search(r"(?m)^gravity", text)
-    return "gravity = [-9.80665, 0.0]\n" + text
 
 
 def both(text: str):

@@ -18,7 +18,7 @@ from cdsm.calibration.fit import fit
 from cdsm.calibration.measurements import commanded_cables
 from cdsm.reference import elastic, read_robot
 from cdsm.robot import kind_facts
-from elastic_cases import mixed_text, rod_toml
+from elastic_cases import mixed_text, planar_text, rod_toml
 
 
 def two_segments() -> str:
@@ -184,6 +184,38 @@ def test_jacobian_is_central_differences_of_the_predictions(text):
         fd[:, :, i] = (plant.predict(robot, up, t, dl, kind)[0] - plant.predict(robot, dn, t, dl, kind)[0]) / (2 * h)
     cols = np.abs(jac).max(axis=(0, 1)) * scale
     assert (cols[lay["joint_stiffness"]] > 1e-4).all() and (cols[lay["cable_angle"]] > 1e-5).all()
+    np.testing.assert_allclose(jac * scale, fd * scale, rtol=0, atol=1e-8 * np.abs(jac * scale).max())
+
+
+def test_planar_jacobian_is_central_differences_of_the_predictions():
+    """A sprung planar arm under gravity (the paper's arm with springs and rest angles;
+    position cables): every parameter's exact Jacobian (the adjoint of the implicit
+    function theorem, the observation's derivative along a motion of the plane's base
+    frame) against central differences of the predictions, attitude included."""
+    robot = cdsm.Robot.from_toml_str(planar_text())
+    t, dl = commands(robot, 4, 5)
+    kind = ["absolute", "displacement", "absolute", "absolute"]
+    lay = plant.layout(robot)
+    p = np.zeros(plant.size(robot))
+    rng = np.random.default_rng(2)
+    for name, size in (("frame_misalignment", 0.02), ("tip_offset", 2e-3), ("cable_offset", 2e-4),
+                       ("hole_height", 1e-4), ("link_length", 1e-4), ("joint_stiffness", 0.1),
+                       ("actuation_scale", 0.01), ("backlash", 2e-5)):
+        sl = lay[name]
+        p[sl] = size * (rng.uniform(0.5, 1.0, sl.stop - sl.start) if name == "backlash"
+                        else rng.uniform(-1.0, 1.0, sl.stop - sl.start))
+    free = np.arange(plant.size(robot))
+    obs, ok, jac = plant.linearise(robot, p, free, t, dl, kind)
+    assert ok.all() and np.isfinite(jac).all()
+    scale = np.array([plant.TYPICAL[b] for b, _ in plant.parameter_blocks(robot, free)])
+    fd = np.empty_like(jac)
+    for i in free:
+        h = 1e-3 * scale[i]
+        up, dn = p.copy(), p.copy()
+        up[i] += h
+        dn[i] -= h
+        fd[:, :, i] = (plant.predict(robot, up, t, dl, kind)[0] - plant.predict(robot, dn, t, dl, kind)[0]) / (2 * h)
+    assert (np.abs(jac[:, 2, lay["frame_misalignment"]]) > 0.5).any()  # the attitude sees the frame
     np.testing.assert_allclose(jac * scale, fd * scale, rtol=0, atol=1e-8 * np.abs(jac * scale).max())
 
 

@@ -14,11 +14,11 @@
 //! path at the rest angles on the plant's arm), a position cable at
 //! `E A / (r_c + L_r)`; the joint springs of a segment scaled by `1 + s`.
 
-use super::{commanded_cables, observe, realised, Params, Plant, Sequence, Settled, J, JET};
+use super::{commanded_cables, observe_at, realised, Params, Plant, Sequence, Settled, J, JET};
 use crate::chain::Chain;
 use crate::effect::Effect;
 use crate::elastic::{self, Batch, Commands, Elastic, XTOL};
-use crate::kinds::{Frame, Group};
+use crate::kinds::{Frame, Group, Vector};
 use crate::model::{Mode, Model};
 use crate::real::{Arith, Real};
 use crate::rows::split_rows;
@@ -281,13 +281,93 @@ fn moves(lay: &super::Layout, i: usize) -> Moves {
     }
 }
 
+/// `f` in jets of constant value: its origin, and its attitude rebuilt from
+/// its rotation (the plane: its angle with its cosine and sine; space: the
+/// axis and the cosine and sine of the angle of its matrix, Rodrigues'
+/// formula giving the matrix back to rounding).
+fn lift<G: Group>(f: &G::Frame<f64>) -> G::Frame<J> {
+    type V<G> = <<G as Group>::Frame<J> as Frame<J>>::V;
+    let o = f.origin().to3().map(J::cst);
+    let task = <G::Frame<f64> as Frame<f64>>::TASK;
+    let unit = |i: usize| {
+        let mut e = [0.0; 3];
+        e[i] = 1.0;
+        f.dir(<G::Frame<f64> as Frame<f64>>::V::of(e)).to3()
+    };
+    let (axis, theta, c, s) = if task == 3 {
+        let mut t = [0.0; 3];
+        f.task(&mut t);
+        let x = unit(0);
+        ([0.0, 0.0, 1.0], t[2], x[0], x[1])
+    } else {
+        // columns of R; R = c I + s [k]x + (1 - c) k k^T
+        let col = [unit(0), unit(1), unit(2)];
+        let r = |i: usize, j: usize| col[j][i];
+        let c = 0.5 * (r(0, 0) + r(1, 1) + r(2, 2) - 1.0);
+        let vee = [
+            0.5 * (r(2, 1) - r(1, 2)),
+            0.5 * (r(0, 2) - r(2, 0)),
+            0.5 * (r(1, 0) - r(0, 1)),
+        ];
+        let s = (vee[0] * vee[0] + vee[1] * vee[1] + vee[2] * vee[2]).sqrt();
+        let k = if c > 0.0 {
+            // small angles: the axis from the skew part
+            if s > 0.0 {
+                vee.map(|v| v / s)
+            } else {
+                [0.0, 0.0, 1.0]
+            }
+        } else {
+            // large angles: from the symmetric part's largest diagonal
+            let sym = |i: usize, j: usize| 0.5 * (r(i, j) + r(j, i)) - if i == j { c } else { 0.0 };
+            let i = (0..3)
+                .max_by(|a, b| sym(*a, *a).total_cmp(&sym(*b, *b)))
+                .expect("three");
+            let mut k = [sym(0, i), sym(1, i), sym(2, i)];
+            let norm = (k[0] * k[0] + k[1] * k[1] + k[2] * k[2]).sqrt();
+            let sign = if k[0] * vee[0] + k[1] * vee[1] + k[2] * vee[2] < 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            k = k.map(|v| sign * v / norm);
+            k
+        };
+        (k, s.atan2(c), c, s)
+    };
+    <G::Frame<J> as Frame<J>>::at_turned(
+        V::<G>::of(o),
+        axis.map(J::cst),
+        J::cst(theta),
+        (J::cst(c), J::cst(s)),
+    )
+}
+
+/// The task vector in jets of `E · end · Trans(tip)` with the instrument
+/// `E` and marker `tip` of `prm` (`end`: the chain's end frame in jets).
+fn seen<G: Group>(prm: &Params<J>, delta: &G::Frame<J>, end: &G::Frame<J>, out: &mut [J]) {
+    let mut tip = [J::cst(0.0); 3];
+    tip[..prm.tip.len()].copy_from_slice(&prm.tip);
+    <G::Frame<J> as Frame<J>>::instrument(&prm.instrument)
+        .compose(delta)
+        .compose(end)
+        .translated(<<G::Frame<J> as Frame<J>>::V as Vector<J>>::of(tip))
+        .task(out);
+}
+
 /// The derivatives `(commands, TASK, k)` of every settled command's
 /// observation with respect to the parameters `free` (NaN where a command
-/// did not settle or the Hessian is not positive definite there): per
-/// command one Cholesky of `H`; per chunk of directions `dg/dp` (in jets
-/// where the chunk moves the arm; else through the realised lengths, `dg/dl_c
-/// = g_c dsigma_c/dl_c` with `g_c = dL_c/dq`, one solve for every commanded
-/// cable), `dq/dp = -H^-1 dg/dp`, and the observation in jets along `(dq/dp, p)`.
+/// did not settle or the Hessian is not positive definite there), by the
+/// adjoint of the implicit function theorem: `dobs/dp = (dobs/dp)_q -
+/// Lambda^T dg/dp` with `H Lambda = (dobs/dq)^T` (one Cholesky of `H` and
+/// `TASK` solves per command, whatever the number of parameters). `dobs/dq
+/// = D Xi`: `D` the observation's derivative along a small motion of the
+/// base frame `delta` (the instrument's parameters: rotation, then
+/// translation) between the instrument and the arm (in jets), `Xi` the
+/// joints' twists in the base frame. Per chunk of directions: `dg/dp` in
+/// jets and `(dobs/dp)_q` of the chain in jets where the chunk moves the
+/// arm; else `dg/dp = sum_c dg/dl_c dl_c/dp` (`dg/dl_c = g_c dsigma_c/dl_c`,
+/// `g_c = dL_c/dq`) and `(dobs/dp)_q` of the end frame at `q` in jets.
 pub(super) fn command_derivatives<G: Group>(
     plant: &Plant<G>,
     seq: &Sequence,
@@ -344,6 +424,7 @@ pub(super) fn command_derivatives<G: Group>(
         })
         .collect();
     let lengths = chunks.iter().any(|c| c.moves == Moves::Lengths);
+    let dim = <G::Frame<f64> as Frame<f64>>::DIM;
     let parts = split_rows(seq.len(), threads, |range| {
         let mut out = vec![f64::NAN; range.len() * task * kf];
         let mut w = Grad::<J, G::Frame<J>> {
@@ -354,12 +435,17 @@ pub(super) fn command_derivatives<G: Group>(
         };
         let mut fchain = Chain::<f64, G::Frame<f64>>::new(model);
         let mut frow = vec![0.0; n];
-        let mut b = Mat::<f64>::zeros(n, m);
+        // dsigma_c/dl_c g_c of the commanded cables (n x m)
+        let mut b = vec![0.0; n * m];
+        // (dobs/dq)^T, then Lambda (n x task)
+        let mut dodq = Mat::<f64>::zeros(n, task);
+        // Lambda^T B (task x m)
+        let mut lb = vec![0.0; task * m];
         let mut qc = vec![J::default(); n];
-        let mut qt = vec![J::default(); n];
-        let mut dq = vec![[0.0; JET]; n];
         let mut obs = vec![J::default(); task];
+        let mut ang = [0.0; 3];
         let (mut pos, mut dis) = (Vec::new(), Vec::new());
+        let id = <G::Frame<J> as Frame<J>>::identity();
         for (local, j) in range.enumerate() {
             if !ok[j] {
                 continue;
@@ -381,8 +467,40 @@ pub(super) fn command_derivatives<G: Group>(
             else {
                 continue;
             };
-            // X = H^-1 [g_c dsigma_c/dl_c] over the commanded cables
-            let x = if lengths {
+            fchain.at(model, &plant.prm.arm, q);
+            fchain.world(model, &plant.prm.arm);
+            fchain.joints_world(model);
+            let end = lift::<G>(fchain.end());
+            // D (task x task): the observation along delta
+            let delta = <G::Frame<J> as Frame<J>>::instrument(
+                &(0..task)
+                    .map(|s| {
+                        let mut d = [0.0; JET];
+                        d[s] = 1.0;
+                        J::with(0.0, d)
+                    })
+                    .collect::<Vec<_>>(),
+            );
+            seen::<G>(&plant.cprm, &delta, &end, &mut obs);
+            // (dobs/dq)^T = Xi^T D^T, Xi's column a = [angular; rate about the origin]
+            let origin = <<G::Frame<f64> as Frame<f64>>::V as Vector<f64>>::zero();
+            for a in 0..n {
+                let axis = fchain.world_w[a];
+                <G::Frame<f64> as Frame<f64>>::angular(axis, &mut ang);
+                let v = <G::Frame<f64> as Frame<f64>>::rate(axis, fchain.world_p[a], origin).to3();
+                for (k, ok) in obs.iter().enumerate() {
+                    let mut sum = 0.0;
+                    for (s, x) in ang[..task - dim].iter().enumerate() {
+                        sum += ok.d[s] * x;
+                    }
+                    for (s, x) in v[..dim].iter().enumerate() {
+                        sum += ok.d[task - dim + s] * x;
+                    }
+                    dodq[(a, k)] = sum;
+                }
+            }
+            let lam = llt.solve(&dodq);
+            if lengths {
                 fchain.at(model, &plant.prm.arm, q);
                 for (i, &cc) in cmd.iter().enumerate() {
                     let len = fchain.cable_length_and_row(model, &plant.prm.arm, cc, &mut frow);
@@ -397,13 +515,15 @@ pub(super) fn command_derivatives<G: Group>(
                     let taut = sigma > 0.0 && sigma < laws.cap[i];
                     let ds = if taut { -k * dk } else { 0.0 };
                     for a in 0..n {
-                        b[(a, i)] = frow[a] * ds;
+                        b[a * m + i] = frow[a] * ds;
                     }
                 }
-                Some(llt.solve(&b))
-            } else {
-                None
-            };
+                for k in 0..task {
+                    for i in 0..m {
+                        lb[k * m + i] = (0..n).map(|a| lam[(a, k)] * b[a * m + i]).sum();
+                    }
+                }
+            }
             for (a, v) in qc.iter_mut().zip(q) {
                 *a = J::cst(*v);
             }
@@ -411,6 +531,7 @@ pub(super) fn command_derivatives<G: Group>(
             for (ci, ch) in chunks.iter().enumerate() {
                 let (prm, realc) = (&ch.prm, &ch.real);
                 let width = JET.min(kf - ci * JET);
+                let col = |k: usize, s: usize| k * kf + ci * JET + s;
                 match ch.moves {
                     Moves::Arm => {
                         gradient(
@@ -421,30 +542,28 @@ pub(super) fn command_derivatives<G: Group>(
                             &qc,
                             &mut w,
                         );
-                        let rhs = Mat::<f64>::from_fn(n, width, |a, s| w.g[a].d[s]);
-                        let y = llt.solve(&rhs);
-                        for (a, d) in dq.iter_mut().enumerate() {
-                            *d = std::array::from_fn(|s| if s < width { -y[(a, s)] } else { 0.0 });
+                        // the chain is at q with the chunk's numbers
+                        observe_at(model, prm, &mut w.chain, &mut obs);
+                        for (k, o) in obs.iter().enumerate() {
+                            for s in 0..width {
+                                let adj: f64 = (0..n).map(|a| lam[(a, k)] * w.g[a].d[s]).sum();
+                                dst[col(k, s)] = o.d[s] - adj;
+                            }
                         }
                     }
-                    Moves::Lengths => {
-                        let x = x.as_ref().expect("made for chunks of lengths");
+                    Moves::Lengths | Moves::Observation => {
+                        seen::<G>(prm, &id, &end, &mut obs);
                         let dl = &realc[j * m..(j + 1) * m];
-                        for (a, d) in dq.iter_mut().enumerate() {
-                            *d = std::array::from_fn(|s| {
-                                -(0..m).map(|i| x[(a, i)] * dl[i].d[s]).sum::<f64>()
-                            });
+                        for (k, o) in obs.iter().enumerate() {
+                            for s in 0..width {
+                                let adj: f64 = if ch.moves == Moves::Lengths {
+                                    (0..m).map(|i| lb[k * m + i] * dl[i].d[s]).sum()
+                                } else {
+                                    0.0
+                                };
+                                dst[col(k, s)] = o.d[s] - adj;
+                            }
                         }
-                    }
-                    Moves::Observation => dq.iter_mut().for_each(|d| *d = [0.0; JET]),
-                }
-                for (a, t) in qt.iter_mut().enumerate() {
-                    *t = J::with(q[a], dq[a]);
-                }
-                observe(model, prm, &qt, &mut w.chain, &mut obs);
-                for (k, ok) in obs.iter().enumerate() {
-                    for s in 0..width {
-                        dst[k * kf + ci * JET + s] = ok.d[s];
                     }
                 }
             }
