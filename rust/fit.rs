@@ -53,7 +53,25 @@ pub trait FitModel: Sync {
     /// `(rows, width, k)` derivatives of the predictions with respect to the
     /// parameters `free` at `p` (the state of [`FitModel::settle`] at `p`).
     fn jacobian(&self, p: &[f64], state: &Self::State, free: &[usize]) -> Option<Vec<f64>>;
+    /// Whether a settle costs enough (an elastic arm's statics) that the fit
+    /// also stops at a step small against the parameters' standard errors
+    /// ([`SE_STEP`]); false: at [`MIN_DECREASE`] alone.
+    fn costly(&self) -> bool {
+        false
+    }
 }
+
+/// The fit stops converged when an accepted step lowers the cost by less than
+/// this fraction.
+pub const MIN_DECREASE: f64 = 1e-7;
+
+/// A costly plant's fit ([`FitModel::costly`]) also stops converged when an
+/// accepted step moved every parameter by at most this fraction of its
+/// standard error at the new point, `sigma sqrt((J^T J)^-1_ii)` with `sigma^2
+/// = S / (m - k)` (`S` the cost, `m` residuals, `k` parameters; the fit's
+/// own covariance, [`FitResult::r_factor`]): the steps left move the answer
+/// by less than its uncertainty can tell.
+pub const SE_STEP: f64 = 0.1;
 
 /// What to fit and where.
 pub struct FitSpec<'a, M: FitModel> {
@@ -198,6 +216,10 @@ impl<M: FitModel> Problem for FitProblem<'_, M> {
         jac.iter().all(|v| v.is_finite())
     }
 
+    fn small_step(&self, from: &[f64], to: &[f64], jac: &[f64], cost: f64) -> bool {
+        self.spec.model.costly() && within_errors(from, to, jac, cost)
+    }
+
     fn project(&self, z: &mut [f64]) {
         for ((v, l), h) in z.iter_mut().zip(&self.lo).zip(&self.hi) {
             *v = v.clamp(*l, *h);
@@ -221,8 +243,75 @@ fn fit_lm(max_iter: u32) -> Lm {
         tol: 0.0,
         max_iter,
         lambda0: 1e-3,
-        min_decrease: 1e-7,
+        min_decrease: MIN_DECREASE,
     }
+}
+
+/// Whether the step `from -> to` (scaled parameters) moved every parameter
+/// by at most [`SE_STEP`] of its standard error at `to` (`jac (m, k)`,
+/// `cost` there). Parameters the residual does not see (a zero column) are
+/// left out; false where `J^T J` of the others is not positive definite.
+fn within_errors(from: &[f64], to: &[f64], jac: &[f64], cost: f64) -> bool {
+    let k = from.len();
+    let m = jac.len() / k.max(1);
+    if m <= k {
+        return false;
+    }
+    let seen: Vec<usize> = (0..k)
+        .filter(|&c| (0..m).any(|i| jac[i * k + c] != 0.0))
+        .collect();
+    let s = seen.len();
+    let mut a = vec![0.0; s * s];
+    for row in jac.chunks_exact(k) {
+        for (x, &i) in seen.iter().enumerate() {
+            let ri = row[i];
+            if ri == 0.0 {
+                continue;
+            }
+            for (y, &j) in seen.iter().enumerate().take(x + 1) {
+                a[x * s + y] += ri * row[j];
+            }
+        }
+    }
+    // Cholesky (lower), then the diagonal of the inverse column by column
+    for j in 0..s {
+        let mut d = a[j * s + j];
+        for p in 0..j {
+            d -= a[j * s + p] * a[j * s + p];
+        }
+        if !(d > 0.0 && d.is_finite()) {
+            return false;
+        }
+        let d = d.sqrt();
+        a[j * s + j] = d;
+        for i in j + 1..s {
+            let mut v = a[i * s + j];
+            for p in 0..j {
+                v -= a[i * s + p] * a[j * s + p];
+            }
+            a[i * s + j] = v / d;
+        }
+    }
+    let sigma2 = cost / (m - k) as f64;
+    let mut e = vec![0.0; s];
+    for (x, &i) in seen.iter().enumerate() {
+        // (J^T J)^-1_xx = |L^-1 e_x|^2
+        e.iter_mut().for_each(|v| *v = 0.0);
+        e[x] = 1.0;
+        for r in x..s {
+            let mut v = e[r];
+            for p in x..r {
+                v -= a[r * s + p] * e[p];
+            }
+            e[r] = v / a[r * s + r];
+        }
+        let var = sigma2 * e[x..].iter().map(|v| v * v).sum::<f64>();
+        let within = (to[i] - from[i]).abs() <= SE_STEP * var.sqrt();
+        if !within {
+            return false;
+        }
+    }
+    true
 }
 
 /// Fits the free parameters on the rows `scored` (N,).
@@ -316,9 +405,14 @@ fn fit_one<M: FitModel>(spec: &FitSpec<M>, scored: &[bool]) -> FitResult {
     let st = lm::solve(&mut prob, &mut z, &fit_lm(spec.max_iter), &mut ws);
     prob.params(&z);
     let p = prob.p.clone();
-    let predictions = match spec.model.settle(&p) {
-        Some(state) => spec.model.predictions(&state),
-        None => Predictions::default(),
+    // the last evaluation's settle when it was at the answer (settling is a
+    // function of the parameters), else one more
+    let predictions = match prob.last.as_ref().filter(|(q, _)| *q == p) {
+        Some((_, state)) => spec.model.predictions(state),
+        None => match spec.model.settle(&p) {
+            Some(state) => spec.model.predictions(&state),
+            None => Predictions::default(),
+        },
     };
     FitResult {
         p,
@@ -367,6 +461,18 @@ mod tests {
     use crate::plant::{layout, predict, Effect, PlantFit, RowKind, Rows, Sequence};
     use crate::robot::Robot;
     use crate::solve::SolveOptions;
+
+    #[test]
+    fn a_step_is_within_errors_below_a_tenth_of_a_standard_error() {
+        // J = [1 0; 1 0; 1 0; 1 0] (the second parameter unseen), cost 2 on
+        // 4 - 2 dof: sigma^2 = 1, the first parameter's error sqrt(1/4) = 0.5
+        let jac = [1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0];
+        assert!(within_errors(&[0.0, 0.0], &[0.049, 3.0], &jac, 2.0));
+        assert!(!within_errors(&[0.0, 0.0], &[0.051, 3.0], &jac, 2.0));
+        assert!(!within_errors(&[0.0, 0.0], &[-0.051, 0.0], &jac, 2.0));
+        // no error (an exact fit): only no step is within it
+        assert!(!within_errors(&[0.0, 0.0], &[1e-12, 0.0], &jac, 0.0));
+    }
 
     #[test]
     fn a_hidden_effect_is_recovered_from_exact_data() {

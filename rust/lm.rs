@@ -7,8 +7,9 @@
 //! otherwise `lambda <- 10 lambda` (from an undamped start: `1e-3`)
 //! and the step is retried. Equations stop converged when `max |r| <= tol`;
 //! least-squares problems (`min_decrease > 0`) also stop converged when an
-//! accepted step lowers the cost by less than that fraction, or when no step
-//! lowers it at all (the damping passes 1e12). The step:
+//! accepted step lowers the cost by less than that fraction or the problem
+//! finds the step small ([`Problem::small_step`]), or when no step lowers it
+//! at all (the damping passes 1e12). The step:
 //!
 //! * [`Step::Triangular`]: square lower-triangular `J` (the planar cable
 //!   solves): forward substitution `J delta = -r` (Gauss–Newton; the
@@ -184,6 +185,13 @@ pub trait Problem {
     /// `toward` (box-constrained least squares: such a component is held
     /// out of the step, an active set).
     fn blocked(&self, _x: &[f64], _k: usize, _toward: f64) -> bool {
+        false
+    }
+    /// Least squares: whether the accepted step from `from` to `to` is
+    /// small enough to stop converged, with `J` and the cost `|r|^2` at
+    /// `to` (by default never: the decrease test of [`Lm::min_decrease`]
+    /// alone).
+    fn small_step(&self, _from: &[f64], _to: &[f64], _jac: &[f64], _cost: f64) -> bool {
         false
     }
 }
@@ -577,7 +585,9 @@ fn iterate<P: Problem + ?Sized>(
         if accept {
             std::mem::swap(&mut cur, &mut trial);
             flipped = !flipped;
-            let small = lm.min_decrease > 0.0 && cost - c <= lm.min_decrease * cost;
+            let small = lm.min_decrease > 0.0
+                && (cost - c <= lm.min_decrease * cost
+                    || problem.small_step(trial.x, cur.x, cur.jac, c));
             cost = c;
             if small {
                 return (done(&cur, true, iterations, Reason::Converged), flipped);

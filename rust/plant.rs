@@ -1902,6 +1902,9 @@ pub struct PlantFit<'a, G: Group> {
     pub seq: &'a Sequence,
     /// Settle options.
     pub opts: SolveOptions,
+    /// Worker threads of the Jacobian (default 1: folds run in parallel;
+    /// its rows are independent, the answer does not depend on them).
+    pub threads: usize,
     pub _kind: std::marker::PhantomData<G>,
 }
 
@@ -1911,6 +1914,7 @@ impl<'a, G: Group> PlantFit<'a, G> {
             model,
             seq,
             opts,
+            threads: 1,
             _kind: std::marker::PhantomData,
         }
     }
@@ -1954,7 +1958,11 @@ impl<G: Group> FitModel for PlantFit<'_, G> {
 
     fn jacobian(&self, p: &[f64], state: &Settled, free: &[usize]) -> Option<Vec<f64>> {
         let plant = Plant::<G>::new(self.model, p).ok()?;
-        state.jacobian(&plant, self.seq, free, 1).ok()
+        state.jacobian(&plant, self.seq, free, self.threads).ok()
+    }
+
+    fn costly(&self) -> bool {
+        self.model.is_elastic()
     }
 }
 
@@ -2551,6 +2559,24 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn elastic_adjoint_jacobian_matches_central_differences_of_the_predictions() {
+        // the FTDCR v4 (60 joints, 9 displacement tendons), every effect of
+        // its layout at once (chunks of arm, lengths and observation
+        // directions mixed), tendons pulled and paid out (slack ones too)
+        let m = Model::from_toml(include_str!("../tests/data/opencr/ftdcr_v4.toml")).unwrap();
+        assert!(m.is_elastic());
+        let (_, dl, kind) = data(m.n(), m.cables.len(), 3);
+        let th = vec![0.0; 3 * m.n()];
+        check_jacobian(
+            &m,
+            &th,
+            &dl,
+            &kind,
+            (0..layout(&m).total).step_by(2).collect(),
+        );
     }
 
     #[test]

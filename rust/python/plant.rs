@@ -125,7 +125,10 @@ fn fit_k<G: Group>(
     a: &FitArgs,
     threads: usize,
 ) -> crate::Result<Vec<crate::fit::FitResult>> {
-    let m = Fit::<G>::new(model, seq, o);
+    let mut m = Fit::<G>::new(model, seq, o);
+    // threads the folds leave idle go to the Jacobian's rows
+    let folds = a.scored.len() / seq.rows().max(1);
+    m.threads = (crate::rows::resolve_threads(threads) / folds.max(1)).max(1);
     let spec = FitSpec {
         model: &m,
         measured: a.measured,
