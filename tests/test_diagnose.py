@@ -265,6 +265,21 @@ def test_an_outlier_is_flagged_and_the_verdict_given_without_it(mods, robot):
     assert d.to_json()["outliers"] == [o + 1 for o in d.outliers]
 
 
+def test_outliers_that_are_most_rows_are_not_diagnosed_again(mods, robot):
+    """Rows beyond 5 sigma of a noise given 6 times too small are most of them (28 of
+    40): the rows left would be another data set, so the diagnosis is not rerun without
+    them, and the JSON and the report say why."""
+    plant = mods["plant"]
+    meas = _data(plant, robot, {"actuation_scale": [0.02]}, 38, rows=40)
+    d = mods["diagnose"].diagnose(robot, meas, folds=FOLDS, noise=NOISE / 6, frame="base")
+    assert 20 <= len(d.outliers) <= 37
+    assert d.verdict_without_outliers is None
+    out = d.to_json()
+    assert out["verdict_without_outliers"] is None and "most of the data" in out["without_outliers_skipped"]
+    names = [str(i + 1) for i in range(40)]
+    assert "not rerun without them" in mods["report"].outlier_note(d, names)
+
+
 def test_report_files(mods, robot, tmp_path):
     plant = mods["plant"]
     meas = _data(plant, robot, {"tip_offset": [1e-3, -1e-3]}, 9, rows=20)

@@ -113,7 +113,7 @@ from .measurements import KIND_CODES, Measurements, commanded_cables
 from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "Search", "features",
-           "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES", "NEAR_FRACTION",
+           "most_rows", "residuals", "repeat_groups", "kabsch_frame", "DEFAULT_NOISE", "FRAMES", "NEAR_FRACTION",
            "SEARCH_TOP", "SEARCH_FULL", "nested", "SupportTest", "AdequacyBound", "Verdict",
            "MAX_PARAMETER_SHARE", "ALPHA", "fold_split", "adequacy_bound", "LACK_OF_FIT_ALPHA",
            "ADEQUACY_QUANTILE", "BOOTSTRAP_DRAWS", "ESTIMATED", "neighbour_noise"]
@@ -144,6 +144,13 @@ SCREEN_MARGIN = 1.25
 MAX_PARAMETER_SHARE = 0.5
 #: Outlier threshold, in noise standard deviations.
 OUTLIER_SIGMA = 5.0
+
+
+def most_rows(outliers: int, rows: int) -> bool:
+    """Whether ``outliers`` of ``rows`` are too many to be outliers (at least
+    3 and at least half the rows): the rows left are then not the data less
+    a few bad readings, and the diagnosis is not rerun on them."""
+    return outliers >= max(3, rows // 2)
 #: Family-wise level of the one-sided selection test at each step.
 ALPHA = 0.025
 #: Level of the verdict's lack-of-fit test.
@@ -586,7 +593,9 @@ class _Scorer:
         """The candidate of ``effects``: its fit on every row and one fit per
         fold, the folds a few at a time (as many as the robot's worker
         threads, which run them in parallel), so that only their results are
-        held at once."""
+        held at once. An elastic arm's folds start from the fit on every row
+        (each fit costs seconds; a fold's fit then takes a few steps to its
+        own minimum), a rigid arm's from the same start as that fit."""
         prep = self.prep
         fitted = _fitted(prep, effects)
         start = prep.start if prep.registered else np.zeros(plant.size(prep.robot))
@@ -594,7 +603,17 @@ class _Scorer:
         k = plant.dims(prep.robot)
         step = prep.robot.threads or os.cpu_count() or 1
         full = None
-        for first in range(0, len(self.scored), step):
+        begin = 0
+        if prep.robot.is_elastic:
+            # an elastic plant's fit costs seconds: the folds start from the
+            # fit on every row (FOLDS_FROM_FULL_FIT)
+            full = fit_folds(prep, fitted, self.scored[:1], start)[0]
+            if np.isfinite(full.p).all():
+                start = full.p
+            begin = 1
+            if self.bar is not None:
+                self.bar.update(1)
+        for first in range(begin, len(self.scored), step):
             chunk = self.scored[first:first + step]
             # the folds' fits serve their predictions only: no uncertainty
             fits = fit_folds(prep, fitted, chunk, start, uncertainty=first + np.arange(len(chunk)) == 0)
@@ -788,6 +807,9 @@ class Diagnosis(ShortRepr):
     registration_named: bool = False
     outliers: List[int] = field(default_factory=list)
     verdict_without_outliers: Optional[Verdict] = None
+    #: why the verdict without the outliers was not given (None: it was, or
+    #: there are none): the outliers are most of the rows (:func:`most_rows`)
+    without_outliers_skipped: Optional[str] = None
     features: Dict[str, np.ndarray] = field(default_factory=dict)
     feature_correlation: Dict[str, float] = field(default_factory=dict)
     ties: List[str] = field(default_factory=list)
@@ -903,7 +925,7 @@ class Diagnosis(ShortRepr):
             reg.update(frame=self.final().fit.p[ind].tolist(), start=prep.start[ind].tolist(),
                        identity_heldout_rms_m=self.identity.heldout_rms if self.identity else None,
                        registered_heldout_rms_m=self.final().heldout_rms)
-        return dict(
+        out = dict(
             best=self.best, verdict=self.verdict, explained=self.explained,
             baseline=dict(heldout_rms_m=self.baseline.heldout_rms, aic=self.baseline.fit.aic,
                           bic=self.baseline.fit.bic, bic_weight=self.baseline.weight),
@@ -942,6 +964,9 @@ class Diagnosis(ShortRepr):
                           nominal=(self.verdict_detail.nominal_bound.to_json() if self.verdict_detail
                                    and self.verdict_detail.nominal_bound else None)),
         )
+        if self.without_outliers_skipped is not None:
+            out["without_outliers_skipped"] = self.without_outliers_skipped
+        return out
 
 
 # ---------------------------------------------------------------------------
@@ -1521,7 +1546,11 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     res = _residual_xy(prep, final.fit, rows)
     z = np.abs(res).max(axis=1) / (prep.readings * d.noise)
     d.outliers = [int(i) for i in rows[z > OUTLIER_SIGMA]]
-    if d.outliers:
+    if d.outliers and most_rows(len(d.outliers), len(rows)):
+        d.without_outliers_skipped = (
+            f"{len(d.outliers)} of the {len(rows)} rows are beyond {OUTLIER_SIGMA:g} sigma: not a few bad readings "
+            "but most of the data, and the rows left a different data set; the diagnosis is not rerun without them")
+    elif d.outliers:
         keep = np.setdiff1d(rows, d.outliers)
         if len(keep) >= 3:
             sc = _Scorer(prep, keep, folds, bar=bar)

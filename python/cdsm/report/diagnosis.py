@@ -540,7 +540,7 @@ def outlier_note(d: diagnose.Diagnosis, names: List[str]) -> str:
     listed = ", ".join(shown) + (f", ... ({len(d.outliers)} rows in all; the JSON lists every one)" if more > 0
                                  else "")
     text = f"Rows with a residual {against} after the fit: {listed}."
-    many = len(d.outliers) >= max(3, int(d.prep.usable.sum()) // 2)
+    many = diagnose.most_rows(len(d.outliers), int(d.prep.usable.sum()))
     if ne == "assumed" and many:
         text += (" So many rows cannot all be outliers: the assumed noise is too small for these data, or the "
                  "model misses an effect; give the noise (`--noise`) or repeat some commands to estimate it.")
@@ -552,6 +552,8 @@ def outlier_note(d: diagnose.Diagnosis, names: List[str]) -> str:
             text += f" Without them the verdict is **{w.verdict}**."
     elif w is not None:
         text += f" Without them the verdict is **{w.verdict}**."
+    if d.without_outliers_skipped is not None:
+        text += " The diagnosis is not rerun without them: they are most of the rows, the rest another data set."
     return text
 
 
