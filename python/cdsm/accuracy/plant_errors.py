@@ -31,15 +31,24 @@ from ..calibration import plant
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
+from ..calibration.measurements import commanded_cables
 from .montecarlo import MonteCarlo, chunk_sizes
+from .sampling import METHODS, nearest_neighbours, sobol
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, rotation_vectors
+from .sensitivity import amplification_of
+from .workspace import Workspace
 
-__all__ = ["DEFAULT_TOLERANCES", "SENSITIVITY_BLOCKS", "tolerance_vector", "sample_parameters",
-           "deviation_quantities", "monte_carlo_commands", "sensitivities_commands", "nominal_commands"]
+__all__ = ["DEFAULT_TOLERANCES", "SENSITIVITY_BLOCKS", "COMMAND_RANGE", "tolerance_vector", "sample_parameters",
+           "deviation_quantities", "pose_deviation", "monte_carlo_commands", "sensitivities_commands",
+           "nominal_commands", "error_parameters", "deviation_commands", "sample_commands", "hole_columns",
+           "position_matrix_commands", "amplification_commands", "equilibria"]
 
 #: The tolerances of a study by plant block: the paper's ±1 mm on each
 #: commanded cable's length and ±0.35 mm on every hole coordinate (m).
 DEFAULT_TOLERANCES: Dict[str, float] = {"cable_offset": PAPER_DL_TOL, "hole_position": PAPER_DH_TOL}
+
+#: The half-width (m) of the box of commands :func:`sample_commands` samples: ±3 mm on every commanded cable.
+COMMAND_RANGE = 3e-3
 
 #: The blocks :func:`sensitivities_commands` differentiates by default.
 SENSITIVITY_BLOCKS = ("cable_offset", "hole_position", "joint_stiffness")
@@ -115,6 +124,103 @@ def deviation_quantities(robot: Robot, nominal: np.ndarray, moved: np.ndarray) -
     rest = [q for q in kind.quantities if q not in named]
     named[rest[0]] = _ATTITUDE_ERROR[kind.rotation](nominal[..., dim:], moved[..., dim:])
     return np.stack([named[q] for q in kind.quantities], axis=-1)
+
+
+def _rotation_change(nominal: np.ndarray, moved: np.ndarray) -> np.ndarray:
+    """(..., 3) the rotation from the nominal end frame to the moved one as a
+    rotation vector in the base frame, rad (:func:`cdsm.accuracy.scenarios.deviation`'s)."""
+    r0 = _rotation_matrices(nominal)
+    rel = rotation_vectors(np.swapaxes(r0, -1, -2) @ _rotation_matrices(moved))
+    return np.einsum("...ij,...j->...i", r0, rel)
+
+
+def _angle_delta(nominal: np.ndarray, moved: np.ndarray) -> np.ndarray:
+    """(..., 1) the change of a planar attitude angle, rad."""
+    return moved - nominal
+
+
+#: The attitude's deviation by the kind's attitude form (:attr:`cdsm.kinds.Kind.rotation`).
+_ATTITUDE_DEVIATION = {"angle": _angle_delta, "vector": _rotation_change}
+
+
+def pose_deviation(robot: Robot, nominal: np.ndarray, moved: np.ndarray) -> np.ndarray:
+    """(..., t) the tip deviation of the plant observations ``moved`` from
+    ``nominal`` (both (..., t)) as a single-error scenario gives it
+    (:class:`cdsm.study.ScenarioResult`): the position's change (m), then
+    planar the angle's change, spatial the rotation vector (base frame) from
+    the nominal end frame to the moved one (rad)."""
+    dim = robot.kind.dim
+    return np.concatenate([moved[..., :dim] - nominal[..., :dim],
+                           _ATTITUDE_DEVIATION[robot.kind.rotation](nominal[..., dim:], moved[..., dim:])], axis=-1)
+
+
+def hole_columns(robot: Robot) -> np.ndarray:
+    """(k,) the entries of :attr:`Robot.flat_holes` the plant's
+    ``hole_position`` block moves, in its order: every coordinate of the
+    commanded cables' holes (cable by cable, face by face, x y z)."""
+    sizes = [np.asarray(h).size for h in robot.holes]
+    starts = np.concatenate([[0], np.cumsum(sizes)])
+    return np.concatenate([np.arange(starts[c], starts[c + 1]) for c in commanded_cables(robot)]).astype(np.int64)
+
+
+def error_parameters(robot: Robot, dL=None, dholes=None) -> np.ndarray:
+    """(P,) the plant parameters of a manufacturing error: ``dL`` (m_c,) m on
+    the commanded cables' lengths (``cable_offset``) and ``dholes`` (3 H,) m
+    on every hole coordinate in the order of :attr:`Robot.flat_holes` (the
+    commanded cables' go to ``hole_position``; a move of another cable's
+    hole has no block and is refused)."""
+    lay = plant.layout(robot)
+    p = np.zeros(plant.size(robot))
+    if dL is not None:
+        p[lay["cable_offset"]] = np.asarray(dL, float).reshape(-1)
+    if dholes is not None:
+        d = np.asarray(dholes, float).reshape(-1)
+        cols = hole_columns(robot)
+        rest = np.ones(d.size, bool)
+        rest[cols] = False
+        if np.any(d[rest]):
+            raise CdsmInputError("`dholes`: moves a hole of a cable the plant does not command")
+        p[lay["hole_position"]] = d[cols]
+    return p
+
+
+def deviation_commands(robot: Robot, p, dL, theta_cmd=None):
+    """(N, t) tip deviations (:func:`pose_deviation`) of the plant ``p`` (P,)
+    from the nominal plant at the commands ``dL`` (N, m_c) m (rows in
+    sequence; ``theta_cmd`` default the rest angles) and (N,) where both
+    settle (NaN rows where not)."""
+    t, d = nominal_commands(robot, dL, theta_cmd)
+    both, conv = plant.predict(robot, np.stack([np.zeros(plant.size(robot)), np.asarray(p, float)]), t, d)
+    ok = conv.all(axis=0)
+    return np.where(ok[:, None], pose_deviation(robot, both[0], both[1]), np.nan), ok
+
+
+def sample_commands(robot: Robot, configurations: int = 1000, method: str = "sobol", seed: int = 0, k: int = 6,
+                    reach: float = COMMAND_RANGE) -> Workspace:
+    """The ``commanded`` protocol's configurations: ``configurations``
+    commands ``dL`` (N, m_c) m sampled in the box ±``reach`` on every
+    commanded cable (``method`` ``"sobol"``, scrambled with ``seed``, or
+    ``"random"``), the nominal plant settled at them in order (each from
+    the previous answer: :func:`cdsm.calibration.plant.settle`), with each
+    one's ``k`` nearest neighbours in command space (for jump points).
+    ``reachable``: the equilibrium converged; ``grid`` and ``theta0`` the
+    settled angles (rad), ``poses`` their tips, ``commands`` the commands."""
+    count, k = as_count("configurations", configurations, 1), as_count("k", k, 1)
+    if count <= k:
+        raise CdsmInputError(f"`configurations`: need more than k = {k} configurations, got {count}")
+    m = plant.commands(robot)
+    if method == "sobol":
+        u = sobol(count, m, scramble=True, seed=seed)
+    elif method == "random":
+        u = np.random.default_rng([int(seed), 0x5A4D]).random((count, m))
+    else:
+        raise CdsmInputError(f"`method`: expected one of {', '.join(map(repr, METHODS))}, got {method!r}")
+    d = np.ascontiguousarray((2.0 * u - 1.0) * float(reach))
+    t = np.tile(robot.rest_angles, (count, 1))
+    theta, ok = plant.settle(robot, np.zeros(plant.size(robot)), t, d)
+    poses = plant.predict(robot, np.zeros(plant.size(robot)), t, d)[0]
+    return Workspace("commanded", theta.copy(), poses, theta, np.asarray(ok, bool), nearest_neighbours(d, k),
+                     params=dict(method=method, seed=int(seed), k=int(k), reach_m=float(reach)), commands=d)
 
 
 def nominal_commands(robot: Robot, dL, theta_cmd=None):
@@ -210,3 +316,46 @@ def sensitivities_commands(robot: Robot, dL, theta_cmd=None,
         out[b] = jac[:, :, start:start + k]
         start += k
     return out
+
+
+def position_matrix_commands(robot: Robot, dL, theta_cmd=None) -> np.ndarray:
+    """(N, d, m_c + k) the linear map from every error — the commanded
+    cables' lengths (``cable_offset``), then every coordinate of their holes
+    (``hole_position``) — to the tip position (d = the kind's position
+    axes), m/m, at the commands ``dL`` (N, m_c) m: the columns of
+    :func:`cdsm.accuracy.sensitivity.position_matrix` for an arm commanded
+    by its cables (:func:`sensitivities_commands`). NaN rows where the
+    nominal plant does not settle."""
+    s = sensitivities_commands(robot, dL, theta_cmd, blocks=("cable_offset", "hole_position"))
+    d = robot.kind.dim
+    return np.concatenate([s["cable_offset"][:, :d, :], s["hole_position"][:, :d, :]], axis=2)
+
+
+def amplification_commands(robot: Robot, ws: Workspace) -> dict:
+    """:func:`cdsm.accuracy.sensitivity.amplification_maps` of a workspace
+    of commands (``ws.commands``, :func:`sample_commands`): per configuration
+    the tip and the worst-case and RMS amplification (mm of tip per mm) of
+    the commanded cables' lengths and of every hole coordinate, from the
+    plant's implicit-function sensitivities; NaN where not settled."""
+    ok = np.asarray(ws.reachable, bool)
+    m = plant.commands(robot)
+    mat = np.full((len(ok), robot.kind.dim, m + hole_columns(robot).size), np.nan)
+    if ok.any():
+        mat[ok] = position_matrix_commands(robot, ws.commands[ok])
+    ok = ok & np.isfinite(mat).all(axis=(1, 2))
+    return amplification_of(robot, ws, mat[:, :, :m], mat[:, :, m:], ok)
+
+
+def equilibria(robot: Robot, dL, theta_cmd=None):
+    """:meth:`Robot.equilibrium` of the plant's commands ``dL`` (N, m_c) m (the
+    position cables their lengths at ``theta_cmd`` + dL, the displacement
+    cables ``-dL``), the rows in sequence from the rest angles as the plant
+    settles them: an :class:`~cdsm.elastic.Equilibrium` (tensions of every
+    cable, slack and capped flags)."""
+    t, d = nominal_commands(robot, dL, theta_cmd)
+    cmd = commanded_cables(robot)
+    pos = [i for i, c in enumerate(cmd) if c in set(robot.position_cables)]
+    dis = [i for i, c in enumerate(cmd) if c in set(robot.displacement_cables)]
+    lengths = (plant.command_lengths(robot, t) + d)[:, pos] if pos else None
+    return robot.equilibrium(lengths=lengths, displacements=-d[:, dis] if dis else None, seed=robot.rest_angles,
+                             sequence=True)

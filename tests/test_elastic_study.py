@@ -1,0 +1,71 @@
+"""The robot-neutral accuracy study (``cdsm paper``) on a small elastic arm: commands
+sampled in a box, each error settled at its own equilibrium from the same commands, the
+CSVs written, the sections that cannot apply saying so.  SI units."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+import cdsm
+from cdsm import CdsmInputError, report, study
+from test_elastic_plant import two_segments
+
+
+@pytest.fixture(scope="module")
+def elastic_study():
+    robot = cdsm.Robot.from_toml_str(two_segments())
+    return study.run(robot, samples=6, configurations=12, progress=False)
+
+
+def test_the_study_of_an_elastic_arm_samples_commands(elastic_study):
+    st = elastic_study
+    assert st.protocols == ["commanded"]
+    ws = st.workspaces["commanded"]
+    assert ws.commands.shape == (12, 6) and np.abs(ws.commands).max() <= 3e-3
+    assert ws.reachable.all()
+    # every single error on every commanded cable: its length, its holes radially and along the normal, both signs
+    assert len(st.scenarios) == 6 * 3 * 2
+    mc = st.monte_carlo["commanded"]
+    np.testing.assert_array_equal(mc.count + mc.failed, 6)
+    assert st.budget is not None and len(st.budget.groups) == 12  # 6 cables' lengths, 6 cables' holes
+    assert not st.friction  # frictionless statics: the section says it does not apply
+
+
+def test_a_single_error_is_the_equilibrium_of_the_shifted_commands(elastic_study):
+    """``cable2+`` (+1 mm on cable 2's length) at every configuration: the tip of
+    ``Robot.equilibrium`` with cable 2 paid out 1 mm more (displacement ``d - 1 mm``), the
+    rows in the same sequence, minus the nominal tip."""
+    st = elastic_study
+    robot, ws = st.robot, st.workspaces["commanded"]
+    d = -ws.commands
+    moved = d.copy()
+    moved[:, 1] -= 1e-3
+    nominal = robot.equilibrium(displacements=d, sequence=True)
+    shifted = robot.equilibrium(displacements=moved, sequence=True)
+    want = robot.fk(shifted.theta)[:, :3] - robot.fk(nominal.theta)[:, :3]
+    got = st.result("cable2+").dS[:, :3]
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+    assert np.abs(want).max() > 1e-3
+
+
+def test_the_study_writes_its_csvs_and_says_what_does_not_apply(elastic_study, tmp_path):
+    paths = report.write(elastic_study, tmp_path / "out", progress=False, detail=False)
+    for key in ("scenarios_csv", "montecarlo_csv", "configurations_csv", "jumps_csv", "friction_csv"):
+        assert (tmp_path / "out" / paths[key].split("/")[-1]).exists(), key
+    rows = list(csv.DictReader(line for line in open(paths["montecarlo_csv"]) if not line.startswith("#")))
+    assert len(rows) == 12 and all(r["protocol"] == "commanded" for r in rows)
+    assert all(int(r["samples"]) == 6 for r in rows)
+    conf = list(csv.DictReader(line for line in open(paths["configurations_csv"]) if not line.startswith("#")))
+    assert "tension_cable6_n" in conf[0]
+    text = open(paths["report_md"]).read()
+    assert "Does not apply: an elastic arm's statics is its frictionless equilibrium" in text
+    assert "sampled command-space protocol" in text
+
+
+def test_an_elastic_arms_study_takes_no_joint_angles():
+    robot = cdsm.Robot.from_toml_str(two_segments())
+    with pytest.raises(CdsmInputError, match="`theta`: an elastic arm's configurations are the equilibria"):
+        study.run(robot, theta=np.zeros((10, robot.n)), progress=False)
