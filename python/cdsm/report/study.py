@@ -1002,8 +1002,11 @@ class StudyReport:
         items = ["**Measurements.** This is a study of the nominal model's sensitivity to manufacturing errors; "
                  "the gap to a real arm needs measurements: `cdsm diagnose DATA.csv --robot R.toml` fits every "
                  "candidate unmodelled effect (backlash, cable elasticity, hole clearance, ...) to them.",
-                 "**Cable stretch.** The cables are rigid here; the statics give the tensions, "
-                 "`Robot.solve_cables_elastic` the elastic configuration."]
+                 ("**Tendon stretch and springs** are in the equilibria (the tendons' series stiffness, the joint "
+                  "springs); joint friction and the other effects of the diagnosis library are not."
+                  if self.robot.is_elastic else
+                  "**Cable stretch.** The cables are rigid here; the statics give the tensions, "
+                  "`Robot.solve_cables_elastic` the elastic configuration.")]
         if st.kind.words["limit_notes"]:
             items.append(st.kind.words["limit_notes"])
         if "sampled" in st.workspaces or "commanded" in st.workspaces:
