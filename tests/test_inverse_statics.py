@@ -76,7 +76,9 @@ def test_compensation_of_a_fitted_error_model_meets_the_targets(ftdcr):
     assert comp.converged.all() and not any(comp.flags)
     assert np.all(comp.predicted_error_nominal > 1e-4)
     assert np.all(comp.predicted_error < 1e-9)
-    dl = comp.commands - plant.command_lengths(robot, comp.theta_cmd)
+    dl = comp.dL  # the commands are the commanded cables' paths at theta_cmd (the rest angles) + dL
+    np.testing.assert_allclose(comp.commands, plant.command_lengths(robot, comp.theta_cmd) + dl, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(comp.theta_cmd, np.tile(robot.rest_angles, (len(tip), 1)))
     np.testing.assert_allclose(tips(robot, -dl - offsets)[:, :3], tip[:, :3], rtol=0, atol=1e-9)
     with pytest.raises(CdsmInputError, match="`start`: applies to an arm commanded by its joint angles"):
         compensate(model, tip[:, :3], start=np.zeros(9))

@@ -315,8 +315,9 @@ def compensate_commands(model, poses, tol: float = 1e-11, max_iter: int = 60, pr
     Gauss-Newton from ``preload``; ``start`` its first ``dL``). Returns
     a :class:`~cdsm.calibration.compensation.Compensation`: ``theta_cmd``
     the rest angles, ``commands`` the commanded cables' rest lengths (their
-    paths at the rest angles + dL), ``dL`` the correction from the nominal
-    commands, ``predicted_error`` and ``predicted_error_nominal`` the fitted
+    paths at the rest angles + dL), ``dL`` the plant's extras (minus the
+    tendons' displacements, m), ``nominal_commands`` the nominal inverse
+    statics' commands, ``predicted_error`` and ``predicted_error_nominal`` the fitted
     plant's tip error with either, ``theta_pred`` where the fitted plant
     settles; flags those of the fitted inverse statics and a target the
     nominal one does not reach."""
@@ -332,6 +333,6 @@ def compensate_commands(model, poses, tol: float = 1e-11, max_iter: int = 60, pr
     flags = ["; ".join(f for f in (fitted.flags[i], "" if nominal.converged[i] else
                                    "the nominal model's inverse statics does not reach the target") if f)
              for i in range(N)]
-    return Compensation(fitted.targets, base + fitted.dL, rest, fitted.dL - nominal.dL, base + nominal.dL,
+    return Compensation(fitted.targets, base + fitted.dL, rest, fitted.dL, base + nominal.dL,
                         fitted.converged, fitted.error, err0, fitted.rotation_error, theta_pred,
                         flags, model.name, str(r.kind), list(commanded_cables(r)))
