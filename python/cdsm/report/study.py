@@ -790,7 +790,9 @@ class StudyReport:
         else:
             doc.p("No jump points were found in any scenario: the deviation maps are smooth over these "
                   "configurations.")
-        what = st.kind.words["singular_rows"]
+        what = ("the tip position's Jacobian by the commanded cables' lengths (the plant's implicit-function "
+                "sensitivities at the equilibrium: a slack tendon's column is zero; a nearly straight arm hardly "
+                "moves its tip along the backbone)" if self.robot.is_elastic else st.kind.words["singular_rows"])
         doc.p(f"Singular measure: the smallest over the largest singular value of {what}.")
         for p in st.workspaces:
             s = st.singular[p]
