@@ -55,6 +55,19 @@ def test_a_pose_target_meets_position_and_rotation(ftdcr):
     np.testing.assert_allclose(tips(robot, res.displacements), pose, rtol=0, atol=1e-9)
 
 
+def test_a_pose_the_preload_pays_slack_is_reached_from_the_retry(ftdcr):
+    """A pose the arm took with tendons slack: from the preload alone the steps pay four
+    tendons out until they hang slack (their columns zero) and the pose is not reached —
+    flagged with them; the retry from a stronger preload keeps them taut and reaches it."""
+    robot, _, tip = ftdcr
+    once = inverse_statics(robot, tip[3:4], start=np.full(9, -0.5e-3))
+    assert not once.converged[0] and once.slack[0] == 4
+    assert once.flags[0].startswith("not reached") and "(4 of 9 commanded cables slack at the answer)" in once.flags[0]
+    res = inverse_statics(robot, tip[3:4])
+    assert res.converged[0] and res.slack[0] == 0
+    np.testing.assert_allclose(tips(robot, res.displacements), tip[3:4], rtol=0, atol=1e-9)
+
+
 def test_a_target_out_of_reach_is_flagged(ftdcr):
     robot, _, tip = ftdcr
     far = tip[:2, :3] + np.array([0.0, 0.0, 0.5])  # half a metre off a 0.19 m arm
@@ -90,3 +103,5 @@ def test_bad_targets_name_the_field(ftdcr):
         inverse_statics(robot, np.zeros((2, 4)))
     with pytest.raises(CdsmInputError, match="`targets`: non-finite"):
         inverse_statics(robot, [[np.nan, 0.0, 0.0]])
+    with pytest.raises(CdsmInputError, match="`preload`: expected a pull >= 0 m"):
+        inverse_statics(robot, [[0.18, 0.0, 0.0]], preload=-1e-3)

@@ -39,10 +39,14 @@ from ..inputs import CdsmInputError, as_array, as_finite, as_iterations, as_vect
 from ..robot import Robot
 from . import plant
 
-__all__ = ["PRELOAD", "InverseStatics", "inverse_statics", "target_array"]
+__all__ = ["PRELOAD", "RETRY", "InverseStatics", "inverse_statics", "target_array"]
 
 #: The uniform pull (m) every commanded cable starts from.
 PRELOAD = 0.5e-3
+
+#: A row the iteration does not reach from the preload is tried once more from this many times it (more
+#: co-contraction: the tendons the steps pay out stay taut longer).
+RETRY = 4.0
 
 
 @dataclass(repr=False)
@@ -92,6 +96,45 @@ def _residual(robot, arr, seen, weights):
     return weights * (seen - full)
 
 
+def _sequence(rest: np.ndarray, prev, x: np.ndarray):
+    """The plant's rows of one candidate ``x`` (m_c,): after the previous row's
+    answer ``prev`` (run, unmeasured) where there is one."""
+    rows = np.array([x] if prev is None else [prev, x])
+    kinds = ["absolute"] * len(rows) if prev is None else ["unmeasured", "absolute"]
+    return np.tile(rest, (len(rows), 1)), rows, kinds
+
+
+def _solve_row(robot, pp, target, weights, start, prev, offsets, gain, tol, max_iter):
+    """Gauss-Newton with the minimum-norm step and a backtracking line search
+    on one target from ``start``: (dL (m_c,), converged, iterations)."""
+    rest = robot.rest_angles
+
+    def predict(x):
+        obs, ok = plant.predict(robot, pp, *_sequence(rest, prev, x))
+        return obs[-1], bool(ok[-1])
+
+    dl = np.array(start, dtype=float)
+    seen, ok = predict(dl)
+    r = _residual(robot, target, seen, weights) if ok else np.full(robot.kind.task, np.inf)
+    k = 0
+    while ok and np.max(np.abs(r)) > tol and k < max_iter:
+        _, _, jac = plant.linearise(robot, pp, offsets, *_sequence(rest, prev, dl))
+        step = -np.linalg.pinv(weights[:, None] * jac[-1] * gain, rcond=1e-12) @ r
+        t, norm0 = 1.0, np.linalg.norm(r)
+        while True:
+            s2, ok2 = predict(dl + t * step)
+            r2 = _residual(robot, target, s2, weights) if ok2 else None
+            if r2 is not None and np.linalg.norm(r2) < norm0:
+                dl, r = dl + t * step, r2
+                break
+            t *= 0.5
+            if t < 1e-6:
+                ok = False  # no step lowers the residual
+                break
+        k += 1
+    return dl, bool(np.isfinite(r).all() and np.max(np.abs(r)) <= tol), k
+
+
 def inverse_statics(robot: Robot, targets, p=None, start=None, preload: float = PRELOAD, tol: float = 1e-11,
                     max_iter: int = 60) -> InverseStatics:
     """Commands that settle the plant ``p`` (P,) (default the nominal arm) at
@@ -100,12 +143,16 @@ def inverse_statics(robot: Robot, targets, p=None, start=None, preload: float = 
     commanded cable). Rows are solved in order, each from the answer before
     it run as a two-row sequence (the plant's memory of the previous command:
     exact without backlash); the returned ``seen`` runs the whole sequence.
+    Without a ``start``, a row not reached from the preload is tried once
+    more from :data:`RETRY` times it.
     ``tol`` (m) on the weighted residual."""
     arr = target_array(robot, targets)
     kind = robot.kind
     m = plant.commands(robot)
     pp = np.zeros(plant.size(robot)) if p is None else plant.check_params(robot, p, "p")
     preload = as_finite("preload", preload)
+    if preload < 0.0:
+        raise CdsmInputError(f"`preload`: expected a pull >= 0 m, got {preload!r}")
     d0 = np.full(m, -preload) if start is None else as_vector("start", start, m)
     tol, max_iter = as_finite("tol", tol), as_iterations("max_iter", max_iter)
     if tol <= 0.0:
@@ -120,45 +167,16 @@ def inverse_statics(robot: Robot, targets, p=None, start=None, preload: float = 
     out_dl, iters = np.full((N, m), np.nan), np.zeros(N, np.int64)
     conv, slack = np.zeros(N, bool), np.zeros(N, np.int64)
     prev = None
+    starts = [d0] if start is not None else [d0, RETRY * d0]
     for i in range(N):
-        dl = d0.copy()
-
-        def run(x):
-            rows = np.array([x] if prev is None else [prev, x])
-            th = np.tile(rest, (len(rows), 1))
-            kinds = ["absolute"] * len(rows) if prev is None else ["unmeasured", "absolute"]
-            return th, rows, kinds
-
-        def predict(x):
-            th, rows, kinds = run(x)
-            obs, ok = plant.predict(robot, pp, th, rows, kinds)
-            return (obs[-1], bool(ok[-1]))
-
-        seen, ok = predict(dl)
-        r = _residual(robot, arr[i], seen, weights) if ok else np.full(kind.task, np.inf)
-        k = 0
-        while ok and np.max(np.abs(r)) > tol and k < max_iter:
-            th, rows, kinds = run(dl)
-            _, _, jac = plant.linearise(robot, pp, offsets, th, rows, kinds)
-            j = weights[:, None] * jac[-1] * gain
-            step = -np.linalg.pinv(j, rcond=1e-12) @ r
-            t, norm0 = 1.0, np.linalg.norm(r)
-            while True:
-                s2, ok2 = predict(dl + t * step)
-                r2 = _residual(robot, arr[i], s2, weights) if ok2 else None
-                if r2 is not None and np.linalg.norm(r2) < norm0:
-                    dl, seen, r = dl + t * step, s2, r2
-                    break
-                t *= 0.5
-                if t < 1e-6:
-                    ok = False  # no step lowers the residual
-                    break
-            k += 1
-        th, rows, kinds = run(dl)
+        for s0 in starts:  # a row not reached from the preload: once more from a stronger one
+            dl, conv[i], iters[i] = _solve_row(robot, pp, arr[i], weights, s0, prev, offsets, gain, tol, max_iter)
+            if conv[i]:
+                break
+        th, rows, kinds = _sequence(rest, prev, dl)
         _, _, jac = plant.linearise(robot, pp, offsets, th, rows, kinds)
         slack[i] = int(np.sum(np.all(jac[-1] == 0.0, axis=0)))
-        out_dl[i], iters[i] = dl, k
-        conv[i] = bool(np.isfinite(r).all() and np.max(np.abs(r)) <= tol)
+        out_dl[i] = dl
         prev = dl
     seen, settled = plant.predict(robot, pp, np.tile(rest, (N, 1)), out_dl) if N else (np.zeros((0, kind.task)),
                                                                                         np.zeros(0, bool))
