@@ -69,3 +69,30 @@ def test_an_elastic_arms_study_takes_no_joint_angles():
     robot = cdsm.Robot.from_toml_str(two_segments())
     with pytest.raises(CdsmInputError, match="`theta`: an elastic arm's configurations are the equilibria"):
         study.run(robot, theta=np.zeros((10, robot.n)), progress=False)
+
+
+def test_jump_points_are_the_commands_with_two_equilibria():
+    """A heavy rod standing up (gravity along -x, 0.1 kg per station on four
+    stations: past its buckling load) held by two tendons at 0 and 180 deg: a
+    1 mm pull on the first leans it 62 mm that way; a slight pull on the other
+    then leaves it leaning there when settled along the sequence, and takes it
+    62 mm the other way from the rest angles — two equilibria of one command,
+    the jump points; the pulls alone have one. The small arm of the study has
+    one equilibrium at every sampled command: no jump point."""
+    from cdsm.accuracy import plant_errors
+    from cdsm.calibration import plant
+    from elastic_cases import rod_toml
+
+    cables = "".join(f'[[cables]]\nend = 4\nmode = "displacement"\nradius = 0.004\nangle = {a!r}\n'
+                     "stiffness = 3000.0\npretension = 0.5\n" for a in (0.0, np.pi))
+    robot = cdsm.Robot.from_toml_str(rod_toml(4, 0.1, cables, gravity="[-9.80665, 0.0, 0.0]", mass=0.1))
+    dL = -np.array([[1e-3, 0.0], [0.0, 1e-4], [0.0, 1e-4], [1e-3, 0.0]])  # pulls (dL = -d)
+    t = np.tile(robot.rest_angles, (4, 1))
+    theta, ok = plant.settle(robot, np.zeros(plant.size(robot)), t, dL)
+    assert ok.all()
+    tip_y = robot.fk(theta)[:, 1]
+    assert (tip_y > 0.05).all()  # leaning towards the first tendon all along
+    np.testing.assert_array_equal(plant_errors.path_dependent(robot, dL, theta, ok), [False, True, True, False])
+    small = cdsm.Robot.from_toml_str(two_segments())
+    ws = plant_errors.sample_commands(small, 40)
+    assert ws.reachable.all() and not ws.path_dependent.any()

@@ -304,8 +304,12 @@ def choose_protocols(robot: Robot, grid=None, theta=None) -> Tuple[List[str], st
                                "not a joint-angle set, so the errors are applied at the equilibria of commands "
                                f"sampled in the box ±{plant_errors.COMMAND_RANGE * 1e3:g} mm on every commanded "
                                "cable (scrambled Sobol sequence), each error settled at its own equilibrium from "
-                               "the same commands; jump points are judged between nearest neighbours in command "
-                               "space")
+                               "the same commands; jump points are the commands with two equilibria (settled "
+                               "from the rest angles and along the sequence, tips more than "
+                               f"{plant_errors.PATH_TOLERANCE * 1e3:g} mm apart): elsewhere the equilibrium is the "
+                               "one minimiser of the potential, continuous in the commands (slack transitions make "
+                               "kinks, not jumps), and a neighbour test in a box of "
+                               f"{len(commanded_cables(robot))} dimensions would only flag those kinks")
     if theta is not None:
         return ["sampled"], "the errors are applied at the configurations given"
     if not robot.kind.grid_protocols:
@@ -341,7 +345,14 @@ def _workspace(robot: Robot, protocol: str, grid, theta, configurations: int, me
 
 
 def _jumps(robot: Robot, ws: workspace.Workspace, ds: np.ndarray):
-    if ws.protocol in ("sampled", "commanded"):
+    if ws.path_dependent is not None:  # a jump is a snap between two equilibria of one command
+        size = len(ds)
+        mag = np.linalg.norm(ds[:, :robot.kind.dim], axis=1)
+        fin = np.isfinite(mag)
+        return sampling.SampledJumps(ws.neighbours, np.zeros((0, 2), np.int64), np.zeros(0), np.zeros(0),
+                                     np.full(size, np.nan), np.zeros(0, bool), ws.path_dependent & fin,
+                                     float(np.percentile(mag[fin], 95)) if fin.any() else 0.0)
+    if ws.protocol == "sampled":
         return sampling.jump_points(ws.theta0, ds[:, :robot.kind.dim], neighbours=ws.neighbours)
     return workspace.jump_points(robot, ws, ds)
 

@@ -38,7 +38,8 @@ from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, rotation_vectors
 from .sensitivity import amplification_of
 from .workspace import Workspace
 
-__all__ = ["DEFAULT_TOLERANCES", "SENSITIVITY_BLOCKS", "COMMAND_RANGE", "tolerance_vector", "sample_parameters",
+__all__ = ["DEFAULT_TOLERANCES", "SENSITIVITY_BLOCKS", "COMMAND_RANGE", "PATH_TOLERANCE", "path_dependent",
+           "tolerance_vector", "sample_parameters",
            "deviation_quantities", "pose_deviation", "monte_carlo_commands", "sensitivities_commands",
            "nominal_commands", "error_parameters", "deviation_commands", "sample_commands", "hole_columns",
            "position_matrix_commands", "amplification_commands", "equilibria"]
@@ -202,7 +203,8 @@ def sample_commands(robot: Robot, configurations: int = 1000, method: str = "sob
     commanded cable (``method`` ``"sobol"``, scrambled with ``seed``, or
     ``"random"``), the nominal plant settled at them in order (each from
     the previous answer: :func:`cdsm.calibration.plant.settle`), with each
-    one's ``k`` nearest neighbours in command space (for jump points).
+    one's ``k`` nearest neighbours in command space, and the commands with
+    two equilibria (:func:`path_dependent`: the jump points).
     ``reachable``: the equilibrium converged; ``grid`` and ``theta0`` the
     settled angles (rad), ``poses`` their tips, ``commands`` the commands."""
     count, k = as_count("configurations", configurations, 1), as_count("k", k, 1)
@@ -220,7 +222,31 @@ def sample_commands(robot: Robot, configurations: int = 1000, method: str = "sob
     theta, ok = plant.settle(robot, np.zeros(plant.size(robot)), t, d)
     poses = plant.predict(robot, np.zeros(plant.size(robot)), t, d)[0]
     return Workspace("commanded", theta.copy(), poses, theta, np.asarray(ok, bool), nearest_neighbours(d, k),
-                     params=dict(method=method, seed=int(seed), k=int(k), reach_m=float(reach)), commands=d)
+                     params=dict(method=method, seed=int(seed), k=int(k), reach_m=float(reach)), commands=d,
+                     path_dependent=path_dependent(robot, d, theta, ok))
+
+
+#: Two equilibria of one command count as different beyond this tip distance
+#: (m; 0.05 mm, the jump tests' ``min_change``: below what a tracker resolves).
+PATH_TOLERANCE = 5e-5
+
+
+def path_dependent(robot: Robot, dL, theta, settled) -> np.ndarray:
+    """(N,) bool: the commands ``dL`` (N, m_c) m whose equilibrium depends on
+    where the arm starts — settled along the rows (``theta`` (N, n) rad,
+    ``settled`` (N,), as the plant settles a sequence) and again each from
+    the rest angles, the two tips more than :data:`PATH_TOLERANCE` apart or
+    one settled and the other not: the arm has two equilibria there (a snap
+    between them is a jump). Elsewhere the equilibrium is the one minimiser
+    of the potential and continuous in the commands (the slack transitions
+    make kinks, not jumps)."""
+    t, d = nominal_commands(robot, dL)
+    cold = equilibria(robot, d, t, sequence=False)
+    task = robot.kind.dim
+    warm_tip = robot.fk(np.where(np.asarray(settled, bool)[:, None], theta, robot.rest_angles))[:, :task]
+    cold_tip = robot.fk(np.where(cold.converged[:, None], cold.theta, robot.rest_angles))[:, :task]
+    apart = np.linalg.norm(warm_tip - cold_tip, axis=1) > PATH_TOLERANCE
+    return (np.asarray(settled, bool) != cold.converged) | (np.asarray(settled, bool) & cold.converged & apart)
 
 
 def nominal_commands(robot: Robot, dL, theta_cmd=None):
@@ -346,16 +372,17 @@ def amplification_commands(robot: Robot, ws: Workspace) -> dict:
     return amplification_of(robot, ws, mat[:, :, :m], mat[:, :, m:], ok)
 
 
-def equilibria(robot: Robot, dL, theta_cmd=None):
+def equilibria(robot: Robot, dL, theta_cmd=None, sequence: bool = True):
     """:meth:`Robot.equilibrium` of the plant's commands ``dL`` (N, m_c) m (the
     position cables their lengths at ``theta_cmd`` + dL, the displacement
     cables ``-dL``), the rows in sequence from the rest angles as the plant
-    settles them: an :class:`~cdsm.elastic.Equilibrium` (tensions of every
-    cable, slack and capped flags)."""
+    settles them (``sequence=False``: each row from the rest angles): an
+    :class:`~cdsm.elastic.Equilibrium` (tensions of every cable, slack and
+    capped flags)."""
     t, d = nominal_commands(robot, dL, theta_cmd)
     cmd = commanded_cables(robot)
     pos = [i for i, c in enumerate(cmd) if c in set(robot.position_cables)]
     dis = [i for i, c in enumerate(cmd) if c in set(robot.displacement_cables)]
     lengths = (plant.command_lengths(robot, t) + d)[:, pos] if pos else None
     return robot.equilibrium(lengths=lengths, displacements=-d[:, dis] if dis else None, seed=robot.rest_angles,
-                             sequence=True)
+                             sequence=sequence)

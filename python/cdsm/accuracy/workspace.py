@@ -115,6 +115,8 @@ class Workspace(ShortRepr):
     cables' extras the configurations settle at (the ``commanded`` protocol
     of an elastic arm, :func:`cdsm.accuracy.plant_errors.sample_commands`:
     its angles are the equilibrium of its commands), else None.
+    path_dependent: (N,) bool, ``commanded`` only: the commands with two
+    equilibria (:func:`cdsm.accuracy.plant_errors.path_dependent`), else None.
     """
 
     protocol: str
@@ -126,6 +128,7 @@ class Workspace(ShortRepr):
     ik: Optional[Solution] = None
     params: Optional[dict] = None
     commands: Optional[np.ndarray] = None
+    path_dependent: Optional[np.ndarray] = None
 
     @property
     def n_unreachable(self) -> int:
