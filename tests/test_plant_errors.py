@@ -155,3 +155,13 @@ def test_bad_tolerances_name_the_block(arm):
         pe.monte_carlo_commands(robot, dl, theta_cmd=np.zeros((2, robot.n)), samples=1, progress=False)
     with pytest.raises(CdsmInputError, match="no block 'hole_height'"):
         pe.sensitivities_commands(robot, dl, blocks=("hole_height",))
+
+
+def test_the_joint_angle_monte_carlo_points_an_elastic_arm_to_its_commands():
+    """accuracy.monte_carlo takes joint angles; an elastic arm's are not
+    commanded: refused naming the input and the function that takes commands."""
+    from cdsm.accuracy import monte_carlo
+
+    robot = cdsm.Robot.load("ftdcr_v4")
+    with pytest.raises(CdsmInputError, match=r"`theta0`.*monte_carlo_commands"):
+        monte_carlo(robot, np.zeros((2, robot.n)), samples=2, progress=False)
