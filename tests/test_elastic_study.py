@@ -96,3 +96,26 @@ def test_jump_points_are_the_commands_with_two_equilibria():
     small = cdsm.Robot.from_toml_str(two_segments())
     ws = plant_errors.sample_commands(small, 40)
     assert ws.reachable.all() and not ws.path_dependent.any()
+
+
+def test_a_planar_elastic_arms_hole_errors_go_to_its_plants_hole_heights():
+    """A planar elastic arm (springs on the paper arm's joints) has the plant
+    block ``hole_height`` (per disk), not ``hole_position``: its Monte Carlo
+    draws the paper's ±0.35 mm there by default (it drew none), its
+    single hole errors and sensitivities use it, and its study completes (it
+    failed on an index)."""
+    from cdsm.accuracy import plant_errors
+    from cdsm.calibration import plant
+    from test_elastic import planar_text
+
+    robot = cdsm.Robot.from_toml_str(planar_text())
+    lay = plant.layout(robot)
+    assert plant_errors.hole_block(robot) == "hole_height"
+    tol = plant_errors.tolerance_vector(robot)
+    np.testing.assert_array_equal(tol[lay["hole_height"]], 0.35e-3)
+    dh = np.array([2e-4, -1e-4, 3e-4])
+    np.testing.assert_array_equal(plant_errors.error_parameters(robot, None, dh)[lay["hole_height"]], dh)
+    s = plant_errors.sensitivities_commands(robot, np.zeros((2, 3)))
+    assert s["hole_height"].shape == (2, 3, 3) and np.isfinite(s["hole_height"]).all()
+    st = study.run(robot, samples=4, configurations=12, progress=False)
+    assert len(st.scenarios) == 3 * 2 * 2  # each position cable's length and each disk's hole height, both signs

@@ -565,12 +565,13 @@ def _monte_carlo(robot: Robot, ws: workspace.Workspace, samples: int, seed: int,
     if ws.commands is None:
         return montecarlo.monte_carlo(robot, ws.theta0[ws.reachable], samples=samples, seed=seed, dl_tol=dl_tol,
                                       dh_tol=dh_tol, progress=progress, check_slack=True, label=label)
-    tol = {"cable_offset": dl_tol, "hole_position": dh_tol}
+    holes = plant_errors.hole_block(robot)
+    tol = {"cable_offset": dl_tol, holes: dh_tol}
     mc = plant_errors.monte_carlo_commands(robot, ws.commands[ws.reachable], samples=samples, seed=seed,
                                            tolerances=tol, progress=progress, label=label)
     vec = plant_errors.tolerance_vector(robot, tol)
     lay = plant.layout(robot)
-    mc.params.update(dl_tol_m=vec[lay["cable_offset"]].tolist(), dh_tol_m=vec[lay["hole_position"]].tolist())
+    mc.params.update(dl_tol_m=vec[lay["cable_offset"]].tolist(), dh_tol_m=vec[lay[holes]].tolist())
     return mc
 
 

@@ -41,18 +41,22 @@ from .workspace import Workspace
 __all__ = ["DEFAULT_TOLERANCES", "SENSITIVITY_BLOCKS", "COMMAND_RANGE", "PATH_TOLERANCE", "path_dependent",
            "tolerance_vector", "sample_parameters",
            "deviation_quantities", "pose_deviation", "monte_carlo_commands", "sensitivities_commands",
-           "nominal_commands", "error_parameters", "deviation_commands", "sample_commands", "hole_columns",
-           "position_matrix_commands", "amplification_commands", "equilibria"]
+           "nominal_commands", "error_parameters", "hole_block", "deviation_commands", "sample_commands",
+           "hole_columns", "position_matrix_commands", "amplification_commands", "equilibria"]
 
 #: The tolerances of a study by plant block: the paper's ±1 mm on each
-#: commanded cable's length and ±0.35 mm on every hole coordinate (m).
-DEFAULT_TOLERANCES: Dict[str, float] = {"cable_offset": PAPER_DL_TOL, "hole_position": PAPER_DH_TOL}
+#: commanded cable's length and ±0.35 mm on every hole coordinate (spatial)
+#: or disk's hole height (planar: the plant's ``hole_height``), m; an arm
+#: takes the blocks its plant has.
+DEFAULT_TOLERANCES: Dict[str, float] = {"cable_offset": PAPER_DL_TOL, "hole_position": PAPER_DH_TOL,
+                                        "hole_height": PAPER_DH_TOL}
 
 #: The half-width (m) of the box of commands :func:`sample_commands` samples: ±3 mm on every commanded cable.
 COMMAND_RANGE = 3e-3
 
-#: The blocks :func:`sensitivities_commands` differentiates by default.
-SENSITIVITY_BLOCKS = ("cable_offset", "hole_position", "joint_stiffness")
+#: The blocks :func:`sensitivities_commands` differentiates by default (those
+#: the arm's plant has: ``hole_position`` spatial, ``hole_height`` planar).
+SENSITIVITY_BLOCKS = ("cable_offset", "hole_position", "hole_height", "joint_stiffness")
 
 
 def tolerance_vector(robot: Robot, tolerances: Optional[Mapping[str, object]] = None) -> np.ndarray:
@@ -164,24 +168,37 @@ def hole_columns(robot: Robot) -> np.ndarray:
     return np.concatenate([np.arange(starts[c], starts[c + 1]) for c in commanded_cables(robot)]).astype(np.int64)
 
 
-def error_parameters(robot: Robot, dL=None, dholes=None) -> np.ndarray:
+def hole_block(robot: Robot) -> str:
+    """The plant block of the arm's hole errors: ``hole_position`` (every
+    hole coordinate of the commanded cables; spatial arms) or, without it,
+    ``hole_height`` (a planar arm's per-disk hole height)."""
+    return "hole_position" if "hole_position" in plant.layout(robot) else "hole_height"
+
+
+def error_parameters(robot: Robot, dL=None, holes=None) -> np.ndarray:
     """(P,) the plant parameters of a manufacturing error: ``dL`` (m_c,) m on
-    the commanded cables' lengths (``cable_offset``) and ``dholes`` (3 H,) m
-    on every hole coordinate in the order of :attr:`Robot.flat_holes` (the
-    commanded cables' go to ``hole_position``; a move of another cable's
-    hole has no block and is refused)."""
+    the commanded cables' lengths (``cable_offset``) and ``holes`` the
+    kind's hole error (:attr:`cdsm.kinds.Kind.hole_error_arg`), m: spatial
+    ``dholes`` (3 H,) on every hole coordinate in the order of
+    :attr:`Robot.flat_holes` (the commanded cables' go to ``hole_position``;
+    a move of another cable's hole has no block and is refused), planar
+    ``dh`` (n,) per disk's hole height (``hole_height``)."""
     lay = plant.layout(robot)
     p = np.zeros(plant.size(robot))
     if dL is not None:
         p[lay["cable_offset"]] = np.asarray(dL, float).reshape(-1)
-    if dholes is not None:
-        d = np.asarray(dholes, float).reshape(-1)
+    if holes is not None:
+        d = np.asarray(holes, float).reshape(-1)
+        block = hole_block(robot)
+        if block == "hole_height":
+            p[lay[block]] = d
+            return p
         cols = hole_columns(robot)
         rest = np.ones(d.size, bool)
         rest[cols] = False
         if np.any(d[rest]):
-            raise CdsmInputError("`dholes`: moves a hole of a cable the plant does not command")
-        p[lay["hole_position"]] = d[cols]
+            raise CdsmInputError("`holes`: moves a hole of a cable the plant does not command")
+        p[lay[block]] = d[cols]
     return p
 
 
@@ -315,7 +332,7 @@ def monte_carlo_commands(robot: Robot, dL, theta_cmd=None, samples: int = 200, s
 
 
 def sensitivities_commands(robot: Robot, dL, theta_cmd=None,
-                           blocks: Sequence[str] = SENSITIVITY_BLOCKS) -> Dict[str, np.ndarray]:
+                           blocks: Optional[Sequence[str]] = None) -> Dict[str, np.ndarray]:
     """First-order sensitivities of the tip to the plant's parameters at the
     commands ``dL`` (N, m_c) m (``theta_cmd`` default the rest angles), by
     the implicit function theorem at the settled configurations (the core's
@@ -325,10 +342,13 @@ def sensitivities_commands(robot: Robot, dL, theta_cmd=None,
     per m of a commanded cable's rest length — a displacement ``d`` pulls
     the cable by ``-offset`` —; ``hole_position`` per m of every hole
     coordinate; ``joint_stiffness`` per unit relative change of a segment's
-    springs), for the ``blocks`` this arm's plant has; also ``"converged"``
-    (N,) bool (NaN rows where the nominal plant does not settle)."""
+    springs; planar ``hole_height`` per m of a disk's hole height), for the
+    ``blocks`` (default those of :data:`SENSITIVITY_BLOCKS` this arm's plant
+    has); also ``"converged"`` (N,) bool (NaN rows where the nominal plant
+    does not settle)."""
     t, d = nominal_commands(robot, dL, theta_cmd)
     lay = plant.layout(robot)
+    blocks = [b for b in SENSITIVITY_BLOCKS if b in lay] if blocks is None else list(blocks)
     bad = [b for b in blocks if b not in lay]
     if bad:
         raise CdsmInputError(f"`blocks`: this arm's plant has no block {bad[0]!r}; known: {', '.join(lay)}")
@@ -352,9 +372,10 @@ def position_matrix_commands(robot: Robot, dL, theta_cmd=None) -> np.ndarray:
     :func:`cdsm.accuracy.sensitivity.position_matrix` for an arm commanded
     by its cables (:func:`sensitivities_commands`). NaN rows where the
     nominal plant does not settle."""
-    s = sensitivities_commands(robot, dL, theta_cmd, blocks=("cable_offset", "hole_position"))
+    holes = hole_block(robot)
+    s = sensitivities_commands(robot, dL, theta_cmd, blocks=("cable_offset", holes))
     d = robot.kind.dim
-    return np.concatenate([s["cable_offset"][:, :d, :], s["hole_position"][:, :d, :]], axis=2)
+    return np.concatenate([s["cable_offset"][:, :d, :], s[holes][:, :d, :]], axis=2)
 
 
 def amplification_commands(robot: Robot, ws: Workspace) -> dict:
@@ -365,7 +386,8 @@ def amplification_commands(robot: Robot, ws: Workspace) -> dict:
     plant's implicit-function sensitivities; NaN where not settled."""
     ok = np.asarray(ws.reachable, bool)
     m = plant.commands(robot)
-    mat = np.full((len(ok), robot.kind.dim, m + hole_columns(robot).size), np.nan)
+    holes = plant.layout(robot)[hole_block(robot)]
+    mat = np.full((len(ok), robot.kind.dim, m + holes.stop - holes.start), np.nan)
     if ok.any():
         mat[ok] = position_matrix_commands(robot, ws.commands[ok])
     ok = ok & np.isfinite(mat).all(axis=(1, 2))
