@@ -985,6 +985,15 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None, valid
               f"nominal, {_um(v.model_rms)} with {literal(v.model)}; after removing the error's mean over the "
               f"rows (three translations): {_um(v.nominal_rms_mean_aligned)} and "
               f"{_um(v.model_rms_mean_aligned)}.")
+        if v.candidates:
+            doc.p("Every other model the diagnosis fitted on the first file (each effect alone, each step of the "
+                  "selection), judged the same way on the same rows — which effects carry over, best first:")
+            ranked = sorted(v.candidates.items(), key=lambda kv: np.nan_to_num(kv[1][0], nan=np.inf))
+            doc.table(["model (fitted on the first file)", "tip error RMS", "mean offset removed",
+                       "rows not predicted"],
+                      [[literal(name), _um(r), _um(ra), str(len(lost))] for name, (r, ra, lost) in ranked]
+                      + [[f"{literal(v.model)} (chosen)", _um(v.model_rms), _um(v.model_rms_mean_aligned), "—"],
+                         ["nominal", _um(v.nominal_rms), _um(v.nominal_rms_mean_aligned), "—"]])
     doc.section("answer", "Answer")
     for t in f["answer"]:
         doc.p(t)
