@@ -473,6 +473,7 @@ def report(records: List[dict], args, elapsed: float, robot: Robot) -> str:
     opts += "" if tuple(args.rows) == ROWS else f" --rows {','.join(map(str, args.rows))}"
     opts += "" if args.only is None else f" --only {args.only}"
     opts += " --pairs" if args.pairs else ""
+    opts += " --singles" if args.singles else ""
     opts += " --noise-assumed" if args.noise_assumed else ("" if args.noise_given == 1.0
                                                            else f" --noise-given {args.noise_given:g}")
     opts += "" if args.robot == "paper" else f" --robot {args.robot}"
@@ -564,6 +565,9 @@ def main() -> None:
     ap.add_argument("--only", default=None, help="only cases whose name contains this text (a comma-separated "
                     "list: any of them)")
     ap.add_argument("--pairs", action="store_true", help="every two-effect mixture of the library as a cell")
+    ap.add_argument("--singles", action="store_true",
+                    help="only the cells of one library effect, nominal data and the out-of-library effects (no "
+                         "mixtures: a first look at a robot whose diagnosis is slow, e.g. an elastic arm)")
     ap.add_argument("--robot", default="paper", help="'paper' (default), a packaged robot name or a robot file")
     noise = ap.add_mutually_exclusive_group()
     noise.add_argument("--noise-given", type=float, default=1.0, metavar="FACTOR",
@@ -583,7 +587,8 @@ def main() -> None:
     robot = load_robot(args.robot)
     all_cases = cases(robot, args.pairs)
     wanted = None if args.only is None else [w.strip() for w in args.only.split(",") if w.strip()]
-    chosen = [ci for ci, c in enumerate(all_cases) if wanted is None or any(w in c.name for w in wanted)]
+    chosen = [ci for ci, c in enumerate(all_cases) if (wanted is None or any(w in c.name for w in wanted))
+              and not (args.singles and len(c.truth) > 1)]
     # the longest work first (60 rows, library mixtures), for load balance
     factor = None if args.noise_assumed else args.noise_given
     tasks = [(ci, rows, i, args.seed, factor) for rows in sorted(args.rows, reverse=True) for ci in chosen
