@@ -707,6 +707,15 @@ impl HoleGrouping {
     }
 }
 
+/// How a kind's pose-IK mask is given (`crate::ik::Mask::parse`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Masks {
+    /// Task-width weights on the residuals (planar `x, y, phi`).
+    Weights,
+    /// A name: `"position"`, `"pointing"` or `"pose"`.
+    Named,
+}
+
 /// The facts of an arm kind, one static table per kind.
 #[derive(Debug)]
 pub struct KindInfo {
@@ -725,6 +734,8 @@ pub struct KindInfo {
     pub quantities: &'static [(&'static str, &'static str)],
     /// How hole errors group ([`crate::model::Structure`]).
     pub holes: HoleGrouping,
+    /// How its pose-IK mask is given.
+    pub masks: Masks,
     /// The plant's parameter blocks in the order of its flat vector
     /// (`docs/model.md`, "Parameters"): the planar one in the order of
     /// cdsm 0.1, the spatial one in the order of cdsm 0.2 with the effects
@@ -740,6 +751,7 @@ static PLANAR: KindInfo = KindInfo {
     rotation: Rotation::Angle,
     quantities: &[("dX", "m"), ("dY", "m"), ("dphi", "rad"), ("dXY", "m")],
     holes: HoleGrouping::PerEndDisk,
+    masks: Masks::Weights,
     layout: &[
         (Effect::ActuationScale, Size::One),
         (Effect::CableOffset, Size::PerPositionCable),
@@ -776,6 +788,7 @@ static SPATIAL: KindInfo = KindInfo {
         ("rot", "rad"),
     ],
     holes: HoleGrouping::PerCable,
+    masks: Masks::Named,
     layout: &[
         (Effect::ActuationScale, Size::One),
         (Effect::CableOffset, Size::PerPositionCable),
