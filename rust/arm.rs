@@ -569,21 +569,6 @@ pub fn monte_carlo(
     crate::accuracy::monte_carlo(r, theta0, dl, holes, method, opts, check_slack, threads)
 }
 
-/// Tip deviations of single errors ([`crate::accuracy::deviation`]): planar
-/// arms only (an error naming `deviation` for another kind).
-pub fn deviation(
-    model: &Model,
-    theta0: &[f64],
-    dl: &[f64],
-    holes: Option<&[f64]>,
-    method: CableMethod,
-    opts: &SolveOptions,
-    threads: usize,
-) -> Result<(Vec<f64>, BatchSolution)> {
-    let r = model.planar_only("deviation")?;
-    crate::accuracy::deviation(r, theta0, dl, holes, method, opts, threads)
-}
-
 /// First-order sensitivities at `theta (N, n)`: a planar arm's closed
 /// forms ([`crate::sensitivity::sensitivities`]: `cable`, `pair` and
 /// `holes` in the planar layout), any other arm's general ones
@@ -598,20 +583,6 @@ pub fn sensitivities(
         Some(r) => crate::sensitivity::sensitivities(r, theta, with_holes, threads),
         None => crate::sensitivity::general(model, theta, with_holes, threads),
     }
-}
-
-/// The linear RMS of |d(x, y)| and its gradient
-/// ([`crate::sensitivity::rms_amplification`]): planar arms only (an error
-/// naming `rms_amplification` for another kind).
-pub fn rms_amplification(
-    model: &Model,
-    theta: &[f64],
-    tol: &[f64],
-    h: f64,
-    threads: usize,
-) -> Result<(Vec<f64>, Vec<f64>)> {
-    let r = model.planar_only("rms_amplification")?;
-    crate::sensitivity::rms_amplification(r, theta, tol, h, threads)
 }
 
 /// A planar arm's holes after the paper's per-disk hole-height error `dh

@@ -730,7 +730,8 @@ pub struct KindInfo {
     /// How the task vector holds the attitude (its last `task - dim` components).
     pub rotation: Rotation,
     /// The quantities of a Monte-Carlo study, per sample, and their units
-    /// (`crate::accuracy::monte_carlo` for planar arms, `crate::arm::monte_carlo`).
+    /// (`crate::arm::monte_carlo`: a planar arm's kernel
+    /// `crate::accuracy::monte_carlo`, the general `crate::arm::general_monte_carlo`).
     pub quantities: &'static [(&'static str, &'static str)],
     /// How hole errors group ([`crate::model::Structure`]).
     pub holes: HoleGrouping,
@@ -741,6 +742,9 @@ pub struct KindInfo {
     /// cdsm 0.1, the spatial one in the order of cdsm 0.2 with the effects
     /// added since at its end.
     pub layout: &'static [(Effect, Size)],
+    /// The blocks an elastic arm's plant appends to its layout, in order
+    /// (`joint_stiffness` only where some joint has a spring).
+    pub elastic_layout: &'static [(Effect, Size)],
 }
 
 static PLANAR: KindInfo = KindInfo {
@@ -765,6 +769,7 @@ static PLANAR: KindInfo = KindInfo {
         (Effect::ClearanceWidth, Size::One),
         (Effect::CableFriction, Size::One),
     ],
+    elastic_layout: &[(Effect::JointStiffness, Size::PerSegment)],
 };
 
 static SPATIAL: KindInfo = KindInfo {
@@ -802,6 +807,10 @@ static SPATIAL: KindInfo = KindInfo {
         (Effect::ClearanceWidth, Size::One),
         (Effect::JointAxis, Size::PerJointTilt),
         (Effect::CableFriction, Size::One),
+    ],
+    elastic_layout: &[
+        (Effect::JointStiffness, Size::PerSegment),
+        (Effect::CableAngle, Size::PerPositionCable),
     ],
 };
 

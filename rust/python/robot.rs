@@ -463,7 +463,7 @@ impl CoreRobot {
         let m = self::method(method)?;
         let o = options(tol, max_iter, false)?;
         let (ds, sol) = py
-            .detach(|| arm::deviation(&self.model, t, d, h, m, &o, threads))
+            .detach(|| accuracy::deviation(&self.model, t, d, h, m, &o, threads))
             .map_err(err)?;
         DeviationResult::new(py, ds, sol)
     }
@@ -534,7 +534,7 @@ impl CoreRobot {
         let t = slice("theta", &theta)?;
         let tl = slice("tol", &tol)?;
         let (v, g) = py
-            .detach(|| arm::rms_amplification(&self.model, t, tl, h, threads))
+            .detach(|| crate::sensitivity::rms_amplification(&self.model, t, tl, h, threads))
             .map_err(err)?;
         Ok((vec1(py, v), vec1(py, g)))
     }
