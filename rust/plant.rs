@@ -139,17 +139,20 @@ pub fn block_size(model: &Model, size: Size) -> usize {
         Size::Instrument => info.task,
         Size::Point => info.dim,
         Size::PerJointTilt => 2 * n,
+        Size::PerSegment => segments(model).len(),
     }
 }
 
 /// The layout of `model`'s plant (`docs/model.md`, "Parameters"): its kind's
 /// blocks ([`crate::kinds::KindInfo::layout`]) sized by its structure; an
 /// elastic arm's without the blocks the elastic settle does not model and
-/// with its own at the end: `joint_stiffness` (one per [`segments`], when
-/// some joint has a spring) and, spatial, `cable_angle` (one per commanded
-/// cable). A rigid arm's layout is its kind's.
+/// with its kind's elastic blocks at the end
+/// ([`crate::kinds::KindInfo::elastic_layout`]): `joint_stiffness` (one per
+/// [`segments`], when some joint has a spring) and, spatial, `cable_angle`
+/// (one per commanded cable). A rigid arm's layout is its kind's.
 pub fn layout(model: &Model) -> Layout {
-    let rules = model.kind.info().layout;
+    let info = model.kind.info();
+    let rules = info.layout;
     let elastic = model.is_elastic();
     let mut blocks = Vec::with_capacity(rules.len() + 2);
     let mut total = 0;
@@ -164,11 +167,11 @@ pub fn layout(model: &Model) -> Layout {
         put(e, block_size(model, size));
     }
     if elastic {
-        if model.joints.iter().any(|j| j.stiffness > 0.0) {
-            put(Effect::JointStiffness, segments(model).len());
-        }
-        if model.kind == Kind::Spatial {
-            put(Effect::CableAngle, commanded_cables(model).len());
+        let sprung = model.joints.iter().any(|j| j.stiffness > 0.0);
+        for &(e, size) in info.elastic_layout {
+            if e != Effect::JointStiffness || sprung {
+                put(e, block_size(model, size));
+            }
         }
     }
     Layout { blocks, total }
@@ -2380,7 +2383,7 @@ mod tests {
         for i in 0..2 {
             let t = &th[3 * i..3 * i + 3];
             let (dev, _) = crate::accuracy::deviation(
-                &r,
+                &Model::from_planar(&r),
                 t,
                 &dl[3 * i..3 * i + 3],
                 None,
