@@ -399,11 +399,14 @@ class VirtualPrototype:
         meas[~seen] = np.nan
         return Measurements(kind, self.robot.n, d, meas, theta=t, source="virtual prototype")
 
-    def random_commands(self, rows: int, seed: Optional[int] = None, limit: float = np.radians(30.0),
+    def random_commands(self, rows: int, seed: Optional[int] = None, limit: Optional[float] = None,
                         dl: float = 1e-3, kind: str = "absolute", taut: bool = False, min_tension: float = 0.0,
                         max_draws: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
         """``rows`` random commands: joint angles ``theta`` (rows, n), rad,
-        uniform within ±``limit`` rad, and extras ``dL`` (rows, m), m, on the
+        uniform within ±``limit`` rad of the rest angles (default 30°; an
+        elastic arm's default 0: its rows are commanded by their cables
+        alone, ``theta`` the rest angles, as a recording's), and extras
+        ``dL`` (rows, m), m, on the
         m position-controlled cables (a planar arm's upper cables), uniform
         within ±``dl`` m — for ``kind="displacement"`` one cable per row gets
         ±``dl`` exactly and the others 0. Seeded: ``seed``, default the
@@ -422,6 +425,8 @@ class VirtualPrototype:
         rate (narrow ``limit``, lower ``min_tension`` or raise ``max_draws``).
         ``taut=False`` (default) draws exactly as before, without statics."""
         rows = as_count("rows", rows)
+        if limit is None:
+            limit = 0.0 if self.robot.is_elastic else np.radians(30.0)
         limit, dl = as_finite("limit", limit), as_finite("dl", dl)
         if limit < 0.0 or dl < 0.0:
             raise CdsmInputError(f"`{'limit' if limit < 0.0 else 'dl'}`: expected a half-width >= 0, got "
@@ -460,7 +465,7 @@ def _draw_commands(robot: Robot, rng: np.random.Generator, rows: int, limit: flo
     """``rows`` commands (theta (rows, n) rad, dL (rows, m) m) from ``rng``
     (:meth:`VirtualPrototype.random_commands`)."""
     n, w = robot.n, commands(robot)
-    theta = rng.uniform(-limit, limit, (rows, n))
+    theta = robot.rest_angles + rng.uniform(-limit, limit, (rows, n))
     d = np.zeros((rows, w))
     if kind == "displacement":
         d[np.arange(rows), rng.integers(0, w, rows)] = rng.choice([-dl, dl], rows)
