@@ -46,11 +46,12 @@ def with_mu(robot, mu, effects=None):
 # --------------------------------------------------------------------------
 # Layout, the frictionless limit
 # --------------------------------------------------------------------------
-def test_cable_friction_is_the_last_block_of_an_elastic_arm_and_in_its_library():
+def test_cable_friction_is_the_last_block_of_an_elastic_arm_fitted_when_named():
     robot = cdsm.Robot.from_toml_str(two_segments())
     lay = plant.layout(robot)
     assert list(lay)[-1] == "cable_friction" and lay["cable_friction"].stop == plant.size(robot)
-    assert "cable_friction" in plant.effects_of(robot)
+    assert "cable_friction" not in plant.effects_of(robot)
+    assert plant.check_effects(robot, ["cable_friction"]) == ["cable_friction"]
     lo, hi = plant.bounds(robot)
     assert lo[lay["cable_friction"]][0] == 0.0 and hi[lay["cable_friction"]][0] == 1.0
 

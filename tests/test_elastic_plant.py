@@ -82,10 +82,11 @@ def test_an_elastic_arm_has_its_blocks_and_a_rigid_arm_its_kinds():
     assert labels == ["segment of joints 1–8 (springs 1 + s)", "segment of joints 9–16 (springs 1 + s)"]
     lo, hi = plant.bounds(robot)
     assert (lo[lay["joint_stiffness"]] == -0.9).all() and (hi[lay["cable_angle"]] == np.pi).all()
-    # the default library: the per-hole, per-link and per-axis geometry only when named
+    # the default library: the per-hole, per-link and per-axis geometry and friction only when named
     assert plant.effects_of(robot) == ("actuation_scale", "cable_offset", "frame_misalignment", "tip_offset",
-                                       "backlash", "joint_stiffness", "cable_angle", "cable_friction")
-    assert plant.check_effects(robot, ["hole_position", "joint_axis"]) == ["hole_position", "joint_axis"]
+                                       "backlash", "joint_stiffness", "cable_angle")
+    assert plant.check_effects(robot, ["hole_position", "joint_axis", "cable_friction"]) == [
+        "hole_position", "joint_axis", "cable_friction"]
     with pytest.raises(CdsmInputError, match="hole_clearance"):
         plant.check_effects(robot, ["hole_clearance"])
     mixed = cdsm.Robot.from_toml_str(mixed_text())

@@ -72,7 +72,7 @@ from .measurements import KIND_CODES, Measurements, commanded_cables
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
            "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
-           "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "effects_of", "check_effects", "width", "dims", "commands",
+           "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "ELASTIC_ON_REQUEST", "effects_of", "check_effects", "width", "dims", "commands",
            "command_lengths", "taut_commands"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
@@ -131,25 +131,31 @@ MAX_PARAMETER = 1e3
 #: are its ``cable_angle`` and ``cable_offset`` in the library.
 ELASTIC_GEOMETRY: Tuple[str, ...] = ("hole_position", "link_length", "joint_axis")
 
+#: Every block of an elastic arm's plant fitted only when named: the geometry
+#: (:data:`ELASTIC_GEOMETRY`) and friction in the holes (``cable_friction``: a fit
+#: with it settles the non-symmetric capstan system, about 20 times the cost of a
+#: frictionless fit on FTDCR v4, whose real recordings put mu at 0.0008).
+ELASTIC_ON_REQUEST: Tuple[str, ...] = ELASTIC_GEOMETRY + ("cable_friction",)
+
 
 def effects_of(robot) -> Tuple[str, ...]:
     """The diagnosis library of a robot: its kind's layout's effects; an elastic
     arm's (:attr:`Robot.is_elastic`) its own layout's (:func:`layout`: without
-    ``cable_elasticity``, ``hole_clearance`` and ``cable_friction``, with
-    ``joint_stiffness`` and, spatial, ``cable_angle``) but :data:`ELASTIC_GEOMETRY`."""
+    ``cable_elasticity`` and ``hole_clearance``, with ``joint_stiffness`` and,
+    spatial, ``cable_angle``) but :data:`ELASTIC_ON_REQUEST`."""
     if robot.is_elastic:
-        return _library([name for name, k in robot.core.plant_effects() if k and name not in ELASTIC_GEOMETRY])
+        return _library([name for name, k in robot.core.plant_effects() if k and name not in ELASTIC_ON_REQUEST])
     return _library(kind_facts(robot.kind)["layout"])
 
 
 def check_effects(robot, effects: Sequence[str], field: str = "effects") -> List[str]:
     """``effects`` as a list, each one of the library of ``robot``'s kind (an
-    elastic arm's also the :data:`ELASTIC_GEOMETRY` blocks of its layout);
+    elastic arm's also the :data:`ELASTIC_ON_REQUEST` blocks of its layout);
     :class:`CdsmInputError` naming ``field``, the unknown names and the
     kind's library otherwise."""
     known = effects_of(robot)
     if robot.is_elastic:
-        known += tuple(b for b, k in robot.core.plant_effects() if k and b in ELASTIC_GEOMETRY)
+        known += tuple(b for b, k in robot.core.plant_effects() if k and b in ELASTIC_ON_REQUEST)
     names = list(effects)
     bad = [e for e in names if e not in known]
     if bad:
