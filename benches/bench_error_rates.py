@@ -21,7 +21,8 @@ readings rotated by 25-35° and translated by 1.3-1.5 m in a random
 direction), so the two frames are a paired comparison.
 
 Rows: random commands of the paper robot within ±30° per joint and ±1 mm of
-upper-cable extra (``VirtualPrototype.random_commands``), run in order,
+upper-cable extra (``VirtualPrototype.random_commands``; an elastic arm's:
+its tendons pulled or paid out by up to 1 mm from the rest angles), run in order,
 Gaussian noise 10 µm per axis and reading (noise floor √2·σ = 14.1 µm).
 
 Cases:
@@ -67,7 +68,9 @@ planar, 55 spatial, ``cable_friction`` included) instead of the four above;
 spatial arm (library effects at 1-2x their typical size; tracker frame
 rotated 25-35° about a random axis, 1.3-1.5 m away; the out-of-library
 effects act on the position-controlled cables and the tracker's three
-axes). ``--robot benches/two_universal_nylon.toml``: the
+axes). ``--robot ftdcr_v4`` (any elastic arm: OpenCR's FTDCR v4, 60 elastic joints
+and 9 tendons): its own library (:func:`plant.effects_of`), every pair.
+``--robot benches/two_universal_nylon.toml``: the
 same arm strung with 0.3 mm nylon 6,6 (E A 177 N), where friction in the
 holes moves the tip by more than the noise (with steel's 4.6 kN it moves it
 by 2-6 µm at most: ``benches/identifiability.md``).
@@ -159,10 +162,14 @@ class Case:
         return "no gap" if self.kind == "nominal" else "explained"
 
 
-def cases(robot_kind: str = "planar", pairs: bool = False) -> List[Case]:
-    library = plant.SPATIAL_EFFECTS if robot_kind == "spatial" else plant.EFFECTS
+def cases(robot: Robot, pairs: bool = False) -> List[Case]:
+    """The cells for ``robot``: its diagnosis library (:func:`plant.effects_of`:
+    the kind's, an elastic arm's own) each alone, mixtures (every pair with
+    ``pairs`` or beyond the paper's planar library, else :data:`MIXTURES`),
+    nominal data and the out-of-library effects."""
+    library = plant.effects_of(robot)
     out = [] if pairs else [Case(e, "library", (e,)) for e in library]
-    mixtures = list(itertools.combinations(library, 2)) if pairs or robot_kind == "spatial" else MIXTURES
+    mixtures = list(itertools.combinations(library, 2)) if pairs or library != plant.EFFECTS else MIXTURES
     out += [Case("+".join(m), "library", tuple(m)) for m in mixtures]
     out.append(Case("nominal (no effect)", "nominal"))
     out += [Case(name, "ool") for name in ool.EFFECTS]
@@ -339,7 +346,7 @@ def _init(threads: int, robot: str, pairs: bool) -> None:
     global _ROBOT, _CASES
     _ROBOT = load_robot(robot)
     _ROBOT.threads = threads
-    _CASES = cases(_ROBOT.kind, pairs)
+    _CASES = cases(_ROBOT, pairs)
 
 
 def given_noise(factor: Optional[float]) -> Optional[float]:
@@ -446,12 +453,13 @@ def _limits(records: List[dict], all_cases: List[Case], args) -> List[str]:
 
 
 def load_robot(name: str) -> Robot:
-    """The paper robot or a packaged robot name or robot file."""
-    return Robot.paper() if name == "paper" else Robot.from_toml(name)
+    """The paper robot, a packaged robot's name (OpenCR's ``ftdcr_v4``
+    included) or a robot file (TOML or an OpenCR config): :meth:`Robot.load`."""
+    return Robot.load(name)
 
 
-def report(records: List[dict], args, elapsed: float, kind: str) -> str:
-    all_cases = cases(kind, args.pairs)
+def report(records: List[dict], args, elapsed: float, robot: Robot) -> str:
+    all_cases = cases(robot, args.pairs)
     by = collections.defaultdict(list)
     for r in records:
         by[(r["case"], r["rows"], r["frame"])].append(r)
@@ -465,6 +473,7 @@ def report(records: List[dict], args, elapsed: float, kind: str) -> str:
     opts += "" if tuple(args.rows) == ROWS else f" --rows {','.join(map(str, args.rows))}"
     opts += "" if args.only is None else f" --only {args.only}"
     opts += " --pairs" if args.pairs else ""
+    opts += " --singles" if args.singles else ""
     opts += " --noise-assumed" if args.noise_assumed else ("" if args.noise_given == 1.0
                                                            else f" --noise-given {args.noise_given:g}")
     opts += "" if args.robot == "paper" else f" --robot {args.robot}"
@@ -472,13 +481,14 @@ def report(records: List[dict], args, elapsed: float, kind: str) -> str:
         "## Error rates of the diagnosis" + (" (quick smoke run — not for the README)" if args.quick else ""),
         "",
         f"`python benches/bench_error_rates.py {opts}` "
-        f"(commit {commit}, seed {args.seed}): {args.datasets} data sets per cell; rows ±30° per joint, "
-        f"±1 mm cable extra; noise {NOISE * 1e6:.0f} µm per axis ("
+        f"(commit {commit}, seed {args.seed}): {args.datasets} data sets per cell; rows "
+        + ("the tendons' pulls ±1 mm from the rest angles" if robot.is_elastic else
+           "±30° per joint, ±1 mm cable extra") + f"; noise {NOISE * 1e6:.0f} µm per axis ("
         + ("not passed to `diagnose`: it assumes its default "
            f"{diagnosis.DEFAULT_NOISE * 1e6:.0f} µm" if args.noise_assumed else
            f"passed to `diagnose` as {args.noise_given * NOISE * 1e6:g} µm"
            + (f", {args.noise_given:g} × the truth" if args.noise_given != 1.0 else ""))
-        + f"; floor {math.sqrt(3 if kind == 'spatial' else 2) * NOISE * 1e6:.1f} µm); robot `{args.robot}`; whole "
+        + f"; floor {math.sqrt(plant.dims(robot)) * NOISE * 1e6:.1f} µm); robot `{args.robot}`; whole "
         "library, 10-fold CV, frame rule `auto` (the default: base-frame data are taken in the base frame with "
         "the frame a candidate, tracker data registered). "
         "Tracker frame: the same readings rotated 25-35° and moved 1.3-1.5 m. Rates: k/N = % "
@@ -555,6 +565,9 @@ def main() -> None:
     ap.add_argument("--only", default=None, help="only cases whose name contains this text (a comma-separated "
                     "list: any of them)")
     ap.add_argument("--pairs", action="store_true", help="every two-effect mixture of the library as a cell")
+    ap.add_argument("--singles", action="store_true",
+                    help="only the cells of one library effect, nominal data and the out-of-library effects (no "
+                         "mixtures: a first look at a robot whose diagnosis is slow, e.g. an elastic arm)")
     ap.add_argument("--robot", default="paper", help="'paper' (default), a packaged robot name or a robot file")
     noise = ap.add_mutually_exclusive_group()
     noise.add_argument("--noise-given", type=float, default=1.0, metavar="FACTOR",
@@ -571,10 +584,11 @@ def main() -> None:
     if args.datasets < 1 or args.jobs < 1:
         ap.error("--datasets and --jobs must be positive")
     args.rows = [int(r) for r in args.rows.split(",") if r.strip()]
-    kind = load_robot(args.robot).kind
-    all_cases = cases(kind, args.pairs)
+    robot = load_robot(args.robot)
+    all_cases = cases(robot, args.pairs)
     wanted = None if args.only is None else [w.strip() for w in args.only.split(",") if w.strip()]
-    chosen = [ci for ci, c in enumerate(all_cases) if wanted is None or any(w in c.name for w in wanted)]
+    chosen = [ci for ci, c in enumerate(all_cases) if (wanted is None or any(w in c.name for w in wanted))
+              and not (args.singles and len(c.truth) > 1)]
     # the longest work first (60 rows, library mixtures), for load balance
     factor = None if args.noise_assumed else args.noise_given
     tasks = [(ci, rows, i, args.seed, factor) for rows in sorted(args.rows, reverse=True) for ci in chosen
@@ -603,7 +617,7 @@ def main() -> None:
         pool.close()
         pool.join()
     records.sort(key=lambda r: (r["case"], -r["rows"], r["frame"], r["i"]))
-    text = report(records, args, time.perf_counter() - t0, kind)
+    text = report(records, args, time.perf_counter() - t0, robot)
     print(text)
     os.makedirs(os.path.dirname(os.path.abspath(args.out)) or ".", exist_ok=True)
     with open(args.out, "w", encoding="utf-8") as fh:

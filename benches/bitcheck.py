@@ -334,8 +334,7 @@ def flat(a) -> np.ndarray:
 CORE_GETTERS = ("kind", "n", "name", "joint_limits", "axes", "gravity", "straight_length", "cables",
                 "position_cables", "cable_ends", "cable_tensions", "flat_holes", "radii", "mass", "offsets",
                 "joint_disks", "disk_link_after", "disk_thickness", "com", "youngs_modulus", "cable_diameter",
-                "routing_length", "axial_stiffness", "link_before", "link_after", "thickness", "lower_tension",
-                "holes")
+                "routing_length", "axial_stiffness", "holes")
 
 #: The core's batch maps of theta (N, n).
 THETA_MAPS = ("fk", "fk_matrix", "disk_frames", "fk_jacobian", "cable_lengths", "cable_jacobian", "within_limits")
@@ -550,7 +549,7 @@ def case_core_variants(ctx: Ctx, rec) -> None:
     def summary(v):
         out = {"toml": v.to_toml(), "flat_holes": v.flat_holes, "radii": v.radii,
                "lengths": v.cable_lengths(flat(th), 0)}
-        for g in ("holes", "lower_tension", "gravity", "axial_stiffness"):
+        for g in ("holes", "cable_tensions", "gravity", "axial_stiffness"):
             try:
                 out[g] = getattr(v, g)
             except Exception as exc:  # the planar getters of a spatial arm

@@ -127,7 +127,7 @@ fn spatial(
     c.run(
         &format!("monte_carlo_spatial/{name}"),
         (configs * samples) as u64,
-        || arm::monte_carlo(model, black_box(theta0), &dl, Some(&dh), &opts, false, 1),
+        || arm::general_monte_carlo(model, black_box(theta0), &dl, Some(&dh), &opts, false, 1),
     );
 }
 

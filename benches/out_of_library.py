@@ -6,13 +6,14 @@ None of these is (or should become) an effect of
 them "explained" has wrongly claimed that its library accounts for the gap.
 
 Actuator-side effects map the *commanded* lengths ``c`` (N, w) of the
-position-controlled cables (the n upper cables of a planar arm, every cable
-of a spatial one's position set) of the rows, run in order, to the lengths
+commanded cables (the n upper cables of a planar arm, every cable
+of a spatial one's position set, an elastic arm's tendons too) of the rows, run in order, to the lengths
 the screws *realise*; the nominal plant is then fed
 ``dL' = realised - L_pos,nom(theta_cmd)`` while the data keep the commanded
 ``dL`` (all the diagnosis sees). Every effect of :data:`EFFECTS` applies to
 both kinds of arm. ``d = c - L_ref`` is the
-commanded change from the straight-pose length ``L_ref`` (per cable). The
+commanded change from the length ``L_ref`` at the rest pose (straight for a
+rigid arm; per cable). The
 instrument-side effect (tracker drift) acts on the measured positions.
 
 =====================  ======================================================
@@ -43,7 +44,7 @@ from cdsm import Robot
 from cdsm.calibration import measurements, plant
 
 __all__ = ["OutOfLibrary", "QuadraticActuator", "CubicActuator", "LeadScrew", "ThermalDrift", "TrackerDrift",
-           "EFFECTS", "to_frame", "measure"]
+           "EFFECTS", "to_frame", "measure", "commanded_lengths"]
 
 
 def _signs(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -52,8 +53,7 @@ def _signs(rng: np.random.Generator, n: int) -> np.ndarray:
 
 class OutOfLibrary:
     """An effect outside the library. ``realise`` maps commanded
-    position-controlled cable lengths (N, w) m (the n upper cables of a
-    planar arm), rows in execution order, to realised ones; ``observe`` maps
+    cable lengths (N, w) m (:func:`commanded_lengths`), rows in execution order, to realised ones; ``observe`` maps
     measured positions (N, k) m (instrument frame; k = 2 planar, 3 spatial)
     to what is read."""
 
@@ -76,10 +76,17 @@ class OutOfLibrary:
         return self.name
 
 
+def commanded_lengths(robot: Robot, theta: np.ndarray) -> np.ndarray:
+    """(N, w) lengths (m) of the cables a row commands
+    (:func:`measurements.commanded_cables`: the position cables, an elastic
+    arm's tendons too) at the joint angles ``theta`` (N, n) rad."""
+    return robot.cable_lengths(theta)[:, measurements.commanded_cables(robot)]
+
+
 def _straight(robot: Robot) -> np.ndarray:
-    """The cables' upper lengths (m) at the straight pose, the reference of
-    the actuator errors."""
-    return robot.upper_lengths(np.zeros(robot.n))
+    """The commanded cables' lengths (m) at the rest pose (straight for a
+    rigid arm), the reference of the actuator errors."""
+    return commanded_lengths(robot, robot.rest_angles[None, :])[0]
 
 
 @dataclass
@@ -217,7 +224,7 @@ def measure(robot: Robot, effect: Optional[OutOfLibrary], theta: np.ndarray, dL:
     theta = np.asarray(theta, float)
     dL = np.asarray(dL, float)
     k = plant.dims(robot)
-    nominal = robot.upper_lengths(theta)
+    nominal = commanded_lengths(robot, theta)
     commanded = nominal + dL
     realised = commanded if effect is None else effect.realise(robot, theta, commanded)
     obs, ok = plant.predict(robot, np.zeros(plant.size(robot)), theta, realised - nominal)

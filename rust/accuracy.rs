@@ -30,9 +30,10 @@ pub enum HoleErrors<'a> {
 /// Tip deviation `dS = fk(theta) - fk(theta0)` after the upper cables are set
 /// to `L0 + dl` (L0: nominal lengths at `theta0`) on a robot whose holes are
 /// `holes` (`None`: nominal). `theta0 (N, n)`, `dl (n,)`. Returns `dS (N, 3)`
-/// and the solves (seeded at `theta0`).
+/// and the solves (seeded at `theta0`). Planar arms only (an error naming
+/// `deviation` for another kind).
 pub fn deviation(
-    robot: &Robot,
+    model: &Model,
     theta0: &[f64],
     dl: &[f64],
     holes: Option<&[f64]>,
@@ -40,6 +41,7 @@ pub fn deviation(
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<(Vec<f64>, BatchSolution)> {
+    let robot = model.planar_only("deviation")?;
     let n = robot.n();
     let rows = rows_of("theta0", theta0, n)?;
     check_len("dl", dl, n)?;
@@ -759,7 +761,7 @@ mod tests {
         // Table 3, point 1: straight pose, upper cable 1 shortened by 1 mm.
         let r = Robot::paper();
         let (ds, sol) = deviation(
-            &r,
+            &Model::from_planar(&r),
             &[0.0; 3],
             &[-1e-3, 0.0, 0.0],
             None,
@@ -782,7 +784,8 @@ mod tests {
         let mut holes = vec![0.0; r.holes.len()];
         r.hole_height_error_into(&dh, &mut holes);
         let opts = SolveOptions::default();
-        let (ds, _) = deviation(&r, &th, &dl, Some(&holes), CableMethod::Auto, &opts, 2).unwrap();
+        let m = Model::from_planar(&r);
+        let (ds, _) = deviation(&m, &th, &dl, Some(&holes), CableMethod::Auto, &opts, 2).unwrap();
         let st = monte_carlo(
             &r,
             &th,

@@ -5,12 +5,12 @@
 //! every arm can run the general ones on the one model's chain, which are
 //! the only ones of a spatial arm. SI units; arrays row-major.
 
-use crate::accuracy::McStats;
+use crate::accuracy::{HoleErrors, McStats};
 use crate::batch;
 use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
 use crate::friction::{Holes, Profile, Sliding};
-use crate::ik::{IkMethod, SpatialIk, SpatialMask, TaskMask};
+use crate::ik::{IkMethod, Mask, SpatialIk};
 use crate::kinds::{log_so3, Frame, Group, Se3, Spatial, Vector, Visit};
 use crate::lm::Reason;
 use crate::model::Model;
@@ -305,33 +305,27 @@ impl<G: Group> WithSimd for SolveRows<'_, G> {
     }
 }
 
-/// What the pose IK matches: planar weights over `x, y, phi`, or a spatial mask.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Task {
-    Planar(TaskMask),
-    Spatial(SpatialMask),
-}
-
 /// The pose IK of a batch: targets `(N, TASK)` (m, rad), `seed (N, n)` or
-/// zeros.
+/// zeros; `mask` parsed for the arm's kind ([`Mask::parse`]). A planar arm
+/// runs its fast path (closed form, SIMD lanes, the planar LM).
 pub fn ik(
     model: &Model,
     target: &[f64],
     seed: Option<&[f64]>,
-    task: Task,
+    mask: Mask,
     method: IkMethod,
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<BatchSolution> {
-    let mismatch = |what: &str| CdsmError::Option {
+    // a mask parsed for another kind's arm
+    let mismatch = || CdsmError::Option {
         name: "mask".into(),
-        problem: format!("{what} is not a mask of a {} arm", model.kind.name()),
+        problem: format!("{mask:?} is not a mask of a {} arm", model.kind.name()),
     };
-    match (model.planar(), task) {
-        (Some(r), Task::Planar(mask)) => batch::ik(r, target, seed, mask, method, opts, threads),
-        (Some(_), Task::Spatial(_)) => Err(mismatch("a spatial mask")),
-        (None, Task::Planar(_)) => Err(mismatch("a planar weight triple")),
-        (None, Task::Spatial(mask)) => {
+    match (model.planar(), mask) {
+        (Some(r), Mask::Weights(w)) => batch::ik(r, target, seed, w, method, opts, threads),
+        (Some(_), Mask::Form(_)) | (None, Mask::Weights(_)) => Err(mismatch()),
+        (None, Mask::Form(mask)) => {
             if method == IkMethod::ClosedForm {
                 return Err(CdsmError::Option {
                     name: "method".into(),
@@ -530,6 +524,86 @@ fn above_floor(bal: &Balance<f64>, floor: f64) -> Option<Vec<f64>> {
     min_norm_active(&a, &bal.b, floor).map(|s| s.t)
 }
 
+/// Monte Carlo of an arm's errors (`theta0 (N, n)` rad, `dl (S, m_pos)` m):
+/// one call for either kind, its kernel chosen here. A planar arm runs its
+/// fast kernel ([`crate::accuracy::monte_carlo`]: closed form across lanes,
+/// `method`; hole errors as per-disk heights `dh (S, n)` or every hole
+/// coordinate `dholes` in the planar layout, at most one of them; quantities
+/// dX, dY, dphi, |dXY|); a spatial arm the general solve
+/// ([`general_monte_carlo`]: `dholes (S, 3H)` over [`Model::flat_holes`];
+/// `dh` refused). Both with the optional slack check.
+#[allow(clippy::too_many_arguments)]
+pub fn monte_carlo(
+    model: &Model,
+    theta0: &[f64],
+    dl: &[f64],
+    dh: Option<&[f64]>,
+    dholes: Option<&[f64]>,
+    method: CableMethod,
+    opts: &SolveOptions,
+    check_slack: bool,
+    threads: usize,
+) -> Result<McStats> {
+    let Some(r) = model.planar() else {
+        if dh.is_some() {
+            return Err(CdsmError::Option {
+                name: "dh".into(),
+                problem: "per-pair hole heights are planar; a spatial arm's Monte Carlo takes \
+                          `dholes`"
+                    .into(),
+            });
+        }
+        return general_monte_carlo(model, theta0, dl, dholes, opts, check_slack, threads);
+    };
+    let holes = match (dh, dholes) {
+        (None, None) => HoleErrors::None,
+        (Some(a), None) => HoleErrors::PerPair(a),
+        (None, Some(a)) => HoleErrors::Full(a),
+        _ => {
+            return Err(CdsmError::Option {
+                name: "dh, dholes".into(),
+                problem: "give at most one of them".into(),
+            })
+        }
+    };
+    crate::accuracy::monte_carlo(r, theta0, dl, holes, method, opts, check_slack, threads)
+}
+
+/// First-order sensitivities at `theta (N, n)`: a planar arm's closed
+/// forms ([`crate::sensitivity::sensitivities`]: `cable`, `pair` and
+/// `holes` in the planar layout), any other arm's general ones
+/// ([`crate::sensitivity::general`]: `holes` over [`Model::flat_holes`]).
+pub fn sensitivities(
+    model: &Model,
+    theta: &[f64],
+    with_holes: bool,
+    threads: usize,
+) -> Result<crate::sensitivity::Sensitivities> {
+    match model.planar() {
+        Some(r) => crate::sensitivity::sensitivities(r, theta, with_holes, threads),
+        None => crate::sensitivity::general(model, theta, with_holes, threads),
+    }
+}
+
+/// A planar arm's holes after the paper's per-disk hole-height error `dh
+/// (n,)` m, in the planar layout `(2n, n+1, 2, 2)` flat
+/// ([`crate::robot::Robot::hole_height_error_into`]); an error naming
+/// `hole_height_error` for another kind.
+pub fn hole_height_error(model: &Model, dh: &[f64]) -> Result<Vec<f64>> {
+    let r = model.planar_only("hole_height_error")?;
+    if dh.len() != r.n() {
+        return Err(CdsmError::Shape {
+            name: "dh".into(),
+            expected: format!("({},)", r.n()),
+            got: format!("{} values", dh.len()),
+        });
+    }
+    crate::error::check_finite("dh", dh)?;
+    let mut out = vec![0.0; r.holes.len()];
+    r.hole_height_error_into(dh, &mut out);
+    Ok(out)
+}
+
 /// Monte Carlo of an arm's errors by the general solve: for every sample
 /// `s` (errors `dl[s]` on the position cables, m, and `dholes[s]` on every
 /// hole, as [`Model::flat_holes`], m, when given) and every configuration
@@ -541,7 +615,7 @@ fn above_floor(bal: &Balance<f64>, floor: f64) -> Option<Vec<f64>> {
 /// perturbed holes for the moment arms; [`tensions`] at floor 0) and
 /// counted in `slack` when none exists. (A planar arm's Monte-Carlo kernel
 /// is [`crate::accuracy::monte_carlo`].)
-pub fn monte_carlo(
+pub fn general_monte_carlo(
     model: &Model,
     theta0: &[f64],
     dl: &[f64],
@@ -629,7 +703,7 @@ fn lane_frame(f: &Se3<P>, b: usize) -> Se3<f64> {
 
 /// A Monte-Carlo sample's quantities: the end frame `end` against the
 /// nominal `end0`: dX, dY, dZ, |dXYZ| (m) and the rotation angle (rad).
-fn deviation(end0: &Se3<f64>, end: &Se3<f64>) -> [f64; SPATIAL_QUANTITIES] {
+fn sample_quantities(end0: &Se3<f64>, end: &Se3<f64>) -> [f64; SPATIAL_QUANTITIES] {
     let d = end.t.sub(end0.t);
     let rel: [[f64; 3]; 3] = std::array::from_fn(|a| {
         std::array::from_fn(|b| (0..3).map(|k| end0.r[k][a] * end.r[k][b]).sum())
@@ -716,7 +790,7 @@ impl WithSimd for McRows<'_> {
                         chain.world(ms, ms);
                         *chain.end()
                     };
-                    stats.add_values(j, &deviation(&end0[b], &end));
+                    stats.add_values(j, &sample_quantities(&end0[b], &end));
                     if check_slack {
                         let wrench = Wrench {
                             force: zero,

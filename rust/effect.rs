@@ -90,4 +90,7 @@ pub enum Size {
     Point,
     /// Two tilt angles per joint (`2 n`).
     PerJointTilt,
+    /// One per segment of an elastic arm (the joints between cable
+    /// terminations, `crate::plant::segments`).
+    PerSegment,
 }

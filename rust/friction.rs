@@ -83,6 +83,15 @@ pub fn angle<S: Real, V: Vector<S>>(u: V, w: V) -> S {
     sin.atan2(u.dot(w))
 }
 
+/// Whether a traversal is a point (every component exactly 0 and constant):
+/// a via plate's (thickness 0) one hole on both faces, which has no
+/// direction; the cable turns there from its gap into the next one
+/// (`docs/model.md`, "Friction in the holes").
+#[inline]
+fn is_point<S: Real, V: Vector<S>>(t: V) -> bool {
+    t.to3().iter().all(|x| x.val() == 0.0 && !x.is_variable())
+}
+
 /// `sinh(x)`.
 #[inline]
 fn sinh<S: Real>(x: S) -> S {
@@ -146,6 +155,11 @@ impl<S: Real> Profile<S> {
                 // hole 2k - 1 (face a of disk k): from the gap into the traversal
                 let t = chain.traversal(nums, c, k);
                 let va = chain.local[k - 1].dir_inv(v);
+                if is_point(t) {
+                    // a via plate's one hole: the turn is hole 2k's, into the next gap
+                    prev = va;
+                    continue;
+                }
                 cum += z_at(h0 + 2 * k - 1) * angle(va, t);
                 let tl = t.norm();
                 sum += tl * (-(mu * cum)).exp();
@@ -179,7 +193,15 @@ pub fn hole_geometry<F: Frame<f64>>(
             beta[h0 + 2 * k - 2] = angle(prev, v);
             d[h0 + 2 * k - 2] = v.norm();
             let t = chain.traversal(model, c, k);
-            beta[h0 + 2 * k - 1] = angle(chain.local[k - 1].dir_inv(v), t);
+            let va = chain.local[k - 1].dir_inv(v);
+            if is_point(t) {
+                // a via plate's one hole: the turn is hole 2k's, into the next gap
+                beta[h0 + 2 * k - 1] = 0.0;
+                d[h0 + 2 * k - 1] = 0.0;
+                prev = va;
+                continue;
+            }
+            beta[h0 + 2 * k - 1] = angle(va, t);
             d[h0 + 2 * k - 1] = t.norm();
             prev = t;
         }

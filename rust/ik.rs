@@ -11,7 +11,7 @@
 use crate::chain::Chain;
 use crate::error::{CdsmError, Result};
 use crate::geometry::ArmGeometry;
-use crate::kinds::{exp_so3, log_so3, Se3};
+use crate::kinds::{exp_so3, log_so3, Kind, Masks, Se3};
 use crate::kinematics::fk_jacobian;
 use crate::limits::Limits;
 use crate::lm::{self, Lm, Problem, Reason, Step, Workspace};
@@ -294,6 +294,38 @@ mod tests {
         IkSolver::new(robot, TaskMask::POSE, *opts).solve(pose, theta)
     }
 
+    /// A mask is parsed for the arm's kind, as its table says it is given:
+    /// weights on a planar arm, names on a spatial one; the other's, a
+    /// wrong count of weights and an unknown name are refused naming `mask`.
+    #[test]
+    fn masks_parse_as_the_kind_takes_them() {
+        let w = [1.0, 1.0, 0.0];
+        assert_eq!(
+            Mask::parse(Kind::Planar, MaskArg::Weights(&w)).unwrap(),
+            Mask::Weights(TaskMask { weights: w })
+        );
+        for (name, form) in NAMED_MASKS {
+            assert_eq!(
+                Mask::parse(Kind::Spatial, MaskArg::Name(name)).unwrap(),
+                Mask::Form(form)
+            );
+        }
+        let error = |kind, arg| Mask::parse(kind, arg).unwrap_err().to_string();
+        assert_eq!(
+            error(Kind::Planar, MaskArg::Name("pose")),
+            "`mask`: a spatial mask is not a mask of a planar arm"
+        );
+        assert_eq!(
+            error(Kind::Spatial, MaskArg::Weights(&w)),
+            "`mask`: a planar weight triple is not a mask of a spatial arm"
+        );
+        assert_eq!(
+            error(Kind::Planar, MaskArg::Weights(&w[..2])),
+            "`mask`: expected 3 weights (x, y, phi), got 2"
+        );
+        assert!(error(Kind::Spatial, MaskArg::Name("bogus")).contains("got \"bogus\""));
+    }
+
     #[test]
     fn ik_reaches_a_forward_pose() {
         let r = Robot::paper();
@@ -347,6 +379,74 @@ impl SpatialMask {
         match self {
             SpatialMask::Position => 3,
             _ => 6,
+        }
+    }
+}
+
+/// The named masks, in the order the error names them.
+const NAMED_MASKS: [(&str, SpatialMask); 3] = [
+    ("position", SpatialMask::Position),
+    ("pointing", SpatialMask::Pointing),
+    ("pose", SpatialMask::Pose),
+];
+
+/// A pose-IK mask as given: a name or weights on the task coordinates.
+#[derive(Debug, Clone, Copy)]
+pub enum MaskArg<'a> {
+    Name(&'a str),
+    Weights(&'a [f64]),
+}
+
+/// What the pose IK of an arm matches ([`crate::arm::ik`]), parsed for
+/// its kind by [`Mask::parse`]: weights on a planar arm's `x, y, phi`, or
+/// a named form of a spatial arm's pose.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Mask {
+    Weights(TaskMask),
+    Form(SpatialMask),
+}
+
+impl Mask {
+    /// The mask `arg` of an arm of kind `kind`, as the kind takes it
+    /// ([`KindInfo::masks`](crate::kinds::KindInfo)); an error naming
+    /// `mask` for a mask of the wrong shape, an unknown name or a mask the
+    /// kind does not take.
+    pub fn parse(kind: Kind, arg: MaskArg) -> Result<Mask> {
+        let bad = |problem: String| CdsmError::Option {
+            name: "mask".into(),
+            problem,
+        };
+        let takes = kind.info().masks;
+        match arg {
+            MaskArg::Weights(w) => {
+                let [x, y, p] = w[..] else {
+                    return Err(bad(format!(
+                        "expected 3 weights (x, y, phi), got {}",
+                        w.len()
+                    )));
+                };
+                match takes {
+                    Masks::Weights => Ok(Mask::Weights(TaskMask { weights: [x, y, p] })),
+                    Masks::Named => Err(bad(format!(
+                        "a planar weight triple is not a mask of a {} arm",
+                        kind.name()
+                    ))),
+                }
+            }
+            MaskArg::Name(name) => {
+                let Some(&(_, form)) = NAMED_MASKS.iter().find(|(n, _)| *n == name) else {
+                    return Err(bad(format!(
+                        "expected 'position', 'pointing' or 'pose' for a spatial arm, got {name:?}"
+                    )));
+                };
+                match takes {
+                    Masks::Named => Ok(Mask::Form(form)),
+                    Masks::Weights => Err(bad(format!(
+                        "a spatial mask is not a mask of a {} arm",
+                        kind.name()
+                    ))),
+                }
+            }
         }
     }
 }

@@ -707,6 +707,15 @@ impl HoleGrouping {
     }
 }
 
+/// How a kind's pose-IK mask is given (`crate::ik::Mask::parse`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Masks {
+    /// Task-width weights on the residuals (planar `x, y, phi`).
+    Weights,
+    /// A name: `"position"`, `"pointing"` or `"pose"`.
+    Named,
+}
+
 /// The facts of an arm kind, one static table per kind.
 #[derive(Debug)]
 pub struct KindInfo {
@@ -721,15 +730,21 @@ pub struct KindInfo {
     /// How the task vector holds the attitude (its last `task - dim` components).
     pub rotation: Rotation,
     /// The quantities of a Monte-Carlo study, per sample, and their units
-    /// (`crate::accuracy::monte_carlo` for planar arms, `crate::arm::monte_carlo`).
+    /// (`crate::arm::monte_carlo`: a planar arm's kernel
+    /// `crate::accuracy::monte_carlo`, the general `crate::arm::general_monte_carlo`).
     pub quantities: &'static [(&'static str, &'static str)],
     /// How hole errors group ([`crate::model::Structure`]).
     pub holes: HoleGrouping,
+    /// How its pose-IK mask is given.
+    pub masks: Masks,
     /// The plant's parameter blocks in the order of its flat vector
     /// (`docs/model.md`, "Parameters"): the planar one in the order of
     /// cdsm 0.1, the spatial one in the order of cdsm 0.2 with the effects
     /// added since at its end.
     pub layout: &'static [(Effect, Size)],
+    /// The blocks an elastic arm's plant appends to its layout, in order
+    /// (`joint_stiffness` only where some joint has a spring).
+    pub elastic_layout: &'static [(Effect, Size)],
 }
 
 static PLANAR: KindInfo = KindInfo {
@@ -740,6 +755,7 @@ static PLANAR: KindInfo = KindInfo {
     rotation: Rotation::Angle,
     quantities: &[("dX", "m"), ("dY", "m"), ("dphi", "rad"), ("dXY", "m")],
     holes: HoleGrouping::PerEndDisk,
+    masks: Masks::Weights,
     layout: &[
         (Effect::ActuationScale, Size::One),
         (Effect::CableOffset, Size::PerPositionCable),
@@ -753,6 +769,7 @@ static PLANAR: KindInfo = KindInfo {
         (Effect::ClearanceWidth, Size::One),
         (Effect::CableFriction, Size::One),
     ],
+    elastic_layout: &[(Effect::JointStiffness, Size::PerSegment)],
 };
 
 static SPATIAL: KindInfo = KindInfo {
@@ -776,6 +793,7 @@ static SPATIAL: KindInfo = KindInfo {
         ("rot", "rad"),
     ],
     holes: HoleGrouping::PerCable,
+    masks: Masks::Named,
     layout: &[
         (Effect::ActuationScale, Size::One),
         (Effect::CableOffset, Size::PerPositionCable),
@@ -789,6 +807,10 @@ static SPATIAL: KindInfo = KindInfo {
         (Effect::ClearanceWidth, Size::One),
         (Effect::JointAxis, Size::PerJointTilt),
         (Effect::CableFriction, Size::One),
+    ],
+    elastic_layout: &[
+        (Effect::JointStiffness, Size::PerSegment),
+        (Effect::CableAngle, Size::PerPositionCable),
     ],
 };
 

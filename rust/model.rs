@@ -684,15 +684,14 @@ impl Model {
             w,
             "# written by cdsm (Robot.to_toml); SI units: m, kg, N, rad, Pa, m/s^2".into(),
         );
-        if self.kind == Kind::Spatial {
-            line(w, "kind = \"spatial\"".into());
+        // the form of the file: the planar shorthand (its kind the default)
+        // for an arm that has it, else the general form, which names its kind
+        let shorthand = self.planar();
+        if shorthand.is_none() {
+            line(w, format!("kind = {}", toml_string(self.kind.name())));
         }
         line(w, format!("name = {}", toml_string(&self.name)));
-        let g = if self.kind == Kind::Planar {
-            &self.gravity[..2]
-        } else {
-            &self.gravity[..]
-        };
+        let g = &self.gravity[..self.kind.dim()];
         line(w, format!("gravity = {}", toml_fs(g)));
         line(w, String::new());
         line(w, "[cable]".into());
@@ -708,7 +707,7 @@ impl Model {
         if !self.cable.stretch_feed_forward {
             line(w, "stretch_feed_forward = false".into());
         }
-        if let Some(r) = self.planar() {
+        if let Some(r) = shorthand {
             line(w, format!("\n# {} linkages", r.n()));
             for i in 0..r.n() {
                 line(w, String::new());
@@ -800,6 +799,59 @@ impl Model {
     /// for a spatial one.
     pub fn planar(&self) -> Option<&Robot> {
         self.planar.as_deref()
+    }
+
+    /// The planar description for `call`, something only a planar arm has
+    /// (yet): an error naming `call` for another kind.
+    pub fn planar_only(&self, call: &str) -> Result<&Robot> {
+        self.planar().ok_or_else(|| CdsmError::Option {
+            name: call.into(),
+            problem: format!(
+                "available for planar arms only (this arm is {})",
+                self.kind.name()
+            ),
+        })
+    }
+
+    /// A planar arm's holes in the planar layout `(2n, n+1, 2, 2)` flat (m),
+    /// as given (also the slots that are no hole); an error for another kind.
+    pub fn pair_holes(&self) -> Result<&[f64]> {
+        Ok(&self.planar_only("holes")?.holes)
+    }
+
+    /// The same arm with other holes (m): a planar arm's in its layout
+    /// `(2n, n+1, 2, 2)` flat, another's every `[x, y, z]` flat (as
+    /// [`Model::flat_holes`]). `within_disks`: refuse a spatial hole outside
+    /// its disk, as a robot file does. The joint springs are kept.
+    pub fn with_holes(&self, holes: &[f64], within_disks: bool) -> Result<Model> {
+        crate::error::check_finite("holes", holes)?;
+        if let Some(r) = self.planar() {
+            return Ok(Model::from_planar(&r.with_holes(holes)?).with_springs_of(self));
+        }
+        let m = self.with_flat_holes(holes)?;
+        if within_disks {
+            m.check_holes()?;
+        }
+        Ok(m)
+    }
+
+    /// The same planar arm with other loads: lower-cable tensions `(n,)` N
+    /// and in-plane gravity `(2,)` m/s² (validated; the joint springs kept);
+    /// an error naming `with_loads` for another kind.
+    pub fn with_loads(&self, lower_tension: &[f64], gravity: &[f64]) -> Result<Model> {
+        let r = self.planar_only("with_loads")?;
+        if lower_tension.len() != r.n() || gravity.len() != 2 {
+            return Err(CdsmError::Shape {
+                name: "lower_tension, gravity".into(),
+                expected: format!("({},) and (2,)", r.n()),
+                got: format!("({},) and ({},)", lower_tension.len(), gravity.len()),
+            });
+        }
+        let mut r = r.clone();
+        r.lower_tension = lower_tension.to_vec();
+        r.gravity = [gravity[0], gravity[1]];
+        r.validate()?;
+        Ok(Model::from_planar(&r).with_springs_of(self))
     }
 
     /// Validates a spatial robot description (`docs/spatial.md`) given as

@@ -35,12 +35,14 @@ use crate::solve::CableSolve;
 use crate::solve::{CableMethod, CableSolver, SolveOptions};
 use crate::tension::{Balance, Wrench};
 
+mod elastic_friction;
 mod elastic_settle;
 
 /// Why a row was not predicted, by code: 0-4 the elastic settle's
-/// ([`crate::elastic::REASONS`]), then a rigid settle that did not converge
-/// and a parameter set outside the physical domain.
-pub const REASONS: [&str; 7] = [
+/// ([`crate::elastic::REASONS`]), then a rigid settle that did not converge,
+/// a parameter set outside the physical domain and an elastic settle with
+/// friction whose Jacobian is singular.
+pub const REASONS: [&str; 8] = [
     "converged",
     "iteration limit",
     "line search",
@@ -48,6 +50,7 @@ pub const REASONS: [&str; 7] = [
     "not a minimum",
     "did not settle",
     "not physical",
+    "singular Jacobian",
 ];
 /// [`REASONS`]' code of a rigid settle that did not converge.
 const NOT_SETTLED: u8 = 5;
@@ -111,8 +114,8 @@ pub fn segments(model: &Model) -> Vec<std::ops::Range<usize>> {
 }
 
 /// The effects the elastic settle does not model (`docs/model.md`, "The
-/// plant", elastic arms): the extra compliance, the holes' clearance and
-/// friction have no block on an elastic arm.
+/// plant", elastic arms): the extra compliance and the holes' clearance have
+/// no block on an elastic arm; friction's comes last in its layout.
 const NOT_ELASTIC: [Effect; 4] = [
     Effect::CableElasticity,
     Effect::HoleClearance,
@@ -139,17 +142,20 @@ pub fn block_size(model: &Model, size: Size) -> usize {
         Size::Instrument => info.task,
         Size::Point => info.dim,
         Size::PerJointTilt => 2 * n,
+        Size::PerSegment => segments(model).len(),
     }
 }
 
 /// The layout of `model`'s plant (`docs/model.md`, "Parameters"): its kind's
 /// blocks ([`crate::kinds::KindInfo::layout`]) sized by its structure; an
 /// elastic arm's without the blocks the elastic settle does not model and
-/// with its own at the end: `joint_stiffness` (one per [`segments`], when
-/// some joint has a spring) and, spatial, `cable_angle` (one per commanded
-/// cable). A rigid arm's layout is its kind's.
+/// with its kind's elastic blocks at the end
+/// ([`crate::kinds::KindInfo::elastic_layout`]): `joint_stiffness` (one per
+/// [`segments`], when some joint has a spring) and, spatial, `cable_angle`
+/// (one per commanded cable). A rigid arm's layout is its kind's.
 pub fn layout(model: &Model) -> Layout {
-    let rules = model.kind.info().layout;
+    let info = model.kind.info();
+    let rules = info.layout;
     let elastic = model.is_elastic();
     let mut blocks = Vec::with_capacity(rules.len() + 2);
     let mut total = 0;
@@ -164,12 +170,13 @@ pub fn layout(model: &Model) -> Layout {
         put(e, block_size(model, size));
     }
     if elastic {
-        if model.joints.iter().any(|j| j.stiffness > 0.0) {
-            put(Effect::JointStiffness, segments(model).len());
+        let sprung = model.joints.iter().any(|j| j.stiffness > 0.0);
+        for &(e, size) in info.elastic_layout {
+            if e != Effect::JointStiffness || sprung {
+                put(e, block_size(model, size));
+            }
         }
-        if model.kind == Kind::Spatial {
-            put(Effect::CableAngle, commanded_cables(model).len());
-        }
+        put(Effect::CableFriction, 1);
     }
     Layout { blocks, total }
 }
@@ -747,8 +754,14 @@ impl Sequence {
     /// directions and the sticking band"): every command's nominal
     /// configuration, the rigid cable solve of its nominal lengths from its
     /// row's `theta_cmd` (a displacement row's first command: `theta_cmd`
-    /// itself; `theta_cmd` where the solve fails).
+    /// itself; `theta_cmd` where the solve fails); an elastic arm's, its
+    /// nominal frictionless equilibria ([`elastic_friction::nominal_motion`]).
     pub fn motion<G: Group>(&self, model: &Model) -> &Motion {
+        if model.is_elastic() {
+            return self
+                .motion
+                .get_or_init(|| elastic_friction::nominal_motion::<G>(model, self));
+        }
         self.motion.get_or_init(|| {
             let n = self.n;
             let nominal = Plant::<G>::new(model, &vec![0.0; layout(model).total])
@@ -1032,6 +1045,30 @@ fn observe<S: Real, F: Frame<S>>(
     observe_at(model, prm, chain, out);
 }
 
+/// `g -= tau`, `tau` (N m, into `tau`) the moments of gravity on the disks
+/// about the joints' axes at the configuration of `chain` ([`Chain::at`]
+/// done on `arm`); nothing without gravity or masses.
+fn subtract_gravity<S: Real, F: Frame<S>>(
+    model: &Model,
+    arm: &ArmNumbers<S>,
+    chain: &mut Chain<S, F>,
+    tau: &mut [S],
+    g: &mut [S],
+) {
+    let gravity =
+        model.gravity.iter().any(|v| *v != 0.0) && model.disks.iter().any(|d| d.mass > 0.0);
+    if gravity {
+        chain.world(model, arm);
+        chain.joints_world(model);
+        let couple = vec![S::cst(0.0); model.kind.task() - model.kind.dim()];
+        let z = S::cst(0.0);
+        chain.load_moments(model, arm, model.gravity, [z, z, z], &couple, tau);
+        for (gj, tj) in g.iter_mut().zip(tau.iter()) {
+            *gj -= *tj;
+        }
+    }
+}
+
 /// [`observe`] from a chain already at the configuration ([`Chain::at`]).
 fn observe_at<S: Real, F: Frame<S>>(
     model: &Model,
@@ -1154,7 +1191,9 @@ impl<'a, G: Group> Plant<'a, G> {
     /// The mobilisation of every hole after every command of `seq`
     /// (`(commands, H)`, [`Holes`]; empty without friction).
     pub fn mobilisation(&self, seq: &Sequence) -> Vec<f64> {
-        if self.prm.friction() {
+        if self.prm.friction() && self.model.is_elastic() {
+            elastic_friction::mobilisations::<f64, G>(self.model, seq, self.prm.mu)
+        } else if self.prm.friction() {
             mobilisation(
                 seq.motion::<G>(self.model),
                 self.prm.mu,
@@ -1581,23 +1620,31 @@ fn settle_all<G: Group>(
         }
         out
     });
-    let mut all = Settled::default();
-    for p in parts {
-        all.theta.extend(p.theta);
-        all.obs.extend(p.obs);
-        all.ok.extend(p.ok);
-        all.reason.extend(p.reason);
-    }
-    all
+    Settled::joined(parts)
 }
 
 impl Settled {
+    /// The commands of `parts` in order, one after another.
+    fn joined(parts: Vec<Settled>) -> Settled {
+        let mut all = Settled::default();
+        for p in parts {
+            all.theta.extend(p.theta);
+            all.obs.extend(p.obs);
+            all.ok.extend(p.ok);
+            all.reason.extend(p.reason);
+        }
+        all
+    }
+
     fn new<G: Group>(
         plant: &Plant<G>,
         seq: &Sequence,
         opts: &SolveOptions,
         threads: usize,
     ) -> Self {
+        if plant.model.is_elastic() && plant.prm.friction() {
+            return elastic_friction::settle_all(plant, seq, opts, threads);
+        }
         if plant.model.is_elastic() {
             return elastic_settle::settle_all(plant, seq, opts);
         }
@@ -1659,7 +1706,13 @@ impl Settled {
         }
         let task = <G::Frame<f64> as Frame<f64>>::TASK;
         let kf = free.len();
-        let dcmd = if plant.model.is_elastic() {
+        let mu_free = plant
+            .lay
+            .find(Effect::CableFriction)
+            .is_some_and(|(o, _)| free.contains(&o));
+        let dcmd = if plant.model.is_elastic() && (plant.prm.friction() || mu_free) {
+            elastic_friction::command_derivatives(plant, seq, self, free, threads)
+        } else if plant.model.is_elastic() {
             elastic_settle::command_derivatives(plant, seq, &self.theta, &self.ok, free, threads)
         } else {
             command_derivatives(plant, seq, &self.theta, &self.ok, free, threads)
@@ -2310,7 +2363,10 @@ mod tests {
         assert_eq!(lay.find(Effect::JointStiffness).map(|b| b.1), Some(3));
         assert_eq!(lay.find(Effect::CableAngle).map(|b| b.1), Some(9));
         assert_eq!(lay.find(Effect::CableOffset).map(|b| b.1), Some(9));
-        assert!(lay.find(Effect::CableFriction).is_none());
+        assert_eq!(
+            lay.blocks.last().map(|b| (b.0, b.2)),
+            Some((Effect::CableFriction, 1))
+        );
         assert_eq!(parameters(&m).len(), lay.total);
     }
 
@@ -2388,7 +2444,7 @@ mod tests {
         for i in 0..2 {
             let t = &th[3 * i..3 * i + 3];
             let (dev, _) = crate::accuracy::deviation(
-                &r,
+                &Model::from_planar(&r),
                 t,
                 &dl[3 * i..3 * i + 3],
                 None,

@@ -246,14 +246,16 @@ fn rms_one(
 
 /// [`rms_one`] over `theta (N, n)` and its gradient `(N, n)` (m/rad) by
 /// central differences of `h` rad (the objective of the least-sensitive
-/// configurations).
+/// configurations). Planar arms only (an error naming `rms_amplification`
+/// for another kind).
 pub fn rms_amplification(
-    robot: &Robot,
+    model: &Model,
     theta: &[f64],
     tol: &[f64],
     h: f64,
     threads: usize,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
+    let robot = model.planar_only("rms_amplification")?;
     let n = robot.n();
     let rows = rows_of("theta", theta, n)?;
     crate::rows::rows_exactly("tol", tol, 2 * n, 1)?;
@@ -509,7 +511,7 @@ mod tests {
 
     fn dev(r: &Robot, th: &[f64], dl: &[f64], holes: Option<&[f64]>) -> Vec<f64> {
         let (ds, sol) = deviation(
-            r,
+            &Model::from_planar(r),
             th,
             dl,
             holes,

@@ -257,3 +257,22 @@ def test_bad_commands_are_refused_naming_the_argument():
         robot.equilibrium(lengths=[-1.0], displacements=np.zeros(3))
     with pytest.raises(CdsmInputError, match="seed"):
         robot.equilibrium(lengths=L, displacements=np.zeros(3), seed=np.zeros(5))
+
+
+def test_a_sprung_planar_arm_keeps_its_springs_through_its_variants():
+    """``with_cable``, ``with_holes`` and ``with_loads`` of a sprung planar arm
+    change only what they name: the joint springs and rest angles stay (the
+    binding rebuilt a planar arm from its planar description, which has no
+    springs, and so returned a rigid arm)."""
+    robot = cdsm.Robot.from_toml_str(planar_text())
+    assert robot.is_elastic
+    variants = {"with_cable": robot.with_cable(youngs_modulus=2.5e9),
+                "with_holes": robot.with_holes(robot.holes * 1.01),
+                "with_loads": robot.with_loads(lower_tension=robot.lower_tension * 2.0)}
+    for name, other in variants.items():
+        assert other.is_elastic, name
+        np.testing.assert_array_equal(other.joint_stiffness, robot.joint_stiffness, err_msg=name)
+        np.testing.assert_array_equal(other.rest_angles, robot.rest_angles, err_msg=name)
+    assert variants["with_cable"].youngs_modulus == 2.5e9
+    np.testing.assert_array_equal(variants["with_holes"].holes, robot.holes * 1.01)
+    np.testing.assert_array_equal(variants["with_loads"].lower_tension, robot.lower_tension * 2.0)

@@ -170,20 +170,22 @@ def test_compensating_no_targets_gives_an_empty_table_for_either_kind(cdsm, name
 
 
 def test_one_allocation_for_both_kinds_keeps_each_kinds_result(cdsm):
-    """One allocate: the result type and its hole field by the kind's
-    tolerance key, the tolerances one per position cable and per hole group,
-    the default region the kind's (joint grid / Sobol sample)."""
+    """One allocate and one result type: its hole field, and its JSON's key,
+    by the kind's tolerance key, the tolerances one per position cable and per
+    hole group, the default region the kind's (joint grid / Sobol sample)."""
     from cdsm.accuracy import tolerance
     from cdsm.accuracy.workspace import joint_grid
 
     p, s = cdsm.Robot.paper(), cdsm.Robot.packaged("two_universal")
     assert np.array_equal(tolerance.default_configurations(p), joint_grid(3))
     assert tolerance.default_configurations(s).shape == (1000, s.n)
-    for r, result in ((p, tolerance.Allocation), (s, tolerance.SpatialAllocation)):
+    for r in (p, s):
         th = np.radians([[10.0] * r.n, [-15.0] * r.n, [20.0] + [-5.0] * (r.n - 1)])
         a = tolerance.allocate(r, 1e-3, th, samples=12, rel_tol=0.2, max_evals=12)
-        assert type(a) is result
+        assert type(a) is tolerance.Allocation and a.kind == r.kind
         holes = getattr(a, r.kind.hole_tolerance_key)
+        js = a.to_json()
+        assert js["kind"] == r.kind and js[r.kind.hole_tolerance_key] == holes.tolist()
         assert a.cable_length_tol_m.shape == (len(r.position_cables),)
         assert holes.shape == (len(r.core.structure()["hole_groups"]),)
         with pytest.raises(cdsm.CdsmInputError, match=r"`weights`: need 2 or"):

@@ -22,7 +22,7 @@ cloudpickle = pytest.importorskip("cloudpickle")
 
 import cdsm  # noqa: E402
 from cdsm.accuracy import distributed, montecarlo, workspace  # noqa: E402
-from cdsm.accuracy.tolerance import load_tolerances  # noqa: E402
+from cdsm.accuracy.tolerance import read_tolerances  # noqa: E402
 from cdsm.cli import main  # noqa: E402
 
 from conftest import N12_LINKAGES, hole_perturbation, robot_toml  # noqa: E402
@@ -155,17 +155,17 @@ def test_tolerance_file(tmp_path, robot, theta0):
     f = tmp_path / "tol.json"
     f.write_text(json.dumps({"cable_length_tol_m": [1e-4, 2e-4, 3e-4],
                              "hole_height_tol_m": [5e-5, 6e-5, 7e-5], "other": "ignored"}))
-    dl, dh = load_tolerances(str(f), 3)
+    dl, dh = read_tolerances(str(f), robot)
     assert dl.tolist() == [1e-4, 2e-4, 3e-4] and dh.tolist() == [5e-5, 6e-5, 7e-5]
     f.write_text(json.dumps({"cable_length_tol_m": [1e-4, 2e-4], "hole_height_tol_m": 1e-4}))
     with pytest.raises(cdsm.CdsmInputError, match="needs 3 values"):
-        load_tolerances(str(f), 3)
+        read_tolerances(str(f), robot)
     f.write_text(json.dumps({"cable_length_tol_m": 1e-4}))
     with pytest.raises(cdsm.CdsmInputError, match="missing key 'hole_height_tol_m'"):
-        load_tolerances(str(f), 3)
+        read_tolerances(str(f), robot)
     f.write_text(json.dumps({"cable_length_tol_m": -1e-4, "hole_height_tol_m": 1e-4}))
     with pytest.raises(cdsm.CdsmInputError, match=">= 0"):
-        load_tolerances(str(f), 3)
+        read_tolerances(str(f), robot)
 
 
 # ---------------------------------------------------------------------------

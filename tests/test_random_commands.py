@@ -136,3 +136,25 @@ def test_bad_options_are_refused_by_name(cdsm, kw, field):
     rows = kw.pop("rows", 10)
     with pytest.raises(cdsm.CdsmInputError, match=f"`{field}`"):
         vp.random_commands(rows, **kw)
+
+
+def test_an_elastic_arm_is_commanded_by_its_cables_alone(cdsm):
+    """An elastic arm's random rows command only its tendons, as a recording's
+    rows do: theta is the rest angles (±30° on each of FTDCR v4's 60 joints
+    commanded tendon pulls of centimetres, tips a metre apart), and the
+    prototype reads the arm's frictionless equilibrium at the tendons' pull
+    -dL (m; docs/model.md: a displacement d is dL = -d at the rest angles)."""
+    from cdsm.calibration import plant
+
+    robot = cdsm.Robot.load("ftdcr_v4")
+    vp = plant.VirtualPrototype(robot, noise=0.0, seed=4)
+    theta, d = vp.random_commands(6)
+    np.testing.assert_array_equal(theta, np.tile(robot.rest_angles, (6, 1)))
+    assert d.shape == (6, len(robot.displacement_cables)) and np.abs(d).max() <= 1e-3
+    got = vp.measure(theta, d).measured
+    eq = robot.equilibrium(displacements=-d)
+    assert eq.converged.all()
+    np.testing.assert_allclose(got, robot.fk(eq.theta)[:, :3], rtol=0, atol=1e-9)
+    # a shape can still be asked for: angles around the rest within ±limit
+    th2, _ = vp.random_commands(6, limit=0.01)
+    assert 0 < np.abs(th2 - robot.rest_angles).max() <= 0.01

@@ -107,3 +107,20 @@ def test_rows_that_need_a_slack_cable_are_flagged(cdsm, ref):
     assert all("slack" in prep.flags[i] for i in prep.flags)
     d = diagnosis.diagnose(r, t3)
     assert d.to_json()["rows_used"] == 6 and set(d.to_json()["flagged_rows"]) == {"7", "8", "9"}
+
+
+def test_after_reversals_keeps_what_the_data_say_about_themselves(cdsm):
+    """The copy run after reversals is the same data set in another order: its
+    fold groups and its sampling (fields of the measurements, not of the rows)
+    are carried, not dropped; the approach rows are unmeasured."""
+    import dataclasses
+
+    from cdsm.calibration import measurements
+
+    t3 = measurements.packaged("table3")
+    t3 = dataclasses.replace(t3, labels={**t3.labels, "group": [str(i // 3) for i in range(len(t3))]},
+                             fold_groups="group", sampled=True)
+    rev = measurements.after_reversals(t3)
+    assert rev.fold_groups == "group" and rev.sampled
+    assert rev.labels["group"][1::2] == t3.labels["group"]
+    assert not rev.observed[0::2].any()

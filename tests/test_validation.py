@@ -57,8 +57,13 @@ def test_the_second_files_errors_are_the_reference_plants_with_the_fitted_parame
     prep = diagnosis.prepare(robot, val, frame="base")
     rows = np.flatnonzero(prep.usable)
     assert v.rows == len(rows) > 30 and v.rows_in_file == 40
-    for p, rms, aligned in ((d.baseline.fit.p, v.nominal_rms, v.nominal_rms_mean_aligned),
-                            (d.final().fit.p, v.model_rms, v.model_rms_mean_aligned)):
+    # every other model the diagnosis fitted, judged the same way (which effects carry over)
+    fitted = {c.name: c.fit.p for c in list(d.singles) + list(d.steps)}
+    assert v.candidates and set(v.candidates) <= set(fitted) and d.final().name not in v.candidates
+    judged = [(fitted[name], r, ra) for name, (r, ra, lost) in v.candidates.items() if not lost]
+    assert judged
+    for p, rms, aligned in [(d.baseline.fit.p, v.nominal_rms, v.nominal_rms_mean_aligned),
+                            (d.final().fit.p, v.model_rms, v.model_rms_mean_aligned)] + judged:
         k = plant.dims(robot)
         obs, ok = ref.plant_predict(ref.read_robot(robot.to_toml()), p, prep.theta_cmd[prep.order],
                                     prep.dL[prep.order], np.array(["absolute"] * len(val))[prep.order])

@@ -250,6 +250,14 @@ class Kind(str):
         return "d" + "".join(self.position_axes)
 
     # ---- arguments of the core --------------------------------------------------
+    def require_pairs(self, name: str) -> None:
+        """Raise :class:`CdsmInputError` naming ``name`` (an attribute of the
+        planar description: link lengths, thickness and lower tension per
+        joint) unless this kind's cables come in upper/lower pairs
+        (:attr:`pair_holes`)."""
+        if not self.pair_holes:
+            raise CdsmInputError(f"`{name}`: available for planar arms only (this arm is {self})")
+
     def core_mask(self, mask):
         """The core's IK mask argument for ``mask`` (a name of :attr:`masks`,
         or task-width weights where :attr:`mask_weights`); anything else

@@ -584,23 +584,30 @@ class Robot:
     # ---- planar arms' description ----------------------------------------
     @property
     def link_before(self) -> np.ndarray:
-        """Planar: (n,) link before each joint, m (the paper's link_{i-1,J_i})."""
-        return self.core.link_before
+        """Planar: (n,) link before each joint, m (the paper's link_{i-1,J_i}):
+        the joint offsets' x (:attr:`offsets`)."""
+        self.kind.require_pairs("link_before")
+        return self.offsets[:, 0].copy()
 
     @property
     def link_after(self) -> np.ndarray:
-        """Planar: (n,) link after each joint, m (the paper's link_{J_i,i})."""
-        return self.core.link_after
+        """Planar: (n,) link after each joint, m (the paper's link_{J_i,i}):
+        the disks' ``link_after`` x (:attr:`disk_link_after`)."""
+        self.kind.require_pairs("link_after")
+        return self.disk_link_after[:, 0].copy()
 
     @property
     def thickness(self) -> np.ndarray:
-        """Planar: (n,) disk thickness, m (the paper's B)."""
-        return self.core.thickness
+        """Planar: (n,) disk thickness, m (the paper's B; :attr:`disk_thickness`)."""
+        self.kind.require_pairs("thickness")
+        return self.disk_thickness
 
     @property
     def lower_tension(self) -> np.ndarray:
-        """Planar: (n,) tension on the lower (force-controlled) cable of each pair, N."""
-        return self.core.lower_tension
+        """Planar: (n,) tension on the lower (force-controlled) cable of each
+        pair, N (:attr:`cable_tensions` of the force cables)."""
+        self.kind.require_pairs("lower_tension")
+        return self.core.cable_tensions[self.core.structure()["force"]]
 
     # ---- batches --------------------------------------------------------
     def _out(self, flat: np.ndarray, shape: Tuple[int, ...], single: bool) -> np.ndarray:

@@ -57,7 +57,9 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from .accuracy import montecarlo, sampling, scenarios, sensitivity, statics, workspace
+from .accuracy import montecarlo, plant_errors, sampling, scenarios, sensitivity, statics, workspace
+from .calibration import plant
+from .calibration.measurements import commanded_cables
 from .inputs import CdsmInputError
 from .kinds import KINDS as ARM_KINDS, PLANAR, Kind
 from .progress import Progress
@@ -72,7 +74,7 @@ __all__ = ["Scenario", "ScenarioResult", "Study", "run", "choose_protocols", "sc
 
 #: Readable names of the protocols.
 PROTOCOL_NAMES = {"attitude0": "attitude-0 protocol", "joint": "joint-space protocol",
-                  "sampled": "sampled joint-space protocol"}
+                  "sampled": "sampled joint-space protocol", "commanded": "sampled command-space protocol"}
 #: Spatial single-error kinds: the cable's length, its holes along the radius, its holes along the disk normal.
 KINDS = ("cable", "radial", "normal")
 #: Sampled configurations of the ``sampled`` protocol (default).
@@ -101,7 +103,7 @@ def default_samples(robot: Robot, configurations: int = 0) -> int:
     paper's arm — a solve counted by its size, joints x position cables,
     against the paper's 3 x 3 (the SJTU snake's 24 x 36 costs 96 of them) —
     but not fewer than :data:`MIN_SAMPLES`."""
-    size = robot.n * len(robot.position_cables) / 9.0
+    size = robot.n * len(commanded_cables(robot)) / 9.0
     cap = int(DEFAULT_SOLVES / max(size, 1.0)) // max(int(configurations), 1)
     return int(min(robot.kind.default_samples, max(MIN_SAMPLES, cap)))
 
@@ -111,7 +113,7 @@ def configuration_count(robot: Robot, protocols: List[str], configurations: int 
     attitude-0 protocol drops the unreachable tips)."""
     total = 0
     for p in protocols:
-        if p == "sampled":
+        if p in ("sampled", "commanded"):
             total += int(configurations)
         else:
             total += len(grid) if grid is not None else workspace.grid_values(robot.n) ** robot.n
@@ -159,6 +161,10 @@ class _PlanarPairs:
     @property
     def position_cables(self) -> List[int]:
         return list(range(0, 2 * self.n, 2))
+
+    @property
+    def displacement_cables(self) -> List[int]:
+        return []
 
     @property
     def cable_ends(self) -> List[int]:
@@ -223,7 +229,7 @@ def scenario_set(robot: Robot, cable_error: float = DEFAULT_DL_TOL,
     kind's hole errors (:attr:`cdsm.kinds.Kind.hole_scenarios`: planar each
     disk's hole height, spatial each position cable's holes radially and
     along the normal), m."""
-    kind, pos = robot.kind, robot.position_cables
+    kind, pos = robot.kind, commanded_cables(robot)
     out = []
     for i, c in enumerate(pos):
         for sign in (-1.0, 1.0):
@@ -289,6 +295,21 @@ class ScenarioResult(ShortRepr):
 def choose_protocols(robot: Robot, grid=None, theta=None) -> Tuple[List[str], str]:
     """The protocols of ``robot``'s study and the reason, in words (module
     doc): a given ``theta`` is sampled; a given ``grid`` (planar) is gridded."""
+    if robot.is_elastic:  # its angles are the equilibrium of its commands: none can be given or gridded
+        if theta is not None or grid is not None:
+            raise CdsmInputError(f"`{'theta' if theta is not None else 'grid'}`: an elastic arm's configurations "
+                                 "are the equilibria of its commands; its study samples the commands")
+        return ["commanded"], (f"the arm is elastic (joint springs, tendons commanded in displacement): its "
+                               f"configuration is the equilibrium of its {len(commanded_cables(robot))} commands, "
+                               "not a joint-angle set, so the errors are applied at the equilibria of commands "
+                               f"sampled in the box ±{plant_errors.COMMAND_RANGE * 1e3:g} mm on every commanded "
+                               "cable (scrambled Sobol sequence), each error settled at its own equilibrium from "
+                               "the same commands; jump points are the commands with two equilibria (settled "
+                               "from the rest angles and along the sequence, tips more than "
+                               f"{plant_errors.PATH_TOLERANCE * 1e3:g} mm apart): elsewhere the equilibrium is the "
+                               "one minimiser of the potential, continuous in the commands (slack transitions make "
+                               "kinks, not jumps), and a neighbour test in a box of "
+                               f"{len(commanded_cables(robot))} dimensions would only flag those kinks")
     if theta is not None:
         return ["sampled"], "the errors are applied at the configurations given"
     if not robot.kind.grid_protocols:
@@ -316,12 +337,21 @@ def choose_protocols(robot: Robot, grid=None, theta=None) -> Tuple[List[str], st
 
 def _workspace(robot: Robot, protocol: str, grid, theta, configurations: int, method: str, seed: int,
                k: int) -> workspace.Workspace:
+    if protocol == "commanded":
+        return plant_errors.sample_commands(robot, configurations, method=method, seed=seed, k=k)
     if protocol == "sampled":
         return workspace.sample(robot, configurations, method=method, seed=seed, k=k, theta=theta)
     return workspace.sweep(robot, protocol, grid=grid)
 
 
 def _jumps(robot: Robot, ws: workspace.Workspace, ds: np.ndarray):
+    if ws.path_dependent is not None:  # a jump is a snap between two equilibria of one command
+        size = len(ds)
+        mag = np.linalg.norm(ds[:, :robot.kind.dim], axis=1)
+        fin = np.isfinite(mag)
+        return sampling.SampledJumps(ws.neighbours, np.zeros((0, 2), np.int64), np.zeros(0), np.zeros(0),
+                                     np.full(size, np.nan), np.zeros(0, bool), ws.path_dependent & fin,
+                                     float(np.percentile(mag[fin], 95)) if fin.any() else 0.0)
     if ws.protocol == "sampled":
         return sampling.jump_points(ws.theta0, ds[:, :robot.kind.dim], neighbours=ws.neighbours)
     return workspace.jump_points(robot, ws, ds)
@@ -334,13 +364,17 @@ def _initial(ws: workspace.Workspace) -> np.ndarray:
 
 def _scenario(robot: Robot, ws: workspace.Workspace, sc: Scenario) -> ScenarioResult:
     ok0 = ws.reachable
-    theta0 = _initial(ws)
     arg = robot.kind.hole_error_arg
     hole = getattr(sc, arg)
-    dev = scenarios.deviation(robot, theta0, dL=sc.dL, statics=False,
-                              **{arg: hole if hole is not None and np.any(hole) else None})
-    ok = ok0 & np.asarray(dev.ok, bool)
-    ds = np.where(ok[:, None], dev.dS, np.nan)
+    if ws.commands is not None:  # settled at the commands by the plant with the error's parameters
+        dS, solved = plant_errors.deviation_commands(robot, plant_errors.error_parameters(robot, sc.dL, hole),
+                                                     ws.commands)
+    else:
+        dev = scenarios.deviation(robot, _initial(ws), dL=sc.dL, statics=False,
+                                  **{arg: hole if hole is not None and np.any(hole) else None})
+        dS, solved = dev.dS, dev.ok
+    ok = ok0 & np.asarray(solved, bool)
+    ds = np.where(ok[:, None], dS, np.nan)
     return ScenarioResult(sc, ws.protocol, ds, ok, _jumps(robot, ws, ds))
 
 
@@ -348,8 +382,24 @@ def _singular(robot: Robot, ws: workspace.Workspace) -> np.ndarray:
     """(N,) singular measure: planar sigma_min / sigma_max of the pose
     Jacobian (attitude row scaled to m); spatial of the position Jacobian
     (:func:`cdsm.accuracy.sampling.singular_measure`); NaN where unreachable."""
+    if ws.commands is not None:
+        return _command_singular(robot, ws)
     r = _SINGULAR[robot.kind.singular](robot, _initial(ws))
     return np.where(ws.reachable, r, np.nan)
+
+
+def _command_singular(robot: Robot, ws: workspace.Workspace) -> np.ndarray:
+    """(N,) sigma_min / sigma_max of the tip position's Jacobian by the commands
+    (an elastic arm's: the plant's implicit-function sensitivities to the
+    commanded cables' lengths; a slack tendon's column is zero, so fewer taut
+    tendons than position axes make it 0); NaN where unreachable."""
+    out = np.full(len(ws.grid), np.nan)
+    ok = ws.reachable
+    if ok.any():
+        s = plant_errors.sensitivities_commands(robot, ws.commands[ok], blocks=("cable_offset",))
+        sv = np.linalg.svd(np.nan_to_num(s["cable_offset"][:, :robot.kind.dim, :]), compute_uv=False)
+        out[ok] = np.where(s["converged"], sv[:, -1] / np.maximum(sv[:, 0], 1e-300), np.nan)
+    return out
 
 
 def _pose_singular(robot: Robot, theta: np.ndarray) -> np.ndarray:
@@ -478,9 +528,7 @@ def run(robot: Optional[Robot] = None, samples: Optional[int] = None, seed: int 
         for sc in scen:
             results.append(_scenario(robot, ws, sc))
             bar.update(1)
-    mcs = {p: montecarlo.monte_carlo(robot, ws.theta0[ws.reachable], samples=samples, seed=seed, dl_tol=dl_tol,
-                                     dh_tol=dh_tol, progress=progress, check_slack=True, label=f"monte carlo ({p})")
-           for p, ws in spaces.items()}
+    mcs = {p: _monte_carlo(robot, ws, samples, seed, dl_tol, dh_tol, progress) for p, ws in spaces.items()}
     singular = {p: _singular(robot, ws) for p, ws in spaces.items()}
     mc0 = next(iter(mcs.values()))
     params = dict(samples=int(samples), samples_default=given_samples is None, seed=int(seed),
@@ -491,15 +539,50 @@ def run(robot: Optional[Robot] = None, samples: Optional[int] = None, seed: int 
         params.update(configurations=int(len(main.grid)), method=main.params["method"], k=int(main.params["k"]))
     study = Study(robot, spaces, results, mcs, singular, params, protocol_reason=reason)
     for p, ws in spaces.items():
+        if ws.commands is not None:  # the elastic statics: tensions of the equilibria, no friction (frictionless)
+            study.feasibility[p] = _equilibrium_map(robot, ws)
+            study.amplification[p] = plant_errors.amplification_commands(robot, ws)
+            continue
         study.feasibility[p] = statics.feasibility_map(robot, _initial(ws))
         study.amplification[p] = sensitivity.amplification_maps(robot, p, ws)
         study.friction[p] = statics.friction_map(robot, np.where(ws.reachable[:, None], ws.theta0, np.nan),
                                                  progress=progress, label=f"friction map ({p})")
     th = main.theta0[main.reachable]
     if len(th):
+        matrix = (None if main.commands is None else
+                  plant_errors.position_matrix_commands(robot, main.commands[main.reachable]))
         study.budget = sensitivity.error_budget(robot, th, mc0.params["dl_tol_m"], mc0.params["dh_tol_m"],
-                                                seed=seed)
+                                                seed=seed, matrix=matrix)
     return study
+
+
+def _monte_carlo(robot: Robot, ws: workspace.Workspace, samples: int, seed: int, dl_tol, dh_tol,
+                 progress: bool) -> montecarlo.MonteCarlo:
+    """The Monte Carlo of one protocol: the core's at the configurations, or
+    the plant's at the commands (an elastic arm: every sample settled at its
+    own equilibrium), with the same tolerances."""
+    label = f"monte carlo ({ws.protocol})"
+    if ws.commands is None:
+        return montecarlo.monte_carlo(robot, ws.theta0[ws.reachable], samples=samples, seed=seed, dl_tol=dl_tol,
+                                      dh_tol=dh_tol, progress=progress, check_slack=True, label=label)
+    holes = plant_errors.hole_block(robot)
+    tol = {"cable_offset": dl_tol, holes: dh_tol}
+    mc = plant_errors.monte_carlo_commands(robot, ws.commands[ws.reachable], samples=samples, seed=seed,
+                                           tolerances=tol, progress=progress, label=label)
+    vec = plant_errors.tolerance_vector(robot, tol)
+    lay = plant.layout(robot)
+    mc.params.update(dl_tol_m=vec[lay["cable_offset"]].tolist(), dh_tol_m=vec[lay[holes]].tolist())
+    return mc
+
+
+def _equilibrium_map(robot: Robot, ws: workspace.Workspace) -> statics.FeasibilityMap:
+    """The statics of an elastic arm's configurations: the commanded cables'
+    tensions at the equilibria of the commands (N), held (``feasible``)
+    where the equilibrium converged — a slack tendon is part of it."""
+    eq = plant_errors.equilibria(robot, ws.commands)
+    cmd = commanded_cables(robot)
+    ok = np.asarray(eq.converged, bool) & ws.reachable
+    return statics.FeasibilityMap(ws.theta0, ws.poses, np.where(ok[:, None], eq.tension[:, cmd], np.nan), ok, 0.0)
 
 
 def worst_configurations(study: Study, protocol: Optional[str] = None, count: int = 5) -> List[dict]:

@@ -226,25 +226,7 @@ fn gradient<S: Real, F: Frame<S>>(
             w.g[j] += t * w.row[j];
         }
     }
-    let gravity =
-        model.gravity.iter().any(|v| *v != 0.0) && model.disks.iter().any(|d| d.mass > 0.0);
-    if gravity {
-        w.chain.world(model, &prm.arm);
-        w.chain.joints_world(model);
-        let couple = vec![S::cst(0.0); model.kind.task() - model.kind.dim()];
-        let z = S::cst(0.0);
-        w.chain.load_moments(
-            model,
-            &prm.arm,
-            model.gravity,
-            [z, z, z],
-            &couple,
-            &mut w.tau,
-        );
-        for (gj, tj) in w.g.iter_mut().zip(&w.tau) {
-            *gj -= *tj;
-        }
-    }
+    super::subtract_gravity(model, &prm.arm, &mut w.chain, &mut w.tau, &mut w.g);
 }
 
 /// What the directions of one chunk of [`JET`] free parameters move: the

@@ -13,11 +13,11 @@ use super::results::{
     CompensationResult, DeviationResult, ElasticResult, EquilibriumDerivatives, EquilibriumResult,
     MonteCarloStats, PlantFit, PlantPrediction, SensitivityResult, SolveResult, TensionResult,
 };
-use crate::accuracy::{self, HoleErrors};
-use crate::arm::{self, Loads, Task};
+use crate::accuracy;
+use crate::arm::{self, Loads};
 use crate::error::CdsmError;
 use crate::friction::Sliding;
-use crate::ik::{SpatialMask, TaskMask};
+use crate::ik::{self, Mask};
 use crate::kinds::Kind;
 use crate::model::{Mode, Model};
 use crate::robot::{CableMaterial, Robot};
@@ -33,30 +33,26 @@ pub struct CoreRobot {
 
 type ThetaMap = fn(&Model, &[f64], usize) -> crate::Result<Vec<f64>>;
 
-/// A task mask from Python: three weights over a planar arm's `x, y, phi`,
-/// or the name of a spatial mask.
+/// A pose-IK mask from Python: a name or weights over the task
+/// coordinates ([`Mask::parse`] reads it for the arm's kind).
 #[derive(FromPyObject)]
 enum MaskArg {
     Name(String),
     Weights(Vec<f64>),
 }
 
+impl MaskArg {
+    fn core(&self) -> ik::MaskArg<'_> {
+        match self {
+            MaskArg::Name(n) => ik::MaskArg::Name(n),
+            MaskArg::Weights(w) => ik::MaskArg::Weights(w),
+        }
+    }
+}
+
 impl CoreRobot {
     fn of(model: Model) -> Self {
         CoreRobot { model }
-    }
-
-    fn of_planar(r: Robot) -> Self {
-        CoreRobot::of(Model::from_planar(&r))
-    }
-
-    /// The planar description, or an error naming `call` for a spatial arm.
-    fn planar(&self, call: &str) -> PyResult<&Robot> {
-        self.model.planar().ok_or_else(|| {
-            CdsmInputError::new_err(format!(
-                "`{call}`: available for planar arms only (this arm is spatial)"
-            ))
-        })
     }
 
     /// An error naming `call` for an elastic arm (joint springs, rest
@@ -104,7 +100,7 @@ impl CoreRobot {
 
     #[staticmethod]
     fn paper() -> Self {
-        CoreRobot::of_planar(Robot::paper())
+        CoreRobot::of(Model::from_planar(&Robot::paper()))
     }
 
     /// A robot file (TOML, SI units) that rebuilds this arm exactly.
@@ -283,17 +279,9 @@ impl CoreRobot {
     #[pyo3(signature = (holes, within_disks=true))]
     fn with_holes(&self, holes: Arr<'_>, within_disks: bool) -> PyResult<Self> {
         let h = slice("holes", &holes)?;
-        crate::error::check_finite("holes", h).map_err(err)?;
-        match self.model.planar() {
-            Some(r) => Ok(CoreRobot::of_planar(r.with_holes(h).map_err(err)?)),
-            None => {
-                let m = self.model.with_flat_holes(h).map_err(err)?;
-                if within_disks {
-                    m.check_holes().map_err(err)?;
-                }
-                Ok(CoreRobot::of(m))
-            }
-        }
+        Ok(CoreRobot::of(
+            self.model.with_holes(h, within_disks).map_err(err)?,
+        ))
     }
 
     /// The same arm with another cable material / routing length (validated)
@@ -313,76 +301,29 @@ impl CoreRobot {
             stretch_feed_forward: stretch_feed_forward
                 .unwrap_or(self.model.cable.stretch_feed_forward),
         };
-        match self.model.planar() {
-            Some(r) => {
-                let mut r = r.clone();
-                r.cable = cable;
-                r.validate().map_err(err)?;
-                Ok(CoreRobot::of_planar(r))
-            }
-            None => Ok(CoreRobot::of(self.model.with_cable(cable).map_err(err)?)),
-        }
+        Ok(CoreRobot::of(self.model.with_cable(cable).map_err(err)?))
     }
 
     // ---- description (planar arms) ---------------------------------------
-    #[getter]
-    fn link_before<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
-        Ok(vec1(py, self.planar("link_before")?.link_before.clone()))
-    }
-    #[getter]
-    fn link_after<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
-        Ok(vec1(py, self.planar("link_after")?.link_after.clone()))
-    }
-    #[getter]
-    fn thickness<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
-        Ok(vec1(py, self.planar("thickness")?.thickness.clone()))
-    }
-    #[getter]
-    fn lower_tension<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
-        Ok(vec1(
-            py,
-            self.planar("lower_tension")?.lower_tension.clone(),
-        ))
-    }
     /// `(2n, n+1, 2, 2)` flat: a planar arm's holes.
     #[getter]
     fn holes<'py>(&self, py: Python<'py>) -> PyResult<Array<'py>> {
-        Ok(vec1(py, self.planar("holes")?.holes.clone()))
+        Ok(vec1(py, self.model.pair_holes().map_err(err)?.to_vec()))
     }
 
     /// The same robot with other loads: lower tensions (N) and gravity (m/s², in-plane).
     fn with_loads(&self, lower_tension: Arr<'_>, gravity: Arr<'_>) -> PyResult<Self> {
-        let r = self.planar("with_loads")?;
         let lo = slice("lower_tension", &lower_tension)?;
         let g = slice("gravity", &gravity)?;
-        if lo.len() != r.n() || g.len() != 2 {
-            return Err(err(CdsmError::Shape {
-                name: "lower_tension, gravity".into(),
-                expected: format!("({},) and (2,)", r.n()),
-                got: format!("({},) and ({},)", lo.len(), g.len()),
-            }));
-        }
-        let mut r = r.clone();
-        r.lower_tension = lo.to_vec();
-        r.gravity = [g[0], g[1]];
-        r.validate().map_err(err)?;
-        Ok(CoreRobot::of_planar(r))
+        Ok(CoreRobot::of(self.model.with_loads(lo, g).map_err(err)?))
     }
 
     fn hole_height_error<'py>(&self, py: Python<'py>, dh: Arr<'_>) -> PyResult<Array<'py>> {
-        let r = self.planar("hole_height_error")?;
         let d = slice("dh", &dh)?;
-        if d.len() != r.n() {
-            return Err(err(CdsmError::Shape {
-                name: "dh".into(),
-                expected: format!("({},)", r.n()),
-                got: format!("{} values", d.len()),
-            }));
-        }
-        crate::error::check_finite("dh", d).map_err(err)?;
-        let mut out = vec![0.0; r.holes.len()];
-        r.hole_height_error_into(d, &mut out);
-        Ok(vec1(py, out))
+        Ok(vec1(
+            py,
+            arm::hole_height_error(&self.model, d).map_err(err)?,
+        ))
     }
 
     // ---- kinematics ----------------------------------------------------
@@ -467,31 +408,11 @@ impl CoreRobot {
     ) -> PyResult<SolveResult> {
         let p = slice("target", &target)?;
         let s = opt_slice("seed", &seed)?;
-        let task = match mask {
-            MaskArg::Weights(w) => match w[..] {
-                [x, y, p] => Task::Planar(TaskMask { weights: [x, y, p] }),
-                _ => {
-                    return Err(CdsmInputError::new_err(format!(
-                        "`mask`: expected 3 weights (x, y, phi), got {}",
-                        w.len()
-                    )))
-                }
-            },
-            MaskArg::Name(name) => Task::Spatial(match name.as_str() {
-                "position" => SpatialMask::Position,
-                "pointing" => SpatialMask::Pointing,
-                "pose" => SpatialMask::Pose,
-                other => {
-                    return Err(CdsmInputError::new_err(format!(
-                        "`mask`: expected 'position', 'pointing' or 'pose' for a spatial arm, got {other:?}"
-                    )))
-                }
-            }),
-        };
+        let mask = Mask::parse(self.model.kind, mask.core()).map_err(err)?;
         let how = ik_method(method)?;
         let o = options(tol, max_iter, enforce_limits)?;
         let out = py
-            .detach(|| arm::ik(&self.model, p, s, task, how, &o, threads))
+            .detach(|| arm::ik(&self.model, p, s, mask, how, &o, threads))
             .map_err(err)?;
         Ok(SolveResult::new(py, out))
     }
@@ -536,14 +457,13 @@ impl CoreRobot {
         threads: usize,
     ) -> PyResult<DeviationResult> {
         self.rigid("deviation")?;
-        let r = self.planar("deviation")?;
         let t = slice("theta0", &theta0)?;
         let d = slice("dl", &dl)?;
         let h = opt_slice("holes", &holes)?;
         let m = self::method(method)?;
         let o = options(tol, max_iter, false)?;
         let (ds, sol) = py
-            .detach(|| accuracy::deviation(r, t, d, h, m, &o, threads))
+            .detach(|| accuracy::deviation(&self.model, t, d, h, m, &o, threads))
             .map_err(err)?;
         DeviationResult::new(py, ds, sol)
     }
@@ -573,30 +493,8 @@ impl CoreRobot {
         let (dh, dholes) = (opt_slice("dh", &dh)?, opt_slice("dholes", &dholes)?);
         let m = self::method(method)?;
         let o = options(tol, max_iter, false)?;
-        let Some(r) = self.model.planar() else {
-            if dh.is_some() {
-                return Err(CdsmInputError::new_err(
-                    "`dh`: per-pair hole heights are planar; a spatial arm's Monte Carlo takes `dholes`",
-                ));
-            }
-            let st = py
-                .detach(|| arm::monte_carlo(&self.model, t, d, dholes, &o, check_slack, threads))
-                .map_err(err)?;
-            return Ok(MonteCarloStats::new(py, st));
-        };
-        let holes = match (dh, dholes) {
-            (None, None) => HoleErrors::None,
-            (Some(a), None) => HoleErrors::PerPair(a),
-            (None, Some(a)) => HoleErrors::Full(a),
-            _ => {
-                return Err(err(CdsmError::Option {
-                    name: "dh, dholes".into(),
-                    problem: "give at most one of them".into(),
-                }))
-            }
-        };
         let st = py
-            .detach(|| accuracy::monte_carlo(r, t, d, holes, m, &o, check_slack, threads))
+            .detach(|| arm::monte_carlo(&self.model, t, d, dh, dholes, m, &o, check_slack, threads))
             .map_err(err)?;
         Ok(MonteCarloStats::new(py, st))
     }
@@ -615,10 +513,7 @@ impl CoreRobot {
         self.rigid("sensitivity")?;
         let t = slice("theta", &theta)?;
         let s = py
-            .detach(|| match self.model.planar() {
-                Some(r) => crate::sensitivity::sensitivities(r, t, holes, threads),
-                None => crate::sensitivity::general(&self.model, t, holes, threads),
-            })
+            .detach(|| arm::sensitivities(&self.model, t, holes, threads))
             .map_err(err)?;
         Ok(SensitivityResult::new(py, s, holes))
     }
@@ -636,11 +531,10 @@ impl CoreRobot {
         threads: usize,
     ) -> PyResult<(Array<'py>, Array<'py>)> {
         self.rigid("rms_amplification")?;
-        let r = self.planar("rms_amplification")?;
         let t = slice("theta", &theta)?;
         let tl = slice("tol", &tol)?;
         let (v, g) = py
-            .detach(|| crate::sensitivity::rms_amplification(r, t, tl, h, threads))
+            .detach(|| crate::sensitivity::rms_amplification(&self.model, t, tl, h, threads))
             .map_err(err)?;
         Ok((vec1(py, v), vec1(py, g)))
     }

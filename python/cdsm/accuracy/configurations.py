@@ -60,9 +60,9 @@ def rms_amplification(robot: Robot, theta, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_
 
 
 def _spatial_rms(robot: Robot, theta: np.ndarray, dl_tol, dh_tol) -> np.ndarray:
-    from .tolerance import spatial_tolerances
+    from .tolerance import error_tolerances
 
-    dl, dh = spatial_tolerances(robot, dl_tol, dh_tol)
+    dl, dh = error_tolerances(robot, dl_tol, dh_tol)
     s = sensitivities(robot, theta, holes=True)
     t2 = np.concatenate([dl, dh]) ** 2
     m = np.concatenate([s.cable[:, :3], s.holes[:, :3]], axis=2)

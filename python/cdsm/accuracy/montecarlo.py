@@ -167,8 +167,15 @@ def monte_carlo(robot: Robot, theta0, samples: int = 1000, seed: int = 0, dl_tol
     memory bounded; chunk c draws from the stream (seed, c). With
     ``check_slack`` every converged sample is also checked for a slack
     position cable (statics, either kind; planar about twice the run time):
-    ``MonteCarlo.slack``.
+    ``MonteCarlo.slack``. An elastic arm is refused: its configurations are
+    the equilibria of its commands
+    (:func:`cdsm.accuracy.plant_errors.monte_carlo_commands`).
     """
+    if robot.is_elastic:
+        raise CdsmInputError("`theta0`: an elastic arm's configurations are the equilibria of its commands, not "
+                             "joint angles; its Monte Carlo is "
+                             "cdsm.accuracy.plant_errors.monte_carlo_commands(robot, dL) (dL (N, m_c) m on its "
+                             "commanded cables), as `cdsm paper --robot` runs it")
     t0, _ = as_batch("theta0", theta0, robot.n)
     samples, chunk = as_count("samples", samples, 1), as_count("chunk", chunk, 1)
     seed = as_count("seed", seed)

@@ -31,6 +31,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
+from ..calibration.measurements import commanded_cables
 from ..robot import Robot
 from .montecarlo import hole_error_sizes, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, deviation
@@ -38,8 +39,8 @@ from .workspace import jump_points, singular_values, sweep
 from ..display import ShortRepr
 
 __all__ = ["Sensitivities", "sensitivities", "sensitivity", "error_matrix", "tolerance_vector", "amplification",
-           "linear_percentile", "linear_vs_mc", "amplification_maps", "position_matrix", "ErrorBudget",
-           "error_budget"]
+           "linear_percentile", "linear_vs_mc", "amplification_maps", "amplification_of", "position_matrix",
+           "ErrorBudget", "error_budget"]
 
 
 @dataclass(frozen=True, repr=False)
@@ -227,8 +228,16 @@ def amplification_maps(robot: Robot, protocol: str = "attitude0", ws=None) -> di
     ok = np.asarray(ws.reachable, bool) & np.isfinite(ws.theta0).all(axis=1)
     t = np.where(ok[:, None], ws.theta0, 0.0)
     cab, hol = _position_blocks(robot, t)
+    return amplification_of(robot, ws, cab, hol, ok)
+
+
+def amplification_of(robot: Robot, ws, cable: np.ndarray, hole: np.ndarray, ok: np.ndarray) -> dict:
+    """The maps of :func:`amplification_maps` from the sensitivities of the
+    tip position to the cable lengths ``cable`` (N, d, m) and to the hole
+    errors ``hole`` (N, d, k), m/m, at the configurations of ``ws``, NaN where
+    not ``ok`` (N,)."""
     out = {}
-    for name, m in (("cable", cab), ("hole", hol)):
+    for name, m in (("cable", cable), ("hole", hole)):
         out[f"{name}_worst"] = np.where(ok, np.linalg.norm(np.abs(m).sum(axis=2), axis=1), np.nan)
         out[f"{name}_rms"] = np.where(ok, np.sqrt((m ** 2).sum(axis=(1, 2)) / 3.0), np.nan)
     out["xy"] = ws.poses[:, :2]
@@ -308,7 +317,7 @@ class ErrorBudget:
 
 
 def error_budget(robot: Robot, theta, dl_tol, dh_tol, percentile: float = 95.0, samples: int = 2000,
-                 seed: int = 0) -> ErrorBudget:
+                 seed: int = 0, matrix: Optional[np.ndarray] = None) -> ErrorBudget:
     """The linear error budget (module doc) at ``theta`` (N, n) rad for
     tolerances ``dl_tol`` (per position cable: scalar or (m_pos,), m) and
     ``dh_tol`` (planar: per disk's hole height, scalar or (n,); spatial: per
@@ -316,15 +325,17 @@ def error_budget(robot: Robot, theta, dl_tol, dh_tol, percentile: float = 95.0, 
     ``percentile`` over ``samples`` common draws (``seed``). The linear
     percentile costs ``N samples d k`` multiply-adds; past 1e8 it takes fewer
     draws (not below 64), then every j-th configuration (the shares use
-    every one)."""
+    every one). ``matrix`` (N, d, k): the linear map to use instead of
+    :func:`position_matrix` at ``theta`` (an elastic arm's, from its commands:
+    :func:`cdsm.accuracy.plant_errors.position_matrix_commands`)."""
     t, _ = as_batch("theta", theta, robot.n)
-    m = position_matrix(robot, t)
+    m = position_matrix(robot, t) if matrix is None else np.asarray(matrix, dtype=np.float64)
     m = m[np.isfinite(m).all(axis=(1, 2))]
     # the linear percentile costs N * samples * d * k multiply-adds: fewer draws, then fewer rows, past 1e8
     work = max(m.shape[1] * m.shape[2], 1)
     samples = min(int(samples), max(64, 100_000_000 // max(len(m) * work, 1)))
     lin_rows = m[::max(1, -(-len(m) * samples * work // 100_000_000))]
-    pos = robot.position_cables
+    pos = commanded_cables(robot)
     mp = len(pos)
     sizes = hole_error_sizes(robot)  # the hole errors of each group (the core's structure)
     hole_of_col = np.repeat(np.arange(len(sizes)), sizes)

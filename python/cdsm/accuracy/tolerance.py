@@ -27,7 +27,7 @@ variance (a group of no effect gets the largest tolerance of the others;
 the planar rule instead caps the effect below at 1e-12). The linear first
 guess, as for planar arms, comes from the sensitivities of
 :mod:`cdsm.accuracy.sensitivity` (the general ones of the one model); Monte
-Carlo then brackets and bisects ``alpha`` (:class:`SpatialAllocation`).
+Carlo then brackets and bisects ``alpha`` (:class:`Allocation`).
 Regions are cut over the two position axes along which the tips spread most
 (a planar arm's X, Y).
 
@@ -49,7 +49,7 @@ import numpy as np
 
 from ..files import read_table, read_text
 from ..inputs import CdsmInputError, as_batch, as_tolerances
-from ..kinds import SPATIAL
+from ..kinds import SPATIAL, Kind
 from ..robot import Robot
 from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, hole_error_sizes, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
@@ -58,8 +58,8 @@ from .sampling import sample_configurations
 from .workspace import joint_grid, paper_ik_seed
 
 __all__ = ["HIST_RESOLUTION", "pooled_percentile", "Allocation", "allocate", "distribution",
-           "region_cells", "load_tolerances", "parse_region", "SpatialAllocation", "hole_tolerances",
-           "spatial_tolerances", "load_spatial_tolerances", "SPATIAL_REGION_DEFAULT", "error_tolerances",
+           "region_cells", "parse_region", "hole_tolerances",
+           "SPATIAL_REGION_DEFAULT", "error_tolerances",
            "read_tolerances", "default_configurations"]
 
 #: Relative bound of the Monte-Carlo quantiles the allocation reads
@@ -105,19 +105,25 @@ class Verdicts:
 
 @dataclass
 class Allocation(Verdicts):
-    """Answer of :func:`allocate` (all lengths in m unless the key says mm).
+    """Answer of :func:`allocate`, either kind (all lengths in m unless the
+    key says mm).
 
-    cable_length_tol_m: (n,) ± tolerance per upper cable. hole_height_tol_m:
-    (n,) ± tolerance per disk's hole height. achieved_m: the pooled percentile
-    of |d(x, y)| over the region verified by Monte Carlo at this answer
-    (<= target). achieved_1p25_m: the same with every tolerance × 1.25 (> target:
-    the answer is not loose). alpha: common scale of ``shape`` (m per unit).
-    linear_m: the linear-model percentile at the answer. history: (alpha,
-    achieved) of every Monte-Carlo evaluation.
+    cable_length_tol_m: (m_pos,) ± tolerance per position-controlled cable
+    (a planar arm's upper cables). hole_tol_m: ± tolerance per hole group
+    (planar: (n,) per disk's hole height; spatial: (cables,) on every
+    coordinate of each cable's holes), written to JSON under the kind's
+    :attr:`~cdsm.kinds.Kind.hole_tolerance_key` (``hole_height_tol_m``,
+    ``hole_tol_m``). achieved_m: the pooled percentile of the tip position
+    error (|d(x, y)|, spatial |d(x, y, z)|) over the region verified by
+    Monte Carlo at this answer (<= target). achieved_1p25_m: the same with
+    every tolerance × 1.25 (> target: the answer is not loose). alpha:
+    common scale of ``shape`` (m per unit). linear_m: the linear model's
+    percentile at the answer; alpha_linear: its first guess. history:
+    (alpha, achieved) of every Monte-Carlo evaluation. kind: the arm's kind.
     """
 
     cable_length_tol_m: np.ndarray
-    hole_height_tol_m: np.ndarray
+    hole_tol_m: np.ndarray
     achieved_m: float
     achieved_1p25_m: float
     target_m: float
@@ -127,30 +133,39 @@ class Allocation(Verdicts):
     linear_m: float
     alpha_linear: float
     failed: int
+    kind: Kind
     history: List[tuple] = field(default_factory=list)
     params: dict = field(default_factory=dict)
 
+    @property
+    def hole_height_tol_m(self) -> np.ndarray:
+        """The hole tolerances under a planar arm's name (per disk's hole
+        height, m): :attr:`hole_tol_m`."""
+        return self.hole_tol_m
+
     def to_json(self) -> dict:
-        """The fixed keys (``cable_length_tol_m``, ``hole_height_tol_m``,
-        ``achieved_mm``) plus extras."""
-        return dict(
-            cable_length_tol_m=[float(v) for v in self.cable_length_tol_m],
-            hole_height_tol_m=[float(v) for v in self.hole_height_tol_m],
-            achieved_mm=self.achieved_m * 1e3,
-            achieved_interpolated_mm=self.params.get("achieved_interpolated_m", float("nan")) * 1e3,
-            target_mm=self.target_m * 1e3,
-            percentile=self.percentile,
-            holds=self.holds,
-            achieved_at_1p25_tol_mm=self.achieved_1p25_m * 1e3,
-            not_loose=self.not_loose,
-            linear_estimate_mm=self.linear_m * 1e3,
-            alpha=self.alpha,
-            alpha_linear=self.alpha_linear,
-            histogram_resolution=HIST_RESOLUTION,
-            failed_solves=self.failed,
-            monte_carlo_evaluations=[dict(alpha=a, achieved_mm=v * 1e3) for a, v in self.history],
+        """``kind``, ``cable_length_tol_m``, the hole tolerances under the
+        kind's key (``hole_height_tol_m``; spatial ``hole_tol_m``: what ``cdsm
+        montecarlo --tolerances`` reads), ``achieved_mm`` and extras."""
+        return {
+            "kind": str(self.kind),
+            "cable_length_tol_m": [float(v) for v in self.cable_length_tol_m],
+            self.kind.hole_tolerance_key: [float(v) for v in self.hole_tol_m],
+            "achieved_mm": self.achieved_m * 1e3,
+            "achieved_interpolated_mm": self.params.get("achieved_interpolated_m", float("nan")) * 1e3,
+            "target_mm": self.target_m * 1e3,
+            "percentile": self.percentile,
+            "holds": self.holds,
+            "achieved_at_1p25_tol_mm": self.achieved_1p25_m * 1e3,
+            "not_loose": self.not_loose,
+            "linear_estimate_mm": self.linear_m * 1e3,
+            "alpha": self.alpha,
+            "alpha_linear": self.alpha_linear,
+            "histogram_resolution": HIST_RESOLUTION,
+            "failed_solves": self.failed,
+            "monte_carlo_evaluations": [dict(alpha=a, achieved_mm=v * 1e3) for a, v in self.history],
             **self.params,
-        )
+        }
 
 
 def _shape(robot: Robot, em: np.ndarray, weights, base, shape: str, sizes: np.ndarray) -> np.ndarray:
@@ -271,10 +286,9 @@ def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0
 
     The tolerances are one per position-controlled cable and one per hole
     group (planar: a disk's hole height; spatial: every coordinate of a
-    cable's holes); ``weights``: 2 or one per group. Planar arms return an
-    :class:`Allocation`, spatial arms a :class:`SpatialAllocation` (the
-    kind's :attr:`~cdsm.kinds.Kind.hole_tolerance_key` names the hole
-    tolerances in both).
+    cable's holes); ``weights``: 2 or one per group. Returns an
+    :class:`Allocation` (its JSON names the hole tolerances by the kind's
+    :attr:`~cdsm.kinds.Kind.hole_tolerance_key`).
     """
     kind = robot.kind
     t = default_configurations(robot) if theta is None else theta
@@ -309,11 +323,10 @@ def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0
                   base_m=[float(v) for v in np.asarray(base, float).ravel()], robot=robot.name, n=robot.n)
     if kind.cable_numbers:  # the commanded cables by their numbers in the robot file
         params["position_cables"] = [c + 1 for c in robot.position_cables]
-    result = _ALLOCATIONS[kind.hole_tolerance_key]
-    return result(cable_length_tol_m=tol[:m], **{kind.hole_tolerance_key: tol[m:]}, achieved_m=ach,
-                  achieved_1p25_m=a125, target_m=target, percentile=float(percentile), alpha=float(lo), shape=shp,
-                  linear_m=float(lo * p_lin1), alpha_linear=float(a_lin), failed=int(mc.failed.sum()),
-                  history=history, params=params)
+    return Allocation(cable_length_tol_m=tol[:m], hole_tol_m=tol[m:], achieved_m=ach, achieved_1p25_m=a125,
+                      target_m=target, percentile=float(percentile), alpha=float(lo), shape=shp,
+                      linear_m=float(lo * p_lin1), alpha_linear=float(a_lin), failed=int(mc.failed.sum()), kind=kind,
+                      history=history, params=params)
 
 
 # ---------------------------------------------------------------------------
@@ -382,32 +395,6 @@ def distribution(robot: Robot, dl_tol, dh_tol, theta=None, percentiles: Sequence
 # ---------------------------------------------------------------------------
 # tolerances
 # ---------------------------------------------------------------------------
-def load_tolerances(path: str, n: int) -> Tuple[np.ndarray, np.ndarray]:
-    """Tolerances from a JSON file (as ``cdsm tolerance --json`` writes it):
-    ``cable_length_tol_m`` — (n,) per upper cable, m — and
-    ``hole_height_tol_m`` — (n,) per disk, m (a scalar applies to all; other
-    keys are ignored). Returns (dl_tol, dh_tol), each (n,) m."""
-    data = _tolerance_json(path)
-    out = []
-    for key in ("cable_length_tol_m", "hole_height_tol_m"):
-        if key not in data:
-            raise CdsmInputError(f"tolerance file {path!r}: missing key {key!r}")
-        try:
-            arr = np.asarray(data[key], dtype=np.float64)
-        except (TypeError, ValueError):
-            raise CdsmInputError(f"tolerance file {path!r}: `{key}` is not a number "
-                                 f"or a list of numbers") from None
-        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != n):
-            raise CdsmInputError(f"tolerance file {path!r}: `{key}` needs {n} values "
-                                 f"(one per {'upper cable' if key[0] == 'c' else 'disk'}), "
-                                 f"got shape {arr.shape}")
-        try:
-            out.append(as_tolerances(key, arr, n))
-        except CdsmInputError as exc:
-            raise CdsmInputError(f"tolerance file {path!r}: {exc}") from None
-    return out[0], out[1]
-
-
 # ---------------------------------------------------------------------------
 # regions
 # ---------------------------------------------------------------------------
@@ -536,14 +523,6 @@ def error_tolerances(robot, dl_tol, dh_tol, source: str = "",
     return out[0], out[1]
 
 
-def spatial_tolerances(robot, dl_tol, dh_tol, source: str = "") -> Tuple[np.ndarray, np.ndarray]:
-    """(m_pos,) and (3 H,) tolerances, m, of a spatial arm: ``dl_tol`` a
-    scalar or one per position-controlled cable; ``dh_tol`` a scalar, one per
-    cable (every coordinate of its holes) or one per hole coordinate
-    (:func:`error_tolerances` under a tolerance file's names)."""
-    return error_tolerances(robot, dl_tol, dh_tol, source, ("cable_length_tol_m", "hole_tol_m"))
-
-
 def _tolerance_json(path: str) -> dict:
     """The JSON object of a tolerance file (a clear error otherwise)."""
     text = read_text(path, "tolerance")
@@ -575,67 +554,3 @@ def read_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
             raise CdsmInputError(f"tolerance file {path!r}: missing key {key!r}{extra}")
     return error_tolerances(robot, data["cable_length_tol_m"], data[hole_key], f"tolerance file {path!r}",
                             ("cable_length_tol_m", hole_key))
-
-
-def load_spatial_tolerances(path: str, robot) -> Tuple[np.ndarray, np.ndarray]:
-    """Tolerances of a spatial arm from a JSON file: :func:`read_tolerances`
-    (``cable_length_tol_m`` and ``hole_tol_m``; returns (dl_tol (m_pos,),
-    dh_tol (3 H,)), m)."""
-    return read_tolerances(path, robot)
-
-
-@dataclass
-class SpatialAllocation(Verdicts):
-    """Answer of :func:`allocate` for a spatial arm (lengths in m).
-
-    cable_length_tol_m: (m_pos,) ± tolerance per position-controlled cable.
-    hole_tol_m: (cables,) ± tolerance on every coordinate of each cable's
-    holes. achieved_m: the pooled percentile of |d(x, y, z)| verified by
-    Monte Carlo (<= target). achieved_1p25_m: the same with every tolerance
-    × 1.25. alpha: common scale of ``shape`` ((m_pos + cables,) m; alpha = 1
-    is the weighted reference). linear_m: the linear model's percentile at
-    ``alpha`` (m); alpha_linear: its first guess. history: (alpha, achieved)
-    of every evaluation.
-    """
-
-    cable_length_tol_m: np.ndarray
-    hole_tol_m: np.ndarray
-    achieved_m: float
-    achieved_1p25_m: float
-    target_m: float
-    percentile: float
-    alpha: float
-    shape: np.ndarray
-    failed: int
-    linear_m: float = float("nan")
-    alpha_linear: float = float("nan")
-    history: List[tuple] = field(default_factory=list)
-    params: dict = field(default_factory=dict)
-
-    def to_json(self) -> dict:
-        """``cable_length_tol_m``, ``hole_tol_m`` (what ``cdsm montecarlo
-        --tolerances`` reads for a spatial robot), ``achieved_mm`` and extras."""
-        return dict(
-            kind="spatial",
-            cable_length_tol_m=[float(v) for v in self.cable_length_tol_m],
-            hole_tol_m=[float(v) for v in self.hole_tol_m],
-            achieved_mm=self.achieved_m * 1e3,
-            achieved_interpolated_mm=self.params.get("achieved_interpolated_m", float("nan")) * 1e3,
-            target_mm=self.target_m * 1e3,
-            percentile=self.percentile,
-            holds=self.holds,
-            achieved_at_1p25_tol_mm=self.achieved_1p25_m * 1e3,
-            not_loose=self.not_loose,
-            linear_estimate_mm=self.linear_m * 1e3,
-            alpha_linear=self.alpha_linear,
-            alpha=self.alpha,
-            histogram_resolution=HIST_RESOLUTION,
-            failed_solves=self.failed,
-            monte_carlo_evaluations=[dict(alpha=a, achieved_mm=v * 1e3) for a, v in self.history],
-            **self.params,
-        )
-
-
-#: The result type of an allocation, by the kind's name of its hole tolerances
-#: (:attr:`cdsm.kinds.Kind.hole_tolerance_key`: the field the type holds them in).
-_ALLOCATIONS = {"hole_height_tol_m": Allocation, "hole_tol_m": SpatialAllocation}

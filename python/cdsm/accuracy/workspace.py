@@ -13,6 +13,10 @@ Protocols (each figure of a study report says which one it uses):
   box (:func:`sample`): arms whose joint grid would be too coarse (spatial
   arms, planar arms of many joints). Jumps are judged between nearest
   neighbours in joint space (:func:`cdsm.accuracy.sampling.jump_points`).
+* ``commanded`` — an elastic arm (its angles are the equilibrium of its
+  commands): the error is applied at the equilibria of commands sampled in
+  a box (:func:`cdsm.accuracy.plant_errors.sample_commands`); jumps between
+  nearest neighbours in command space.
 """
 
 from __future__ import annotations
@@ -107,7 +111,12 @@ class Workspace(ShortRepr):
     with their adjacent edges (:func:`grid_neighbours`; empty for a plain
     list of configurations); ``sampled`` (N, k) each configuration's nearest
     neighbours in joint space. params: how the configurations were made
-    (``sampled``: method, seed, k).
+    (``sampled``: method, seed, k). commands: (N, m_c) m the commanded
+    cables' extras the configurations settle at (the ``commanded`` protocol
+    of an elastic arm, :func:`cdsm.accuracy.plant_errors.sample_commands`:
+    its angles are the equilibrium of its commands), else None.
+    path_dependent: (N,) bool, ``commanded`` only: the commands with two
+    equilibria (:func:`cdsm.accuracy.plant_errors.path_dependent`), else None.
     """
 
     protocol: str
@@ -118,6 +127,8 @@ class Workspace(ShortRepr):
     neighbours: np.ndarray
     ik: Optional[Solution] = None
     params: Optional[dict] = None
+    commands: Optional[np.ndarray] = None
+    path_dependent: Optional[np.ndarray] = None
 
     @property
     def n_unreachable(self) -> int:
@@ -125,7 +136,7 @@ class Workspace(ShortRepr):
 
     def describe_grid(self) -> str:
         """'±A° in S° steps' for a symmetric joint grid, else 'N configurations'."""
-        if self.protocol != "sampled":
+        if self.protocol in ("joint", "attitude0"):
             v = np.unique(np.round(np.degrees(self.grid), 9))
             if len(v) > 1 and np.isclose(v[0], -v[-1]):
                 return f"±{v[-1]:g}° in {np.diff(v).min():g}° steps"

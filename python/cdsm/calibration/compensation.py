@@ -17,8 +17,11 @@ from ..files import read_table, write_text
 from ..inputs import CdsmInputError, as_array, as_finite, as_iterations, as_vector
 from ..display import ShortRepr
 from ..kinds import KINDS, kind_of
+from . import plant
+from .inverse_statics import PRELOAD, inverse_statics
+from .measurements import commanded_cables
 
-__all__ = ["Compensation", "compensate", "read_targets", "TARGET_COLUMNS"]
+__all__ = ["Compensation", "compensate", "compensate_commands", "read_targets", "TARGET_COLUMNS"]
 
 
 # ---------------------------------------------------------------------------
@@ -192,8 +195,18 @@ def compensate(model, poses, tol: float = 1e-9, max_iter: int = 40, min_tension:
     ``min_tension`` N at the predicted configuration of the fitted arm;
     spatial: no tension set >= ``min_tension`` N holds it), ``joint
     limits`` (that configuration leaves the limits), ``not converged``.
+
+    An elastic arm (:attr:`Robot.is_elastic`: its joint angles are the
+    equilibrium of its tendons and springs, not commanded) goes by its
+    inverse statics instead: :func:`compensate_commands`.
     """
     r = model.robot
+    if r.is_elastic:  # its joint angles are not commanded: no nominal IK, the inverse statics
+        if start is not None or enforce_limits:
+            raise CdsmInputError(f"`{'start' if start is not None else 'enforce_limits'}`: applies to an arm "
+                                 "commanded by its joint angles; an elastic arm's commands start from a preload "
+                                 "(cdsm.calibration.compensation.compensate_commands)")
+        return compensate_commands(model, poses, tol=tol, max_iter=max_iter)
     kind = r.kind
     policy = kind.compensation
     n, m, dim = r.n, len(r.position_cables), kind.dim
@@ -290,3 +303,36 @@ def _flag_outcome(r, flags, rows, conv, seen, th_pred, err, min_tension, slack_t
                 flags[i].append(slack_text)
             if not li:
                 flags[i].append("joint limits: the predicted configuration leaves them")
+
+
+def compensate_commands(model, poses, tol: float = 1e-11, max_iter: int = 60, preload: float = PRELOAD,
+                        start=None):
+    """:func:`cdsm.calibration.compensate` of an arm commanded by its cables
+    (an elastic arm): the commands that settle the fitted plant ``model.p``
+    at ``poses``, and as the uncompensated commands those the nominal
+    model's inverse statics finds
+    (:func:`cdsm.calibration.inverse_statics.inverse_statics`, minimum-norm
+    Gauss-Newton from ``preload``; ``start`` its first ``dL``). Returns
+    a :class:`~cdsm.calibration.compensation.Compensation`: ``theta_cmd``
+    the rest angles, ``commands`` the commanded cables' rest lengths (their
+    paths at the rest angles + dL), ``dL`` the plant's extras (minus the
+    tendons' displacements, m), ``nominal_commands`` the nominal inverse
+    statics' commands, ``predicted_error`` and ``predicted_error_nominal`` the fitted
+    plant's tip error with either, ``theta_pred`` where the fitted plant
+    settles; flags those of the fitted inverse statics and a target the
+    nominal one does not reach."""
+    r = model.robot
+    nominal = inverse_statics(r, poses, None, start, preload, tol, max_iter)
+    fitted = inverse_statics(r, poses, model.p, start, preload, tol, max_iter)
+    N, dim = len(nominal.targets), r.kind.dim
+    rest = np.tile(r.rest_angles, (N, 1))
+    base = plant.command_lengths(r, rest) if N else np.zeros((0, plant.commands(r)))
+    seen0, _ = plant.predict(r, model.p, rest, nominal.dL) if N else (np.zeros((0, r.kind.task)), None)
+    theta_pred, _ = plant.settle(r, model.p, rest, fitted.dL) if N else (np.zeros((0, r.n)), None)
+    err0 = np.linalg.norm(seen0[:, :dim] - nominal.targets[:, :dim], axis=1)
+    flags = ["; ".join(f for f in (fitted.flags[i], "" if nominal.converged[i] else
+                                   "the nominal model's inverse statics does not reach the target") if f)
+             for i in range(N)]
+    return Compensation(fitted.targets, base + fitted.dL, rest, fitted.dL, base + nominal.dL,
+                        fitted.converged, fitted.error, err0, fitted.rotation_error, theta_pred,
+                        flags, model.name, str(r.kind), list(commanded_cables(r)))

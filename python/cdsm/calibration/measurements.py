@@ -37,6 +37,7 @@ the rows' default fold group.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from dataclasses import dataclass, field
 from importlib import resources
@@ -376,5 +377,6 @@ def after_reversals(meas: Measurements) -> Measurements:
     if rot is not None:
         rot = rot.copy()
         rot[0::2] = np.nan
-    return Measurements(meas.kind, meas.n, meas.dL[rows].copy(), measured, pick(meas.theta), pick(meas.pose_cmd),
-                        phi, labels, f"{meas.source} (after reversals)", None, rot)
+    return dataclasses.replace(meas, dL=meas.dL[rows].copy(), measured=measured, theta=pick(meas.theta),
+                               pose_cmd=pick(meas.pose_cmd), measured_phi=phi, labels=labels,
+                               source=f"{meas.source} (after reversals)", sequence=None, measured_rot=rot)

@@ -72,7 +72,7 @@ from .measurements import KIND_CODES, Measurements, commanded_cables
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
            "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
-           "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "effects_of", "check_effects", "width", "dims", "commands",
+           "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "ELASTIC_ON_REQUEST", "effects_of", "check_effects", "width", "dims", "commands",
            "command_lengths", "taut_commands"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
@@ -131,25 +131,31 @@ MAX_PARAMETER = 1e3
 #: are its ``cable_angle`` and ``cable_offset`` in the library.
 ELASTIC_GEOMETRY: Tuple[str, ...] = ("hole_position", "link_length", "joint_axis")
 
+#: Every block of an elastic arm's plant fitted only when named: the geometry
+#: (:data:`ELASTIC_GEOMETRY`) and friction in the holes (``cable_friction``: a fit
+#: with it settles the non-symmetric capstan system, about 20 times the cost of a
+#: frictionless fit on FTDCR v4, whose real recordings put mu at 0.0008).
+ELASTIC_ON_REQUEST: Tuple[str, ...] = ELASTIC_GEOMETRY + ("cable_friction",)
+
 
 def effects_of(robot) -> Tuple[str, ...]:
     """The diagnosis library of a robot: its kind's layout's effects; an elastic
     arm's (:attr:`Robot.is_elastic`) its own layout's (:func:`layout`: without
-    ``cable_elasticity``, ``hole_clearance`` and ``cable_friction``, with
-    ``joint_stiffness`` and, spatial, ``cable_angle``) but :data:`ELASTIC_GEOMETRY`."""
+    ``cable_elasticity`` and ``hole_clearance``, with ``joint_stiffness`` and,
+    spatial, ``cable_angle``) but :data:`ELASTIC_ON_REQUEST`."""
     if robot.is_elastic:
-        return _library([name for name, k in robot.core.plant_effects() if k and name not in ELASTIC_GEOMETRY])
+        return _library([name for name, k in robot.core.plant_effects() if k and name not in ELASTIC_ON_REQUEST])
     return _library(kind_facts(robot.kind)["layout"])
 
 
 def check_effects(robot, effects: Sequence[str], field: str = "effects") -> List[str]:
     """``effects`` as a list, each one of the library of ``robot``'s kind (an
-    elastic arm's also the :data:`ELASTIC_GEOMETRY` blocks of its layout);
+    elastic arm's also the :data:`ELASTIC_ON_REQUEST` blocks of its layout);
     :class:`CdsmInputError` naming ``field``, the unknown names and the
     kind's library otherwise."""
     known = effects_of(robot)
     if robot.is_elastic:
-        known += tuple(b for b, k in robot.core.plant_effects() if k and b in ELASTIC_GEOMETRY)
+        known += tuple(b for b, k in robot.core.plant_effects() if k and b in ELASTIC_ON_REQUEST)
     names = list(effects)
     bad = [e for e in names if e not in known]
     if bad:
@@ -399,11 +405,14 @@ class VirtualPrototype:
         meas[~seen] = np.nan
         return Measurements(kind, self.robot.n, d, meas, theta=t, source="virtual prototype")
 
-    def random_commands(self, rows: int, seed: Optional[int] = None, limit: float = np.radians(30.0),
+    def random_commands(self, rows: int, seed: Optional[int] = None, limit: Optional[float] = None,
                         dl: float = 1e-3, kind: str = "absolute", taut: bool = False, min_tension: float = 0.0,
                         max_draws: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
         """``rows`` random commands: joint angles ``theta`` (rows, n), rad,
-        uniform within ±``limit`` rad, and extras ``dL`` (rows, m), m, on the
+        uniform within ±``limit`` rad of the rest angles (default 30°; an
+        elastic arm's default 0: its rows are commanded by their cables
+        alone, ``theta`` the rest angles, as a recording's), and extras
+        ``dL`` (rows, m), m, on the
         m position-controlled cables (a planar arm's upper cables), uniform
         within ±``dl`` m — for ``kind="displacement"`` one cable per row gets
         ±``dl`` exactly and the others 0. Seeded: ``seed``, default the
@@ -422,6 +431,8 @@ class VirtualPrototype:
         rate (narrow ``limit``, lower ``min_tension`` or raise ``max_draws``).
         ``taut=False`` (default) draws exactly as before, without statics."""
         rows = as_count("rows", rows)
+        if limit is None:
+            limit = 0.0 if self.robot.is_elastic else np.radians(30.0)
         limit, dl = as_finite("limit", limit), as_finite("dl", dl)
         if limit < 0.0 or dl < 0.0:
             raise CdsmInputError(f"`{'limit' if limit < 0.0 else 'dl'}`: expected a half-width >= 0, got "
@@ -460,7 +471,7 @@ def _draw_commands(robot: Robot, rng: np.random.Generator, rows: int, limit: flo
     """``rows`` commands (theta (rows, n) rad, dL (rows, m) m) from ``rng``
     (:meth:`VirtualPrototype.random_commands`)."""
     n, w = robot.n, commands(robot)
-    theta = rng.uniform(-limit, limit, (rows, n))
+    theta = robot.rest_angles + rng.uniform(-limit, limit, (rows, n))
     d = np.zeros((rows, w))
     if kind == "displacement":
         d[np.arange(rows), rng.integers(0, w, rows)] = rng.choice([-dl, dl], rows)

@@ -7,7 +7,10 @@ and predict the second file's rows; nothing is refitted on the second file.
 The figures are the tip position error (prediction − measurement), RMS over
 the rows both models predict: as it is, and after removing its mean over
 those rows (the mean offset: three translations, the metric of OpenCR and
-of many calibration papers). A row a model cannot predict (its plant does
+of many calibration papers). Every other model the diagnosis fitted on
+the first file (each effect alone, each step of the selection) is judged
+the same way on the same rows: which effects carry over to the second
+file, not only the chosen model. A row a model cannot predict (its plant does
 not settle there) is counted and said, not scored for either model; a row
 the nominal model cannot use (the reasons :func:`diagnosis.prepare` gives)
 is flagged with its reason. SI units (m)."""
@@ -49,6 +52,10 @@ class Validation(ShortRepr):
     flagged: Dict[int, str] = field(default_factory=dict)
     model: str = "none"
     source: str = ""
+    #: every other model the diagnosis fitted on the first file (each single
+    #: effect, each step of the selection), judged the same way on the rows
+    #: scored above: {name: (rms, rms_mean_aligned, rows it cannot predict)}
+    candidates: Dict[str, tuple] = field(default_factory=dict)
 
     def to_json(self) -> dict:
         return dict(source=self.source, model=self.model, rows=self.rows, rows_in_file=self.rows_in_file,
@@ -57,6 +64,8 @@ class Validation(ShortRepr):
                     model_rms_mean_aligned_m=self.model_rms_mean_aligned,
                     unpredicted={k: [i + 1 for i in v] for k, v in self.unpredicted.items()},
                     flagged_rows={str(k + 1): v for k, v in self.flagged.items()},
+                    candidates=[dict(model=name, model_rms_m=r, model_rms_mean_aligned_m=ra, unpredicted=lost)
+                                for name, (r, ra, lost) in self.candidates.items()],
                     refitted="nothing: every parameter and the frame as fitted on the first file")
 
     def summary(self) -> str:
@@ -90,8 +99,12 @@ def validate(d: Diagnosis, meas: Measurements) -> Validation:
     k = plant.dims(robot)
     order = prep.order
     fits = {"nominal": d.baseline.fit.p, "model": d.final().fit.p}
-    pred, ok = plant.predict(robot, np.stack([fits["nominal"], fits["model"]]), prep.theta_cmd[order],
-                             prep.dL[order], prep.kinds[order])
+    others = {}
+    for c in list(d.singles) + list(d.steps):
+        if c.name not in others and c.name != d.final().name and c is not d.baseline:
+            others[c.name] = c.fit.p
+    pred, ok = plant.predict(robot, np.stack([fits["nominal"], fits["model"]] + list(others.values())),
+                             prep.theta_cmd[order], prep.dL[order], prep.kinds[order])
     obs = np.empty_like(pred)
     obs[:, order] = pred
     conv = np.empty_like(ok)
@@ -104,9 +117,17 @@ def validate(d: Diagnosis, meas: Measurements) -> Validation:
         usable &= good
     rows = np.flatnonzero(usable)
     err = [obs[j, rows, :k] - prep.measured[rows, :k] for j in range(2)]
+    judged = {}
+    for j, name in enumerate(others, start=2):
+        e = obs[j, rows, :k] - prep.measured[rows, :k]
+        good = conv[j, rows] & np.isfinite(e).all(axis=1)
+        e = e[good]
+        judged[name] = (_rms(e), _rms(e - e.mean(axis=0)) if len(e) else float("nan"),
+                        [int(i) for i in rows[~good]])
     return Validation(
         rows=int(len(rows)), rows_in_file=int(len(meas)),
         nominal_rms=_rms(err[0]), model_rms=_rms(err[1]),
         nominal_rms_mean_aligned=_rms(err[0] - err[0].mean(axis=0)) if len(rows) else float("nan"),
         model_rms_mean_aligned=_rms(err[1] - err[1].mean(axis=0)) if len(rows) else float("nan"),
-        unpredicted=unpredicted, flagged=dict(prep.flags), model=d.best, source=meas.source or "")
+        unpredicted=unpredicted, flagged=dict(prep.flags), model=d.best, source=meas.source or "",
+        candidates=judged)

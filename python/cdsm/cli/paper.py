@@ -46,7 +46,8 @@ def _paper_run(args) -> int:
     t0 = time.perf_counter()
     robot = load_robot(args.robot)
     protocols, reason = study.choose_protocols(robot)
-    if args.configurations is not None and "sampled" not in protocols:
+    sampled = any(p in ("sampled", "commanded") for p in protocols)
+    if args.configurations is not None and not sampled:
         raise UserError(f"--configurations: this robot's study uses its joint grid ({reason}); configurations are "
                         "sampled for spatial robots and planar arms of many joints only")
     configurations = study.DEFAULT_CONFIGURATIONS if args.configurations is None else args.configurations
@@ -56,7 +57,7 @@ def _paper_run(args) -> int:
     show = not args.quiet
     layer = paper.is_prototype(robot)
     if show:
-        what = (f"{configurations} sampled configurations" if "sampled" in protocols else
+        what = (f"{configurations} sampled configurations" if sampled else
                 " and ".join(study.PROTOCOL_NAMES[p] for p in protocols))
         print(f"cdsm paper: {robot.kind} robot {robot.name!r} ({robot.n} joints), {what}, {samples} Monte-Carlo "
               f"samples, seed {args.seed}" + ("; the paper's geometry: its tables and claims too" if layer else "")

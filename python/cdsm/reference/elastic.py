@@ -43,6 +43,7 @@ import dataclasses
 
 import numpy as np
 
+from . import friction as fr
 from . import sequence as sq
 from .kinematics import as_theta, cable_lengths, cable_points, chain_frames, cross, fk_jacobian, task_vector
 from .robot import Robot, as_robot, displacement_cables, force_cables, position_cables
@@ -64,6 +65,10 @@ __all__ = [
     "commanded_cables",
     "plant_arm",
     "plant_predict",
+    "capstan_wraps",
+    "capstan_motion",
+    "capstan_residual",
+    "capstan_settle",
     "newton_step",
     "structured_step",
     "ARMIJO",
@@ -817,6 +822,12 @@ def plant_predict(robot: Robot, theta_cmd, dL, kind, effects=None, xtol: float =
                                displacements=(L0[dis] - rest[:, dis]) if dis.any() else None,
                                xtol=xtol, max_iter=max_iter)
     theta, ok = sol["theta"], np.asarray(sol["converged"], bool)
+    mu = float(np.atleast_1d(e.get("cable_friction", 0.0))[0])
+    if mu != 0.0:
+        z = capstan_motion(robot, commands, theta_cmd[rows], mu)
+        theta = theta.copy()
+        for j in np.flatnonzero(ok):
+            theta[j], ok[j] = capstan_settle(arm, rest[j], z[j], mu, theta[j], xtol=xtol, max_iter=max_iter)
     frame = np.asarray(e.get("frame_misalignment", np.zeros(6)), float)
     tip = np.asarray(e.get("tip_offset", np.zeros(3)), float)
     ch = chain_frames(arm, as_theta(arm, theta))
@@ -824,3 +835,155 @@ def plant_predict(robot: Robot, theta_cmd, dL, kind, effects=None, xtol: float =
     E = exp_so3(frame[:3])
     seen = (p_end + R_end @ tip) @ E.T + frame[3:]
     return sq.observations(task_vector(arm, seen, E @ R_end, theta), rows, ok, kind)
+
+
+# --------------------------------------------------------------------------
+# Friction in the holes (docs/model.md, "Elastic arms in the plant", friction)
+# --------------------------------------------------------------------------
+def capstan_wraps(robot: Robot, P: np.ndarray, c: int) -> tuple:
+    """Segment lengths ``g (N, 2e)`` m and wrap angles ``beta (N, 2e)`` rad of cable ``c``
+    with hole points ``P (N, 2e + 1, 3)``: those of :mod:`.friction`, except at a via
+    plate (its disk's thickness 0 and the same hole on both faces: the traversal is a
+    point), where the cable turns once, from its gap into the next gap (the point's
+    direction is the gap's)."""
+    e = int(robot.cable_end[c])
+    h = robot.holes[c]
+    g, u = fr.segments(P)
+    for k in range(1, e + 1):
+        if robot.thickness[k - 1] == 0.0 and np.array_equal(h[2 * k - 1], h[2 * k]):
+            g[:, 2 * k - 1] = 0.0
+            u[:, 2 * k - 1] = u[:, 2 * k - 2]
+    N = P.shape[0]
+    ex = np.zeros((N, 1, 3))
+    ex[..., 0] = 1.0
+    dirs = np.concatenate([ex, u], axis=1)
+    a, b = dirs[:, :-1], dirs[:, 1:]
+    beta = np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), (a * b).sum(-1))
+    return g, beta
+
+
+def _split_rest(robot: Robot, rest: np.ndarray) -> tuple:
+    """The commanded cables' rest lengths ``rest (N, m_c)`` m as the statics' commands: the
+    position cables' lengths and the displacement cables' displacements ``L0 - l`` (``None``
+    where the arm has no such cable)."""
+    cmd = commanded_cables(robot)
+    modes = np.array([robot.cable_mode[c] for c in cmd])
+    pos, dis = modes == "position", modes == "displacement"
+    L0 = rest_lengths(robot)[cmd]
+    return (rest[:, pos] if pos.any() else None), ((L0[dis] - rest[:, dis]) if dis.any() else None)
+
+
+def _ea(robot: Robot) -> float:
+    return robot.youngs_modulus * np.pi * robot.diameter**2 / 4.0
+
+
+def _actuator_tensions(robot: Robot, springs: Springs, L: np.ndarray, ebar: np.ndarray) -> np.ndarray:
+    """``T_0 (N, m)`` N: every cable's actuator tension from its compatibility with the
+    mean capstan factors ``ebar (N, m)`` at its path lengths ``L (N, m)`` m: displacement
+    ``(L - l + P/k_s) / (1/k_s + (L0 + L_r)(ebar - 1)/(E A))``, position ``E A (L - l) /
+    ((l + L_r) ebar)``, 0 where not positive, the cap above it; a force cable's set tension."""
+    EA, Lr = _ea(robot), robot.routing_length
+    dis = np.zeros(robot.m, dtype=bool)
+    dis[displacement_cables(robot)] = True
+    pos = np.zeros(robot.m, dtype=bool)
+    pos[position_cables(robot)] = True
+    rest = springs.rest
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / springs.k
+        share = (rest_lengths(robot) + Lr) / EA
+        t_dis = (L - rest + inv * springs.pretension) / (inv + share * (ebar - 1.0))
+        t_pos = EA * (L - rest) / ((rest + Lr) * ebar)
+    t = np.where(dis, t_dis, np.where(pos, t_pos, 0.0))
+    t = np.where(t > 0.0, np.minimum(t, springs.cap), 0.0)
+    return np.where(springs.elastic, t, springs.force)
+
+
+def capstan_residual(robot: Robot, rest, z, mu: float, theta) -> np.ndarray:
+    """The friction residual ``r (n,)`` N m of one command at ``theta (n,)`` rad: ``k_j (q_j -
+    rest_j) + sum_c T_(c,0) E_(c,2k-1) dL_c/dq_j - tau_j`` (joint ``j`` of disk ``k``).
+    ``rest (m_c,)`` m the commanded cables' rest lengths, ``z`` every hole's mobilisation
+    (cables in file order, ``2 e_c`` each), ``mu`` the friction coefficient."""
+    robot = as_robot(robot)
+    springs = tendon_springs(robot, *_split_rest(robot, np.asarray(rest, float)[None]))
+    th = as_theta(robot, np.asarray(theta, float).reshape(1, -1))
+    ev = evaluate(robot, springs, th, order=1)
+    pts = cable_points(robot, th, chain_frames(robot, th))
+    n, m = robot.n, robot.m
+    ebar = np.ones((1, m))
+    gapfac = np.ones((n, m))
+    o = 0
+    for c, P in enumerate(pts):
+        e = int(robot.cable_end[c])
+        g, beta = capstan_wraps(robot, P, c)
+        E = fr.profile(beta, np.asarray(z, float)[None, o:o + 2 * e], mu)
+        ebar[0, c] = fr.mean_factor(g, E, robot.routing_length)[0]
+        on = robot.joint_disk <= e
+        gapfac[on, c] = E[0, 2 * robot.joint_disk[on] - 1]
+        o += 2 * e
+    T0 = _actuator_tensions(robot, springs, ev["L"], ebar)[0]
+    return (robot.joint_stiffness * (th[0] - robot.rest_angle)
+            + (ev["G"][0] * gapfac) @ T0 - ev["tau"][0])
+
+
+def capstan_motion(robot: Robot, commands, theta_cmd, mu: float) -> np.ndarray:
+    """Every hole's mobilisation after each command, ``z (R, H)`` (cables in file order):
+    the scan of :func:`.friction.mobilisation_scan` along the nominal motion, every
+    command's nominal frictionless equilibrium (``commands (R, m_c)`` the commanded
+    cables' nominal rest lengths, warm-started along the sequence; ``theta_cmd (R, n)``
+    where it does not converge), the band ``T_hat d sinh(mu beta) / (E A)`` with ``T_hat``
+    the frictionless tension there."""
+    robot = as_robot(robot)
+    lengths, displacements = _split_rest(robot, np.asarray(commands, float))
+    sol = equilibrium_sequence(robot, lengths=lengths, displacements=displacements)
+    ok = np.asarray(sol["converged"], bool)
+    q = np.where(ok[:, None], sol["theta"], np.asarray(theta_cmd, float))
+    springs = tendon_springs(robot, lengths=lengths, displacements=displacements)
+    T = evaluate(robot, springs, q, order=0)["tension"]
+    pts = cable_points(robot, q)
+    pts0 = cable_points(robot, np.zeros((1, robot.n)))
+    EA = _ea(robot)
+    out = []
+    for c in range(robot.m):
+        g, beta = capstan_wraps(robot, pts[c], c)
+        g0, _ = capstan_wraps(robot, pts0[c], c)
+        d, d0 = fr.distal_lengths(g), fr.distal_lengths(g0)[0]
+        t = np.where(np.isfinite(T[:, c:c + 1]) & (T[:, c:c + 1] > 0.0), T[:, c:c + 1], 0.0)
+        w = fr.band(1.0 / EA, mu, t, d, beta)
+        out.append(fr.mobilisation_scan(d, w, d0))
+    return np.concatenate(out, axis=1)
+
+
+def capstan_settle(robot: Robot, rest, z, mu: float, seed, xtol: float = XTOL, max_iter: int = 100,
+                   step: float = 1e-7) -> tuple:
+    """One command settled with friction in the holes: the root of :func:`capstan_residual`
+    by Newton from ``seed (n,)`` rad (its frictionless equilibrium), the Jacobian by central
+    differences of ``step`` rad, halving the step until ``|r|`` decreases; converged when
+    the step is at most ``xtol`` rad (a step of at most ``1e-8`` rad taken whole: ``|r|``
+    at its rounding level).  Returns ``(theta (n,), converged)``."""
+    q = np.asarray(seed, float).copy()
+    n = q.size
+
+    def res(x):
+        return capstan_residual(robot, rest, z, mu, x)
+
+    for _ in range(max_iter):
+        r = res(q)
+        A = np.empty((n, n))
+        for j in range(n):
+            dq = np.zeros(n)
+            dq[j] = step
+            A[:, j] = (res(q + dq) - res(q - dq)) / (2.0 * step)
+        s = np.linalg.solve(A, -r)
+        if np.max(np.abs(s)) <= xtol:
+            return q + s, True
+        r0, t = np.linalg.norm(r), 1.0
+        for _ in range(40):
+            if np.linalg.norm(res(q + t * s)) <= (1.0 - 1e-4 * t) * r0:
+                break
+            t *= 0.5
+        else:
+            if np.max(np.abs(s)) > 1e-8:
+                return np.full(n, np.nan), False
+            t = 1.0
+        q = q + t * s
+    return np.full(n, np.nan), False

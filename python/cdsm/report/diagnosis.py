@@ -158,13 +158,25 @@ def _row_names(d: diagnose.Diagnosis) -> List[str]:
 
 
 def _commanded_xy(d: diagnose.Diagnosis) -> np.ndarray:
-    """(N, 2) commanded tip position (m) of the nominal model; the commanded
-    pose for rows whose command was not solved (NaN if none was given)."""
-    xy = np.stack([d.features["X (m)"], d.features["Y (m)"]], 1).astype(float)
+    """(N, 2) commanded tip position (m) of the nominal model, X and Y: the
+    first two columns of :func:`_commanded_tip`."""
+    return _commanded_tip(d)[:, :2]
+
+
+def _commanded_tip(d: diagnose.Diagnosis) -> np.ndarray:
+    """(N, k) commanded tip position (m) of the nominal model, one column per
+    position axis of the arm (X, Y; spatial X, Y, Z); for rows whose command
+    was not solved the commanded pose's coordinates (NaN where none)."""
+    axes = [a for a in ("X", "Y", "Z") if f"{a} (m)" in d.features]
+    tip = np.stack([d.features[f"{a} (m)"] for a in axes], 1).astype(float)
     bad = ~d.prep.usable
     if bad.any():
-        xy[bad] = d.prep.meas.pose_cmd[bad, :2] if d.prep.meas.pose_cmd is not None else np.nan
-    return xy
+        pose = d.prep.meas.pose_cmd
+        tip[bad] = np.nan
+        if pose is not None:
+            k = min(pose.shape[1], len(axes))
+            tip[np.ix_(bad, np.arange(k))] = pose[bad, :k]
+    return tip
 
 
 def _map_axes(d: diagnose.Diagnosis) -> Tuple[List[int], List[str]]:
@@ -689,8 +701,7 @@ def residual_map_figure(d: diagnose.Diagnosis):
     # an elastic arm's rows command tendons: its tips are the nominal model's equilibria
     where = "nominal" if d.prep.robot.is_elastic else "commanded"
     xlabel = f"{where} tip {axis_names[0]} (mm)"
-    xy = (_commanded_xy(d) if idx == [0, 1] else
-          np.stack([d.features[f"{a} (m)"] for a in axis_names], 1).astype(float)) * 1e3
+    xy = _commanded_tip(d)[:, idx] * 1e3
     full_b, full_f = _gaps(d)
     # arrows at base-frame tips point in the base frame
     g_b, g_f = (_in_base_frame(d, g, c.fit)[:, idx] for g, c in ((full_b, d.baseline), (full_f, d.final())))
@@ -976,6 +987,15 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None, valid
               f"nominal, {_um(v.model_rms)} with {literal(v.model)}; after removing the error's mean over the "
               f"rows (three translations): {_um(v.nominal_rms_mean_aligned)} and "
               f"{_um(v.model_rms_mean_aligned)}.")
+        if v.candidates:
+            doc.p("Every other model the diagnosis fitted on the first file (each effect alone, each step of the "
+                  "selection), judged the same way on the same rows — which effects carry over, best first:")
+            ranked = sorted(v.candidates.items(), key=lambda kv: np.nan_to_num(kv[1][0], nan=np.inf))
+            doc.table(["model (fitted on the first file)", "tip error RMS", "mean offset removed",
+                       "rows not predicted"],
+                      [[literal(name), _um(r), _um(ra), str(len(lost))] for name, (r, ra, lost) in ranked]
+                      + [[f"{literal(v.model)} (chosen)", _um(v.model_rms), _um(v.model_rms_mean_aligned), "—"],
+                         ["nominal", _um(v.nominal_rms), _um(v.nominal_rms_mean_aligned), "—"]])
     doc.section("answer", "Answer")
     for t in f["answer"]:
         doc.p(t)
@@ -1051,8 +1071,8 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None, valid
     doc.ul(["`diagnosis.json` — the diagnosis (SI units; keys `best`, `baseline.heldout_rms_m`, `effects` best "
             "first with `name`, `params`, `heldout_rms_m`; `support.tests` each test's statistic, `dof`, "
             "`p_value`; `adequacy` the bounds used and how they were obtained)",
-            "`residuals.csv` — per row: commanded tip, gap of the nominal and final model, held-out errors, "
-            "features, flag (SI units)"]
+            "`residuals.csv` — per row: commanded tip, gap (measured − model) of the nominal and final "
+            "model per position axis in the robot's base frame, held-out errors, features, flag (SI units)"]
            + (["`suggested.csv` — the suggested configurations"] if suggestion is not None else [])
            + ["`figures/*.png` — the figures of this report"])
     return doc
@@ -1067,16 +1087,24 @@ def _pair_um(g) -> str:
 
 
 def _residual_rows(d: diagnose.Diagnosis) -> List[dict]:
-    g_b, g_f = _gaps(d)
+    """``residuals.csv``: a row per measurement; the commanded tip and the
+    gaps (measured − model) with one column per measured position axis, the
+    gaps in the robot's base frame (registered data turned from the
+    measuring frame by each model's own fitted frame, as the residual map
+    draws them)."""
+    full_b, full_f = _gaps(d)
+    g_b, g_f = (_in_base_frame(d, g, c.fit) for g, c in ((full_b, d.baseline), (full_f, d.final())))
     hb, hf = _heldout_full(d, d.baseline), _heldout_full(d, d.final())
-    xy = _commanded_xy(d)
+    tip = _commanded_tip(d)
+    axes = "xyz"[:g_b.shape[1]]
     names = _row_names(d)
     out = []
     for i in range(len(d.prep.meas)):
-        r = dict(row=i + 1, name=names[i], x_cmd_m=xy[i, 0], y_cmd_m=xy[i, 1],
-                 gap_nominal_dx_m=g_b[i, 0], gap_nominal_dy_m=g_b[i, 1],
-                 gap_final_dx_m=g_f[i, 0], gap_final_dy_m=g_f[i, 1],
-                 heldout_nominal_m=hb[i], heldout_final_m=hf[i])
+        r: Dict[str, object] = dict(row=i + 1, name=names[i])
+        r.update({f"{a}_cmd_m": tip[i, j] for j, a in enumerate(axes[:tip.shape[1]])})
+        r.update({f"gap_nominal_d{a}_m": g_b[i, j] for j, a in enumerate(axes)})
+        r.update({f"gap_final_d{a}_m": g_f[i, j] for j, a in enumerate(axes)})
+        r.update(heldout_nominal_m=hb[i], heldout_final_m=hf[i])
         for k, v in d.features.items():
             r[k] = float(v[i])
         r["flag"] = d.prep.flags.get(i, "")

@@ -22,6 +22,7 @@ import numpy as np
 from .. import __version__
 from ..accuracy.tolerance import pooled_percentile
 from ..accuracy.workspace import MIN_LINE, REASONS
+from ..calibration.measurements import commanded_cables
 from ..display import degrees
 from ..files import run_directory
 from ..study import DEFAULT_SOLVES, NEAR_SINGULAR, PROTOCOL_NAMES, finite_rms, worst_configurations
@@ -260,7 +261,7 @@ def configuration_rows(study) -> List[dict]:
     its scenario, whether any scenario has a jump there, and the Monte
     Carlo's 95th percentile (m), failed solves and slack samples."""
     slug = _slug(study)
-    cables = study.robot.position_cables
+    cables = commanded_cables(study.robot)
     names = study.kind.pose_columns
     rows = []
     for p, ws in study.workspaces.items():
@@ -458,10 +459,11 @@ class StudyReport:
     def intro(self) -> str:
         st, r = self.study, self.robot
         prm = st.params
-        pos = r.position_cables
-        force = [c for c in range(r.cables) if c not in pos]
+        pos, disp = r.position_cables, r.displacement_cables
+        force = [c for c in range(r.cables) if c not in pos and c not in disp]
         kind = str(st.kind)
         cables = (f"{r.cables} cables ({len(pos)} position-controlled"
+                  + (f", {len(disp)} commanded in displacement" if disp else "")
                   + (f", {len(force)} force-controlled" if force else "") + ")")
         return (f"Robot **{literal(r.name)}**: a {kind} arm of {r.n} joints and {cables}; cdsm {__version__}. "
                 f"Monte Carlo: {prm['samples']} samples, seed {prm['seed']}. All computed quantities are SI (m, rad, "
@@ -500,6 +502,9 @@ class StudyReport:
         items["jumps"] = "**Jump points and singular states**: " + "; ".join(jt) + " — see [jumps](#jumps)."
         sl = []
         for p in protos:
+            if self.study.workspaces[p].commands is not None:  # equilibria: a slack tendon is part of them
+                sl.append(f"{_pname(p)}: {_pct(h[f'taut_share_{p}'])} of the equilibria converged")
+                continue
             sl.append(f"{_pname(p)}: {_pct(h[f'taut_share_{p}'])} of the configurations held with every position "
                       f"cable taut, {_pct(h[f'mc_slack_share_{p}'], 2)} of the perturbed samples need a slack cable")
         items["statics"] = "**Statics**: " + "; ".join(sl) + " — see [statics](#statics)."
@@ -515,7 +520,8 @@ class StudyReport:
         prm = self.study.params
         dl, dh = max(prm["dl_tol_m"]) * 1e3, max(prm["dh_tol_m"]) * 1e3
         words = self.study.kind.words
-        return f"uniform ±{dl:g} mm on {words['cables_every']}, ±{dh:g} mm on {words['holes_each']}"
+        cables = "every commanded cable's length" if self.robot.displacement_cables else words['cables_every']
+        return f"uniform ±{dl:g} mm on {cables}, ±{dh:g} mm on {words['holes_each']}"
 
     def outline(self) -> List[Section]:
         """The sections after the headline, in order: (id, title, builder)."""
@@ -549,11 +555,12 @@ class StudyReport:
     # -- sections ----------------------------------------------------------------
     def arm_section(self, doc: Document) -> None:
         st, r = self.study, self.robot
-        pos = r.position_cables
-        force = [c for c in range(r.cables) if c not in pos]
+        pos, disp = r.position_cables, r.displacement_cables
+        force = [c for c in range(r.cables) if c not in pos and c not in disp]
         lim = r.joint_limits
         rows = [["kind", st.kind], ["joints", str(r.n)],
-                ["cables", f"{r.cables}: position-controlled " + ", ".join(str(c + 1) for c in pos)
+                ["cables", f"{r.cables}: position-controlled " + (", ".join(str(c + 1) for c in pos) or "none")
+                 + ("; commanded in displacement " + ", ".join(str(c + 1) for c in disp) if disp else "")
                  + ("; force-controlled " + ", ".join(f"{c + 1} ({r.cable_tensions[c]:g} N)" for c in force)
                     if force else "")],
                 ["joint limits", ", ".join(f"[{degrees(a)}°, {degrees(b)}°]" for a, b in lim)],
@@ -577,6 +584,15 @@ class StudyReport:
             elif p == "joint":
                 items.append(f"**joint-space protocol**: the error is applied at the {k} grid angles themselves "
                              f"({ws.describe_grid()}); all {int(ws.reachable.sum())} are initial states.")
+            elif p == "commanded":
+                prm = ws.params or {}
+                reach = prm.get("reach_m", 0) * 1e3
+                items.append(f"**sampled command-space protocol**: {k} commands in the box ±{reach:g}"
+                             f" mm on every commanded cable (a scrambled Sobol sequence, seed {prm.get('seed')}), the "
+                             f"nominal arm settled at each in order; {int(ws.reachable.sum())} equilibria converged "
+                             f"(the others counted as unreachable). Each error is settled at its own equilibrium from "
+                             f"the same commands; jumps judged against each configuration's {prm.get('k')} nearest "
+                             "neighbours in command space.")
             else:
                 prm = ws.params or {}
                 how = ("the configurations given" if prm.get("method") == "given" else
@@ -738,7 +754,7 @@ class StudyReport:
     def jumps_section(self, doc: Document) -> None:
         st = self.study
         q = _q(st)
-        grid = [p for p in st.workspaces if p != "sampled"]
+        grid = [p for p in st.workspaces if p in ("joint", "attitude0")]
         if grid:
             doc.p(f"Grid protocols: a jump is a grid-neighbour pair whose {q} changes by more than 4× the change "
                   "across the adjacent pairs of the same grid line, by more than 10 % of the map's 95th percentile "
@@ -747,13 +763,14 @@ class StudyReport:
                   "below 10 % of its straight-pose value), **near-singular** (the pose Jacobian nearly loses rank, "
                   "sigma_min/sigma_max < 0.02), **reach boundary** (a neighbour unreachable at phi = 0), else "
                   "**steep**.")
-        if "sampled" in st.workspaces:
-            k = (st.workspaces["sampled"].params or {}).get("k")
-            doc.p(f"Sampled configurations: each is compared with its {k} nearest neighbours in joint space. A pair "
-                  f"is a jump when its change of the position deviation exceeds 10 % of the map's 95th percentile "
-                  "and 0.05 mm, and its slope (change per rad of joint-space distance) exceeds 4× the median slope "
-                  "over the neighbour pairs of both its ends. Only the jumps at near-singular configurations are "
-                  "named.")
+        for p in [p for p in ("sampled", "commanded") if p in st.workspaces]:
+            k = (st.workspaces[p].params or {}).get("k")
+            space = "joint" if p == "sampled" else "command"
+            doc.p(f"Sampled configurations: each is compared with its {k} nearest neighbours in {space} space. A "
+                  f"pair is a jump when its change of the position deviation exceeds 10 % of the map's 95th "
+                  "percentile and 0.05 mm, and its slope (change per rad of joint-space distance) exceeds 4× the "
+                  "median slope over the neighbour pairs of both its ends. Only the jumps at near-singular "
+                  "configurations are named.")
         rows = jump_rows(st)
         jr = [r for r in rows if r["jump_points"] > 0]
         if jr:
@@ -773,7 +790,9 @@ class StudyReport:
         else:
             doc.p("No jump points were found in any scenario: the deviation maps are smooth over these "
                   "configurations.")
-        what = st.kind.words["singular_rows"]
+        what = ("the tip position's Jacobian by the commanded cables' lengths (the plant's implicit-function "
+                "sensitivities at the equilibrium: a slack tendon's column is zero; a nearly straight arm hardly "
+                "moves its tip along the backbone)" if self.robot.is_elastic else st.kind.words["singular_rows"])
         doc.p(f"Singular measure: the smallest over the largest singular value of {what}.")
         for p in st.workspaces:
             s = st.singular[p]
@@ -808,8 +827,10 @@ class StudyReport:
                f"{DEFAULT_SOLVES / 1e6:g} million solves (`--samples` sets it)."
                if st.params.get("samples_default") and p0.get("samples") < st.kind.default_samples else "")
         doc.p(f"{p0.get('samples')} random composite errors per configuration ({self._tolerance_words()}), "
-              f"seed {p0.get('seed')}, streamed in chunks of {p0.get('chunk')} samples with bounded memory; every "
-              "converged sample is also checked for a slack position cable. Percentiles are read from the study's "
+              f"seed {p0.get('seed')}, streamed in chunks of {p0.get('chunk')} samples with bounded memory; "
+              + ("every converged sample is also checked for a slack position cable" if p0.get("check_slack", True)
+                 else "each sample a plant parameter vector settled at its own equilibrium from the same commands")
+              + ". Percentiles are read from the study's "
               "histogram (232 log bins per decade, the middle of the quantile's bin: within 0.5 % of the sample "
               "quantile); pooled percentiles merge "
               "every configuration's samples." + few)
@@ -849,6 +870,9 @@ class StudyReport:
 
     def statics_section(self, doc: Document) -> None:
         st, r = self.study, self.robot
+        if any(ws.commands is not None for ws in st.workspaces.values()):
+            self.equilibrium_statics(doc)
+            return
         g = r.gravity
         grav = "no gravity" if not np.any(g) else "gravity (" + ", ".join(f"{v:g}" for v in g) + ") m/s²"
         force = st.kind.words["force_statics"].format(
@@ -870,10 +894,29 @@ class StudyReport:
         self.fig(doc, "feasibility", "Statics: the smallest position-cable tension at each configuration (negative "
                  "red: a cable would have to push; zero grey); rings: a slack cable is needed.")
 
+    def equilibrium_statics(self, doc: Document) -> None:
+        """The statics of an elastic arm: its tendons' tensions at the equilibria of the commands."""
+        st = self.study
+        doc.p("The configurations are equilibria (joint springs, the tendons' series stiffness, gravity): a tendon "
+              "paid out past its rest length hangs slack and carries nothing — part of the equilibrium, not a "
+              "failure. The tensions of the commanded cables at each equilibrium are in `configurations.csv`.")
+        for p, ws in st.workspaces.items():
+            fm = st.feasibility[p]
+            ok = ws.reachable & fm.feasible
+            t = fm.tension[ok]
+            slack = (t <= 0.0).sum(axis=1) if len(t) else np.zeros(0, int)
+            doc.p(f"{_pname(p)}: {int(ok.sum())} of {len(ws.grid)} equilibria converged"
+                  + (f"; slack tendons per configuration: median {np.median(slack):g}, at most {slack.max()}; the "
+                     f"largest tension {t.max():.3g} N" if len(t) else "") + ".")
+        self.fig(doc, "feasibility", "Statics: the smallest commanded-cable tension at each equilibrium (zero grey: "
+                 "a slack tendon); rings: the equilibrium did not converge.")
+
     def friction_section(self, doc: Document) -> None:
         st, r = self.study, self.robot
         if not st.friction:
-            doc.p("Not computed.")
+            doc.p("Does not apply: an elastic arm's statics is its frictionless equilibrium (the friction of its "
+                  "joints is a separate model)." if any(ws.commands is not None for ws in st.workspaces.values())
+                  else "Not computed.")
             return
         fm0 = next(iter(st.friction.values()))
         ea = r.axial_stiffness
@@ -922,9 +965,10 @@ class StudyReport:
         st = self.study
         q = _q(st)
         what_h = st.kind.words["holes_every"]
+        through = "equilibrium" if st.robot.displacement_cables else "cable solve"
         doc.p(f"First-order sensitivities of the tip position (analytic, the implicit function theorem through the "
-              f"cable solve): the worst-case and RMS amplification of a unit error on every position cable and on "
-              f"{what_h} into {q}.")
+              f"{through}): the worst-case and RMS amplification of a unit error on every "
+              f"{'commanded' if st.robot.displacement_cables else 'position'} cable and on {what_h} into {q}.")
         for p, m in st.amplification.items():
             parts = []
             for key, what in (("cable_rms", "cable length"), ("hole_rms", "holes")):
@@ -960,11 +1004,14 @@ class StudyReport:
         items = ["**Measurements.** This is a study of the nominal model's sensitivity to manufacturing errors; "
                  "the gap to a real arm needs measurements: `cdsm diagnose DATA.csv --robot R.toml` fits every "
                  "candidate unmodelled effect (backlash, cable elasticity, hole clearance, ...) to them.",
-                 "**Cable stretch.** The cables are rigid here; the statics give the tensions, "
-                 "`Robot.solve_cables_elastic` the elastic configuration."]
+                 ("**Tendon stretch and springs** are in the equilibria (the tendons' series stiffness, the joint "
+                  "springs); joint friction and the other effects of the diagnosis library are not."
+                  if self.robot.is_elastic else
+                  "**Cable stretch.** The cables are rigid here; the statics give the tensions, "
+                  "`Robot.solve_cables_elastic` the elastic configuration.")]
         if st.kind.words["limit_notes"]:
             items.append(st.kind.words["limit_notes"])
-        if "sampled" in st.workspaces:
+        if "sampled" in st.workspaces or "commanded" in st.workspaces:
             items.append("**Jump reasons.** Between sampled neighbours only the jumps at near-singular "
                          "configurations are named; the grid protocols also name branch switches, cable folds and "
                          "the reach boundary.")

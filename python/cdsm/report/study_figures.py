@@ -26,6 +26,7 @@ from matplotlib.ticker import MaxNLocator
 
 from ..accuracy.montecarlo import MonteCarlo
 from ..accuracy.tolerance import pooled_percentile
+from ..calibration.measurements import commanded_cables
 from ..display import degrees
 from ..kinds import SPATIAL
 from ..robot import Robot
@@ -51,7 +52,8 @@ def _error_columns(kind) -> Tuple[Tuple[str, str], ...]:
 
 #: Columns of a spatial arm's overview: (scenario kind, sign).
 SCENARIO_COLUMNS = _error_columns(SPATIAL)
-PROTOCOL_SHORT = {"attitude0": "attitude-0", "joint": "joint-space", "sampled": "sampled"}
+PROTOCOL_SHORT = {"attitude0": "attitude-0", "joint": "joint-space", "sampled": "sampled",
+                  "commanded": "sampled commands"}
 W = MAX_WIDTH_IN
 
 
@@ -82,6 +84,8 @@ def _panel_title(study, protocol: str, plane: Tuple[int, int]) -> str:
 
 def _title(study, protocol: str) -> str:
     ws = study.workspaces[protocol]
+    if protocol == "commanded":
+        return f"{len(ws.grid)} sampled commands (±{(ws.params or {}).get('reach_m', 0) * 1e3:g} mm)"
     if protocol == "sampled":
         p = ws.params or {}
         how = "given" if p.get("method") == "given" else f"{p.get('method')}, seed {p.get('seed')}"
@@ -256,7 +260,7 @@ def _overview_keys(study) -> List[List[str]]:
     kind, ends = study.kind, study.robot.cable_ends
     return [[f"cable{c + 1}{s}" for s in "-+"]
             + [key.format(cable=c + 1, disk=ends[c]) + s for _, key, _ in kind.hole_scenarios for s in "-+"]
-            for c in study.robot.position_cables]
+            for c in commanded_cables(study.robot)]
 
 
 def overview_figure(study, protocol: str, quantity: str = "position") -> Figure:
@@ -335,7 +339,7 @@ def _overview_matrix(study, protocol: str, quantity: str, keys: List[List[str]])
                 stats[0, r, c] = np.nanmax(v)
                 stats[1, r, c] = np.sqrt(np.nanmean(v ** 2))
     labels = [f"{kind} {sign}" for kind, sign in _error_columns(study.kind)]
-    cables = [str(c + 1) for c in study.robot.position_cables]
+    cables = [str(c + 1) for c in commanded_cables(study.robot)]
     with report_style():
         fig = new_figure(W, min(0.16 * rows + 1.6, 11.0))
         axs = fig.subplots(1, 2, sharey=True)

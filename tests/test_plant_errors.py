@@ -1,0 +1,167 @@
+"""Manufacturing errors of an elastic arm as plant parameters
+(:mod:`cdsm.accuracy.plant_errors`): the Monte Carlo against the independent NumPy
+reference and against the linear picture of the sensitivities, the sensitivities against
+central differences of the equilibrium.  SI units."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import cdsm
+from cdsm import CdsmInputError
+from cdsm.accuracy import plant_errors as pe
+from cdsm.calibration import plant
+from cdsm.reference import elastic, read_robot
+from test_elastic_plant import commands, two_segments
+
+
+@pytest.fixture(scope="module")
+def arm():
+    text = two_segments()
+    robot = cdsm.Robot.from_toml_str(text)
+    _, dl = commands(robot, 6, 3, lo=0.0, hi=1.5e-3)
+    return robot, read_robot(text), dl
+
+
+def reference_tips(robot, ref, dl, p):
+    """The reference plant's observations (N, 6) of the parameters ``p`` (P,): its
+    cable offsets, joint stiffness and, on the reference arm itself, the holes moved by
+    the ``hole_position`` block (commanded cable by cable, face by face, x y z). The
+    commands stay the nominal arm's (``docs/model.md``: a cable's rest length is its
+    nominal path at the rest angles minus the displacement), so the moved arm is
+    commanded its own path plus the difference."""
+    lay = plant.layout(robot)
+    cmd = elastic.commanded_cables(ref)
+    moved = [h.copy() for h in ref.holes]
+    flat = p[lay["hole_position"]]
+    start = 0
+    for c in cmd:
+        size = moved[c].size
+        moved[c] = moved[c] + flat[start:start + size].reshape(moved[c].shape)
+        start += size
+    assert start == flat.size
+    arm = dataclasses.replace(ref, holes=tuple(moved))
+    t = np.tile(robot.rest_angles, (len(dl), 1))
+    shift = (elastic.rest_lengths(ref) - elastic.rest_lengths(arm))[cmd]
+    obs, ok = elastic.plant_predict(arm, t, dl + shift, ["absolute"] * len(dl),
+                                    {"cable_offset": p[lay["cable_offset"]],
+                                     "joint_stiffness": p[lay["joint_stiffness"]]})
+    assert ok.all()
+    return obs
+
+
+def test_monte_carlo_statistics_are_the_reference_plants_on_the_same_draws(arm):
+    """Three samples (offsets, every hole coordinate, joint stiffness): each drawn vector,
+    settled by the NumPy reference's elastic plant, gives the same tip deviations as the
+    core's study (sums, squares, extremes and counts per command row)."""
+    robot, ref, dl = arm
+    tol = {"cable_offset": 2e-4, "hole_position": 1e-4, "joint_stiffness": 0.05}
+    mc = pe.monte_carlo_commands(robot, dl, samples=3, seed=7, tolerances=tol, chunk=2, progress=False)
+    vec = pe.tolerance_vector(robot, tol)
+    draws = np.concatenate([pe.sample_parameters(vec, 2, 7, 0), pe.sample_parameters(vec, 1, 7, 1)])
+    nominal = reference_tips(robot, ref, dl, np.zeros(plant.size(robot)))
+    q = np.stack([pe.deviation_quantities(robot, nominal, reference_tips(robot, ref, dl, p)) for p in draws])
+    np.testing.assert_array_equal(mc.count, 3)
+    np.testing.assert_array_equal(mc.failed, 0)
+    np.testing.assert_allclose(mc.sum, q.sum(axis=0), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(mc.max, q.max(axis=0), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(mc.min, q.min(axis=0), rtol=0, atol=1e-10)
+    assert np.all(mc.max_abs[:, 3] > 1e-4)  # the errors matter here: far above the agreement
+    # the histogram counts every sample once, in the bin of its |d(X, Y, Z)|
+    np.testing.assert_array_equal(mc.hist.sum(axis=1), 3)
+    edges = mc.hist_edges()
+    for j in range(len(dl)):
+        bins = np.flatnonzero(mc.hist[j])
+        assert all(edges[b - 1] <= q[:, j, 3].max() * 1.01 for b in bins)
+
+
+def test_small_tolerances_spread_as_the_sensitivities_say(arm):
+    """Tolerances small enough for the linear picture: the Monte Carlo's standard
+    deviation of dX, dY, dZ per command row is sqrt(diag(J S J^T)), ``S`` the uniform
+    errors' variances tol^2 / 3 and ``J`` the implicit-function sensitivities (2000
+    samples: the standard deviation's sampling error ~2 %)."""
+    robot, _, dl = arm
+    tol = {"cable_offset": 2e-6, "hole_position": 1e-6, "joint_stiffness": 1e-3}
+    mc = pe.monte_carlo_commands(robot, dl, samples=2000, seed=1, tolerances=tol, chunk=500, progress=False)
+    sens = pe.sensitivities_commands(robot, dl)
+    lay = plant.layout(robot)
+    vec = pe.tolerance_vector(robot, tol)
+    var = np.zeros((len(dl), 3))
+    for b in tol:
+        var += np.einsum("nik,k->ni", sens[b][:, :3, :] ** 2, vec[lay[b]] ** 2 / 3.0)
+    np.testing.assert_allclose(mc.std[:, :3], np.sqrt(var), rtol=0.08)
+    # and the mean is zero within its sampling error
+    assert np.all(np.abs(mc.mean[:, :3]) < 4.0 * np.sqrt(var / 2000))
+
+
+def test_sensitivities_are_central_differences_of_the_equilibrium(arm):
+    """dtip/d(cable offset): an offset o of a displacement cable is a displacement -o
+    (``Robot.equilibrium``); dtip/d(hole coordinate): the equilibrium of the arm with the
+    hole moved (``Robot.with_holes``), its cables' rest lengths the nominal arm's (the
+    displacement grows by the moved path's extra length at the rest angles: a hole moved
+    along the backbone stretches its cable); dtip/d(segment stiffness): the reference's
+    plant arm with the segment's springs scaled. Central differences, h = 1e-7 m / 1e-6."""
+    robot, ref, dl = arm
+    sens = pe.sensitivities_commands(robot, dl)
+    assert sens["converged"].all()
+    d = -dl
+
+    def tip(rob, disp):
+        eq = rob.equilibrium(displacements=disp, seed=robot.rest_angles)
+        assert eq.converged.all()
+        return rob.fk(eq.theta)[:, :3]
+
+    h = 1e-7
+    for i in (0, 4):
+        e = np.zeros(d.shape[1])
+        e[i] = h
+        fd = (tip(robot, d - e) - tip(robot, d + e)) / (2 * h)
+        np.testing.assert_allclose(sens["cable_offset"][:, :3, i], fd, rtol=0, atol=1e-6 * np.abs(fd).max())
+    flat = robot.flat_holes
+    assert flat.size == sens["hole_position"].shape[2]
+    rest = robot.elastic_cables()["rest_length"]
+
+    def moved_tip(holes):
+        moved = robot.with_holes(holes, within_disks=False)
+        return tip(moved, d + moved.elastic_cables()["rest_length"] - rest)
+
+    for j in (3, 5, 40, flat.size - 3, flat.size - 2):  # x (along the backbone), z, y, x, y
+        e = np.zeros(flat.size)
+        e[j] = h
+        fd = (moved_tip(flat + e) - moved_tip(flat - e)) / (2 * h)
+        np.testing.assert_allclose(sens["hole_position"][:, :3, j], fd, rtol=0, atol=1e-6 * max(np.abs(fd).max(), 1e-3))
+    hs = 1e-6
+    t = np.tile(robot.rest_angles, (len(dl), 1))
+    for s in range(2):
+        e = np.zeros(2)
+        e[s] = hs
+        up, _ = elastic.plant_predict(ref, t, dl, ["absolute"] * len(dl), {"joint_stiffness": e})
+        down, _ = elastic.plant_predict(ref, t, dl, ["absolute"] * len(dl), {"joint_stiffness": -e})
+        fd = (up - down)[:, :3] / (2 * hs)
+        np.testing.assert_allclose(sens["joint_stiffness"][:, :3, s], fd, rtol=0, atol=1e-6 * np.abs(fd).max())
+        assert np.abs(fd).max() > 1e-4  # a segment's springs move the tip
+
+
+def test_bad_tolerances_name_the_block(arm):
+    robot, _, dl = arm
+    with pytest.raises(CdsmInputError, match="no block 'hole_height'"):
+        pe.tolerance_vector(robot, {"hole_height": 1e-4})
+    with pytest.raises(CdsmInputError, match=r"tolerances\['cable_offset'\]"):
+        pe.tolerance_vector(robot, {"cable_offset": -1e-4})
+    with pytest.raises(CdsmInputError, match="theta_cmd"):
+        pe.monte_carlo_commands(robot, dl, theta_cmd=np.zeros((2, robot.n)), samples=1, progress=False)
+    with pytest.raises(CdsmInputError, match="no block 'hole_height'"):
+        pe.sensitivities_commands(robot, dl, blocks=("hole_height",))
+
+
+def test_the_joint_angle_monte_carlo_points_an_elastic_arm_to_its_commands():
+    """accuracy.monte_carlo takes joint angles; an elastic arm's are not
+    commanded: refused naming the input and the function that takes commands."""
+    from cdsm.accuracy import monte_carlo
+
+    robot = cdsm.Robot.load("ftdcr_v4")
+    with pytest.raises(CdsmInputError, match=r"`theta0`.*monte_carlo_commands"):
+        monte_carlo(robot, np.zeros((2, robot.n)), samples=2, progress=False)
