@@ -606,7 +606,7 @@ class _Scorer:
         begin = 0
         if prep.robot.is_elastic:
             # an elastic plant's fit costs seconds: the folds start from the
-            # fit on every row (FOLDS_FROM_FULL_FIT)
+            # fit on every row (docs/model.md, "Rows, repeats and copies")
             full = fit_folds(prep, fitted, self.scored[:1], start)[0]
             if np.isfinite(full.p).all():
                 start = full.p
