@@ -593,9 +593,10 @@ class _Scorer:
         """The candidate of ``effects``: its fit on every row and one fit per
         fold, the folds a few at a time (as many as the robot's worker
         threads, which run them in parallel), so that only their results are
-        held at once. An elastic arm's folds start from the fit on every row
-        (each fit costs seconds; a fold's fit then takes a few steps to its
-        own minimum), a rigid arm's from the same start as that fit."""
+        held at once. Every fold starts from the same start as the fit on every
+        row: a fold started from that fit would start at a point its held-out
+        rows pulled on, and stop (an elastic fit stops within a tenth of a
+        standard error) nearer to it than to its own minimum."""
         prep = self.prep
         fitted = _fitted(prep, effects)
         start = prep.start if prep.registered else np.zeros(plant.size(prep.robot))
@@ -603,17 +604,7 @@ class _Scorer:
         k = plant.dims(prep.robot)
         step = prep.robot.threads or os.cpu_count() or 1
         full = None
-        begin = 0
-        if prep.robot.is_elastic:
-            # an elastic plant's fit costs seconds: the folds start from the
-            # fit on every row (docs/model.md, "Rows, repeats and copies")
-            full = fit_folds(prep, fitted, self.scored[:1], start)[0]
-            if np.isfinite(full.p).all():
-                start = full.p
-            begin = 1
-            if self.bar is not None:
-                self.bar.update(1)
-        for first in range(begin, len(self.scored), step):
+        for first in range(0, len(self.scored), step):
             chunk = self.scored[first:first + step]
             # the folds' fits serve their predictions only: no uncertainty
             fits = fit_folds(prep, fitted, chunk, start, uncertainty=first + np.arange(len(chunk)) == 0)

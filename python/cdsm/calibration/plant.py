@@ -72,8 +72,8 @@ from .measurements import KIND_CODES, Measurements, commanded_cables
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
            "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
-           "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "ELASTIC_ON_REQUEST", "effects_of", "check_effects", "width", "dims", "commands",
-           "command_lengths", "taut_commands"]
+           "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "ELASTIC_ON_REQUEST", "effects_of", "check_effects", "width",
+           "dims", "commands", "command_lengths", "taut_commands"]
 
 #: The planar plant's parameter blocks, in the order of its flat vector (the
 #: Rust core's layout of the kind, ``kind_facts("planar")["layout"]``:
