@@ -119,3 +119,27 @@ def test_a_planar_elastic_arms_hole_errors_go_to_its_plants_hole_heights():
     assert s["hole_height"].shape == (2, 3, 3) and np.isfinite(s["hole_height"]).all()
     st = study.run(robot, samples=4, configurations=12, progress=False)
     assert len(st.scenarios) == 3 * 2 * 2  # each position cable's length and each disk's hole height, both signs
+
+
+def test_a_planar_hole_height_error_is_the_arm_with_its_holes_moved():
+    """The plant's per-disk ``hole_height`` on a planar arm, rigid or sprung,
+    settles where the same arm built with its holes moved
+    (``Robot.hole_height_error``) settles for the same rest lengths: the
+    plant's commands are the nominal arm's lengths at ``theta_cmd`` + dL, so
+    the moved arm is commanded ``dL + L_nominal - L_moved``."""
+    from cdsm.accuracy import plant_errors
+    from cdsm.calibration import plant
+    from elastic_cases import planar_text
+
+    dh = np.array([2e-4, -1e-4, 3e-4])
+    dL = np.array([[1e-4, -2e-4, 0.0], [0.0, 0.0, 0.0]])
+    for robot, theta in ((cdsm.Robot.paper(), np.radians([[10.0, -5.0, 20.0], [0.0, 15.0, -10.0]])),
+                         (cdsm.Robot.from_toml_str(planar_text()), None)):
+        theta = np.tile(robot.rest_angles, (2, 1)) if theta is None else theta
+        got, ok = plant.predict(robot, plant_errors.error_parameters(robot, None, dh), theta, dL)
+        moved = robot.with_holes(robot.hole_height_error(dh))
+        assert moved.is_elastic == robot.is_elastic
+        same = dL + robot.position_lengths(theta) - moved.position_lengths(theta)
+        want, ok2 = plant.predict(moved, np.zeros(plant.size(moved)), theta, same)
+        assert ok.all() and ok2.all()
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
