@@ -176,17 +176,24 @@ def test_jacobian_is_central_differences_of_the_predictions(text):
     free = np.arange(lay["cable_friction"].start)
     obs, ok, jac = plant.linearise(robot, p, free, t, dl, kind)
     assert ok.all() and np.isfinite(jac).all()
-    scale = np.array([plant.TYPICAL[b] for b, _ in plant.parameter_blocks(robot, free)])
-    fd = np.empty_like(jac)
-    for i in free:
-        h = 1e-3 * scale[i]
-        up, dn = p.copy(), p.copy()
-        up[i] += h
-        dn[i] -= h
-        fd[:, :, i] = (plant.predict(robot, up, t, dl, kind)[0] - plant.predict(robot, dn, t, dl, kind)[0]) / (2 * h)
+    scale, fd = _central_differences(robot, p, free, t, dl, kind)
     cols = np.abs(jac).max(axis=(0, 1)) * scale
     assert (cols[lay["joint_stiffness"]] > 1e-4).all() and (cols[lay["cable_angle"]] > 1e-5).all()
     np.testing.assert_allclose(jac * scale, fd * scale, rtol=0, atol=1e-8 * np.abs(jac * scale).max())
+
+
+def _central_differences(robot, p, free, t, dl, kind):
+    """Each free parameter's typical size (:data:`plant.TYPICAL`, (k,)) and
+    the predictions' central differences (N, w, k) with steps of 1e-3 of it."""
+    scale = np.array([plant.TYPICAL[b] for b, _ in plant.parameter_blocks(robot, free)])
+    fd = np.empty((len(t), plant.width(robot), len(free)))
+    for j, i in enumerate(free):
+        h = 1e-3 * scale[j]
+        up, dn = p.copy(), p.copy()
+        up[i] += h
+        dn[i] -= h
+        fd[:, :, j] = (plant.predict(robot, up, t, dl, kind)[0] - plant.predict(robot, dn, t, dl, kind)[0]) / (2 * h)
+    return scale, fd
 
 
 def test_planar_jacobian_is_central_differences_of_the_predictions():
@@ -209,14 +216,7 @@ def test_planar_jacobian_is_central_differences_of_the_predictions():
     free = np.arange(lay["cable_friction"].start)  # frictionless: friction's derivative has its own test
     obs, ok, jac = plant.linearise(robot, p, free, t, dl, kind)
     assert ok.all() and np.isfinite(jac).all()
-    scale = np.array([plant.TYPICAL[b] for b, _ in plant.parameter_blocks(robot, free)])
-    fd = np.empty_like(jac)
-    for i in free:
-        h = 1e-3 * scale[i]
-        up, dn = p.copy(), p.copy()
-        up[i] += h
-        dn[i] -= h
-        fd[:, :, i] = (plant.predict(robot, up, t, dl, kind)[0] - plant.predict(robot, dn, t, dl, kind)[0]) / (2 * h)
+    scale, fd = _central_differences(robot, p, free, t, dl, kind)
     assert (np.abs(jac[:, 2, lay["frame_misalignment"]]) > 0.5).any()  # the attitude sees the frame
     np.testing.assert_allclose(jac * scale, fd * scale, rtol=0, atol=1e-8 * np.abs(jac * scale).max())
 

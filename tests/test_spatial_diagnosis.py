@@ -300,45 +300,51 @@ def test_a_rank_deficient_fit_gives_correlations_not_overflow_warnings(cdsm):
     assert np.isnan(f.std).any()
 
 
-def test_the_residual_map_draws_the_same_gaps_whatever_frame_the_tracker_reads_in(cdsm, arm):
-    """The gap arrows stand at the tips in the robot's base frame, so they point in the base frame: the
-    same arm read without noise by trackers in two frames gives the same arrows; drawn as the trackers'
-    own components they turned with each tracker."""
+@pytest.fixture(scope="module")
+def two_trackers(cdsm, arm):
+    """The diagnoses of one arm (a tip offset) read without noise by trackers in
+    two frames, registered: the same gaps seen in two measuring frames."""
     from cdsm.calibration import diagnosis, plant
-    from cdsm.report import diagnosis as report
 
     robot, _ = arm
-    arrows = []
+    out = []
     for frame in ([0.3, -0.2, 0.5, 1.2, -0.4, 0.3], [-1.1, 0.4, 2.0, -0.5, 0.8, 0.2]):
         vp = plant.VirtualPrototype(robot, {"frame_misalignment": frame, "tip_offset": [1e-3, -5e-4, 2e-4]},
                                     noise=0.0, seed=5)
         th, dl = vp.random_commands(30, limit=0.4)
         d = diagnosis.diagnose(robot, vp.measure(th, dl), noise=10e-6, effects=["tip_offset"])
         assert d.prep.registered
+        out.append(d)
+    return out
+
+
+def test_the_residual_map_draws_the_same_gaps_whatever_frame_the_tracker_reads_in(two_trackers):
+    """The gap arrows stand at the tips in the robot's base frame, so they point in the base frame: the
+    same arm read without noise by trackers in two frames gives the same arrows; drawn as the trackers'
+    own components they turned with each tracker."""
+    from cdsm.report import diagnosis as report
+
+    arrows = []
+    for d in two_trackers:
         fig = report.residual_map_figure(d)
         q = fig.axes[0].collections[-1]  # the nominal model's arrows
         arrows.append(np.stack([np.asarray(q.U), np.asarray(q.V)], 1))
     np.testing.assert_allclose(arrows[0], arrows[1], rtol=0, atol=1e-6 * np.abs(arrows[0]).max())
 
 
-def test_residuals_csv_holds_every_axis_in_the_base_frame(cdsm, arm, tmp_path):
+def test_residuals_csv_holds_every_axis_in_the_base_frame(two_trackers, tmp_path):
     """A spatial arm's gaps have three components: `residuals.csv` writes
     x, y and z (it wrote two), in the robot's base frame whatever frame the
     tracker reads in: two trackers reading the same noiseless arm give the
-    same gaps, equal to the base-frame gaps of the reference (measured − model
-    turned by the registered rotation)."""
+    same gaps and commanded tips, each gap as long as the diagnosis's
+    frame-free residual (measured − model)."""
     import csv
 
-    from cdsm.calibration import diagnosis, plant
+    from cdsm.calibration import diagnosis
     from cdsm.report import diagnosis as report
 
-    robot, _ = arm
     tables = []
-    for frame in ([0.3, -0.2, 0.5, 1.2, -0.4, 0.3], [-1.1, 0.4, 2.0, -0.5, 0.8, 0.2]):
-        vp = plant.VirtualPrototype(robot, {"frame_misalignment": frame, "tip_offset": [1e-3, -5e-4, 2e-4]},
-                                    noise=0.0, seed=5)
-        th, dl = vp.random_commands(30, limit=0.4)
-        d = diagnosis.diagnose(robot, vp.measure(th, dl), noise=10e-6, effects=["tip_offset"])
+    for d in two_trackers:
         paths = report.write(d, tmp_path / f"rep{len(tables)}")
         with open(paths["csv"], encoding="utf-8") as f:
             rows = list(csv.DictReader(f))

@@ -157,12 +157,6 @@ def _row_names(d: diagnose.Diagnosis) -> List[str]:
     return [f"row {i + 1}" + (f" (point {labels[key][i]})" if key else "") for i in range(len(d.prep.meas))]
 
 
-def _commanded_xy(d: diagnose.Diagnosis) -> np.ndarray:
-    """(N, 2) commanded tip position (m) of the nominal model, X and Y: the
-    first two columns of :func:`_commanded_tip`."""
-    return _commanded_tip(d)[:, :2]
-
-
 def _commanded_tip(d: diagnose.Diagnosis) -> np.ndarray:
     """(N, k) commanded tip position (m) of the nominal model, one column per
     position axis of the arm (X, Y; spatial X, Y, Z); for rows whose command
@@ -359,9 +353,10 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     tot = float(sse.sum())
     k50 = int(np.searchsorted(np.cumsum(np.sort(sse)[::-1]) / max(tot, 1e-300), 0.5) + 1) if tot > 0 else 0
     top = order[:min(3, len(order))]
+    xy = _commanded_tip(d)[:, :2]
     out["where"].append(
         "Largest gaps (nominal model): " + "; ".join(
-            f"{names[i]} at X = {_commanded_xy(d)[i, 0] * 1e3:.1f} mm, Y = {_commanded_xy(d)[i, 1] * 1e3:.1f} mm: "
+            f"{names[i]} at X = {xy[i, 0] * 1e3:.1f} mm, Y = {xy[i, 1] * 1e3:.1f} mm: "
             f"{_um(size_b[i])} (dX {_um(g_base[i, 0])}, dY {_um(g_base[i, 1])})" for i in top)
         + f". {k50} of {nu} rows {'carry' if k50 > 1 else 'carries'} half of the squared gap"
         + (" — the gap is concentrated in a few rows." if k50 <= max(1, nu // 5) else "."))
@@ -373,7 +368,6 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         f"Per axis, the gap is {axis}: RMS dX {_um(rx)}, dY {_um(ry)} (means {_um(mx)}, {_um(my)}: "
         + ("a systematic offset in the mean" if math.hypot(mx, my) > 0.5 * math.hypot(rx, ry) else
            "mostly configuration-dependent, not a constant offset") + ").")
-    xy = _commanded_xy(d)
     regions = []
     for lab, axis_i in (("Y", 1), ("X", 0)):
         v = xy[rows, axis_i]
@@ -1004,7 +998,7 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None, valid
         doc.p(t)
     g_b, g_f = _gaps(d)
     hb, hf = _heldout_full(d, d.baseline), _heldout_full(d, d.final())
-    xy = _commanded_xy(d)
+    xy = _commanded_tip(d)[:, :2]
     order = np.argsort(-np.nan_to_num(np.linalg.norm(g_b, axis=1), nan=np.inf))
     chosen = d.chosen is not None
     rows = []
