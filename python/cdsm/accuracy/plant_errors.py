@@ -25,6 +25,7 @@ from __future__ import annotations
 from typing import Dict, Mapping, Optional, Sequence
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from .. import _cdsm
 from ..calibration import plant
@@ -89,31 +90,8 @@ def sample_parameters(tol: np.ndarray, samples: int, seed: int, chunk_index: int
 
 
 def _rotation_matrices(v: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) rad (Rodrigues)."""
-    t = np.linalg.norm(v, axis=-1)
-    small = t < 1e-4
-    ts = np.where(small, 1.0, t)
-    a = np.where(small, 1.0 - t ** 2 / 6.0, np.sin(ts) / ts)
-    b = np.where(small, 0.5 - t ** 2 / 24.0, (1.0 - np.cos(ts)) / ts ** 2)
-    k = np.zeros(v.shape + (3,))
-    k[..., 0, 1], k[..., 0, 2], k[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
-    k = k - np.swapaxes(k, -1, -2)
-    return np.eye(3) + a[..., None, None] * k + b[..., None, None] * (k @ k)
-
-
-def _angle_change(nominal: np.ndarray, moved: np.ndarray) -> np.ndarray:
-    """The signed change of a planar attitude angle, rad."""
-    return moved[..., 0] - nominal[..., 0]
-
-
-def _rotation_angle(nominal: np.ndarray, moved: np.ndarray) -> np.ndarray:
-    """The angle (rad, >= 0) of the rotation from the nominal end frame to the moved one."""
-    r0, r1 = _rotation_matrices(nominal), _rotation_matrices(moved)
-    return np.linalg.norm(rotation_vectors(np.swapaxes(r0, -1, -2) @ r1), axis=-1)
-
-
-#: The attitude's error quantity by the kind's attitude form (:attr:`cdsm.kinds.Kind.rotation`).
-_ATTITUDE_ERROR = {"angle": _angle_change, "vector": _rotation_angle}
+    """Rotation matrices (..., 3, 3) of rotation vectors (..., 3) rad."""
+    return Rotation.from_rotvec(v.reshape(-1, 3)).as_matrix().reshape(v.shape + (3,))
 
 
 def deviation_quantities(robot: Robot, nominal: np.ndarray, moved: np.ndarray) -> np.ndarray:
@@ -146,6 +124,11 @@ def _angle_delta(nominal: np.ndarray, moved: np.ndarray) -> np.ndarray:
 
 #: The attitude's deviation by the kind's attitude form (:attr:`cdsm.kinds.Kind.rotation`).
 _ATTITUDE_DEVIATION = {"angle": _angle_delta, "vector": _rotation_change}
+
+#: The attitude's error quantity by the kind's attitude form (:attr:`cdsm.kinds.Kind.rotation`): the
+#: deviation's signed angle (planar) or the length of its rotation vector (spatial), rad.
+_ATTITUDE_ERROR = {"angle": lambda nominal, moved: _angle_delta(nominal, moved)[..., 0],
+                   "vector": lambda nominal, moved: np.linalg.norm(_rotation_change(nominal, moved), axis=-1)}
 
 
 def pose_deviation(robot: Robot, nominal: np.ndarray, moved: np.ndarray) -> np.ndarray:
