@@ -14,6 +14,7 @@ import cdsm
 from cdsm import CdsmInputError
 from cdsm.accuracy import plant_errors as pe
 from cdsm.calibration import plant
+from cdsm.calibration.measurements import commanded_cables
 from cdsm.reference import elastic, read_robot
 from test_elastic_plant import commands, two_segments
 
@@ -165,3 +166,77 @@ def test_the_joint_angle_monte_carlo_points_an_elastic_arm_to_its_commands():
     robot = cdsm.Robot.load("ftdcr_v4")
     with pytest.raises(CdsmInputError, match=r"`theta0`.*monte_carlo_commands"):
         monte_carlo(robot, np.zeros((2, robot.n)), samples=2, progress=False)
+
+
+# ---------------------------------------------------------------------------
+# `cdsm montecarlo` on an elastic arm: the plant's Monte Carlo at sampled commands
+
+
+def _cli_mc(tmp_path, robot_file, *extra):
+    import json
+
+    out = tmp_path / "mc.npz"
+    assert cdsm.cli.main(["montecarlo", "--robot", str(robot_file), "--out", str(out), "--quiet", *extra]) == 0
+    z = np.load(out)
+    return z, json.loads(str(z["params"]))
+
+
+@pytest.fixture()
+def elastic_file(tmp_path):
+    path = tmp_path / "two_segments.toml"
+    path.write_text(two_segments())
+    return path
+
+
+def test_cli_montecarlo_elastic_arm_runs_the_plants_monte_carlo(tmp_path, elastic_file, arm):
+    """An elastic arm's `cdsm montecarlo` samples commands (the nominal plant settles every
+    one here), draws every sample's plant within the tolerances and reports the kind's
+    quantities; without any tolerance every sample is the nominal plant: deviations 0."""
+    robot = arm[0]
+    z, params = _cli_mc(tmp_path, elastic_file, "--samples", "8", "--configurations", "12", "--chunk", "4")
+    assert [str(q) for q in z["quantities"]] == list(robot.kind.quantities)
+    assert params["protocol"] == "commanded" and params["configurations"] == 12 and params["unreachable"] == 0
+    assert (z["count"] == 8).all() and z["poses"].shape == (12, 6)
+    assert set(params["plant_tolerances_m"]) == {"cable_offset", "hole_position"}
+    assert z["max_abs"][:, 3].max() > 1e-5  # ±1 mm on the tendons moves the tip
+    tol = tmp_path / "zero.json"
+    tol.write_text('{"cable_length_tol_m": 0, "hole_tol_m": 0}')
+    z0, _ = _cli_mc(tmp_path, elastic_file, "--samples", "4", "--configurations", "8", "--tolerances", str(tol))
+    assert (z0["count"] == 4).all() and np.array_equal(z0["max_abs"], np.zeros_like(z0["max_abs"]))
+
+
+def test_cli_montecarlo_elastic_tolerance_file_per_cable(tmp_path, arm):
+    """`hole_tol_m` per commanded cable is every coordinate of that cable's holes; a wrong
+    count names the file's key."""
+    robot = arm[0]
+    m = plant.commands(robot)
+    path = tmp_path / "tol.json"
+    per_cable = ", ".join(str(1e-4 * (c + 1)) for c in range(m))
+    path.write_text('{"cable_length_tol_m": 0.002, "hole_tol_m": [%s]}' % per_cable)
+    tol = pe.read_tolerances(str(path), robot)
+    assert np.array_equal(tol["cable_offset"], np.full(m, 0.002))
+    sizes = [np.asarray(robot.holes[c]).size for c in commanded_cables(robot)]
+    assert np.array_equal(tol["hole_position"], np.repeat(1e-4 * (np.arange(m) + 1), sizes))
+    path.write_text('{"cable_length_tol_m": [0.001, 0.001, 0.001, 0.001, 0.001, 0.001, 0.001], "hole_tol_m": 0}')
+    with pytest.raises(CdsmInputError, match="cable_length_tol_m"):
+        pe.read_tolerances(str(path), robot)
+    path.write_text('{"cable_length_tol_m": 0.001}')
+    with pytest.raises(CdsmInputError, match="missing key 'hole_tol_m'"):
+        pe.read_tolerances(str(path), robot)
+
+
+@pytest.mark.parametrize("extra, option", [(("--step", "5"), "--step"), (("--range", "10"), "--range"),
+                                           (("--protocol", "joint"), "--protocol"),
+                                           (("--scheduler", "tcp://x:1"), "--scheduler"),
+                                           (("--reach-mm", "0"), "--reach-mm")])
+def test_cli_montecarlo_elastic_refuses_rigid_options(tmp_path, elastic_file, extra, option, capsys):
+    """The options of a rigid arm's configurations do not apply to an elastic arm: named, not ignored."""
+    code = cdsm.cli.main(["montecarlo", "--robot", str(elastic_file), "--out", str(tmp_path / "x.npz"),
+                          "--quiet", *extra])
+    assert code != 0 and option in capsys.readouterr().err
+    assert not (tmp_path / "x.npz").exists()
+
+
+def test_cli_montecarlo_rigid_arm_refuses_reach(tmp_path, capsys):
+    code = cdsm.cli.main(["montecarlo", "--out", str(tmp_path / "x.npz"), "--quiet", "--reach-mm", "2"])
+    assert code != 0 and "--reach-mm" in capsys.readouterr().err

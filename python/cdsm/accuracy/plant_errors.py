@@ -39,7 +39,8 @@ from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, rotation_vectors
 from .sensitivity import amplification_of
 from .workspace import Workspace
 
-__all__ = ["DEFAULT_TOLERANCES", "SENSITIVITY_BLOCKS", "COMMAND_RANGE", "PATH_TOLERANCE", "path_dependent",
+__all__ = ["DEFAULT_TOLERANCES", "read_tolerances",
+           "SENSITIVITY_BLOCKS", "COMMAND_RANGE", "PATH_TOLERANCE", "path_dependent",
            "tolerance_vector", "sample_parameters",
            "deviation_quantities", "pose_deviation", "monte_carlo_commands", "sensitivities_commands",
            "nominal_commands", "error_parameters", "hole_block", "deviation_commands", "sample_commands",
@@ -75,6 +76,54 @@ def tolerance_vector(robot: Robot, tolerances: Optional[Mapping[str, object]] = 
             raise CdsmInputError(f"`tolerances`: this arm's plant has no block {block!r}; known: {', '.join(lay)}")
         sl = lay[block]
         out[sl] = as_tolerances(f"tolerances[{block!r}]", tol, sl.stop - sl.start)
+    return out
+
+
+def read_tolerances(path: str, robot: Robot) -> Dict[str, np.ndarray]:
+    """The tolerances of a JSON file (as for a rigid arm, ``cdsm montecarlo
+    --tolerances``) as plant blocks for :func:`tolerance_vector`:
+    ``cable_length_tol_m`` — a number or one per commanded cable
+    (:func:`cdsm.calibration.plant.commands`), m — becomes ``cable_offset``;
+    the kind's hole key (:attr:`~cdsm.kinds.Kind.hole_tolerance_key`) the
+    arm's hole block (:func:`hole_block`): spatial ``hole_tol_m``, a number,
+    one per commanded cable (every coordinate of its holes) or one per
+    coordinate of those holes (:func:`hole_columns`), m; planar
+    ``hole_height_tol_m``, a number or one per disk, m. Other keys are
+    ignored; a missing key or a wrong count is refused naming the file and
+    the key."""
+    import json
+
+    from ..files import read_text
+
+    text = read_text(path, "tolerance")
+    try:
+        data = json.loads(text)
+    except ValueError as exc:
+        raise CdsmInputError(f"tolerance file {path!r}: not valid JSON ({exc})") from None
+    if not isinstance(data, dict):
+        raise CdsmInputError(f"tolerance file {path!r}: expected a JSON object")
+    hole_key, block = robot.kind.hole_tolerance_key, hole_block(robot)
+    lay = plant.layout(robot)
+    out: Dict[str, np.ndarray] = {}
+    for key, name in (("cable_length_tol_m", "cable_offset"), (hole_key, block)):
+        if key not in data:
+            raise CdsmInputError(f"tolerance file {path!r}: missing key {key!r}")
+        width = lay[name].stop - lay[name].start
+        try:
+            arr = np.asarray(data[key], dtype=np.float64)
+        except (TypeError, ValueError):
+            raise CdsmInputError(f"tolerance file {path!r}: `{key}` is not a number or a list of numbers") from None
+        groups = [np.asarray(robot.holes[c]).size for c in commanded_cables(robot)] if name == "hole_position" else []
+        if arr.ndim == 1 and groups and arr.shape[0] == len(groups) != width:
+            arr = np.repeat(arr, groups)  # one per commanded cable: every coordinate of its holes
+        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != width):
+            per = (f"one per commanded cable ({len(groups)}) or per coordinate of their holes ({width})" if groups
+                   else f"{width} values (one per parameter of the plant's {name!r})")
+            raise CdsmInputError(f"tolerance file {path!r}: `{key}` needs a number or {per}, got shape {arr.shape}")
+        try:
+            out[name] = as_tolerances(key, arr, width)
+        except CdsmInputError as exc:
+            raise CdsmInputError(f"tolerance file {path!r}: {exc}") from None
     return out
 
 
