@@ -240,3 +240,12 @@ def test_cli_montecarlo_elastic_refuses_rigid_options(tmp_path, elastic_file, ex
 def test_cli_montecarlo_rigid_arm_refuses_reach(tmp_path, capsys):
     code = cdsm.cli.main(["montecarlo", "--out", str(tmp_path / "x.npz"), "--quiet", "--reach-mm", "2"])
     assert code != 0 and "--reach-mm" in capsys.readouterr().err
+
+
+def test_cli_tolerance_refuses_an_elastic_arm_before_it_starts(tmp_path, elastic_file, capsys):
+    """`cdsm tolerance` searches over joint-space sensitivities (rigid arms): an elastic arm
+    is refused at once, naming the option and what to run instead (before, the search
+    started and failed deep inside on `sensitivity`)."""
+    code = cdsm.cli.main(["tolerance", "--robot", str(elastic_file), "--target-mm", "1"])
+    err = capsys.readouterr().err
+    assert code != 0 and "--robot" in err and "cdsm montecarlo" in err

@@ -63,7 +63,8 @@ def _montecarlo_args(p: argparse.ArgumentParser) -> None:
                         "limits and, if given, within +-DEG)")
     p.add_argument("--configurations", metavar="N", type=positive_int, default=None,
                    help="spatial robots: configurations sampled in the joint box (scrambled Sobol, seed 0 "
-                        "whatever --seed, so runs with other seeds can be merged; default 2197 = 13^3)")
+                        "whatever --seed, so runs with other seeds can be merged; default 2197 = 13^3); "
+                        "elastic arms: commands sampled in the --reach-mm box (default 500)")
     p.add_argument("--reach-mm", metavar="MM", type=float, default=None, dest="reach_mm",
                    help="elastic arms: half-width of the box of commands sampled on every commanded cable, mm "
                         "(default: 3)")

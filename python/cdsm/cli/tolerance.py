@@ -69,6 +69,11 @@ def _tolerance_run(args) -> int:
     if not 0.0 < args.percentile < 100.0:
         raise UserError(f"--percentile: must be within (0, 100), got {args.percentile}")
     robot = load_robot(args.robot)
+    if robot.is_elastic:
+        raise UserError(f"--robot {args.robot}: tolerance allocation is for rigid arms (it searches over "
+                        "joint-space sensitivities); an elastic arm's configurations are the equilibria of its "
+                        "commands: run `cdsm montecarlo --robot ... --tolerances TOL.json` (the plant's Monte "
+                        "Carlo) at candidate tolerances")
     kind = robot.kind
     words = kind.allocation
     m, groups = len(robot.position_cables), len(hole_error_sizes(robot))
