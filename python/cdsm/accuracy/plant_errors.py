@@ -39,12 +39,11 @@ from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, rotation_vectors
 from .sensitivity import amplification_of
 from .workspace import Workspace
 
-__all__ = ["DEFAULT_TOLERANCES", "read_tolerances",
-           "SENSITIVITY_BLOCKS", "COMMAND_RANGE", "PATH_TOLERANCE", "path_dependent",
+__all__ = ["DEFAULT_TOLERANCES", "SENSITIVITY_BLOCKS", "COMMAND_RANGE", "PATH_TOLERANCE", "path_dependent",
            "tolerance_vector", "sample_parameters",
            "deviation_quantities", "pose_deviation", "monte_carlo_commands", "sensitivities_commands",
            "nominal_commands", "error_parameters", "hole_block", "deviation_commands", "sample_commands",
-           "hole_columns", "position_matrix_commands", "amplification_commands", "equilibria"]
+           "hole_columns", "hole_ties", "tie_faces", "position_matrix_commands", "amplification_commands", "equilibria"]
 
 #: The tolerances of a study by plant block: the paper's ±1 mm on each
 #: commanded cable's length and ±0.35 mm on every hole coordinate (spatial)
@@ -76,54 +75,6 @@ def tolerance_vector(robot: Robot, tolerances: Optional[Mapping[str, object]] = 
             raise CdsmInputError(f"`tolerances`: this arm's plant has no block {block!r}; known: {', '.join(lay)}")
         sl = lay[block]
         out[sl] = as_tolerances(f"tolerances[{block!r}]", tol, sl.stop - sl.start)
-    return out
-
-
-def read_tolerances(path: str, robot: Robot) -> Dict[str, np.ndarray]:
-    """The tolerances of a JSON file (as for a rigid arm, ``cdsm montecarlo
-    --tolerances``) as plant blocks for :func:`tolerance_vector`:
-    ``cable_length_tol_m`` — a number or one per commanded cable
-    (:func:`cdsm.calibration.plant.commands`), m — becomes ``cable_offset``;
-    the kind's hole key (:attr:`~cdsm.kinds.Kind.hole_tolerance_key`) the
-    arm's hole block (:func:`hole_block`): spatial ``hole_tol_m``, a number,
-    one per commanded cable (every coordinate of its holes) or one per
-    coordinate of those holes (:func:`hole_columns`), m; planar
-    ``hole_height_tol_m``, a number or one per disk, m. Other keys are
-    ignored; a missing key or a wrong count is refused naming the file and
-    the key."""
-    import json
-
-    from ..files import read_text
-
-    text = read_text(path, "tolerance")
-    try:
-        data = json.loads(text)
-    except ValueError as exc:
-        raise CdsmInputError(f"tolerance file {path!r}: not valid JSON ({exc})") from None
-    if not isinstance(data, dict):
-        raise CdsmInputError(f"tolerance file {path!r}: expected a JSON object")
-    hole_key, block = robot.kind.hole_tolerance_key, hole_block(robot)
-    lay = plant.layout(robot)
-    out: Dict[str, np.ndarray] = {}
-    for key, name in (("cable_length_tol_m", "cable_offset"), (hole_key, block)):
-        if key not in data:
-            raise CdsmInputError(f"tolerance file {path!r}: missing key {key!r}")
-        width = lay[name].stop - lay[name].start
-        try:
-            arr = np.asarray(data[key], dtype=np.float64)
-        except (TypeError, ValueError):
-            raise CdsmInputError(f"tolerance file {path!r}: `{key}` is not a number or a list of numbers") from None
-        groups = [np.asarray(robot.holes[c]).size for c in commanded_cables(robot)] if name == "hole_position" else []
-        if arr.ndim == 1 and groups and arr.shape[0] == len(groups) != width:
-            arr = np.repeat(arr, groups)  # one per commanded cable: every coordinate of its holes
-        if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] != width):
-            per = (f"one per commanded cable ({len(groups)}) or per coordinate of their holes ({width})" if groups
-                   else f"{width} values (one per parameter of the plant's {name!r})")
-            raise CdsmInputError(f"tolerance file {path!r}: `{key}` needs a number or {per}, got shape {arr.shape}")
-        try:
-            out[name] = as_tolerances(key, arr, width)
-        except CdsmInputError as exc:
-            raise CdsmInputError(f"tolerance file {path!r}: {exc}") from None
     return out
 
 
@@ -198,6 +149,43 @@ def hole_columns(robot: Robot) -> np.ndarray:
     sizes = [np.asarray(h).size for h in robot.holes]
     starts = np.concatenate([[0], np.cumsum(sizes)])
     return np.concatenate([np.arange(starts[c], starts[c + 1]) for c in commanded_cables(robot)]).astype(np.int64)
+
+
+def hole_ties(robot: Robot) -> tuple:
+    """``(faces_b, faces_a)`` two (t,) index arrays into the plant's
+    ``hole_position`` block (:func:`hole_columns` order): the coordinates of
+    every face-b hole of a disk of zero thickness and of its face-a twin. On
+    such a plate (FTDCR v4's via plates) the two faces are one physical hole:
+    a manufacturing error moves both by the same vector. Drawn for each face
+    alone, the errors would put a zigzag of length ``|δb − δa|`` into the
+    cable at every plate — not differentiable at 0, and always a lengthening
+    — so the tendons would grow by the sum over their plates (on FTDCR v4 at
+    ±1.1 µm per coordinate: tips 5× the linear estimate). Empty for an arm
+    without zero-thickness disks, and for a planar arm (its plant's holes move
+    by ``hole_height``)."""
+    if hole_block(robot) != "hole_position":
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    plate = np.asarray(robot.disk_thickness) == 0.0
+    b, a, start = [], [], 0
+    for c in commanded_cables(robot):
+        for d in range(1, robot.cable_ends[c] + 1):  # rows 2d - 1, 2d: disk d's faces a, b (row 0: the base)
+            if plate[d - 1]:
+                a.extend(start + 3 * (2 * d - 1) + np.arange(3))
+                b.extend(start + 3 * (2 * d) + np.arange(3))
+        start += np.asarray(robot.holes[c]).size
+    return np.asarray(b, np.int64), np.asarray(a, np.int64)
+
+
+def tie_faces(robot: Robot, p: np.ndarray) -> np.ndarray:
+    """The plant parameters ``p`` (..., P) with every zero-thickness disk's
+    face-b hole error set to its face a's (:func:`hole_ties`): one error per
+    physical hole. A copy."""
+    out = np.array(p, dtype=np.float64)
+    b, a = hole_ties(robot)
+    if b.size:
+        start = plant.layout(robot)["hole_position"].start
+        out[..., start + b] = out[..., start + a]
+    return out
 
 
 def hole_block(robot: Robot) -> str:
@@ -340,7 +328,8 @@ def monte_carlo_commands(robot: Robot, dL, theta_cmd=None, samples: int = 200, s
     deviation of the settled tip from the nominal plant's
     (:func:`deviation_quantities`). ``theta0`` of the result is the nominal
     plant's settled angles; a row the nominal plant does not settle counts
-    every sample failed."""
+    every sample failed. A zero-thickness disk's two faces take one error
+    (face a's: :func:`tie_faces`)."""
     t, d = nominal_commands(robot, dL, theta_cmd)
     samples, chunk, seed = as_count("samples", samples, 1), as_count("chunk", chunk, 1), as_count("seed", seed)
     tol = tolerance_vector(robot, tolerances)
@@ -350,7 +339,7 @@ def monte_carlo_commands(robot: Robot, dL, theta_cmd=None, samples: int = 200, s
     out = None
     bar = Progress(samples, label, progress)
     for c, m in enumerate(chunk_sizes(samples, chunk)):
-        part = _chunk(robot, sample_parameters(tol, m, seed, c), t, d, nominal, theta0)
+        part = _chunk(robot, tie_faces(robot, sample_parameters(tol, m, seed, c)), t, d, nominal, theta0)
         if out is None:
             out = part
         else:
@@ -402,12 +391,17 @@ def position_matrix_commands(robot: Robot, dL, theta_cmd=None) -> np.ndarray:
     (``hole_position``) — to the tip position (d = the kind's position
     axes), m/m, at the commands ``dL`` (N, m_c) m: the columns of
     :func:`cdsm.accuracy.sensitivity.position_matrix` for an arm commanded
-    by its cables (:func:`sensitivities_commands`). NaN rows where the
-    nominal plant does not settle."""
+    by its cables (:func:`sensitivities_commands`), one error per physical
+    hole (a zero-thickness disk's face-b column added to face a's and set to
+    0, :func:`hole_ties`). NaN rows where the nominal plant does not settle."""
     holes = hole_block(robot)
     s = sensitivities_commands(robot, dL, theta_cmd, blocks=("cable_offset", holes))
     d = robot.kind.dim
-    return np.concatenate([s["cable_offset"][:, :d, :], s[holes][:, :d, :]], axis=2)
+    h = s[holes][:, :d, :].copy()
+    b, a = hole_ties(robot)  # one error per physical hole: face b's column joins face a's
+    h[:, :, a] += h[:, :, b]
+    h[:, :, b] = 0.0
+    return np.concatenate([s["cable_offset"][:, :d, :], h], axis=2)
 
 
 def amplification_commands(robot: Robot, ws: Workspace) -> dict:

@@ -147,6 +147,7 @@ def _commanded_study(args, robot, show: bool):
     import math
 
     from ..accuracy import plant_errors
+    from ..accuracy.tolerance import read_tolerances
 
     for given, option, why in ((args.scheduler, "--scheduler", "the plant's Monte Carlo runs locally"),
                                (args.step, "--step", "its commands are sampled, not gridded"),
@@ -159,7 +160,10 @@ def _commanded_study(args, robot, show: bool):
     if not (math.isfinite(reach) and reach > 0):
         raise UserError(f"--reach-mm: expected a positive number of mm, got {args.reach_mm}")
     count = ELASTIC_CONFIGURATIONS if args.configurations is None else args.configurations
-    tol = None if args.tolerances is None else plant_errors.read_tolerances(args.tolerances, robot)
+    tol = None
+    if args.tolerances is not None:  # per commanded cable and per hole error, as for a rigid arm
+        dl, dh = read_tolerances(args.tolerances, robot)
+        tol = {"cable_offset": dl, plant_errors.hole_block(robot): dh}
     if show:
         print(f"cdsm montecarlo: elastic robot {robot.name!r}, {count} commands within ±{reach:g} mm on every "
               f"commanded cable (scrambled Sobol, seed 0), {args.samples} samples in chunks of {args.chunk}, "
