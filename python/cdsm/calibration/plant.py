@@ -34,8 +34,9 @@ previous one. Their commanded cables (:func:`.measurements.commanded_cables`,
 the width of ``dL``) are the position and displacement cables in file order:
 ``theta_cmd`` the rest angles and ``dL = -d`` commands the displacements ``d`` (m).
 ``cable_offset``, ``backlash`` and ``hole_position`` act per commanded cable;
-they have no ``cable_elasticity``, ``hole_clearance`` or ``cable_friction``
-block, and two of their own:
+they have no ``cable_elasticity`` or ``hole_clearance`` block (``cable_friction``
+is the capstan friction of their statics, fitted only when named:
+:data:`ELASTIC_ON_REQUEST`), and two of their own:
 
 =====================  ===========  ================================================
 effect                 parameters   meaning
@@ -47,8 +48,8 @@ cable_angle            m_c          spatial: every hole of a commanded cable tur
                                     about the backbone axis x of its disk, rad
 =====================  ===========  ================================================
 
-Spatial arms (``robot.kind == "spatial"``, ``docs/spatial.md``) have their own
-plant in the Rust core with the effects that carry over (:data:`SPATIAL_EFFECTS`:
+A spatial arm (``docs/spatial.md``) goes through the same plant — one plant
+over the kind in the Rust core — with the effects that carry over (:data:`SPATIAL_EFFECTS`:
 ``actuation_scale``, ``cable_offset`` and ``backlash`` on the
 position-controlled cables, ``hole_position`` (3-D per hole of those
 cables), ``link_length`` (3-D per joint offset and per disk), ``cable_elasticity``,
