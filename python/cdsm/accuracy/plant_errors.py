@@ -28,11 +28,11 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .. import _cdsm
-from ..calibration import plant
+from .. import plant
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
-from ..calibration.measurements import commanded_cables
+from ..plant import commanded_cables
 from .montecarlo import MonteCarlo, chunk_sizes
 from .sampling import METHODS, nearest_neighbours, sobol
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, rotation_vectors

@@ -31,7 +31,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
-from ..calibration.measurements import commanded_cables
+from ..plant import commanded_cables
 from ..robot import Robot
 from .montecarlo import hole_error_sizes, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, deviation

@@ -50,8 +50,8 @@ import numpy as np
 from ..files import read_table, read_text
 from ..inputs import CdsmInputError, as_batch, as_tolerances
 from ..kinds import SPATIAL, Kind
-from ..calibration import plant
-from ..calibration.measurements import commanded_cables
+from .. import plant
+from ..plant import commanded_cables
 from ..robot import Robot
 from . import plant_errors
 from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, hole_error_sizes, monte_carlo
