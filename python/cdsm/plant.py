@@ -76,7 +76,7 @@ __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "l
            "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle",
            "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "ELASTIC_ON_REQUEST", "effects_of", "check_effects", "width",
            "dims", "commands", "command_lengths", "taut_commands", "KIND_CODES", "commanded_cables",
-           "check_commands"]
+           "check_commands", "plate_twins"]
 
 #: Row kinds of the plant's data sets, by code (see ``docs/model.md``).
 KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
@@ -310,6 +310,35 @@ def kind_codes(kind, rows: int) -> np.ndarray:
     if arr.shape != (rows,):
         raise CdsmInputError(f"`kind`: expected {rows} row kinds, got shape {arr.shape}")
     return arr.astype(np.uint8)
+
+
+def plate_twins(robot, coords) -> Tuple[np.ndarray, np.ndarray]:
+    """``(face_b, face_a)``: positions in ``coords`` — indices into
+    :attr:`Robot.flat_holes` of the hole coordinates that some errors move,
+    one error each — of every coordinate of a face-b hole on a disk of zero
+    thickness whose face-a twin is in ``coords`` too, and of that twin. On
+    such a plate (FTDCR v4's via plates) the two faces are one physical
+    hole: a manufacturing error moves both by the same vector. Drawn for
+    each face alone, the cable would zigzag through the plate by
+    ``|δb − δa|`` (not differentiable at 0, always a lengthening): every
+    plate would lengthen the cable (``docs/model.md``, "Elastic arms in the
+    plant"). Empty for an arm without zero-thickness disks."""
+    coords = np.asarray(coords, np.int64)
+    plate = np.asarray(robot.disk_thickness) == 0.0
+    if not plate.any():
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    where = {int(k): i for i, k in enumerate(coords)}
+    b, a, start = [], [], 0
+    for end, holes in zip(robot.cable_ends, robot.holes_by_cable()):
+        for d in range(1, end + 1):  # rows 2d - 1, 2d: disk d's faces a, b (row 0: the base)
+            if plate[d - 1]:
+                for k in range(3):
+                    fa, fb = start + 3 * (2 * d - 1) + k, start + 3 * (2 * d) + k
+                    if fa in where and fb in where:
+                        a.append(where[fa])
+                        b.append(where[fb])
+        start += np.asarray(holes).size
+    return np.asarray(b, np.int64), np.asarray(a, np.int64)
 
 
 def check_commands(robot: Robot, theta_cmd, dL=None, kind="absolute"):

@@ -154,26 +154,14 @@ def hole_columns(robot: Robot) -> np.ndarray:
 def hole_ties(robot: Robot) -> tuple:
     """``(faces_b, faces_a)`` two (t,) index arrays into the plant's
     ``hole_position`` block (:func:`hole_columns` order): the coordinates of
-    every face-b hole of a disk of zero thickness and of its face-a twin. On
-    such a plate (FTDCR v4's via plates) the two faces are one physical hole:
-    a manufacturing error moves both by the same vector. Drawn for each face
-    alone, the errors would put a zigzag of length ``|δb − δa|`` into the
-    cable at every plate — not differentiable at 0, and always a lengthening
-    — so the tendons would grow by the sum over their plates (on FTDCR v4 at
-    ±1.1 µm per coordinate: tips 5× the linear estimate). Empty for an arm
-    without zero-thickness disks, and for a planar arm (its plant's holes move
-    by ``hole_height``)."""
+    every face-b hole of a disk of zero thickness and of its face-a twin
+    (:func:`cdsm.plant.plate_twins`: one physical hole, one error; drawn per
+    face, on FTDCR v4 at ±1 µm the tips were biased 2–6× their spread).
+    Empty for an arm without zero-thickness disks, and for a planar arm (its
+    plant's holes move by ``hole_height``)."""
     if hole_block(robot) != "hole_position":
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    plate = np.asarray(robot.disk_thickness) == 0.0
-    b, a, start = [], [], 0
-    for c in commanded_cables(robot):
-        for d in range(1, robot.cable_ends[c] + 1):  # rows 2d - 1, 2d: disk d's faces a, b (row 0: the base)
-            if plate[d - 1]:
-                a.extend(start + 3 * (2 * d - 1) + np.arange(3))
-                b.extend(start + 3 * (2 * d) + np.arange(3))
-        start += np.asarray(robot.holes[c]).size
-    return np.asarray(b, np.int64), np.asarray(a, np.int64)
+    return plant.plate_twins(robot, hole_columns(robot))
 
 
 def tie_faces(robot: Robot, p: np.ndarray) -> np.ndarray:
