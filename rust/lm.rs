@@ -369,7 +369,6 @@ fn undamped<P: Problem + ?Sized, const N: usize>(
     }
     let mut cost = sum_sq(&cr);
     let mut iterations = 0;
-    let joint = problem.jacobian_with_residual();
     loop {
         let res = max_abs(&cr);
         if res <= lm.tol {
@@ -394,20 +393,7 @@ fn undamped<P: Problem + ?Sized, const N: usize>(
             *t = xk + d;
         }
         problem.project(&mut tx);
-        let evaluated = if joint {
-            problem.eval(&tx, &mut tr, Some(tj.as_flattened_mut()))
-        } else {
-            problem.eval(&tx, &mut tr, None)
-        };
-        let c = if evaluated {
-            sum_sq(&tr)
-        } else {
-            f64::INFINITY
-        };
-        let accept = c < cost
-            && (joint
-                || (!problem.answer_jacobian() && max_abs(&tr) <= lm.tol)
-                || problem.jacobian(&tx, tj.as_flattened_mut()));
+        let (accept, c) = try_point(problem, &tx, &mut tr, tj.as_flattened_mut(), cost, lm.tol);
         if !accept {
             return None;
         }
@@ -481,48 +467,12 @@ fn iterate<P: Problem + ?Sized>(
     let mut lambda = lm.lambda0;
     let mut iterations = 0;
     loop {
-        let res = max_abs(cur.r);
-        if res <= lm.tol {
-            return (done(&cur, true, iterations, Reason::Converged), flipped);
-        }
-        if !res.is_finite() {
-            return (done(&cur, false, iterations, Reason::Singular), flipped);
-        }
-        if iterations >= lm.max_iter {
-            let reason = if stationary(cur.jac, cur.r, m, n) {
-                Reason::Stalled
-            } else {
-                Reason::IterationLimit
-            };
-            return (done(&cur, false, iterations, reason), flipped);
-        }
-        if lambda > LAMBDA_MAX {
-            if lm.min_decrease > 0.0 {
-                // least squares: no step lowers the cost any more, a minimum
-                return (done(&cur, true, iterations, Reason::Converged), flipped);
-            }
-            let reason = if problem.on_bound(cur.x) {
-                Reason::OutsideLimits
-            } else if stationary(cur.jac, cur.r, m, n) {
-                Reason::Stalled
-            } else {
-                Reason::Singular
-            };
-            return (done(&cur, false, iterations, reason), flipped);
+        if let Some((converged, reason)) = stop(problem, &cur, lm, lambda, iterations, m, n) {
+            return (done(&cur, converged, iterations, reason), flipped);
         }
         iterations += 1;
         // components a bound stops from going downhill are held out of the step
-        let mut any = false;
-        if problem.bounded() || lm.min_decrease > 0.0 {
-            for (k, held) in active.iter_mut().enumerate() {
-                let gk: f64 = (0..m).map(|i| cur.jac[i * n + k] * cur.r[i]).sum();
-                // least squares: a column the residual does not depend on
-                // carries no information, its component stays put
-                let blind = lm.min_decrease > 0.0 && (0..m).all(|i| cur.jac[i * n + k] == 0.0);
-                *held = blind || problem.blocked(cur.x, k, -gk);
-                any |= *held;
-            }
-        }
+        let any = hold(problem, &cur, lm, active, m, n);
         let jac: &[f64] = if any {
             jac_free.clear();
             jac_free.extend_from_slice(cur.jac);
@@ -565,23 +515,7 @@ fn iterate<P: Problem + ?Sized>(
             *t = xk + d;
         }
         problem.project(trial.x);
-        let joint = problem.jacobian_with_residual();
-        let evaluated = if joint {
-            problem.eval(trial.x, trial.r, Some(trial.jac))
-        } else {
-            problem.eval(trial.x, trial.r, None)
-        };
-        let c = if evaluated {
-            sum_sq(trial.r)
-        } else {
-            f64::INFINITY
-        };
-        // the Jacobian of an accepted trial (unless it was evaluated with it,
-        // or it ends the solve and none is needed there)
-        let accept = c < cost
-            && (joint
-                || (!problem.answer_jacobian() && max_abs(trial.r) <= lm.tol)
-                || problem.jacobian(trial.x, trial.jac));
+        let (accept, c) = try_point(problem, trial.x, trial.r, trial.jac, cost, lm.tol);
         if accept {
             std::mem::swap(&mut cur, &mut trial);
             flipped = !flipped;
@@ -597,6 +531,105 @@ fn iterate<P: Problem + ?Sized>(
             lambda = raise(lambda);
         }
     }
+}
+
+/// Whether [`iterate`] stops at `cur` before its next step, converged or
+/// not, and why: the residual within the tolerance (converged), not finite,
+/// the iteration limit (stalled where the gradient vanishes), or the damping
+/// past [`LAMBDA_MAX`] (a least-squares minimum; else a bound, a stationary
+/// point or a singular Jacobian).
+#[inline(always)]
+fn stop<P: Problem + ?Sized>(
+    problem: &P,
+    cur: &Point,
+    lm: &Lm,
+    lambda: f64,
+    iterations: u32,
+    m: usize,
+    n: usize,
+) -> Option<(bool, Reason)> {
+    let res = max_abs(cur.r);
+    if res <= lm.tol {
+        return Some((true, Reason::Converged));
+    }
+    if !res.is_finite() {
+        return Some((false, Reason::Singular));
+    }
+    if iterations >= lm.max_iter {
+        let reason = if stationary(cur.jac, cur.r, m, n) {
+            Reason::Stalled
+        } else {
+            Reason::IterationLimit
+        };
+        return Some((false, reason));
+    }
+    if lambda > LAMBDA_MAX {
+        if lm.min_decrease > 0.0 {
+            // least squares: no step lowers the cost any more, a minimum
+            return Some((true, Reason::Converged));
+        }
+        let reason = if problem.on_bound(cur.x) {
+            Reason::OutsideLimits
+        } else if stationary(cur.jac, cur.r, m, n) {
+            Reason::Stalled
+        } else {
+            Reason::Singular
+        };
+        return Some((false, reason));
+    }
+    None
+}
+
+/// Marks in `active` the components held out of the next step: those a
+/// bound stops from going downhill and, in least squares, those the
+/// residual does not depend on (no information: they stay put). Whether
+/// any is held.
+#[inline(always)]
+fn hold<P: Problem + ?Sized>(
+    problem: &P,
+    cur: &Point,
+    lm: &Lm,
+    active: &mut [bool],
+    m: usize,
+    n: usize,
+) -> bool {
+    let mut any = false;
+    if problem.bounded() || lm.min_decrease > 0.0 {
+        for (k, held) in active.iter_mut().enumerate() {
+            let gk: f64 = (0..m).map(|i| cur.jac[i * n + k] * cur.r[i]).sum();
+            let blind = lm.min_decrease > 0.0 && (0..m).all(|i| cur.jac[i * n + k] == 0.0);
+            *held = blind || problem.blocked(cur.x, k, -gk);
+            any |= *held;
+        }
+    }
+    any
+}
+
+/// The trial point `x` of a step from a point of cost `cost`: its residual
+/// into `r` (and its Jacobian into `jac` when the problem evaluates them
+/// together), its cost (infinite where it cannot be evaluated) and whether
+/// the step is taken — the cost lower and the Jacobian there known (evaluated
+/// with the residual, not needed because the residual is within `tol` and
+/// the problem wants no Jacobian at its answer, or evaluated now).
+#[inline(always)]
+fn try_point<P: Problem + ?Sized>(
+    problem: &mut P,
+    x: &[f64],
+    r: &mut [f64],
+    jac: &mut [f64],
+    cost: f64,
+    tol: f64,
+) -> (bool, f64) {
+    let joint = problem.jacobian_with_residual();
+    let evaluated = if joint {
+        problem.eval(x, r, Some(jac))
+    } else {
+        problem.eval(x, r, None)
+    };
+    let c = if evaluated { sum_sq(r) } else { f64::INFINITY };
+    let accept = c < cost
+        && (joint || (!problem.answer_jacobian() && max_abs(r) <= tol) || problem.jacobian(x, jac));
+    (accept, c)
 }
 
 /// The undamped triangular step: forward substitution `J delta = -r`, `J`
