@@ -51,8 +51,15 @@ pub trait FitModel: Sync {
     /// did not settle, and the flags).
     fn predictions(&self, state: &Self::State) -> Predictions;
     /// `(rows, width, k)` derivatives of the predictions with respect to the
-    /// parameters `free` at `p` (the state of [`FitModel::settle`] at `p`).
-    fn jacobian(&self, p: &[f64], state: &Self::State, free: &[usize]) -> Option<Vec<f64>>;
+    /// parameters `free` at `p` (the state of [`FitModel::settle`] at `p`),
+    /// of the rows flagged in `rows` (`(rows,)`; the others' may be NaN).
+    fn jacobian(
+        &self,
+        p: &[f64],
+        state: &Self::State,
+        free: &[usize],
+        rows: &[bool],
+    ) -> Option<Vec<f64>>;
     /// Whether a settle costs enough (an elastic arm's statics) that the fit
     /// also stops at a step small against the parameters' standard errors
     /// ([`SE_STEP`]); false: at [`MIN_DECREASE`] alone.
@@ -114,6 +121,8 @@ struct FitProblem<'a, M: FitModel> {
     /// (row, component) of every residual.
     index: Vec<(usize, usize)>,
     weight: Vec<f64>,
+    /// The rows with a residual (the Jacobian's rows needed).
+    rows: Vec<bool>,
     lo: Vec<f64>,
     hi: Vec<f64>,
     p: Vec<f64>,
@@ -133,6 +142,10 @@ impl<'a, M: FitModel> FitProblem<'a, M> {
                 }
             }
         }
+        let mut rows = vec![false; scored.len()];
+        for (i, _) in &index {
+            rows[*i] = true;
+        }
         let (blo, bhi) = spec.model.bounds();
         let lo = spec
             .free
@@ -150,6 +163,7 @@ impl<'a, M: FitModel> FitProblem<'a, M> {
             spec,
             index,
             weight: spec.model.weights(),
+            rows,
             lo,
             hi,
             p: spec.start.to_vec(),
@@ -204,7 +218,7 @@ impl<M: FitModel> Problem for FitProblem<'_, M> {
         if *p != self.p {
             return false;
         }
-        let Some(dj) = spec.model.jacobian(p, state, spec.free) else {
+        let Some(dj) = spec.model.jacobian(p, state, spec.free, &self.rows) else {
             return false;
         };
         let k = spec.free.len();
@@ -611,9 +625,9 @@ mod tests {
         }
     }
 
-    /// The paper arm's plant on 12 rows with two effects hidden: the model
-    /// data (commands, measurements) of the tests below.
-    fn paper_rows() -> (Model, Vec<f64>, Vec<f64>, Vec<RowKind>, Vec<f64>) {
+    /// The paper arm on 12 absolute rows with two effects hidden: the
+    /// model, the rows' sequence and their measurements.
+    fn paper_rows() -> (Model, Sequence, Vec<f64>) {
         let r = Model::from_planar(&Robot::paper());
         let lay = layout(&r);
         let mut truth = vec![0.0; lay.total];
@@ -638,18 +652,13 @@ mod tests {
         let meas = predict(&r, &truth, &rows, &SolveOptions::default(), 1)
             .unwrap()
             .observation;
-        (r, th, dl, kind, meas)
+        let seq = Sequence::new(&r, &rows).unwrap();
+        (r, seq, meas)
     }
 
     #[test]
     fn candidates_fitted_together_equal_each_fitted_alone_whatever_the_threads() {
-        let (r, th, dl, kind, meas) = paper_rows();
-        let rows = Rows {
-            theta_cmd: &th,
-            dl: &dl,
-            kind: &kind,
-        };
-        let seq = Sequence::new(&r, &rows).unwrap();
+        let (r, seq, meas) = paper_rows();
         let model = PlantFit::<Planar>::new(&r, &seq, SolveOptions::default());
         let lay = layout(&r);
         let (scale, holes) = (
@@ -706,5 +715,32 @@ mod tests {
             assert_eq!(out, (0..23).map(|i| i * i).collect::<Vec<_>>());
         }
         assert!(queued(0, 3, |i| i).is_empty());
+    }
+
+    #[test]
+    fn the_jacobian_of_some_rows_equals_those_rows_of_the_whole() {
+        let (r, seq, _) = paper_rows();
+        let model = PlantFit::<Planar>::new(&r, &seq, SolveOptions::default());
+        let lay = layout(&r);
+        let mut p = vec![0.0; lay.total];
+        p[lay.find(Effect::HoleHeight).unwrap().0] = 1e-4;
+        let free: Vec<usize> = (0..lay.total).collect();
+        let state = model.settle(&p).unwrap();
+        let all = model.jacobian(&p, &state, &free, &[true; 12]).unwrap();
+        let some: Vec<bool> = (0..12).map(|i| i % 4 != 1).collect();
+        let part = model.jacobian(&p, &state, &free, &some).unwrap();
+        let per = all.len() / 12;
+        for (i, s) in some.iter().enumerate() {
+            let (a, b) = (&all[i * per..(i + 1) * per], &part[i * per..(i + 1) * per]);
+            if *s {
+                assert!(
+                    a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                    "row {i}"
+                );
+                assert!(a.iter().all(|v| v.is_finite()));
+            } else {
+                assert!(b.iter().all(|v| v.is_nan()), "row {i} not derived");
+            }
+        }
     }
 }

@@ -578,18 +578,24 @@ def test_candidates_are_fitted_together_within_a_budget_with_the_same_answer(mod
         np.testing.assert_array_equal(a.fit.p, b.fit.p)
 
 
+def _two_folds(mods, robot):
+    """Prepared hole-height data (base frame) and two folds' flags: every
+    usable row, every other one."""
+    meas = _data(mods["plant"], robot, {"hole_height": _typical(mods["plant"], robot, "hole_height", 3)}, 3)
+    prep = mods["diagnose"].prepare(robot, meas, "base")
+    scored = np.zeros((2, len(meas)), bool)
+    scored[0, prep.rows] = True
+    scored[1, prep.rows[::2]] = True
+    return prep, scored
+
+
 def test_fit_candidates_fits_each_candidate_as_alone_and_refuses_bad_indices(mods, robot, cdsm):
     """Several candidates in one call of the core (issue 34, item 4): each
     fit equals the candidate's fit alone; an index beyond the candidates,
     or one index short, is refused naming `candidate`."""
     from cdsm.calibration.fit import fit_candidates, fit_folds
 
-    diagnose = mods["diagnose"]
-    meas = _data(mods["plant"], robot, {"hole_height": _typical(mods["plant"], robot, "hole_height", 3)}, 3)
-    prep = diagnose.prepare(robot, meas, "base")
-    scored = np.zeros((2, len(meas)), bool)
-    scored[0, prep.rows] = True
-    scored[1, prep.rows[::2]] = True
+    prep, scored = _two_folds(mods, robot)
     cands = [["hole_height"], ["actuation_scale", "link_length"]]
     both = fit_candidates(prep, cands, np.vstack([scored, scored]), [1, 0, 0, 1])
     for f, c in zip(both, [(1, 0), (0, 1), (0, 0), (1, 1)]):
@@ -610,12 +616,7 @@ def test_fold_fits_carry_no_uncertainty_and_the_same_fit(mods, robot):
     predictions as one with them."""
     from cdsm.calibration.fit import fit_folds
 
-    diagnose = mods["diagnose"]
-    meas = _data(mods["plant"], robot, {"hole_height": _typical(mods["plant"], robot, "hole_height", 3)}, 3)
-    prep = diagnose.prepare(robot, meas, "base")
-    scored = np.zeros((2, len(meas)), bool)
-    scored[0, prep.rows] = True
-    scored[1, prep.rows[::2]] = True
+    prep, scored = _two_folds(mods, robot)
     some = fit_folds(prep, ["hole_height"], scored, uncertainty=[True, False])
     every = fit_folds(prep, ["hole_height"], scored)
     assert some[1].std is None and some[1].corr is None and some[1].singular is None
