@@ -14,7 +14,7 @@
 
 use crate::error::{CdsmError, Result};
 use crate::lm::{self, Damping, Lm, Problem, Step, Workspace};
-use crate::rows::split_rows;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Predictions of `K` plants for one data set: observations `(K, N, TASK)`
 /// (NaN for unmeasured rows and rows that did not settle), converged
@@ -51,8 +51,15 @@ pub trait FitModel: Sync {
     /// did not settle, and the flags).
     fn predictions(&self, state: &Self::State) -> Predictions;
     /// `(rows, width, k)` derivatives of the predictions with respect to the
-    /// parameters `free` at `p` (the state of [`FitModel::settle`] at `p`).
-    fn jacobian(&self, p: &[f64], state: &Self::State, free: &[usize]) -> Option<Vec<f64>>;
+    /// parameters `free` at `p` (the state of [`FitModel::settle`] at `p`),
+    /// of the rows flagged in `rows` (`(rows,)`; the others' may be NaN).
+    fn jacobian(
+        &self,
+        p: &[f64],
+        state: &Self::State,
+        free: &[usize],
+        rows: &[bool],
+    ) -> Option<Vec<f64>>;
     /// Whether a settle costs enough (an elastic arm's statics) that the fit
     /// also stops at a step small against the parameters' standard errors
     /// ([`SE_STEP`]); false: at [`MIN_DECREASE`] alone.
@@ -114,6 +121,8 @@ struct FitProblem<'a, M: FitModel> {
     /// (row, component) of every residual.
     index: Vec<(usize, usize)>,
     weight: Vec<f64>,
+    /// The rows with a residual (the Jacobian's rows needed).
+    rows: Vec<bool>,
     lo: Vec<f64>,
     hi: Vec<f64>,
     p: Vec<f64>,
@@ -133,6 +142,10 @@ impl<'a, M: FitModel> FitProblem<'a, M> {
                 }
             }
         }
+        let mut rows = vec![false; scored.len()];
+        for (i, _) in &index {
+            rows[*i] = true;
+        }
         let (blo, bhi) = spec.model.bounds();
         let lo = spec
             .free
@@ -150,6 +163,7 @@ impl<'a, M: FitModel> FitProblem<'a, M> {
             spec,
             index,
             weight: spec.model.weights(),
+            rows,
             lo,
             hi,
             p: spec.start.to_vec(),
@@ -204,7 +218,7 @@ impl<M: FitModel> Problem for FitProblem<'_, M> {
         if *p != self.p {
             return false;
         }
-        let Some(dj) = spec.model.jacobian(p, state, spec.free) else {
+        let Some(dj) = spec.model.jacobian(p, state, spec.free, &self.rows) else {
             return false;
         };
         let k = spec.free.len();
@@ -433,7 +447,29 @@ pub fn fit_folds<M: FitModel>(
     scored: &[bool],
     threads: usize,
 ) -> Result<Vec<FitResult>> {
-    let n_rows = spec.model.rows();
+    let folds = scored.len() / spec.model.rows().max(1);
+    fit_each(std::slice::from_ref(spec), &vec![0; folds], scored, threads)
+}
+
+/// Fits of several candidates on one data set: fit `f` fits the free
+/// parameters of `specs[which[f]]` on the rows `scored[f]` (`scored`: `(F,
+/// N)` flags, `which`: `(F,)`; the specs share the model). The fits run in
+/// parallel over `threads`, each thread taking the next fit not yet taken
+/// (fits differ in cost: a fixed share per thread would leave threads
+/// idle); each fit's result does not depend on the threads.
+pub fn fit_each<M: FitModel>(
+    specs: &[FitSpec<M>],
+    which: &[usize],
+    scored: &[bool],
+    threads: usize,
+) -> Result<Vec<FitResult>> {
+    let Some(first) = specs.first() else {
+        return Err(CdsmError::Option {
+            name: "free".into(),
+            problem: "needs at least one set of free parameters".into(),
+        });
+    };
+    let n_rows = first.model.rows();
     if n_rows == 0 || !scored.len().is_multiple_of(n_rows) {
         return Err(CdsmError::Shape {
             name: "scored".into(),
@@ -442,15 +478,67 @@ pub fn fit_folds<M: FitModel>(
         });
     }
     let folds = scored.len() / n_rows;
-    for f in 0..folds {
-        check(spec, &scored[f * n_rows..(f + 1) * n_rows])?;
+    if which.len() != folds {
+        return Err(CdsmError::Shape {
+            name: "candidate".into(),
+            expected: format!("{folds} indices, one per fit"),
+            got: format!("{} values", which.len()),
+        });
     }
-    let parts = split_rows(folds, threads, |range| {
-        range
-            .map(|f| fit_one(spec, &scored[f * n_rows..(f + 1) * n_rows]))
-            .collect::<Vec<_>>()
+    if let Some(c) = which.iter().find(|c| **c >= specs.len()) {
+        return Err(CdsmError::Option {
+            name: "candidate".into(),
+            problem: format!(
+                "index {c} is beyond the {} sets of free parameters",
+                specs.len()
+            ),
+        });
+    }
+    for f in 0..folds {
+        check(&specs[which[f]], &scored[f * n_rows..(f + 1) * n_rows])?;
+    }
+    Ok(queued(folds, threads, |f| {
+        fit_one(&specs[which[f]], &scored[f * n_rows..(f + 1) * n_rows])
+    }))
+}
+
+/// `work(0..count)` in order, over up to `threads` threads that each take
+/// the next index not yet taken; the calling thread works too (and alone
+/// where no thread can start).
+fn queued<T: Send>(count: usize, threads: usize, work: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    let threads = crate::rows::resolve_threads(threads).min(count.max(1));
+    if threads <= 1 {
+        return (0..count).map(work).collect();
+    }
+    let next = AtomicUsize::new(0);
+    let take = || {
+        let mut done = Vec::new();
+        loop {
+            let i = next.fetch_add(1, Ordering::Relaxed);
+            if i >= count {
+                return done;
+            }
+            done.push((i, work(i)));
+        }
+    };
+    let mut out: Vec<Option<T>> = (0..count).map(|_| None).collect();
+    std::thread::scope(|s| {
+        let helpers: Vec<_> = (1..threads)
+            .filter_map(|_| std::thread::Builder::new().spawn_scoped(s, take).ok())
+            .collect();
+        let mut parts = vec![take()];
+        parts.extend(
+            helpers
+                .into_iter()
+                .map(|h| h.join().expect("worker thread panicked")),
+        );
+        for (i, v) in parts.into_iter().flatten() {
+            out[i] = Some(v);
+        }
     });
-    Ok(parts.into_iter().flatten().collect())
+    out.into_iter()
+        .map(|v| v.expect("every index is taken once"))
+        .collect()
 }
 
 #[cfg(test)]
@@ -533,6 +621,125 @@ mod tests {
                     f.p[i],
                     truth[i]
                 );
+            }
+        }
+    }
+
+    /// The paper arm on 12 absolute rows with two effects hidden: the
+    /// model, the rows' sequence and their measurements.
+    fn paper_rows() -> (Model, Sequence, Vec<f64>) {
+        let r = Model::from_planar(&Robot::paper());
+        let lay = layout(&r);
+        let mut truth = vec![0.0; lay.total];
+        truth[lay.find(Effect::HoleHeight).unwrap().0] = 2e-4;
+        truth[lay.find(Effect::ActuationScale).unwrap().0] = 0.02;
+        let (mut th, mut dl) = (Vec::new(), Vec::new());
+        for i in 0..12 {
+            let a = i as f64 * 0.37;
+            th.extend_from_slice(&[
+                0.4 * a.sin(),
+                0.3 * (1.3 * a).cos(),
+                -0.35 * (0.7 * a).sin(),
+            ]);
+            dl.extend_from_slice(&[1e-3 * (2.1 * a).sin(), 0.0, -5e-4 * a.cos()]);
+        }
+        let kind = vec![RowKind::Absolute; 12];
+        let rows = Rows {
+            theta_cmd: &th,
+            dl: &dl,
+            kind: &kind,
+        };
+        let meas = predict(&r, &truth, &rows, &SolveOptions::default(), 1)
+            .unwrap()
+            .observation;
+        let seq = Sequence::new(&r, &rows).unwrap();
+        (r, seq, meas)
+    }
+
+    #[test]
+    fn candidates_fitted_together_equal_each_fitted_alone_whatever_the_threads() {
+        let (r, seq, meas) = paper_rows();
+        let model = PlantFit::<Planar>::new(&r, &seq, SolveOptions::default());
+        let lay = layout(&r);
+        let (scale, holes) = (
+            lay.find(Effect::ActuationScale).unwrap().0,
+            lay.find(Effect::HoleHeight).unwrap().0,
+        );
+        let start = vec![0.0; lay.total];
+        let frees = [vec![scale], vec![holes, holes + 1, scale]];
+        let scales = [vec![0.02], vec![2e-4, 2e-4, 0.02]];
+        let specs: Vec<_> = frees
+            .iter()
+            .zip(&scales)
+            .map(|(free, scale)| FitSpec {
+                model: &model,
+                measured: &meas,
+                free,
+                scale,
+                start: &start,
+                max_iter: 30,
+            })
+            .collect();
+        let folds: Vec<Vec<bool>> = (0..3)
+            .map(|f| (0..12).map(|i| f == 0 || i % 3 != f).collect())
+            .collect();
+        // fits 0..6: candidate 1, 0, 1, 0, 1, 0 on folds 0, 0, 1, 1, 2, 2
+        let which = [1, 0, 1, 0, 1, 0];
+        let scored: Vec<bool> = (0..6).flat_map(|f| folds[f / 2].clone()).collect();
+        for threads in [1, 2, 5] {
+            let together = fit_each(&specs, &which, &scored, threads).unwrap();
+            for (f, got) in together.iter().enumerate() {
+                let alone = fit_folds(&specs[which[f]], &folds[f / 2], 1).unwrap();
+                let want = &alone[0];
+                assert_eq!(got.p, want.p, "fit {f}, {threads} threads");
+                assert_eq!(got.cost.to_bits(), want.cost.to_bits());
+                assert_eq!(got.iterations, want.iterations);
+                assert_eq!(got.r_factor, want.r_factor);
+                assert_eq!(got.predictions, want.predictions);
+            }
+        }
+        let bad = fit_each(&specs, &[0, 2, 0, 0, 0, 0], &scored, 2).unwrap_err();
+        assert!(bad.to_string().contains("candidate"), "{bad}");
+        let short = fit_each(&specs, &[0, 1], &scored, 2).unwrap_err();
+        assert!(short.to_string().contains("candidate"), "{short}");
+    }
+
+    #[test]
+    fn a_queue_keeps_the_order_of_its_work() {
+        for threads in [1, 2, 7] {
+            let out = queued(23, threads, |i| {
+                // uneven work: later items finish first on other threads
+                std::thread::sleep(std::time::Duration::from_micros(((23 - i) * 50) as u64));
+                i * i
+            });
+            assert_eq!(out, (0..23).map(|i| i * i).collect::<Vec<_>>());
+        }
+        assert!(queued(0, 3, |i| i).is_empty());
+    }
+
+    #[test]
+    fn the_jacobian_of_some_rows_equals_those_rows_of_the_whole() {
+        let (r, seq, _) = paper_rows();
+        let model = PlantFit::<Planar>::new(&r, &seq, SolveOptions::default());
+        let lay = layout(&r);
+        let mut p = vec![0.0; lay.total];
+        p[lay.find(Effect::HoleHeight).unwrap().0] = 1e-4;
+        let free: Vec<usize> = (0..lay.total).collect();
+        let state = model.settle(&p).unwrap();
+        let all = model.jacobian(&p, &state, &free, &[true; 12]).unwrap();
+        let some: Vec<bool> = (0..12).map(|i| i % 4 != 1).collect();
+        let part = model.jacobian(&p, &state, &free, &some).unwrap();
+        let per = all.len() / 12;
+        for (i, s) in some.iter().enumerate() {
+            let (a, b) = (&all[i * per..(i + 1) * per], &part[i * per..(i + 1) * per]);
+            if *s {
+                assert!(
+                    a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits()),
+                    "row {i}"
+                );
+                assert!(a.iter().all(|v| v.is_finite()));
+            } else {
+                assert!(b.iter().all(|v| v.is_nan()), "row {i} not derived");
             }
         }
     }

@@ -1697,6 +1697,20 @@ impl Settled {
         free: &[usize],
         threads: usize,
     ) -> Result<Vec<f64>> {
+        self.jacobian_of(plant, seq, free, threads, None)
+    }
+
+    /// [`Settled::jacobian`] of the rows flagged in `rows` (`(N,)`; default
+    /// all): the commands no such row reads are not derived (their rows
+    /// NaN), except where friction carries a command's state to the next.
+    fn jacobian_of<G: Group>(
+        &self,
+        plant: &Plant<G>,
+        seq: &Sequence,
+        free: &[usize],
+        threads: usize,
+        rows: Option<&[bool]>,
+    ) -> Result<Vec<f64>> {
         let total = plant.p.len();
         if let Some(f) = free.iter().find(|f| **f >= total) {
             return Err(CdsmError::Option {
@@ -1710,16 +1724,28 @@ impl Settled {
             .lay
             .find(Effect::CableFriction)
             .is_some_and(|(o, _)| free.contains(&o));
+        // the commands derived: those settled that a flagged row reads
+        let mut ok = self.ok.clone();
+        if let Some(rows) = rows.filter(|r| r.len() == seq.rows()) {
+            let mut read = vec![false; ok.len()];
+            for ([a, b], _) in seq.span.iter().zip(rows).filter(|(_, r)| **r) {
+                read[*a] = true;
+                read[*b] = true;
+            }
+            for (o, r) in ok.iter_mut().zip(read) {
+                *o &= r;
+            }
+        }
         let dcmd = if plant.model.is_elastic() && (plant.prm.friction() || mu_free) {
             elastic_friction::command_derivatives(plant, seq, self, free, threads)
         } else if plant.model.is_elastic() {
-            elastic_settle::command_derivatives(plant, seq, &self.theta, &self.ok, free, threads)
+            elastic_settle::command_derivatives(plant, seq, &self.theta, &ok, free, threads)
         } else {
-            command_derivatives(plant, seq, &self.theta, &self.ok, free, threads)
+            command_derivatives(plant, seq, &self.theta, &ok, free, threads)
         };
         let mut jac = vec![f64::NAN; seq.rows() * task * kf];
         for (i, [a, b]) in seq.span.iter().enumerate() {
-            if !(self.ok[*a] && self.ok[*b]) || seq.reading[i] == RowKind::Unmeasured {
+            if !(ok[*a] && ok[*b]) || seq.reading[i] == RowKind::Unmeasured {
                 continue;
             }
             for c in 0..task {
@@ -2009,9 +2035,17 @@ impl<G: Group> FitModel for PlantFit<'_, G> {
         state.predictions(self.seq, self.width())
     }
 
-    fn jacobian(&self, p: &[f64], state: &Settled, free: &[usize]) -> Option<Vec<f64>> {
+    fn jacobian(
+        &self,
+        p: &[f64],
+        state: &Settled,
+        free: &[usize],
+        rows: &[bool],
+    ) -> Option<Vec<f64>> {
         let plant = Plant::<G>::new(self.model, p).ok()?;
-        state.jacobian(&plant, self.seq, free, self.threads).ok()
+        state
+            .jacobian_of(&plant, self.seq, free, self.threads, Some(rows))
+            .ok()
     }
 
     fn costly(&self) -> bool {

@@ -543,36 +543,70 @@ def test_repeats_with_readings_of_their_own_still_estimate_the_noise(mods, robot
     assert d.noise_estimate.source == "repeats" and d.noise_estimate.groups == 25
 
 
-def test_the_folds_are_fitted_a_few_at_a_time_with_the_same_answer(mods, robot, monkeypatch):
-    """Memory bounded by design (issue 32, item 11): the cross-validation
-    fits run as many folds at a time as the robot has worker threads (the
-    results of the others are not held at once; a progress line counts
-    them), and the answer is the one of all folds in one call — each fold's
-    fit is independent."""
+def test_candidates_are_fitted_together_within_a_budget_with_the_same_answer(mods, robot, monkeypatch):
+    """Memory bounded by design (issue 32, item 11) and threads kept busy
+    (issue 34, item 4): the candidates' fits (the fit on all rows and every
+    fold's) go to the core many candidates at a time, at most
+    ``FIT_ROWS_AT_ONCE`` fitted rows per call (one candidate at least), and
+    the answer is the one of one candidate per call — each fit is
+    independent, whichever thread takes it."""
     plant, diagnose = mods["plant"], mods["diagnose"]
     meas = _data(plant, robot, {"hole_height": _typical(plant, robot, "hole_height", 3)}, 3)
     calls = []
-    real = diagnose.fit_folds
+    real = diagnose.fit_candidates
 
-    def spy(prep, effects, scored, *a, **k):
-        calls.append(len(scored))
-        return real(prep, effects, scored, *a, **k)
+    def spy(prep, candidates, scored, *a, **k):
+        calls.append((len(candidates), len(scored)))
+        return real(prep, candidates, scored, *a, **k)
 
+    monkeypatch.setattr(diagnose, "fit_candidates", spy)
+    monkeypatch.setattr(diagnose, "FIT_ROWS_AT_ONCE", 1)
     r2 = robot.with_loads()  # a copy with its own thread count
     r2.threads = 2
-    monkeypatch.setattr(diagnose, "fit_folds", spy)
     d2 = diagnose.diagnose(r2, meas, folds=FOLDS, noise=NOISE, frame="base")
-    assert calls and max(calls) == 2 and set(calls) <= {1, 2}
+    assert calls and set(calls) == {(1, FOLDS + 1)}
     calls.clear()
-    r1 = robot.with_loads()
-    r1.threads = FOLDS + 1  # every fold (and the fit on all rows) in one call
-    d1 = diagnose.diagnose(r1, meas, folds=FOLDS, noise=NOISE, frame="base")
-    assert set(calls) == {FOLDS + 1}
+    monkeypatch.setattr(diagnose, "FIT_ROWS_AT_ONCE", 3 * (FOLDS + 1) * len(meas))
+    d1 = diagnose.diagnose(r2, meas, folds=FOLDS, noise=NOISE, frame="base")
+    # the single effects three at a time, then the candidates of each step together
+    assert calls[1] == (3, 3 * (FOLDS + 1)) and max(c for c, _ in calls) == 3
+    assert all(f == c * (FOLDS + 1) for c, f in calls)
     assert d1.best == d2.best == "hole_height"
     for a, b in zip([d1.baseline] + d1.singles, [d2.baseline] + d2.singles):
         assert a.name == b.name
         np.testing.assert_array_equal(a.heldout, b.heldout)
         np.testing.assert_array_equal(a.fit.p, b.fit.p)
+
+
+def _two_folds(mods, robot):
+    """Prepared hole-height data (base frame) and two folds' flags: every
+    usable row, every other one."""
+    meas = _data(mods["plant"], robot, {"hole_height": _typical(mods["plant"], robot, "hole_height", 3)}, 3)
+    prep = mods["diagnose"].prepare(robot, meas, "base")
+    scored = np.zeros((2, len(meas)), bool)
+    scored[0, prep.rows] = True
+    scored[1, prep.rows[::2]] = True
+    return prep, scored
+
+
+def test_fit_candidates_fits_each_candidate_as_alone_and_refuses_bad_indices(mods, robot, cdsm):
+    """Several candidates in one call of the core (issue 34, item 4): each
+    fit equals the candidate's fit alone; an index beyond the candidates,
+    or one index short, is refused naming `candidate`."""
+    from cdsm.calibration.fit import fit_candidates, fit_folds
+
+    prep, scored = _two_folds(mods, robot)
+    cands = [["hole_height"], ["actuation_scale", "link_length"]]
+    both = fit_candidates(prep, cands, np.vstack([scored, scored]), [1, 0, 0, 1])
+    for f, c in zip(both, [(1, 0), (0, 1), (0, 0), (1, 1)]):
+        alone = fit_folds(prep, cands[c[0]], scored[c[1]:c[1] + 1])[0]
+        assert f.effects == cands[c[0]]
+        np.testing.assert_array_equal(f.p, alone.p)
+        np.testing.assert_array_equal(f.prediction, alone.prediction)
+        np.testing.assert_array_equal(f.std, alone.std)
+    for bad in ([0, 2], [0]):
+        with pytest.raises(cdsm.CdsmInputError, match="candidate"):
+            fit_candidates(prep, cands, scored, bad)
 
 
 def test_fold_fits_carry_no_uncertainty_and_the_same_fit(mods, robot):
@@ -582,12 +616,7 @@ def test_fold_fits_carry_no_uncertainty_and_the_same_fit(mods, robot):
     predictions as one with them."""
     from cdsm.calibration.fit import fit_folds
 
-    diagnose = mods["diagnose"]
-    meas = _data(mods["plant"], robot, {"hole_height": _typical(mods["plant"], robot, "hole_height", 3)}, 3)
-    prep = diagnose.prepare(robot, meas, "base")
-    scored = np.zeros((2, len(meas)), bool)
-    scored[0, prep.rows] = True
-    scored[1, prep.rows[::2]] = True
+    prep, scored = _two_folds(mods, robot)
     some = fit_folds(prep, ["hole_height"], scored, uncertainty=[True, False])
     every = fit_folds(prep, ["hole_height"], scored)
     assert some[1].std is None and some[1].corr is None and some[1].singular is None

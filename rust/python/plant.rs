@@ -112,8 +112,13 @@ pub fn linearise(
 pub struct FitArgs<'a> {
     pub measured: &'a [f64],
     pub scored: &'a [bool],
+    /// The candidates' free parameters one after another (`widths[c]` of
+    /// candidate `c`), and their scales.
     pub free: &'a [usize],
     pub scale: &'a [f64],
+    pub widths: &'a [usize],
+    /// The candidate each fold's fit fits.
+    pub candidate: &'a [usize],
     pub start: &'a [f64],
     pub fit_iter: u32,
 }
@@ -129,15 +134,40 @@ fn fit_k<G: Group>(
     // threads the folds leave idle go to the Jacobian's rows
     let folds = a.scored.len() / seq.rows().max(1);
     m.threads = (crate::rows::resolve_threads(threads) / folds.max(1)).max(1);
-    let spec = FitSpec {
-        model: &m,
-        measured: a.measured,
-        free: a.free,
-        scale: a.scale,
-        start: a.start,
-        max_iter: a.fit_iter,
-    };
-    fit::fit_folds(&spec, a.scored, threads)
+    if a.widths.iter().sum::<usize>() != a.free.len() {
+        return Err(crate::error::CdsmError::Option {
+            name: "widths".into(),
+            problem: format!(
+                "the candidates' widths add up to {}, not to the {} free parameters",
+                a.widths.iter().sum::<usize>(),
+                a.free.len()
+            ),
+        });
+    }
+    if a.scale.len() != a.free.len() {
+        return Err(crate::error::CdsmError::Option {
+            name: "scale".into(),
+            problem: "needs one positive finite scale per free parameter".into(),
+        });
+    }
+    let mut at = 0;
+    let specs: Vec<_> = a
+        .widths
+        .iter()
+        .map(|w| {
+            let spec = FitSpec {
+                model: &m,
+                measured: a.measured,
+                free: &a.free[at..at + w],
+                scale: &a.scale[at..at + w],
+                start: a.start,
+                max_iter: a.fit_iter,
+            };
+            at += w;
+            spec
+        })
+        .collect();
+    fit::fit_each(&specs, a.candidate, a.scored, threads)
 }
 
 /// [`fit_k`] over the model's motion group.

@@ -816,8 +816,11 @@ impl CoreRobot {
     }
 
     /// Fits the plant parameters `free` (scaled by `scale`) from `start` on
-    /// every fold's scored rows (`scored (F, N)`), folds in parallel.
-    #[pyo3(signature = (theta_cmd, dl, kind, measured, scored, free, scale, start, tol, max_iter, fit_iter, threads))]
+    /// every fold's scored rows (`scored (F, N)`), folds in parallel. Several
+    /// candidates in one call: `free` holds their free parameters one after
+    /// another (`widths`: how many each; default one candidate) and
+    /// `candidate (F,)` says which each fold's fit fits (default the first).
+    #[pyo3(signature = (theta_cmd, dl, kind, measured, scored, free, scale, start, tol, max_iter, fit_iter, threads, widths=None, candidate=None))]
     #[allow(clippy::too_many_arguments)]
     fn plant_fit(
         &self,
@@ -834,13 +837,20 @@ impl CoreRobot {
         max_iter: u32,
         fit_iter: u32,
         threads: usize,
+        widths: Option<Vec<usize>>,
+        candidate: Option<Vec<usize>>,
     ) -> PyResult<Vec<PlantFit>> {
         let data = Data::of(&theta_cmd, &dl, &kind)?;
+        let widths = widths.unwrap_or_else(|| vec![free.len()]);
+        let fits = scored.len() / kind.len().max(1);
+        let candidate = candidate.unwrap_or_else(|| vec![0; fits]);
         let args = FitArgs {
             measured: slice("measured", &measured)?,
             scored: &scored,
             free: &free,
             scale: &scale,
+            widths: &widths,
+            candidate: &candidate,
             start: slice("start", &start)?,
             fit_iter,
         };

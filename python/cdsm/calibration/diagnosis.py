@@ -94,7 +94,6 @@ one reading per axis.
 from __future__ import annotations
 
 import itertools
-import os
 import warnings
 from dataclasses import dataclass, field
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -108,7 +107,7 @@ from ..inputs import CdsmDataWarning, CdsmInputError
 from ..progress import Progress
 from ..robot import Robot
 from . import plant, stats
-from .fit import Fit, fit_folds, free_parameters
+from .fit import Fit, fit_candidates, free_parameters
 from .measurements import KIND_CODES, Measurements, commanded_cables
 from ..display import ShortRepr
 
@@ -144,6 +143,9 @@ SCREEN_MARGIN = 1.25
 MAX_PARAMETER_SHARE = 0.5
 #: Outlier threshold, in noise standard deviations.
 OUTLIER_SIGMA = 5.0
+#: The most fitted rows (fits times the data set's rows) whose results a
+#: diagnosis holds at once: the candidates fitted in one call of the core.
+FIT_ROWS_AT_ONCE = 50_000
 
 
 def most_rows(outliers: int, rows: int) -> bool:
@@ -590,33 +592,47 @@ class _Scorer:
         self.base_error = base_error
 
     def evaluate(self, name: str, effects: Sequence[str]) -> Candidate:
-        """The candidate of ``effects``: its fit on every row and one fit per
-        fold, the folds a few at a time (as many as the robot's worker
-        threads, which run them in parallel), so that only their results are
-        held at once. Every fold starts from the same start as the fit on every
-        row: a fold started from that fit would start at a point its held-out
-        rows pulled on, and stop (an elastic fit stops within a tenth of a
-        standard error) nearer to it than to its own minimum."""
+        """The candidate of ``effects`` (:meth:`evaluate_all` of one)."""
+        return self.evaluate_all([(name, effects)])[0]
+
+    def evaluate_all(self, named: Sequence[Tuple[str, Sequence[str]]]) -> List[Candidate]:
+        """The candidates ``(name, effects)``: each one's fit on every row and
+        one fit per fold, many candidates' fits in one call of the core (its
+        worker threads take the fits one by one, so none waits for another
+        candidate's slowest fold), at most :data:`FIT_ROWS_AT_ONCE` fitted
+        rows' results held at once. Every fold starts from the same start
+        as the fit on every row: a fold started from that fit would start at
+        a point its held-out rows pulled on, and stop (an elastic fit stops
+        within a tenth of a standard error) nearer to it than to its own
+        minimum."""
         prep = self.prep
-        fitted = _fitted(prep, effects)
+        fitted = [_fitted(prep, effects) for _, effects in named]
         start = prep.start if prep.registered else np.zeros(plant.size(prep.robot))
-        held = np.full(len(prep.theta_cmd), np.nan)
-        k = plant.dims(prep.robot)
-        step = prep.robot.threads or os.cpu_count() or 1
-        full = None
-        for first in range(0, len(self.scored), step):
-            chunk = self.scored[first:first + step]
+        per = len(self.scored)
+        # whole candidates per call, as many as the budget of rows allows (one at least)
+        step = max(1, FIT_ROWS_AT_ONCE // max(per * len(prep.theta_cmd), 1))
+        out = []
+        for first in range(0, len(named), step):
+            part = range(first, min(first + step, len(named)))
             # the folds' fits serve their predictions only: no uncertainty
-            fits = fit_folds(prep, fitted, chunk, start, uncertainty=first + np.arange(len(chunk)) == 0)
-            for f, fit_ in enumerate(fits, start=first):
-                if f == 0:
-                    full = fit_
-                    continue
-                t = self.tests[f - 1]
-                if fit_.prediction is not None:
-                    held[t] = np.linalg.norm(fit_.prediction[t, :k] - prep.measured[t, :k], axis=1)
+            fits = fit_candidates(prep, [fitted[c] for c in part], np.tile(self.scored, (len(part), 1)),
+                                  np.repeat(np.arange(len(part)), per), start,
+                                  uncertainty=np.tile(np.arange(per) == 0, len(part)))
+            for j, c in enumerate(part):
+                out.append(self._candidate(named[c][0], list(named[c][1]), fitted[c], fits[j * per:(j + 1) * per]))
             if self.bar is not None:
                 self.bar.update(len(fits))
+        return out
+
+    def _candidate(self, name: str, effects: List[str], fitted: List[str], fits: List[Fit]) -> Candidate:
+        """The candidate from its fit on every row and its folds' fits."""
+        prep = self.prep
+        k = plant.dims(prep.robot)
+        held = np.full(len(prep.theta_cmd), np.nan)
+        full = fits[0]
+        for t, fit_ in zip(self.tests, fits[1:]):
+            if fit_.prediction is not None:
+                held[t] = np.linalg.norm(fit_.prediction[t, :k] - prep.measured[t, :k], axis=1)
         held = held[self.rows]
         fail = ~np.isfinite(held)
         if self.base_error is not None:
@@ -1223,6 +1239,19 @@ def _evaluated(scorer: "_Scorer", known: Dict[frozenset, Candidate], effects: Se
     return known[key]
 
 
+def _evaluated_all(scorer: "_Scorer", known: Dict[frozenset, Candidate],
+                   combos: Sequence[Sequence[str]]) -> List[Candidate]:
+    """:func:`_evaluated` of each of ``combos``, those not yet known fitted
+    together (:meth:`_Scorer.evaluate_all`), added to ``known`` in order."""
+    fresh: List[Sequence[str]] = []
+    for c in combos:
+        if frozenset(c) not in known and all(frozenset(c) != frozenset(f) for f in fresh):
+            fresh.append(c)
+    for c, cand in zip(fresh, scorer.evaluate_all([("+".join(c), list(c)) for c in fresh])):
+        known[frozenset(c)] = cand
+    return [known[frozenset(c)] for c in combos]
+
+
 def _prune(judge: _Judge, scorer: "_Scorer", known: Dict[frozenset, Candidate], chosen: Optional[Candidate],
            alpha: float) -> Tuple[Optional[Candidate], List[str]]:
     """Backward elimination of the chosen combination: while one of its
@@ -1231,7 +1260,7 @@ def _prune(judge: _Judge, scorer: "_Scorer", known: Dict[frozenset, Candidate], 
     loss hurts least. Returns the model kept and the effects dropped."""
     dropped: List[str] = []
     while chosen is not None and len(chosen.effects) >= 2:
-        subs = [_evaluated(scorer, known, [x for x in chosen.effects if x != e]) for e in chosen.effects]
+        subs = _evaluated_all(scorer, known, [[x for x in chosen.effects if x != e] for e in chosen.effects])
         weak = [(e, c) for e, c in zip(chosen.effects, subs)
                 if not judge.beats(chosen, c, alpha, "backward elimination")]
         if not weak:
@@ -1302,8 +1331,8 @@ def _search(judge: _Judge, scorer: "_Scorer", known: Dict[frozenset, Candidate],
     fresh = [c for c in ranked if frozenset(c) not in known][:SEARCH_FULL]
     fresh += [c for c in (combos[i] for i in fittable)
               if c in built and c not in fresh and frozenset(c) not in known][:SEARCH_TOP]
-    tried = [_evaluated(scorer, known, c) for c in ranked if frozenset(c) in known or c in fresh]
-    tried += [_evaluated(scorer, known, c) for c in fresh if c not in ranked]
+    tried = _evaluated_all(scorer, known, [c for c in ranked if frozenset(c) in known or c in fresh]
+                           + [c for c in fresh if c not in ranked])
 
     def beats(c: Candidate, other: Candidate) -> bool:
         return judge.beats(c, other, a, "search")
@@ -1457,9 +1486,7 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
     scorer.bar = bar
     base = scorer.evaluate("none", [])
     scorer.base_error = base.heldout
-    singles = []
-    for e in library:
-        singles.append(scorer.evaluate(e, [e]))
+    singles = scorer.evaluate_all([(e, [e]) for e in library])
     bar.finish()
     bar = Progress(None, "diagnose: selection, search and checks", progress, unit="fold fits")
     scorer.bar = bar
@@ -1479,7 +1506,7 @@ def diagnose(robot: Robot, meas: Measurements, effects: Optional[Sequence[str]] 
         rest = [c.name for c in singles if c.name not in chosen.effects]
         if not rest:
             break
-        trials = sorted((scorer.evaluate("+".join(chosen.effects + [e]), chosen.effects + [e]) for e in rest),
+        trials = sorted(scorer.evaluate_all([("+".join(chosen.effects + [e]), chosen.effects + [e]) for e in rest]),
                         key=lambda c: c.heldout_rms)
         nxt = trials[0]
         a = ALPHA / len(trials)

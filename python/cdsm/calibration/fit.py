@@ -85,20 +85,38 @@ def fit_folds(prep, effects: Sequence[str], scored: np.ndarray, start: Optional[
     deviations, correlation and singular values are computed (an SVD and a
     pseudo-inverse of the Jacobian each); the others carry ``None`` there
     (cross-validation folds need only their predictions)."""
+    sc = np.atleast_2d(np.asarray(scored, bool))
+    return fit_candidates(prep, [effects], sc, np.zeros(len(sc), int), start, max_iter, uncertainty)
+
+
+def fit_candidates(prep, candidates: Sequence[Sequence[str]], scored: np.ndarray, candidate: Sequence[int],
+                   start: Optional[np.ndarray] = None, max_iter: int = FIT_ITERATIONS,
+                   uncertainty=True) -> List[Fit]:
+    """:func:`fit_folds` of several candidates in one call of the Rust core:
+    fit ``f`` fits the effects ``candidates[candidate[f]]`` on the rows
+    ``scored[f]`` ((F, N) bool). The fits run in parallel, each worker
+    thread taking the next fit not yet taken; a fit's result does not
+    depend on the others or on the threads."""
     robot = prep.robot
-    idx, scale, names = free_parameters(robot, effects)
+    free = [free_parameters(robot, effects) for effects in candidates]
     sc = np.atleast_2d(np.asarray(scored, bool))
     if sc.shape[1] != len(prep.theta_cmd):
         raise CdsmInputError(f"`scored`: expected (F, {len(prep.theta_cmd)}) flags, got {sc.shape}")
+    which = np.asarray(candidate, int).reshape(-1)
+    if len(which) != len(sc) or ((which < 0) | (which >= len(candidates))).any():
+        raise CdsmInputError(f"`candidate`: expected {len(sc)} indices into the {len(candidates)} candidates, "
+                             f"got {which.tolist()}")
     p0 = np.zeros(plant.size(robot)) if start is None else as_array("start", start)
     o = prep.order
     raw = robot.core.plant_fit(np.ascontiguousarray(prep.theta_cmd[o]), np.ascontiguousarray(prep.dL[o]),
                                prep.kinds[o].tolist(), np.ascontiguousarray(prep.measured[o]),
-                               sc[:, o].reshape(-1).tolist(), idx.tolist(), scale.tolist(),
-                               np.ascontiguousarray(p0, float), 1e-12, 100, as_iterations("max_iter", max_iter),
-                               robot.threads)
+                               sc[:, o].reshape(-1).tolist(), [int(i) for f in free for i in f[0]],
+                               [float(v) for f in free for v in f[1]], np.ascontiguousarray(p0, float), 1e-12, 100,
+                               as_iterations("max_iter", max_iter), robot.threads,
+                               [len(f[0]) for f in free], which.tolist())
     want = np.broadcast_to(np.asarray(uncertainty, bool), (len(raw),))
-    return [_summary(list(effects), idx, scale, names, r, o, plant.width(robot), bool(u)) for r, u in zip(raw, want)]
+    return [_summary(list(candidates[c]), *free[c], r, o, plant.width(robot), bool(u))
+            for r, u, c in zip(raw, want, which)]
 
 
 def fit(prep, effects: Sequence[str], rows: Optional[np.ndarray] = None, start: Optional[np.ndarray] = None,
