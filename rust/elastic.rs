@@ -28,7 +28,7 @@
 
 use crate::chain::{Chain, Numbers};
 use crate::error::{check_finite, CdsmError, Result};
-use crate::kinds::{cross, Frame, Kind, Se3};
+use crate::kinds::{cross, Frame, KindInfo, Se3};
 use crate::model::{Mode, Model};
 use crate::rows::split_rows;
 use crate::solve::{CableMethod, SolveOptions};
@@ -102,7 +102,8 @@ pub struct Elastic {
     pairs: bool,
     /// Gravity acts on some mass.
     gravity: bool,
-    planar: bool,
+    /// The kind's facts: the width of its wrench and task rows.
+    kind: &'static KindInfo,
 }
 
 /// The commands of one row: commanded lengths of the position cables (m,
@@ -375,7 +376,7 @@ impl Elastic {
                 .all(|(d, disk)| disk.joints == (2 * d..2 * d + 2)),
             gravity: model.gravity.iter().any(|g| *g != 0.0)
                 && model.disks.iter().any(|d| d.mass > 0.0),
-            planar: model.kind == Kind::Planar,
+            kind: model.kind.info(),
         }
     }
 
@@ -389,24 +390,28 @@ impl Elastic {
         &self.ks
     }
 
-    /// The width of the tip wrench rows of the kind (planar `[Fx, Fy, Mz]`,
-    /// spatial `[Fx, Fy, Fz, Mx, My, Mz]`).
+    /// The width of the tip wrench rows of the kind: its task's (planar
+    /// `[Fx, Fy, Mz]`, spatial `[Fx, Fy, Fz, Mx, My, Mz]`).
     pub fn wrench_width(&self) -> usize {
-        if self.planar {
-            3
-        } else {
-            6
-        }
+        self.kind.task
     }
 
-    /// The base-frame `[F, M]` of a row of the kind's wrench; a spatial
-    /// tip moment is refused (no potential).
+    /// Where each component of the kind's task (or wrench) row sits in the
+    /// six of `[x, y, z, rx, ry, rz]` (or `[F, M]`): the first `dim` along
+    /// the axes, the `task - dim` rotations about the last of them (a
+    /// planar arm's about `z`).
+    fn task_rows(&self) -> Vec<usize> {
+        let (dim, task) = (self.kind.dim, self.kind.task);
+        (0..dim).chain(6 - (task - dim)..6).collect()
+    }
+
+    /// The base-frame `[F, M]` of a row of the kind's wrench; a tip moment
+    /// is refused where the kind rotates about more than one axis (no
+    /// potential).
     pub fn wrench(&self, row: &[f64]) -> Result<[f64; 6]> {
         check_finite("tip_wrench", row)?;
-        if self.planar {
-            return Ok([row[0], row[1], 0.0, 0.0, 0.0, row[2]]);
-        }
-        if row[3..6].iter().any(|v| *v != 0.0) {
+        let (dim, task) = (self.kind.dim, self.kind.task);
+        if task - dim > 1 && row[dim..task].iter().any(|v| *v != 0.0) {
             return Err(CdsmError::Option {
                 name: "tip_wrench".into(),
                 problem: "a spatial tip moment is not conservative (no potential); apply forces \
@@ -414,7 +419,13 @@ impl Elastic {
                     .into(),
             });
         }
-        Ok([row[0], row[1], row[2], 0.0, 0.0, 0.0])
+        let mut out = [0.0; 6];
+        out[..dim].copy_from_slice(&row[..dim]);
+        if task - dim == 1 {
+            // a moment about the one axis of rotation: `M phi` its potential
+            out[5] = row[dim];
+        }
+        Ok(out)
     }
 
     fn laws(&self, model: &Model, cmd: &Commands) -> Result<Laws> {
@@ -1600,11 +1611,7 @@ pub fn derivatives(
     }
     let (mp, md) = (el.pos.len(), el.dis.len());
     let t = el.wrench_width();
-    let task_rows: Vec<usize> = if el.planar {
-        vec![0, 1, 5]
-    } else {
-        (0..6).collect()
-    };
+    let task_rows = el.task_rows();
     let m = model.cables.len();
     let mut wr = Vec::with_capacity(rows);
     for i in 0..rows {
