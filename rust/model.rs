@@ -224,6 +224,17 @@ struct CableFile {
     max_tension: Option<f64>,
 }
 
+/// The numbers of an arm its planar view reads (m; joint axes unit): the
+/// model's own, or a plant's moved ones (`crate::chain::ArmNumbers`).
+pub struct PlanarNumbers<'a> {
+    pub axis: &'a [[f64; 3]],
+    pub offset: &'a [[f64; 3]],
+    pub link_after: &'a [[f64; 3]],
+    pub thickness: &'a [f64],
+    /// Per cable, its holes (as [`Cable::holes`]).
+    pub holes: &'a [Vec<[f64; 3]>],
+}
+
 /// Within this (of a unit axis's components) a joint's axis is
 /// perpendicular to, or along, its frame's `x` (the backbone): a bending or
 /// a torsion joint of a `[backbone]`.
@@ -654,6 +665,81 @@ impl Model {
             cable: robot.cable.clone(),
             planar: Some(Box::new(robot.clone())),
         }
+    }
+
+    /// The planar view of this arm with the numbers `nums` (the data of the
+    /// planar closed forms and SIMD kernels; `docs/model.md`): link `i`
+    /// before joint `i` is `offset[i][0]`, after it `link_after[i][0]`, the
+    /// holes' `(x, y)` in the layout `(2n, n+1, 2, 2)` (slots that are no
+    /// hole hold 0), the masses, lower tensions, joint limits, cable and
+    /// in-plane gravity the model's. `None` when the structure does not fit
+    /// the planar fast paths: a kind whose space is not the plane, a disk
+    /// with other than one joint, an axis other than `z`, an offset, link or
+    /// hole out of the plane, gravity with a `z`, or cables not in pairs
+    /// (cable `2i` position- and `2i + 1` force-controlled, both ending at
+    /// disk `i + 1`). The numbers are copied, no arithmetic.
+    pub fn planar_view(&self, nums: &PlanarNumbers) -> Option<Robot> {
+        let n = self.n();
+        let in_plane = |v: &[f64; 3]| v[1] == 0.0 && v[2] == 0.0;
+        let fits = self.kind.dim() == 2
+            && self.disks.len() == n
+            && self
+                .disks
+                .iter()
+                .enumerate()
+                .all(|(i, d)| d.joints == (i..i + 1))
+            && nums.axis.iter().all(|a| *a == [0.0, 0.0, 1.0])
+            && nums.offset.iter().all(in_plane)
+            && nums.link_after.iter().all(in_plane)
+            && self.gravity[2] == 0.0
+            && self.in_pairs()
+            && nums.holes.iter().flatten().all(|h| h[2] == 0.0);
+        if !fits {
+            return None;
+        }
+        let mut r = Robot {
+            name: self.name.clone(),
+            link_before: nums.offset.iter().map(|o| o[0]).collect(),
+            link_after: nums.link_after.iter().map(|o| o[0]).collect(),
+            thickness: nums.thickness.to_vec(),
+            mass: self.disks.iter().map(|d| d.mass).collect(),
+            lower_tension: (0..n).map(|i| self.cables[2 * i + 1].tension).collect(),
+            joint_limits: self.joints.iter().map(|j| j.limits).collect(),
+            holes: vec![0.0; 2 * n * (n + 1) * 4],
+            cable: self.cable.clone(),
+            gravity: [self.gravity[0], self.gravity[1]],
+        };
+        for (c, holes) in nums.holes.iter().enumerate() {
+            for (i, h) in holes.iter().enumerate() {
+                // i = 0: base face b; i = 2d - 1, 2d: disk d's faces a, b
+                let (d, f) = if i == 0 {
+                    (0, 1)
+                } else {
+                    (i.div_ceil(2), 1 - i % 2)
+                };
+                let k = r.hole_index(c, d, f);
+                r.holes[k] = h[0];
+                r.holes[k + 1] = h[1];
+            }
+        }
+        Some(r)
+    }
+
+    /// [`Model::planar_view`] of the model's own numbers.
+    #[cfg(test)]
+    fn own_planar_view(&self) -> Option<Robot> {
+        let axis: Vec<[f64; 3]> = self.joints.iter().map(|j| j.axis).collect();
+        let offset: Vec<[f64; 3]> = self.joints.iter().map(|j| j.offset).collect();
+        let link_after: Vec<[f64; 3]> = self.disks.iter().map(|d| d.link_after).collect();
+        let thickness: Vec<f64> = self.disks.iter().map(|d| d.thickness).collect();
+        let holes: Vec<Vec<[f64; 3]>> = self.cables.iter().map(|c| c.holes.clone()).collect();
+        self.planar_view(&PlanarNumbers {
+            axis: &axis,
+            offset: &offset,
+            link_after: &link_after,
+            thickness: &thickness,
+            holes: &holes,
+        })
     }
 
     /// The same arm with another cable material (validated).
@@ -1123,18 +1209,8 @@ impl Model {
                 .filter(|c| self.cables[*c].mode == mode)
                 .collect()
         };
-        // cables in pairs: 2k of them, cable 2i position and 2i + 1 force, both
-        // ending at disk i + 1 (a planar file's upper and lower cables)
         let k = self.disks.len();
-        let pairs = self.cables.len() == 2 * k
-            && self.cables.iter().enumerate().all(|(c, cable)| {
-                let mode = if c % 2 == 0 {
-                    Mode::Position
-                } else {
-                    Mode::Force
-                };
-                cable.end == c / 2 + 1 && cable.mode == mode
-            });
+        let pairs = self.in_pairs();
         let mut start = Vec::with_capacity(self.cables.len());
         let mut at = 0;
         for c in &self.cables {
@@ -1178,6 +1254,21 @@ impl Model {
             pairs,
             hole_groups,
         }
+    }
+
+    /// Whether the cables come in pairs: `2k` of them for `k` disks, cable
+    /// `2i` position- and `2i + 1` force-controlled, both ending at disk
+    /// `i + 1` (a planar file's upper and lower cables).
+    fn in_pairs(&self) -> bool {
+        self.cables.len() == 2 * self.disks.len()
+            && self.cables.iter().enumerate().all(|(c, cable)| {
+                let mode = if c % 2 == 0 {
+                    Mode::Position
+                } else {
+                    Mode::Force
+                };
+                cable.end == c / 2 + 1 && cable.mode == mode
+            })
     }
 
     /// Indices of the position-controlled cables (file order).
@@ -1344,6 +1435,104 @@ mod tests {
             }
             let back = Model::from_toml(&m.to_toml()).unwrap();
             assert_eq!(back, m, "{}", m.to_toml());
+        }
+    }
+
+    /// Planar robot texts: every packaged and example planar robot, and
+    /// test arms with explicit, uneven holes, loads, springs and 8 joints.
+    fn planar_texts() -> Vec<String> {
+        let mut t8 = String::from("name = \"t8\"\n");
+        for i in 0..8 {
+            t8 += &format!(
+                "[[linkage]]\nlink_before = 0.02\nlink_after = 0.02\nthickness = 0.008\nhole_height = {}\njoint_limits = [-0.6, 0.6]\n",
+                0.025 - 0.001 * i as f64
+            );
+        }
+        let uneven = "name = \"uneven\"\nn = 2\ngravity = [0.3, -9.7]\n\
+            [cable]\nyoungs_modulus = 2.1e11\ndiameter = 0.3e-3\nrouting_length = 0.4\nstretch_feed_forward = false\n\
+            [[linkage]]\nlink_before = 0.031\nlink_after = 0.029\nthickness = 0.007\nmass = 0.02\nlower_tension = 0.7\n\
+            joint_limits = [-0.5, 0.8]\nstiffness = 0.01\nrest_angle = 0.1\n\
+            upper_holes = [[0.001, 0.03], [-0.0005, 0.0291], [0.0002, 0.0305]]\n\
+            lower_holes = [[0.0, -0.028], [0.0003, -0.0299], [0.0, -0.031]]\n\
+            [[linkage]]\nlink_before = 0.02\nlink_after = 0.025\nthickness = 0.006\nmass = 0.01\nlower_tension = 0.2\n\
+            upper_holes = [[0.0, 0.02], [0.0, 0.021], [0.0, 0.022], [0.0011, 0.019], [0.0, 0.018]]\n\
+            lower_holes = [[0.0, -0.02], [0.0, -0.021], [0.0, -0.022], [0.0, -0.019], [-0.001, -0.017]]\n";
+        vec![
+            include_str!("../python/cdsm/robots/paper.toml").to_string(),
+            include_str!("../python/cdsm/robots/paper_reversed_weights.toml").to_string(),
+            include_str!("../python/cdsm/robots/paper_vertical.toml").to_string(),
+            include_str!("../python/cdsm/robots/paper_vertical_reversed_weights.toml").to_string(),
+            include_str!("../python/cdsm/robots/serpentine8.toml").to_string(),
+            include_str!("../examples/two_section_arm.toml").to_string(),
+            t8,
+            uneven.to_string(),
+        ]
+    }
+
+    #[test]
+    fn the_planar_view_is_the_planar_file_read_as_before() {
+        // field by field, bit for bit, against the planar reader of cdsm
+        // 0.2 (`Robot::from_toml`), holes' slots that are no hole included
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for text in planar_texts() {
+            // the old reader knows no joint springs (the model reader takes them out)
+            let rigid: String = text
+                .lines()
+                .filter(|l| !l.starts_with("stiffness") && !l.starts_with("rest_angle"))
+                .map(|l| format!("{l}\n"))
+                .collect();
+            let r = Robot::from_toml(&rigid).unwrap();
+            let m = Model::from_toml(&text).unwrap();
+            let v = m
+                .own_planar_view()
+                .expect("a planar file has the planar view");
+            assert_eq!(v.name, r.name);
+            assert_eq!(bits(&v.link_before), bits(&r.link_before), "{}", r.name);
+            assert_eq!(bits(&v.link_after), bits(&r.link_after), "{}", r.name);
+            assert_eq!(bits(&v.thickness), bits(&r.thickness), "{}", r.name);
+            assert_eq!(bits(&v.mass), bits(&r.mass), "{}", r.name);
+            assert_eq!(bits(&v.lower_tension), bits(&r.lower_tension), "{}", r.name);
+            assert_eq!(
+                bits(v.joint_limits.as_flattened()),
+                bits(r.joint_limits.as_flattened()),
+                "{}",
+                r.name
+            );
+            assert_eq!(bits(&v.holes), bits(&r.holes), "{}", r.name);
+            assert_eq!(bits(&v.gravity), bits(&r.gravity), "{}", r.name);
+            let c = |m: &CableMaterial| {
+                (
+                    m.youngs_modulus.to_bits(),
+                    m.diameter.to_bits(),
+                    m.routing_length.to_bits(),
+                    m.stretch_feed_forward,
+                )
+            };
+            assert_eq!(c(&v.cable), c(&r.cable), "{}", r.name);
+        }
+    }
+
+    #[test]
+    fn an_arm_out_of_the_plane_has_no_planar_view() {
+        let base = Model::from_toml(include_str!("../python/cdsm/robots/paper.toml")).unwrap();
+        assert!(base.own_planar_view().is_some());
+        let tilted = |f: &dyn Fn(&mut Model)| {
+            let mut m = base.clone();
+            f(&mut m);
+            m.own_planar_view()
+        };
+        assert!(tilted(&|m| m.joints[1].axis = [0.0, 1.0, 0.0]).is_none());
+        assert!(tilted(&|m| m.joints[0].offset[2] = 1e-3).is_none());
+        assert!(tilted(&|m| m.disks[2].link_after[1] = 1e-3).is_none());
+        assert!(tilted(&|m| m.cables[3].holes[2][2] = 1e-4).is_none());
+        assert!(tilted(&|m| m.gravity[2] = -9.8).is_none());
+        assert!(tilted(&|m| m.cables[1].mode = Mode::Position).is_none());
+        assert!(tilted(&|m| m.cables.truncate(5)).is_none());
+        for text in [
+            include_str!("../python/cdsm/robots/two_universal.toml"),
+            include_str!("../python/cdsm/robots/paper_spatial.toml"),
+        ] {
+            assert!(Model::from_toml(text).unwrap().own_planar_view().is_none());
         }
     }
 
