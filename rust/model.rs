@@ -135,9 +135,46 @@ pub struct Model {
     pub gravity: [f64; 3],
     pub cables: Vec<Cable>,
     pub cable: CableMaterial,
-    /// The planar description of a planar arm: the data of its closed forms
-    /// and SIMD kernels, made with the model ([`Model::planar`]).
-    planar: Option<Box<Robot>>,
+    /// Every disk's radius (and the base's) is the largest `|y|` of the holes
+    /// on it, kept so when the holes move (a planar file gives no radii).
+    pub radii_from_holes: bool,
+    /// [`Model::planar`], made when first asked.
+    view: ViewCache,
+}
+
+/// The planar view of a model once made ([`Model::planar`]): derived data,
+/// so a clone starts without it and equality ignores it. A model whose
+/// numbers change in place after its view was asked must be rebuilt (every
+/// `with_*` returns a new model).
+#[derive(Default)]
+struct ViewCache(std::sync::OnceLock<Option<Box<Robot>>>);
+
+impl Clone for ViewCache {
+    fn clone(&self) -> Self {
+        ViewCache::default()
+    }
+}
+
+impl PartialEq for ViewCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for ViewCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ViewCache")
+    }
+}
+
+/// The face of hole `i` of a cable (`0`: base face b; `2d - 1`, `2d`: faces
+/// a, b of disk `d`) as `(disk, face)` of the planar layout `(2n, n+1, 2, 2)`.
+fn pair_slot(i: usize) -> (usize, usize) {
+    if i == 0 {
+        (0, 1)
+    } else {
+        (i.div_ceil(2), 1 - i % 2)
+    }
 }
 
 #[derive(Deserialize)]
@@ -561,15 +598,6 @@ impl Model {
         ))
     }
 
-    /// This arm with the joint springs of `other` (same joints).
-    fn with_springs_of(mut self, other: &Model) -> Model {
-        for (j, o) in self.joints.iter_mut().zip(&other.joints) {
-            j.stiffness = o.stiffness;
-            j.rest = o.rest;
-        }
-        self
-    }
-
     /// Whether the arm has anything of "Elastic arms" (`docs/model.md`): a
     /// joint spring, a rest angle other than 0, or a displacement cable.
     pub fn is_elastic(&self) -> bool {
@@ -586,7 +614,7 @@ impl Model {
             .collect()
     }
 
-    /// A planar arm as the one model: joint `i` about `z` at the offset
+    /// The planar shorthand as the one model: joint `i` about `z` at the offset
     /// `(link_before[i], 0, 0)`, disk `i` at `link_after = (link_after[i], 0,
     /// 0)` with its mass at its centre `(thickness / 2, 0, 0)`; cable `2i`
     /// (upper) position-controlled and cable `2i + 1` (lower) force-controlled
@@ -621,26 +649,12 @@ impl Model {
                 }
             })
             .collect();
-        let radius = |d: usize| {
-            cables
-                .iter()
-                .filter(|c| c.end >= d)
-                .flat_map(|c| {
-                    let pts = if d == 0 {
-                        &c.holes[..1]
-                    } else {
-                        &c.holes[2 * d - 1..=2 * d]
-                    };
-                    pts.iter().map(|h| h[1].abs())
-                })
-                .fold(0.0f64, f64::max)
-        };
         let disks = (0..n)
             .map(|i| Disk {
                 joints: i..i + 1,
                 link_after: [robot.link_after[i], 0.0, 0.0],
                 thickness: robot.thickness[i],
-                radius: radius(i + 1),
+                radius: 0.0,
                 mass: robot.mass[i],
                 com: [robot.thickness[i] / 2.0, 0.0, 0.0],
             })
@@ -654,16 +668,43 @@ impl Model {
                 rest: 0.0,
             })
             .collect();
-        Model {
+        let mut model = Model {
             name: robot.name.clone(),
             kind: Kind::Planar,
             joints,
             disks,
-            base_radius: radius(0),
+            base_radius: 0.0,
             gravity: [robot.gravity[0], robot.gravity[1], 0.0],
             cables,
             cable: robot.cable.clone(),
-            planar: Some(Box::new(robot.clone())),
+            radii_from_holes: true,
+            view: ViewCache::default(),
+        };
+        model.set_radii_from_holes();
+        model
+    }
+
+    /// Sets every disk's radius (and the base's) to the largest `|y|` of
+    /// the holes on it.
+    fn set_radii_from_holes(&mut self) {
+        let radius = |d: usize| {
+            self.cables
+                .iter()
+                .filter(|c| c.end >= d)
+                .flat_map(|c| {
+                    let pts = if d == 0 {
+                        &c.holes[..1]
+                    } else {
+                        &c.holes[2 * d - 1..=2 * d]
+                    };
+                    pts.iter().map(|h| h[1].abs())
+                })
+                .fold(0.0f64, f64::max)
+        };
+        let radii: Vec<f64> = (0..=self.disks.len()).map(radius).collect();
+        self.base_radius = radii[0];
+        for (disk, r) in self.disks.iter_mut().zip(&radii[1..]) {
+            disk.radius = *r;
         }
     }
 
@@ -711,12 +752,7 @@ impl Model {
         };
         for (c, holes) in nums.holes.iter().enumerate() {
             for (i, h) in holes.iter().enumerate() {
-                // i = 0: base face b; i = 2d - 1, 2d: disk d's faces a, b
-                let (d, f) = if i == 0 {
-                    (0, 1)
-                } else {
-                    (i.div_ceil(2), 1 - i % 2)
-                };
+                let (d, f) = pair_slot(i);
                 let k = r.hole_index(c, d, f);
                 r.holes[k] = h[0];
                 r.holes[k + 1] = h[1];
@@ -726,7 +762,6 @@ impl Model {
     }
 
     /// [`Model::planar_view`] of the model's own numbers.
-    #[cfg(test)]
     fn own_planar_view(&self) -> Option<Robot> {
         let axis: Vec<[f64; 3]> = self.joints.iter().map(|j| j.axis).collect();
         let offset: Vec<[f64; 3]> = self.joints.iter().map(|j| j.offset).collect();
@@ -745,11 +780,6 @@ impl Model {
     /// The same arm with another cable material (validated).
     pub fn with_cable(&self, cable: CableMaterial) -> Result<Model> {
         cable.validate()?;
-        if let Some(p) = self.planar() {
-            let mut r = p.clone();
-            r.cable = cable;
-            return Ok(Model::from_planar(&r).with_springs_of(self));
-        }
         let mut m = self.clone();
         m.cable = cable;
         Ok(m)
@@ -881,10 +911,14 @@ impl Model {
         t
     }
 
-    /// The planar description of a planar arm (its fast paths' data), `None`
-    /// for a spatial one.
+    /// The planar view of this arm's own numbers (its planar fast paths'
+    /// data, [`Model::planar_view`]; made once), `None` when its structure
+    /// does not fit them.
     pub fn planar(&self) -> Option<&Robot> {
-        self.planar.as_deref()
+        self.view
+            .0
+            .get_or_init(|| self.own_planar_view().map(Box::new))
+            .as_deref()
     }
 
     /// The planar description for `call`, something only a planar arm has
@@ -905,39 +939,79 @@ impl Model {
         Ok(&self.planar_only("holes")?.holes)
     }
 
-    /// The same arm with other holes (m): a planar arm's in its layout
-    /// `(2n, n+1, 2, 2)` flat, another's every `[x, y, z]` flat (as
-    /// [`Model::flat_holes`]). `within_disks`: refuse a spatial hole outside
-    /// its disk, as a robot file does. The joint springs are kept.
+    /// The same arm with other holes (m): in the planar view's layout
+    /// `(2n, n+1, 2, 2)` flat for an arm that has one ([`Model::pair_holes`];
+    /// a slot no cable crosses is not read), else every `[x, y, z]` flat (as
+    /// [`Model::flat_holes`]). `within_disks`: refuse a hole outside its
+    /// disk, as a robot file does. The joint springs are kept.
     pub fn with_holes(&self, holes: &[f64], within_disks: bool) -> Result<Model> {
         crate::error::check_finite("holes", holes)?;
-        if let Some(r) = self.planar() {
-            return Ok(Model::from_planar(&r.with_holes(holes)?).with_springs_of(self));
-        }
-        let m = self.with_flat_holes(holes)?;
+        let m = match self.planar() {
+            Some(view) => self.with_flat_holes(&self.flat_of_pair_holes(view, holes)?)?,
+            None => self.with_flat_holes(holes)?,
+        };
         if within_disks {
             m.check_holes()?;
         }
         Ok(m)
     }
 
-    /// The same planar arm with other loads: lower-cable tensions `(n,)` N
-    /// and in-plane gravity `(2,)` m/s² (validated; the joint springs kept);
-    /// an error naming `with_loads` for another kind.
+    /// Every hole's `[x, y, z]` flat (as [`Model::flat_holes`], `z = 0`)
+    /// from `holes` in the layout `(2n, n+1, 2, 2)` flat of the arm's planar
+    /// `view`. A slot no cable crosses is no hole: it is not read (as no
+    /// kernel ever read it; [`Robot::hole_height_error_into`] writes the
+    /// base's face a too), and the view holds 0 there.
+    fn flat_of_pair_holes(&self, view: &Robot, holes: &[f64]) -> Result<Vec<f64>> {
+        let n = view.n();
+        if holes.len() != view.holes.len() {
+            return Err(bad(
+                "holes".into(),
+                format!(
+                    "needs shape (2n, n+1, 2, 2) = ({}, {}, 2, 2), got {} values",
+                    2 * n,
+                    n + 1,
+                    holes.len()
+                ),
+            ));
+        }
+        let mut flat = Vec::with_capacity(3 * holes.len() / 4);
+        for (c, cable) in self.cables.iter().enumerate() {
+            for i in 0..cable.holes.len() {
+                let (d, f) = pair_slot(i);
+                let k = view.hole_index(c, d, f);
+                flat.extend([holes[k], holes[k + 1], 0.0]);
+            }
+        }
+        Ok(flat)
+    }
+
+    /// The same arm with other loads: the force-controlled cables' tensions
+    /// (file order, N, finite and `>= 0`) and gravity (the kind's `dim`
+    /// components, m/s², base frame), validated; the joint springs kept.
     pub fn with_loads(&self, lower_tension: &[f64], gravity: &[f64]) -> Result<Model> {
-        let r = self.planar_only("with_loads")?;
-        if lower_tension.len() != r.n() || gravity.len() != 2 {
+        let force: Vec<usize> = (0..self.cables.len())
+            .filter(|c| self.cables[*c].mode == Mode::Force)
+            .collect();
+        let dim = self.kind.dim();
+        if lower_tension.len() != force.len() || gravity.len() != dim {
             return Err(CdsmError::Shape {
                 name: "lower_tension, gravity".into(),
-                expected: format!("({},) and (2,)", r.n()),
+                expected: format!("({},) and ({dim},)", force.len()),
                 got: format!("({},) and ({},)", lower_tension.len(), gravity.len()),
             });
         }
-        let mut r = r.clone();
-        r.lower_tension = lower_tension.to_vec();
-        r.gravity = [gravity[0], gravity[1]];
-        r.validate()?;
-        Ok(Model::from_planar(&r).with_springs_of(self))
+        let mut m = self.clone();
+        for (i, (&c, &t)) in force.iter().zip(lower_tension).enumerate() {
+            m.cables[c].tension = non_negative(format!("lower_tension[{i}]"), t, "N")?;
+        }
+        if gravity.iter().any(|g| !g.is_finite()) {
+            return Err(bad(
+                "gravity".into(),
+                format!("must be finite (m/s^2), got {gravity:?}"),
+            ));
+        }
+        m.gravity[..dim].copy_from_slice(gravity);
+        Ok(m)
     }
 
     /// Validates a spatial robot description (`docs/spatial.md`) given as
@@ -1154,7 +1228,8 @@ impl Model {
             gravity,
             cables,
             cable,
-            planar: None,
+            radii_from_holes: false,
+            view: ViewCache::default(),
         };
         robot.check_holes()?;
         robot.set_springs(&springs, spring_fields, "stiffness", "rest", f.backbone)?;
@@ -1364,9 +1439,11 @@ impl Model {
             .collect()
     }
 
-    /// The same robot with holes `flat` (as [`Self::flat_holes`]); no radius check
-    /// (errors of a few tenths of a mm may leave the disk in a study). A
-    /// planar arm's holes stay in its plane (`z` must be 0).
+    /// The same robot with holes `flat` (as [`Self::flat_holes`]; every
+    /// coordinate within ±[`MAX_LENGTH`]); no radius check (errors of a few
+    /// tenths of a mm may leave the disk in a study; radii taken from the
+    /// holes follow them). A planar arm's holes stay in its plane (`z` must
+    /// be 0).
     pub fn with_flat_holes(&self, flat: &[f64]) -> Result<Model> {
         let want: usize = self.cables.iter().map(|c| 3 * c.holes.len()).sum();
         if flat.len() != want {
@@ -1385,7 +1462,11 @@ impl Model {
                 k += 3;
             }
         }
-        if let Some(p) = self.planar() {
+        for (i, h) in flat.chunks_exact(3).enumerate() {
+            coordinates(format!("holes[{i}]"), [h[0], h[1], h[2]])?;
+        }
+        // an arm in the plane keeps its holes there
+        if self.kind.dim() == 2 {
             if let Some(i) = (0..flat.len() / 3).find(|i| flat[3 * i + 2] != 0.0) {
                 return Err(bad(
                     "holes".into(),
@@ -1395,20 +1476,9 @@ impl Model {
                     ),
                 ));
             }
-            let mut holes = p.holes.clone();
-            for (c, cable) in r.cables.iter().enumerate() {
-                for (i, h) in cable.holes.iter().enumerate() {
-                    let (d, f) = if i == 0 {
-                        (0, 1)
-                    } else {
-                        (i.div_ceil(2), 1 - i % 2)
-                    };
-                    let at = p.hole_index(c, d, f);
-                    holes[at] = h[0];
-                    holes[at + 1] = h[1];
-                }
-            }
-            r = Model::from_planar(&p.with_holes(&holes)?).with_springs_of(self);
+        }
+        if r.radii_from_holes {
+            r.set_radii_from_holes();
         }
         Ok(r)
     }
@@ -1430,9 +1500,6 @@ mod tests {
         ] {
             let mut m = Model::from_toml(text).unwrap();
             m.name = "arm \u{1F4AA} \"q\" \\ \t\u{7f}".into();
-            if let Some(p) = m.planar.as_mut() {
-                p.name = m.name.clone();
-            }
             let back = Model::from_toml(&m.to_toml()).unwrap();
             assert_eq!(back, m, "{}", m.to_toml());
         }
@@ -1534,6 +1601,59 @@ mod tests {
         ] {
             assert!(Model::from_toml(text).unwrap().own_planar_view().is_none());
         }
+    }
+
+    #[test]
+    fn a_planar_arms_new_holes_and_loads_are_its_view() {
+        let paper = Model::from_toml(include_str!("../python/cdsm/robots/paper.toml")).unwrap();
+        let v = paper.planar().unwrap().clone();
+        // move one hole: the view follows, the radius of its disk too
+        let mut holes = v.holes.clone();
+        let k = v.hole_index(4, 3, 1) + 1;
+        holes[k] = 0.04;
+        let moved = paper.with_holes(&holes, true).unwrap();
+        assert_eq!(moved.planar().unwrap().holes, holes);
+        assert_eq!(moved.disks[2].radius, 0.04);
+        assert_eq!(paper.planar().unwrap().holes, v.holes);
+        // a slot that is no hole is not read (the hole-height error writes
+        // the base's face a too): the view has 0 there
+        let mut h = holes.clone();
+        for (c, d, f) in [(0, 0, 0), (1, 2, 1), (5, 0, 0)] {
+            h[v.hole_index(c, d, f)] = 1e-3;
+        }
+        assert_eq!(
+            paper.with_holes(&h, true).unwrap().planar().unwrap().holes,
+            holes
+        );
+        // loads: the force cables' tensions and the plane's gravity
+        let loaded = paper.with_loads(&[0.1, 0.2, 0.3], &[0.0, -9.8]).unwrap();
+        let lv = loaded.planar().unwrap();
+        assert_eq!(lv.lower_tension, vec![0.1, 0.2, 0.3]);
+        assert_eq!(lv.gravity, [0.0, -9.8]);
+        let e = paper
+            .with_loads(&[0.1, -0.2, 0.3], &[0.0, 0.0])
+            .unwrap_err();
+        assert!(e.to_string().contains("lower_tension[1]"), "{e}");
+        let e = paper
+            .with_loads(&[0.1, 0.2, 0.3], &[0.0, f64::NAN])
+            .unwrap_err();
+        assert!(e.to_string().contains("gravity"), "{e}");
+    }
+
+    #[test]
+    fn a_spatial_arm_takes_loads_and_refuses_holes_past_a_kilometre() {
+        let m = Model::from_toml(include_str!("../python/cdsm/robots/two_universal.toml")).unwrap();
+        let force: Vec<usize> = m.structure().force;
+        let t: Vec<f64> = (0..force.len()).map(|i| 0.5 + i as f64).collect();
+        let loaded = m.with_loads(&t, &[0.0, 0.0, -9.8]).unwrap();
+        for (i, &c) in force.iter().enumerate() {
+            assert_eq!(loaded.cables[c].tension, t[i]);
+        }
+        assert_eq!(loaded.gravity, [0.0, 0.0, -9.8]);
+        let mut flat = m.flat_holes();
+        flat[4] = 2e3;
+        let e = m.with_holes(&flat, false).unwrap_err().to_string();
+        assert!(e.contains("`holes[1]`"), "{e}");
     }
 
     #[test]
