@@ -182,7 +182,7 @@ fn pair_slot(i: usize) -> (usize, usize) {
 struct File {
     kind: String,
     name: Option<String>,
-    gravity: Option<Exact<3>>,
+    gravity: Option<Vec<f64>>,
     cable: Option<MaterialFile>,
     base: BaseFile,
     linkage: Vec<LinkageFile>,
@@ -215,8 +215,54 @@ struct MaterialFile {
     diameter: f64,
     #[serde(default)]
     routing_length: f64,
-    #[serde(default = "crate::robot::feed_forward_default")]
+    #[serde(default = "feed_forward_default")]
     stretch_feed_forward: bool,
+}
+
+/// The planar shorthand of a robot file (`docs/model.md`): per linkage one
+/// joint about `z` and a pair of cables, desugared by [`Model::from_planar`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "RobotFile")] // the name its errors have shown
+struct ShorthandFile {
+    #[allow(dead_code)] // "planar" or none: the kind is read before
+    kind: Option<String>,
+    name: Option<String>,
+    n: Option<usize>,
+    gravity: Option<Exact<2>>,
+    cable: Option<MaterialFile>,
+    linkage: Vec<ShorthandLinkage>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "LinkageFile")]
+struct ShorthandLinkage {
+    link_before: f64,
+    link_after: f64,
+    thickness: f64,
+    hole_height: Option<f64>,
+    upper_holes: Option<Vec<Exact<2>>>,
+    lower_holes: Option<Vec<Exact<2>>>,
+    #[serde(default)]
+    mass: f64,
+    #[serde(default)]
+    lower_tension: f64,
+    joint_limits: Option<Exact<2>>,
+}
+
+/// A robot file's `[cable] stretch_feed_forward` when it does not say.
+fn feed_forward_default() -> bool {
+    true
+}
+
+/// A `[cable]` table as the material (not yet validated), the default
+/// material without one.
+fn material(c: Option<MaterialFile>) -> CableMaterial {
+    c.map_or_else(CableMaterial::default, |c| CableMaterial {
+        youngs_modulus: c.youngs_modulus,
+        diameter: c.diameter,
+        routing_length: c.routing_length,
+        stretch_feed_forward: c.stretch_feed_forward,
+    })
 }
 
 #[derive(Deserialize)]
@@ -270,6 +316,27 @@ pub struct PlanarNumbers<'a> {
     pub thickness: &'a [f64],
     /// Per cable, its holes (as [`Cable::holes`]).
     pub holes: &'a [Vec<[f64; 3]>],
+}
+
+/// A model's own numbers as [`PlanarNumbers`] read them.
+struct OwnNumbers {
+    axis: Vec<[f64; 3]>,
+    offset: Vec<[f64; 3]>,
+    link_after: Vec<[f64; 3]>,
+    thickness: Vec<f64>,
+    holes: Vec<Vec<[f64; 3]>>,
+}
+
+impl OwnNumbers {
+    fn numbers(&self) -> PlanarNumbers<'_> {
+        PlanarNumbers {
+            axis: &self.axis,
+            offset: &self.offset,
+            link_after: &self.link_after,
+            thickness: &self.thickness,
+            holes: &self.holes,
+        }
+    }
 }
 
 /// Within this (of a unit axis's components) a joint's axis is
@@ -412,9 +479,9 @@ fn kind_of_table(table: &toml::Table) -> Result<String> {
 }
 
 impl Model {
-    /// Parses and validates a robot description of either kind: a spatial
-    /// file as written, a planar file through [`Robot::from_table`] and
-    /// [`Model::from_planar`].
+    /// Parses and validates a robot description of either kind: the general
+    /// form as written, or a planar file's shorthand desugared
+    /// ([`Model::from_planar`]).
     pub fn from_toml(text: &str) -> Result<Model> {
         Model::from_table(toml_table(text)?)
     }
@@ -423,14 +490,16 @@ impl Model {
     /// parsed file, or data built as one (the same fields, the same checks,
     /// the same field paths in errors; no text in between).
     pub fn from_table(table: toml::Table) -> Result<Model> {
+        // a planar file in the shorthand has no [base] and no [[cables]]
+        let general = table.contains_key("base") || table.contains_key("cables");
         match kind_of_table(&table)?.as_str() {
-            "planar" => Model::from_planar_table(table),
-            _ => Model::from_spatial_table(table),
+            "planar" if !general => Model::from_planar_table(table),
+            _ => Model::from_general_table(table),
         }
     }
 
-    /// A planar description: [`Robot::from_table`] and [`Model::from_planar`],
-    /// with the joint springs of its `[[linkage]]` tables (`stiffness`,
+    /// A planar description: the shorthand read ([`Model::shorthand`]) and
+    /// desugared ([`Model::from_planar`]), with the joint springs of its `[[linkage]]` tables (`stiffness`,
     /// `rest_angle`) or of its `[backbone]` (`docs/model.md`, "Joint springs").
     fn from_planar_table(mut table: toml::Table) -> Result<Model> {
         let backbone = match table.remove("backbone") {
@@ -458,11 +527,111 @@ impl Model {
                 given.push((take("stiffness")?, take("rest_angle")?));
             }
         }
-        let mut model = Model::from_planar(&Robot::from_table(table)?);
+        let mut model = Model::from_planar(&Model::shorthand(table)?);
         let fields = (0..model.n()).map(|i| format!("linkage[{i}]")).collect();
         model.set_springs(&given, fields, "stiffness", "rest_angle", backbone)?;
         model.check_enough_cables()?;
         Ok(model)
+    }
+
+    /// Reads and checks the planar shorthand (without its joint springs) as
+    /// the planar view it describes: lengths, masses, lower tensions, joint
+    /// limits and the holes of each linkage's cable pair (`hole_height`, or
+    /// `upper_holes` and `lower_holes`), errors naming the field.
+    fn shorthand(table: toml::Table) -> Result<Robot> {
+        let file: ShorthandFile = from_table(table)?;
+        let n = file.linkage.len();
+        if n == 0 {
+            return Err(bad(
+                "linkage".into(),
+                "at least one [[linkage]] is required",
+            ));
+        }
+        if let Some(declared) = file.n {
+            if declared != n {
+                return Err(bad(
+                    "n".into(),
+                    format!("declares {declared} joints but {n} [[linkage]] tables are given"),
+                ));
+            }
+        }
+        let mut robot = Robot {
+            name: robot_name(file.name)?,
+            link_before: Vec::with_capacity(n),
+            link_after: Vec::with_capacity(n),
+            thickness: Vec::with_capacity(n),
+            mass: Vec::with_capacity(n),
+            lower_tension: Vec::with_capacity(n),
+            joint_limits: Vec::with_capacity(n),
+            holes: vec![0.0; 2 * n * (n + 1) * 4],
+            cable: material(file.cable),
+            gravity: file.gravity.map_or([0.0, 0.0], |g| g.0),
+        };
+        for (i, l) in file.linkage.iter().enumerate() {
+            let f = |name: &str| format!("linkage[{i}].{name}");
+            robot
+                .link_before
+                .push(positive_length(f("link_before"), l.link_before)?);
+            robot
+                .link_after
+                .push(positive_length(f("link_after"), l.link_after)?);
+            robot
+                .thickness
+                .push(positive_length(f("thickness"), l.thickness)?);
+            robot.mass.push(non_negative(f("mass"), l.mass, "kg")?);
+            robot
+                .lower_tension
+                .push(non_negative(f("lower_tension"), l.lower_tension, "N")?);
+            let lim = joint_limits(f("joint_limits"), l.joint_limits)?;
+            robot.joint_limits.push(lim);
+        }
+        for (i, l) in file.linkage.iter().enumerate() {
+            let f = |name: &str| format!("linkage[{i}].{name}");
+            let along = 2 * i + 3; // base face b, then faces a, b of disks 1..=i+1
+            let explicit = (l.upper_holes.as_ref(), l.lower_holes.as_ref());
+            let (upper, lower): (Vec<[f64; 2]>, Vec<[f64; 2]>) = match (l.hole_height, explicit) {
+                (Some(h), (None, None)) => {
+                    let h = positive_length(f("hole_height"), h)?;
+                    (vec![[0.0, h]; along], vec![[0.0, -h]; along])
+                }
+                (None, (Some(u), Some(w))) => (
+                    u.iter().map(|p| p.0).collect(),
+                    w.iter().map(|p| p.0).collect(),
+                ),
+                _ => {
+                    return Err(bad(
+                        f("hole_height"),
+                        "give either hole_height or both upper_holes and lower_holes",
+                    ))
+                }
+            };
+            for (side, pts) in [("upper_holes", &upper), ("lower_holes", &lower)] {
+                if pts.len() != along {
+                    return Err(bad(
+                        f(side),
+                        format!(
+                            "needs {along} [x, y] points (base face b, then faces a and b of disks 1..{}), got {}",
+                            i + 1,
+                            pts.len()
+                        ),
+                    ));
+                }
+                for (j, p) in pts.iter().enumerate() {
+                    coordinates(format!("linkage[{i}].{side}[{j}]"), *p)?;
+                }
+            }
+            for (s, pts) in [upper, lower].iter().enumerate() {
+                let c = 2 * i + s;
+                for (j, p) in pts.iter().enumerate() {
+                    let (d, face) = pair_slot(j);
+                    let k = robot.hole_index(c, d, face);
+                    robot.holes[k] = p[0];
+                    robot.holes[k + 1] = p[1];
+                }
+            }
+        }
+        robot.validate()?;
+        Ok(robot)
     }
 
     /// Sets every joint's spring (`docs/model.md`, "Joint springs"): as
@@ -720,24 +889,10 @@ impl Model {
     /// (cable `2i` position- and `2i + 1` force-controlled, both ending at
     /// disk `i + 1`). The numbers are copied, no arithmetic.
     pub fn planar_view(&self, nums: &PlanarNumbers) -> Option<Robot> {
-        let n = self.n();
-        let in_plane = |v: &[f64; 3]| v[1] == 0.0 && v[2] == 0.0;
-        let fits = self.kind.dim() == 2
-            && self.disks.len() == n
-            && self
-                .disks
-                .iter()
-                .enumerate()
-                .all(|(i, d)| d.joints == (i..i + 1))
-            && nums.axis.iter().all(|a| *a == [0.0, 0.0, 1.0])
-            && nums.offset.iter().all(in_plane)
-            && nums.link_after.iter().all(in_plane)
-            && self.gravity[2] == 0.0
-            && self.in_pairs()
-            && nums.holes.iter().flatten().all(|h| h[2] == 0.0);
-        if !fits {
+        if self.kind.dim() != 2 || self.planar_misfit(nums).is_some() {
             return None;
         }
+        let n = self.n();
         let mut r = Robot {
             name: self.name.clone(),
             link_before: nums.offset.iter().map(|o| o[0]).collect(),
@@ -761,20 +916,79 @@ impl Model {
         Some(r)
     }
 
+    /// The first thing in `nums` (and the model's structure) that keeps an
+    /// arm from the planar fast paths ([`Model::planar_view`]), as the field
+    /// of a general-form robot file that says it and the problem; `None`
+    /// when everything fits.
+    fn planar_misfit(&self, nums: &PlanarNumbers) -> Option<(String, String)> {
+        let along_x = |v: &[f64; 3]| v[1] == 0.0 && v[2] == 0.0;
+        for (k, d) in self.disks.iter().enumerate() {
+            if d.joints != (k..k + 1) {
+                let problem = "a planar arm has one joint per linkage, joint i in linkage i";
+                return Some((format!("linkage[{k}].joints"), problem.into()));
+            }
+            let field = |name: &str| format!("linkage[{k}].joints[0].{name}");
+            if nums.axis[k] != [0.0, 0.0, 1.0] {
+                let problem = format!(
+                    "a planar arm's joints turn about z: must be [0.0, 0.0, 1.0], got {:?}",
+                    nums.axis[k]
+                );
+                return Some((field("axis"), problem));
+            }
+            if !along_x(&nums.offset[k]) {
+                let problem = format!(
+                    "a planar arm's links lie along x: must be [x, 0.0, 0.0], got {:?}",
+                    nums.offset[k]
+                );
+                return Some((field("offset"), problem));
+            }
+            if !along_x(&nums.link_after[k]) {
+                let problem = format!(
+                    "a planar arm's links lie along x: must be [x, 0.0, 0.0], got {:?}",
+                    nums.link_after[k]
+                );
+                return Some((format!("linkage[{k}].link_after"), problem));
+            }
+        }
+        if self.disks.len() != self.n() {
+            let problem = "a planar arm has one joint per linkage";
+            return Some(("linkage".into(), problem.into()));
+        }
+        if !self.in_pairs() {
+            let problem = "a planar arm's cables come in pairs: cable 2i position- and 2i + 1 \
+                           force-controlled, both ending at disk i + 1";
+            return Some(("cables".into(), problem.into()));
+        }
+        for (c, holes) in nums.holes.iter().enumerate() {
+            if let Some(i) = holes.iter().position(|h| h[2] != 0.0) {
+                let problem = format!(
+                    "a planar arm's holes lie in its plane: z must be 0.0, got {:?}",
+                    holes[i]
+                );
+                return Some((format!("cables[{c}].holes[{i}]"), problem));
+            }
+        }
+        if self.gravity[2] != 0.0 {
+            let problem = "a planar arm's gravity lies in its plane";
+            return Some(("gravity".into(), problem.into()));
+        }
+        None
+    }
+
     /// [`Model::planar_view`] of the model's own numbers.
     fn own_planar_view(&self) -> Option<Robot> {
-        let axis: Vec<[f64; 3]> = self.joints.iter().map(|j| j.axis).collect();
-        let offset: Vec<[f64; 3]> = self.joints.iter().map(|j| j.offset).collect();
-        let link_after: Vec<[f64; 3]> = self.disks.iter().map(|d| d.link_after).collect();
-        let thickness: Vec<f64> = self.disks.iter().map(|d| d.thickness).collect();
-        let holes: Vec<Vec<[f64; 3]>> = self.cables.iter().map(|c| c.holes.clone()).collect();
-        self.planar_view(&PlanarNumbers {
-            axis: &axis,
-            offset: &offset,
-            link_after: &link_after,
-            thickness: &thickness,
-            holes: &holes,
-        })
+        self.planar_view(&self.own_numbers().numbers())
+    }
+
+    /// The model's own numbers, gathered for [`PlanarNumbers`].
+    fn own_numbers(&self) -> OwnNumbers {
+        OwnNumbers {
+            axis: self.joints.iter().map(|j| j.axis).collect(),
+            offset: self.joints.iter().map(|j| j.offset).collect(),
+            link_after: self.disks.iter().map(|d| d.link_after).collect(),
+            thickness: self.disks.iter().map(|d| d.thickness).collect(),
+            holes: self.cables.iter().map(|c| c.holes.clone()).collect(),
+        }
     }
 
     /// The same arm with another cable material (validated).
@@ -785,9 +999,9 @@ impl Model {
         Ok(m)
     }
 
-    /// A robot file (TOML, SI units) that rebuilds this arm exactly: a
-    /// planar arm in the planar format (explicit holes), a spatial one in
-    /// the spatial format (explicit holes); every float in its shortest
+    /// A robot file (TOML, SI units) that rebuilds this arm exactly: an arm
+    /// read from the planar shorthand in it ([`Model::radii_from_holes`]),
+    /// any other in the general form (explicit holes either way); every float in its shortest
     /// round-trip form, the name in any Unicode.
     pub fn to_toml(&self) -> String {
         let mut t = String::new();
@@ -801,9 +1015,10 @@ impl Model {
             "# written by cdsm (Robot.to_toml); SI units: m, kg, N, rad, Pa, m/s^2".into(),
         );
         // the form of the file: the planar shorthand (its kind the default)
-        // for an arm that has it, else the general form, which names its kind
-        let shorthand = self.planar();
-        if shorthand.is_none() {
+        // for an arm read from it (its radii are its holes': the shorthand
+        // gives none), else the general form, which names its kind
+        let shorthand = self.radii_from_holes;
+        if !shorthand {
             line(w, format!("kind = {}", toml_string(self.kind.name())));
         }
         line(w, format!("name = {}", toml_string(&self.name)));
@@ -823,18 +1038,19 @@ impl Model {
         if !self.cable.stretch_feed_forward {
             line(w, "stretch_feed_forward = false".into());
         }
-        if let Some(r) = shorthand {
-            line(w, format!("\n# {} linkages", r.n()));
-            for i in 0..r.n() {
+        if shorthand {
+            line(w, format!("\n# {} linkages", self.n()));
+            for i in 0..self.n() {
+                let (joint, disk) = (&self.joints[i], &self.disks[i]);
                 line(w, String::new());
                 line(w, "[[linkage]]".into());
-                line(w, format!("link_before = {}", toml_f(r.link_before[i])));
-                line(w, format!("link_after = {}", toml_f(r.link_after[i])));
-                line(w, format!("thickness = {}", toml_f(r.thickness[i])));
-                line(w, format!("mass = {}", toml_f(r.mass[i])));
-                line(w, format!("lower_tension = {}", toml_f(r.lower_tension[i])));
-                line(w, format!("joint_limits = {}", toml_fs(&r.joint_limits[i])));
-                let joint = &self.joints[i];
+                line(w, format!("link_before = {}", toml_f(joint.offset[0])));
+                line(w, format!("link_after = {}", toml_f(disk.link_after[0])));
+                line(w, format!("thickness = {}", toml_f(disk.thickness)));
+                line(w, format!("mass = {}", toml_f(disk.mass)));
+                let lower = self.cables[2 * i + 1].tension;
+                line(w, format!("lower_tension = {}", toml_f(lower)));
+                line(w, format!("joint_limits = {}", toml_fs(&joint.limits)));
                 if joint.stiffness != 0.0 || joint.rest != 0.0 {
                     line(w, format!("stiffness = {}", toml_f(joint.stiffness)));
                     line(w, format!("rest_angle = {}", toml_f(joint.rest)));
@@ -1014,41 +1230,43 @@ impl Model {
         Ok(m)
     }
 
-    /// Validates a spatial robot description (`docs/spatial.md`) given as
-    /// its table.
-    fn from_spatial_table(table: toml::Table) -> Result<Model> {
+    /// Validates a robot description in the general form (`docs/spatial.md`:
+    /// joints, disks and `[[cables]]` as written) given as its table; a
+    /// planar one (`kind = "planar"`, gravity `[gx, gy]`) must fit the
+    /// plane: one joint about `z` per linkage, links along `x`, holes in the
+    /// plane and cables in pairs ([`Model::planar_view`]).
+    fn from_general_table(table: toml::Table) -> Result<Model> {
         let f: File = from_table(table)?;
-        if f.kind != "spatial" {
+        let Some(kind) = Kind::named(&f.kind) else {
             return Err(bad(
                 "kind".into(),
-                format!("expected \"spatial\", got {:?}", f.kind),
+                format!("must be \"planar\" or \"spatial\", got {:?}", f.kind),
             ));
-        }
+        };
         if f.linkage.is_empty() {
             return Err(bad(
                 "linkage".into(),
                 "at least one [[linkage]] is required",
             ));
         }
-        let cable = match f.cable {
-            Some(c) => {
-                let m = CableMaterial {
-                    youngs_modulus: c.youngs_modulus,
-                    diameter: c.diameter,
-                    routing_length: c.routing_length,
-                    stretch_feed_forward: c.stretch_feed_forward,
-                };
-                m.validate()?;
-                m
+        let cable = material(f.cable);
+        cable.validate()?;
+        // the kind's dim components (the rest 0)
+        let mut gravity = [0.0; 3];
+        if let Some(g) = f.gravity {
+            if g.len() != kind.dim() {
+                return Err(bad(
+                    "gravity".into(),
+                    format!(
+                        "invalid length {}, expected exactly {} numbers",
+                        g.len(),
+                        kind.dim()
+                    ),
+                ));
             }
-            None => CableMaterial {
-                youngs_modulus: 1.8e11,
-                diameter: 0.18e-3,
-                routing_length: 0.0,
-                stretch_feed_forward: true,
-            },
-        };
-        let gravity = finite3("gravity", f.gravity.map_or([0.0; 3], |g| g.0))?;
+            gravity[..g.len()].copy_from_slice(&g);
+        }
+        let gravity = finite3("gravity", gravity)?;
         let base_radius = positive_length("base.radius".into(), f.base.radius)?;
         let (mut joints, mut disks) = (Vec::new(), Vec::new());
         let (mut springs, mut spring_fields) = (Vec::new(), Vec::new());
@@ -1221,7 +1439,7 @@ impl Model {
         }
         let mut robot = Model {
             name: robot_name(f.name)?,
-            kind: Kind::Spatial,
+            kind,
             joints,
             disks,
             base_radius,
@@ -1231,6 +1449,13 @@ impl Model {
             radii_from_holes: false,
             view: ViewCache::default(),
         };
+        if kind.dim() == 2 {
+            // the planar kind's task is the plane's: its fast paths must fit
+            let own = robot.own_numbers();
+            if let Some((field, problem)) = robot.planar_misfit(&own.numbers()) {
+                return Err(bad(field, problem));
+            }
+        }
         robot.check_holes()?;
         robot.set_springs(&springs, spring_fields, "stiffness", "rest", f.backbone)?;
         robot.check_enough_cables()?;
@@ -1484,6 +1709,29 @@ impl Model {
     }
 }
 
+/// The paper's prototype (Table 1), shipped with the Python package.
+pub const PAPER_TOML: &str = include_str!("../python/cdsm/robots/paper.toml");
+
+impl Robot {
+    /// The planar view of the paper's 3-DOF prototype (Table 1; lower
+    /// cables 50, 10, 5 g; ±35°).
+    pub fn paper() -> Robot {
+        Robot::from_toml(PAPER_TOML).expect("the shipped paper robot is valid")
+    }
+
+    /// The planar view ([`Model::planar`]) of the arm a robot file
+    /// describes; an error naming `kind` for an arm without one.
+    pub fn from_toml(text: &str) -> Result<Robot> {
+        let model = Model::from_toml(text)?;
+        model.own_planar_view().ok_or_else(|| {
+            bad(
+                "kind".into(),
+                format!("a {} arm has no planar view", model.kind.name()),
+            )
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1536,19 +1784,103 @@ mod tests {
         ]
     }
 
+    /// A planar file's description read straight from its TOML table by
+    /// this test (no checks): the oracle of the planar view.
+    fn read_by_hand(text: &str) -> Robot {
+        let t: toml::Table = text.parse().unwrap();
+        let num = |v: &toml::Value| {
+            v.as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .unwrap()
+        };
+        let pair = |v: &toml::Value| {
+            let a = v.as_array().unwrap();
+            [num(&a[0]), num(&a[1])]
+        };
+        let links = t["linkage"].as_array().unwrap();
+        let n = links.len();
+        let each = |k: &str, default: f64| -> Vec<f64> {
+            links
+                .iter()
+                .map(|l| l.get(k).map_or(default, num))
+                .collect()
+        };
+        let mut holes = vec![0.0; 2 * n * (n + 1) * 4];
+        for (i, l) in links.iter().enumerate() {
+            let along = 2 * i + 3;
+            let (upper, lower): (Vec<[f64; 2]>, Vec<[f64; 2]>) = match l.get("hole_height") {
+                Some(h) => (vec![[0.0, num(h)]; along], vec![[0.0, -num(h)]; along]),
+                None => (
+                    l["upper_holes"]
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .map(pair)
+                        .collect(),
+                    l["lower_holes"]
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .map(pair)
+                        .collect(),
+                ),
+            };
+            for (side, pts) in [upper, lower].iter().enumerate() {
+                let c = 2 * i + side;
+                for (j, p) in pts.iter().enumerate() {
+                    // base face b, then faces a and b of disks 1, 2, ...
+                    let (d, f) = if j == 0 {
+                        (0, 1)
+                    } else {
+                        (j.div_ceil(2), (j + 1) % 2)
+                    };
+                    let k = ((c * (n + 1) + d) * 2 + f) * 2;
+                    holes[k] = p[0];
+                    holes[k + 1] = p[1];
+                }
+            }
+        }
+        let cable = t.get("cable");
+        let of_cable = |k: &str, default: f64| cable.and_then(|c| c.get(k)).map_or(default, num);
+        Robot {
+            name: t
+                .get("name")
+                .map_or("unnamed", |v| v.as_str().unwrap())
+                .into(),
+            link_before: each("link_before", f64::NAN),
+            link_after: each("link_after", f64::NAN),
+            thickness: each("thickness", f64::NAN),
+            mass: each("mass", 0.0),
+            lower_tension: each("lower_tension", 0.0),
+            joint_limits: links
+                .iter()
+                .map(|l| {
+                    l.get("joint_limits")
+                        .map_or([-std::f64::consts::PI, std::f64::consts::PI], pair)
+                })
+                .collect(),
+            holes,
+            cable: CableMaterial {
+                youngs_modulus: of_cable("youngs_modulus", 1.8e11),
+                diameter: of_cable("diameter", 0.18e-3),
+                routing_length: of_cable("routing_length", 0.0),
+                stretch_feed_forward: cable
+                    .and_then(|c| c.get("stretch_feed_forward"))
+                    .is_none_or(|v| v.as_bool().unwrap()),
+            },
+            gravity: t.get("gravity").map_or([0.0, 0.0], pair),
+        }
+    }
+
     #[test]
     fn the_planar_view_is_the_planar_file_read_as_before() {
-        // field by field, bit for bit, against the planar reader of cdsm
-        // 0.2 (`Robot::from_toml`), holes' slots that are no hole included
+        // field by field, bit for bit, against the file read by hand (the
+        // planar description of cdsm 0.2, `Robot::from_toml`, was checked
+        // equal before its reader became the model's), holes' slots that are
+        // no hole included
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
         for text in planar_texts() {
-            // the old reader knows no joint springs (the model reader takes them out)
-            let rigid: String = text
-                .lines()
-                .filter(|l| !l.starts_with("stiffness") && !l.starts_with("rest_angle"))
-                .map(|l| format!("{l}\n"))
-                .collect();
-            let r = Robot::from_toml(&rigid).unwrap();
+            let r = read_by_hand(&text);
             let m = Model::from_toml(&text).unwrap();
             let v = m
                 .own_planar_view()
@@ -1580,6 +1912,62 @@ mod tests {
     }
 
     #[test]
+    fn a_planar_arm_reads_in_the_general_form_too() {
+        let mut read = 0;
+        for text in planar_texts() {
+            let short = Model::from_toml(&text).unwrap();
+            if short
+                .cables
+                .iter()
+                .any(|c| c.mode == Mode::Force && c.tension == 0.0)
+            {
+                continue; // the general form's force cables pull (tension > 0)
+            }
+            let mut general = short.clone();
+            general.radii_from_holes = false;
+            let written = general.to_toml();
+            assert!(
+                written.contains("kind = \"planar\"") && written.contains("[[cables]]"),
+                "{written}"
+            );
+            let back = Model::from_toml(&written).unwrap();
+            assert_eq!(back, general);
+            let view = |m: &Model| format!("{:?}", m.own_planar_view().unwrap());
+            assert_eq!(view(&back), view(&short));
+            read += 1;
+        }
+        assert!(read >= 5, "{read}");
+        // what does not fit the plane is refused, naming the field
+        let mut paper = Model::from_toml(PAPER_TOML).unwrap();
+        paper.radii_from_holes = false;
+        let text = paper.to_toml();
+        let refused = |t: String, field: &str| {
+            let e = Model::from_toml(&t).unwrap_err().to_string();
+            assert!(e.contains(&format!("`{field}`")), "{field}: {e}");
+        };
+        let about_y = text.replacen("axis = [0.0, 0.0, 1.0]", "axis = [0.0, 1.0, 0.0]", 1);
+        refused(about_y, "linkage[0].joints[0].axis");
+        let off_axis = text.replacen(
+            "offset = [0.033, 0.0, 0.0]",
+            "offset = [0.033, 0.001, 0.0]",
+            1,
+        );
+        assert_ne!(off_axis, text);
+        refused(off_axis, "linkage[0].joints[0].offset");
+        refused(
+            text.replacen("gravity = [0.0, 0.0]", "gravity = [0.0, 0.0, -9.8]", 1),
+            "gravity",
+        );
+        let one_cable_less = text.replacen("[[cables]]\nend = 1\nmode = \"position\"", "[[c]]", 1);
+        let cut = one_cable_less.find("[[c]]").unwrap();
+        let next = cut + one_cable_less[cut..].find("\n\n").unwrap();
+        refused(
+            format!("{}{}", &one_cable_less[..cut], &one_cable_less[next + 2..]),
+            "cables",
+        );
+    }
+
+    #[test]
     fn an_arm_out_of_the_plane_has_no_planar_view() {
         let base = Model::from_toml(include_str!("../python/cdsm/robots/paper.toml")).unwrap();
         assert!(base.own_planar_view().is_some());
@@ -1605,29 +1993,27 @@ mod tests {
 
     #[test]
     fn a_planar_arms_new_holes_and_loads_are_its_view() {
+        let view = |m: &Model| m.planar().expect("a planar arm has its view").clone();
         let paper = Model::from_toml(include_str!("../python/cdsm/robots/paper.toml")).unwrap();
-        let v = paper.planar().unwrap().clone();
+        let v = view(&paper);
         // move one hole: the view follows, the radius of its disk too
         let mut holes = v.holes.clone();
         let k = v.hole_index(4, 3, 1) + 1;
         holes[k] = 0.04;
         let moved = paper.with_holes(&holes, true).unwrap();
-        assert_eq!(moved.planar().unwrap().holes, holes);
+        assert_eq!(view(&moved).holes, holes);
         assert_eq!(moved.disks[2].radius, 0.04);
-        assert_eq!(paper.planar().unwrap().holes, v.holes);
+        assert_eq!(view(&paper).holes, v.holes);
         // a slot that is no hole is not read (the hole-height error writes
         // the base's face a too): the view has 0 there
         let mut h = holes.clone();
         for (c, d, f) in [(0, 0, 0), (1, 2, 1), (5, 0, 0)] {
             h[v.hole_index(c, d, f)] = 1e-3;
         }
-        assert_eq!(
-            paper.with_holes(&h, true).unwrap().planar().unwrap().holes,
-            holes
-        );
+        assert_eq!(view(&paper.with_holes(&h, true).unwrap()).holes, holes);
         // loads: the force cables' tensions and the plane's gravity
         let loaded = paper.with_loads(&[0.1, 0.2, 0.3], &[0.0, -9.8]).unwrap();
-        let lv = loaded.planar().unwrap();
+        let lv = view(&loaded);
         assert_eq!(lv.lower_tension, vec![0.1, 0.2, 0.3]);
         assert_eq!(lv.gravity, [0.0, -9.8]);
         let e = paper
