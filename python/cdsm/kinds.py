@@ -408,11 +408,12 @@ SPATIAL = Kind(
                       rotation_error=lambda d: np.linalg.norm(d, axis=1)),
     cable_numbers=True,
     allocation=dict(equal_effect="per_group",
-                    weights="{count} positive{finite} numbers ({m} position-controlled cables then {groups} cables' "
+                    weights="{count} positive{finite} numbers ({m} commanded cables then {groups} cables' "
                             "holes)",
                     region="sobol:1000", robot="spatial robot",
-                    cables_line="cable length tolerance (mm, per position-controlled cable {cables}): ",
-                    holes_line="hole tolerance (mm, every coordinate of each cable's holes, cables 1..{groups}): ",
+                    cables_line="cable length tolerance (mm, per commanded cable {cables}): ",
+                    holes_line="hole tolerance (mm, every coordinate of each commanded cable's holes, cables "
+                               "{cables}): ",
                     evaluations=" ({evaluations} Monte-Carlo evaluations)"),
     headline_aliases={"mc": (), "single": ()},
     figure=dict(projections=True, equal=True, ticks=3, mc_wgap=0.95, row_wgap=1.05, rotation_overview=True,
