@@ -135,9 +135,46 @@ pub struct Model {
     pub gravity: [f64; 3],
     pub cables: Vec<Cable>,
     pub cable: CableMaterial,
-    /// The planar description of a planar arm: the data of its closed forms
-    /// and SIMD kernels, made with the model ([`Model::planar`]).
-    planar: Option<Box<Robot>>,
+    /// Every disk's radius (and the base's) is the largest `|y|` of the holes
+    /// on it, kept so when the holes move (a planar file gives no radii).
+    pub radii_from_holes: bool,
+    /// [`Model::planar`], made when first asked.
+    view: ViewCache,
+}
+
+/// The planar view of a model once made ([`Model::planar`]): derived data,
+/// so a clone starts without it and equality ignores it. A model whose
+/// numbers change in place after its view was asked must be rebuilt (every
+/// `with_*` returns a new model).
+#[derive(Default)]
+struct ViewCache(std::sync::OnceLock<Option<Box<Robot>>>);
+
+impl Clone for ViewCache {
+    fn clone(&self) -> Self {
+        ViewCache::default()
+    }
+}
+
+impl PartialEq for ViewCache {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for ViewCache {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ViewCache")
+    }
+}
+
+/// The face of hole `i` of a cable (`0`: base face b; `2d - 1`, `2d`: faces
+/// a, b of disk `d`) as `(disk, face)` of the planar layout `(2n, n+1, 2, 2)`.
+fn pair_slot(i: usize) -> (usize, usize) {
+    if i == 0 {
+        (0, 1)
+    } else {
+        (i.div_ceil(2), 1 - i % 2)
+    }
 }
 
 #[derive(Deserialize)]
@@ -145,7 +182,7 @@ pub struct Model {
 struct File {
     kind: String,
     name: Option<String>,
-    gravity: Option<Exact<3>>,
+    gravity: Option<Vec<f64>>,
     cable: Option<MaterialFile>,
     base: BaseFile,
     linkage: Vec<LinkageFile>,
@@ -178,8 +215,54 @@ struct MaterialFile {
     diameter: f64,
     #[serde(default)]
     routing_length: f64,
-    #[serde(default = "crate::robot::feed_forward_default")]
+    #[serde(default = "feed_forward_default")]
     stretch_feed_forward: bool,
+}
+
+/// The planar shorthand of a robot file (`docs/model.md`): per linkage one
+/// joint about `z` and a pair of cables, desugared by [`Model::from_planar`].
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "RobotFile")] // the name its errors have shown
+struct ShorthandFile {
+    #[allow(dead_code)] // "planar" or none: the kind is read before
+    kind: Option<String>,
+    name: Option<String>,
+    n: Option<usize>,
+    gravity: Option<Exact<2>>,
+    cable: Option<MaterialFile>,
+    linkage: Vec<ShorthandLinkage>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields, rename = "LinkageFile")]
+struct ShorthandLinkage {
+    link_before: f64,
+    link_after: f64,
+    thickness: f64,
+    hole_height: Option<f64>,
+    upper_holes: Option<Vec<Exact<2>>>,
+    lower_holes: Option<Vec<Exact<2>>>,
+    #[serde(default)]
+    mass: f64,
+    #[serde(default)]
+    lower_tension: f64,
+    joint_limits: Option<Exact<2>>,
+}
+
+/// A robot file's `[cable] stretch_feed_forward` when it does not say.
+fn feed_forward_default() -> bool {
+    true
+}
+
+/// A `[cable]` table as the material (not yet validated), the default
+/// material without one.
+fn material(c: Option<MaterialFile>) -> CableMaterial {
+    c.map_or_else(CableMaterial::default, |c| CableMaterial {
+        youngs_modulus: c.youngs_modulus,
+        diameter: c.diameter,
+        routing_length: c.routing_length,
+        stretch_feed_forward: c.stretch_feed_forward,
+    })
 }
 
 #[derive(Deserialize)]
@@ -222,6 +305,38 @@ struct CableFile {
     stiffness: Option<f64>,
     pretension: Option<f64>,
     max_tension: Option<f64>,
+}
+
+/// The numbers of an arm its planar view reads (m; joint axes unit): the
+/// model's own, or a plant's moved ones (`crate::chain::ArmNumbers`).
+pub struct PlanarNumbers<'a> {
+    pub axis: &'a [[f64; 3]],
+    pub offset: &'a [[f64; 3]],
+    pub link_after: &'a [[f64; 3]],
+    pub thickness: &'a [f64],
+    /// Per cable, its holes (as [`Cable::holes`]).
+    pub holes: &'a [Vec<[f64; 3]>],
+}
+
+/// A model's own numbers as [`PlanarNumbers`] read them.
+struct OwnNumbers {
+    axis: Vec<[f64; 3]>,
+    offset: Vec<[f64; 3]>,
+    link_after: Vec<[f64; 3]>,
+    thickness: Vec<f64>,
+    holes: Vec<Vec<[f64; 3]>>,
+}
+
+impl OwnNumbers {
+    fn numbers(&self) -> PlanarNumbers<'_> {
+        PlanarNumbers {
+            axis: &self.axis,
+            offset: &self.offset,
+            link_after: &self.link_after,
+            thickness: &self.thickness,
+            holes: &self.holes,
+        }
+    }
 }
 
 /// Within this (of a unit axis's components) a joint's axis is
@@ -364,9 +479,9 @@ fn kind_of_table(table: &toml::Table) -> Result<String> {
 }
 
 impl Model {
-    /// Parses and validates a robot description of either kind: a spatial
-    /// file as written, a planar file through [`Robot::from_table`] and
-    /// [`Model::from_planar`].
+    /// Parses and validates a robot description of either kind: the general
+    /// form as written, or a planar file's shorthand desugared
+    /// ([`Model::from_planar`]).
     pub fn from_toml(text: &str) -> Result<Model> {
         Model::from_table(toml_table(text)?)
     }
@@ -375,14 +490,16 @@ impl Model {
     /// parsed file, or data built as one (the same fields, the same checks,
     /// the same field paths in errors; no text in between).
     pub fn from_table(table: toml::Table) -> Result<Model> {
+        // a planar file in the shorthand has no [base] and no [[cables]]
+        let general = table.contains_key("base") || table.contains_key("cables");
         match kind_of_table(&table)?.as_str() {
-            "planar" => Model::from_planar_table(table),
-            _ => Model::from_spatial_table(table),
+            "planar" if !general => Model::from_planar_table(table),
+            _ => Model::from_general_table(table),
         }
     }
 
-    /// A planar description: [`Robot::from_table`] and [`Model::from_planar`],
-    /// with the joint springs of its `[[linkage]]` tables (`stiffness`,
+    /// A planar description: the shorthand read ([`Model::shorthand`]) and
+    /// desugared ([`Model::from_planar`]), with the joint springs of its `[[linkage]]` tables (`stiffness`,
     /// `rest_angle`) or of its `[backbone]` (`docs/model.md`, "Joint springs").
     fn from_planar_table(mut table: toml::Table) -> Result<Model> {
         let backbone = match table.remove("backbone") {
@@ -410,11 +527,111 @@ impl Model {
                 given.push((take("stiffness")?, take("rest_angle")?));
             }
         }
-        let mut model = Model::from_planar(&Robot::from_table(table)?);
+        let mut model = Model::from_planar(&Model::shorthand(table)?);
         let fields = (0..model.n()).map(|i| format!("linkage[{i}]")).collect();
         model.set_springs(&given, fields, "stiffness", "rest_angle", backbone)?;
         model.check_enough_cables()?;
         Ok(model)
+    }
+
+    /// Reads and checks the planar shorthand (without its joint springs) as
+    /// the planar view it describes: lengths, masses, lower tensions, joint
+    /// limits and the holes of each linkage's cable pair (`hole_height`, or
+    /// `upper_holes` and `lower_holes`), errors naming the field.
+    fn shorthand(table: toml::Table) -> Result<Robot> {
+        let file: ShorthandFile = from_table(table)?;
+        let n = file.linkage.len();
+        if n == 0 {
+            return Err(bad(
+                "linkage".into(),
+                "at least one [[linkage]] is required",
+            ));
+        }
+        if let Some(declared) = file.n {
+            if declared != n {
+                return Err(bad(
+                    "n".into(),
+                    format!("declares {declared} joints but {n} [[linkage]] tables are given"),
+                ));
+            }
+        }
+        let mut robot = Robot {
+            name: robot_name(file.name)?,
+            link_before: Vec::with_capacity(n),
+            link_after: Vec::with_capacity(n),
+            thickness: Vec::with_capacity(n),
+            mass: Vec::with_capacity(n),
+            lower_tension: Vec::with_capacity(n),
+            joint_limits: Vec::with_capacity(n),
+            holes: vec![0.0; 2 * n * (n + 1) * 4],
+            cable: material(file.cable),
+            gravity: file.gravity.map_or([0.0, 0.0], |g| g.0),
+        };
+        for (i, l) in file.linkage.iter().enumerate() {
+            let f = |name: &str| format!("linkage[{i}].{name}");
+            robot
+                .link_before
+                .push(positive_length(f("link_before"), l.link_before)?);
+            robot
+                .link_after
+                .push(positive_length(f("link_after"), l.link_after)?);
+            robot
+                .thickness
+                .push(positive_length(f("thickness"), l.thickness)?);
+            robot.mass.push(non_negative(f("mass"), l.mass, "kg")?);
+            robot
+                .lower_tension
+                .push(non_negative(f("lower_tension"), l.lower_tension, "N")?);
+            let lim = joint_limits(f("joint_limits"), l.joint_limits)?;
+            robot.joint_limits.push(lim);
+        }
+        for (i, l) in file.linkage.iter().enumerate() {
+            let f = |name: &str| format!("linkage[{i}].{name}");
+            let along = 2 * i + 3; // base face b, then faces a, b of disks 1..=i+1
+            let explicit = (l.upper_holes.as_ref(), l.lower_holes.as_ref());
+            let (upper, lower): (Vec<[f64; 2]>, Vec<[f64; 2]>) = match (l.hole_height, explicit) {
+                (Some(h), (None, None)) => {
+                    let h = positive_length(f("hole_height"), h)?;
+                    (vec![[0.0, h]; along], vec![[0.0, -h]; along])
+                }
+                (None, (Some(u), Some(w))) => (
+                    u.iter().map(|p| p.0).collect(),
+                    w.iter().map(|p| p.0).collect(),
+                ),
+                _ => {
+                    return Err(bad(
+                        f("hole_height"),
+                        "give either hole_height or both upper_holes and lower_holes",
+                    ))
+                }
+            };
+            for (side, pts) in [("upper_holes", &upper), ("lower_holes", &lower)] {
+                if pts.len() != along {
+                    return Err(bad(
+                        f(side),
+                        format!(
+                            "needs {along} [x, y] points (base face b, then faces a and b of disks 1..{}), got {}",
+                            i + 1,
+                            pts.len()
+                        ),
+                    ));
+                }
+                for (j, p) in pts.iter().enumerate() {
+                    coordinates(format!("linkage[{i}].{side}[{j}]"), *p)?;
+                }
+            }
+            for (s, pts) in [upper, lower].iter().enumerate() {
+                let c = 2 * i + s;
+                for (j, p) in pts.iter().enumerate() {
+                    let (d, face) = pair_slot(j);
+                    let k = robot.hole_index(c, d, face);
+                    robot.holes[k] = p[0];
+                    robot.holes[k + 1] = p[1];
+                }
+            }
+        }
+        robot.validate()?;
+        Ok(robot)
     }
 
     /// Sets every joint's spring (`docs/model.md`, "Joint springs"): as
@@ -550,15 +767,6 @@ impl Model {
         ))
     }
 
-    /// This arm with the joint springs of `other` (same joints).
-    fn with_springs_of(mut self, other: &Model) -> Model {
-        for (j, o) in self.joints.iter_mut().zip(&other.joints) {
-            j.stiffness = o.stiffness;
-            j.rest = o.rest;
-        }
-        self
-    }
-
     /// Whether the arm has anything of "Elastic arms" (`docs/model.md`): a
     /// joint spring, a rest angle other than 0, or a displacement cable.
     pub fn is_elastic(&self) -> bool {
@@ -575,7 +783,7 @@ impl Model {
             .collect()
     }
 
-    /// A planar arm as the one model: joint `i` about `z` at the offset
+    /// The planar shorthand as the one model: joint `i` about `z` at the offset
     /// `(link_before[i], 0, 0)`, disk `i` at `link_after = (link_after[i], 0,
     /// 0)` with its mass at its centre `(thickness / 2, 0, 0)`; cable `2i`
     /// (upper) position-controlled and cable `2i + 1` (lower) force-controlled
@@ -610,26 +818,12 @@ impl Model {
                 }
             })
             .collect();
-        let radius = |d: usize| {
-            cables
-                .iter()
-                .filter(|c| c.end >= d)
-                .flat_map(|c| {
-                    let pts = if d == 0 {
-                        &c.holes[..1]
-                    } else {
-                        &c.holes[2 * d - 1..=2 * d]
-                    };
-                    pts.iter().map(|h| h[1].abs())
-                })
-                .fold(0.0f64, f64::max)
-        };
         let disks = (0..n)
             .map(|i| Disk {
                 joints: i..i + 1,
                 link_after: [robot.link_after[i], 0.0, 0.0],
                 thickness: robot.thickness[i],
-                radius: radius(i + 1),
+                radius: 0.0,
                 mass: robot.mass[i],
                 com: [robot.thickness[i] / 2.0, 0.0, 0.0],
             })
@@ -643,35 +837,171 @@ impl Model {
                 rest: 0.0,
             })
             .collect();
-        Model {
+        let mut model = Model {
             name: robot.name.clone(),
             kind: Kind::Planar,
             joints,
             disks,
-            base_radius: radius(0),
+            base_radius: 0.0,
             gravity: [robot.gravity[0], robot.gravity[1], 0.0],
             cables,
             cable: robot.cable.clone(),
-            planar: Some(Box::new(robot.clone())),
+            radii_from_holes: true,
+            view: ViewCache::default(),
+        };
+        model.set_radii_from_holes();
+        model
+    }
+
+    /// Sets every disk's radius (and the base's) to the largest `|y|` of
+    /// the holes on it.
+    fn set_radii_from_holes(&mut self) {
+        let radius = |d: usize| {
+            self.cables
+                .iter()
+                .filter(|c| c.end >= d)
+                .flat_map(|c| {
+                    let pts = if d == 0 {
+                        &c.holes[..1]
+                    } else {
+                        &c.holes[2 * d - 1..=2 * d]
+                    };
+                    pts.iter().map(|h| h[1].abs())
+                })
+                .fold(0.0f64, f64::max)
+        };
+        let radii: Vec<f64> = (0..=self.disks.len()).map(radius).collect();
+        self.base_radius = radii[0];
+        for (disk, r) in self.disks.iter_mut().zip(&radii[1..]) {
+            disk.radius = *r;
+        }
+    }
+
+    /// The planar view of this arm with the numbers `nums` (the data of the
+    /// planar closed forms and SIMD kernels; `docs/model.md`): link `i`
+    /// before joint `i` is `offset[i][0]`, after it `link_after[i][0]`, the
+    /// holes' `(x, y)` in the layout `(2n, n+1, 2, 2)` (slots that are no
+    /// hole hold 0), the masses, lower tensions, joint limits, cable and
+    /// in-plane gravity the model's. `None` when the structure does not fit
+    /// the planar fast paths: a kind whose space is not the plane, a disk
+    /// with other than one joint, an axis other than `z`, an offset, link or
+    /// hole out of the plane, gravity with a `z`, or cables not in pairs
+    /// (cable `2i` position- and `2i + 1` force-controlled, both ending at
+    /// disk `i + 1`). The numbers are copied, no arithmetic.
+    pub fn planar_view(&self, nums: &PlanarNumbers) -> Option<Robot> {
+        if self.kind.dim() != 2 || self.planar_misfit(nums).is_some() {
+            return None;
+        }
+        let n = self.n();
+        let mut r = Robot {
+            name: self.name.clone(),
+            link_before: nums.offset.iter().map(|o| o[0]).collect(),
+            link_after: nums.link_after.iter().map(|o| o[0]).collect(),
+            thickness: nums.thickness.to_vec(),
+            mass: self.disks.iter().map(|d| d.mass).collect(),
+            lower_tension: (0..n).map(|i| self.cables[2 * i + 1].tension).collect(),
+            joint_limits: self.joints.iter().map(|j| j.limits).collect(),
+            holes: vec![0.0; 2 * n * (n + 1) * 4],
+            cable: self.cable.clone(),
+            gravity: [self.gravity[0], self.gravity[1]],
+        };
+        for (c, holes) in nums.holes.iter().enumerate() {
+            for (i, h) in holes.iter().enumerate() {
+                let (d, f) = pair_slot(i);
+                let k = r.hole_index(c, d, f);
+                r.holes[k] = h[0];
+                r.holes[k + 1] = h[1];
+            }
+        }
+        Some(r)
+    }
+
+    /// The first thing in `nums` (and the model's structure) that keeps an
+    /// arm from the planar fast paths ([`Model::planar_view`]), as the field
+    /// of a general-form robot file that says it and the problem; `None`
+    /// when everything fits.
+    fn planar_misfit(&self, nums: &PlanarNumbers) -> Option<(String, String)> {
+        let along_x = |v: &[f64; 3]| v[1] == 0.0 && v[2] == 0.0;
+        for (k, d) in self.disks.iter().enumerate() {
+            if d.joints != (k..k + 1) {
+                let problem = "a planar arm has one joint per linkage, joint i in linkage i";
+                return Some((format!("linkage[{k}].joints"), problem.into()));
+            }
+            let field = |name: &str| format!("linkage[{k}].joints[0].{name}");
+            if nums.axis[k] != [0.0, 0.0, 1.0] {
+                let problem = format!(
+                    "a planar arm's joints turn about z: must be [0.0, 0.0, 1.0], got {:?}",
+                    nums.axis[k]
+                );
+                return Some((field("axis"), problem));
+            }
+            if !along_x(&nums.offset[k]) {
+                let problem = format!(
+                    "a planar arm's links lie along x: must be [x, 0.0, 0.0], got {:?}",
+                    nums.offset[k]
+                );
+                return Some((field("offset"), problem));
+            }
+            if !along_x(&nums.link_after[k]) {
+                let problem = format!(
+                    "a planar arm's links lie along x: must be [x, 0.0, 0.0], got {:?}",
+                    nums.link_after[k]
+                );
+                return Some((format!("linkage[{k}].link_after"), problem));
+            }
+        }
+        if self.disks.len() != self.n() {
+            let problem = "a planar arm has one joint per linkage";
+            return Some(("linkage".into(), problem.into()));
+        }
+        if !self.in_pairs() {
+            let problem = "a planar arm's cables come in pairs: cable 2i position- and 2i + 1 \
+                           force-controlled, both ending at disk i + 1";
+            return Some(("cables".into(), problem.into()));
+        }
+        for (c, holes) in nums.holes.iter().enumerate() {
+            if let Some(i) = holes.iter().position(|h| h[2] != 0.0) {
+                let problem = format!(
+                    "a planar arm's holes lie in its plane: z must be 0.0, got {:?}",
+                    holes[i]
+                );
+                return Some((format!("cables[{c}].holes[{i}]"), problem));
+            }
+        }
+        if self.gravity[2] != 0.0 {
+            let problem = "a planar arm's gravity lies in its plane";
+            return Some(("gravity".into(), problem.into()));
+        }
+        None
+    }
+
+    /// [`Model::planar_view`] of the model's own numbers.
+    fn own_planar_view(&self) -> Option<Robot> {
+        self.planar_view(&self.own_numbers().numbers())
+    }
+
+    /// The model's own numbers, gathered for [`PlanarNumbers`].
+    fn own_numbers(&self) -> OwnNumbers {
+        OwnNumbers {
+            axis: self.joints.iter().map(|j| j.axis).collect(),
+            offset: self.joints.iter().map(|j| j.offset).collect(),
+            link_after: self.disks.iter().map(|d| d.link_after).collect(),
+            thickness: self.disks.iter().map(|d| d.thickness).collect(),
+            holes: self.cables.iter().map(|c| c.holes.clone()).collect(),
         }
     }
 
     /// The same arm with another cable material (validated).
     pub fn with_cable(&self, cable: CableMaterial) -> Result<Model> {
         cable.validate()?;
-        if let Some(p) = self.planar() {
-            let mut r = p.clone();
-            r.cable = cable;
-            return Ok(Model::from_planar(&r).with_springs_of(self));
-        }
         let mut m = self.clone();
         m.cable = cable;
         Ok(m)
     }
 
-    /// A robot file (TOML, SI units) that rebuilds this arm exactly: a
-    /// planar arm in the planar format (explicit holes), a spatial one in
-    /// the spatial format (explicit holes); every float in its shortest
+    /// A robot file (TOML, SI units) that rebuilds this arm exactly: an arm
+    /// read from the planar shorthand in it ([`Model::radii_from_holes`]),
+    /// any other in the general form (explicit holes either way); every float in its shortest
     /// round-trip form, the name in any Unicode.
     pub fn to_toml(&self) -> String {
         let mut t = String::new();
@@ -685,9 +1015,10 @@ impl Model {
             "# written by cdsm (Robot.to_toml); SI units: m, kg, N, rad, Pa, m/s^2".into(),
         );
         // the form of the file: the planar shorthand (its kind the default)
-        // for an arm that has it, else the general form, which names its kind
-        let shorthand = self.planar();
-        if shorthand.is_none() {
+        // for an arm read from it (its radii are its holes': the shorthand
+        // gives none), else the general form, which names its kind
+        let shorthand = self.radii_from_holes;
+        if !shorthand {
             line(w, format!("kind = {}", toml_string(self.kind.name())));
         }
         line(w, format!("name = {}", toml_string(&self.name)));
@@ -707,18 +1038,19 @@ impl Model {
         if !self.cable.stretch_feed_forward {
             line(w, "stretch_feed_forward = false".into());
         }
-        if let Some(r) = shorthand {
-            line(w, format!("\n# {} linkages", r.n()));
-            for i in 0..r.n() {
+        if shorthand {
+            line(w, format!("\n# {} linkages", self.n()));
+            for i in 0..self.n() {
+                let (joint, disk) = (&self.joints[i], &self.disks[i]);
                 line(w, String::new());
                 line(w, "[[linkage]]".into());
-                line(w, format!("link_before = {}", toml_f(r.link_before[i])));
-                line(w, format!("link_after = {}", toml_f(r.link_after[i])));
-                line(w, format!("thickness = {}", toml_f(r.thickness[i])));
-                line(w, format!("mass = {}", toml_f(r.mass[i])));
-                line(w, format!("lower_tension = {}", toml_f(r.lower_tension[i])));
-                line(w, format!("joint_limits = {}", toml_fs(&r.joint_limits[i])));
-                let joint = &self.joints[i];
+                line(w, format!("link_before = {}", toml_f(joint.offset[0])));
+                line(w, format!("link_after = {}", toml_f(disk.link_after[0])));
+                line(w, format!("thickness = {}", toml_f(disk.thickness)));
+                line(w, format!("mass = {}", toml_f(disk.mass)));
+                let lower = self.cables[2 * i + 1].tension;
+                line(w, format!("lower_tension = {}", toml_f(lower)));
+                line(w, format!("joint_limits = {}", toml_fs(&joint.limits)));
                 if joint.stiffness != 0.0 || joint.rest != 0.0 {
                     line(w, format!("stiffness = {}", toml_f(joint.stiffness)));
                     line(w, format!("rest_angle = {}", toml_f(joint.rest)));
@@ -795,10 +1127,14 @@ impl Model {
         t
     }
 
-    /// The planar description of a planar arm (its fast paths' data), `None`
-    /// for a spatial one.
+    /// The planar view of this arm's own numbers (its planar fast paths'
+    /// data, [`Model::planar_view`]; made once), `None` when its structure
+    /// does not fit them.
     pub fn planar(&self) -> Option<&Robot> {
-        self.planar.as_deref()
+        self.view
+            .0
+            .get_or_init(|| self.own_planar_view().map(Box::new))
+            .as_deref()
     }
 
     /// The planar description for `call`, something only a planar arm has
@@ -819,76 +1155,118 @@ impl Model {
         Ok(&self.planar_only("holes")?.holes)
     }
 
-    /// The same arm with other holes (m): a planar arm's in its layout
-    /// `(2n, n+1, 2, 2)` flat, another's every `[x, y, z]` flat (as
-    /// [`Model::flat_holes`]). `within_disks`: refuse a spatial hole outside
-    /// its disk, as a robot file does. The joint springs are kept.
+    /// The same arm with other holes (m): in the planar view's layout
+    /// `(2n, n+1, 2, 2)` flat for an arm that has one ([`Model::pair_holes`];
+    /// a slot no cable crosses is not read), else every `[x, y, z]` flat (as
+    /// [`Model::flat_holes`]). `within_disks`: refuse a hole outside its
+    /// disk, as a robot file does. The joint springs are kept.
     pub fn with_holes(&self, holes: &[f64], within_disks: bool) -> Result<Model> {
         crate::error::check_finite("holes", holes)?;
-        if let Some(r) = self.planar() {
-            return Ok(Model::from_planar(&r.with_holes(holes)?).with_springs_of(self));
-        }
-        let m = self.with_flat_holes(holes)?;
+        let m = match self.planar() {
+            Some(view) => self.with_flat_holes(&self.flat_of_pair_holes(view, holes)?)?,
+            None => self.with_flat_holes(holes)?,
+        };
         if within_disks {
             m.check_holes()?;
         }
         Ok(m)
     }
 
-    /// The same planar arm with other loads: lower-cable tensions `(n,)` N
-    /// and in-plane gravity `(2,)` m/s² (validated; the joint springs kept);
-    /// an error naming `with_loads` for another kind.
+    /// Every hole's `[x, y, z]` flat (as [`Model::flat_holes`], `z = 0`)
+    /// from `holes` in the layout `(2n, n+1, 2, 2)` flat of the arm's planar
+    /// `view`. A slot no cable crosses is no hole: it is not read (as no
+    /// kernel ever read it; [`Robot::hole_height_error_into`] writes the
+    /// base's face a too), and the view holds 0 there.
+    fn flat_of_pair_holes(&self, view: &Robot, holes: &[f64]) -> Result<Vec<f64>> {
+        let n = view.n();
+        if holes.len() != view.holes.len() {
+            return Err(bad(
+                "holes".into(),
+                format!(
+                    "needs shape (2n, n+1, 2, 2) = ({}, {}, 2, 2), got {} values",
+                    2 * n,
+                    n + 1,
+                    holes.len()
+                ),
+            ));
+        }
+        let mut flat = Vec::with_capacity(3 * holes.len() / 4);
+        for (c, cable) in self.cables.iter().enumerate() {
+            for i in 0..cable.holes.len() {
+                let (d, f) = pair_slot(i);
+                let k = view.hole_index(c, d, f);
+                flat.extend([holes[k], holes[k + 1], 0.0]);
+            }
+        }
+        Ok(flat)
+    }
+
+    /// The same arm with other loads: the force-controlled cables' tensions
+    /// (file order, N, finite and `>= 0`) and gravity (the kind's `dim`
+    /// components, m/s², base frame), validated; the joint springs kept.
     pub fn with_loads(&self, lower_tension: &[f64], gravity: &[f64]) -> Result<Model> {
-        let r = self.planar_only("with_loads")?;
-        if lower_tension.len() != r.n() || gravity.len() != 2 {
+        let force: Vec<usize> = (0..self.cables.len())
+            .filter(|c| self.cables[*c].mode == Mode::Force)
+            .collect();
+        let dim = self.kind.dim();
+        if lower_tension.len() != force.len() || gravity.len() != dim {
             return Err(CdsmError::Shape {
                 name: "lower_tension, gravity".into(),
-                expected: format!("({},) and (2,)", r.n()),
+                expected: format!("({},) and ({dim},)", force.len()),
                 got: format!("({},) and ({},)", lower_tension.len(), gravity.len()),
             });
         }
-        let mut r = r.clone();
-        r.lower_tension = lower_tension.to_vec();
-        r.gravity = [gravity[0], gravity[1]];
-        r.validate()?;
-        Ok(Model::from_planar(&r).with_springs_of(self))
-    }
-
-    /// Validates a spatial robot description (`docs/spatial.md`) given as
-    /// its table.
-    fn from_spatial_table(table: toml::Table) -> Result<Model> {
-        let f: File = from_table(table)?;
-        if f.kind != "spatial" {
+        let mut m = self.clone();
+        for (i, (&c, &t)) in force.iter().zip(lower_tension).enumerate() {
+            m.cables[c].tension = non_negative(format!("lower_tension[{i}]"), t, "N")?;
+        }
+        if gravity.iter().any(|g| !g.is_finite()) {
             return Err(bad(
-                "kind".into(),
-                format!("expected \"spatial\", got {:?}", f.kind),
+                "gravity".into(),
+                format!("must be finite (m/s^2), got {gravity:?}"),
             ));
         }
+        m.gravity[..dim].copy_from_slice(gravity);
+        Ok(m)
+    }
+
+    /// Validates a robot description in the general form (`docs/spatial.md`:
+    /// joints, disks and `[[cables]]` as written) given as its table; a
+    /// planar one (`kind = "planar"`, gravity `[gx, gy]`) must fit the
+    /// plane: one joint about `z` per linkage, links along `x`, holes in the
+    /// plane and cables in pairs ([`Model::planar_view`]).
+    fn from_general_table(table: toml::Table) -> Result<Model> {
+        let f: File = from_table(table)?;
+        let Some(kind) = Kind::named(&f.kind) else {
+            return Err(bad(
+                "kind".into(),
+                format!("must be \"planar\" or \"spatial\", got {:?}", f.kind),
+            ));
+        };
         if f.linkage.is_empty() {
             return Err(bad(
                 "linkage".into(),
                 "at least one [[linkage]] is required",
             ));
         }
-        let cable = match f.cable {
-            Some(c) => {
-                let m = CableMaterial {
-                    youngs_modulus: c.youngs_modulus,
-                    diameter: c.diameter,
-                    routing_length: c.routing_length,
-                    stretch_feed_forward: c.stretch_feed_forward,
-                };
-                m.validate()?;
-                m
+        let cable = material(f.cable);
+        cable.validate()?;
+        // the kind's dim components (the rest 0)
+        let mut gravity = [0.0; 3];
+        if let Some(g) = f.gravity {
+            if g.len() != kind.dim() {
+                return Err(bad(
+                    "gravity".into(),
+                    format!(
+                        "invalid length {}, expected exactly {} numbers",
+                        g.len(),
+                        kind.dim()
+                    ),
+                ));
             }
-            None => CableMaterial {
-                youngs_modulus: 1.8e11,
-                diameter: 0.18e-3,
-                routing_length: 0.0,
-                stretch_feed_forward: true,
-            },
-        };
-        let gravity = finite3("gravity", f.gravity.map_or([0.0; 3], |g| g.0))?;
+            gravity[..g.len()].copy_from_slice(&g);
+        }
+        let gravity = finite3("gravity", gravity)?;
         let base_radius = positive_length("base.radius".into(), f.base.radius)?;
         let (mut joints, mut disks) = (Vec::new(), Vec::new());
         let (mut springs, mut spring_fields) = (Vec::new(), Vec::new());
@@ -1061,15 +1439,23 @@ impl Model {
         }
         let mut robot = Model {
             name: robot_name(f.name)?,
-            kind: Kind::Spatial,
+            kind,
             joints,
             disks,
             base_radius,
             gravity,
             cables,
             cable,
-            planar: None,
+            radii_from_holes: false,
+            view: ViewCache::default(),
         };
+        if kind.dim() == 2 {
+            // the planar kind's task is the plane's: its fast paths must fit
+            let own = robot.own_numbers();
+            if let Some((field, problem)) = robot.planar_misfit(&own.numbers()) {
+                return Err(bad(field, problem));
+            }
+        }
         robot.check_holes()?;
         robot.set_springs(&springs, spring_fields, "stiffness", "rest", f.backbone)?;
         robot.check_enough_cables()?;
@@ -1123,18 +1509,8 @@ impl Model {
                 .filter(|c| self.cables[*c].mode == mode)
                 .collect()
         };
-        // cables in pairs: 2k of them, cable 2i position and 2i + 1 force, both
-        // ending at disk i + 1 (a planar file's upper and lower cables)
         let k = self.disks.len();
-        let pairs = self.cables.len() == 2 * k
-            && self.cables.iter().enumerate().all(|(c, cable)| {
-                let mode = if c % 2 == 0 {
-                    Mode::Position
-                } else {
-                    Mode::Force
-                };
-                cable.end == c / 2 + 1 && cable.mode == mode
-            });
+        let pairs = self.in_pairs();
         let mut start = Vec::with_capacity(self.cables.len());
         let mut at = 0;
         for c in &self.cables {
@@ -1178,6 +1554,21 @@ impl Model {
             pairs,
             hole_groups,
         }
+    }
+
+    /// Whether the cables come in pairs: `2k` of them for `k` disks, cable
+    /// `2i` position- and `2i + 1` force-controlled, both ending at disk
+    /// `i + 1` (a planar file's upper and lower cables).
+    fn in_pairs(&self) -> bool {
+        self.cables.len() == 2 * self.disks.len()
+            && self.cables.iter().enumerate().all(|(c, cable)| {
+                let mode = if c % 2 == 0 {
+                    Mode::Position
+                } else {
+                    Mode::Force
+                };
+                cable.end == c / 2 + 1 && cable.mode == mode
+            })
     }
 
     /// Indices of the position-controlled cables (file order).
@@ -1273,9 +1664,11 @@ impl Model {
             .collect()
     }
 
-    /// The same robot with holes `flat` (as [`Self::flat_holes`]); no radius check
-    /// (errors of a few tenths of a mm may leave the disk in a study). A
-    /// planar arm's holes stay in its plane (`z` must be 0).
+    /// The same robot with holes `flat` (as [`Self::flat_holes`]; every
+    /// coordinate within ±[`MAX_LENGTH`]); no radius check (errors of a few
+    /// tenths of a mm may leave the disk in a study; radii taken from the
+    /// holes follow them). A planar arm's holes stay in its plane (`z` must
+    /// be 0).
     pub fn with_flat_holes(&self, flat: &[f64]) -> Result<Model> {
         let want: usize = self.cables.iter().map(|c| 3 * c.holes.len()).sum();
         if flat.len() != want {
@@ -1294,7 +1687,11 @@ impl Model {
                 k += 3;
             }
         }
-        if let Some(p) = self.planar() {
+        for (i, h) in flat.chunks_exact(3).enumerate() {
+            coordinates(format!("holes[{i}]"), [h[0], h[1], h[2]])?;
+        }
+        // an arm in the plane keeps its holes there
+        if self.kind.dim() == 2 {
             if let Some(i) = (0..flat.len() / 3).find(|i| flat[3 * i + 2] != 0.0) {
                 return Err(bad(
                     "holes".into(),
@@ -1304,22 +1701,34 @@ impl Model {
                     ),
                 ));
             }
-            let mut holes = p.holes.clone();
-            for (c, cable) in r.cables.iter().enumerate() {
-                for (i, h) in cable.holes.iter().enumerate() {
-                    let (d, f) = if i == 0 {
-                        (0, 1)
-                    } else {
-                        (i.div_ceil(2), 1 - i % 2)
-                    };
-                    let at = p.hole_index(c, d, f);
-                    holes[at] = h[0];
-                    holes[at + 1] = h[1];
-                }
-            }
-            r = Model::from_planar(&p.with_holes(&holes)?).with_springs_of(self);
+        }
+        if r.radii_from_holes {
+            r.set_radii_from_holes();
         }
         Ok(r)
+    }
+}
+
+/// The paper's prototype (Table 1), shipped with the Python package.
+pub const PAPER_TOML: &str = include_str!("../python/cdsm/robots/paper.toml");
+
+impl Robot {
+    /// The planar view of the paper's 3-DOF prototype (Table 1; lower
+    /// cables 50, 10, 5 g; ±35°).
+    pub fn paper() -> Robot {
+        Robot::from_toml(PAPER_TOML).expect("the shipped paper robot is valid")
+    }
+
+    /// The planar view ([`Model::planar`]) of the arm a robot file
+    /// describes; an error naming `kind` for an arm without one.
+    pub fn from_toml(text: &str) -> Result<Robot> {
+        let model = Model::from_toml(text)?;
+        model.own_planar_view().ok_or_else(|| {
+            bad(
+                "kind".into(),
+                format!("a {} arm has no planar view", model.kind.name()),
+            )
+        })
     }
 }
 
@@ -1339,12 +1748,298 @@ mod tests {
         ] {
             let mut m = Model::from_toml(text).unwrap();
             m.name = "arm \u{1F4AA} \"q\" \\ \t\u{7f}".into();
-            if let Some(p) = m.planar.as_mut() {
-                p.name = m.name.clone();
-            }
             let back = Model::from_toml(&m.to_toml()).unwrap();
             assert_eq!(back, m, "{}", m.to_toml());
         }
+    }
+
+    /// Planar robot texts: every packaged and example planar robot, and
+    /// test arms with explicit, uneven holes, loads, springs and 8 joints.
+    fn planar_texts() -> Vec<String> {
+        let mut t8 = String::from("name = \"t8\"\n");
+        for i in 0..8 {
+            t8 += &format!(
+                "[[linkage]]\nlink_before = 0.02\nlink_after = 0.02\nthickness = 0.008\nhole_height = {}\njoint_limits = [-0.6, 0.6]\n",
+                0.025 - 0.001 * i as f64
+            );
+        }
+        let uneven = "name = \"uneven\"\nn = 2\ngravity = [0.3, -9.7]\n\
+            [cable]\nyoungs_modulus = 2.1e11\ndiameter = 0.3e-3\nrouting_length = 0.4\nstretch_feed_forward = false\n\
+            [[linkage]]\nlink_before = 0.031\nlink_after = 0.029\nthickness = 0.007\nmass = 0.02\nlower_tension = 0.7\n\
+            joint_limits = [-0.5, 0.8]\nstiffness = 0.01\nrest_angle = 0.1\n\
+            upper_holes = [[0.001, 0.03], [-0.0005, 0.0291], [0.0002, 0.0305]]\n\
+            lower_holes = [[0.0, -0.028], [0.0003, -0.0299], [0.0, -0.031]]\n\
+            [[linkage]]\nlink_before = 0.02\nlink_after = 0.025\nthickness = 0.006\nmass = 0.01\nlower_tension = 0.2\n\
+            upper_holes = [[0.0, 0.02], [0.0, 0.021], [0.0, 0.022], [0.0011, 0.019], [0.0, 0.018]]\n\
+            lower_holes = [[0.0, -0.02], [0.0, -0.021], [0.0, -0.022], [0.0, -0.019], [-0.001, -0.017]]\n";
+        vec![
+            include_str!("../python/cdsm/robots/paper.toml").to_string(),
+            include_str!("../python/cdsm/robots/paper_reversed_weights.toml").to_string(),
+            include_str!("../python/cdsm/robots/paper_vertical.toml").to_string(),
+            include_str!("../python/cdsm/robots/paper_vertical_reversed_weights.toml").to_string(),
+            include_str!("../python/cdsm/robots/serpentine8.toml").to_string(),
+            include_str!("../examples/two_section_arm.toml").to_string(),
+            t8,
+            uneven.to_string(),
+        ]
+    }
+
+    /// A planar file's description read straight from its TOML table by
+    /// this test (no checks): the oracle of the planar view.
+    fn read_by_hand(text: &str) -> Robot {
+        let t: toml::Table = text.parse().unwrap();
+        let num = |v: &toml::Value| {
+            v.as_float()
+                .or_else(|| v.as_integer().map(|i| i as f64))
+                .unwrap()
+        };
+        let pair = |v: &toml::Value| {
+            let a = v.as_array().unwrap();
+            [num(&a[0]), num(&a[1])]
+        };
+        let links = t["linkage"].as_array().unwrap();
+        let n = links.len();
+        let each = |k: &str, default: f64| -> Vec<f64> {
+            links
+                .iter()
+                .map(|l| l.get(k).map_or(default, num))
+                .collect()
+        };
+        let mut holes = vec![0.0; 2 * n * (n + 1) * 4];
+        for (i, l) in links.iter().enumerate() {
+            let along = 2 * i + 3;
+            let (upper, lower): (Vec<[f64; 2]>, Vec<[f64; 2]>) = match l.get("hole_height") {
+                Some(h) => (vec![[0.0, num(h)]; along], vec![[0.0, -num(h)]; along]),
+                None => (
+                    l["upper_holes"]
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .map(pair)
+                        .collect(),
+                    l["lower_holes"]
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .map(pair)
+                        .collect(),
+                ),
+            };
+            for (side, pts) in [upper, lower].iter().enumerate() {
+                let c = 2 * i + side;
+                for (j, p) in pts.iter().enumerate() {
+                    // base face b, then faces a and b of disks 1, 2, ...
+                    let (d, f) = if j == 0 {
+                        (0, 1)
+                    } else {
+                        (j.div_ceil(2), (j + 1) % 2)
+                    };
+                    let k = ((c * (n + 1) + d) * 2 + f) * 2;
+                    holes[k] = p[0];
+                    holes[k + 1] = p[1];
+                }
+            }
+        }
+        let cable = t.get("cable");
+        let of_cable = |k: &str, default: f64| cable.and_then(|c| c.get(k)).map_or(default, num);
+        Robot {
+            name: t
+                .get("name")
+                .map_or("unnamed", |v| v.as_str().unwrap())
+                .into(),
+            link_before: each("link_before", f64::NAN),
+            link_after: each("link_after", f64::NAN),
+            thickness: each("thickness", f64::NAN),
+            mass: each("mass", 0.0),
+            lower_tension: each("lower_tension", 0.0),
+            joint_limits: links
+                .iter()
+                .map(|l| {
+                    l.get("joint_limits")
+                        .map_or([-std::f64::consts::PI, std::f64::consts::PI], pair)
+                })
+                .collect(),
+            holes,
+            cable: CableMaterial {
+                youngs_modulus: of_cable("youngs_modulus", 1.8e11),
+                diameter: of_cable("diameter", 0.18e-3),
+                routing_length: of_cable("routing_length", 0.0),
+                stretch_feed_forward: cable
+                    .and_then(|c| c.get("stretch_feed_forward"))
+                    .is_none_or(|v| v.as_bool().unwrap()),
+            },
+            gravity: t.get("gravity").map_or([0.0, 0.0], pair),
+        }
+    }
+
+    #[test]
+    fn the_planar_view_is_the_planar_file_read_as_before() {
+        // field by field, bit for bit, against the file read by hand (the
+        // planar description of cdsm 0.2, `Robot::from_toml`, was checked
+        // equal before its reader became the model's), holes' slots that are
+        // no hole included
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for text in planar_texts() {
+            let r = read_by_hand(&text);
+            let m = Model::from_toml(&text).unwrap();
+            let v = m
+                .own_planar_view()
+                .expect("a planar file has the planar view");
+            assert_eq!(v.name, r.name);
+            assert_eq!(bits(&v.link_before), bits(&r.link_before), "{}", r.name);
+            assert_eq!(bits(&v.link_after), bits(&r.link_after), "{}", r.name);
+            assert_eq!(bits(&v.thickness), bits(&r.thickness), "{}", r.name);
+            assert_eq!(bits(&v.mass), bits(&r.mass), "{}", r.name);
+            assert_eq!(bits(&v.lower_tension), bits(&r.lower_tension), "{}", r.name);
+            assert_eq!(
+                bits(v.joint_limits.as_flattened()),
+                bits(r.joint_limits.as_flattened()),
+                "{}",
+                r.name
+            );
+            assert_eq!(bits(&v.holes), bits(&r.holes), "{}", r.name);
+            assert_eq!(bits(&v.gravity), bits(&r.gravity), "{}", r.name);
+            let c = |m: &CableMaterial| {
+                (
+                    m.youngs_modulus.to_bits(),
+                    m.diameter.to_bits(),
+                    m.routing_length.to_bits(),
+                    m.stretch_feed_forward,
+                )
+            };
+            assert_eq!(c(&v.cable), c(&r.cable), "{}", r.name);
+        }
+    }
+
+    #[test]
+    fn a_planar_arm_reads_in_the_general_form_too() {
+        let mut read = 0;
+        for text in planar_texts() {
+            let short = Model::from_toml(&text).unwrap();
+            if short
+                .cables
+                .iter()
+                .any(|c| c.mode == Mode::Force && c.tension == 0.0)
+            {
+                continue; // the general form's force cables pull (tension > 0)
+            }
+            let mut general = short.clone();
+            general.radii_from_holes = false;
+            let written = general.to_toml();
+            assert!(
+                written.contains("kind = \"planar\"") && written.contains("[[cables]]"),
+                "{written}"
+            );
+            let back = Model::from_toml(&written).unwrap();
+            assert_eq!(back, general);
+            let view = |m: &Model| format!("{:?}", m.own_planar_view().unwrap());
+            assert_eq!(view(&back), view(&short));
+            read += 1;
+        }
+        assert!(read >= 5, "{read}");
+        // what does not fit the plane is refused, naming the field
+        let mut paper = Model::from_toml(PAPER_TOML).unwrap();
+        paper.radii_from_holes = false;
+        let text = paper.to_toml();
+        let refused = |t: String, field: &str| {
+            let e = Model::from_toml(&t).unwrap_err().to_string();
+            assert!(e.contains(&format!("`{field}`")), "{field}: {e}");
+        };
+        let about_y = text.replacen("axis = [0.0, 0.0, 1.0]", "axis = [0.0, 1.0, 0.0]", 1);
+        refused(about_y, "linkage[0].joints[0].axis");
+        let off_axis = text.replacen(
+            "offset = [0.033, 0.0, 0.0]",
+            "offset = [0.033, 0.001, 0.0]",
+            1,
+        );
+        assert_ne!(off_axis, text);
+        refused(off_axis, "linkage[0].joints[0].offset");
+        refused(
+            text.replacen("gravity = [0.0, 0.0]", "gravity = [0.0, 0.0, -9.8]", 1),
+            "gravity",
+        );
+        let one_cable_less = text.replacen("[[cables]]\nend = 1\nmode = \"position\"", "[[c]]", 1);
+        let cut = one_cable_less.find("[[c]]").unwrap();
+        let next = cut + one_cable_less[cut..].find("\n\n").unwrap();
+        refused(
+            format!("{}{}", &one_cable_less[..cut], &one_cable_less[next + 2..]),
+            "cables",
+        );
+    }
+
+    #[test]
+    fn an_arm_out_of_the_plane_has_no_planar_view() {
+        let base = Model::from_toml(include_str!("../python/cdsm/robots/paper.toml")).unwrap();
+        assert!(base.own_planar_view().is_some());
+        let tilted = |f: &dyn Fn(&mut Model)| {
+            let mut m = base.clone();
+            f(&mut m);
+            m.own_planar_view()
+        };
+        assert!(tilted(&|m| m.joints[1].axis = [0.0, 1.0, 0.0]).is_none());
+        assert!(tilted(&|m| m.joints[0].offset[2] = 1e-3).is_none());
+        assert!(tilted(&|m| m.disks[2].link_after[1] = 1e-3).is_none());
+        assert!(tilted(&|m| m.cables[3].holes[2][2] = 1e-4).is_none());
+        assert!(tilted(&|m| m.gravity[2] = -9.8).is_none());
+        assert!(tilted(&|m| m.cables[1].mode = Mode::Position).is_none());
+        assert!(tilted(&|m| m.cables.truncate(5)).is_none());
+        for text in [
+            include_str!("../python/cdsm/robots/two_universal.toml"),
+            include_str!("../python/cdsm/robots/paper_spatial.toml"),
+        ] {
+            assert!(Model::from_toml(text).unwrap().own_planar_view().is_none());
+        }
+    }
+
+    #[test]
+    fn a_planar_arms_new_holes_and_loads_are_its_view() {
+        let view = |m: &Model| m.planar().expect("a planar arm has its view").clone();
+        let paper = Model::from_toml(include_str!("../python/cdsm/robots/paper.toml")).unwrap();
+        let v = view(&paper);
+        // move one hole: the view follows, the radius of its disk too
+        let mut holes = v.holes.clone();
+        let k = v.hole_index(4, 3, 1) + 1;
+        holes[k] = 0.04;
+        let moved = paper.with_holes(&holes, true).unwrap();
+        assert_eq!(view(&moved).holes, holes);
+        assert_eq!(moved.disks[2].radius, 0.04);
+        assert_eq!(view(&paper).holes, v.holes);
+        // a slot that is no hole is not read (the hole-height error writes
+        // the base's face a too): the view has 0 there
+        let mut h = holes.clone();
+        for (c, d, f) in [(0, 0, 0), (1, 2, 1), (5, 0, 0)] {
+            h[v.hole_index(c, d, f)] = 1e-3;
+        }
+        assert_eq!(view(&paper.with_holes(&h, true).unwrap()).holes, holes);
+        // loads: the force cables' tensions and the plane's gravity
+        let loaded = paper.with_loads(&[0.1, 0.2, 0.3], &[0.0, -9.8]).unwrap();
+        let lv = view(&loaded);
+        assert_eq!(lv.lower_tension, vec![0.1, 0.2, 0.3]);
+        assert_eq!(lv.gravity, [0.0, -9.8]);
+        let e = paper
+            .with_loads(&[0.1, -0.2, 0.3], &[0.0, 0.0])
+            .unwrap_err();
+        assert!(e.to_string().contains("lower_tension[1]"), "{e}");
+        let e = paper
+            .with_loads(&[0.1, 0.2, 0.3], &[0.0, f64::NAN])
+            .unwrap_err();
+        assert!(e.to_string().contains("gravity"), "{e}");
+    }
+
+    #[test]
+    fn a_spatial_arm_takes_loads_and_refuses_holes_past_a_kilometre() {
+        let m = Model::from_toml(include_str!("../python/cdsm/robots/two_universal.toml")).unwrap();
+        let force: Vec<usize> = m.structure().force;
+        let t: Vec<f64> = (0..force.len()).map(|i| 0.5 + i as f64).collect();
+        let loaded = m.with_loads(&t, &[0.0, 0.0, -9.8]).unwrap();
+        for (i, &c) in force.iter().enumerate() {
+            assert_eq!(loaded.cables[c].tension, t[i]);
+        }
+        assert_eq!(loaded.gravity, [0.0, 0.0, -9.8]);
+        let mut flat = m.flat_holes();
+        flat[4] = 2e3;
+        let e = m.with_holes(&flat, false).unwrap_err().to_string();
+        assert!(e.contains("`holes[1]`"), "{e}");
     }
 
     #[test]

@@ -23,9 +23,9 @@ use crate::effect::Size;
 use crate::error::{CdsmError, Result};
 use crate::fit::{FitModel, Predictions};
 use crate::friction::{mobilisation, Holes, Motion, Profile, MU_MAX};
-use crate::kinds::{Frame, Group, Kind, Rotation, Vector, Visit};
+use crate::kinds::{Frame, Group, Rotation, Vector, Visit};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
-use crate::model::{Mode, Model};
+use crate::model::{Mode, Model, PlanarNumbers};
 use crate::real::{Arith, Jet, Real};
 use crate::robot::Robot;
 use crate::rows::{
@@ -1109,36 +1109,6 @@ pub struct Plant<'a, G: Group> {
     _kind: std::marker::PhantomData<G>,
 }
 
-/// The planar description of a planar model's numbers (for its closed forms).
-fn planar_robot(model: &Model, arm: &ArmNumbers<f64>) -> Robot {
-    let n = model.n();
-    let mut r = Robot {
-        name: model.name.clone(),
-        link_before: arm.offset.iter().map(|o| o[0]).collect(),
-        link_after: arm.link_after.iter().map(|o| o[0]).collect(),
-        thickness: arm.thickness.clone(),
-        mass: model.disks.iter().map(|d| d.mass).collect(),
-        lower_tension: (0..n).map(|i| model.cables[2 * i + 1].tension).collect(),
-        joint_limits: model.joints.iter().map(|j| j.limits).collect(),
-        holes: vec![0.0; 2 * n * (n + 1) * 4],
-        cable: model.cable.clone(),
-        gravity: [model.gravity[0], model.gravity[1]],
-    };
-    for (c, holes) in arm.holes.iter().enumerate() {
-        for (i, h) in holes.iter().enumerate() {
-            let (d, f) = if i == 0 {
-                (0, 1)
-            } else {
-                (i.div_ceil(2), 1 - i % 2)
-            };
-            let k = r.hole_index(c, d, f);
-            r.holes[k] = h[0];
-            r.holes[k + 1] = h[1];
-        }
-    }
-    r
-}
-
 impl<'a, G: Group> Plant<'a, G> {
     /// The plant of `model` with the flat parameters `p` (see [`layout`]);
     /// an error when `p` has the wrong length or leaves the physical domain.
@@ -1164,12 +1134,22 @@ impl<'a, G: Group> Plant<'a, G> {
         let prm = Params::<f64>::unpack(model, &lay, p, |_, v| v);
         let cprm = Params::<J>::unpack(model, &lay, p, |_, v| J::cst(v));
         let l_ref = commanded_lengths_rows(model, &vec![0.0; model.n()]);
-        let rigid = if model.kind == Kind::Planar && !model.is_elastic() {
-            let r = planar_robot(model, &prm.arm);
-            let g = CableGeometry::new(&r, None);
-            Rigid::Planar(Box::new(r), g)
-        } else {
-            Rigid::General
+        // the planar closed form on the moved arm's planar view, where it has one
+        let view = || {
+            model.planar_view(&PlanarNumbers {
+                axis: &prm.arm.axis,
+                offset: &prm.arm.offset,
+                link_after: &prm.arm.link_after,
+                thickness: &prm.arm.thickness,
+                holes: &prm.arm.holes,
+            })
+        };
+        let rigid = match (!model.is_elastic()).then(view).flatten() {
+            Some(r) => {
+                let g = CableGeometry::new(&r, None);
+                Rigid::Planar(Box::new(r), g)
+            }
+            None => Rigid::General,
         };
         Ok(Plant {
             model,
@@ -2233,7 +2213,7 @@ fn solve_elastic_k<G: Group>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinds::Planar;
+    use crate::kinds::{Kind, Planar};
 
     const TWO_UNIVERSAL: &str = include_str!("../python/cdsm/robots/two_universal.toml");
 

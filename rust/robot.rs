@@ -1,16 +1,11 @@
-//! The robot description: link lengths, disks, hole positions, masses,
-//! lower-cable tensions and joint limits (SI units), read from TOML.
+//! The planar view of an arm (link lengths, disks, hole positions, masses,
+//! lower-cable tensions and joint limits, SI units: the data of the planar
+//! closed forms and SIMD kernels), derived from the one model by
+//! [`crate::model::Model::planar_view`]; and the cable material.
 
 use crate::error::Result;
 use crate::limits::Limits;
-use crate::robot_file::{
-    bad, coordinates, from_table, joint_limits, non_negative, positive, positive_length,
-    robot_name, toml_table, Exact, MAX_LENGTH,
-};
-use serde::Deserialize;
-
-/// The paper's prototype (Table 1), shipped with the Python package.
-pub const PAPER_TOML: &str = include_str!("../python/cdsm/robots/paper.toml");
+use crate::robot_file::{bad, non_negative, positive, positive_length, MAX_LENGTH};
 
 /// Cable material, for the elasticity model.
 #[derive(Debug, Clone, PartialEq)]
@@ -30,6 +25,18 @@ pub struct CableMaterial {
     /// commands the rigid model's lengths and `cable_elasticity` is the whole
     /// compliance (`docs/model.md`, "Commands and their order").
     pub stretch_feed_forward: bool,
+}
+
+impl Default for CableMaterial {
+    /// A robot file's material when it gives no `[cable]`: steel, 0.18 mm.
+    fn default() -> Self {
+        CableMaterial {
+            youngs_modulus: 1.8e11,
+            diameter: 0.18e-3,
+            routing_length: 0.0,
+            stretch_feed_forward: true,
+        }
+    }
 }
 
 impl CableMaterial {
@@ -73,7 +80,8 @@ pub fn hole_index(n: usize, c: usize, d: usize, f: usize) -> usize {
     ((c * (n + 1) + d) * 2 + f) * 2
 }
 
-/// A planar CDSM with `n` joints and `2n` cables (see `docs/model.md`).
+/// The planar view of a CDSM with `n` joints and `2n` cables (see
+/// `docs/model.md`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Robot {
     pub name: String,
@@ -97,55 +105,7 @@ pub struct Robot {
     pub gravity: [f64; 2],
 }
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RobotFile {
-    kind: Option<String>,
-    name: Option<String>,
-    n: Option<usize>,
-    gravity: Option<Exact<2>>,
-    cable: Option<CableFile>,
-    linkage: Vec<LinkageFile>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CableFile {
-    youngs_modulus: f64,
-    diameter: f64,
-    #[serde(default)]
-    routing_length: f64,
-    #[serde(default = "feed_forward_default")]
-    stretch_feed_forward: bool,
-}
-
-/// A robot file's `[cable] stretch_feed_forward` when it does not say.
-pub(crate) fn feed_forward_default() -> bool {
-    true
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct LinkageFile {
-    link_before: f64,
-    link_after: f64,
-    thickness: f64,
-    hole_height: Option<f64>,
-    upper_holes: Option<Vec<Exact<2>>>,
-    lower_holes: Option<Vec<Exact<2>>>,
-    #[serde(default)]
-    mass: f64,
-    #[serde(default)]
-    lower_tension: f64,
-    joint_limits: Option<Exact<2>>,
-}
-
 impl Robot {
-    /// The paper's 3-DOF prototype (Table 1; lower cables 50, 10, 5 g; ±35°).
-    pub fn paper() -> Robot {
-        Robot::from_toml(PAPER_TOML).expect("the shipped paper robot is valid")
-    }
-
     /// Number of joints.
     pub fn n(&self) -> usize {
         self.link_before.len()
@@ -160,136 +120,6 @@ impl Robot {
     /// The joint-limit box.
     pub fn limits(&self) -> Limits<&[[f64; 2]]> {
         Limits(&self.joint_limits)
-    }
-
-    /// Parses and validates a TOML robot description (format in README).
-    pub fn from_toml(text: &str) -> Result<Robot> {
-        Robot::from_table(toml_table(text)?)
-    }
-
-    /// Validates a planar robot description given as its table (a parsed
-    /// file, or data built as one).
-    pub fn from_table(table: toml::Table) -> Result<Robot> {
-        let file: RobotFile = from_table(table)?;
-        if let Some(k) = file.kind.as_deref() {
-            if k != "planar" {
-                return Err(bad(
-                    "kind".into(),
-                    format!("a planar description has kind \"planar\" (or none), got {k:?}; spatial arms are read as such"),
-                ));
-            }
-        }
-        let n = file.linkage.len();
-        if n == 0 {
-            return Err(bad(
-                "linkage".into(),
-                "at least one [[linkage]] is required",
-            ));
-        }
-        if let Some(declared) = file.n {
-            if declared != n {
-                return Err(bad(
-                    "n".into(),
-                    format!("declares {declared} joints but {n} [[linkage]] tables are given"),
-                ));
-            }
-        }
-        let cable = match file.cable {
-            Some(c) => CableMaterial {
-                youngs_modulus: c.youngs_modulus,
-                diameter: c.diameter,
-                routing_length: c.routing_length,
-                stretch_feed_forward: c.stretch_feed_forward,
-            },
-            None => CableMaterial {
-                youngs_modulus: 1.8e11,
-                diameter: 0.18e-3,
-                routing_length: 0.0,
-                stretch_feed_forward: true,
-            },
-        };
-        let mut robot = Robot {
-            name: robot_name(file.name)?,
-            link_before: Vec::with_capacity(n),
-            link_after: Vec::with_capacity(n),
-            thickness: Vec::with_capacity(n),
-            mass: Vec::with_capacity(n),
-            lower_tension: Vec::with_capacity(n),
-            joint_limits: Vec::with_capacity(n),
-            holes: vec![0.0; 2 * n * (n + 1) * 4],
-            cable,
-            gravity: file.gravity.map_or([0.0, 0.0], |g| g.0),
-        };
-        for (i, l) in file.linkage.iter().enumerate() {
-            let f = |name: &str| format!("linkage[{i}].{name}");
-            robot
-                .link_before
-                .push(positive_length(f("link_before"), l.link_before)?);
-            robot
-                .link_after
-                .push(positive_length(f("link_after"), l.link_after)?);
-            robot
-                .thickness
-                .push(positive_length(f("thickness"), l.thickness)?);
-            robot.mass.push(non_negative(f("mass"), l.mass, "kg")?);
-            robot
-                .lower_tension
-                .push(non_negative(f("lower_tension"), l.lower_tension, "N")?);
-            let lim = joint_limits(f("joint_limits"), l.joint_limits)?;
-            robot.joint_limits.push(lim);
-        }
-        for (i, l) in file.linkage.iter().enumerate() {
-            let f = |name: &str| format!("linkage[{i}].{name}");
-            let along = 2 * i + 3; // base face b, then faces a, b of disks 1..=i+1
-            let explicit = (l.upper_holes.as_ref(), l.lower_holes.as_ref());
-            let (upper, lower): (Vec<[f64; 2]>, Vec<[f64; 2]>) = match (l.hole_height, explicit) {
-                (Some(h), (None, None)) => {
-                    let h = positive_length(f("hole_height"), h)?;
-                    (vec![[0.0, h]; along], vec![[0.0, -h]; along])
-                }
-                (None, (Some(u), Some(w))) => (
-                    u.iter().map(|p| p.0).collect(),
-                    w.iter().map(|p| p.0).collect(),
-                ),
-                _ => {
-                    return Err(bad(
-                        f("hole_height"),
-                        "give either hole_height or both upper_holes and lower_holes",
-                    ))
-                }
-            };
-            for (side, pts) in [("upper_holes", &upper), ("lower_holes", &lower)] {
-                if pts.len() != along {
-                    return Err(bad(
-                        f(side),
-                        format!(
-                            "needs {along} [x, y] points (base face b, then faces a and b of disks 1..{}), got {}",
-                            i + 1,
-                            pts.len()
-                        ),
-                    ));
-                }
-                for (j, p) in pts.iter().enumerate() {
-                    coordinates(format!("linkage[{i}].{side}[{j}]"), *p)?;
-                }
-            }
-            for (s, pts) in [upper, lower].iter().enumerate() {
-                let c = 2 * i + s;
-                for (j, p) in pts.iter().enumerate() {
-                    // j = 0: base disk face b; j = 2d-1: disk d face a; j = 2d: disk d face b.
-                    let (d, face) = if j == 0 {
-                        (0, 1)
-                    } else {
-                        (j.div_ceil(2), 1 - j % 2)
-                    };
-                    let k = robot.hole_index(c, d, face);
-                    robot.holes[k] = p[0];
-                    robot.holes[k + 1] = p[1];
-                }
-            }
-        }
-        robot.validate()?;
-        Ok(robot)
     }
 
     /// Checks array sizes and that every number is finite and physical.

@@ -654,3 +654,9 @@ def test_robot_from_data(cdsm, err):
             cdsm.Robot.from_data(data)
     with pytest.raises(err, match=r"`data`: expected a dict"):
         cdsm.Robot.from_data(SPATIAL_TOML)
+
+
+def test_negative_lower_tension_is_refused(robot, err):
+    """A planar file refuses a negative ``lower_tension``; so does ``with_loads``."""
+    with pytest.raises(err, match=r"lower_tension\[1\]"):
+        robot.with_loads(lower_tension=[0.1, -0.2, 0.3])

@@ -93,3 +93,17 @@ def test_structure_of_a_spatial_arm_groups_holes_per_cable(cdsm):
     # every hole coordinate in exactly one group, cable by cable in order
     assert [i for g in groups for i in g["coords"]] == list(range(r.flat_holes.size))
     assert [len(g["coords"]) for g in groups] == [h.size for h in r.holes_by_cable()]
+
+
+def test_with_loads_sets_any_arms_force_tensions_and_gravity(cdsm):
+    """``with_loads`` is one path for both kinds: the force-controlled cables'
+    tensions (file order) and gravity with the kind's dimension."""
+    r = cdsm.Robot.from_toml(ROBOTS / "two_universal.toml")
+    force = r.core.structure()["force"]
+    t = 0.5 + np.arange(len(force))
+    moved = r.with_loads(lower_tension=t, gravity=[0.0, 0.0, -9.81])
+    np.testing.assert_array_equal(moved.cable_tensions[force], t)
+    np.testing.assert_array_equal(moved.gravity, [0.0, 0.0, -9.81])
+    np.testing.assert_array_equal(moved.flat_holes, r.flat_holes)
+    with pytest.raises(cdsm.CdsmInputError, match="gravity"):
+        r.with_loads(gravity=[0.0, -9.81])

@@ -315,7 +315,7 @@ class Robot:
 
     def with_holes(self, holes, within_disks: bool = True) -> "Robot":
         """The same robot with other holes, m: planar ``(2n, n+1, 2, 2)``
-        (:attr:`holes`); spatial a list like :attr:`holes`, or one flat array
+        (:attr:`holes`; a slot no cable crosses is not read); spatial a list like :attr:`holes`, or one flat array
         of every ``[x, y, z]`` (:attr:`flat_holes`). ``within_disks``: a
         spatial hole outside its disk's radius is refused, as in a robot
         file (False for error studies that move holes past the nominal
@@ -839,10 +839,14 @@ class Robot:
         return (self.position_lengths(theta) + self.routing_length) * eps / (1.0 + eps)
 
     def with_loads(self, lower_tension=None, gravity=None) -> "Robot":
-        """Planar arms: the same robot with other lower-cable tensions (n,),
-        N, and/or gravity [gx, gy], m/s^2 (e.g. the paper's other readings)."""
-        lo = self.lower_tension if lower_tension is None else as_vector("lower_tension", lower_tension, self.n)
-        g = self.gravity if gravity is None else as_vector("gravity", gravity, 2)
+        """The same robot with other loads: the force-controlled cables'
+        tensions, N, one per force cable in file order (a planar arm's lower
+        cables, (n,)), and/or gravity, m/s^2, shaped as :attr:`gravity` (e.g.
+        the paper's other readings)."""
+        force = self.core.structure()["force"]
+        lo = (self.cable_tensions[force] if lower_tension is None
+              else as_vector("lower_tension", lower_tension, len(force)))
+        g = self.gravity if gravity is None else as_vector("gravity", gravity, self.kind.dim)
         return Robot(self.core.with_loads(np.ascontiguousarray(lo, float), np.ascontiguousarray(g, float)),
                      self.threads)
 

@@ -22,7 +22,7 @@ fn _cdsm(m: &Bound<'_, PyModule>) -> PyResult<()> {
         "CdsmInputError",
         m.py().get_type::<convert::CdsmInputError>(),
     )?;
-    m.add("PAPER_TOML", crate::robot::PAPER_TOML)?;
+    m.add("PAPER_TOML", crate::model::PAPER_TOML)?;
     m.add("HIST_LO", crate::accuracy::HIST_LO)?;
     m.add("HIST_PER_DECADE", crate::accuracy::HIST_PER_DECADE)?;
     m.add("HIST_BINS", crate::accuracy::HIST_BINS)?;

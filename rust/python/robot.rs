@@ -311,7 +311,8 @@ impl CoreRobot {
         Ok(vec1(py, self.model.pair_holes().map_err(err)?.to_vec()))
     }
 
-    /// The same robot with other loads: lower tensions (N) and gravity (m/s², in-plane).
+    /// The same robot with other loads: the force-controlled cables' tensions
+    /// (N, file order) and gravity (the kind's `dim` components, m/s²).
     fn with_loads(&self, lower_tension: Arr<'_>, gravity: Arr<'_>) -> PyResult<Self> {
         let lo = slice("lower_tension", &lower_tension)?;
         let g = slice("gravity", &gravity)?;
