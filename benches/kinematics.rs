@@ -4,6 +4,7 @@
 //! `benches/bench_scale.py` and the packaged 24-joint SJTU snake): the
 //! general cable solve and the Monte Carlo, per row of a batch.
 
+use cdsm::accuracy::{self, HoleErrors};
 use cdsm::cables::CableGeometry;
 use cdsm::chain::Chain;
 use cdsm::ik::{IkSolver, Mask, MaskArg, PlanarTask};
@@ -127,7 +128,20 @@ fn spatial(
     c.run(
         &format!("monte_carlo_spatial/{name}"),
         (configs * samples) as u64,
-        || arm::general_monte_carlo(model, black_box(theta0), &dl, Some(&dh), &opts, false, 1),
+        || {
+            let holes = HoleErrors::Full(&dh);
+            let method = CableMethod::Auto;
+            accuracy::monte_carlo(
+                model,
+                black_box(theta0),
+                &dl,
+                holes,
+                method,
+                &opts,
+                false,
+                1,
+            )
+        },
     );
 }
 

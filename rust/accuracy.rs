@@ -2,36 +2,80 @@
 //! length errors and hole-location errors, one scenario at a time or as a
 //! Monte-Carlo study reduced to per-configuration statistics.
 
+use crate::arm::PACK;
 use crate::cables::CableGeometry;
-use crate::chain::Chain;
+use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
-use crate::kinds::Se2;
+use crate::kinds::{log_so3, Frame, HoleGrouping, Se2, Se3, Vector};
 use crate::kinematics::fk;
 use crate::model::Model;
 use crate::planar::cable_lanes::{closed_form_block, ClosedFormBlock, BLOCK_ROWS};
+use crate::real::pack::Pack;
+use crate::real::Lane;
 use crate::robot::Robot;
 use crate::rows::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::simd::math::atan2_slice;
-use crate::solve::{cs_difference, CableMethod, CableSolver, SolveOptions};
+use crate::solve::{
+    cs_difference, CableMethod, CableNewton, CableSolve, CableSolver, SolveOptions,
+};
 use crate::tension::{Balance, Wrench};
 use pulp::{Simd, WithSimd};
+use std::ops::Range;
+
+type P = Pack<PACK>;
 
 /// Hole-location errors of the samples of a Monte-Carlo study.
 #[derive(Debug, Clone, Copy)]
 pub enum HoleErrors<'a> {
     /// No hole error.
     None,
-    /// `(S, n)`: the paper's per-disk hole-height errors (m).
+    /// `(S, n)`: the paper's per-disk hole-height errors (m); arms whose
+    /// holes group per end disk only ([`HoleGrouping::PerEndDisk`]).
     PerPair(&'a [f64]),
-    /// `(S, 2n, n+1, 2, 2)`: an error on every hole coordinate (m).
+    /// An error on every hole coordinate (m), in the kind's layout: planar
+    /// `(S, 2n, n+1, 2, 2)`, otherwise `(S, 3H)` over [`Model::flat_holes`].
     Full(&'a [f64]),
 }
 
-/// Tip deviation `dS = fk(theta) - fk(theta0)` after the upper cables are set
-/// to `L0 + dl` (L0: nominal lengths at `theta0`) on a robot whose holes are
-/// `holes` (`None`: nominal). `theta0 (N, n)`, `dl (n,)`. Returns `dS (N, 3)`
-/// and the solves (seeded at `theta0`). Planar arms only (an error naming
-/// `deviation` for another kind).
+impl<'a> HoleErrors<'a> {
+    /// The hole errors of a study given as per-disk heights `dh` or every
+    /// coordinate `dholes` (at most one; `dh` refused unless the kind's
+    /// holes group per end disk).
+    pub fn of(model: &Model, dh: Option<&'a [f64]>, dholes: Option<&'a [f64]>) -> Result<Self> {
+        if dh.is_some() && model.kind.info().holes != HoleGrouping::PerEndDisk {
+            return Err(per_pair_refused());
+        }
+        match (dh, dholes) {
+            (None, None) => Ok(HoleErrors::None),
+            (Some(a), None) => Ok(HoleErrors::PerPair(a)),
+            (None, Some(a)) => Ok(HoleErrors::Full(a)),
+            _ => Err(CdsmError::Option {
+                name: "dh, dholes".into(),
+                problem: "give at most one of them".into(),
+            }),
+        }
+    }
+}
+
+/// The error for per-disk hole heights on an arm whose holes do not group
+/// per end disk.
+fn per_pair_refused() -> CdsmError {
+    CdsmError::Option {
+        name: "dh".into(),
+        problem: "per-pair hole heights are planar; a spatial arm's Monte Carlo takes `dholes`"
+            .into(),
+    }
+}
+
+/// End deviation after the position cables are set to `L0 + dl` (L0:
+/// nominal lengths at `theta0`, `dl (m_pos,)` m) on an arm whose holes are
+/// `holes` (m, in the kind's layout: planar `(2n, n+1, 2, 2)`, otherwise
+/// [`Model::flat_holes`]; `None`: nominal). `theta0 (N, n)` rad. Returns
+/// `dS (N, task)`, NaN where the solve failed, and the solves (seeded at
+/// `theta0`). Planar `[dX, dY, dphi]` (m, m, rad) by its fast path (poses
+/// from the closed form's cos/sin); any other arm by the general solve
+/// ([`crate::arm::solve_cables`]) and its end frames, `[dp, R0 log(R0ᵀ R1)]`
+/// (m; the rotation vector of the end frame's change in the base frame, rad).
 pub fn deviation(
     model: &Model,
     theta0: &[f64],
@@ -41,7 +85,9 @@ pub fn deviation(
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<(Vec<f64>, BatchSolution)> {
-    let robot = model.planar_only("deviation")?;
+    let Some(robot) = model.planar() else {
+        return general_deviation(model, theta0, dl, holes, method, opts, threads);
+    };
     let n = robot.n();
     let rows = rows_of("theta0", theta0, n)?;
     check_len("dl", dl, n)?;
@@ -78,6 +124,57 @@ pub fn deviation(
     for (d, s) in parts {
         ds.extend(d);
         sol.extend(s);
+    }
+    Ok((ds, sol))
+}
+
+/// [`deviation`] by the general solve (any arm; the planar arms take their
+/// fast path).
+fn general_deviation(
+    model: &Model,
+    theta0: &[f64],
+    dl: &[f64],
+    holes: Option<&[f64]>,
+    method: CableMethod,
+    opts: &SolveOptions,
+    threads: usize,
+) -> Result<(Vec<f64>, BatchSolution)> {
+    let (n, pos) = (model.n(), model.position_cables());
+    let m = pos.len();
+    let rows = rows_of("theta0", theta0, n)?;
+    check_len("dl", dl, m)?;
+    crate::error::check_finite("dl", dl)?;
+    let moved_arm;
+    let moved = match holes {
+        Some(h) => {
+            moved_arm = model.with_holes(h, false)?;
+            &moved_arm
+        }
+        None => model,
+    };
+    let all = crate::arm::cable_lengths(model, theta0, threads)?;
+    let cables = model.cables.len();
+    let mut target = Vec::with_capacity(rows * m);
+    for i in 0..rows {
+        target.extend(pos.iter().zip(dl).map(|(&c, d)| all[i * cables + c] + d));
+    }
+    let sol = crate::arm::solve_cables(moved, &target, Some(theta0), method, opts, threads)?;
+    let f0 = crate::arm::fk_matrix(model, theta0, threads)?;
+    let f1 = crate::arm::fk_matrix(moved, &sol.theta, threads)?;
+    let mut ds = Vec::with_capacity(rows * 6);
+    for i in 0..rows {
+        let (a, b) = (&f0[16 * i..16 * (i + 1)], &f1[16 * i..16 * (i + 1)]);
+        if !sol.converged[i] {
+            ds.extend([f64::NAN; 6]);
+            continue;
+        }
+        ds.extend((0..3).map(|k| b[4 * k + 3] - a[4 * k + 3]));
+        // R0ᵀ R1, its rotation vector, turned into the base frame
+        let rel: [[f64; 3]; 3] = std::array::from_fn(|p| {
+            std::array::from_fn(|q| (0..3).map(|k| a[4 * k + p] * b[4 * k + q]).sum())
+        });
+        let v = log_so3(&rel);
+        ds.extend((0..3).map(|p| (0..3).map(|k| a[4 * p + k] * v[k]).sum::<f64>()));
     }
     Ok((ds, sol))
 }
@@ -238,6 +335,10 @@ struct OpenRows {
     used: Vec<(usize, usize)>,
 }
 
+/// Quantities of a spatial Monte-Carlo sample ([`GeneralPacks`]): dX, dY,
+/// dZ, |dXYZ| (m), rotation angle (rad).
+pub const SPATIAL_QUANTITIES: usize = 5;
+
 /// Index of the position-error norm among the quantities of both kinds.
 pub const NORM: usize = 3;
 
@@ -354,17 +455,24 @@ impl McStats {
     }
 }
 
-/// Monte-Carlo study: for every sample `s` (upper-cable errors `dl[s] (n)`,
-/// hole errors per `holes`) and every configuration `theta0[j]`, the cable
-/// solve seeded at `theta0[j]` and the tip deviation, reduced to [`McStats`].
-/// No robot is rebuilt per sample: only its cable geometry. With
-/// `check_slack`, every converged sample's configuration also gets the upper
-/// tensions of the statics (robot's lower tensions, no load, nominal hole
-/// positions for the moment arms, the robot's gravity) and counts in `slack` when a cable would go
-/// slack.
+/// Monte-Carlo study of an arm of either kind: for every sample `s`
+/// (position-cable errors `dl[s] (m_pos)` m, hole errors per `holes`) and
+/// every configuration `theta0[j] (n)` rad, the cable solve seeded at
+/// `theta0[j]` and the end's deviation, reduced to [`McStats`] with the
+/// kind's quantities ([`crate::kinds::KindInfo::quantities`]: planar dX,
+/// dY, dphi, |dXY|; spatial dX, dY, dZ, |dXYZ|, rotation angle). One driver
+/// (the checks, each sample's arm, the threads, the merge) over two
+/// strategies chosen once here, each with its own order of accumulation: a
+/// planar arm's SIMD lanes ([`PlanarLanes`]: the closed form across blocks
+/// of configurations, `method`; the solver's fallback), any other arm's
+/// packs of the general solve ([`GeneralPacks`]). With `check_slack`, every
+/// converged sample's configuration is also checked for position tensions
+/// holding the arm (no load, the arm's gravity and lower/force cables) and
+/// counted in `slack` when a cable would go slack (planar: nominal holes for
+/// the moment arms; general: the sample's).
 #[allow(clippy::too_many_arguments)]
 pub fn monte_carlo(
-    robot: &Robot,
+    model: &Model,
     theta0: &[f64],
     dl: &[f64],
     holes: HoleErrors,
@@ -373,58 +481,130 @@ pub fn monte_carlo(
     check_slack: bool,
     threads: usize,
 ) -> Result<McStats> {
-    let n = robot.n();
+    let (n, m) = (model.n(), model.position_cables().len());
     let rows = rows_of("theta0", theta0, n)?;
-    let samples = check_samples(rows_of("dl", dl, n)?)?;
-    let hole_len = robot.holes.len();
-    match holes {
-        HoleErrors::None => {}
-        HoleErrors::PerPair(h) => rows_exactly("dh", h, n, samples)?,
-        HoleErrors::Full(h) => rows_exactly("dholes", h, hole_len, samples)?,
-    }
-    let nominal = CableGeometry::new(robot, None);
-    // every sample's cable geometry once (no robot rebuilt), shared by the threads
-    let mut hbuf = vec![0.0; hole_len];
-    let geoms: Vec<CableGeometry> = match holes {
-        HoleErrors::None => Vec::new(),
-        HoleErrors::PerPair(h) => (0..samples)
-            .map(|s| {
-                robot.hole_height_error_into(&h[s * n..(s + 1) * n], &mut hbuf);
-                CableGeometry::new(robot, Some(&hbuf))
-            })
-            .collect(),
-        HoleErrors::Full(h) => (0..samples)
-            .map(|s| {
-                let e = &h[s * hole_len..(s + 1) * hole_len];
-                for (b, (a, d)) in hbuf.iter_mut().zip(robot.holes.iter().zip(e)) {
-                    *b = a + d;
-                }
-                CableGeometry::new(robot, Some(&hbuf))
-            })
-            .collect(),
+    let samples = check_samples(rows_of("dl", dl, m)?)?;
+    let quantities = model.kind.info().quantities.len();
+    let strategy = match model.planar() {
+        Some(robot) => Strategy::Lanes(PlanarLanes::new(
+            model, robot, holes, samples, method, opts,
+        )?),
+        None => Strategy::Packs(GeneralPacks::new(model, holes, samples, opts)?),
     };
-    let geom_of = |s: usize| geoms.get(s).unwrap_or(&nominal);
-    // |t_k - t0_k| below this on every joint keeps |dphi| < pi/2: one atan2
-    let small = (std::f64::consts::FRAC_PI_2 / n as f64).cos();
     // configurations outermost: each one's statistics stay in cache while its
     // samples are added (in sample order, as any chunking of the samples would)
-    let model = Model::from_planar(robot);
-    let arch = pulp::Arch::new();
-    let parts = split_rows(rows, threads, |r| {
-        let mut stats = McStats::new(r.len());
+    let parts = split_rows(rows, threads, |r| match &strategy {
+        Strategy::Lanes(s) => s.rows(theta0, dl, check_slack, r),
+        Strategy::Packs(s) => s.rows(theta0, dl, check_slack, r),
+    });
+    let mut out = McStats::with_quantities(0, quantities);
+    for p in parts {
+        out.extend(p);
+    }
+    Ok(out)
+}
+
+/// The two ways [`monte_carlo`] runs the configurations of a thread.
+enum Strategy<'a> {
+    Lanes(PlanarLanes<'a>),
+    Packs(GeneralPacks<'a>),
+}
+
+/// A planar arm's Monte Carlo ([`QUANTITIES`] per sample): blocks of
+/// configurations, one per SIMD lane, the closed form of a block for one
+/// sample sharing that sample's cable geometry (no robot rebuilt per
+/// sample: only its cable geometry); the lanes it does not settle, and
+/// every solve when Newton is asked for or the limits are enforced, through
+/// [`CableSolver`]. Slack: the square balance over the nominal holes.
+pub struct PlanarLanes<'a> {
+    model: &'a Model,
+    robot: &'a Robot,
+    nominal: CableGeometry,
+    /// every sample's cable geometry (empty: every sample the nominal one)
+    geoms: Vec<CableGeometry>,
+    method: CableMethod,
+    opts: SolveOptions,
+    samples: usize,
+}
+
+impl<'a> PlanarLanes<'a> {
+    fn new(
+        model: &'a Model,
+        robot: &'a Robot,
+        holes: HoleErrors,
+        samples: usize,
+        method: CableMethod,
+        opts: &SolveOptions,
+    ) -> Result<Self> {
+        let n = robot.n();
+        let hole_len = robot.holes.len();
+        match holes {
+            HoleErrors::None => {}
+            HoleErrors::PerPair(h) => rows_exactly("dh", h, n, samples)?,
+            HoleErrors::Full(h) => rows_exactly("dholes", h, hole_len, samples)?,
+        }
+        let nominal = CableGeometry::new(robot, None);
+        // every sample's cable geometry once (no robot rebuilt), shared by the threads
+        let mut hbuf = vec![0.0; hole_len];
+        let geoms: Vec<CableGeometry> = match holes {
+            HoleErrors::None => Vec::new(),
+            HoleErrors::PerPair(h) => (0..samples)
+                .map(|s| {
+                    robot.hole_height_error_into(&h[s * n..(s + 1) * n], &mut hbuf);
+                    CableGeometry::new(robot, Some(&hbuf))
+                })
+                .collect(),
+            HoleErrors::Full(h) => (0..samples)
+                .map(|s| {
+                    let e = &h[s * hole_len..(s + 1) * hole_len];
+                    for (b, (a, d)) in hbuf.iter_mut().zip(robot.holes.iter().zip(e)) {
+                        *b = a + d;
+                    }
+                    CableGeometry::new(robot, Some(&hbuf))
+                })
+                .collect(),
+        };
+        Ok(PlanarLanes {
+            model,
+            robot,
+            nominal,
+            geoms,
+            method,
+            opts: *opts,
+            samples,
+        })
+    }
+
+    /// The statistics of the configurations `r` of `theta0`.
+    fn rows(&self, theta0: &[f64], dl: &[f64], check_slack: bool, r: Range<usize>) -> McStats {
+        let PlanarLanes {
+            model,
+            robot,
+            ref nominal,
+            ref geoms,
+            method,
+            ref opts,
+            samples,
+        } = *self;
+        let n = robot.n();
+        let geom_of = |s: usize| geoms.get(s).unwrap_or(nominal);
+        // |t_k - t0_k| below this on every joint keeps |dphi| < pi/2: one atan2
+        let small = (std::f64::consts::FRAC_PI_2 / n as f64).cos();
+        let arch = pulp::Arch::new();
+        let mut stats = McStats::with_quantities(r.len(), QUANTITIES);
         let (mut target, mut th) = (vec![0.0; n], vec![0.0; n]);
         let mut solver = CableSolver::new(robot, method, *opts);
-        let mut chain = Chain::<f64, Se2<f64>>::new(&model);
-        let mut bal = Balance::<f64>::new(&model);
+        let mut chain = Chain::<f64, Se2<f64>>::new(model);
+        let mut bal = Balance::<f64>::new(model);
         let mut tension = vec![0.0; n];
         let zero = [0.0; 3];
         let mut slack_at = |theta: &[f64]| {
-            chain.at(&model, &model, theta);
+            chain.at(model, model, theta);
             let wrench = Wrench {
                 force: zero,
                 couple: &zero[..1],
             };
-            bal.at(&model, &model, &mut chain, model.gravity, wrench);
+            bal.at(model, model, &mut chain, model.gravity, wrench);
             !(bal.solve_square(&mut tension) && tension.iter().all(|t| *t > 0.0))
         };
         // blocks of configurations, one per SIMD lane: the closed form of a
@@ -524,13 +704,227 @@ pub fn monte_carlo(
             stats.close();
         }
         stats
-    });
-    let mut parts = parts.into_iter();
-    let mut out = parts.next().unwrap_or_else(|| McStats::new(0));
-    for p in parts {
-        out.extend(p);
     }
-    Ok(out)
+}
+
+/// Any other arm's Monte Carlo (the kind's quantities per sample: spatial
+/// dX, dY, dZ, |dXYZ| (m) and the rotation angle (rad)): packs of
+/// [`PACK`] configurations by the general solve, each sample's hole errors
+/// `dholes (S, 3H)` (m, over [`Model::flat_holes`]) one arm built per
+/// sample with its traversals. Slack: a set of position tensions holding
+/// the arm under its gravity and force cables (the sample's holes for the
+/// moment arms; [`crate::arm::held`] at floor 0).
+pub struct GeneralPacks<'a> {
+    model: &'a Model,
+    /// the samples' arms (empty: every sample the nominal one)
+    models: Vec<Model>,
+    traverse: Vec<Vec<f64>>,
+    opts: SolveOptions,
+    quantities: usize,
+    arch: pulp::Arch,
+}
+
+impl<'a> GeneralPacks<'a> {
+    fn new(
+        model: &'a Model,
+        holes: HoleErrors,
+        samples: usize,
+        opts: &SolveOptions,
+    ) -> Result<Self> {
+        opts.check()?;
+        let dholes = match holes {
+            HoleErrors::None => None,
+            HoleErrors::Full(d) => Some(d),
+            HoleErrors::PerPair(_) => return Err(per_pair_refused()),
+        };
+        let nominal_holes = model.flat_holes();
+        let h = nominal_holes.len();
+        let models: Vec<Model> = match dholes {
+            None => Vec::new(),
+            Some(d) => {
+                rows_exactly("dholes", d, h, samples)?;
+                (0..samples)
+                    .map(|s| {
+                        let flat: Vec<f64> = nominal_holes
+                            .iter()
+                            .zip(&d[s * h..(s + 1) * h])
+                            .map(|(a, b)| a + b)
+                            .collect();
+                        model.with_flat_holes(&flat)
+                    })
+                    .collect::<Result<_>>()?
+            }
+        };
+        let model_of = |s: usize| models.get(s).unwrap_or(model);
+        // every arm's traversals once (the nominal one's when no hole moves)
+        let pos = model.position_cables();
+        let traverse: Vec<Vec<f64>> = (0..samples.min(models.len()).max(1))
+            .map(|s| {
+                let mut t = Vec::new();
+                Broadcast::traversals(model_of(s), model_of(s), &pos, &mut t);
+                t
+            })
+            .collect();
+        Ok(GeneralPacks {
+            model,
+            models,
+            traverse,
+            opts: *opts,
+            quantities: model.kind.info().quantities.len(),
+            arch: pulp::Arch::new(),
+        })
+    }
+
+    /// The statistics of the configurations `r` of `theta0`.
+    fn rows(&self, theta0: &[f64], dl: &[f64], check_slack: bool, r: Range<usize>) -> McStats {
+        self.arch.dispatch(McRows {
+            model: self.model,
+            models: &self.models,
+            traverse: &self.traverse,
+            theta0,
+            dl,
+            opts: &self.opts,
+            check_slack,
+            rows: r,
+            quantities: self.quantities,
+        })
+    }
+}
+
+/// The configurations `rows` of [`monte_carlo`]: packs of [`PACK`]
+/// configurations, each sample's solves of a pack in lanes (sharing the
+/// sample's arm), the lanes that leave the Newton phase through
+/// [`CableSolve`]; every configuration gets its samples in sample order.
+struct McRows<'a> {
+    model: &'a Model,
+    /// the samples' arms (empty: every sample the nominal one)
+    models: &'a [Model],
+    traverse: &'a [Vec<f64>],
+    theta0: &'a [f64],
+    dl: &'a [f64],
+    opts: &'a SolveOptions,
+    check_slack: bool,
+    rows: Range<usize>,
+    /// the kind's quantities per sample (5)
+    quantities: usize,
+}
+
+/// Lane `b` of a pack of frames.
+fn lane_frame(f: &Se3<P>, b: usize) -> Se3<f64> {
+    Se3 {
+        r: std::array::from_fn(|i| std::array::from_fn(|k| f.r[i][k].0[b])),
+        t: std::array::from_fn(|i| f.t[i].0[b]),
+    }
+}
+
+/// A Monte-Carlo sample's quantities: the end frame `end` against the
+/// nominal `end0`: dX, dY, dZ, |dXYZ| (m) and the rotation angle (rad).
+fn sample_quantities(end0: &Se3<f64>, end: &Se3<f64>) -> [f64; SPATIAL_QUANTITIES] {
+    let d = end.t.sub(end0.t);
+    let rel: [[f64; 3]; 3] = std::array::from_fn(|a| {
+        std::array::from_fn(|b| (0..3).map(|k| end0.r[k][a] * end.r[k][b]).sum())
+    });
+    [d[0], d[1], d[2], d.norm(), log_so3(&rel).norm()]
+}
+
+impl WithSimd for McRows<'_> {
+    type Output = McStats;
+
+    #[inline(always)]
+    fn with_simd<S: Simd>(self, _simd: S) -> McStats {
+        let McRows {
+            model,
+            models,
+            traverse,
+            theta0,
+            dl,
+            opts,
+            check_slack,
+            rows: r,
+            quantities,
+        } = self;
+        let (n, pos) = (model.n(), model.position_cables());
+        let m = pos.len();
+        let samples = dl.len() / m;
+        let model_of = |s: usize| models.get(s).unwrap_or(model);
+        let mut stats = McStats::with_quantities(r.len(), quantities);
+        let mut lanes = CableNewton::<P, Se3<P>>::new(model, *opts);
+        let mut solver = CableSolve::<Se3<f64>>::new(model, *opts);
+        let mut chain = Chain::<f64, Se3<f64>>::new(model);
+        let (mut l0, mut end0) = (vec![0.0; PACK * m], [Se3::<f64>::identity(); PACK]);
+        let (mut target, mut th) = (vec![0.0; m], vec![0.0; n]);
+        let mut bal = Balance::<f64>::new(model);
+        let mut t = vec![0.0; m];
+        let zero = [0.0; 3];
+        for start in r.clone().step_by(PACK) {
+            let count = PACK.min(r.end - start);
+            for b in 0..count {
+                let t0 = &theta0[(start + b) * n..(start + b + 1) * n];
+                chain.at(model, model, t0);
+                chain.world(model, model);
+                for (k, &c) in pos.iter().enumerate() {
+                    l0[b * m + k] = chain.cable_length(model, model, c, None);
+                }
+                end0[b] = *chain.end();
+            }
+            stats.open(start - r.start, count);
+            for s in 0..samples {
+                let ms = model_of(s);
+                let arm = Broadcast::new(ms, &traverse[s.min(traverse.len() - 1)]);
+                let ds = &dl[s * m..(s + 1) * m];
+                // a short pack repeats its last configuration in the spare lanes
+                for b in 0..PACK {
+                    let (i, bb) = (start + b.min(count - 1), b.min(count - 1));
+                    for (k, x) in lanes.x.iter_mut().enumerate() {
+                        x.0[b] = theta0[i * n + k];
+                    }
+                    for (k, tk) in lanes.target.iter_mut().enumerate() {
+                        tk.0[b] = l0[bb * m + k] + ds[k];
+                    }
+                }
+                let o = lanes.run(ms, &arm);
+                if P::any(o.converged) {
+                    lanes.chain.world(ms, &arm);
+                }
+                for b in 0..count {
+                    let (i, j) = (start + b, start + b - r.start);
+                    let end = if o.status(b).is_some() {
+                        for (tk, x) in th.iter_mut().zip(&lanes.x) {
+                            *tk = x.0[b];
+                        }
+                        lane_frame(lanes.chain.end(), b)
+                    } else {
+                        for (k, tk) in target.iter_mut().enumerate() {
+                            *tk = l0[b * m + k] + ds[k];
+                        }
+                        th.copy_from_slice(&theta0[i * n..(i + 1) * n]);
+                        if !solver.solve(ms, ms, &target, &mut th).converged {
+                            stats.failed[j] += 1;
+                            continue;
+                        }
+                        f64::cos_sin(&th, &mut chain.cs);
+                        chain.at_cs(ms, ms, &th);
+                        chain.world(ms, ms);
+                        *chain.end()
+                    };
+                    stats.add_values(j, &sample_quantities(&end0[b], &end));
+                    if check_slack {
+                        let wrench = Wrench {
+                            force: zero,
+                            couple: &zero,
+                        };
+                        chain.at(ms, ms, &th);
+                        bal.at(ms, ms, &mut chain, ms.gravity, wrench);
+                        if !crate::arm::held(&mut bal, 0.0, &mut t) {
+                            stats.slack[j] += 1;
+                        }
+                    }
+                }
+            }
+            stats.close();
+        }
+        stats
+    }
 }
 
 /// One sample on a block of configurations, SIMD across them: the closed
@@ -787,7 +1181,7 @@ mod tests {
         let m = Model::from_planar(&r);
         let (ds, _) = deviation(&m, &th, &dl, Some(&holes), CableMethod::Auto, &opts, 2).unwrap();
         let st = monte_carlo(
-            &r,
+            &m,
             &th,
             &dl,
             HoleErrors::PerPair(&dh),
@@ -805,6 +1199,55 @@ mod tests {
         }
     }
 
+    /// A spatial arm's deviation (one call for both kinds) is the general
+    /// Monte Carlo of one sample: its position change and the length of its
+    /// rotation vector; hole errors move the arm; `dh` is refused by the kind.
+    #[test]
+    fn spatial_deviation_is_the_monte_carlo_of_one_sample() {
+        let model =
+            Model::from_toml(include_str!("../python/cdsm/robots/two_universal.toml")).unwrap();
+        let (n, m) = (model.n(), model.position_cables().len());
+        let th: Vec<f64> = (0..2 * n)
+            .map(|k| 0.05 * (k as f64 + 1.0) * if k % 2 == 0 { 1.0 } else { -1.0 })
+            .collect();
+        let dl: Vec<f64> = (0..m).map(|k| 2e-4 * (k as f64 - 1.0)).collect();
+        let nominal = model.flat_holes();
+        let dholes: Vec<f64> = (0..nominal.len())
+            .map(|k| 1e-4 * ((k % 7) as f64 - 3.0))
+            .collect();
+        let moved: Vec<f64> = nominal.iter().zip(&dholes).map(|(a, b)| a + b).collect();
+        let opts = SolveOptions::default();
+        let method = CableMethod::Auto;
+        for holes in [None, Some(&moved[..])] {
+            let (ds, sol) = deviation(&model, &th, &dl, holes, method, &opts, 1).unwrap();
+            assert_eq!(ds.len(), 2 * 6);
+            let errors = match holes {
+                None => HoleErrors::None,
+                Some(_) => HoleErrors::Full(&dholes),
+            };
+            let st = monte_carlo(&model, &th, &dl, errors, method, &opts, false, 1).unwrap();
+            assert_eq!(st.quantities, 5);
+            for j in 0..2 {
+                assert!(sol.converged[j]);
+                let d = &ds[j * 6..(j + 1) * 6];
+                for (q, dq) in d[..3].iter().enumerate() {
+                    assert!((st.sum[j * 5 + q] - dq).abs() < 1e-15, "{j} {q}");
+                }
+                let rot = (d[3] * d[3] + d[4] * d[4] + d[5] * d[5]).sqrt();
+                assert!(rot > 1e-6 && (st.sum[j * 5 + 4] - rot).abs() < 1e-14 * rot.max(1.0));
+            }
+        }
+        let err = HoleErrors::of(&model, Some(&dl), None)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("dh") && err.contains("planar"), "{err}");
+        let planar = Model::from_planar(&Robot::paper());
+        assert!(matches!(
+            HoleErrors::of(&planar, Some(&dl), None),
+            Ok(HoleErrors::PerPair(_))
+        ));
+    }
+
     #[test]
     fn monte_carlo_with_enforced_limits_counts_as_the_solver() {
         // a configuration 1 mrad inside joint 1's upper limit: of +-1 mm on
@@ -818,7 +1261,8 @@ mod tests {
             ..SolveOptions::default()
         };
         let method = CableMethod::ClosedForm;
-        let st = monte_carlo(&r, &th, &dl, HoleErrors::None, method, &opts, false, 1).unwrap();
+        let m = Model::from_planar(&r);
+        let st = monte_carlo(&m, &th, &dl, HoleErrors::None, method, &opts, false, 1).unwrap();
         let g = CableGeometry::new(&r, None);
         for j in 0..2 {
             let t0 = &th[j * 3..(j + 1) * 3];

@@ -1,24 +1,20 @@
 //! Batched calls on an arm of either kind ([`Model`]), over threads: the
-//! kinematics, the cable solve, the pose IK, the statics and the Monte
-//! Carlo of its errors. A planar arm runs its fast paths (the planar
-//! drivers of [`crate::batch`]: closed forms, SIMD, the triangular Newton);
+//! kinematics, the cable solve, the pose IK and the statics (the Monte
+//! Carlo of its errors: [`crate::accuracy::monte_carlo`]). A planar arm
+//! runs its fast paths (the planar drivers of [`crate::batch`]: closed forms, SIMD, the triangular Newton);
 //! every arm can run the general ones on the one model's chain, which are
 //! the only ones of a spatial arm. SI units; arrays row-major.
 
-use crate::accuracy::{HoleErrors, McStats};
 use crate::batch;
 use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
 use crate::friction::{Holes, Profile, Sliding};
-use crate::kinds::{log_so3, Frame, Group, Se3, Spatial, Vector, Visit};
+use crate::kinds::{Frame, Group, Spatial, Visit};
 use crate::lm::Reason;
 use crate::model::Model;
 use crate::qp::min_norm_active;
 use crate::real::pack::Pack;
-use crate::real::Lane;
-use crate::rows::{
-    row_of, rows_exactly, rows_of, seeds, shared_or_rows, split_rows, BatchSolution,
-};
+use crate::rows::{row_of, rows_of, seeds, shared_or_rows, split_rows, BatchSolution};
 use crate::solve::{CableMethod, CableNewton, CableSolve, SolveOptions};
 use crate::tension::{Balance, Wrench};
 use pulp::{Simd, WithSimd};
@@ -445,7 +441,7 @@ fn tensions_k<G: Group>(
 /// the one solution (NaN where singular), held when every tension is
 /// strictly above the floor; more: the minimum-norm set at or above the
 /// floor, NaN where none exists.
-fn held(bal: &mut Balance<f64>, floor: f64, t: &mut [f64]) -> bool {
+pub(crate) fn held(bal: &mut Balance<f64>, floor: f64, t: &mut [f64]) -> bool {
     if bal.n == bal.m {
         if !bal.solve_square(t) {
             t.fill(f64::NAN);
@@ -469,51 +465,6 @@ fn held(bal: &mut Balance<f64>, floor: f64, t: &mut [f64]) -> bool {
 fn above_floor(bal: &Balance<f64>, floor: f64) -> Option<Vec<f64>> {
     let a = faer::Mat::<f64>::from_fn(bal.n, bal.m, |j, i| bal.a[j * bal.m + i]);
     min_norm_active(&a, &bal.b, floor).map(|s| s.t)
-}
-
-/// Monte Carlo of an arm's errors (`theta0 (N, n)` rad, `dl (S, m_pos)` m):
-/// one call for either kind, its kernel chosen here. A planar arm runs its
-/// fast kernel ([`crate::accuracy::monte_carlo`]: closed form across lanes,
-/// `method`; hole errors as per-disk heights `dh (S, n)` or every hole
-/// coordinate `dholes` in the planar layout, at most one of them; quantities
-/// dX, dY, dphi, |dXY|); a spatial arm the general solve
-/// ([`general_monte_carlo`]: `dholes (S, 3H)` over [`Model::flat_holes`];
-/// `dh` refused). Both with the optional slack check.
-#[allow(clippy::too_many_arguments)]
-pub fn monte_carlo(
-    model: &Model,
-    theta0: &[f64],
-    dl: &[f64],
-    dh: Option<&[f64]>,
-    dholes: Option<&[f64]>,
-    method: CableMethod,
-    opts: &SolveOptions,
-    check_slack: bool,
-    threads: usize,
-) -> Result<McStats> {
-    let Some(r) = model.planar() else {
-        if dh.is_some() {
-            return Err(CdsmError::Option {
-                name: "dh".into(),
-                problem: "per-pair hole heights are planar; a spatial arm's Monte Carlo takes \
-                          `dholes`"
-                    .into(),
-            });
-        }
-        return general_monte_carlo(model, theta0, dl, dholes, opts, check_slack, threads);
-    };
-    let holes = match (dh, dholes) {
-        (None, None) => HoleErrors::None,
-        (Some(a), None) => HoleErrors::PerPair(a),
-        (None, Some(a)) => HoleErrors::Full(a),
-        _ => {
-            return Err(CdsmError::Option {
-                name: "dh, dholes".into(),
-                problem: "give at most one of them".into(),
-            })
-        }
-    };
-    crate::accuracy::monte_carlo(r, theta0, dl, holes, method, opts, check_slack, threads)
 }
 
 /// First-order sensitivities at `theta (N, n)`: a planar arm's closed
@@ -550,213 +501,3 @@ pub fn hole_height_error(model: &Model, dh: &[f64]) -> Result<Vec<f64>> {
     r.hole_height_error_into(dh, &mut out);
     Ok(out)
 }
-
-/// Monte Carlo of an arm's errors by the general solve: for every sample
-/// `s` (errors `dl[s]` on the position cables, m, and `dholes[s]` on every
-/// hole, as [`Model::flat_holes`], m, when given) and every configuration
-/// `theta0[j]`, the cable solve seeded at `theta0[j]` and the end frame's
-/// deviation, reduced to [`McStats`] with the spatial quantities `dX, dY,
-/// dZ, |dXYZ|` (m) and the rotation angle (rad). With `check_slack`, every
-/// converged sample's configuration is also checked for a set of position
-/// tensions holding the arm under its gravity and force cables (the
-/// perturbed holes for the moment arms; [`tensions`] at floor 0) and
-/// counted in `slack` when none exists. (A planar arm's Monte-Carlo kernel
-/// is [`crate::accuracy::monte_carlo`].)
-pub fn general_monte_carlo(
-    model: &Model,
-    theta0: &[f64],
-    dl: &[f64],
-    dholes: Option<&[f64]>,
-    opts: &SolveOptions,
-    check_slack: bool,
-    threads: usize,
-) -> Result<McStats> {
-    let n = model.n();
-    let m = model.position_cables().len();
-    let rows = rows_of("theta0", theta0, n)?;
-    let samples = crate::accuracy::check_samples(rows_of("dl", dl, m)?)?;
-    opts.check()?;
-    let nominal_holes = model.flat_holes();
-    let h = nominal_holes.len();
-    let models: Vec<Model> = match dholes {
-        None => Vec::new(),
-        Some(d) => {
-            rows_exactly("dholes", d, h, samples)?;
-            (0..samples)
-                .map(|s| {
-                    let flat: Vec<f64> = nominal_holes
-                        .iter()
-                        .zip(&d[s * h..(s + 1) * h])
-                        .map(|(a, b)| a + b)
-                        .collect();
-                    model.with_flat_holes(&flat)
-                })
-                .collect::<Result<_>>()?
-        }
-    };
-    let model_of = |s: usize| models.get(s).unwrap_or(model);
-    // every arm's traversals once (the nominal one's when no hole moves)
-    let pos = model.position_cables();
-    let traverse: Vec<Vec<f64>> = (0..samples.min(models.len()).max(1))
-        .map(|s| {
-            let mut t = Vec::new();
-            Broadcast::traversals(model_of(s), model_of(s), &pos, &mut t);
-            t
-        })
-        .collect();
-    let arch = pulp::Arch::new();
-    let parts = split_rows(rows, threads, |r| {
-        arch.dispatch(McRows {
-            model,
-            models: &models,
-            traverse: &traverse,
-            theta0,
-            dl,
-            opts,
-            check_slack,
-            rows: r,
-        })
-    });
-    let mut out = McStats::with_quantities(0, SPATIAL_QUANTITIES);
-    for p in parts {
-        out.extend(p);
-    }
-    Ok(out)
-}
-
-/// The configurations `rows` of [`monte_carlo`]: packs of [`PACK`]
-/// configurations, each sample's solves of a pack in lanes (sharing the
-/// sample's arm), the lanes that leave the Newton phase through
-/// [`CableSolve`]; every configuration gets its samples in sample order.
-struct McRows<'a> {
-    model: &'a Model,
-    /// the samples' arms (empty: every sample the nominal one)
-    models: &'a [Model],
-    traverse: &'a [Vec<f64>],
-    theta0: &'a [f64],
-    dl: &'a [f64],
-    opts: &'a SolveOptions,
-    check_slack: bool,
-    rows: Range<usize>,
-}
-
-/// Lane `b` of a pack of frames.
-fn lane_frame(f: &Se3<P>, b: usize) -> Se3<f64> {
-    Se3 {
-        r: std::array::from_fn(|i| std::array::from_fn(|k| f.r[i][k].0[b])),
-        t: std::array::from_fn(|i| f.t[i].0[b]),
-    }
-}
-
-/// A Monte-Carlo sample's quantities: the end frame `end` against the
-/// nominal `end0`: dX, dY, dZ, |dXYZ| (m) and the rotation angle (rad).
-fn sample_quantities(end0: &Se3<f64>, end: &Se3<f64>) -> [f64; SPATIAL_QUANTITIES] {
-    let d = end.t.sub(end0.t);
-    let rel: [[f64; 3]; 3] = std::array::from_fn(|a| {
-        std::array::from_fn(|b| (0..3).map(|k| end0.r[k][a] * end.r[k][b]).sum())
-    });
-    [d[0], d[1], d[2], d.norm(), log_so3(&rel).norm()]
-}
-
-impl WithSimd for McRows<'_> {
-    type Output = McStats;
-
-    #[inline(always)]
-    fn with_simd<S: Simd>(self, _simd: S) -> McStats {
-        let McRows {
-            model,
-            models,
-            traverse,
-            theta0,
-            dl,
-            opts,
-            check_slack,
-            rows: r,
-        } = self;
-        let (n, pos) = (model.n(), model.position_cables());
-        let m = pos.len();
-        let samples = dl.len() / m;
-        let model_of = |s: usize| models.get(s).unwrap_or(model);
-        let mut stats = McStats::with_quantities(r.len(), SPATIAL_QUANTITIES);
-        let mut lanes = CableNewton::<P, Se3<P>>::new(model, *opts);
-        let mut solver = CableSolve::<Se3<f64>>::new(model, *opts);
-        let mut chain = Chain::<f64, Se3<f64>>::new(model);
-        let (mut l0, mut end0) = (vec![0.0; PACK * m], [Se3::<f64>::identity(); PACK]);
-        let (mut target, mut th) = (vec![0.0; m], vec![0.0; n]);
-        let mut bal = Balance::<f64>::new(model);
-        let mut t = vec![0.0; m];
-        let zero = [0.0; 3];
-        for start in r.clone().step_by(PACK) {
-            let count = PACK.min(r.end - start);
-            for b in 0..count {
-                let t0 = &theta0[(start + b) * n..(start + b + 1) * n];
-                chain.at(model, model, t0);
-                chain.world(model, model);
-                for (k, &c) in pos.iter().enumerate() {
-                    l0[b * m + k] = chain.cable_length(model, model, c, None);
-                }
-                end0[b] = *chain.end();
-            }
-            stats.open(start - r.start, count);
-            for s in 0..samples {
-                let ms = model_of(s);
-                let arm = Broadcast::new(ms, &traverse[s.min(traverse.len() - 1)]);
-                let ds = &dl[s * m..(s + 1) * m];
-                // a short pack repeats its last configuration in the spare lanes
-                for b in 0..PACK {
-                    let (i, bb) = (start + b.min(count - 1), b.min(count - 1));
-                    for (k, x) in lanes.x.iter_mut().enumerate() {
-                        x.0[b] = theta0[i * n + k];
-                    }
-                    for (k, tk) in lanes.target.iter_mut().enumerate() {
-                        tk.0[b] = l0[bb * m + k] + ds[k];
-                    }
-                }
-                let o = lanes.run(ms, &arm);
-                if P::any(o.converged) {
-                    lanes.chain.world(ms, &arm);
-                }
-                for b in 0..count {
-                    let (i, j) = (start + b, start + b - r.start);
-                    let end = if o.status(b).is_some() {
-                        for (tk, x) in th.iter_mut().zip(&lanes.x) {
-                            *tk = x.0[b];
-                        }
-                        lane_frame(lanes.chain.end(), b)
-                    } else {
-                        for (k, tk) in target.iter_mut().enumerate() {
-                            *tk = l0[b * m + k] + ds[k];
-                        }
-                        th.copy_from_slice(&theta0[i * n..(i + 1) * n]);
-                        if !solver.solve(ms, ms, &target, &mut th).converged {
-                            stats.failed[j] += 1;
-                            continue;
-                        }
-                        f64::cos_sin(&th, &mut chain.cs);
-                        chain.at_cs(ms, ms, &th);
-                        chain.world(ms, ms);
-                        *chain.end()
-                    };
-                    stats.add_values(j, &sample_quantities(&end0[b], &end));
-                    if check_slack {
-                        let wrench = Wrench {
-                            force: zero,
-                            couple: &zero,
-                        };
-                        chain.at(ms, ms, &th);
-                        bal.at(ms, ms, &mut chain, ms.gravity, wrench);
-                        if !held(&mut bal, 0.0, &mut t) {
-                            stats.slack[j] += 1;
-                        }
-                    }
-                }
-            }
-            stats.close();
-        }
-        stats
-    }
-}
-
-/// Quantities of a spatial Monte-Carlo sample: dX, dY, dZ, |dXYZ| (m),
-/// rotation angle (rad).
-pub const SPATIAL_QUANTITIES: usize = 5;

@@ -730,8 +730,7 @@ pub struct KindInfo {
     /// How the task vector holds the attitude (its last `task - dim` components).
     pub rotation: Rotation,
     /// The quantities of a Monte-Carlo study, per sample, and their units
-    /// (`crate::arm::monte_carlo`: a planar arm's kernel
-    /// `crate::accuracy::monte_carlo`, the general `crate::arm::general_monte_carlo`).
+    /// (`crate::accuracy::monte_carlo`, whose statistics are this wide).
     pub quantities: &'static [(&'static str, &'static str)],
     /// How hole errors group ([`crate::model::Structure`]).
     pub holes: HoleGrouping,
@@ -887,7 +886,7 @@ mod tests {
         );
         assert_eq!(
             Kind::Spatial.info().quantities.len(),
-            crate::arm::SPATIAL_QUANTITIES
+            crate::accuracy::SPATIAL_QUANTITIES
         );
         assert_eq!(Kind::named("other"), None);
         // the one dispatch picks the kind's group

@@ -490,8 +490,8 @@ def test_a_friction_map_runs_its_cycles_in_chunks_of_bounded_memory(cdsm, ref, m
     sequence); each chunk is a sequence of its own from the start state —
     its loops are the reference plant's on that chunk alone — and a chunk
     holding every cycle is the one sequence, as before."""
+    from cdsm import plant
     from cdsm.accuracy import statics
-    from cdsm.calibration import plant
 
     r = cdsm.Robot.packaged("paper_vertical")
     th = np.array([[0.3, -0.2, 0.25], [0.0, 0.0, 0.0], [-0.4, 0.3, 0.1]])

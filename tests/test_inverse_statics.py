@@ -97,6 +97,19 @@ def test_compensation_of_a_fitted_error_model_meets_the_targets(ftdcr):
         compensate(model, tip[:, :3], start=np.zeros(9))
 
 
+def test_the_commands_file_of_an_elastic_arm_says_what_its_columns_are(ftdcr, tmp_path):
+    """The CSV of an elastic arm's compensation names its commanded tendons and says that
+    L_i is a rest length from the rest angles and the tendon's pull is -dL_i (it said
+    "upper-cable length commands" and "position-controlled cable" for every robot)."""
+    robot, _, tip = ftdcr
+    model = Model.from_effects(robot, {"cable_offset": np.linspace(-2e-4, 2e-4, 9)})
+    compensate(model, tip[:2, :3]).to_csv(tmp_path / "c.csv")
+    head = [line for line in (tmp_path / "c.csv").read_text().splitlines() if line.startswith("#")]
+    assert not any("upper" in line or "position-controlled" in line for line in head)
+    assert any("rest length" in line and "pulled by -dL_i" in line and "cables 1, 2, 3, 4, 5, 6, 7, 8, 9" in line
+               for line in head)
+
+
 def test_bad_targets_name_the_field(ftdcr):
     robot, _, _ = ftdcr
     with pytest.raises(CdsmInputError, match="`targets`: expected"):

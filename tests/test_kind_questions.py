@@ -23,7 +23,6 @@ PACKAGED = ("paper", "serpentine8", "paper_spatial", "two_universal", "sjtu_snak
 #: paths that a later step of issue 33 makes one (module: the functions).
 ALLOWED = {
     "accuracy/configurations.py": 1,  # rms_and_gradient: the core's planar RMS vs numpy over the sensitivities (S12)
-    "accuracy/scenarios.py": 1,  # deviation: the core's planar deviation vs solve_cables + fk_matrix (S11)
 }
 KIND_BY_NAME = re.compile(r"""\.kind\s*(==|!=)\s*["'](planar|spatial)["']""")
 

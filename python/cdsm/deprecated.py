@@ -27,7 +27,6 @@ MOVED: Dict[str, Tuple[str, ...]] = {
     "cdsm.design_config": ("cdsm.accuracy.configurations",),
     "cdsm.montecarlo": ("cdsm.accuracy.distributed", "cdsm.accuracy.montecarlo"),
     "cdsm.measurements": ("cdsm.calibration.measurements",),
-    "cdsm.plant": ("cdsm.calibration.plant",),
     "cdsm.diagnose": ("cdsm.calibration.diagnosis", "cdsm.calibration.fit"),
     "cdsm.design": ("cdsm.calibration.experiment",),
     "cdsm.model": ("cdsm.calibration.model", "cdsm.calibration.compensation"),

@@ -51,7 +51,10 @@ class Kind(str):
     disk's attitude is the running sum of the joint angles (planar), so a
     row whose sum overflows is refused; ``pair_holes``: holes in the planar
     ``(2n, n+1, 2, 2)`` layout (cable, disk, face, (x, y)) rather than per
-    cable.
+    cable; ``deviation_statics_on_moved_arm``: a single error scenario
+    (:func:`cdsm.accuracy.scenarios.deviation`) judges the cables taut after
+    the error on the arm with the moved holes (spatial) rather than on the
+    nominal arm (planar, as cdsm 0.1).
 
     Statics: the task wrench is padded into the core's wrench
     (``core_wrench_rows`` of ``core_wrench_width``), the gravity into the
@@ -158,6 +161,7 @@ class Kind(str):
     command_arg: str
     summed_angles: bool
     pair_holes: bool
+    deviation_statics_on_moved_arm: bool
     core_wrench_rows: Tuple[int, ...]
     core_wrench_width: int
     quantities: Tuple[str, ...]
@@ -311,6 +315,7 @@ PLANAR = Kind(
     masks={"pose": (1.0, 1.0, 1.0), "position": (1.0, 1.0, 0.0)}, default_mask="pose", mask_weights=True,
     mask_hint=" or 3 weights",
     target_arg="pose", command_arg="upper", summed_angles=True, pair_holes=True,
+    deviation_statics_on_moved_arm=False,
     core_wrench_rows=(0, 1, 3), core_wrench_width=4,
     default_samples=1000,
     hole_error_arg="dh", hole_group="disk {}'s holes", hole_tolerance_key="hole_height_tol_m", pose_regions=True,
@@ -371,7 +376,7 @@ SPATIAL = Kind(
     "spatial", **_core("spatial"), masks={"position": "position", "pointing": "pointing", "pose": "pose"},
     default_mask="position",
     mask_weights=False, mask_hint=" for a spatial arm", target_arg="target", command_arg="lengths", summed_angles=False,
-    pair_holes=False, core_wrench_rows=(0, 1, 2, 3, 4, 5), core_wrench_width=6,
+    pair_holes=False, deviation_statics_on_moved_arm=True, core_wrench_rows=(0, 1, 2, 3, 4, 5), core_wrench_width=6,
     default_samples=200,
     hole_error_arg="dholes", hole_group="cable {}'s holes", hole_tolerance_key="hole_tol_m", pose_regions=False,
     hole_scenarios=(("radial", "radial{cable}", "{size:+g} mm radially on cable {cable}'s holes"),
@@ -408,11 +413,12 @@ SPATIAL = Kind(
                       rotation_error=lambda d: np.linalg.norm(d, axis=1)),
     cable_numbers=True,
     allocation=dict(equal_effect="per_group",
-                    weights="{count} positive{finite} numbers ({m} position-controlled cables then {groups} cables' "
+                    weights="{count} positive{finite} numbers ({m} commanded cables then {groups} cables' "
                             "holes)",
                     region="sobol:1000", robot="spatial robot",
-                    cables_line="cable length tolerance (mm, per position-controlled cable {cables}): ",
-                    holes_line="hole tolerance (mm, every coordinate of each cable's holes, cables 1..{groups}): ",
+                    cables_line="cable length tolerance (mm, per commanded cable {cables}): ",
+                    holes_line="hole tolerance (mm, every coordinate of each commanded cable's holes, cables "
+                               "{cables}): ",
                     evaluations=" ({evaluations} Monte-Carlo evaluations)"),
     headline_aliases={"mc": (), "single": ()},
     figure=dict(projections=True, equal=True, ticks=3, mc_wgap=0.95, row_wgap=1.05, rotation_overview=True,

@@ -60,7 +60,8 @@ impl SolveResult {
     }
 }
 
-/// Tip deviations `ds (N*3)` (m, m, rad) and the perturbed solves.
+/// End deviations `ds (N*task)` (planar m, m, rad; spatial m and the
+/// rotation vector, rad) and the perturbed solves.
 #[pyclass(frozen, get_all, module = "cdsm._cdsm")]
 pub struct DeviationResult {
     pub ds: A<f64>,

@@ -468,10 +468,9 @@ impl CoreRobot {
         DeviationResult::new(py, ds, sol)
     }
 
-    /// Monte Carlo: a planar arm's kernel (closed form across lanes, per-pair
-    /// `dh` or full `dholes` errors), a spatial arm's general solve
-    /// (`dholes` flat as `flat_holes`; its quantities dX, dY, dZ, |dXYZ|,
-    /// rotation angle); both with the optional slack check.
+    /// Monte Carlo (`accuracy::monte_carlo`): per-disk `dh` (planar) or
+    /// every-coordinate `dholes` errors (the kind's hole layout), the kind's
+    /// quantities, the optional slack check.
     #[pyo3(signature = (theta0, dl, dh, dholes, method, tol, max_iter, check_slack, threads))]
     #[allow(clippy::too_many_arguments)]
     fn monte_carlo(
@@ -494,7 +493,10 @@ impl CoreRobot {
         let m = self::method(method)?;
         let o = options(tol, max_iter, false)?;
         let st = py
-            .detach(|| arm::monte_carlo(&self.model, t, d, dh, dholes, m, &o, check_slack, threads))
+            .detach(|| {
+                let holes = accuracy::HoleErrors::of(&self.model, dh, dholes)?;
+                accuracy::monte_carlo(&self.model, t, d, holes, m, &o, check_slack, threads)
+            })
             .map_err(err)?;
         Ok(MonteCarloStats::new(py, st))
     }

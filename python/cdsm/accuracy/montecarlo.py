@@ -16,7 +16,7 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .. import _cdsm
+from .. import _cdsm, plant
 from ..files import check_path, json_safe, read_npz, write_npz
 from ..inputs import CdsmInputError, as_batch, as_count, as_finite, as_tolerances
 from ..kinds import KINDS, PLANAR, SPATIAL
@@ -29,7 +29,7 @@ __all__ = ["QUANTILE_BOUND", "hist_quantile", "MonteCarlo", "monte_carlo", "mont
            "sample_errors",
            "QUANTITY_NAMES", "QUANTITY_UNITS", "SPATIAL_QUANTITY_NAMES", "SPATIAL_QUANTITY_UNITS",
            "DEFAULT_PERCENTILES", "percentile_key", "percentile_text", "error_widths",
-           "hole_error_sizes",
+           "hole_error_sizes", "plate_hole_twins",
            "summary", "save_npz", "load_npz"]
 
 DEFAULT_PERCENTILES = (50.0, 95.0, 99.0)
@@ -252,6 +252,21 @@ def hole_error_sizes(robot) -> np.ndarray:
     return np.array([1 if g["coherent"] else len(g["coords"]) for g in groups], dtype=np.int64)
 
 
+def plate_hole_twins(robot) -> Tuple[np.ndarray, np.ndarray]:
+    """``(face_b, face_a)``: positions among the hole errors a sample draws
+    (:func:`hole_error_sizes`, one per coordinate of a group that is not
+    coherent) of the coordinates of a zero-thickness disk's face-b holes and
+    of their face-a twins, which take one error (:func:`cdsm.plant.plate_twins`);
+    empty without such disks or when every group is coherent (a planar arm's
+    hole heights)."""
+    if not (np.asarray(robot.disk_thickness) == 0.0).any():
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    groups = robot.core.structure()["hole_groups"]
+    if any(g["coherent"] for g in groups):
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return plant.plate_twins(robot, np.concatenate([np.asarray(g["coords"], np.int64) for g in groups]))
+
+
 def error_widths(robot) -> Tuple[int, int]:
     """How many cable-length and hole errors a sample draws: one per
     position-controlled cable, and :func:`hole_error_sizes` summed — planar
@@ -277,6 +292,9 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     (default ``robot.threads``) only splits the configurations: the result does
     not depend on it. This is the unit of work of local and cluster runs."""
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
+    b, a = plate_hole_twins(robot)  # a zero-thickness disk's two faces: one hole, one error
+    if b.size:
+        dh[:, b] = dh[:, a]
     th = robot.threads if threads is None else as_count("threads", threads)
     # the hole errors go by the kind's argument (per-disk heights or every coordinate), none when all are 0
     holes = {"dh": None, "dholes": None}

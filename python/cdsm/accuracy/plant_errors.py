@@ -28,11 +28,11 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .. import _cdsm
-from ..calibration import plant
+from .. import plant
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..progress import Progress
 from ..robot import Robot
-from ..calibration.measurements import commanded_cables
+from ..plant import commanded_cables
 from .montecarlo import MonteCarlo, chunk_sizes
 from .sampling import METHODS, nearest_neighbours, sobol
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, rotation_vectors
@@ -43,7 +43,7 @@ __all__ = ["DEFAULT_TOLERANCES", "SENSITIVITY_BLOCKS", "COMMAND_RANGE", "PATH_TO
            "tolerance_vector", "sample_parameters",
            "deviation_quantities", "pose_deviation", "monte_carlo_commands", "sensitivities_commands",
            "nominal_commands", "error_parameters", "hole_block", "deviation_commands", "sample_commands",
-           "hole_columns", "position_matrix_commands", "amplification_commands", "equilibria"]
+           "hole_columns", "hole_ties", "tie_faces", "position_matrix_commands", "amplification_commands", "equilibria"]
 
 #: The tolerances of a study by plant block: the paper's ±1 mm on each
 #: commanded cable's length and ±0.35 mm on every hole coordinate (spatial)
@@ -149,6 +149,31 @@ def hole_columns(robot: Robot) -> np.ndarray:
     sizes = [np.asarray(h).size for h in robot.holes]
     starts = np.concatenate([[0], np.cumsum(sizes)])
     return np.concatenate([np.arange(starts[c], starts[c + 1]) for c in commanded_cables(robot)]).astype(np.int64)
+
+
+def hole_ties(robot: Robot) -> tuple:
+    """``(faces_b, faces_a)`` two (t,) index arrays into the plant's
+    ``hole_position`` block (:func:`hole_columns` order): the coordinates of
+    every face-b hole of a disk of zero thickness and of its face-a twin
+    (:func:`cdsm.plant.plate_twins`: one physical hole, one error; drawn per
+    face, on FTDCR v4 at ±1 µm the tips were biased 2–6× their spread).
+    Empty for an arm without zero-thickness disks, and for a planar arm (its
+    plant's holes move by ``hole_height``)."""
+    if hole_block(robot) != "hole_position":
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    return plant.plate_twins(robot, hole_columns(robot))
+
+
+def tie_faces(robot: Robot, p: np.ndarray) -> np.ndarray:
+    """The plant parameters ``p`` (..., P) with every zero-thickness disk's
+    face-b hole error set to its face a's (:func:`hole_ties`): one error per
+    physical hole. A copy."""
+    out = np.array(p, dtype=np.float64)
+    b, a = hole_ties(robot)
+    if b.size:
+        start = plant.layout(robot)["hole_position"].start
+        out[..., start + b] = out[..., start + a]
+    return out
 
 
 def hole_block(robot: Robot) -> str:
@@ -291,7 +316,8 @@ def monte_carlo_commands(robot: Robot, dL, theta_cmd=None, samples: int = 200, s
     deviation of the settled tip from the nominal plant's
     (:func:`deviation_quantities`). ``theta0`` of the result is the nominal
     plant's settled angles; a row the nominal plant does not settle counts
-    every sample failed."""
+    every sample failed. A zero-thickness disk's two faces take one error
+    (face a's: :func:`tie_faces`)."""
     t, d = nominal_commands(robot, dL, theta_cmd)
     samples, chunk, seed = as_count("samples", samples, 1), as_count("chunk", chunk, 1), as_count("seed", seed)
     tol = tolerance_vector(robot, tolerances)
@@ -301,7 +327,7 @@ def monte_carlo_commands(robot: Robot, dL, theta_cmd=None, samples: int = 200, s
     out = None
     bar = Progress(samples, label, progress)
     for c, m in enumerate(chunk_sizes(samples, chunk)):
-        part = _chunk(robot, sample_parameters(tol, m, seed, c), t, d, nominal, theta0)
+        part = _chunk(robot, tie_faces(robot, sample_parameters(tol, m, seed, c)), t, d, nominal, theta0)
         if out is None:
             out = part
         else:
@@ -353,12 +379,17 @@ def position_matrix_commands(robot: Robot, dL, theta_cmd=None) -> np.ndarray:
     (``hole_position``) — to the tip position (d = the kind's position
     axes), m/m, at the commands ``dL`` (N, m_c) m: the columns of
     :func:`cdsm.accuracy.sensitivity.position_matrix` for an arm commanded
-    by its cables (:func:`sensitivities_commands`). NaN rows where the
-    nominal plant does not settle."""
+    by its cables (:func:`sensitivities_commands`), one error per physical
+    hole (a zero-thickness disk's face-b column added to face a's and set to
+    0, :func:`hole_ties`). NaN rows where the nominal plant does not settle."""
     holes = hole_block(robot)
     s = sensitivities_commands(robot, dL, theta_cmd, blocks=("cable_offset", holes))
     d = robot.kind.dim
-    return np.concatenate([s["cable_offset"][:, :d, :], s[holes][:, :d, :]], axis=2)
+    h = s[holes][:, :d, :].copy()
+    b, a = hole_ties(robot)  # one error per physical hole: face b's column joins face a's
+    h[:, :, a] += h[:, :, b]
+    h[:, :, b] = 0.0
+    return np.concatenate([s["cable_offset"][:, :d, :], h], axis=2)
 
 
 def amplification_commands(robot: Robot, ws: Workspace) -> dict:

@@ -1,8 +1,8 @@
 """Single error scenarios (the paper's Fig. 3): the tip deviation caused by a
-cable-length error ``dL`` on the upper cables, a hole-location error (``dh``
-per disk, or ``dholes`` per hole coordinate), or both, solved in the Rust
-core; for spatial arms on the position-controlled cables and any hole
-coordinate (x, y, z). SI units: m, rad."""
+cable-length error ``dL`` on the position-controlled cables (planar: the upper
+cables), a hole-location error (``dh`` per disk on planar arms, or ``dholes``
+per hole coordinate), or both, solved in the Rust core for either kind. SI
+units: m, rad."""
 
 from __future__ import annotations
 
@@ -68,40 +68,58 @@ def deviation(robot: Robot, theta0=None, *, poses=None, dL=None, dh=None, dholes
               max_iter: int = 100, statics: bool = True) -> Deviation:
     """Tip deviation caused by cable-length and hole-location errors (Fig. 3a–c).
 
-    theta0: (N, n) initial joint angles, rad — or poses: (N, 3) [x, y, phi]
-    (m, m, rad), solved by the pose IK from ``ik_seed`` (default theta = 0).
-    dL: (n,) error on each upper cable, m (L = L0 + dL). dh: (n,) the paper's
-    error on disk i's holes (hole height of pair i), m. dholes: (2n, n+1, 2, 2)
-    an error on every hole coordinate, m. Holes and lengths may be combined.
-    ``statics``: also judge every configuration's cables taut before and
-    after (:attr:`Deviation.feasible`; None without) — on an arm of many
-    position cables the statics cost more than the solves.
+    theta0: (N, n) initial joint angles, rad — or poses: (N, task) (planar
+    [x, y, phi], m, m, rad), solved by the pose IK from ``ik_seed`` (default
+    theta = 0). dL: (m_pos,) error on each position-controlled cable (planar:
+    the n upper cables), m (L = L0 + dL). dh: (n,) the paper's error on disk
+    i's holes (hole height of pair i), m — the kind's argument where
+    :attr:`cdsm.kinds.Kind.hole_error_arg` is ``"dh"`` (planar). dholes: an
+    error on every hole coordinate, m: planar (2n, n+1, 2, 2)
+    (:attr:`Robot.holes`), spatial flat like :attr:`Robot.flat_holes`. Holes
+    and lengths may be combined (at most one of dh, dholes). Solved in the
+    core for either kind (``CoreRobot.deviation``). ``statics``: also judge
+    every configuration's cables taut before and after
+    (:attr:`Deviation.feasible`; None without) — on an arm of many position
+    cables the statics cost more than the solves.
     """
     t0, ik = _theta0(robot, theta0, poses, ik_seed)
-    if robot.kind == "spatial":
-        if dh is not None:
-            raise CdsmInputError("`dh`: the per-disk hole-height error is planar; give `dholes` for a spatial arm")
-        return _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter, statics)
-    dl = np.zeros(robot.n) if dL is None else as_vector("dL", dL, robot.n)
+    kind = robot.kind
+    if dh is not None and kind.hole_error_arg != "dh":
+        raise CdsmInputError(f"`dh`: the per-disk hole-height error is planar; give `{kind.hole_error_arg}` for a "
+                             f"{kind} arm")
+    m = len(robot.position_cables)
+    dl = np.zeros(m) if dL is None else as_vector("dL", dL, m)
     if dh is not None and dholes is not None:
         raise CdsmInputError("`dh`, `dholes`: give at most one of them")
-    holes = None
+    holes = None if dh is None and dholes is None else _moved_holes(robot, dh, dholes)
+    res = robot.core.deviation(t0, dl, holes, method, as_finite("tol", tol), as_iterations("max_iter", max_iter),
+                               robot.threads)
+    # the arm whose statics judge the configuration after the error (the kind's choice)
+    after = robot
+    if holes is not None and kind.deviation_statics_on_moved_arm:
+        after = robot.with_holes(holes, within_disks=False)
+    sol = Solution.from_core(res.solution, robot.n, False, after)
+    feasible = robot.feasible(t0) & after.feasible(sol.theta) if statics else None
+    return Deviation(res.ds.reshape(-1, kind.task), t0, sol, ik, feasible)
+
+
+def _moved_holes(robot: Robot, dh, dholes) -> np.ndarray:
+    """Every hole after the error ``dh`` or ``dholes`` (see :func:`deviation`),
+    flat in the core's layout of the arm's kind (planar (2n, n+1, 2, 2),
+    spatial :attr:`Robot.flat_holes`), m."""
     if dh is not None:
-        holes = robot.hole_height_error(dh)
-    elif dholes is not None:
-        d = as_array("dholes", dholes)
+        return np.ascontiguousarray(robot.hole_height_error(dh).reshape(-1))
+    d = as_array("dholes", dholes)
+    if robot.kind.pair_holes:
         if d.shape != robot.holes.shape:
             raise CdsmInputError(f"`dholes`: expected shape {robot.holes.shape}, got {d.shape}")
         if not np.isfinite(d).all():
             raise CdsmInputError("`dholes`: contains non-finite values")
-        holes = robot.holes + d
-    if holes is not None:
-        holes = np.ascontiguousarray(holes.reshape(-1))
-    res = robot.core.deviation(t0, dl, holes, method, as_finite("tol", tol), as_iterations("max_iter", max_iter),
-                               robot.threads)
-    sol = Solution.from_core(res.solution, robot.n, False)
-    feasible = robot.feasible(t0) & robot.feasible(sol.theta) if statics else None
-    return Deviation(res.ds.reshape(-1, 3), t0, sol, ik, feasible)
+        return np.ascontiguousarray((robot.holes + d).reshape(-1))
+    flat, d = robot.flat_holes, d.reshape(-1)
+    if d.shape != flat.shape or not np.isfinite(d).all():
+        raise CdsmInputError(f"`dholes`: expected {flat.size} finite values (every hole's x, y, z, m)")
+    return flat + d
 
 
 def rotation_vectors(r: np.ndarray) -> np.ndarray:
@@ -117,23 +135,3 @@ def rotation_vectors(r: np.ndarray) -> np.ndarray:
         k = np.where(s > 1e-300, angle / s, 1.0)
     return v * k[..., None]
 
-
-def _spatial_deviation(robot, t0, ik, dL, dholes, tol, max_iter, statics=True) -> Deviation:
-    m = len(robot.position_cables)
-    dl = np.zeros(m) if dL is None else as_vector("dL", dL, m)
-    moved = robot
-    if dholes is not None:
-        flat = robot.flat_holes
-        d = as_array("dholes", dholes).reshape(-1)
-        if d.shape != flat.shape or not np.isfinite(d).all():
-            raise CdsmInputError(f"`dholes`: expected {flat.size} finite values (every hole's x, y, z, m)")
-        moved = robot.with_holes(flat + d, within_disks=False)
-    sol = moved.solve_cables(robot.position_lengths(t0) + dl, seed=t0, tol=tol, max_iter=max_iter)
-    f0, f1 = robot.fk_matrix(t0), moved.fk_matrix(sol.theta)
-    ds = np.concatenate([f1[:, :3, 3] - f0[:, :3, 3],
-                         np.einsum("nij,nj->ni", f0[:, :3, :3],
-                                   rotation_vectors(np.einsum("nji,njk->nik", f0[:, :3, :3], f1[:, :3, :3])))],
-                        axis=1)
-    ds[~np.asarray(sol.converged)] = np.nan
-    feasible = robot.feasible(t0) & moved.feasible(sol.theta) if statics else None
-    return Deviation(ds, t0, sol, ik, feasible)

@@ -31,9 +31,9 @@ from typing import Dict, Optional
 import numpy as np
 
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
-from ..calibration.measurements import commanded_cables
+from ..plant import commanded_cables
 from ..robot import Robot
-from .montecarlo import hole_error_sizes, monte_carlo
+from .montecarlo import hole_error_sizes, monte_carlo, plate_hole_twins
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, deviation
 from .workspace import jump_points, singular_values, sweep
 from ..display import ShortRepr
@@ -251,10 +251,18 @@ def _position_blocks(robot: Robot, theta: np.ndarray):
     """(cable (N, d, m_pos), holes (N, d, k)) sensitivities of the tip
     position (d = 2 planar, 3 spatial) to the position-cable lengths and to
     the hole errors (planar: each disk's hole height; spatial: every hole
-    coordinate), m/m."""
+    coordinate), m/m; a zero-thickness disk's face-b hole takes its face-a
+    twin's error (:func:`~cdsm.accuracy.montecarlo.plate_hole_twins`: its
+    column joins the twin's and is 0), as the Monte Carlo draws them."""
     s = sensitivities(robot, theta, holes=robot.kind.hole_errors_per_coordinate)
     d = robot.kind.dim
-    return s.cable[:, :d, :], s.hole_errors[:, :d, :]
+    h = s.hole_errors[:, :d, :]
+    b, a = plate_hole_twins(robot)
+    if b.size:
+        h = h.copy()
+        h[:, :, a] += h[:, :, b]
+        h[:, :, b] = 0.0
+    return s.cable[:, :d, :], h
 
 
 def position_matrix(robot: Robot, theta) -> np.ndarray:

@@ -237,7 +237,7 @@ def friction_map(robot: Robot, theta, mu: float = FRICTION, amplitude: float = C
     cables x joints, run in chunks of :func:`cycle_chunk` cycles (memory
     bounded by :data:`CYCLE_MEMORY`). ``progress``: a progress line on
     stderr (``label``) over the cycles."""
-    from ..calibration import plant
+    from .. import plant
 
     th, _ = as_batch("theta", theta, robot.n, finite=False)  # rows with NaN are left NaN
     mu = as_finite("mu", mu)

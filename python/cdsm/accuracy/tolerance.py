@@ -50,7 +50,10 @@ import numpy as np
 from ..files import read_table, read_text
 from ..inputs import CdsmInputError, as_batch, as_tolerances
 from ..kinds import SPATIAL, Kind
+from .. import plant
+from ..plant import commanded_cables
 from ..robot import Robot
+from . import plant_errors
 from .montecarlo import QUANTILE_BOUND, MonteCarlo, hist_quantile, hole_error_sizes, monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
 from .sensitivity import linear_percentile, position_matrix
@@ -60,7 +63,7 @@ from .workspace import joint_grid, paper_ik_seed
 __all__ = ["HIST_RESOLUTION", "pooled_percentile", "Allocation", "allocate", "distribution",
            "region_cells", "parse_region", "hole_tolerances",
            "SPATIAL_REGION_DEFAULT", "error_tolerances",
-           "read_tolerances", "default_configurations"]
+           "read_tolerances", "default_configurations", "default_commands", "ELASTIC_COMMANDS"]
 
 #: Relative bound of the Monte-Carlo quantiles the allocation reads
 #: (:data:`cdsm.accuracy.montecarlo.QUANTILE_BOUND`, 0.498 %).
@@ -168,12 +171,12 @@ class Allocation(Verdicts):
         }
 
 
-def _shape(robot: Robot, em: np.ndarray, weights, base, shape: str, sizes: np.ndarray) -> np.ndarray:
-    """(m_pos + G,) the tolerance shape of :func:`allocate`, per error group:
-    the m_pos position-controlled cables, then the G hole groups (``sizes``:
+def _shape(robot: Robot, em: np.ndarray, weights, base, shape: str, m: int, sizes: np.ndarray) -> np.ndarray:
+    """(m + G,) the tolerance shape of :func:`allocate`, per error group:
+    the m commanded cables, then the G hole groups (``sizes``:
     :func:`~cdsm.accuracy.montecarlo.hole_error_sizes`); ``em`` the linear
-    map (N, d, m_pos + sum(sizes)) of every error to the tip position."""
-    groups = [len(robot.position_cables), len(sizes)]
+    map (N, d, m + sum(sizes)) of every error to the tip position."""
+    groups = [m, len(sizes)]
     count = sum(groups)
     w = np.ones(count) if weights is None else np.asarray(weights, dtype=np.float64).reshape(-1)
     if w.size == 2:
@@ -266,10 +269,64 @@ def _scale_search(simulate, shp: np.ndarray, target: float, percentile: float, a
     return lo, run, history
 
 
+class _Region:
+    """The configurations an allocation or a distribution applies the errors
+    at, and the arm's own Monte Carlo there: a rigid arm's joint angles
+    ``theta`` (N, n) rad (the core's kernel, :func:`monte_carlo`), an elastic
+    arm's commands ``dL`` (N, m_c) m (the plant's: every sample settled at its
+    own equilibrium, :func:`cdsm.accuracy.plant_errors.monte_carlo_commands`;
+    default :func:`default_commands`). ``m``: the cable-length tolerances
+    (the commanded cables: position-controlled, and an elastic arm's
+    displacement ones); ``sizes``: the errors of each hole group
+    (:func:`~cdsm.accuracy.montecarlo.hole_error_sizes`)."""
+
+    def __init__(self, robot: Robot, theta, commands):
+        self.robot = robot
+        self.m, self.sizes = len(commanded_cables(robot)), hole_error_sizes(robot)
+        if robot.is_elastic:
+            if theta is not None:
+                raise CdsmInputError("`theta`: an elastic arm's configurations are the equilibria of its commands; "
+                                     "give `commands` (N, m_c) m")
+            self.commands = default_commands(robot) if commands is None else \
+                plant_errors.nominal_commands(robot, commands)[1]
+            self.theta = None
+        else:
+            if commands is not None:
+                raise CdsmInputError("`commands`: for elastic arms (a rigid arm's configurations are its joint "
+                                     "angles `theta`)")
+            self.theta = as_batch("theta", default_configurations(robot) if theta is None else theta, robot.n)[0]
+            self.commands = None
+
+    def __len__(self) -> int:
+        return len(self.theta if self.commands is None else self.commands)
+
+    def position_matrix(self) -> np.ndarray:
+        """(N, d, m + sum(sizes)) the linear map of every error to the tip position, m/m."""
+        if self.commands is None:
+            return position_matrix(self.robot, self.theta)
+        return plant_errors.position_matrix_commands(self.robot, self.commands)
+
+    def tips(self) -> np.ndarray:
+        """(N, d) the nominal tip positions, m."""
+        if self.commands is None:
+            return self.robot.fk(self.theta)[:, :self.robot.kind.dim]
+        t, d = plant_errors.nominal_commands(self.robot, self.commands)
+        return plant.predict(self.robot, np.zeros(plant.size(self.robot)), t, d)[0][:, :self.robot.kind.dim]
+
+    def monte_carlo(self, dl: np.ndarray, dh: np.ndarray, samples: int, seed: int) -> MonteCarlo:
+        """The Monte Carlo at the tolerances ``dl`` (m,) and ``dh`` (one per hole error), m."""
+        if self.commands is None:
+            return monte_carlo(self.robot, self.theta, samples=samples, seed=seed, dl_tol=dl, dh_tol=dh,
+                               progress=False)
+        tol = {"cable_offset": dl, plant_errors.hole_block(self.robot): dh}
+        return plant_errors.monte_carlo_commands(self.robot, self.commands, samples=samples, seed=seed,
+                                                 tolerances=tol, progress=False)
+
+
 def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0,
              weights=None, base=(PAPER_DL_TOL, PAPER_DH_TOL), shape: str = "ratio",
              samples: int = 1000, seed: int = 0, rel_tol: float = 0.01,
-             max_evals: int = 30, progress: bool = False):
+             max_evals: int = 30, progress: bool = False, commands=None):
     """Largest tolerances (common scale ``alpha`` of the cost shape, see the
     module doc) such that the pooled ``percentile`` of the tip position
     error (|d(x, y)|, spatial |d(x, y, z)|) over the configurations ``theta
@@ -289,18 +346,24 @@ def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0
     cable's holes); ``weights``: 2 or one per group. Returns an
     :class:`Allocation` (its JSON names the hole tolerances by the kind's
     :attr:`~cdsm.kinds.Kind.hole_tolerance_key`).
+
+    An elastic arm (:attr:`Robot.is_elastic`) is allocated at its commands
+    ``commands`` (N, m_c) m (default :func:`default_commands`; ``theta`` is
+    refused) by the same search: the linear guess from the plant's
+    sensitivities (:func:`cdsm.accuracy.plant_errors.position_matrix_commands`),
+    the Monte Carlo the plant's, one tolerance per commanded cable (its rest
+    length, ``cable_offset``) and per hole group.
     """
     kind = robot.kind
-    t = default_configurations(robot) if theta is None else theta
-    t, _ = as_batch("theta", t, robot.n)
+    region = _Region(robot, theta, commands)
     target = float(target_m)
     if not (np.isfinite(target) and target > 0):
         raise CdsmInputError(f"`target_m`: must be positive and finite, got {target_m}")
     if not 0.0 < float(percentile) < 100.0:
         raise CdsmInputError(f"`percentile`: must be within (0, 100), got {percentile}")
-    m, sizes = len(robot.position_cables), hole_error_sizes(robot)
-    em = position_matrix(robot, t)
-    shp = _shape(robot, em, weights, base, shape, sizes)
+    m, sizes = region.m, region.sizes
+    em = region.position_matrix()
+    shp = _shape(robot, em, weights, base, shape, m, sizes)
 
     def per_error(tol: np.ndarray) -> np.ndarray:  # a hole group's tolerance on each of its errors
         return np.concatenate([tol[:m], np.repeat(tol[m:], sizes)])
@@ -310,19 +373,18 @@ def allocate(robot: Robot, target_m: float, theta=None, percentile: float = 95.0
         raise CdsmInputError("the linear model gives no tip error over this region (no sensitivity)")
     a_lin = target / p_lin1
     lo, run, history = _scale_search(
-        lambda tol: monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=tol[:m],
-                                dh_tol=per_error(tol)[m:], progress=False),
+        lambda tol: region.monte_carlo(tol[:m], per_error(tol)[m:], samples, seed),
         shp, target, percentile, a_lin, (1.02, 1.3), (0.5, 0.98), rel_tol, max_evals, progress)
     mc = run(lo)
     ach = pooled_percentile(mc, percentile)
     ach_i = pooled_percentile(mc, percentile, interpolate=True)
     a125 = pooled_percentile(run(1.25 * lo), percentile)
     tol = lo * shp
-    params = dict(achieved_interpolated_m=ach_i, samples=int(samples), seed=int(seed), configurations=int(len(t)),
+    params = dict(achieved_interpolated_m=ach_i, samples=int(samples), seed=int(seed), configurations=int(len(region)),
                   shape=shape, weights=None if weights is None else np.asarray(weights, float).ravel().tolist(),
                   base_m=[float(v) for v in np.asarray(base, float).ravel()], robot=robot.name, n=robot.n)
     if kind.cable_numbers:  # the commanded cables by their numbers in the robot file
-        params["position_cables"] = [c + 1 for c in robot.position_cables]
+        params["position_cables"] = [c + 1 for c in commanded_cables(robot)]
     return Allocation(cable_length_tol_m=tol[:m], hole_tol_m=tol[m:], achieved_m=ach, achieved_1p25_m=a125,
                       target_m=target, percentile=float(percentile), alpha=float(lo), shape=shp,
                       linear_m=float(lo * p_lin1), alpha_linear=float(a_lin), failed=int(mc.failed.sum()), kind=kind,
@@ -350,8 +412,23 @@ def default_configurations(robot: Robot) -> np.ndarray:
     return joint_grid(robot.n) if robot.kind.grid_protocols else sample_configurations(robot, 1000)
 
 
+#: Commands an elastic arm's allocation or distribution applies the errors at by default.
+ELASTIC_COMMANDS = 200
+
+
+def default_commands(robot: Robot, count: int = ELASTIC_COMMANDS, seed: int = 0) -> np.ndarray:
+    """(N, m_c) m: an elastic arm's region by default — ``count`` commands
+    sampled in the box ±:data:`~cdsm.accuracy.plant_errors.COMMAND_RANGE` on
+    every commanded cable (scrambled Sobol, ``seed``;
+    :func:`cdsm.accuracy.plant_errors.sample_commands`), those the nominal
+    plant settles."""
+    ws = plant_errors.sample_commands(robot, count, seed=seed)
+    return ws.commands[ws.reachable]
+
+
 def distribution(robot: Robot, dl_tol, dh_tol, theta=None, percentiles: Sequence[float] = (50, 95, 99),
-                 samples: int = 1000, seed: int = 0, cells: int = 3, mc: Optional[MonteCarlo] = None) -> dict:
+                 samples: int = 1000, seed: int = 0, cells: int = 3, mc: Optional[MonteCarlo] = None,
+                 commands=None) -> dict:
     """Tip-error distribution over a region for given tolerances (m, as
     :func:`error_tolerances` takes them: planar scalars or (n,)): Monte Carlo
     in the Rust core at every configuration ``theta (N, n)`` (default
@@ -362,14 +439,14 @@ def distribution(robot: Robot, dl_tol, dh_tol, theta=None, percentiles: Sequence
     planar arm's X, Y; row keys named after them) with its bounds (m),
     configuration count and pooled percentiles (m). Spatial arms:
     ``dl_tol`` per position-controlled cable, ``dh_tol`` per cable's holes
-    or per hole coordinate.
+    or per hole coordinate. An elastic arm: at its ``commands`` (N, m_c) m
+    (as :func:`allocate`), the tolerances per commanded cable.
     """
-    t = default_configurations(robot) if theta is None else theta
-    t, _ = as_batch("theta", t, robot.n)
+    region = _Region(robot, theta, commands)
     dl, dh = error_tolerances(robot, dl_tol, dh_tol)
     if mc is None:
-        mc = monte_carlo(robot, t, samples=samples, seed=seed, dl_tol=dl, dh_tol=dh, progress=False)
-    tips = robot.fk(t)[:, :robot.kind.dim]
+        mc = region.monte_carlo(dl, dh, samples, seed)
+    tips = region.tips()
     axes = sorted(np.argsort(-np.ptp(tips, axis=0), kind="stable")[:2])
     names = [robot.kind.position_axes[k] for k in axes]
     uv = tips[:, axes]
@@ -425,8 +502,12 @@ def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, st
     ``poses:FILE.csv`` (columns ``x, y, phi``, m, m, rad, or no header; pose IK
     from the paper's seed; planar robots) or ``sobol:N`` (N configurations
     sampled in the joint box, scrambled Sobol with ``seed``: the default
-    region of spatial robots, :data:`SPATIAL_REGION_DEFAULT`)."""
+    region of spatial robots, :data:`SPATIAL_REGION_DEFAULT`). An elastic
+    arm's region is its commands (N, m_c) m: ``sobol:N`` only
+    (:func:`default_commands`)."""
     kind, _, rest = spec.partition(":")
+    if robot.is_elastic:
+        return _command_region(spec, kind, rest, robot, seed)
     if kind == "grid":
         try:
             vals = [float(v) for v in rest.split(":")]
@@ -476,6 +557,23 @@ def parse_region(spec: str, robot: Robot, seed: int = 0) -> Tuple[np.ndarray, st
                          "or sobol:N")
 
 
+def _command_region(spec: str, kind: str, rest: str, robot: Robot, seed: int) -> Tuple[np.ndarray, str]:
+    """An elastic arm's region: ``sobol:N`` commands (N, m_c) m
+    (:func:`default_commands`); a region of joint angles or poses is refused
+    (its configurations are the equilibria of its commands)."""
+    try:
+        count = int(rest) if kind == "sobol" else 0
+    except ValueError:
+        count = 0
+    if kind != "sobol" or count < 2:
+        raise CdsmInputError(f"--region {spec!r}: an elastic arm's region is sobol:N (N >= 2 commands sampled in "
+                             f"±{plant_errors.COMMAND_RANGE * 1e3:g} mm on every commanded cable); its "
+                             "configurations are the equilibria of its commands, not joint angles or poses")
+    d = default_commands(robot, count, seed)
+    return d, (f"{len(d)} of {count} commands sampled in ±{plant_errors.COMMAND_RANGE * 1e3:g} mm on every "
+               f"commanded cable (scrambled Sobol, seed {seed}; those the nominal plant settles)")
+
+
 # ---------------------------------------------------------------------------
 # spatial arms
 # ---------------------------------------------------------------------------
@@ -495,13 +593,14 @@ def error_tolerances(robot, dl_tol, dh_tol, source: str = "",
                      names: Tuple[str, str] = ("dl_tol", "dh_tol")) -> Tuple[np.ndarray, np.ndarray]:
     """The tolerances, m, of the errors a Monte Carlo draws
     (:func:`~cdsm.accuracy.montecarlo.error_widths`), either kind:
-    (m_pos,) from ``dl_tol``, a scalar or one per position-controlled cable;
+    (m_c,) from ``dl_tol``, a scalar or one per commanded cable (the
+    position-controlled ones; an elastic arm's displacement ones too);
     (h,) from ``dh_tol``, a scalar, one per hole group (planar: a disk's
     hole height; spatial: every coordinate of a cable's holes) or one per
     hole error (spatial: per hole coordinate). ``names``: the two inputs'
     names in error messages (after ``source``)."""
     pre = f"{source}: " if source else ""
-    m, sizes = len(robot.position_cables), hole_error_sizes(robot)
+    m, sizes = len(commanded_cables(robot)), hole_error_sizes(robot)
     groups, errors = len(sizes), int(sizes.sum())
     out = []
     for key, value, widths in ((names[0], dl_tol, (m,)), (names[1], dh_tol, (groups, errors))):
@@ -510,7 +609,7 @@ def error_tolerances(robot, dl_tol, dh_tol, source: str = "",
         except (TypeError, ValueError):
             raise CdsmInputError(f"{pre}`{key}` is not a number or a list of numbers") from None
         if arr.ndim > 1 or (arr.ndim == 1 and arr.shape[0] not in widths):
-            want = (f"{m} values (one per position-controlled cable)" if key == names[0] else
+            want = (f"{m} values (one per commanded cable)" if key == names[0] else
                     f"{groups} values ({robot.kind.words['hole_group_each']})"
                     + (f" or {errors} (one per hole coordinate)" if errors != groups else ""))
             raise CdsmInputError(f"{pre}`{key}` needs {want} or a number, got shape {arr.shape}")

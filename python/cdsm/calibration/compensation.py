@@ -79,6 +79,8 @@ class Compensation(ShortRepr):
     predicted_error_nominal: (N,) m, the same with the nominal commands;
     predicted_phi_error: (N,) rad (NaN when phi was not given). theta_pred:
     (N, n) rad, the configuration the fitted arm is predicted to settle at.
+    elastic: the arm is elastic (:func:`compensate_commands`: ``theta_cmd``
+    its rest angles, ``commands`` the commanded cables' rest lengths).
     flags: one str per row, "" when fine, else '; '-joined reasons
     (``unreachable: ...``, ``slack cable``, ``joint limits``, ``not converged``).
     kind: the robot kind. For a spatial arm (m position cables) targets are
@@ -101,6 +103,7 @@ class Compensation(ShortRepr):
     model_name: str = ""
     kind: str = "planar"
     cable_ids: "List[int] | None" = None
+    elastic: bool = False
 
     def __len__(self) -> int:
         return len(self.targets)
@@ -126,11 +129,16 @@ class Compensation(ShortRepr):
             ([rot_err] if has_phi else []) + \
             [f"theta_{i}" for i in range(1, n + 1)] + [f"dL_{i}" for i in cab] + ["flags"]
         buf = io.StringIO()
-        buf.write(f"# cdsm compensate: upper-cable length commands from model {self.model_name!r}\n")
+        buf.write(f"# cdsm compensate: cable length commands from model {self.model_name!r}\n")
         buf.write(f"# SI units: {', '.join(pos)}, L_i, dL_i, predicted_error* in m; {', '.join(rot)}, theta_i, "
                   f"{rot_err} in rad\n")
         cables = ", ".join(str(c + 1) for c in self.cable_indices)
-        buf.write(f"# {kind.words['commands_note'].format(cables=cables)}\n")
+        if self.elastic:  # its cables' rest lengths, from the rest angles; a tendon's pull is -dL
+            buf.write(f"# elastic arm: L_i, dL_i: the i-th commanded cable (robot-file cables {cables}); L_i = its "
+                      "rest length = its path at the rest angles theta_i + dL_i (a displacement-commanded tendon "
+                      "is pulled by -dL_i); converged 1/0; flags empty when fine\n")
+        else:
+            buf.write(f"# {kind.words['commands_note'].format(cables=cables)}\n")
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(head)
         for i in range(len(self)):
@@ -335,4 +343,4 @@ def compensate_commands(model, poses, tol: float = 1e-11, max_iter: int = 60, pr
              for i in range(N)]
     return Compensation(fitted.targets, base + fitted.dL, rest, fitted.dL, base + nominal.dL,
                         fitted.converged, fitted.error, err0, fitted.rotation_error, theta_pred,
-                        flags, model.name, str(r.kind), list(commanded_cables(r)))
+                        flags, model.name, str(r.kind), list(commanded_cables(r)), elastic=True)

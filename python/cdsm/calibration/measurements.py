@@ -48,12 +48,11 @@ import numpy as np
 from ..files import Table, parse_table, read_table
 from ..inputs import CdsmInputError, did_you_mean
 from ..display import ShortRepr
+from ..plant import KIND_CODES, commanded_cables
 
 __all__ = ["Measurements", "parse_csv", "read_csv", "read_for", "packaged", "packaged_names", "after_reversals",
            "KIND_CODES", "commanded_cables", "from_recording"]
 
-#: Row kinds of the plant's data sets, by code (see ``docs/model.md``).
-KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
 
 
 @dataclass(repr=False)
@@ -268,13 +267,6 @@ def read_csv(path: "str | os.PathLike[str]", n: int, cables: Optional[int] = Non
     (:func:`cdsm.files.read_table`; ``progress``: a progress line on stderr)."""
     read_as = _read_as(n, cables)
     return _measurements(read_table(path, "measurement", read_as=read_as, progress=progress), n, cables)
-
-
-def commanded_cables(robot) -> List[int]:
-    """The cables a row commands (0-based, the robot's order): the position
-    cables, and an elastic arm's displacement cables (force cables keep
-    their set tension)."""
-    return sorted(list(robot.position_cables) + list(robot.displacement_cables))
 
 
 def from_recording(robot, rec) -> Measurements:

@@ -63,7 +63,11 @@ def _montecarlo_args(p: argparse.ArgumentParser) -> None:
                         "limits and, if given, within +-DEG)")
     p.add_argument("--configurations", metavar="N", type=positive_int, default=None,
                    help="spatial robots: configurations sampled in the joint box (scrambled Sobol, seed 0 "
-                        "whatever --seed, so runs with other seeds can be merged; default 2197 = 13^3)")
+                        "whatever --seed, so runs with other seeds can be merged; default 2197 = 13^3); "
+                        "elastic arms: commands sampled in the --reach-mm box (default 500)")
+    p.add_argument("--reach-mm", metavar="MM", type=float, default=None, dest="reach_mm",
+                   help="elastic arms: half-width of the box of commands sampled on every commanded cable, mm "
+                        "(default: 3)")
     p.add_argument("--percentiles", metavar="P,...", type=_percentile_list, default=[50.0, 95.0, 99.0],
                    help="percentiles of |d(X, Y)| (spatial: |d(X, Y, Z)|) to store (default: 50,95,99)")
     p.add_argument("--scheduler", metavar="ADDRESS",
@@ -93,21 +97,27 @@ def _montecarlo_run(args) -> int:
     if not (math.isfinite(args.timeout) and args.timeout > 0):
         raise UserError(f"--timeout: expected a positive number of seconds, got {args.timeout}")
     robot = load_robot(args.robot)
-    # the paper's joint grid where its protocols apply (planar), else configurations sampled in the joint box
-    configurations = _grid_configurations if robot.kind.grid_protocols else _sampled_configurations
-    theta0, poses, params, desc = configurations(args, robot)
-    dl_tol, dh_tol = ((PAPER_DL_TOL, PAPER_DH_TOL) if args.tolerances is None
-                      else read_tolerances(args.tolerances, robot))
-    if show:
-        where = args.scheduler or "local threads"
-        print(f"cdsm montecarlo: robot {robot.name!r}, {desc}, {args.samples} samples in chunks of "
-              f"{args.chunk}, seed {args.seed}, on {where}", file=sys.stderr, flush=True)
-    try:
-        mc = distributed.run(robot, theta0, samples=args.samples, seed=args.seed,
-                            chunk=args.chunk, dl_tol=dl_tol, dh_tol=dh_tol,
-                            scheduler=args.scheduler, progress=show, timeout=args.timeout)
-    except distributed.ClusterError as exc:
-        raise UserError(str(exc)) from None
+    if robot.is_elastic:  # its configurations are the equilibria of commands: the plant's Monte Carlo
+        mc, poses, params = _commanded_study(args, robot, show)
+    else:
+        # the paper's joint grid where its protocols apply (planar), else configurations sampled in the joint box
+        if args.reach_mm is not None:
+            raise UserError("--reach-mm: for elastic arms only (their commands are sampled; a rigid arm's "
+                            "configurations are its joint angles: --range)")
+        configurations = _grid_configurations if robot.kind.grid_protocols else _sampled_configurations
+        theta0, poses, params, desc = configurations(args, robot)
+        dl_tol, dh_tol = ((PAPER_DL_TOL, PAPER_DH_TOL) if args.tolerances is None
+                          else read_tolerances(args.tolerances, robot))
+        if show:
+            where = args.scheduler or "local threads"
+            print(f"cdsm montecarlo: robot {robot.name!r}, {desc}, {args.samples} samples in chunks of "
+                  f"{args.chunk}, seed {args.seed}, on {where}", file=sys.stderr, flush=True)
+        try:
+            mc = distributed.run(robot, theta0, samples=args.samples, seed=args.seed,
+                                chunk=args.chunk, dl_tol=dl_tol, dh_tol=dh_tol,
+                                scheduler=args.scheduler, progress=show, timeout=args.timeout)
+        except distributed.ClusterError as exc:
+            raise UserError(str(exc)) from None
     params = dict(robot=robot.name, robot_file=args.robot, robot_toml=robot.to_toml(),
                   tolerances=args.tolerances or "paper", **params, cdsm_version=__version__)
     arrays = montecarlo.save_npz(out, mc, poses=poses, params=params, percentiles=args.percentiles)
@@ -121,6 +131,56 @@ def _montecarlo_run(args) -> int:
                       for p, v in zip(args.percentiles, pmax))
           + f"; done in {time.perf_counter() - t0:.1f} s")
     return 0
+
+
+#: Commands of ``cdsm montecarlo`` on an elastic arm by default (each sample settles them all in sequence).
+ELASTIC_CONFIGURATIONS = 500
+
+
+def _commanded_study(args, robot, show: bool):
+    """The Monte Carlo of an elastic arm (:mod:`cdsm.accuracy.plant_errors`):
+    ``--configurations`` commands sampled in the box ±``--reach-mm`` on
+    every commanded cable (scrambled Sobol, seed 0), the nominal plant
+    settled at them in order; every sample's plant (manufacturing errors as
+    plant parameters within the tolerances) settled at the same commands.
+    Returns the statistics, the nominal tips and the run parameters."""
+    import math
+
+    from ..accuracy import plant_errors
+    from ..accuracy.tolerance import read_tolerances
+
+    for given, option, why in ((args.scheduler, "--scheduler", "the plant's Monte Carlo runs locally"),
+                               (args.step, "--step", "its commands are sampled, not gridded"),
+                               (args.grid_range, "--range", "its commands are sampled in a box of cable "
+                                                            "displacements: --reach-mm"),
+                               (args.protocol, "--protocol", "its protocol is the sampled commands")):
+        if given is not None:
+            raise UserError(f"{option}: not for an elastic arm ({why})")
+    reach = 1e3 * plant_errors.COMMAND_RANGE if args.reach_mm is None else args.reach_mm
+    if not (math.isfinite(reach) and reach > 0):
+        raise UserError(f"--reach-mm: expected a positive number of mm, got {args.reach_mm}")
+    count = ELASTIC_CONFIGURATIONS if args.configurations is None else args.configurations
+    tol = None
+    if args.tolerances is not None:  # per commanded cable and per hole error, as for a rigid arm
+        dl, dh = read_tolerances(args.tolerances, robot)
+        tol = {"cable_offset": dl, plant_errors.hole_block(robot): dh}
+    if show:
+        print(f"cdsm montecarlo: elastic robot {robot.name!r}, {count} commands within ±{reach:g} mm on every "
+              f"commanded cable (scrambled Sobol, seed 0), {args.samples} samples in chunks of {args.chunk}, "
+              f"seed {args.seed}, the plant's equilibria on local threads", file=sys.stderr, flush=True)
+    ws = plant_errors.sample_commands(robot, count, seed=0, reach=reach * 1e-3)
+    ok = ws.reachable
+    if not ok.any():
+        raise UserError("the nominal plant settles at none of the sampled commands")
+    mc = plant_errors.monte_carlo_commands(robot, ws.commands[ok], samples=args.samples, seed=args.seed,
+                                           tolerances=tol, chunk=args.chunk, progress=show)
+    # by plant block (one number where the block's are equal); "tolerances" names their source, as for rigid arms
+    by_block = mc.params.pop("tolerances")
+    mc.params["plant_tolerances_m"] = {b: v[0] if len(set(v)) == 1 else v for b, v in by_block.items()}
+    params = dict(protocol="commanded", sampling="scrambled Sobol, seed 0", reach_m=reach * 1e-3,
+                  configurations=int(count), unreachable=int((~ok).sum()),
+                  path_dependent=int(ws.path_dependent[ok].sum()))
+    return mc, ws.poses[ok], params
 
 
 # ---------------------------------------------------------------------------

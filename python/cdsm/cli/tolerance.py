@@ -24,7 +24,9 @@ def _tolerance_args(p: argparse.ArgumentParser) -> None:
                   "subsampled to N (default 2000) with --seed), joints:FILE.csv (joint "
                   "angles, rad, one configuration per row), poses:FILE.csv (x m, y m, "
                   "phi rad; pose IK with the paper seed; planar) or sobol:N (N configurations sampled "
-                  "in the joint box with --seed). Default grid:-30:30:5 (spatial robots: sobol:1000)")
+                  "in the joint box with --seed). Default grid:-30:30:5 (spatial robots: sobol:1000); "
+                  "elastic arms: sobol:N commands sampled in +-3 mm on every commanded cable (default "
+                  "sobol:200)")
     p.add_argument("--weights", metavar="W", default=None,
                    help="relative tolerance weights: 'WC,WH' (cables, holes) or 2n numbers "
                         "(n cables then n disks; spatial robots: m position-controlled cables then every "
@@ -61,6 +63,7 @@ def _float_list(name: str, text: str) -> List[float]:
 def _tolerance_run(args) -> int:
     from ..accuracy import tolerance
     from ..accuracy.montecarlo import hole_error_sizes
+    from ..calibration.measurements import commanded_cables
     from ..files import write_json
 
     t0 = time.perf_counter()
@@ -71,26 +74,30 @@ def _tolerance_run(args) -> int:
     robot = load_robot(args.robot)
     kind = robot.kind
     words = kind.allocation
-    m, groups = len(robot.position_cables), len(hole_error_sizes(robot))
-    region, theta, desc, weights, base = _inputs(args, robot, words["region"], m + groups,
-                                                 words["weights"].format(count=m + groups, m=m, groups=groups,
-                                                                         finite=" finite"))
+    commanded = commanded_cables(robot)
+    m, groups = len(commanded), len(hole_error_sizes(robot))
+    # an elastic arm's region is its commands (the plant's equilibria), a rigid arm's its joint angles
+    default_region = f"sobol:{tolerance.ELASTIC_COMMANDS}" if robot.is_elastic else words["region"]
+    region, configurations, desc, weights, base = _inputs(args, robot, default_region, m + groups,
+                                                          words["weights"].format(count=m + groups, m=m,
+                                                                                  groups=groups, finite=" finite"))
+    where = dict(commands=configurations) if robot.is_elastic else dict(theta=configurations)
     show = not args.quiet
     if show:
-        print(f"cdsm tolerance: {words['robot']} {robot.name!r} ({robot.n} joints), region {desc}, "
-              f"P{args.percentile:g} <= {args.target_mm:g} mm, {args.samples} samples", file=sys.stderr)
-    a = tolerance.allocate(robot, args.target_mm * 1e-3, theta, percentile=args.percentile,
+        print(f"cdsm tolerance: {'elastic ' if robot.is_elastic else ''}{words['robot']} {robot.name!r} "
+              f"({robot.n} joints), region {desc}, P{args.percentile:g} <= {args.target_mm:g} mm, "
+              f"{args.samples} samples", file=sys.stderr)
+    a = tolerance.allocate(robot, args.target_mm * 1e-3, percentile=args.percentile,
                            weights=weights, base=[b * 1e-3 for b in base], shape=args.shape,
-                           samples=args.samples, seed=args.seed, progress=show)
+                           samples=args.samples, seed=args.seed, progress=show, **where)
     holes = getattr(a, kind.hole_tolerance_key)
-    dist = tolerance.distribution(robot, a.cable_length_tol_m, holes, theta,
-                                  percentiles=(50.0, args.percentile), samples=args.samples,
-                                  seed=args.seed, cells=args.cells)
+    dist = tolerance.distribution(robot, a.cable_length_tol_m, holes, percentiles=(50.0, args.percentile),
+                                  samples=args.samples, seed=args.seed, cells=args.cells, **where)
     out = a.to_json()
     out.update(region=region, region_description=desc, regions=dist["regions"], region_axes=dist["axes"])
-    cables = ", ".join(str(c + 1) for c in robot.position_cables)
+    cables = ", ".join(str(c + 1) for c in commanded)
     print(words["cables_line"].format(cables=cables) + ", ".join(f"±{v * 1e3:.4f}" for v in a.cable_length_tol_m))
-    print(words["holes_line"].format(groups=groups) + ", ".join(f"±{v * 1e3:.4f}" for v in holes))
+    print(words["holes_line"].format(groups=groups, cables=cables) + ", ".join(f"±{v * 1e3:.4f}" for v in holes))
     print(f"achieved P{args.percentile:g} {kind.norm_label.lower()} = {a.achieved_m * 1e3:.4f} mm "
           f"(target {args.target_mm:g} mm; within ±{tolerance.HIST_RESOLUTION * 100:.1f} % of the sample quantile; "
           f"interpolated {out['achieved_interpolated_mm']:.4f} mm); "

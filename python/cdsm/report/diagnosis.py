@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import os
 import re
+from dataclasses import dataclass
 from typing import Dict, List, Tuple
 
 import numpy as np
@@ -250,42 +251,69 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     """The report's conclusions as paragraphs, keyed ``answer``, ``where``,
     ``which``, ``shrink``, ``identifiability``, ``flagged``. All numbers are
     computed from ``d``."""
-    names = _row_names(d)
-    prep, rows = d.prep, d.prep.rows
-    nu = len(rows)
-    base, final = d.baseline, d.final()
-    b_rms, f_rms, floor = base.heldout_rms, final.heldout_rms, d.noise_floor
-    g_base, g_final = _gaps(d)
-    size_b = np.linalg.norm(g_base, axis=1)
-    size_f = np.linalg.norm(g_final, axis=1)
-    out: Dict[str, List[str]] = {k: [] for k in ("answer", "where", "which", "shrink", "identifiability",
-                                                 "flagged")}
-    cv = ("leave-one-out" if d.folds >= nu else f"{d.folds}-fold") + " cross-validation"
-    if d.prep.groups is not None:
-        cv += f" (whole groups of {literal(d.prep.group_column)} held out together)"
-    shrink = 100.0 * (1.0 - f_rms / b_rms) if b_rms > 0 else 0.0
+    f = _Facts.of(d)
+    return {"answer": _answer(d, f), "where": _where(d, f), "which": _which(d, f), "shrink": _shrink(d, f),
+            "identifiability": _identifiability(d), "flagged": _flagged(d, f)}
 
-    # -- the answer ------------------------------------------------------
-    v = d.verdict_detail
+
+@dataclass(frozen=True)
+class _Facts:
+    """The numbers every section of :func:`findings` reads, computed once."""
+
+    names: List[str]
+    rows: np.ndarray
+    nu: int
+    b_rms: float
+    f_rms: float
+    floor: float
+    g_base: np.ndarray
+    g_final: np.ndarray
+    size_b: np.ndarray
+    size_f: np.ndarray
+    cv: str
+    shrink: float
+
+    @classmethod
+    def of(cls, d: diagnose.Diagnosis) -> "_Facts":
+        rows = d.prep.rows
+        nu = len(rows)
+        b_rms, f_rms = d.baseline.heldout_rms, d.final().heldout_rms
+        g_base, g_final = _gaps(d)
+        cv = ("leave-one-out" if d.folds >= nu else f"{d.folds}-fold") + " cross-validation"
+        if d.prep.groups is not None:
+            cv += f" (whole groups of {literal(d.prep.group_column)} held out together)"
+        return cls(_row_names(d), rows, nu, b_rms, f_rms, d.noise_floor, g_base, g_final,
+                   np.linalg.norm(g_base, axis=1), np.linalg.norm(g_final, axis=1), cv,
+                   100.0 * (1.0 - f_rms / b_rms) if b_rms > 0 else 0.0)
+
+
+def _noise_words(d: diagnose.Diagnosis) -> str:
+    """How the noise was found, with its value."""
     ne = d.noise_estimate
     if ne.source == "repeats":
-        ntxt = (f"{_um(d.noise)} per axis and reading, estimated from {ne.groups} groups of repeated commands "
+        return (f"{_um(d.noise)} per axis and reading, estimated from {ne.groups} groups of repeated commands "
                 f"approached from the same direction (95 % interval {_um(ne.ci[0])}–{_um(ne.ci[1])})")
-    elif ne.source == "neighbours":
-        ntxt = (f"{_um(d.noise)} per axis and reading, estimated from neighbouring rows of each motion (no "
+    if ne.source == "neighbours":
+        return (f"{_um(d.noise)} per axis and reading, estimated from neighbouring rows of each motion (no "
                 f"repeated commands; 95 % interval {_um(ne.ci[0])}–{_um(ne.ci[1])}): see the support limits")
-    elif ne.source == "given":
-        ntxt = f"{_um(d.noise)} per axis and reading, as given"
-    else:
-        ntxt = (f"{_um(d.noise)} per axis and reading, **assumed** (no repeated commands in the data and "
-                "none given)")
+    if ne.source == "given":
+        return f"{_um(d.noise)} per axis and reading, as given"
+    return f"{_um(d.noise)} per axis and reading, **assumed** (no repeated commands in the data and none given)"
+
+
+def _answer(d: diagnose.Diagnosis, f: _Facts) -> List[str]:
+    """The answer: the verdict, the noise, the frame, what the search and the outliers add."""
+    out: List[str] = []
+    prep, b_rms, f_rms, floor = d.prep, f.b_rms, f.f_rms, f.floor
+    v = d.verdict_detail
+    ne = d.noise_estimate
     against = ("F against the noise of neighbouring rows" if ne.source == "neighbours" else "F against pure error"
                if v.test == "F" else "chi-square against the noise")
     lof = (f"lack-of-fit test ({against}): "
            f"p = {v.p_value:.2g}")
     if d.verdict == "no gap":
         nb = v.nominal_bound.bound if v.nominal_bound else float("nan")
-        out["answer"].append(
+        out.append(
             f"**No gap beyond measurement noise** (verdict: no gap). The nominal model's held-out RMS position "
             f"error is {_um(b_rms)}, within its adequacy bound {_um(nb)} ({nb / floor:.2f}× the noise floor "
             f"{_um(floor)}: see [the tests](#tests)), and the {lof}; no effect of the library improves it "
@@ -295,7 +323,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         extra = (f" The best single candidate, `{top.name}`, reaches {_um(top.heldout_rms)}, which "
                  f"{_support_words(d)} cannot tell apart from the nominal model on these rows."
                  if top is not None else "")
-        out["answer"].append(
+        out.append(
             f"**The gap stays unexplained** (verdict: unexplained). The nominal model misses the measurements "
             f"by {_um(b_rms)} held-out RMS ({b_rms / floor:.1f}× the noise floor {_um(floor)}), and no "
             f"effect of the library ({len(d.singles)} tried) reduces it significantly.{extra} "
@@ -303,15 +331,15 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     else:
         what = ("explains the gap down to the noise level" if d.verdict == "explained" else
                 "explains part of the gap; what is left is more than noise")
-        out["answer"].append(
-            f"**`{d.best}` {what}** (verdict: {d.verdict}). Held-out RMS position error ({cv}): nominal model "
-            f"{_um(b_rms)} → with `{d.best}` {_um(f_rms)} ({shrink:.0f} % smaller; noise floor {_um(floor)}, "
+        out.append(
+            f"**`{d.best}` {what}** (verdict: {d.verdict}). Held-out RMS position error ({f.cv}): nominal model "
+            f"{_um(b_rms)} → with `{d.best}` {_um(f_rms)} ({f.shrink:.0f} % smaller; noise floor {_um(floor)}, "
             f"final/floor = {f_rms / floor:.2f}; {lof}).")
-    out["answer"].append(f"Noise: {ntxt}; the floor is √2 × {'√2 × ' if prep.readings > 1 else ''}σ = "
-                         + _um(floor) + (" (displacements are differences of two readings)"
-                                         if prep.readings > 1 else "") + "."
-                         + (f" The final model would be adequate at a noise of {_um(v.noise_needed)} or more."
-                            if ne.source == "assumed" and not v.final_adequate else ""))
+    out.append(f"Noise: {_noise_words(d)}; the floor is √2 × {'√2 × ' if prep.readings > 1 else ''}σ = "
+               + _um(floor) + (" (displacements are differences of two readings)"
+                               if prep.readings > 1 else "") + "."
+               + (f" The final model would be adequate at a noise of {_um(v.noise_needed)} or more."
+                  if ne.source == "assumed" and not v.final_adequate else ""))
     if prep.registered:
         reg = (f"The data were registered: the measuring frame was fitted with every candidate (started from a "
                f"Kabsch fit). Held-out RMS of the {'chosen' if d.chosen else 'nominal'} model in the identity "
@@ -321,40 +349,49 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         if prep.frame == "auto":
             reg += (f" (The data lie {_um(prep.offset)} RMS from the nominal predictions, beyond 5 % of the arm's "
                     "length: an instrument's own frame.)")
-        out["answer"].append(reg)
+        out.append(reg)
     elif prep.kind == "absolute" and prep.frame == "auto":
-        out["answer"].append(f"The data lie {_um(prep.offset)} RMS from the nominal predictions, within 5 % of the "
-                             "arm's length: taken in the robot's base frame, with `frame_misalignment` a candidate "
-                             "effect like any other.")
+        out.append(f"The data lie {_um(prep.offset)} RMS from the nominal predictions, within 5 % of the "
+                   "arm's length: taken in the robot's base frame, with `frame_misalignment` a candidate "
+                   "effect like any other.")
     if d.dropped:
-        out["answer"].append("Backward elimination dropped " + ", ".join(f"`{e}`" for e in d.dropped)
-                             + ": with the other effects in, the model does not need it.")
+        out.append("Backward elimination dropped " + ", ".join(f"`{e}`" for e in d.dropped)
+                   + ": with the other effects in, the model does not need it.")
     if d.search is not None:
-        s = d.search
-        fitted = len(s.tried)
-        txt = (f"Search beyond forward selection ({s.reason}): {s.family} combinations (every pair, triples "
-               f"among the best five) screened on the linearised plant, {fitted} fitted in full, each tested "
-               f"at {s.alpha:.2g} against the nominal model and every smaller combination.")
-        if s.picked is None:
-            txt += " None is supported."
-        elif s.replaced:
-            txt += f" It found `{s.picked}`, which replaces forward selection's answer."
-        else:
-            txt += f" It confirms `{s.picked}`."
-        if s.ties:
-            txt += f" Tied with it (the held-out errors cannot tell them apart): {', '.join(s.ties)}."
-        out["answer"].append(txt)
+        out.append(_search_words(d.search))
     if d.outliers:
-        out["answer"].append(outlier_note(d, names))
+        out.append(outlier_note(d, f.names))
+    return out
 
-    # -- where the gap lies --------------------------------------------
+
+def _search_words(s) -> str:
+    """What the search beyond forward selection tried and found."""
+    fitted = len(s.tried)
+    txt = (f"Search beyond forward selection ({s.reason}): {s.family} combinations (every pair, triples "
+           f"among the best five) screened on the linearised plant, {fitted} fitted in full, each tested "
+           f"at {s.alpha:.2g} against the nominal model and every smaller combination.")
+    if s.picked is None:
+        txt += " None is supported."
+    elif s.replaced:
+        txt += f" It found `{s.picked}`, which replaces forward selection's answer."
+    else:
+        txt += f" It confirms `{s.picked}`."
+    if s.ties:
+        txt += f" Tied with it (the held-out errors cannot tell them apart): {', '.join(s.ties)}."
+    return txt
+
+
+def _where(d: diagnose.Diagnosis, f: _Facts) -> List[str]:
+    """Where the gap lies: the largest gaps, per axis, by region, the features that follow it, what is left."""
+    out: List[str] = []
+    names, rows, nu, size_b, g_base = f.names, f.rows, f.nu, f.size_b, f.g_base
     order = [i for i in np.argsort(-np.nan_to_num(size_b, nan=-1.0)) if np.isfinite(size_b[i])]
     sse = size_b[rows] ** 2
     tot = float(sse.sum())
     k50 = int(np.searchsorted(np.cumsum(np.sort(sse)[::-1]) / max(tot, 1e-300), 0.5) + 1) if tot > 0 else 0
     top = order[:min(3, len(order))]
     xy = _commanded_tip(d)[:, :2]
-    out["where"].append(
+    out.append(
         "Largest gaps (nominal model): " + "; ".join(
             f"{names[i]} at X = {xy[i, 0] * 1e3:.1f} mm, Y = {xy[i, 1] * 1e3:.1f} mm: "
             f"{_um(size_b[i])} (dX {_um(g_base[i, 0])}, dY {_um(g_base[i, 1])})" for i in top)
@@ -364,7 +401,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
     ry = float(np.sqrt(np.nanmean(g_base[rows, 1] ** 2)))
     axis = ("mostly along Y" if ry > 1.5 * rx else "mostly along X" if rx > 1.5 * ry else "in both axes alike")
     mx, my = float(np.nanmean(g_base[rows, 0])), float(np.nanmean(g_base[rows, 1]))
-    out["where"].append(
+    out.append(
         f"Per axis, the gap is {axis}: RMS dX {_um(rx)}, dY {_um(ry)} (means {_um(mx)}, {_um(my)}: "
         + ("a systematic offset in the mean" if math.hypot(mx, my) > 0.5 * math.hypot(rx, ry) else
            "mostly configuration-dependent, not a constant offset") + ").")
@@ -378,7 +415,7 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
             regions.append((max(a, b) / max(min(a, b), 1e-300), lab, cut, a, b, len(lo), len(hi)))
     if regions:
         r = max(regions)
-        out["where"].append(
+        out.append(
             f"By region: rows with {r[1]} < {r[2] * 1e3:.1f} mm ({r[5]}) have RMS gap {_um(r[3])}, rows with "
             f"{r[1]} ≥ {r[2] * 1e3:.1f} mm ({r[6]}) {_um(r[4])}.")
     feats = _ranked_features(d, size_b)
@@ -390,85 +427,96 @@ def findings(d: diagnose.Diagnosis) -> Dict[str, List[str]]:
         lines.append(f"{k}: Spearman ρ = {rho:+.2f} ({_strength(rho, nu)}) — {meaning}")
     const = [k for k, rho in feats if not np.isfinite(rho)]
     if lines:
-        out["where"].append("Configuration features that explain the size of the gap (rank correlation with "
-                            "|gap| of the nominal model): " + "; ".join(lines) + "."
-                            + (f" Constant in these data (no information): {', '.join(const)}." if const else ""))
+        out.append("Configuration features that explain the size of the gap (rank correlation with "
+                   "|gap| of the nominal model): " + "; ".join(lines) + "."
+                   + (f" Constant in these data (no information): {', '.join(const)}." if const else ""))
     if not d.explained and d.chosen is not None:
+        size_f = f.size_f
         order_f = [i for i in np.argsort(-np.nan_to_num(size_f, nan=-1.0)) if np.isfinite(size_f[i])][:3]
         ff = [(k, rho) for k, rho in _ranked_features(d, size_f) if np.isfinite(rho)][:2]
-        out["where"].append(
-            f"What `{d.best}` leaves unexplained ({_um(f_rms)} held-out, {f_rms / floor:.1f}× the noise floor) "
-            "lies at " + "; ".join(f"{names[i]}: {_um(size_f[i])}" for i in order_f)
+        out.append(
+            f"What `{d.best}` leaves unexplained ({_um(f.f_rms)} held-out, {f.f_rms / f.floor:.1f}× the noise "
+            "floor) lies at " + "; ".join(f"{names[i]}: {_um(size_f[i])}" for i in order_f)
             + (("; its size follows " + ", ".join(f"{k} (ρ = {rho:+.2f})" for k, rho in ff)) if ff else "") + ".")
+    return out
 
-    # -- which effect ----------------------------------------------------
+
+def _which(d: diagnose.Diagnosis, f: _Facts) -> List[str]:
+    """Which effect: the chosen model's parameters and the selection steps (or the best single candidate)."""
+    out: List[str] = []
     if d.chosen is not None:
         prs = param_rows(d, d.chosen)
-        out["which"].append(f"`{d.best}` fitted on all {nu} usable rows: " + "; ".join(
+        out.append(f"`{d.best}` fitted on all {f.nu} usable rows: " + "; ".join(
             f"{lab} = {txt}" + (f" ({abs(v) / s:.1f} σ from zero)" if np.isfinite(s) and s > 0 else "")
             for _, lab, txt, v, s in prs) + ".")
-        out["which"].extend(bound_notes(d, d.chosen))
+        out.extend(bound_notes(d, d.chosen))
         if len(d.steps) > 1:
-            out["which"].append("Forward selection: " + " → ".join(
+            out.append("Forward selection: " + " → ".join(
                 f"`{c.name}` {_um(c.heldout_rms)}" for c in d.steps) + " (each step kept only when it beats the "
                 f"previous one by {_support_words(d)}: see [the tests](#tests)).")
     elif d.singles:
         t = d.singles[0]
-        out["which"].append(
+        out.append(
             f"No effect is chosen. For reference, the best single candidate `{t.name}` would be: " + "; ".join(
                 f"{lab} = {txt}" for _, lab, txt, _, _ in param_rows(d, t)) + ".")
-        out["which"].extend(bound_notes(d, t))
+        out.extend(bound_notes(d, t))
+    return out
 
-    # -- how far it shrinks ----------------------------------------------
-    out["shrink"].append(
-        f"Held-out RMS position error ({cv}, {nu} rows): nominal {_um(b_rms)}; " + ", ".join(
-            f"`{c.name}` {_um(c.heldout_rms)} (−{100 * (1 - c.heldout_rms / b_rms):.0f} %)"
-            if c.heldout_rms <= b_rms else
-            f"`{c.name}` {_um(c.heldout_rms)} (worse by {100 * (c.heldout_rms / b_rms - 1):.0f} %)"
-            for c in d.singles) + f". Noise floor {_um(floor)}.")
+
+def _shrink(d: diagnose.Diagnosis, f: _Facts) -> List[str]:
+    """How far the gap shrinks: every single candidate's held-out RMS, the chosen model row by row."""
+    b_rms, nu, names, rows = f.b_rms, f.nu, f.names, f.rows
+    out = [f"Held-out RMS position error ({f.cv}, {nu} rows): nominal {_um(b_rms)}; " + ", ".join(
+        f"`{c.name}` {_um(c.heldout_rms)} (−{100 * (1 - c.heldout_rms / b_rms):.0f} %)"
+        if c.heldout_rms <= b_rms else
+        f"`{c.name}` {_um(c.heldout_rms)} (worse by {100 * (c.heldout_rms / b_rms - 1):.0f} %)"
+        for c in d.singles) + f". Noise floor {_um(f.floor)}."]
     if d.chosen is not None:
-        hb, hf = _heldout_full(d, base), _heldout_full(d, final)
+        hb, hf = _heldout_full(d, d.baseline), _heldout_full(d, d.final())
         better_rows = int(np.sum(hf[rows] < hb[rows]))
-        out["shrink"].append(
+        out.append(
             f"With `{d.best}` the held-out error shrinks at {better_rows} of {nu} rows; the largest remaining "
             f"held-out error is {_um(float(np.nanmax(hf)))} ({names[int(np.nanargmax(hf))]}), it was "
             f"{_um(float(np.nanmax(hb)))} ({names[int(np.nanargmax(hb))]}).")
+    return out
 
-    # -- identifiability -------------------------------------------------
+
+def _identifiability(d: diagnose.Diagnosis) -> List[str]:
+    """What the data cannot tell apart: ties, correlated and undetermined parameters."""
+    out: List[str] = []
     if d.ties and d.singles:
         t0 = d.singles[0]
         sims = []
         for name in d.ties:
             c = next(c for c in d.singles if c.name == name)
             sims.append(f"`{name}` ({_um(c.heldout_rms)}, corrections cosine-similar {_similarity(d, t0, c):+.2f})")
-        out["identifiability"].append(
+        out.append(
             f"Ties: the held-out errors cannot tell `{t0.name}` ({_um(t0.heldout_rms)}) from " + ", ".join(sims)
             + ". A cosine similarity near ±1 means the two effects move the predictions alike over these rows: "
             "the data cannot separate them; measure rows where they differ.")
     else:
-        out["identifiability"].append("No ties: the best candidate beats every other one on held-out rows "
-                                      "beyond noise.")
+        out.append("No ties: the best candidate beats every other one on held-out rows beyond noise.")
     if d.correlated:
-        out["identifiability"].append("Correlated parameters (|corr| > 0.95) of the final model: "
-                                      + "; ".join(d.correlated) + ".")
+        out.append("Correlated parameters (|corr| > 0.95) of the final model: " + "; ".join(d.correlated) + ".")
     undetermined = [f"{e}: {lab}" for cand in ([d.chosen] if d.chosen else d.singles[:1])
                     for e, lab, txt, v, s in param_rows(d, cand) if "not determined" in txt]
     if undetermined:
-        out["identifiability"].append("Not determined by these data (no effect on the measured quantity): "
-                                      + ", ".join(undetermined) + ".")
-    if prep.kind == "displacement":
-        out["identifiability"].append(
+        out.append("Not determined by these data (no effect on the measured quantity): "
+                   + ", ".join(undetermined) + ".")
+    if d.prep.kind == "displacement":
+        out.append(
             "The data are displacements: a translation of the instrument frame cancels, and a constant cable "
             "offset or tip offset shows only through its small change of the configuration.")
-
-    # -- flagged rows ----------------------------------------------------
-    if prep.flags:
-        out["flagged"].append(f"{len(prep.flags)} of {len(prep.meas)} rows are flagged and left out of the fit "
-                              "(not dropped silently):")
-        out["flagged"].extend(f"{names[i]}: {why}" for i, why in sorted(prep.flags.items()))
-    else:
-        out["flagged"].append(f"All {len(prep.meas)} rows were usable.")
     return out
+
+
+def _flagged(d: diagnose.Diagnosis, f: _Facts) -> List[str]:
+    """The rows left out of the fit, each with its reason."""
+    prep = d.prep
+    if not prep.flags:
+        return [f"All {len(prep.meas)} rows were usable."]
+    return ([f"{len(prep.flags)} of {len(prep.meas)} rows are flagged and left out of the fit "
+             "(not dropped silently):"] + [f"{f.names[i]}: {why}" for i, why in sorted(prep.flags.items())])
 
 
 def _support_words(d: diagnose.Diagnosis) -> str:

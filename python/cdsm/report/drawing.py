@@ -9,7 +9,6 @@ from typing import List, Optional
 
 import numpy as np
 
-from ..calibration.measurements import commanded_cables
 from ..display import degrees
 
 __all__ = ["cable_paths", "configuration_words", "draw_arm"]
@@ -86,7 +85,7 @@ def draw_arm(robot, theta=None, ax=None, cables: bool = True, title: Optional[st
             ax.plot(*xy(_disk_outline(frames[d, f], radii[d + 1], look["disk_angles"])), color="0.45",
                     lw=look["disk_lw"])
     if cables:
-        modes = set(commanded_cables(robot))
+        modes = set(robot.position_cables) | set(robot.displacement_cables)  # the commanded ones: red
         seen = set()
         for c, path in enumerate(cable_paths(robot, theta)):
             pos = c in modes
