@@ -7,8 +7,8 @@
 use cdsm::accuracy::{self, HoleErrors};
 use cdsm::cables::CableGeometry;
 use cdsm::chain::Chain;
-use cdsm::ik::{IkSolver, TaskMask};
-use cdsm::kinds::Se2;
+use cdsm::ik::{IkSolver, Mask, MaskArg, PlanarTask};
+use cdsm::kinds::{Kind, Se2};
 use cdsm::kinematics::fk;
 use cdsm::model::Model;
 use cdsm::plant::{self, LoadRows};
@@ -228,7 +228,8 @@ fn main() {
                 )
             },
         );
-        let mut ik = IkSolver::new(&r, TaskMask::POSE, opts);
+        let pose_mask = Mask::parse(Kind::Planar, MaskArg::Weights(&[1.0; 3])).unwrap();
+        let mut ik = IkSolver::new(PlanarTask::new(&r), pose_mask, opts);
         let mut t = th.clone();
         c.run(&format!("pose_ik/n={n}"), 1, || {
             for (x, y) in t.iter_mut().zip(&th) {

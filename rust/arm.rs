@@ -9,7 +9,6 @@ use crate::batch;
 use crate::chain::{Broadcast, Chain};
 use crate::error::{CdsmError, Result};
 use crate::friction::{Holes, Profile, Sliding};
-use crate::ik::{IkMethod, Mask, SpatialIk};
 use crate::kinds::{Frame, Group, Spatial, Visit};
 use crate::lm::Reason;
 use crate::model::Model;
@@ -298,58 +297,6 @@ impl<G: Group> WithSimd for SolveRows<'_, G> {
             }
         }
         out
-    }
-}
-
-/// The pose IK of a batch: targets `(N, TASK)` (m, rad), `seed (N, n)` or
-/// zeros; `mask` parsed for the arm's kind ([`Mask::parse`]). A planar arm
-/// runs its fast path (closed form, SIMD lanes, the planar LM).
-pub fn ik(
-    model: &Model,
-    target: &[f64],
-    seed: Option<&[f64]>,
-    mask: Mask,
-    method: IkMethod,
-    opts: &SolveOptions,
-    threads: usize,
-) -> Result<BatchSolution> {
-    // a mask parsed for another kind's arm
-    let mismatch = || CdsmError::Option {
-        name: "mask".into(),
-        problem: format!("{mask:?} is not a mask of a {} arm", model.kind.name()),
-    };
-    match (model.planar(), mask) {
-        (Some(r), Mask::Weights(w)) => batch::ik(r, target, seed, w, method, opts, threads),
-        (Some(_), Mask::Form(_)) | (None, Mask::Weights(_)) => Err(mismatch()),
-        (None, Mask::Form(mask)) => {
-            if method == IkMethod::ClosedForm {
-                return Err(CdsmError::Option {
-                    name: "method".into(),
-                    problem: "a spatial arm's pose IK has no closed form; use 'lm'".into(),
-                });
-            }
-            let n = model.n();
-            let rows = rows_of("target", target, 6)?;
-            let seed = seeds(seed, rows, n)?;
-            opts.check()?;
-            let parts = split_rows(rows, threads, |r| {
-                let mut out = BatchSolution::with_capacity(r.len(), n);
-                let mut solver = SpatialIk::new(model, mask, *opts);
-                let mut th = vec![0.0; n];
-                let limits = model.limits();
-                for i in r {
-                    match seed {
-                        Some(s) => th.copy_from_slice(&s[i * n..(i + 1) * n]),
-                        None => th.fill(0.0),
-                    }
-                    let t: [f64; 6] = std::array::from_fn(|k| target[i * 6 + k]);
-                    let st = solver.solve(&t, &mut th);
-                    out.push_row(&th, st, limits.contains(&th));
-                }
-                out
-            });
-            Ok(BatchSolution::concat(parts))
-        }
     }
 }
 

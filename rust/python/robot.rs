@@ -413,7 +413,7 @@ impl CoreRobot {
         let how = ik_method(method)?;
         let o = options(tol, max_iter, enforce_limits)?;
         let out = py
-            .detach(|| arm::ik(&self.model, p, s, mask, how, &o, threads))
+            .detach(|| ik::solve_batch(&self.model, p, s, mask, how, &o, threads))
             .map_err(err)?;
         Ok(SolveResult::new(py, out))
     }
