@@ -271,3 +271,25 @@ def test_the_plant_module_forwards_its_01_names_with_a_warning():
     assert plant.predict is cal.predict and plant.layout is cal.layout
     with pytest.raises(AttributeError):
         plant.no_such_name  # noqa: B018
+
+
+def _documented_layers():
+    """{module: layer} from the table of docs/architecture.md ("Layers")."""
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    section = text.split("## Layers", 1)[1].split("\n## ", 1)[0]
+    out = {}
+    for m in re.finditer(r"^\|\s*(\d+)\s*\|\s*([a-z_, ]+?)\s*\|\s*$", section, re.M):
+        for name in m.group(2).split(","):
+            assert name.strip() not in out, f"{name.strip()} listed twice"
+            out[name.strip()] = int(m.group(1))
+    return out
+
+
+def test_the_documented_layers_are_the_code_s():
+    """docs/architecture.md's layer table is true: every top-level Rust module is in
+    exactly one layer, and every module uses modules of its own layer or below."""
+    layers = _documented_layers()
+    edges = {a: bs for a, bs in folders(rust_graph()).items() if a}
+    assert set(layers) == set(edges), (set(edges) - set(layers), set(layers) - set(edges))
+    upward = sorted((a, b) for a, bs in edges.items() for b in bs if layers[b] > layers[a])
+    assert upward == [], upward
