@@ -1271,172 +1271,20 @@ impl Model {
         let (mut joints, mut disks) = (Vec::new(), Vec::new());
         let (mut springs, mut spring_fields) = (Vec::new(), Vec::new());
         for (k, l) in f.linkage.iter().enumerate() {
-            let field = |name: &str| format!("linkage[{k}].{name}");
-            if l.joints.is_empty() {
-                return Err(bad(field("joints"), "at least one joint is required"));
-            }
-            let first = joints.len();
-            for (j, jf) in l.joints.iter().enumerate() {
-                let jfield = |name: &str| format!("linkage[{k}].joints[{j}].{name}");
-                let a = finite3(&jfield("axis"), jf.axis.0)?;
-                let Some(axis) = unit_axis(a) else {
-                    return Err(bad(
-                        jfield("axis"),
-                        format!("must be a non-zero vector, got {a:?}"),
-                    ));
-                };
-                let lim = joint_limits(jfield("limits"), jf.limits)?;
-                joints.push(Joint {
-                    axis,
-                    offset: coordinates(jfield("offset"), jf.offset.map_or([0.0; 3], |o| o.0))?,
-                    limits: lim,
-                    stiffness: 0.0,
-                    rest: 0.0,
-                });
-                springs.push((jf.stiffness, jf.rest));
-                spring_fields.push(format!("linkage[{k}].joints[{j}]"));
-            }
-            // 0: a via plate (docs/model.md, "Joint springs")
-            let thickness = non_negative(field("thickness"), l.thickness, "m")?;
-            if thickness > MAX_LENGTH {
-                return Err(bad(
-                    field("thickness"),
-                    format!("must be at most {MAX_LENGTH} m, got {thickness}"),
-                ));
-            }
-            if !(l.mass.is_finite() && l.mass >= 0.0) {
-                return Err(bad(
-                    field("mass"),
-                    format!("must be finite and >= 0 (kg), got {}", l.mass),
-                ));
-            }
-            disks.push(Disk {
-                joints: first..joints.len(),
-                link_after: coordinates(field("link_after"), l.link_after.0)?,
-                thickness,
-                radius: positive_length(field("radius"), l.radius)?,
-                mass: l.mass,
-                com: coordinates(
-                    field("com"),
-                    l.com.map_or([thickness / 2.0, 0.0, 0.0], |c| c.0),
-                )?,
-            });
+            disks.push(linkage_of(
+                k,
+                l,
+                &mut joints,
+                &mut springs,
+                &mut spring_fields,
+            )?);
         }
         if f.cables.is_empty() {
             return Err(bad("cables".into(), "at least one [[cables]] is required"));
         }
-        let mut cables = Vec::new();
-        for (c, cf) in f.cables.iter().enumerate() {
-            let field = |name: &str| format!("cables[{c}].{name}");
-            if cf.end < 1 || cf.end > disks.len() {
-                return Err(bad(
-                    field("end"),
-                    format!("must be a disk 1..{}, got {}", disks.len(), cf.end),
-                ));
-            }
-            let (mode, tension) = match (cf.mode.as_str(), cf.tension) {
-                ("position", None) => (Mode::Position, 0.0),
-                ("displacement", None) => (Mode::Displacement, 0.0),
-                ("displacement", Some(_)) => {
-                    return Err(bad(
-                        field("tension"),
-                        "only force-controlled cables carry a tension",
-                    ))
-                }
-                ("position", Some(_)) => {
-                    return Err(bad(
-                        field("tension"),
-                        "a position-controlled cable has no set tension",
-                    ))
-                }
-                ("force", Some(t)) if t.is_finite() && t > 0.0 => (Mode::Force, t),
-                ("force", t) => {
-                    let got = t.map_or_else(|| "none".to_string(), |v| v.to_string());
-                    return Err(bad(
-                        field("tension"),
-                        format!("a force-controlled cable needs a positive tension (N), got {got}"),
-                    ));
-                }
-                (m, _) => {
-                    return Err(bad(
-                        field("mode"),
-                        format!("must be \"position\", \"force\" or \"displacement\", got {m:?}"),
-                    ))
-                }
-            };
-            let count = 2 * cf.end + 1;
-            let holes = match (cf.radius, cf.angle, &cf.holes) {
-                (Some(r), Some(a), None) => {
-                    if !(r.is_finite() && r >= 0.0 && a.is_finite()) {
-                        return Err(bad(
-                            field("radius"),
-                            format!("needs finite radius >= 0 and angle, got {r}, {a}"),
-                        ));
-                    }
-                    vec![[0.0, r * a.cos(), r * a.sin()]; count]
-                }
-                (None, None, Some(h)) => h.iter().map(|p| p.0).collect(),
-                _ => {
-                    return Err(bad(
-                        field("holes"),
-                        "give either radius and angle, or holes ([x, y, z] per face)",
-                    ))
-                }
-            };
-            if holes.len() != count {
-                return Err(bad(
-                    field("holes"),
-                    format!(
-                        "needs {count} [x, y, z] points (base face b, then faces a and b of disks 1..{}), got {}",
-                        cf.end,
-                        holes.len()
-                    ),
-                ));
-            }
-            for (i, h) in holes.iter().enumerate() {
-                coordinates(format!("cables[{c}].holes[{i}]"), *h)?;
-            }
-            let mut actuator = Actuator::default();
-            for (key, given) in [
-                ("stiffness", cf.stiffness),
-                ("pretension", cf.pretension),
-                ("max_tension", cf.max_tension),
-            ] {
-                if given.is_some() && mode != Mode::Displacement {
-                    return Err(bad(
-                        field(key),
-                        format!("only displacement cables (mode = \"displacement\") have a {key}"),
-                    ));
-                }
-            }
-            if mode == Mode::Displacement {
-                if let Some(k) = cf.stiffness {
-                    actuator.stiffness = positive(field("stiffness"), k, "N/m")?;
-                }
-                actuator.pretension =
-                    non_negative(field("pretension"), cf.pretension.unwrap_or(0.0), "N")?;
-                if let Some(t) = cf.max_tension {
-                    let t = positive(field("max_tension"), t, "N")?;
-                    if t <= actuator.pretension {
-                        return Err(bad(
-                            field("max_tension"),
-                            format!(
-                                "must exceed the pretension ({} N), got {t}",
-                                actuator.pretension
-                            ),
-                        ));
-                    }
-                    actuator.max_tension = t;
-                }
-            }
-            cables.push(Cable {
-                end: cf.end,
-                mode,
-                tension,
-                holes,
-                actuator,
-            });
-        }
+        let cables = (f.cables.iter().enumerate())
+            .map(|(c, cf)| cable_of(c, cf, disks.len()))
+            .collect::<Result<Vec<_>>>()?;
         let mut robot = Model {
             name: robot_name(f.name)?,
             kind,
@@ -1730,6 +1578,181 @@ impl Robot {
             )
         })
     }
+}
+
+/// Linkage `k` of a general-form file: its joints appended to `joints` (and
+/// their springs and spring fields to `springs`, `spring_fields`), its disk
+/// returned.
+fn linkage_of(
+    k: usize,
+    l: &LinkageFile,
+    joints: &mut Vec<Joint>,
+    springs: &mut Vec<(Option<f64>, Option<f64>)>,
+    spring_fields: &mut Vec<String>,
+) -> Result<Disk> {
+    let field = |name: &str| format!("linkage[{k}].{name}");
+    if l.joints.is_empty() {
+        return Err(bad(field("joints"), "at least one joint is required"));
+    }
+    let first = joints.len();
+    for (j, jf) in l.joints.iter().enumerate() {
+        let jfield = |name: &str| format!("linkage[{k}].joints[{j}].{name}");
+        let a = finite3(&jfield("axis"), jf.axis.0)?;
+        let Some(axis) = unit_axis(a) else {
+            return Err(bad(
+                jfield("axis"),
+                format!("must be a non-zero vector, got {a:?}"),
+            ));
+        };
+        let lim = joint_limits(jfield("limits"), jf.limits)?;
+        joints.push(Joint {
+            axis,
+            offset: coordinates(jfield("offset"), jf.offset.map_or([0.0; 3], |o| o.0))?,
+            limits: lim,
+            stiffness: 0.0,
+            rest: 0.0,
+        });
+        springs.push((jf.stiffness, jf.rest));
+        spring_fields.push(format!("linkage[{k}].joints[{j}]"));
+    }
+    // 0: a via plate (docs/model.md, "Joint springs")
+    let thickness = non_negative(field("thickness"), l.thickness, "m")?;
+    if thickness > MAX_LENGTH {
+        return Err(bad(
+            field("thickness"),
+            format!("must be at most {MAX_LENGTH} m, got {thickness}"),
+        ));
+    }
+    if !(l.mass.is_finite() && l.mass >= 0.0) {
+        return Err(bad(
+            field("mass"),
+            format!("must be finite and >= 0 (kg), got {}", l.mass),
+        ));
+    }
+    Ok(Disk {
+        joints: first..joints.len(),
+        link_after: coordinates(field("link_after"), l.link_after.0)?,
+        thickness,
+        radius: positive_length(field("radius"), l.radius)?,
+        mass: l.mass,
+        com: coordinates(
+            field("com"),
+            l.com.map_or([thickness / 2.0, 0.0, 0.0], |c| c.0),
+        )?,
+    })
+}
+
+/// Cable `c` of a general-form file, its `end` one of the `disks` disks:
+/// its mode and set tension, its holes (on a circle, or given), its actuator.
+fn cable_of(c: usize, cf: &CableFile, disks: usize) -> Result<Cable> {
+    let field = |name: &str| format!("cables[{c}].{name}");
+    if cf.end < 1 || cf.end > disks {
+        return Err(bad(
+            field("end"),
+            format!("must be a disk 1..{}, got {}", disks, cf.end),
+        ));
+    }
+    let (mode, tension) = match (cf.mode.as_str(), cf.tension) {
+        ("position", None) => (Mode::Position, 0.0),
+        ("displacement", None) => (Mode::Displacement, 0.0),
+        ("displacement", Some(_)) => {
+            return Err(bad(
+                field("tension"),
+                "only force-controlled cables carry a tension",
+            ))
+        }
+        ("position", Some(_)) => {
+            return Err(bad(
+                field("tension"),
+                "a position-controlled cable has no set tension",
+            ))
+        }
+        ("force", Some(t)) if t.is_finite() && t > 0.0 => (Mode::Force, t),
+        ("force", t) => {
+            let got = t.map_or_else(|| "none".to_string(), |v| v.to_string());
+            return Err(bad(
+                field("tension"),
+                format!("a force-controlled cable needs a positive tension (N), got {got}"),
+            ));
+        }
+        (m, _) => {
+            return Err(bad(
+                field("mode"),
+                format!("must be \"position\", \"force\" or \"displacement\", got {m:?}"),
+            ))
+        }
+    };
+    let count = 2 * cf.end + 1;
+    let holes = match (cf.radius, cf.angle, &cf.holes) {
+        (Some(r), Some(a), None) => {
+            if !(r.is_finite() && r >= 0.0 && a.is_finite()) {
+                return Err(bad(
+                    field("radius"),
+                    format!("needs finite radius >= 0 and angle, got {r}, {a}"),
+                ));
+            }
+            vec![[0.0, r * a.cos(), r * a.sin()]; count]
+        }
+        (None, None, Some(h)) => h.iter().map(|p| p.0).collect(),
+        _ => {
+            return Err(bad(
+                field("holes"),
+                "give either radius and angle, or holes ([x, y, z] per face)",
+            ))
+        }
+    };
+    if holes.len() != count {
+        return Err(bad(
+            field("holes"),
+            format!(
+                "needs {count} [x, y, z] points (base face b, then faces a and b of disks 1..{}), got {}",
+                cf.end,
+                holes.len()
+            ),
+        ));
+    }
+    for (i, h) in holes.iter().enumerate() {
+        coordinates(format!("cables[{c}].holes[{i}]"), *h)?;
+    }
+    let mut actuator = Actuator::default();
+    for (key, given) in [
+        ("stiffness", cf.stiffness),
+        ("pretension", cf.pretension),
+        ("max_tension", cf.max_tension),
+    ] {
+        if given.is_some() && mode != Mode::Displacement {
+            return Err(bad(
+                field(key),
+                format!("only displacement cables (mode = \"displacement\") have a {key}"),
+            ));
+        }
+    }
+    if mode == Mode::Displacement {
+        if let Some(k) = cf.stiffness {
+            actuator.stiffness = positive(field("stiffness"), k, "N/m")?;
+        }
+        actuator.pretension = non_negative(field("pretension"), cf.pretension.unwrap_or(0.0), "N")?;
+        if let Some(t) = cf.max_tension {
+            let t = positive(field("max_tension"), t, "N")?;
+            if t <= actuator.pretension {
+                return Err(bad(
+                    field("max_tension"),
+                    format!(
+                        "must exceed the pretension ({} N), got {t}",
+                        actuator.pretension
+                    ),
+                ));
+            }
+            actuator.max_tension = t;
+        }
+    }
+    Ok(Cable {
+        end: cf.end,
+        mode,
+        tension,
+        holes,
+        actuator,
+    })
 }
 
 #[cfg(test)]
