@@ -244,10 +244,15 @@ fn rms_one(
     (acc / 3.0).sqrt()
 }
 
-/// [`rms_one`] over `theta (N, n)` and its gradient `(N, n)` (m/rad) by
-/// central differences of `h` rad (the objective of the least-sensitive
-/// configurations). Planar arms only (an error naming `rms_amplification`
-/// for another kind).
+/// The linear RMS of the tip position error (m) over `theta (N, n)` and its
+/// gradient `(N, n)` (m/rad) by central differences of `h` rad (the
+/// objective of the least-sensitive configurations), for independent
+/// uniform errors within `tol` (m): `sqrt(sum_{i in position rows} sum_j
+/// S_ij^2 t_j^2 / 3)`, infinite where the cable Jacobian is singular. Either
+/// kind, over [`crate::arm::sensitivities`]' choice: a planar arm's closed
+/// forms ([`rms_one`], `tol` 2n: per upper cable, then per disk's hole
+/// height) or the general sensitivities ([`general`], `tol` per position
+/// cable, then per hole coordinate of [`Model::flat_holes`]).
 pub fn rms_amplification(
     model: &Model,
     theta: &[f64],
@@ -255,16 +260,23 @@ pub fn rms_amplification(
     h: f64,
     threads: usize,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
-    let robot = model.planar_only("rms_amplification")?;
-    let n = robot.n();
+    let n = model.n();
     let rows = rows_of("theta", theta, n)?;
-    crate::rows::rows_exactly("tol", tol, 2 * n, 1)?;
+    let planar = model.planar();
+    let width = match planar {
+        Some(_) => 2 * n,
+        None => model.position_cables().len() + model.flat_holes().len(),
+    };
+    crate::rows::rows_exactly("tol", tol, width, 1)?;
     if !(h > 0.0 && h.is_finite()) {
         return Err(crate::error::CdsmError::Option {
             name: "h".into(),
             problem: format!("must be a positive step (rad), got {h}"),
         });
     }
+    let Some(robot) = planar else {
+        return rms_general(model, theta, rows, tol, h, threads);
+    };
     let geom = CableGeometry::new(robot, None);
     let flat = map_rows(rows, n + 1, threads, |i, out| {
         let (mut cable, mut pair_out) = (vec![0.0; 3 * n], vec![0.0; 3 * n]);
@@ -285,6 +297,85 @@ pub fn rms_amplification(
     for row in flat.chunks_exact(n + 1) {
         v.push(row[0]);
         g.extend_from_slice(&row[1..]);
+    }
+    Ok((v, g))
+}
+
+/// [`rms_amplification`] over the general sensitivities: one batch of
+/// [`general`] at every row, then at `+h` and at `-h` on each joint in turn
+/// (`theta + 0.0`, `theta + h e_k`, `theta - h e_k`, the other joints moved by
+/// `+0.0` and `-0.0`), the position rows (x, y, z) only.
+fn rms_general(
+    model: &Model,
+    theta: &[f64],
+    rows: usize,
+    tol: &[f64],
+    h: f64,
+    threads: usize,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let n = model.n();
+    let steps = 2 * n + 1;
+    let m = model.position_cables().len();
+    let hl = model.flat_holes().len();
+    let task = model.kind.task();
+    // rows per batch: the hole sensitivities of about 2^22 values at a time
+    let chunk = ((1 << 22) / (steps * task * (m + hl)).max(1)).max(1);
+    let sum_sq = |block: &[f64], width: usize, j: usize| {
+        block[j] * block[j]
+            + block[width + j] * block[width + j]
+            + block[2 * width + j] * block[2 * width + j]
+    };
+    let mut v = Vec::with_capacity(rows);
+    let mut g = Vec::with_capacity(rows * n);
+    for part in theta[..rows * n].chunks(chunk * n) {
+        let mut batch = Vec::with_capacity(part.len() * steps);
+        for t in part.chunks_exact(n) {
+            for s in 0..steps {
+                for (j, &tj) in t.iter().enumerate() {
+                    let d = match s {
+                        0 => 0.0,
+                        s if s <= n => {
+                            if j + 1 == s {
+                                h
+                            } else {
+                                0.0
+                            }
+                        }
+                        s => {
+                            if j + 1 + n == s {
+                                -h
+                            } else {
+                                -0.0
+                            }
+                        }
+                    };
+                    batch.push(tj + d);
+                }
+            }
+        }
+        let sens = general(model, &batch, true, threads)?;
+        let value = |r: usize| {
+            if !sens.ok[r] {
+                return f64::INFINITY;
+            }
+            let cable = &sens.cable[r * task * m..(r + 1) * task * m];
+            let holes = &sens.holes[r * task * hl..(r + 1) * task * hl];
+            let mut acc = 0.0;
+            for (j, t) in tol[..m].iter().enumerate() {
+                acc += sum_sq(cable, m, j) * (t * t);
+            }
+            for (j, t) in tol[m..].iter().enumerate() {
+                acc += sum_sq(holes, hl, j) * (t * t);
+            }
+            (acc / 3.0).sqrt()
+        };
+        for i in 0..part.len() / n {
+            let at = i * steps;
+            v.push(value(at));
+            for k in 0..n {
+                g.push((value(at + 1 + k) - value(at + 1 + n + k)) / (2.0 * h));
+            }
+        }
     }
     Ok((v, g))
 }

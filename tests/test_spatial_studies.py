@@ -224,3 +224,30 @@ def test_cli_paper_montecarlo_tolerance_on_a_spatial_robot(cdsm, tmp_path, capsy
     assert main(["paper", "--configurations", "40", "--out-dir", str(tmp_path / "p"), "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "--configurations" in err and "joint grid" in err and "sampled for spatial robots" in err
+
+
+@pytest.mark.parametrize("name", ("two_universal", "paper_spatial"))
+def test_the_cores_rms_amplification_of_a_spatial_arm_is_the_rms_of_its_sensitivities(cdsm, name):
+    # issue 33 (S12): the core's RMS and its central differences for any arm, the formula
+    # sqrt(sum over x, y, z and every error of S^2 t^2 / 3) evaluated here in NumPy
+    from cdsm.accuracy.sensitivity import sensitivities
+    from cdsm.accuracy.tolerance import error_tolerances
+
+    robot = cdsm.Robot.packaged(name)
+    tol = np.concatenate(error_tolerances(robot, 1e-4, 5e-5))
+    theta = np.random.default_rng(3).uniform(-0.5, 0.5, (4, robot.n))
+    h = 1e-6
+
+    def rms(t):
+        s = sensitivities(robot, t, holes=True)
+        m = np.concatenate([s.cable[:, :3], s.holes[:, :3]], axis=2)
+        return np.where(s.ok, np.sqrt(np.einsum("nij,j->n", m ** 2, tol ** 2) / 3.0), np.inf)
+
+    v, g = robot.core.rms_amplification(theta, tol, h, 1)
+    g = g.reshape(-1, robot.n)
+    np.testing.assert_allclose(v, rms(theta), rtol=1e-12)
+    eye = h * np.eye(robot.n)
+    fd = np.stack([(rms(theta + e) - rms(theta - e)) / (2 * h) for e in eye], axis=1)
+    np.testing.assert_allclose(g, fd, rtol=1e-5, atol=1e-9 * np.abs(fd).max())
+    with pytest.raises(cdsm.CdsmInputError, match="tol"):
+        robot.core.rms_amplification(theta, tol[:-1], h, 1)

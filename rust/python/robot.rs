@@ -521,9 +521,10 @@ impl CoreRobot {
         Ok(SensitivityResult::new(py, s, holes))
     }
 
-    /// The linear RMS of |d(x, y)| (m) at `theta (N, n)` for uniform errors
-    /// within `tol` (2n: cables then disks, m) and its gradient `(N, n)` in
-    /// theta (central differences of `h` rad, in the core).
+    /// The linear RMS of the tip position error (m) at `theta (N, n)` for
+    /// uniform errors within `tol` (m; planar 2n: cables then disks; any
+    /// other arm per position cable then per hole coordinate) and its
+    /// gradient `(N, n)` in theta (central differences of `h` rad, in the core).
     #[pyo3(signature = (theta, tol, h, threads))]
     fn rms_amplification<'py>(
         &self,

@@ -44,7 +44,6 @@ from ..inputs import CdsmInputError, as_batch
 from ..robot import Robot
 from .montecarlo import monte_carlo
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL
-from .sensitivity import sensitivities, tolerance_vector
 from .tolerance import error_tolerances, pooled_percentile
 
 __all__ = ["rms_amplification", "rms_and_gradient", "ik_branches", "best_configurations", "null_space_optimize",
@@ -59,30 +58,12 @@ def rms_amplification(robot: Robot, theta, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_
     return rms_and_gradient(robot, theta, dl_tol, dh_tol)[0]
 
 
-def _spatial_rms(robot: Robot, theta: np.ndarray, dl_tol, dh_tol) -> np.ndarray:
-    from .tolerance import error_tolerances
-
-    dl, dh = error_tolerances(robot, dl_tol, dh_tol)
-    s = sensitivities(robot, theta, holes=True)
-    t2 = np.concatenate([dl, dh]) ** 2
-    m = np.concatenate([s.cable[:, :3], s.holes[:, :3]], axis=2)
-    v = np.sqrt(((m ** 2).sum(axis=1) @ t2) / 3.0)
-    return np.where(s.ok, v, np.inf)
-
-
 def rms_and_gradient(robot: Robot, theta, dl_tol=PAPER_DL_TOL, dh_tol=PAPER_DH_TOL, h: float = 1e-6):
     """:func:`rms_amplification` (N,) m and its gradient (N, n) m/rad in
-    ``theta (N, n)`` rad (central differences of ``h`` rad: planar in the
-    Rust core, spatial over one batch of the general sensitivities)."""
+    ``theta (N, n)`` rad (central differences of ``h`` rad, in the Rust core
+    over the arm's sensitivities)."""
     t, _ = as_batch("theta", theta, robot.n)
-    if robot.kind == "spatial":
-        n = robot.n
-        steps = np.concatenate([np.zeros((1, n)), h * np.eye(n), -h * np.eye(n)])
-        v = _spatial_rms(robot, (t[:, None, :] + steps[None]).reshape(-1, n), dl_tol, dh_tol).reshape(len(t), -1)
-        with np.errstate(invalid="ignore"):
-            g = (v[:, 1:n + 1] - v[:, n + 1:]) / (2 * h)
-        return v[:, 0], g
-    tol = np.ascontiguousarray(tolerance_vector(robot, dl_tol, dh_tol))
+    tol = np.ascontiguousarray(np.concatenate(error_tolerances(robot, dl_tol, dh_tol)))
     v, g = robot.core.rms_amplification(t, tol, float(h), robot.threads)
     return v, g.reshape(-1, robot.n)
 
