@@ -1325,11 +1325,13 @@ impl<'a, G: Group> Plant<'a, G> {
             self.model,
             theta,
             m,
+            n + m,
             |c| Chunk {
                 prm: &self.cprm,
                 real: &reals[c],
                 mobil: &mobil,
             },
+            |_| {},
             &mut work.jet,
             jac,
         )
@@ -1488,11 +1490,17 @@ struct Chunk<'a> {
 /// `dO/dx = O_x - O_theta E_theta^-1 E_x` (`out`: `(TASK, dirs)` row-major).
 /// Direction `g` of the combined list `theta_0..theta_{n-1}, x_0..` sits in
 /// slot `g % JET` of chunk `g / JET`. False where `E_theta` is singular.
+/// Only the first `full` directions are evaluated by full passes (chunks
+/// `0..full.div_ceil(JET)`); `rest` fills the columns `full..` of `w.df`
+/// and `w.dobs` (`(n, total)`, `(TASK, total)` row-major).
+#[allow(clippy::too_many_arguments)]
 fn implicit_derivatives<'c, G: Group>(
     model: &Model,
     theta: &[f64],
     dirs: usize,
+    full: usize,
     chunk: impl Fn(usize) -> Chunk<'c>,
+    rest: impl FnOnce(&mut JetWork<G>),
     w: &mut JetWork<G>,
     out: &mut [f64],
 ) -> bool {
@@ -1501,7 +1509,7 @@ fn implicit_derivatives<'c, G: Group>(
     let total = n + dirs;
     w.df.resize(n * total, 0.0);
     w.dobs.resize(task * total, 0.0);
-    for c in 0..total.div_ceil(JET) {
+    for c in 0..full.div_ceil(JET) {
         let ch = chunk(c);
         for (l, d) in w.theta.iter_mut().enumerate() {
             *d = J::seeded(theta[l], l.wrapping_sub(c * JET));
@@ -1510,7 +1518,7 @@ fn implicit_derivatives<'c, G: Group>(
             model, ch.prm, &w.loads, ch.real, ch.mobil, &w.theta, &mut w.buf, &mut w.f,
         );
         observe_at(model, ch.prm, &mut w.buf.chain, &mut w.obs);
-        for s in 0..JET.min(total - c * JET) {
+        for s in 0..JET.min(full - c * JET) {
             let g = c * JET + s;
             for i in 0..n {
                 w.df[i * total + g] = w.f[i].d[s];
@@ -1520,6 +1528,7 @@ fn implicit_derivatives<'c, G: Group>(
             }
         }
     }
+    rest(w);
     // y_k solves E_theta^T y_k = O_theta[k]^T
     for i in 0..n {
         for l in 0..n {
@@ -1753,18 +1762,56 @@ fn command_derivatives<G: Group>(
     free: &[usize],
     threads: usize,
 ) -> Vec<f64> {
+    derive_commands(plant, seq, theta, ok, free, threads, true)
+}
+
+/// [`command_derivatives`], the holes' coordinates apart ([`hole_columns`])
+/// or (`holes_apart` false) all by full passes (the same numbers).
+fn derive_commands<G: Group>(
+    plant: &Plant<G>,
+    seq: &Sequence,
+    theta: &[f64],
+    ok: &[bool],
+    free: &[usize],
+    threads: usize,
+    holes_apart: bool,
+) -> Vec<f64> {
     let (n, m) = (seq.n, seq.m);
     let model = plant.model;
     let task = <G::Frame<f64> as Frame<f64>>::TASK;
     let kf = free.len();
-    // chunk c carries directions c*JET.. of theta_0..theta_{n-1}, free_0..free_{k-1}
-    let chunks: Vec<(Params<J>, Vec<J>, Vec<J>)> = (0..(n + kf).div_ceil(JET))
+    // the free parameters in the order derived: those by full passes, then
+    // the holes' coordinates of a plant without statics (each moves only
+    // its own cable's equations, [`hole_columns`])
+    let cable_of = if holes_apart {
+        hole_cables(plant, free)
+    } else {
+        vec![None; kf]
+    };
+    let mut order: Vec<usize> = (0..kf).filter(|q| cable_of[*q].is_none()).collect();
+    let full = n + order.len();
+    order.extend((0..kf).filter(|q| cable_of[*q].is_some()));
+    let holes: Vec<usize> = order[full - n..]
+        .iter()
+        .filter_map(|q| cable_of[*q])
+        .collect();
+    // chunk c carries directions c*JET.. of theta_0..theta_{n-1}, then the
+    // free parameters in `order` (the holes' chunks after the full ones)
+    let passes = full.div_ceil(JET);
+    let chunks: Vec<(Params<J>, Vec<J>, Vec<J>)> = (0..passes + holes.len().div_ceil(JET))
         .map(|c| {
+            // the directions g of chunk c's slots
+            let first = if c < passes {
+                c * JET
+            } else {
+                full + (c - passes) * JET
+            };
+            let end = if c < passes { full } else { n + kf };
             let prm = Params::<J>::unpack(model, &plant.lay, &plant.p, |i, v| {
                 let mut d = [0.0; JET];
                 for (s, x) in d.iter_mut().enumerate() {
-                    let g = c * JET + s;
-                    if g >= n && g < n + kf && free[g - n] == i {
+                    let g = first + s;
+                    if g >= n && g < end && free[order[g - n]] == i {
                         *x = 1.0;
                     }
                 }
@@ -1783,6 +1830,7 @@ fn command_derivatives<G: Group>(
     let parts = split_rows(seq.len(), threads, |range| {
         let mut out = vec![f64::NAN; range.len() * task * kf];
         let mut w = JetWork::<G>::new(model);
+        let mut ordered = vec![0.0; task * kf];
         for (local, j) in range.enumerate() {
             if !ok[j] {
                 continue;
@@ -1793,21 +1841,133 @@ fn command_derivatives<G: Group>(
                 model,
                 t0,
                 kf,
+                full,
                 |c| Chunk {
                     prm: &chunks[c].0,
                     real: &chunks[c].1[j * m..(j + 1) * m],
                     mobil: chunks[c].2.get(j * h..(j + 1) * h).unwrap_or(&[]),
                 },
+                |w| {
+                    if !holes.is_empty() {
+                        hole_columns(model, t0, full, &holes, &chunks[passes..], j * m, w);
+                    }
+                },
                 &mut w,
-                dst,
+                &mut ordered,
             );
-            if !done {
+            if done {
+                for k in 0..task {
+                    for (r, q) in order.iter().enumerate() {
+                        dst[k * kf + q] = ordered[k * kf + r];
+                    }
+                }
+            } else {
                 dst.fill(f64::NAN);
             }
         }
         out
     });
     parts.concat()
+}
+
+/// Per free parameter, the cable whose hole coordinate it is, where the
+/// plant's equations have no statics (no cable elasticity or friction, at
+/// the parameters or free): there a hole coordinate moves only its own
+/// cable's length and row of the cable Jacobian. `None` everywhere else.
+fn hole_cables<G: Group>(plant: &Plant<G>, free: &[usize]) -> Vec<Option<usize>> {
+    let lay = &plant.lay;
+    let freed = |e: Effect| lay.find(e).is_some_and(|(o, _)| free.contains(&o));
+    let statics = plant.prm.elastic()
+        || plant.prm.friction()
+        || freed(Effect::CableElasticity)
+        || freed(Effect::CableFriction);
+    let mut cable = vec![None; lay.total];
+    if let (false, Some((o, _))) = (statics, lay.find(Effect::HolePosition)) {
+        let mut k = o;
+        for c in commanded_cables(plant.model) {
+            for _ in 0..3 * plant.model.cables[c].holes.len() {
+                cable[k] = Some(c);
+                k += 1;
+            }
+        }
+    }
+    free.iter().map(|i| cable[*i]).collect()
+}
+
+/// The columns `full..` of the equations' and observation's derivatives
+/// (`w.df`, `w.dobs`) along hole coordinates (`cables`: each one's cable;
+/// `chunks`: their seeded parameters, [`JET`] a chunk) at `theta` of a
+/// plant without statics ([`hole_cables`]): the observation does not move,
+/// and of the equations only those of the coordinate's cable, by the same
+/// jet arithmetic as [`equations`] on the one cable (the other cables'
+/// terms are zero) — one chain at `theta` for every hole coordinate.
+fn hole_columns<G: Group>(
+    model: &Model,
+    theta: &[f64],
+    full: usize,
+    cables: &[usize],
+    chunks: &[(Params<J>, Vec<J>, Vec<J>)],
+    real_at: usize,
+    w: &mut JetWork<G>,
+) {
+    let n = theta.len();
+    let total = full + cables.len();
+    let task = w.dobs.len() / total;
+    let b = &mut w.buf;
+    let m = b.pos.len();
+    let z = J::cst(0.0);
+    for (t, v) in w.theta.iter_mut().zip(theta) {
+        *t = J::cst(*v);
+    }
+    // the holes move no frame: one chain (and clearance shift) for all
+    let prm0 = &chunks[0].0;
+    b.chain.at(model, &prm0.arm, &w.theta);
+    let clear = prm0.clear();
+    if clear {
+        for (s, f) in b.shift.iter_mut().zip(&b.chain.local) {
+            *s = f.bend_shift(prm0.clearance, prm0.width);
+        }
+    }
+    for k in 0..task {
+        w.dobs[k * total + full..(k + 1) * total].fill(0.0);
+    }
+    for i in 0..n {
+        w.df[i * total + full..(i + 1) * total].fill(0.0);
+    }
+    for (c, (prm, real, _)) in chunks.iter().enumerate() {
+        let real = &real[real_at..real_at + m];
+        let slots = &cables[c * JET..cables.len().min((c + 1) * JET)];
+        for (s, &cable) in slots.iter().enumerate() {
+            // once per cable of the chunk
+            if slots[..s].contains(&cable) {
+                continue;
+            }
+            let Some(i) = b.pos.iter().position(|p| *p == cable) else {
+                continue;
+            };
+            let len = b
+                .chain
+                .cable_length(model, &prm.arm, cable, clear.then_some(&b.shift[..]));
+            let first = full + c * JET;
+            let mine = |s2: usize| slots[s2] == cable;
+            if m == n {
+                let e = len - real[i] - z;
+                for s2 in (0..slots.len()).filter(|s2| mine(*s2)) {
+                    w.df[i * total + first + s2] = e.d[s2];
+                }
+            } else {
+                b.chain
+                    .cable_jacobian_row(model, &prm.arm, cable, &mut b.row);
+                let f = len - real[i];
+                for (jj, r) in b.row.iter().enumerate() {
+                    let e = z + *r * f;
+                    for s2 in (0..slots.len()).filter(|s2| mine(*s2)) {
+                        w.df[jj * total + first + s2] = e.d[s2];
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// Observed components per row of a model's measurements: 3 planar, 6 spatial.
@@ -2213,7 +2373,7 @@ fn solve_elastic_k<G: Group>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinds::{Kind, Planar};
+    use crate::kinds::{Kind, Planar, Spatial};
 
     const TWO_UNIVERSAL: &str = include_str!("../python/cdsm/robots/two_universal.toml");
 
@@ -2662,6 +2822,83 @@ mod tests {
             .step_by(2)
             .collect();
         check_jacobian_at(&m, &p, &th, &dl, &kind, free);
+    }
+
+    /// A rigid plant without statics, with hole errors (and clearance, a
+    /// moved frame, backlash ...): every effect but elasticity and friction.
+    fn rigid_with_hole_errors(m: &Model) -> Vec<f64> {
+        let lay = layout(m);
+        let mut p = every_effect(m);
+        for e in [Effect::CableElasticity, Effect::CableFriction] {
+            if let Some((o, s)) = lay.find(e) {
+                p[o..o + s].fill(0.0);
+            }
+        }
+        p
+    }
+
+    /// The holes' columns apart ([`hole_columns`]) are the full passes'
+    /// numbers bit for bit, every free parameter at once (hole coordinates
+    /// sharing chunks with the others and with each other), as many
+    /// position cables as joints and more.
+    fn holes_apart_are_the_full_passes(text: &str, joints: usize) {
+        let m = Model::from_toml(text).unwrap();
+        let cables = m.position_cables().len();
+        let p = rigid_with_hole_errors(&m);
+        let (th, dl, kind) = data(joints, cables, 3);
+        let rows = Rows {
+            theta_cmd: &th,
+            dl: &dl,
+            kind: &kind,
+        };
+        let seq = Sequence::new(&m, &rows).unwrap();
+        let plant = Plant::<Spatial>::new(&m, &p).unwrap();
+        let settled = Settled::new(&plant, &seq, &SolveOptions::default(), 1);
+        assert!(settled.ok.iter().all(|o| *o));
+        let lay = layout(&m);
+        let (o, s) = lay.find(Effect::HolePosition).unwrap();
+        assert!(hole_cables(&plant, &[o]) == vec![Some(commanded_cables(&m)[0])]);
+        // holes first, in between and last
+        let free: Vec<usize> = (o..o + s)
+            .step_by(2)
+            .chain((0..lay.total).filter(|i| !(o..o + s).contains(i)))
+            .chain((o + 1..o + s).step_by(2))
+            .collect();
+        let args = (&plant, &seq, &settled.theta, &settled.ok, &free[..], 1);
+        let apart = derive_commands(args.0, args.1, args.2, args.3, args.4, args.5, true);
+        let whole = derive_commands(args.0, args.1, args.2, args.3, args.4, args.5, false);
+        assert_eq!(apart.len(), whole.len());
+        let hole_cols = free.iter().filter(|f| (o..o + s).contains(f)).count();
+        assert!(hole_cols == s);
+        let mut moved = 0;
+        for (k, (a, b)) in apart.iter().zip(&whole).enumerate() {
+            assert!(a.is_finite(), "entry {k}: {a}");
+            assert!(a == b, "entry {k}: holes apart {a} vs full passes {b}");
+            if (o..o + s).contains(&free[k % free.len()]) && *a != 0.0 {
+                moved += 1;
+            }
+        }
+        assert!(moved > 0);
+    }
+
+    #[test]
+    fn hole_columns_apart_are_the_full_passes_on_two_universal() {
+        holes_apart_are_the_full_passes(TWO_UNIVERSAL, 4);
+    }
+
+    #[test]
+    fn hole_columns_apart_are_the_full_passes_with_more_cables_than_joints() {
+        let sjtu = include_str!("../python/cdsm/robots/sjtu_snake.toml");
+        holes_apart_are_the_full_passes(sjtu, 24);
+    }
+
+    #[test]
+    fn rigid_hole_columns_match_central_differences_of_the_predictions() {
+        let m = Model::from_toml(TWO_UNIVERSAL).unwrap();
+        let (th, dl, kind) = data(4, 4, 6);
+        let (o, s) = layout(&m).find(Effect::HolePosition).unwrap();
+        let p = rigid_with_hole_errors(&m);
+        check_jacobian_at(&m, &p, &th, &dl, &kind, (o..o + s).collect());
     }
 
     #[test]
