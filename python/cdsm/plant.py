@@ -76,7 +76,7 @@ __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "l
            "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle",
            "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "ELASTIC_ON_REQUEST", "effects_of", "check_effects", "width",
            "dims", "commands", "command_lengths", "taut_commands", "KIND_CODES", "commanded_cables",
-           "check_commands", "plate_twins"]
+           "check_commands", "plate_twins", "tie_errors", "join_columns"]
 
 #: Row kinds of the plant's data sets, by code (see ``docs/model.md``).
 KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
@@ -339,6 +339,27 @@ def plate_twins(robot, coords) -> Tuple[np.ndarray, np.ndarray]:
                         b.append(where[fb])
         start += np.asarray(holes).size
     return np.asarray(b, np.int64), np.asarray(a, np.int64)
+
+
+def tie_errors(errors, twins: Tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """``errors`` (..., k) drawn one per coordinate, with each face-b twin of
+    :func:`plate_twins` (``twins`` = its ``(face_b, face_a)``) given its
+    face-a coordinate's error: one error per physical hole. A copy."""
+    out = np.array(errors, dtype=np.float64)
+    b, a = twins
+    out[..., b] = out[..., a]
+    return out
+
+
+def join_columns(matrix, twins: Tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """A linear map ``matrix`` (..., k) of the errors of :func:`tie_errors`
+    (one column per coordinate) as the tied errors see it: each face-b
+    twin's column added to its face-a coordinate's and set to 0. A copy."""
+    out = np.array(matrix, dtype=np.float64)
+    b, a = twins
+    out[..., a] += out[..., b]
+    out[..., b] = 0.0
+    return out
 
 
 def check_commands(robot: Robot, theta_cmd, dL=None, kind="absolute"):

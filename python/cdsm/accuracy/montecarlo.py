@@ -292,9 +292,9 @@ def monte_carlo_chunk(robot: Robot, theta0: np.ndarray, seed: int, chunk_index: 
     (default ``robot.threads``) only splits the configurations: the result does
     not depend on it. This is the unit of work of local and cluster runs."""
     dl, dh = sample_errors(robot.n, size, seed, chunk_index, dl_tol, dh_tol)
-    b, a = plate_hole_twins(robot)  # a zero-thickness disk's two faces: one hole, one error
-    if b.size:
-        dh[:, b] = dh[:, a]
+    twins = plate_hole_twins(robot)  # a zero-thickness disk's two faces: one hole, one error
+    if twins[0].size:
+        dh = plant.tie_errors(dh, twins)
     th = robot.threads if threads is None else as_count("threads", threads)
     # the hole errors go by the kind's argument (per-disk heights or every coordinate), none when all are 0
     holes = {"dh": None, "dholes": None}

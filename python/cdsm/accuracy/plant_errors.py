@@ -168,12 +168,11 @@ def tie_faces(robot: Robot, p: np.ndarray) -> np.ndarray:
     """The plant parameters ``p`` (..., P) with every zero-thickness disk's
     face-b hole error set to its face a's (:func:`hole_ties`): one error per
     physical hole. A copy."""
-    out = np.array(p, dtype=np.float64)
     b, a = hole_ties(robot)
-    if b.size:
-        start = plant.layout(robot)["hole_position"].start
-        out[..., start + b] = out[..., start + a]
-    return out
+    if not b.size:
+        return np.array(p, dtype=np.float64)
+    start = plant.layout(robot)["hole_position"].start
+    return plant.tie_errors(p, (start + b, start + a))
 
 
 def hole_block(robot: Robot) -> str:
@@ -385,10 +384,7 @@ def position_matrix_commands(robot: Robot, dL, theta_cmd=None) -> np.ndarray:
     holes = hole_block(robot)
     s = sensitivities_commands(robot, dL, theta_cmd, blocks=("cable_offset", holes))
     d = robot.kind.dim
-    h = s[holes][:, :d, :].copy()
-    b, a = hole_ties(robot)  # one error per physical hole: face b's column joins face a's
-    h[:, :, a] += h[:, :, b]
-    h[:, :, b] = 0.0
+    h = plant.join_columns(s[holes][:, :d, :], hole_ties(robot))  # one error per physical hole
     return np.concatenate([s["cable_offset"][:, :d, :], h], axis=2)
 
 

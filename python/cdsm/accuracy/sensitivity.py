@@ -31,7 +31,7 @@ from typing import Dict, Optional
 import numpy as np
 
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
-from ..plant import commanded_cables
+from ..plant import commanded_cables, join_columns
 from ..robot import Robot
 from .montecarlo import hole_error_sizes, monte_carlo, plate_hole_twins
 from .scenarios import PAPER_DH_TOL, PAPER_DL_TOL, deviation
@@ -257,11 +257,9 @@ def _position_blocks(robot: Robot, theta: np.ndarray):
     s = sensitivities(robot, theta, holes=robot.kind.hole_errors_per_coordinate)
     d = robot.kind.dim
     h = s.hole_errors[:, :d, :]
-    b, a = plate_hole_twins(robot)
-    if b.size:
-        h = h.copy()
-        h[:, :, a] += h[:, :, b]
-        h[:, :, b] = 0.0
+    twins = plate_hole_twins(robot)
+    if twins[0].size:
+        h = join_columns(h, twins)
     return s.cable[:, :d, :], h
 
 
