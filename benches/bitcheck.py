@@ -479,11 +479,45 @@ def case_core_monte_carlo(ctx: Ctx, rec) -> None:
                                           False, ctx.threads))
 
 
+def _flat_slots(robot) -> np.ndarray:
+    """A planar arm's every coordinate of ``flat_holes`` (cable by cable:
+    base face b, then faces a and b of disks 1..end; x, y, z) as its index in
+    the planar hole layout ``(2n, n+1, 2, 2)`` flat, -1 for a ``z``."""
+    n, out = robot.n, []
+    for c, e in enumerate(robot.cable_ends):
+        for i in range(2 * e + 1):
+            d, f = (0, 1) if i == 0 else ((i + 1) // 2, 1 - i % 2)
+            at = ((c * (n + 1) + d) * 2 + f) * 2
+            out += [at, at + 1, -1]
+    return np.array(out, np.int64)
+
+
+def sensitivity_fields(ctx: Ctx, res, rows: int) -> dict:
+    """The sensitivities of either version in the fields of the one output
+    (issue 33, S12): ``cable``, ``groups`` (a planar arm's ``pair``),
+    ``coords`` over ``flat_holes`` (a planar arm's planar-layout ``holes``
+    picked slot by slot, ``z`` 0 or NaN on a singular row), ``ok``; ``res`` a
+    core ``SensitivityResult`` or a :class:`Sensitivities`, of ``rows`` rows."""
+    theta = dict(theta=res.theta) if hasattr(res, "theta") else {}
+    if hasattr(res, "groups"):
+        return dict(theta, cable=res.cable, groups=res.groups, coords=res.coords, ok=res.ok)
+    groups = res.pair if res.pair is not None else np.zeros((rows, ctx.task, 0))
+    coords = res.holes
+    if coords is not None and ctx.planar:
+        shape = (rows, ctx.task, -1) if np.ndim(res.cable) == 3 else (-1,)
+        slots = _flat_slots(ctx.robot)
+        old = np.asarray(coords, float).reshape(rows, ctx.task, -1)
+        z = np.where(np.asarray(res.ok, bool), 0.0, np.nan)[:, None, None]
+        coords = np.where(slots >= 0, old[:, :, np.maximum(slots, 0)], z).reshape(shape)
+    return dict(theta, cable=res.cable, groups=groups, coords=coords, ok=res.ok)
+
+
 def case_core_sensitivity(ctx: Ctx, rec) -> None:
     c = ctx.core
     th = ctx.theta[:8] if not ctx.big else ctx.theta[:3]
     for holes in (False, True):
-        rec(f"sensitivity/{'holes' if holes else 'cables'}", lambda: c.sensitivity(flat(th), holes, ctx.threads))
+        rec(f"sensitivity/{'holes' if holes else 'cables'}",
+            lambda: sensitivity_fields(ctx, c.sensitivity(flat(th), holes, ctx.threads), len(th)))
     tol = np.concatenate([np.full(ctx.n, 1e-3), np.full(ctx.n, 3.5e-4)])
     rec("rms_amplification", lambda: c.rms_amplification(flat(th), flat(tol), 1e-6, ctx.threads))
     rec("rms_amplification/error", lambda: c.rms_amplification(flat(th), np.zeros(3), 1e-6, ctx.threads))
@@ -841,7 +875,17 @@ def case_py_sensitivity(ctx: Ctx, rec) -> None:
 
     r = ctx.robot
     th = ctx.inside[:3] if ctx.big else ctx.inside[:8]
-    sens = rec("sensitivities", lambda: sensitivity.sensitivities(r, th, holes=True), needed=True)
+    got = {}
+
+    def sens_fields():
+        got["sens"] = sensitivity.sensitivities(r, th, holes=True)
+        return sensitivity_fields(ctx, got["sens"], len(th))
+
+    rec("sensitivities", sens_fields, needed=True)
+    sens = got.get("sens")
+    if ctx.planar and sens is not None:
+        # the planar layout of cdsm 0.2 (deprecated in 0.3): slots that are no hole hold +0.0 where 0.2 had -0.0
+        rec("sensitivities/planar_layout", lambda: sens.holes)
     if ctx.planar and sens is not None:
         rec("amplification", lambda: sensitivity.amplification(sens, 1e-3, 3.5e-4))
     budget = rec("error_budget", lambda: sensitivity.error_budget(r, th, 1e-3, 3.5e-4, samples=200), needed=True)

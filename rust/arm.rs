@@ -467,22 +467,6 @@ fn above_floor(bal: &Balance<f64>, floor: f64) -> Option<Vec<f64>> {
     min_norm_active(&a, &bal.b, floor).map(|s| s.t)
 }
 
-/// First-order sensitivities at `theta (N, n)`: a planar arm's closed
-/// forms ([`crate::sensitivity::sensitivities`]: `cable`, `pair` and
-/// `holes` in the planar layout), any other arm's general ones
-/// ([`crate::sensitivity::general`]: `holes` over [`Model::flat_holes`]).
-pub fn sensitivities(
-    model: &Model,
-    theta: &[f64],
-    with_holes: bool,
-    threads: usize,
-) -> Result<crate::sensitivity::Sensitivities> {
-    match model.planar() {
-        Some(r) => crate::sensitivity::sensitivities(r, theta, with_holes, threads),
-        None => crate::sensitivity::general(model, theta, with_holes, threads),
-    }
-}
-
 /// A planar arm's holes after the paper's per-disk hole-height error `dh
 /// (n,)` m, in the planar layout `(2n, n+1, 2, 2)` flat
 /// ([`crate::robot::Robot::hole_height_error_into`]); an error naming

@@ -169,7 +169,7 @@ impl std::fmt::Debug for ViewCache {
 
 /// The face of hole `i` of a cable (`0`: base face b; `2d - 1`, `2d`: faces
 /// a, b of disk `d`) as `(disk, face)` of the planar layout `(2n, n+1, 2, 2)`.
-fn pair_slot(i: usize) -> (usize, usize) {
+pub(crate) fn pair_slot(i: usize) -> (usize, usize) {
     if i == 0 {
         (0, 1)
     } else {

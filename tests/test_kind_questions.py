@@ -80,9 +80,10 @@ def test_sensitivities_name_the_block_of_the_hole_errors(cdsm):
 
     p, s = cdsm.Robot.paper(), cdsm.Robot.packaged("two_universal")
     sp = sensitivities(p, np.zeros((2, 3)))
-    assert sp.hole_errors is sp.pair and sp.pair.shape == (2, 3, 3)
+    assert sp.hole_errors is sp.pair and sp.pair is sp.groups and sp.pair.shape == (2, 3, 3)
     ss = sensitivities(s, np.zeros((2, s.n)), holes=True)
-    assert ss.pair is None and ss.hole_errors is ss.holes and ss.holes.shape == (2, 6, 96)
+    assert ss.pair is None and ss.groups.shape == (2, 6, 0)  # a spatial arm's hole coordinates are each an error
+    assert ss.hole_errors is ss.coords and ss.coords.shape == (2, 6, 96)
     assert ss.cable.shape == (2, 6, len(s.position_cables))
 
 

@@ -128,7 +128,7 @@ def test_spatial_sensitivities_are_the_reference_solves_differentiated(cdsm, ref
     mirror = ref.load_robot(ROBOTS / "two_universal.toml")
     theta = np.random.default_rng(3).uniform(-0.4, 0.4, (4, 4))
     s = sensitivities(robot, theta, holes=True)
-    assert s.ok.all() and s.cable.shape == (4, 6, 4) and s.holes.shape == (4, 6, len(robot.flat_holes))
+    assert s.ok.all() and s.cable.shape == (4, 6, 4) and s.coords.shape == (4, 6, len(robot.flat_holes))
     pos = ref.position_cables(mirror)
     L0 = ref.cable_lengths(mirror, theta)[:, pos]
     h = 1e-6
@@ -156,7 +156,7 @@ def test_spatial_sensitivities_are_the_reference_solves_differentiated(cdsm, ref
             return dataclasses.replace(mirror, holes=tuple(holes))
 
         fd = (tips(moved(1.0), L0) - tips(moved(-1.0), L0)) / (2 * h)
-        np.testing.assert_allclose(s.holes[:, :3, j], fd, atol=1e-7)
+        np.testing.assert_allclose(s.coords[:, :3, j], fd, atol=1e-7)
 
 
 def test_a_spatial_allocation_starts_from_its_linear_guess_and_meets_the_target(cdsm):
@@ -172,7 +172,7 @@ def test_a_spatial_allocation_starts_from_its_linear_guess_and_meets_the_target(
         assert 0.5 < a.alpha / a.alpha_linear < 2.0  # the linear guess is near the answer
     # equal-effect: every group adds the same linear variance over the region
     sens = sensitivities(robot, theta, holes=True)
-    em = np.concatenate([sens.cable[:, :3], sens.holes[:, :3]], axis=2)
+    em = np.concatenate([sens.cable[:, :3], sens.coords[:, :3]], axis=2)
     full = np.concatenate([a.cable_length_tol_m, tolerance.hole_tolerances(robot, a.hole_tol_m)])
     var = ((em ** 2).sum(axis=1).mean(axis=0)) * full ** 2
     m = len(robot.position_cables)

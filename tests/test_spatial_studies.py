@@ -240,7 +240,7 @@ def test_the_cores_rms_amplification_of_a_spatial_arm_is_the_rms_of_its_sensitiv
 
     def rms(t):
         s = sensitivities(robot, t, holes=True)
-        m = np.concatenate([s.cable[:, :3], s.holes[:, :3]], axis=2)
+        m = np.concatenate([s.cable[:, :3], s.coords[:, :3]], axis=2)
         return np.where(s.ok, np.sqrt(np.einsum("nij,j->n", m ** 2, tol ** 2) / 3.0), np.inf)
 
     v, g = robot.core.rms_amplification(theta, tol, h, 1)

@@ -45,25 +45,57 @@ def test_rust_matches_reference(which, paper, r8):
     lim = robot.joint_limits
     th = rng.uniform(lim[:, 0], lim[:, 1], (40, robot.n))
     s = sensitivity.sensitivities(robot, th, holes=True)
-    rr = ref.Robot.like(robot)
-    r = ref.tip_sensitivity(rr, th)
-    r["holes"] = ref.to_planar_layout(rr, r["holes"])  # the core's planar layout of the hole coordinates
+    r = ref.tip_sensitivity(ref.Robot.like(robot), th)
     assert s.ok.all()
-    for key in ("cable", "pair", "holes"):
+    assert s.pair is s.groups
+    for key, want in (("cable", r["cable"]), ("groups", r["pair"]), ("coords", r["holes"])):
         got = getattr(s, key)
-        want = r[key]
         assert got.shape == want.shape
         # 1e-9 relative to each array's scale (entries are O(0.01..10))
         assert _rel(got, want) < 1e-9, key
 
 
-def test_lower_cable_and_unused_holes_do_not_move_the_tip(paper):
-    s = sensitivity.sensitivities(paper, [0.2, -0.3, 0.1], holes=True)
-    h = s.holes[0]  # (3, 2n, n+1, 2, 2)
-    assert np.all(h[:, 1::2] == 0.0)  # lower cables are force controlled
+def _flat_index(c, d, f):
+    """Where hole (cable c, disk d, face f) of the planar layout starts in
+    ``Robot.flat_holes``: the cable's holes are base face b, then faces a
+    and b of disks 1..end."""
+    start = sum(3 * (2 * (k // 2 + 1) + 1) for k in range(c))
+    return start + 3 * (0 if d == 0 else 2 * d - 1 + f)
+
+
+def test_the_planar_holes_shape_is_deprecated_and_equals_the_flat_coordinates(paper):
+    th = np.array([[0.2, -0.3, 0.1], [-0.4, 0.25, 0.35]])
+    s = sensitivity.sensitivities(paper, th, holes=True)
+    with pytest.warns(DeprecationWarning, match="Sensitivities.coords"):
+        h = s.holes
+    assert h.shape == (2, 3, 6, 4, 2, 2)
     mask = ref.used_hole_mask(paper.n)
-    for c in range(0, 2 * paper.n, 2):
-        assert np.all(h[:, c][:, ~mask[c]] == 0.0)
+    want = np.zeros(h.shape)
+    for c in range(2 * paper.n):
+        for d in range(paper.n + 1):
+            for f in range(2):
+                if mask[c, d, f]:
+                    at = _flat_index(c, d, f)
+                    want[:, :, c, d, f] = s.coords[:, :, at:at + 2]
+    np.testing.assert_array_equal(h, want)
+    # the reference's planar layout of the same numbers
+    r = ref.tip_sensitivity(ref.Robot.like(paper), th)
+    np.testing.assert_allclose(h, ref.to_planar_layout(ref.Robot.like(paper), r["holes"]), rtol=0, atol=1e-9)
+    # a spatial arm's: its flat coordinates, warned too
+    sp = Robot.packaged("two_universal")
+    ss = sensitivity.sensitivities(sp, np.zeros((1, sp.n)), holes=True)
+    with pytest.warns(DeprecationWarning):
+        assert ss.holes is ss.coords
+
+
+def test_lower_cable_and_z_do_not_move_the_tip(paper):
+    s = sensitivity.sensitivities(paper, [0.2, -0.3, 0.1], holes=True)
+    h = s.coords[0]  # (3, 3H)
+    assert np.all(h[:, 2::3] == 0.0)  # a planar arm's z
+    for c in range(1, 2 * paper.n, 2):  # lower cables are force controlled
+        start = _flat_index(c, 0, 1)
+        assert np.all(h[:, start:start + 3 * (2 * (c // 2 + 1) + 1)] == 0.0)
+    assert np.all(h[:, :2] != 0.0)  # cable 1's base hole does
 
 
 def test_sensitivities_match_finite_differences_of_the_deviation(paper):
@@ -78,7 +110,7 @@ def test_sensitivities_match_finite_differences_of_the_deviation(paper):
         assert np.allclose(fd, s.cable[:, :, j], rtol=1e-5, atol=1e-8)
         fd = (deviation(paper, th, dh=d, tol=1e-15, max_iter=400).dS
               - deviation(paper, th, dh=-d, tol=1e-15, max_iter=400).dS) / (2 * h)
-        assert np.allclose(fd, s.pair[:, :, j], rtol=1e-5, atol=1e-8)
+        assert np.allclose(fd, s.groups[:, :, j], rtol=1e-5, atol=1e-8)
     rng = np.random.default_rng(0)
     mask = ref.used_hole_mask(paper.n)
     for _ in range(6):
@@ -90,7 +122,7 @@ def test_sensitivities_match_finite_differences_of_the_deviation(paper):
         dh[c, dd, f, x] = h
         fd = (deviation(paper, th, dholes=dh, tol=1e-15, max_iter=400).dS
               - deviation(paper, th, dholes=-dh, tol=1e-15, max_iter=400).dS) / (2 * h)
-        assert np.allclose(fd, s.holes[:, :, c, dd, f, x], rtol=1e-4, atol=1e-8)
+        assert np.allclose(fd, s.coords[:, :, _flat_index(int(c), dd, f) + x], rtol=1e-4, atol=1e-8)
 
 
 def test_amplification_formulas(paper):

@@ -64,8 +64,8 @@ class MonteCarloStats:
 
 class SensitivityResult:
     cable: F64
-    pair: F64
-    holes: Optional[F64]
+    groups: F64
+    coords: Optional[F64]
     ok: Bool
 
 class ElasticResult:
@@ -207,7 +207,7 @@ class CoreRobot:
                   max_iter: int, threads: int) -> DeviationResult: ...
     def monte_carlo(self, theta0: F64, dl: F64, dh: Optional[F64], dholes: Optional[F64], method: str,
                     tol: float, max_iter: int, check_slack: bool, threads: int) -> MonteCarloStats: ...
-    def sensitivity(self, theta: F64, holes: bool, threads: int) -> SensitivityResult: ...
+    def sensitivity(self, theta: F64, coords: bool, threads: int) -> SensitivityResult: ...
     def rms_amplification(self, theta: F64, tol: F64, h: float, threads: int) -> Tuple[F64, F64]: ...
     def tensions(self, theta: F64, force: Optional[F64], tip_wrench: Optional[F64],
                  gravity: Optional[Sequence[float]], min_tension: float, threads: int,

@@ -113,22 +113,23 @@ impl MonteCarloStats {
     }
 }
 
-/// Tip sensitivities: `cable (N*3*n)`, `pair (N*3*n)`, `holes (N*3*H)` or
-/// None, `ok (N)`.
+/// Tip sensitivities, either kind: `cable (N*task*m_pos)`, `groups
+/// (N*task*G)` (the coherent hole groups), `coords (N*task*3H)` or None,
+/// `ok (N)`.
 #[pyclass(frozen, get_all, module = "cdsm._cdsm")]
 pub struct SensitivityResult {
     pub cable: A<f64>,
-    pub pair: A<f64>,
-    pub holes: Option<A<f64>>,
+    pub groups: A<f64>,
+    pub coords: Option<A<f64>>,
     pub ok: A<bool>,
 }
 
 impl SensitivityResult {
-    pub fn new(py: Python<'_>, s: Sensitivities, holes: bool) -> SensitivityResult {
+    pub fn new(py: Python<'_>, s: Sensitivities, coords: bool) -> SensitivityResult {
         SensitivityResult {
             cable: arr(py, s.cable),
-            pair: arr(py, s.pair),
-            holes: holes.then(|| arr(py, s.holes)),
+            groups: arr(py, s.groups),
+            coords: coords.then(|| arr(py, s.coords)),
             ok: arr(py, s.ok),
         }
     }

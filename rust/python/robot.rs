@@ -502,23 +502,23 @@ impl CoreRobot {
         Ok(MonteCarloStats::new(py, st))
     }
 
-    /// First-order sensitivities: planar `cable (N*3*n)`, `pair (N*3*n)` and
-    /// `holes (N*3*H)` in the planar hole layout; spatial `cable
-    /// (N*6*m_pos)`, no `pair`, `holes (N*6*3H)` over `flat_holes`.
-    #[pyo3(signature = (theta, holes, threads))]
+    /// First-order sensitivities, either kind: `cable (N*task*m_pos)`,
+    /// `groups (N*task*G)` per coherent hole group, `coords (N*task*3H)` over
+    /// `flat_holes` when asked.
+    #[pyo3(signature = (theta, coords, threads))]
     fn sensitivity(
         &self,
         py: Python<'_>,
         theta: Arr<'_>,
-        holes: bool,
+        coords: bool,
         threads: usize,
     ) -> PyResult<SensitivityResult> {
         self.rigid("sensitivity")?;
         let t = slice("theta", &theta)?;
         let s = py
-            .detach(|| arm::sensitivities(&self.model, t, holes, threads))
+            .detach(|| crate::sensitivity::sensitivities(&self.model, t, coords, threads))
             .map_err(err)?;
-        Ok(SensitivityResult::new(py, s, holes))
+        Ok(SensitivityResult::new(py, s, coords))
     }
 
     /// The linear RMS of the tip position error (m) at `theta (N, n)` for

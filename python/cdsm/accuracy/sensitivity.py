@@ -6,7 +6,7 @@ Sensitivities (Rust core, ``rust/sensitivity.rs``; implicit function theorem,
 the cable solve keeps the upper-cable lengths)::
 
     dS/dl     =  J_pose (dL_upper/dtheta)^-1                      (N, 3, n)
-    dS/dholes = -J_pose (dL_upper/dtheta)^-1 dL_upper/dholes      (N, 3, 2n, n+1, 2, 2)
+    dS/dholes = -J_pose (dL_upper/dtheta)^-1 dL_upper/dholes      (N, 3, 3H) over Robot.flat_holes
     dS/ddh_i  =  dS/dholes summed over the holes of upper cable i (N, 3, n)
 
 Linear amplification (per configuration, tolerances ``t``):
@@ -25,7 +25,8 @@ percentile is exactly proportional to a common scale of every tolerance.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import warnings
+from dataclasses import dataclass, field
 from typing import Dict, Optional
 
 import numpy as np
@@ -45,46 +46,86 @@ __all__ = ["Sensitivities", "sensitivities", "sensitivity", "error_matrix", "tol
 
 @dataclass(frozen=True, repr=False)
 class Sensitivities(ShortRepr):
-    """First-order sensitivities of the tip pose at ``theta (N, n)`` rad.
+    """First-order sensitivities of the tip pose at ``theta (N, n)`` rad, the
+    same fields for either kind (task rows: planar ``x, y, phi``; spatial
+    ``x, y, z, wx, wy, wz``, the rotation as an angular velocity).
 
-    Planar arms: cable (N, 3, n) d[x, y, phi]/d(upper-cable length), m/m
-    (rad/m for phi); pair (N, 3, n) d[x, y, phi]/d(hole height of disk i)
-    (the paper's dh), m/m; holes (N, 3, 2n, n+1, 2, 2) d[x, y, phi]/d(every
-    hole coordinate), or None. Spatial arms: cable (N, 6, m_pos) d[x, y, z,
-    wx, wy, wz]/d(position-cable length) (the last three the rotation, rad/m,
-    as an angular velocity); pair None; holes (N, 6, 3H) over
-    :attr:`cdsm.Robot.flat_holes`, or None. ok: (N,) the cable Jacobian has
-    full rank (NaN rows otherwise).
+    cable: (N, task, m_pos) d(task)/d(position-cable length), m/m (rad/m for
+    the rotation rows). groups: (N, task, G) d(task)/d(error of each
+    coherent hole group of the core's ``CoreRobot.structure()``, in order):
+    a planar arm's hole height of each disk (the paper's dh, G = n; also
+    :attr:`pair`); G = 0 where every hole coordinate is its own error (a
+    spatial arm). coords: (N, task, 3H) d(task)/d(every hole coordinate) in
+    the order of :attr:`cdsm.Robot.flat_holes`, or None. ok: (N,) the cable
+    Jacobian has full rank (NaN rows otherwise).
     """
 
     theta: np.ndarray
     cable: np.ndarray
-    pair: Optional[np.ndarray]
-    holes: Optional[np.ndarray]
+    groups: np.ndarray
+    coords: Optional[np.ndarray]
     ok: np.ndarray
+    #: the planar layout (2n, n+1, 2, 2) of the deprecated :attr:`holes`: each slot's index in ``coords``, -1 where
+    #: no hole (None: the layout is ``coords``'s)
+    _slots: Optional[np.ndarray] = field(default=None, compare=False)
+
+    @property
+    def pair(self) -> Optional[np.ndarray]:
+        """:attr:`groups` where the hole errors group coherently (a planar
+        arm's per disk, (N, 3, n)), else None."""
+        return self.groups if self.groups.shape[-1] else None
 
     @property
     def hole_errors(self) -> Optional[np.ndarray]:
         """The sensitivities to the hole errors a Monte Carlo draws
-        (:func:`cdsm.accuracy.montecarlo.error_widths`): :attr:`pair` (planar,
-        per disk's hole height) or :attr:`holes` (spatial, per hole
-        coordinate); None if not computed."""
-        return self.pair if self.pair is not None else self.holes
+        (:func:`cdsm.accuracy.montecarlo.error_widths`): :attr:`groups` where
+        they group coherently (planar, per disk's hole height), else
+        :attr:`coords` (spatial, per hole coordinate); None if not computed."""
+        return self.groups if self.groups.shape[-1] else self.coords
+
+    @property
+    def holes(self) -> Optional[np.ndarray]:
+        """Deprecated (one release): :attr:`coords` in the shape of cdsm 0.2:
+        a planar arm's (N, 3, 2n, n+1, 2, 2) planar layout (slots that are no
+        hole 0, NaN on rows not ``ok``; ``z`` dropped), any other arm's
+        :attr:`coords` as they are."""
+        warnings.warn("Sensitivities.holes is deprecated and will be removed in the next release; use "
+                      "Sensitivities.coords (N, task, 3H), over Robot.flat_holes for either kind",
+                      DeprecationWarning, stacklevel=2)
+        if self.coords is None or self._slots is None:
+            return self.coords
+        s = self._slots
+        empty = np.where(self.ok, 0.0, np.nan).reshape((-1, 1) + (1,) * s.ndim)
+        return np.where(s >= 0, self.coords[:, :, np.maximum(s, 0)], empty)
+
+
+def _planar_slots(robot: Robot) -> np.ndarray:
+    """(2n, n+1, 2, 2) int: each slot of the planar hole layout (cable, disk,
+    face a/b, x/y) as an index into :attr:`Robot.flat_holes`, -1 where no
+    cable has a hole."""
+    n = robot.n
+    slots = np.full((2 * n, n + 1, 2, 2), -1, dtype=np.int64)
+    k = 0
+    for c, e in enumerate(robot.cable_ends):
+        for i in range(2 * e + 1):
+            d, f = (0, 1) if i == 0 else ((i + 1) // 2, 1 - i % 2)
+            slots[c, d, f] = (k + 3 * i, k + 3 * i + 1)
+        k += 3 * (2 * e + 1)
+    return slots
 
 
 def sensitivities(robot: Robot, theta, holes: bool = False) -> Sensitivities:
-    """Analytic tip sensitivities (Rust core) over ``theta (N, n)`` rad (or (n,))."""
+    """Analytic tip sensitivities (Rust core) over ``theta (N, n)`` rad (or
+    (n,)); ``holes``: also :attr:`Sensitivities.coords`."""
     t, _ = as_batch("theta", theta, robot.n)
     res = robot.core.sensitivity(t, bool(holes), robot.threads)
     ok = np.asarray(res.ok, bool)
-    kind = robot.kind
-    rows = (-1, kind.task)
-    # hole coordinates in the kind's layout: the planar (2n, n+1, 2, 2), else flat as ``flat_holes``
-    layout = robot.holes.shape if kind.pair_holes else robot.flat_holes.shape
-    hs = None if res.holes is None else res.holes.reshape(rows + layout)
-    # per coherent hole group (a planar disk's hole height); none where every coordinate is its own error
-    pair = None if kind.hole_errors_per_coordinate else res.pair.reshape(rows + (robot.n,))
-    return Sensitivities(t, res.cable.reshape(rows + (len(robot.position_cables),)), pair, hs, ok)
+    rows = (len(t), robot.kind.task)
+    coherent = sum(g["coherent"] for g in robot.core.structure()["hole_groups"])
+    coords = None if res.coords is None else res.coords.reshape(rows + (len(robot.flat_holes),))
+    slots = _planar_slots(robot) if robot.kind.pair_holes else None
+    return Sensitivities(t, res.cable.reshape(rows + (len(robot.position_cables),)),
+                         res.groups.reshape(rows + (coherent,)), coords, ok, slots)
 
 
 def sensitivity(robot: Robot, theta) -> np.ndarray:
