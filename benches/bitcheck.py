@@ -896,12 +896,18 @@ def _poses(ctx: Ctx, k: int) -> np.ndarray:
     return np.vstack([p, far])
 
 
-def case_py_compensate(ctx: Ctx, rec) -> None:
+def _fitted_plant():
+    """The fitted-plant class: ``cdsm.FittedPlant`` (cdsm 0.3), ``cdsm.Model``
+    on a tree before the rename (no DeprecationWarning on either)."""
     import cdsm
 
+    return cdsm.FittedPlant if "FittedPlant" in cdsm.__all__ else cdsm.Model
+
+
+def case_py_compensate(ctx: Ctx, rec) -> None:
     r = ctx.robot
     effects = {"actuation_scale": [0.02], "cable_offset": list(ctx.rng("py/comp").uniform(-2e-4, 2e-4, ctx.m))}
-    model = rec("model", lambda: cdsm.Model.from_effects(r, effects), needed=True)
+    model = rec("model", lambda: _fitted_plant().from_effects(r, effects), needed=True)
     if model is None:
         return
     rec("model/to_dict", lambda: model.to_dict())
@@ -926,7 +932,6 @@ def _measurements(ctx: Ctx, kind: str):
 
 
 def case_py_diagnose(ctx: Ctx, rec) -> None:
-    import cdsm
     from cdsm.calibration import diagnosis, experiment, measurements
 
     r = ctx.robot
@@ -938,7 +943,7 @@ def case_py_diagnose(ctx: Ctx, rec) -> None:
         else:
             d = diagnosis.diagnose(r, meas, folds=5)
         return {"json": d.to_json(), "final_fit": d.final().fit, "suggest": experiment.suggest(d, 3, pool=60),
-                "model": cdsm.Model.from_diagnosis(d).to_dict(),
+                "model": _fitted_plant().from_diagnosis(d).to_dict(),
                 "residuals": {w: diagnosis.residuals(d, w) for w in ("baseline", "final")}}
 
     for kind in ("absolute", "displacement"):

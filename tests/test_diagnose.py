@@ -454,7 +454,7 @@ def test_cli_unknown_effect_and_bad_options(mods, robot, tmp_path, capsys):
 def test_cli_saves_a_model_that_loads_and_suggests_measurements(mods, robot, tmp_path, capsys):
     """--save-model writes the chosen model (it loads back with the fitted
     values) and --suggest writes the proposed measurements into the report."""
-    from cdsm.calibration.model import Model
+    from cdsm.calibration.model import FittedPlant
 
     csv = _write_csv(tmp_path / "ok.csv", HEADER, _absolute_rows(robot, mods["plant"], 16, 1))
     mfile, rep = tmp_path / "m.json", tmp_path / "rep"
@@ -462,7 +462,7 @@ def test_cli_saves_a_model_that_loads_and_suggests_measurements(mods, robot, tmp
                                         "3", "--frame", "base", "--quiet", "--save-model", str(mfile),
                                         "--suggest", "3", "--report", str(rep)])
     assert rc == 0, err
-    m = Model.load(mfile)
+    m = FittedPlant.load(mfile)
     assert m.effects == ["actuation_scale"] and abs(m.params_by_effect()["actuation_scale"][0] - 0.02) < 2e-3
     lines = [ln for ln in (rep / "suggested.csv").read_text().splitlines() if not ln.startswith("#")]
     assert len(lines) == 4 and lines[0].startswith("point,theta_1")

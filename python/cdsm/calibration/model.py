@@ -1,10 +1,12 @@
-"""A fitted model of the real arm (nominal robot + fitted effects) that can be
-saved, loaded and used to compensate cable commands. SI units (m, rad, N).
+"""A fitted model of the real arm, :class:`FittedPlant` (nominal robot +
+fitted effects: the plant with fitted parameters), that can be saved, loaded
+and used to compensate cable commands. SI units (m, rad, N). ``Model`` is
+its deprecated name (cdsm 0.2; one release, with a ``DeprecationWarning``).
 
 The model is what the sim-to-real diagnosis (:mod:`cdsm.calibration.diagnosis`) chose: the
 nominal :class:`~cdsm.robot.Robot` the controller believes in, plus the
 unmodelled effects of :mod:`cdsm.calibration.plant` with their fitted parameters. With it,
-:meth:`Model.compensate` finds the upper-cable length commands that put the
+:meth:`FittedPlant.compensate` finds the upper-cable length commands that put the
 tip of the *fitted* plant on target poses.
 
 Model file format ``cdsm-model/2`` (JSON, UTF-8)
@@ -61,6 +63,7 @@ from typing import Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
+from .. import deprecated
 from ..files import read_text, sha256_of, write_text
 from ..inputs import CdsmInputError, as_array, as_batch
 from ..robot import Robot
@@ -68,7 +71,7 @@ from . import plant
 from .compensation import Compensation, compensate
 from .measurements import Measurements
 
-__all__ = ["Model", "FORMAT"]
+__all__ = ["FittedPlant", "FORMAT"]
 
 #: Version tag of the model file format (see the module docstring).
 FORMAT = "cdsm-model/2"
@@ -95,8 +98,8 @@ def _finite_or_none(v):
 # ---------------------------------------------------------------------------
 # the model
 # ---------------------------------------------------------------------------
-class Model:
-    """Nominal robot + fitted effects (see the module docstring for the file).
+class FittedPlant:
+    """The plant with fitted parameters: nominal robot + fitted effects (see the module docstring for the file).
 
     robot: the nominal :class:`Robot`. p: (P,) the full plant parameter vector
     (:func:`cdsm.calibration.plant.layout`), SI. effects: the fitted effects' names.
@@ -120,14 +123,14 @@ class Model:
 
     # ---- construction ---------------------------------------------------
     @classmethod
-    def from_effects(cls, robot: Robot, effects: Mapping[str, Sequence[float]], **kw) -> "Model":
+    def from_effects(cls, robot: Robot, effects: Mapping[str, Sequence[float]], **kw) -> "FittedPlant":
         """A model with given effect values ``{effect: values}`` (SI), e.g. a
         virtual prototype's truth. Every value within its physical domain
         (:func:`cdsm.calibration.plant.check_params`)."""
         return cls(robot, plant.check_params(robot, plant.params(robot, effects), "effects"), list(effects), **kw)
 
     @classmethod
-    def from_diagnosis(cls, diag) -> "Model":
+    def from_diagnosis(cls, diag) -> "FittedPlant":
         """The chosen model of a :class:`cdsm.calibration.diagnosis.Diagnosis` (its final
         fit on all usable rows), with the data provenance and held-out figures."""
         robot = diag.prep.robot
@@ -180,7 +183,7 @@ class Model:
         write_text(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n", "model")
 
     @classmethod
-    def from_dict(cls, d: dict, source: str = "<model>") -> "Model":
+    def from_dict(cls, d: dict, source: str = "<model>") -> "FittedPlant":
         """Rebuild a model from :meth:`to_dict` output; checks the version and
         the parameter layout."""
         if not isinstance(d, dict):
@@ -219,7 +222,7 @@ class Model:
             raise CdsmInputError(f"model file {source!r}: {exc}") from None
 
     @classmethod
-    def load(cls, path: "str | os.PathLike[str]") -> "Model":
+    def load(cls, path: "str | os.PathLike[str]") -> "FittedPlant":
         """Read a model file written by :meth:`save` (exact round trip)."""
         src = str(path)
         text = read_text(path, "model")
@@ -230,12 +233,12 @@ class Model:
         return cls.from_dict(d, src)
 
     def __eq__(self, other) -> bool:
-        if not isinstance(other, Model):
+        if not isinstance(other, FittedPlant):
             return NotImplemented
         return json.dumps(self.to_dict(), sort_keys=True) == json.dumps(other.to_dict(), sort_keys=True)
 
     def __repr__(self) -> str:
-        return f"Model({self.name!r}, robot={self.robot.name!r}, n={self.robot.n})"
+        return f"FittedPlant({self.name!r}, robot={self.robot.name!r}, n={self.robot.n})"
 
     # ---- use --------------------------------------------------------------
     def predict(self, theta_cmd, dL=None, kind: str = "absolute"):
@@ -307,3 +310,7 @@ def _remap(flat: np.ndarray, file_layout, lay, source: str) -> np.ndarray:
                                  f"{name!r} needs entries {a}..{b - 1}")
         p[sl] = flat[a:b]
     return p
+
+
+#: ``Model`` (cdsm 0.2's name of :class:`FittedPlant`) warns for one release.
+__getattr__ = deprecated.module_getattr(__name__, {"Model": "FittedPlant"}, globals())
