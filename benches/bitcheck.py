@@ -111,6 +111,11 @@ def _array(a: np.ndarray) -> np.ndarray:
     raise TypeError(f"cannot store dtype {a.dtype}")
 
 
+#: (class, field) -> the field's name in cdsm 0.3 (renamed in place, issue 33):
+#: a tree before the rename stores its values under the new key, so both trees compare.
+FIELD_RENAMES = {("Scenario", "kind"): "error", ("ErrorBudget", "kinds"): "group_types"}
+
+
 def flatten(v, path: str, out: Dict[str, np.ndarray], depth: int = 0) -> None:
     """Every number, flag and text of ``v`` into ``out`` under ``path`` (fields
     joined by ``.``, items by ``[i]``)."""
@@ -156,8 +161,8 @@ def flatten(v, path: str, out: Dict[str, np.ndarray], depth: int = 0) -> None:
     elif type(v).__name__ == "CoreRobot":
         flatten({"toml": v.to_toml()}, path, out, depth + 1)
     elif dataclasses.is_dataclass(v) and not isinstance(v, type):
-        flatten({f.name: getattr(v, f.name) for f in dataclasses.fields(v) if not f.name.startswith("_")},
-                path, out, depth + 1)
+        flatten({FIELD_RENAMES.get((type(v).__name__, f.name), f.name): getattr(v, f.name)
+                 for f in dataclasses.fields(v) if not f.name.startswith("_")}, path, out, depth + 1)
     elif type(v).__module__.startswith("cdsm"):  # the core's result classes and the like
         attrs = {}
         for name in sorted(dir(v)):
