@@ -113,7 +113,9 @@ def _array(a: np.ndarray) -> np.ndarray:
 
 #: (class, field) -> the field's name in cdsm 0.3 (renamed in place, issue 33):
 #: a tree before the rename stores its values under the new key, so both trees compare.
-FIELD_RENAMES = {("Scenario", "kind"): "error", ("ErrorBudget", "kinds"): "group_types"}
+FIELD_RENAMES = {("Scenario", "kind"): "error", ("ErrorBudget", "kinds"): "group_types",
+                 ("Measurements", "kind"): "reading", ("Suggestion", "kind"): "reading",
+                 ("Prepared", "kinds"): "reading_codes"}
 
 
 def flatten(v, path: str, out: Dict[str, np.ndarray], depth: int = 0) -> None:
@@ -925,15 +927,16 @@ def case_py_compensate(ctx: Ctx, rec) -> None:
     rec("error/poses", lambda: model.compensate(np.zeros((2, 5))))
 
 
-def _measurements(ctx: Ctx, kind: str):
+def _measurements(ctx: Ctx, reading: str):
     from cdsm.calibration.plant import VirtualPrototype
 
     r = ctx.robot
     hidden = ({"hole_height": list(ctx.rng("py/hidden").uniform(-3e-4, 3e-4, ctx.n)), "actuation_scale": [0.02]}
               if ctx.planar else {"actuation_scale": [0.03], "cable_offset": [2e-4, -1e-4] + [0.0] * (ctx.m - 2)})
     vp = VirtualPrototype(r, hidden, noise=10e-6, seed=7)
-    th, dl = vp.random_commands(15, seed=11, kind=kind)
-    return vp.measure(th, dl, kind=kind)
+    # positional: the keyword is ``kind`` before cdsm 0.3 and ``reading`` after
+    th, dl = vp.random_commands(15, 11, None, 1e-3, reading)
+    return vp.measure(th, dl, reading)
 
 
 def case_py_diagnose(ctx: Ctx, rec) -> None:
@@ -951,10 +954,10 @@ def case_py_diagnose(ctx: Ctx, rec) -> None:
                 "model": _fitted_plant().from_diagnosis(d).to_dict(),
                 "residuals": {w: diagnosis.residuals(d, w) for w in ("baseline", "final")}}
 
-    for kind in ("absolute", "displacement"):
-        meas = rec(f"{kind}/data", lambda: _measurements(ctx, kind), needed=True)
+    for reading in ("absolute", "displacement"):
+        meas = rec(f"{reading}/data", lambda: _measurements(ctx, reading), needed=True)
         if meas is not None:
-            rec(f"{kind}/diagnose", lambda: run(meas))
+            rec(f"{reading}/diagnose", lambda: run(meas))
     if ctx.name == "paper":
         rec("table3/diagnose", lambda: run(measurements.packaged("table3")))
 

@@ -49,8 +49,8 @@ def _typical(plant, robot, effect, seed):
 
 def _data(plant, robot, effects, seed, rows=ROWS, kind="absolute", noise=NOISE):
     vp = plant.VirtualPrototype(robot, effects, noise=noise, seed=seed)
-    th, dl = vp.random_commands(rows, kind=kind)
-    return vp.measure(th, dl, kind=kind)
+    th, dl = vp.random_commands(rows, reading=kind)
+    return vp.measure(th, dl, reading=kind)
 
 
 def _write_csv(path, header, rows):
@@ -140,7 +140,7 @@ def test_displacement_data(mods, robot):
     visible in displacements and diagnosed; the floor counts two readings."""
     plant = mods["plant"]
     meas = _data(plant, robot, {"actuation_scale": [0.03]}, 8, rows=40, kind="displacement")
-    assert meas.kind == "displacement"
+    assert meas.reading == "displacement"
     d = mods["diagnose"].diagnose(robot, meas, folds=FOLDS, noise=NOISE)
     assert d.best == "actuation_scale"
     assert d.noise_floor == pytest.approx(2.0 * NOISE)

@@ -424,7 +424,7 @@ def test_a_csv_with_a_byte_order_mark_reads(cdsm, tmp_path):
     path = tmp_path / "bom.csv"
     path.write_bytes("\ufefftheta_1,theta_2,theta_3,dL_1,dx,dy\n0,0,0,0.001,1e-4,2e-4\n".encode("utf-8"))
     m = measurements.read_csv(path, 3)
-    assert m.kind == "displacement" and len(m) == 1
+    assert m.reading == "displacement" and len(m) == 1
 
 
 def test_table3_in_millimetres_says_so(cdsm):
@@ -432,7 +432,7 @@ def test_table3_in_millimetres_says_so(cdsm):
 
     text = open(os.path.join(os.path.dirname(cdsm.__file__), "data", "table3.csv"), encoding="utf-8").read()
     meas = measurements.parse_csv(text, 3)
-    mm = measurements.Measurements(meas.kind, 3, meas.dL * 1e3, meas.measured * 1e3, None, meas.pose_cmd * 1e3,
+    mm = measurements.Measurements(meas.reading, 3, meas.dL * 1e3, meas.measured * 1e3, None, meas.pose_cmd * 1e3,
                                    None, meas.labels, "table3 in mm")
     with pytest.raises(cdsm.CdsmInputError, match="in mm"):
         diagnosis.diagnose(cdsm.Robot.paper(), mm)

@@ -136,7 +136,7 @@ def test_spatial_measurement_csv(cdsm, tmp_path):
     text = ("theta_1,theta_2,theta_3,theta_4,dL_1,dL_3,x,y,z,rx,ry,rz,point\n"
             "0.1,0,0,0,1e-3,0,0.06,0.001,0,0,0,0.1,a\n0,0.1,0,0,0,0,,,,,,,b\n")
     m = measurements.parse_csv(text, robot.n, "t.csv", cables=len(robot.position_cables))
-    assert m.kind == "absolute" and m.measured.shape == (2, 3) and m.measured_rot.shape == (2, 3)
+    assert m.reading == "absolute" and m.measured.shape == (2, 3) and m.measured_rot.shape == (2, 3)
     assert m.dL.shape == (2, 4) and m.dL[0, 0] == 1e-3 and np.isnan(m.measured[1]).all()
     with pytest.raises(cdsm.CdsmInputError, match="dL_5"):
         measurements.parse_csv("theta_1,theta_2,theta_3,theta_4,dL_5,x,y,z\n0,0,0,0,0,0,0,0\n", 4, "t", 4)

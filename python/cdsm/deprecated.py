@@ -52,6 +52,7 @@ RENAMED: Dict[str, Dict[str, str]] = {
     "cdsm.report.spatial_figures": {"slack_figure": "cdsm.report.study_figures:feasibility_figure"},
     # cdsm 0.3: the fitted calibration is a FittedPlant
     "cdsm.model": {"Model": "cdsm.calibration.model:FittedPlant"},
+    "cdsm.measurements": {"KIND_CODES": "cdsm.calibration.measurements:READING_CODES"},
 }
 
 

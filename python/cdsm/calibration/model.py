@@ -43,7 +43,8 @@ One JSON object; every number is a JSON float written by Python's ``repr``
       }
     }
 
-``data.sha256`` is the SHA-256 of: the kind and n as ASCII (``"absolute 3\\n"``)
+``data.kind`` is what the rows read (:attr:`Measurements.reading`; the key
+keeps its name: file format). ``data.sha256`` is the SHA-256 of: the reading and n as ASCII (``"absolute 3\\n"``)
 followed by the little-endian float64 bytes of the commanded ``theta`` (N, n)
 or ``pose_cmd`` (N, 3), ``dL`` (N, n), ``measured`` (N, 2) and ``measured_phi``
 (N,) when present, in that order. Non-finite figures are written as ``null``.
@@ -80,7 +81,7 @@ READS = ("cdsm-model/1", FORMAT)
 
 
 def _data_hash(meas: Measurements) -> str:
-    hsh = hashlib.sha256(f"{meas.kind} {meas.n}\n".encode("ascii"))
+    hsh = hashlib.sha256(f"{meas.reading} {meas.n}\n".encode("ascii"))
     cmd = meas.theta if meas.theta is not None else meas.pose_cmd
     for arr in (cmd, meas.dL, meas.measured, meas.measured_phi):
         if arr is not None:
@@ -138,7 +139,7 @@ class FittedPlant:
         meas = diag.prep.meas
         src = meas.source or ""
         file_hash = sha256_of(src) if src and os.path.isfile(src) else None
-        data = dict(source=src, kind=meas.kind, rows=int(len(meas)),
+        data = dict(source=src, kind=meas.reading, rows=int(len(meas)),
                     rows_used=int(diag.prep.usable.sum()), sha256=_data_hash(meas),
                     file_sha256=file_hash)
         heldout = dict(baseline_rms_m=_finite_or_none(diag.baseline.heldout_rms),
@@ -241,12 +242,15 @@ class FittedPlant:
         return f"FittedPlant({self.name!r}, robot={self.robot.name!r}, n={self.robot.n})"
 
     # ---- use --------------------------------------------------------------
-    def predict(self, theta_cmd, dL=None, kind: str = "absolute"):
+    def predict(self, theta_cmd, dL=None, reading: str = "absolute", *, kind: Optional[str] = None):
         """The fitted plant's observations for commands ``theta_cmd`` (N, n) rad
-        + ``dL`` (N, n) m: ((N, 3), converged (N,)), see :func:`cdsm.calibration.plant.predict`."""
+        + ``dL`` (N, n) m of rows that read ``reading`` (``kind``: its
+        deprecated name, one release): ((N, 3), converged (N,)), see
+        :func:`cdsm.calibration.plant.predict`."""
+        reading = deprecated.old_keyword("FittedPlant.predict", "kind", "reading", kind, reading)
         t, _ = as_batch("theta_cmd", theta_cmd, self.robot.n)
         d = np.zeros_like(t) if dL is None else dL
-        return plant.predict(self.robot, self.p, t, d, kind)
+        return plant.predict(self.robot, self.p, t, d, reading)
 
     def compensate(self, poses, tol: float = 1e-9, max_iter: int = 40, min_tension: float = 0.0,
                    enforce_limits: bool = False, start=None) -> Compensation:
