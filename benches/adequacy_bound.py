@@ -59,7 +59,7 @@ def heldout_rms(prep, fits, folds) -> float:
 def per_row_rms(prep, p) -> float:
     """Per-row RMS |e| (m) over the usable rows of the plant ``p`` (P,)."""
     o, k = prep.order, plant.dims(prep.robot)
-    obs, _ = plant.predict(prep.robot, p, prep.theta_cmd[o], prep.dL[o], prep.kinds[o])
+    obs, _ = plant.predict(prep.robot, p, prep.theta_cmd[o], prep.dL[o], prep.reading_codes[o])
     pred = np.empty_like(obs)
     pred[o] = obs
     return float(np.sqrt(np.mean(np.sum((pred[prep.rows, :k] - prep.measured[prep.rows, :k]) ** 2, axis=1))))

@@ -18,7 +18,7 @@ import numpy as np
 import cdsm
 from cdsm import diagnose as D
 from cdsm import plant
-from cdsm.model import Model
+from cdsm.calibration.model import FittedPlant
 
 SCENARIOS = plant.EXAMPLES_N3
 
@@ -35,7 +35,7 @@ def run_one(robot, effects, fit_rows: int = 40, noise: float = 10e-6, seed: int 
     vp = plant.VirtualPrototype(robot, effects, noise=noise, seed=seed)
     th, dl = vp.random_commands(fit_rows)
     diag = D.diagnose(robot, vp.measure(th, dl), noise=noise)
-    model = Model.from_diagnosis(diag)
+    model = FittedPlant.from_diagnosis(diag)
     poses = targets(robot) if poses is None else poses
     comp = model.compensate(poses)
     probe = plant.VirtualPrototype(robot, effects, noise=noise, seed=seed + 1000)  # fresh noise

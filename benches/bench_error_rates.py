@@ -246,7 +246,7 @@ def datasets(robot: Robot, case: Case, rows: int, i: int, seed: int):
                     seen = base.measured @ rot.T + t
                 else:
                     seen = ool.to_frame(base.measured, frame)
-                tracker = measurements.Measurements(base.kind, base.n, base.dL, seen,
+                tracker = measurements.Measurements(base.reading, base.n, base.dL, seen,
                                                     theta=base.theta, source=base.source + " (tracker frame)")
             return base, tracker, retries, hidden
         except Exception as exc:  # a command that does not settle: regenerate, counted

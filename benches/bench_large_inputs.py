@@ -66,7 +66,7 @@ def write_file(path: str, rows: int) -> None:
     from cdsm.calibration.plant import VirtualPrototype
 
     vp = VirtualPrototype(cdsm.Robot.paper(), {"hole_height": [3e-4, -2e-4, 2e-4]}, noise=10e-6, seed=1)
-    th, dl = vp.random_commands(rows, kind="absolute")
+    th, dl = vp.random_commands(rows, reading="absolute")
     xy = vp.measure(th, dl, "absolute").measured
     vals = np.hstack([th, dl, xy])
     with open(path, "w") as fh:

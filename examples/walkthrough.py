@@ -72,7 +72,7 @@ def main(argv=None) -> None:
         print("   ", ", ".join(f"{v:+.1f}" for v in np.degrees(t)))
 
     # 5. compensation: the commands that put the real arm's tip where the nominal one would go
-    model = cdsm.Model.from_diagnosis(d)
+    model = cdsm.FittedPlant.from_diagnosis(d)
     targets = robot.fk(theta[:5])[:, :2]
     comp = model.compensate(targets)
     print(f"compensated {int(comp.converged.sum())} of {len(targets)} targets: predicted tip error "

@@ -409,29 +409,29 @@ def test_threads_must_be_a_non_negative_integer(cdsm, value):
 # issue 32, item 9: validation gaps
 # ==========================================================================
 def _model_file(cdsm, tmp_path):
-    from cdsm.calibration.model import Model
+    from cdsm.calibration.model import FittedPlant
 
-    m = Model.from_effects(cdsm.Robot.paper(), {"cable_friction": [0.2], "backlash": [1e-5, 2e-5, 3e-5]},
+    m = FittedPlant.from_effects(cdsm.Robot.paper(), {"cable_friction": [0.2], "backlash": [1e-5, 2e-5, 3e-5]},
                            std={"cable_friction": [0.01], "backlash": [1e-6, 1e-6, 1e-6]})
     path = tmp_path / "m.json"
     m.save(path)
     import json
 
-    return Model, json.loads(path.read_text(encoding="utf-8")), path
+    return FittedPlant, json.loads(path.read_text(encoding="utf-8")), path
 
 
 @pytest.mark.parametrize("mu", [1.5, -0.1])
 def test_a_model_refuses_friction_outside_zero_to_one_on_input(cdsm, err, tmp_path, mu):
     import json
 
-    Model, d, path = _model_file(cdsm, tmp_path)
+    FittedPlant, d, path = _model_file(cdsm, tmp_path)
     with pytest.raises(err, match=r"`effects`: cable_friction must be within \[0, 1\]"):
-        Model.from_effects(cdsm.Robot.paper(), {"cable_friction": [mu]})
+        FittedPlant.from_effects(cdsm.Robot.paper(), {"cable_friction": [mu]})
     lay = d["params"]["layout"]["cable_friction"]
     d["params"]["flat"][lay[0]] = mu
     path.write_text(json.dumps(d), encoding="utf-8")
     with pytest.raises(err, match=r"m\.json.*`params\.flat`: cable_friction must be within \[0, 1\]"):
-        Model.load(path)
+        FittedPlant.load(path)
 
 
 @pytest.mark.parametrize("where, value, match", [
@@ -449,27 +449,27 @@ def test_a_model_refuses_friction_outside_zero_to_one_on_input(cdsm, err, tmp_pa
 def test_a_model_file_is_refused_naming_the_field(cdsm, err, tmp_path, where, value, match):
     import json
 
-    Model, d, path = _model_file(cdsm, tmp_path)
+    FittedPlant, d, path = _model_file(cdsm, tmp_path)
     if where == "std":
         d["params"]["std"] = value
     else:
         d["params"]["flat"][0] = value
     path.write_text(json.dumps(d), encoding="utf-8")
     with pytest.raises(err, match=match):
-        Model.load(path)
+        FittedPlant.load(path)
 
 
 def test_a_model_with_an_undetermined_parameter_saves_and_loads(cdsm, tmp_path):
     """A fit's 1-sigma is NaN where the data do not determine a parameter:
     the file says null and reads it back as NaN (saving used to raise
     json's ValueError)."""
-    from cdsm.calibration.model import Model
+    from cdsm.calibration.model import FittedPlant
 
-    m = Model.from_effects(cdsm.Robot.paper(), {"backlash": [1e-5, 2e-5, 3e-5]},
+    m = FittedPlant.from_effects(cdsm.Robot.paper(), {"backlash": [1e-5, 2e-5, 3e-5]},
                            std={"backlash": [float("nan"), 1e-6, 2e-6]})
     m.save(tmp_path / "m.json")
     assert '"backlash": [\n        null,' in (tmp_path / "m.json").read_text(encoding="utf-8")
-    back = Model.load(tmp_path / "m.json")
+    back = FittedPlant.load(tmp_path / "m.json")
     assert back == m and np.isnan(back.std["backlash"][0]) and back.std["backlash"][1:] == [1e-6, 2e-6]
 
 

@@ -28,7 +28,7 @@ def setting(cdsm):
     t3 = measurements.packaged("table3")
     prep = diagnose.prepare(robot, t3)
     vp = plant.VirtualPrototype(robot, TRUTH, noise=NOISE, seed=12)
-    data = vp.measure(prep.theta_cmd, t3.dL, kind="displacement")
+    data = vp.measure(prep.theta_cmd, t3.dL, reading="displacement")
     diag = diagnose.diagnose(robot, data, noise=NOISE)
     return robot, data, diag
 
@@ -50,7 +50,7 @@ def test_suggested_measurements_break_the_tie(setting, tmp_path):
 
     robot, data, diag = setting
     sug = design.suggest(diag, 6)
-    assert sug.criterion == "discrimination" and sug.kind == "displacement"
+    assert sug.criterion == "discrimination" and sug.reading == "displacement"
     assert sug.models[:2] == ["hole_height", "actuation_scale"]
     # within the joint limits, taut cables, one cable at ±1 mm per row (Table-3 style)
     assert robot.within_limits(sug.theta).all() and robot.feasible(sug.theta).all()
@@ -71,7 +71,7 @@ def test_suggested_measurements_break_the_tie(setting, tmp_path):
     filled = "\n".join([lines[0] + ",dx,dy"] + [ln + f",{a!r},{b!r}" for ln, (a, b)
                                                   in zip(lines[1:], new.measured.tolist())])
     back = measurements.parse_csv(filled, 3)
-    assert back.kind == "displacement"
+    assert back.reading == "displacement"
     assert np.array_equal(back.theta, sug.theta) and np.array_equal(back.dL, sug.dL)
 
 
@@ -84,7 +84,7 @@ def test_single_model_falls_back_to_d_optimal(cdsm):
     diag = diagnose.diagnose(robot, vp.measure(th, dl), effects=["hole_height", "tip_offset"])
     assert diag.best == "hole_height" and not diag.ties
     sug = design.suggest(diag, 3, pool=100)
-    assert sug.criterion == "d-optimal" and sug.kind == "absolute" and len(sug) == 3
+    assert sug.criterion == "d-optimal" and sug.reading == "absolute" and len(sug) == 3
     assert np.all(np.diff(sug.gain) > 0)
     assert np.abs(sug.dL).max() <= 1e-3
 

@@ -49,8 +49,8 @@ def _typical(plant, robot, effect, seed):
 
 def _data(plant, robot, effects, seed, rows=ROWS, kind="absolute", noise=NOISE):
     vp = plant.VirtualPrototype(robot, effects, noise=noise, seed=seed)
-    th, dl = vp.random_commands(rows, kind=kind)
-    return vp.measure(th, dl, kind=kind)
+    th, dl = vp.random_commands(rows, reading=kind)
+    return vp.measure(th, dl, reading=kind)
 
 
 def _write_csv(path, header, rows):
@@ -140,7 +140,7 @@ def test_displacement_data(mods, robot):
     visible in displacements and diagnosed; the floor counts two readings."""
     plant = mods["plant"]
     meas = _data(plant, robot, {"actuation_scale": [0.03]}, 8, rows=40, kind="displacement")
-    assert meas.kind == "displacement"
+    assert meas.reading == "displacement"
     d = mods["diagnose"].diagnose(robot, meas, folds=FOLDS, noise=NOISE)
     assert d.best == "actuation_scale"
     assert d.noise_floor == pytest.approx(2.0 * NOISE)
@@ -454,7 +454,7 @@ def test_cli_unknown_effect_and_bad_options(mods, robot, tmp_path, capsys):
 def test_cli_saves_a_model_that_loads_and_suggests_measurements(mods, robot, tmp_path, capsys):
     """--save-model writes the chosen model (it loads back with the fitted
     values) and --suggest writes the proposed measurements into the report."""
-    from cdsm.calibration.model import Model
+    from cdsm.calibration.model import FittedPlant
 
     csv = _write_csv(tmp_path / "ok.csv", HEADER, _absolute_rows(robot, mods["plant"], 16, 1))
     mfile, rep = tmp_path / "m.json", tmp_path / "rep"
@@ -462,7 +462,7 @@ def test_cli_saves_a_model_that_loads_and_suggests_measurements(mods, robot, tmp
                                         "3", "--frame", "base", "--quiet", "--save-model", str(mfile),
                                         "--suggest", "3", "--report", str(rep)])
     assert rc == 0, err
-    m = Model.load(mfile)
+    m = FittedPlant.load(mfile)
     assert m.effects == ["actuation_scale"] and abs(m.params_by_effect()["actuation_scale"][0] - 0.02) < 2e-3
     lines = [ln for ln in (rep / "suggested.csv").read_text().splitlines() if not ln.startswith("#")]
     assert len(lines) == 4 and lines[0].startswith("point,theta_1")

@@ -461,7 +461,7 @@ def test_compensation_with_friction_is_direction_aware(cdsm, compliant):
     from cdsm.calibration import plant
 
     p = plant.params(compliant, {"cable_friction": [0.3]})
-    model = cdsm.Model(compliant, p, ["cable_friction"])
+    model = cdsm.FittedPlant(compliant, p, ["cable_friction"])
     a, b = compliant.fk([0.4, 0.35, 0.4]), compliant.fk([0.0, 0.05, 0.0])  # from further and less bent
     target = compliant.fk([0.25, 0.25, 0.25])
     one = model.compensate(np.array([a, target]))

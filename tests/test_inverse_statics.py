@@ -12,7 +12,7 @@ from cdsm import CdsmInputError
 from cdsm.calibration import plant
 from cdsm.calibration.compensation import compensate
 from cdsm.calibration.inverse_statics import inverse_statics
-from cdsm.calibration.model import Model
+from cdsm.calibration.model import FittedPlant
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +84,7 @@ def test_compensation_of_a_fitted_error_model_meets_the_targets(ftdcr):
     ``-dL - offset``)."""
     robot, _, tip = ftdcr
     offsets = np.linspace(-2e-4, 2e-4, 9)
-    model = Model.from_effects(robot, {"cable_offset": offsets})
+    model = FittedPlant.from_effects(robot, {"cable_offset": offsets})
     comp = compensate(model, tip[:, :3])
     assert comp.converged.all() and not any(comp.flags)
     assert np.all(comp.predicted_error_nominal > 1e-4)
@@ -102,7 +102,7 @@ def test_the_commands_file_of_an_elastic_arm_says_what_its_columns_are(ftdcr, tm
     L_i is a rest length from the rest angles and the tendon's pull is -dL_i (it said
     "upper-cable length commands" and "position-controlled cable" for every robot)."""
     robot, _, tip = ftdcr
-    model = Model.from_effects(robot, {"cable_offset": np.linspace(-2e-4, 2e-4, 9)})
+    model = FittedPlant.from_effects(robot, {"cable_offset": np.linspace(-2e-4, 2e-4, 9)})
     compensate(model, tip[:2, :3]).to_csv(tmp_path / "c.csv")
     head = [line for line in (tmp_path / "c.csv").read_text().splitlines() if line.startswith("#")]
     assert not any("upper" in line or "position-controlled" in line for line in head)

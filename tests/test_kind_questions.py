@@ -159,7 +159,7 @@ def test_compensating_no_targets_gives_an_empty_table_for_either_kind(cdsm, name
     spatial arm's used to fail with an error about ``seed``)."""
     r = cdsm.Robot.packaged(name)
     m = len(r.position_cables)
-    c = cdsm.Model.from_effects(r, {"actuation_scale": [0.02]}).compensate(np.zeros((0, width)))
+    c = cdsm.FittedPlant.from_effects(r, {"actuation_scale": [0.02]}).compensate(np.zeros((0, width)))
     assert c.commands.shape == (0, m) and c.theta_cmd.shape == (0, r.n) and c.flags == [] and c.kind == r.kind
     c.to_csv(tmp_path / "c.csv")
     head = [line for line in (tmp_path / "c.csv").read_text().splitlines() if not line.startswith("#")]

@@ -79,7 +79,7 @@ def test_planar_scenarios_are_the_papers(cdsm):
     np.testing.assert_array_equal(sc[2].dL, [0.0, -1e-3, 0.0])
     np.testing.assert_array_equal(sc[9].dh, [0.0, 0.35e-3, 0.0])
     np.testing.assert_array_equal(sc[9].dL, np.zeros(3))
-    assert all(s.dholes is None for s in sc) and all(s.kind == "hole" for s in sc[6:])
+    assert all(s.dholes is None for s in sc) and all(s.error == "hole" for s in sc[6:])
     # the same as the paper robot's own set
     own = study.scenario_set(cdsm.Robot.paper())
     assert [(s.key, s.label, s.cable, s.sign) for s in own] == [(s.key, s.label, s.cable, s.sign) for s in sc]

@@ -36,9 +36,9 @@ def _diagnosed(robot, effects, rows=40, seed=0):
 
 @pytest.fixture(scope="module")
 def hole_model(robot):
-    from cdsm.calibration.model import Model
+    from cdsm.calibration.model import FittedPlant
 
-    return Model.from_diagnosis(_diagnosed(robot, SCENARIOS["hole_height"]))
+    return FittedPlant.from_diagnosis(_diagnosed(robot, SCENARIOS["hole_height"]))
 
 
 # ---------------------------------------------------------------------------
@@ -62,7 +62,7 @@ def test_save_load_round_trip_is_exact(cdsm, hole_model, tmp_path):
 
     path = tmp_path / "m.json"
     hole_model.save(path)
-    m2 = cdsm.Model.load(path)
+    m2 = cdsm.FittedPlant.load(path)
     assert m2 == hole_model
     assert np.array_equal(m2.p, hole_model.p) and m2.p.tobytes() == hole_model.p.tobytes()
     assert m2.effects == ["hole_height"] and m2.name == hole_model.name
@@ -91,7 +91,7 @@ def test_bad_model_files(cdsm, tmp_path, text, msg):
     p = tmp_path / "bad.json"
     p.write_text(text)
     with pytest.raises(cdsm.CdsmInputError, match=msg):
-        cdsm.Model.load(p)
+        cdsm.FittedPlant.load(p)
 
 
 def test_a_version_1_model_file_still_loads(cdsm, robot, tmp_path):
@@ -107,7 +107,7 @@ def test_a_version_1_model_file_still_loads(cdsm, robot, tmp_path):
          "params": {"layout": old_layout, "flat": flat}}
     p = tmp_path / "v1.json"
     p.write_text(json.dumps(d))
-    m = cdsm.Model.load(p)
+    m = cdsm.FittedPlant.load(p)
     lay = plant.layout(m.robot)
     assert m.p[lay["actuation_scale"]].tolist() == [0.01]
     assert m.p[lay["hole_height"]].tolist() == [1e-4, -1e-4, 2e-4]
@@ -121,7 +121,7 @@ def test_wrong_parameter_count_is_refused(cdsm, hole_model, tmp_path):
     p = tmp_path / "short.json"
     p.write_text(json.dumps(d))
     with pytest.raises(cdsm.CdsmInputError, match="params.flat"):
-        cdsm.Model.load(p)
+        cdsm.FittedPlant.load(p)
 
 
 # ---------------------------------------------------------------------------
@@ -133,7 +133,7 @@ def test_compensation_reaches_the_noise_floor(cdsm, robot, name):
     from cdsm.calibration import plant
 
     effects = SCENARIOS[name]
-    model = cdsm.Model.from_diagnosis(_diagnosed(robot, effects))
+    model = cdsm.FittedPlant.from_diagnosis(_diagnosed(robot, effects))
     poses = _targets(robot)
     comp = model.compensate(poses)
     assert comp.converged.all(), comp.flags
@@ -165,7 +165,7 @@ def test_position_only_targets_and_unreachable_flags(cdsm, robot, hole_model):
     assert not enforced.converged.any() and np.isnan(enforced.commands).all()
     assert "outside the joint limits" in enforced.flags[0]
     # the nominal commands of the nominal model need no correction
-    nominal = cdsm.Model(robot, np.zeros_like(hole_model.p))
+    nominal = cdsm.FittedPlant(robot, np.zeros_like(hole_model.p))
     c0 = nominal.compensate(poses)
     assert np.abs(c0.dL).max() < 1e-9 and np.allclose(c0.commands, c0.nominal_commands, atol=1e-9)
 
@@ -183,7 +183,7 @@ def test_slack_cables_are_flagged(cdsm, robot):
     slack = np.flatnonzero(reached & ~robot.feasible(sol.theta))[:3]
     taut = np.flatnonzero(reached & robot.feasible(sol.theta))[:3]
     assert len(slack) == 3 and len(taut) == 3  # the slack path really runs
-    comp = cdsm.Model(robot, np.zeros(plant.size(robot))).compensate(poses[np.r_[slack, taut]])
+    comp = cdsm.FittedPlant(robot, np.zeros(plant.size(robot))).compensate(poses[np.r_[slack, taut]])
     assert all("slack cable" in f for f in comp.flags[:3])
     assert not any("slack cable" in f for f in comp.flags[3:])
 
@@ -249,10 +249,10 @@ def test_cli_compensate_bad_model(tmp_path, capsys):
 
 def test_model_from_known_effects(robot):
     """A model can be built from effects known by other means (e.g. a CMM)."""
-    from cdsm.calibration.model import Model
+    from cdsm.calibration.model import FittedPlant
 
     dh = [1e-4, 0.0, -1e-4]
-    m = Model.from_effects(robot, {"hole_height": dh})
+    m = FittedPlant.from_effects(robot, {"hole_height": dh})
     th = np.radians([[10.0, -5.0, 20.0], [-15.0, 25.0, 5.0]])
     obs, ok = m.predict(th)
     # the same arm built another way: the robot with its holes moved, driven by the nominal lengths

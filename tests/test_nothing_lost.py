@@ -51,9 +51,9 @@ def test_a_saved_model_of_a_non_bmp_robot_loads_back(cdsm, tmp_path):
     from cdsm.accuracy.distributed import robot_from_spec, robot_spec
 
     r = _named(cdsm, "arm \U0001F4AA")
-    m = cdsm.Model.from_effects(r, {"actuation_scale": [0.01]})
+    m = cdsm.FittedPlant.from_effects(r, {"actuation_scale": [0.01]})
     m.save(tmp_path / "m.json")
-    back = cdsm.Model.load(tmp_path / "m.json")
+    back = cdsm.FittedPlant.load(tmp_path / "m.json")
     assert back.robot.name == r.name and np.array_equal(back.p, m.p)
     assert robot_from_spec(robot_spec(r)).name == r.name  # what a Dask worker receives
 
@@ -350,13 +350,13 @@ def test_solver_options_are_checked_alike_at_every_entry_point(cdsm):
 
 def test_a_model_file_with_a_malformed_std_is_a_clear_error(cdsm, tmp_path):
     r = cdsm.Robot.paper()
-    model = cdsm.Model.from_effects(r, {"actuation_scale": [0.01]})
+    model = cdsm.FittedPlant.from_effects(r, {"actuation_scale": [0.01]})
     d = model.to_dict()
     d["params"]["std"] = [1, 2]
     path = tmp_path / "m.json"
     path.write_text(json.dumps(d))
     with pytest.raises(cdsm.CdsmInputError, match="std"):
-        cdsm.Model.load(path)
+        cdsm.FittedPlant.load(path)
 
 
 def test_lengths_past_a_kilometre_and_holes_outside_their_disk_are_refused(cdsm):
@@ -424,7 +424,7 @@ def test_a_csv_with_a_byte_order_mark_reads(cdsm, tmp_path):
     path = tmp_path / "bom.csv"
     path.write_bytes("\ufefftheta_1,theta_2,theta_3,dL_1,dx,dy\n0,0,0,0.001,1e-4,2e-4\n".encode("utf-8"))
     m = measurements.read_csv(path, 3)
-    assert m.kind == "displacement" and len(m) == 1
+    assert m.reading == "displacement" and len(m) == 1
 
 
 def test_table3_in_millimetres_says_so(cdsm):
@@ -432,7 +432,7 @@ def test_table3_in_millimetres_says_so(cdsm):
 
     text = open(os.path.join(os.path.dirname(cdsm.__file__), "data", "table3.csv"), encoding="utf-8").read()
     meas = measurements.parse_csv(text, 3)
-    mm = measurements.Measurements(meas.kind, 3, meas.dL * 1e3, meas.measured * 1e3, None, meas.pose_cmd * 1e3,
+    mm = measurements.Measurements(meas.reading, 3, meas.dL * 1e3, meas.measured * 1e3, None, meas.pose_cmd * 1e3,
                                    None, meas.labels, "table3 in mm")
     with pytest.raises(cdsm.CdsmInputError, match="in mm"):
         diagnosis.diagnose(cdsm.Robot.paper(), mm)

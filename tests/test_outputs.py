@@ -62,7 +62,7 @@ def _nothing_computed(monkeypatch):
         raise AssertionError("the command computed before checking its paths")
 
     for mod, name in ((study, "run"), (diagnosis, "diagnose"), (tolerance, "allocate"), (distributed, "run"),
-                      (model.Model, "compensate")):
+                      (model.FittedPlant, "compensate")):
         monkeypatch.setattr(mod, name, computed)
 
 
@@ -81,7 +81,7 @@ def files(cdsm, tmp_path, monkeypatch):
     (tmp_path / "rep" / "residuals.csv").write_bytes((DATA / "table3.csv").read_bytes())
     x, y, phi = robot.fk(np.zeros(robot.n))[:3]
     (tmp_path / "t.csv").write_text(f"x,y,phi\n{x!r},{y!r},{phi!r}\n")
-    cdsm.Model.from_effects(robot, {"tip_offset": [1e-3, 0.0]}).save(tmp_path / "m.json")
+    cdsm.FittedPlant.from_effects(robot, {"tip_offset": [1e-3, 0.0]}).save(tmp_path / "m.json")
     (tmp_path / "j.csv").write_text("theta_1,theta_2,theta_3\n0,0,0\n")
     (tmp_path / "r.npz").write_text(robot.to_toml())  # a robot file of any name
     (tmp_path / "p").mkdir()
@@ -217,7 +217,7 @@ def test_an_empty_path_is_refused_by_the_python_functions_that_write(cdsm, tmp_p
     (tmp_path / "report.md").write_text("my own report\n")
     d = _small_diagnosis(cdsm)
     calls = [lambda: write_text("", "x", "report"), lambda: write_npz("", {"x": np.zeros(2)}, "Monte-Carlo"),
-             lambda: cdsm.Model.from_diagnosis(d).save(""), lambda: report.write(d, ""),
+             lambda: cdsm.FittedPlant.from_diagnosis(d).save(""), lambda: report.write(d, ""),
              lambda: save(new_figure(2, 2), ""), lambda: render_jobs(lambda _: [], None, ""),
              lambda: montecarlo.save_npz("", None)]
     for call in calls:
@@ -482,7 +482,7 @@ def test_a_killed_writes_part_file_goes_with_the_next_write_of_that_file(cdsm, t
                  (("killed", "m.json", ended), ("writing", "m.json", live.pid), ("other", "n.json", ended))}
         for f in parts.values():
             (tmp_path / f).write_text("half")
-        cdsm.Model.from_effects(cdsm.Robot.paper(), {"tip_offset": [1e-3, 0.0]}).save(tmp_path / "m.json")
+        cdsm.FittedPlant.from_effects(cdsm.Robot.paper(), {"tip_offset": [1e-3, 0.0]}).save(tmp_path / "m.json")
         assert sorted(f for f in os.listdir(tmp_path) if f.endswith(".part")) == sorted(
             [parts["writing"], parts["other"]])
     finally:

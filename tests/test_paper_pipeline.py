@@ -210,7 +210,7 @@ def test_packaged_measurements():
     from cdsm.calibration import measurements
 
     m = measurements.packaged("table3", 3)
-    assert len(m) == 9 and m.kind == "displacement"
+    assert len(m) == 9 and m.reading == "displacement"
     assert np.allclose(m.dL[:, 0], -1e-3)
 
 

@@ -6,7 +6,7 @@ import, the MJCF and URDF exports, output directories and model files
 The invariant everywhere: a call either raises :class:`cdsm.CdsmInputError`
 naming the field it refuses, or returns a finite result whose failed
 elements are flagged — and what it returns survives its round trip
-(``to_toml`` -> ``from_toml``, ``Model.save`` -> ``Model.load``, export ->
+(``to_toml`` -> ``from_toml``, ``FittedPlant.save`` -> ``FittedPlant.load``, export ->
 XML parser). No other exception type, no crash, no silent truncation.
 
 Every run draws new examples: the seed is ``CDSM_HYPOTHESIS_SEED`` when set,
@@ -41,7 +41,7 @@ import caspr_reference as caspr
 from cdsm import files
 from cdsm.accuracy import statics
 from cdsm.calibration import measurements, plant
-from cdsm.calibration.model import Model
+from cdsm.calibration.model import FittedPlant
 from conftest import reference
 
 SEED = int(os.environ.get("CDSM_HYPOTHESIS_SEED") or secrets.randbelow(2**32))
@@ -346,7 +346,7 @@ def test_friction_outside_zero_to_one_or_not_a_number_is_refused(mu, sliding):
             call(th, friction=mu, sliding=sliding)
     if isinstance(mu, float) and math.isfinite(mu):
         with pytest.raises(cdsm.CdsmInputError, match=r"cable_friction must be within \[0, 1\]"):
-            Model.from_effects(PAPER, {"cable_friction": [mu]})
+            FittedPlant.from_effects(PAPER, {"cable_friction": [mu]})
 
 
 @prop(10)
@@ -391,10 +391,10 @@ def model_effects(draw):
 def test_a_model_with_friction_round_trips_bit_for_bit(tmp_path_factory, es):
     note(REPRODUCE)
     effects, std = es
-    m = Model.from_effects(PAPER, effects, std=std)
+    m = FittedPlant.from_effects(PAPER, effects, std=std)
     path = tmp_path_factory.mktemp("model") / "m.json"
     m.save(path)
-    back = Model.load(path)
+    back = FittedPlant.load(path)
     assert back == m and back.effects == list(effects)
     np.testing.assert_array_equal(back.p, m.p)
     for e, v in std.items():
@@ -411,7 +411,7 @@ FILE_MUTATIONS = ["flat_out_of_domain", "flat_huge", "flat_bool", "flat_null", "
 def test_a_damaged_model_file_is_refused_naming_the_field(tmp_path_factory, es, how, data):
     note(REPRODUCE)
     effects, std = es
-    d = Model.from_effects(PAPER, effects, std=std).to_dict()
+    d = FittedPlant.from_effects(PAPER, effects, std=std).to_dict()
     d = json.loads(json.dumps(d))  # NaN std written as null, as in the file
     lo, hi = plant.bounds(PAPER)
     flat, i = d["params"]["flat"], data.draw(st.integers(0, len(d["params"]["flat"]) - 1))
@@ -445,7 +445,7 @@ def test_a_damaged_model_file_is_refused_naming_the_field(tmp_path_factory, es, 
     path = tmp_path_factory.mktemp("model") / "m.json"
     path.write_text(json.dumps(d), encoding="utf-8")
     with pytest.raises(cdsm.CdsmInputError) as exc:
-        Model.load(path)
+        FittedPlant.load(path)
     refused_clearly(exc.value)
     assert "m.json" in str(exc.value)
 

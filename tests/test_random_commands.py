@@ -63,7 +63,7 @@ def test_taut_commands_are_taut_by_the_reference_statics(cdsm, ref, arm, floor):
 
 def test_taut_displacement_commands(cdsm, ref, arm):
     _, robot, nominal = arm
-    theta, d = _vp(cdsm, robot).random_commands(40, taut=True, kind="displacement", dl=2e-3)
+    theta, d = _vp(cdsm, robot).random_commands(40, taut=True, reading="displacement", dl=2e-3)
     assert ((d != 0).sum(axis=1) == 1).all() and set(np.abs(d[d != 0])) == {2e-3}
     assert _reference_taut(ref, nominal, theta, d).all()
 
@@ -96,7 +96,7 @@ def test_default_draws_are_unchanged(cdsm, kind):
     """Without the option the draw is the one before it, bit for bit: angles
     then extras from numpy's generator seeded with the prototype's seed + 1."""
     robot = cdsm.Robot.from_toml("serpentine8")
-    theta, d = _vp(cdsm, robot, seed=7).random_commands(25, kind=kind, limit=0.4, dl=2e-3)
+    theta, d = _vp(cdsm, robot, seed=7).random_commands(25, reading=kind, limit=0.4, dl=2e-3)
     rng = np.random.default_rng(8)
     want = rng.uniform(-0.4, 0.4, (25, 8))
     if kind == "displacement":
@@ -127,7 +127,7 @@ def test_an_impossible_request_says_what_was_tried(cdsm, ref):
     (dict(taut=True, min_tension=-0.1), "min_tension"), (dict(taut=True, min_tension=np.nan), "min_tension"),
     (dict(min_tension=0.1), "min_tension"), (dict(max_draws=1000), "max_draws"),
     (dict(taut=True, max_draws=0), "max_draws"), (dict(taut=True, max_draws=1.5), "max_draws"),
-    (dict(kind="absolut"), "kind"), (dict(limit=-0.1), "limit"), (dict(dl=np.inf), "dl"),
+    (dict(reading="absolut"), "reading"), (dict(limit=-0.1), "limit"), (dict(dl=np.inf), "dl"),
     (dict(rows=-1), "rows"), (dict(rows=2.5), "rows"),
 ])
 def test_bad_options_are_refused_by_name(cdsm, kw, field):

@@ -73,7 +73,7 @@ def test_a_move_after_a_reversal_loses_the_whole_dead_band(cdsm):
     assert len(rev) == 2 * len(t3) and np.array_equal(rev.observed, np.tile([False, True], len(t3)))
     prep = diagnosis.prepare(robot, rev)
     p = plant.params(robot, {"backlash": [b, 0.0, 0.0]})
-    got, ok = plant.predict(robot, p, prep.theta_cmd, prep.dL, prep.kinds)
+    got, ok = plant.predict(robot, p, prep.theta_cmd, prep.dL, prep.reading_codes)
     assert ok.all()
     th = prep.theta_cmd[1::2]
     base, end = np.zeros_like(th), prep.dL[1::2].copy()
@@ -84,7 +84,7 @@ def test_a_move_after_a_reversal_loses_the_whole_dead_band(cdsm):
     np.testing.assert_allclose(got[1::2, :2], want[:, :2], rtol=0, atol=1e-12)
     # in file order only some moves follow a reversal
     prep_f = diagnosis.prepare(robot, t3)
-    file_order, _ = plant.predict(robot, p, prep_f.theta_cmd, prep_f.dL, prep_f.kinds)
+    file_order, _ = plant.predict(robot, p, prep_f.theta_cmd, prep_f.dL, prep_f.reading_codes)
     lost = np.abs(file_order[:, :2] - want[:, :2]).max(axis=1) < 1e-9
     assert 0 < lost.sum() < len(t3)
     with pytest.raises(cdsm.CdsmInputError, match="displacement"):

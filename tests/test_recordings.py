@@ -25,7 +25,7 @@ def test_a_recording_is_read_by_name_as_tendon_commands_from_rest(v4):
     m = read_for(v4, "ftdcr_v4_train")
     # the file's first data row, in mm: servos k0..k8 then the tip
     first = "-0.061359,-0.03068,-0.01534,-0.046019,-0.01534,-0.01534,0.0,0.0,-0.107379".split(",")
-    assert m.kind == "absolute" and len(m) == 1620 and m.n == 60
+    assert m.reading == "absolute" and len(m) == 1620 and m.n == 60
     assert m.dL.shape == (1620, 9) and m.theta.shape == (1620, 60)
     # a pull of d m is the command dL = -d from the rest angles
     np.testing.assert_array_equal(m.dL[0], [-float(v) * 1e-3 for v in first])

@@ -136,7 +136,7 @@ def test_spatial_measurement_csv(cdsm, tmp_path):
     text = ("theta_1,theta_2,theta_3,theta_4,dL_1,dL_3,x,y,z,rx,ry,rz,point\n"
             "0.1,0,0,0,1e-3,0,0.06,0.001,0,0,0,0.1,a\n0,0.1,0,0,0,0,,,,,,,b\n")
     m = measurements.parse_csv(text, robot.n, "t.csv", cables=len(robot.position_cables))
-    assert m.kind == "absolute" and m.measured.shape == (2, 3) and m.measured_rot.shape == (2, 3)
+    assert m.reading == "absolute" and m.measured.shape == (2, 3) and m.measured_rot.shape == (2, 3)
     assert m.dL.shape == (2, 4) and m.dL[0, 0] == 1e-3 and np.isnan(m.measured[1]).all()
     with pytest.raises(cdsm.CdsmInputError, match="dL_5"):
         measurements.parse_csv("theta_1,theta_2,theta_3,theta_4,dL_5,x,y,z\n0,0,0,0,0,0,0,0\n", 4, "t", 4)
@@ -233,15 +233,15 @@ def test_compensated_commands_put_the_reference_arm_on_target(cdsm, ref, arm, tm
     """Commands from a fitted spatial model, played on the NumPy reference arm
     with the same actuator gain and offsets computed independently, land on
     the targets; the nominal commands miss by about the offsets' effect."""
-    from cdsm.calibration.model import Model
+    from cdsm.calibration.model import FittedPlant
 
     robot, mirror = arm
     pos = ref.position_cables(mirror)
     off = np.array([1e-4, -2e-4, 5e-5, 0.0])
-    model = Model.from_effects(robot, {"actuation_scale": [0.03], "cable_offset": off})
+    model = FittedPlant.from_effects(robot, {"actuation_scale": [0.03], "cable_offset": off})
     path = tmp_path / "m.json"
     model.save(path)
-    model = Model.load(path)
+    model = FittedPlant.load(path)
     th = np.random.default_rng(1).uniform(-0.3, 0.3, (6, robot.n))
     targets = robot.fk(th)[:, :3]
     c = model.compensate(targets)
@@ -258,11 +258,11 @@ def test_compensated_commands_put_the_reference_arm_on_target(cdsm, ref, arm, tm
 
 
 def test_cli_compensate_spatial_targets(cdsm, arm, tmp_path, capsys):
-    from cdsm.calibration.model import Model
+    from cdsm.calibration.model import FittedPlant
     from cdsm.cli import main
 
     robot, _ = arm
-    Model.from_effects(robot, {"actuation_scale": [0.03]}).save(tmp_path / "m.json")
+    FittedPlant.from_effects(robot, {"actuation_scale": [0.03]}).save(tmp_path / "m.json")
     tips = robot.fk(np.random.default_rng(2).uniform(-0.3, 0.3, (3, robot.n)))
     t = tmp_path / "t.csv"
     t.write_text("x,y,z,rx,ry,rz\n" + "".join(",".join(repr(float(v)) for v in r) + "\n" for r in tips))

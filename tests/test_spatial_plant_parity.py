@@ -265,7 +265,7 @@ def test_joint_axis_tilt_of_an_axis_near_x(cdsm, degrees):
 # The core's exact Jacobian against central differences of the reference
 # --------------------------------------------------------------------------
 def test_jets_jacobian_matches_central_differences_of_the_reference(two):
-    from cdsm.calibration.measurements import KIND_CODES
+    from cdsm.calibration.measurements import READING_CODES
 
     core, ref = two
     lay = reference.plant_layout(ref)
@@ -281,7 +281,7 @@ def test_jets_jacobian_matches_central_differences_of_the_reference(two):
     ja = lay["joint_axis"].start
     free = [ja, ja + 3, ja + 6, lay["hole_clearance"].start, lay["clearance_width"].start]
     steps = [1e-6, 1e-6, 1e-6, 1e-7, 1e-5]  # rad, rad, rad, m, rad
-    res = core.core.plant_linearise(np.ascontiguousarray(p), free, theta, dL, [KIND_CODES[k] for k in kind],
+    res = core.core.plant_linearise(np.ascontiguousarray(p), free, theta, dL, [READING_CODES[k] for k in kind],
                                     1e-12, 100, core.threads)
     assert np.asarray(res.converged).all()
     J = np.asarray(res.jacobian).reshape(len(kind), 6, len(free))

@@ -47,7 +47,7 @@ def _rss(plant, d, c) -> float:
     predictions)."""
     prep = d.prep
     o = prep.order
-    obs, _ = plant.predict(prep.robot, c.fit.p, prep.theta_cmd[o], prep.dL[o], prep.kinds[o])
+    obs, _ = plant.predict(prep.robot, c.fit.p, prep.theta_cmd[o], prep.dL[o], prep.reading_codes[o])
     pred = np.empty_like(obs)
     pred[o] = obs
     k = plant.dims(prep.robot)

@@ -19,8 +19,8 @@ def _pair(plant, robot, effects, rows, seed, kind="absolute"):
     vp = plant.VirtualPrototype(robot, effects, noise=NOISE, seed=seed)
     out = []
     for _ in range(2):
-        th, dl = vp.random_commands(rows, kind=kind)
-        out.append(vp.measure(th, dl, kind=kind))
+        th, dl = vp.random_commands(rows, reading=kind)
+        out.append(vp.measure(th, dl, reading=kind))
     return out
 
 
@@ -28,7 +28,7 @@ def _write(path, m) -> str:
     """A planar measurement table as a user writes it (theta_i, dL_i, x, y
     or dx, dy; SI units)."""
     n = m.n
-    meas = ("x", "y") if m.kind == "absolute" else ("dx", "dy")
+    meas = ("x", "y") if m.reading == "absolute" else ("dx", "dy")
     head = [f"theta_{i + 1}" for i in range(n)] + [f"dL_{i + 1}" for i in range(n)] + list(meas)
     rows = np.hstack([m.theta, m.dL, m.measured[:, :2]])
     path.write_text(",".join(head) + "\n" + "\n".join(",".join(repr(float(v)) for v in r) for r in rows) + "\n")

@@ -22,11 +22,11 @@ import importlib as _importlib
 
 from . import deprecated as _deprecated
 from ._cdsm import CdsmInputError
-from .calibration.model import Model
+from .calibration.model import FittedPlant
 from .inputs import CdsmDataWarning
 from .robot import Robot, Solution
 
-__all__ = ["Robot", "Solution", "CdsmInputError", "CdsmDataWarning", "Model", "accuracy", "calibration", "report"]
+__all__ = ["Robot", "Solution", "CdsmInputError", "CdsmDataWarning", "FittedPlant", "accuracy", "calibration", "report"]
 __version__ = "0.2.0"
 
 _deprecated.install()
@@ -40,6 +40,9 @@ def __getattr__(name: str):
         warnings.warn("cdsm.SpatialRobot is cdsm.Robot now (one class of either kind); use cdsm.Robot",
                       DeprecationWarning, stacklevel=2)
         return Robot
+    if name == "Model":
+        _deprecated.warn_renamed("cdsm.Model", "cdsm.FittedPlant")
+        return FittedPlant
     if name in ("accuracy", "calibration", "report", "paper", "study", "reference", "cli", "interop") \
             or f"cdsm.{name}" in _deprecated.MOVED:
         return _importlib.import_module(f"cdsm.{name}")

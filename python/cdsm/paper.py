@@ -55,7 +55,7 @@ def _figure_label(sc: Scenario, n: int) -> str:
         return ""
     i = sc.cable // 2
     j = 0 if sc.sign < 0 else 1
-    return f"Fig. {5 if sc.kind == 'cable' else 6}{_LETTERS[2 * i + j]}"
+    return f"Fig. {5 if sc.error == 'cable' else 6}{_LETTERS[2 * i + j]}"
 
 
 def paper_scenarios(n: int, cable_error: float = scenarios.PAPER_DL_TOL,
@@ -147,12 +147,12 @@ def table2(robot: Robot) -> List[dict]:
     out = []
     seed = workspace.paper_ik_seed(robot.n)
     for pose, cond, errs in TABLE2:
-        for kind, i, v in errs:
+        for error, i, v in errs:
             dl, dh = np.zeros(robot.n), np.zeros(robot.n)
-            (dl if kind == "cable" else dh)[i] = v
-            d = scenarios.deviation(robot, poses=np.array([pose]), dL=dl, dh=dh if kind == "hole" else None,
+            (dl if error == "cable" else dh)[i] = v
+            d = scenarios.deviation(robot, poses=np.array([pose]), dL=dl, dh=dh if error == "hole" else None,
                                  ik_seed=seed)
-            label = (f"{v * 1e3:+g} mm on cable {2 * i + 1}" if kind == "cable"
+            label = (f"{v * 1e3:+g} mm on cable {2 * i + 1}" if error == "cable"
                      else f"{v * 1e3:+g} mm on disk {i + 1}'s holes")
             out.append(dict(pose=np.array(pose), condition=cond, error=label, theta0=d.theta0[0],
                             theta=d.solution.theta[0], dS=d.dS[0], ok=bool(d.ok[0])))

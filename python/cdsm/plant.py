@@ -67,19 +67,21 @@ from typing import Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _cdsm
+from . import _cdsm, deprecated
 from .inputs import CdsmInputError, as_array, as_batch, as_finite, as_iterations
 from .robot import Robot, kind_facts
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
-           "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle",
+           "parameter_labels", "bounds", "reading_codes", "predict", "linearise", "settle",
            "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "ELASTIC_ON_REQUEST", "effects_of", "check_effects", "width",
-           "dims", "commands", "command_lengths", "taut_commands", "KIND_CODES", "commanded_cables",
+           "dims", "commands", "command_lengths", "taut_commands", "READING_CODES", "commanded_cables",
            "check_commands", "plate_twins", "tie_errors", "join_columns"]
 
-#: Row kinds of the plant's data sets, by code (see ``docs/model.md``).
-KIND_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
+#: What a row of the plant's data sets reads, by code (see ``docs/model.md``):
+#: the tip's pose (``"absolute"``), its move since the previous row
+#: (``"displacement"``) or nothing (``"unmeasured"``: the row only runs).
+READING_CODES = {"absolute": 0, "displacement": 1, "unmeasured": 2}
 
 
 def commanded_cables(robot) -> List[int]:
@@ -295,20 +297,21 @@ def params(robot: Robot, effects: Optional[Mapping[str, Sequence[float]]] = None
     return p
 
 
-def kind_codes(kind, rows: int) -> np.ndarray:
-    """(N,) uint8 row kinds from a kind name for every row or per-row codes/names."""
-    if isinstance(kind, str):
-        if kind not in KIND_CODES:
-            raise CdsmInputError(f"`kind`: expected one of {', '.join(KIND_CODES)}, got {kind!r}")
-        return np.full(rows, KIND_CODES[kind], np.uint8)
-    arr = np.asarray(kind)
+def reading_codes(reading, rows: int) -> np.ndarray:
+    """(N,) uint8 :data:`READING_CODES` of the rows from one reading's name
+    for every row, or per-row codes or names."""
+    if isinstance(reading, str):
+        if reading not in READING_CODES:
+            raise CdsmInputError(f"`reading`: expected one of {', '.join(READING_CODES)}, got {reading!r}")
+        return np.full(rows, READING_CODES[reading], np.uint8)
+    arr = np.asarray(reading)
     if arr.dtype.kind in "US":
-        bad = [k for k in set(arr.tolist()) if k not in KIND_CODES]
+        bad = [k for k in set(arr.tolist()) if k not in READING_CODES]
         if bad:
-            raise CdsmInputError(f"`kind`: unknown row kinds {bad}")
-        arr = np.array([KIND_CODES[k] for k in arr.tolist()])
+            raise CdsmInputError(f"`reading`: unknown row readings {bad}")
+        arr = np.array([READING_CODES[k] for k in arr.tolist()])
     if arr.shape != (rows,):
-        raise CdsmInputError(f"`kind`: expected {rows} row kinds, got shape {arr.shape}")
+        raise CdsmInputError(f"`reading`: expected {rows} row readings, got shape {arr.shape}")
     return arr.astype(np.uint8)
 
 
@@ -362,35 +365,39 @@ def join_columns(matrix, twins: Tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     return out
 
 
-def check_commands(robot: Robot, theta_cmd, dL=None, kind="absolute"):
+def check_commands(robot: Robot, theta_cmd, dL=None, reading="absolute", *, kind=None):
     """The commands as the plant takes them, validated: ``theta_cmd`` (N, n)
-    rad, ``dL`` (N, m_c) m (zeros when None) and the row kinds' codes (N,)
-    (:func:`kind_codes`); a bad field is named."""
+    rad, ``dL`` (N, m_c) m (zeros when None) and the rows' reading codes (N,)
+    (:func:`reading_codes`); a bad field is named. ``kind``: the deprecated
+    name of ``reading`` (one release)."""
+    reading = deprecated.old_keyword("cdsm.plant.check_commands", "kind", "reading", kind, reading)
     t, _ = as_batch("theta_cmd", theta_cmd, robot.n)
     w = commands(robot)
     d = np.zeros((len(t), w)) if dL is None else as_batch("dL", dL, w)[0]
     if len(d) != len(t):
         raise CdsmInputError(f"`dL`: expected {len(t)} rows, got {len(d)}")
-    return t, d, kind_codes(kind, len(t)).tolist()
+    return t, d, reading_codes(reading, len(t)).tolist()
 
 
-def predict(robot: Robot, p, theta_cmd, dL=None, kind="absolute", tol: float = 1e-12,
-            max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray]:
+def predict(robot: Robot, p, theta_cmd, dL=None, reading="absolute", tol: float = 1e-12,
+            max_iter: int = 100, *, kind=None) -> Tuple[np.ndarray, np.ndarray]:
     """Observations of the plant(s) ``p`` ((P,) or (K, P)) for the rows of a
     data set in execution order: commands ``theta_cmd`` (N, n) rad and ``dL``
-    (N, n) m, ``kind`` one name for every row (``"absolute"``,
-    ``"displacement"``) or one per row (``"unmeasured"`` rows only run).
+    (N, n) m, ``reading`` one name for every row (``"absolute"``,
+    ``"displacement"``) or one per row (``"unmeasured"`` rows only run;
+    :data:`READING_CODES`; ``kind``: its deprecated name, one release).
     Returns (N, 3) or (K, N, 3) — [x, y, phi] (absolute, instrument frame) or
     [dx, dy, dphi] (displacement), NaN for unmeasured rows and rows that do
     not settle — and the converged flags (N,) or (K, N). A parameter set
     outside the physical domain (:func:`bounds`) predicts no row."""
-    obs, conv, _ = _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter)
+    reading = deprecated.old_keyword("cdsm.plant.predict", "kind", "reading", kind, reading)
+    obs, conv, _ = _predict_all(robot, p, theta_cmd, dL, reading, tol, max_iter)
     return obs, conv
 
 
-def _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter):
+def _predict_all(robot, p, theta_cmd, dL, reading, tol, max_iter):
     pp, single = as_batch("params", p, size(robot))
-    t, d, k = check_commands(robot, theta_cmd, dL, kind)
+    t, d, k = check_commands(robot, theta_cmd, dL, reading)
     res = robot.core.plant_predict(pp, t, d, k, as_finite("tol", tol), as_iterations("max_iter", max_iter),
                                    robot.threads)
     shape = (len(pp), len(t))
@@ -399,15 +406,17 @@ def _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter):
     return tuple(a[0] for a in out) if single else out
 
 
-def linearise(robot: Robot, p, free, theta_cmd, dL=None, kind="absolute", tol: float = 1e-12,
-              max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+def linearise(robot: Robot, p, free, theta_cmd, dL=None, reading="absolute", tol: float = 1e-12,
+              max_iter: int = 100, *, kind=None) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Predictions (N, w), converged (N,) and their exact Jacobian (N, w, k)
     with respect to the parameters ``free`` (indices into the flat vector) of
     the plant ``p`` (P,) — implicit function theorem at the settled
     configurations, forward-mode jets in the Rust core (no finite
-    differences). ``w`` = :func:`width` (3 planar, 6 spatial)."""
+    differences). ``w`` = :func:`width` (3 planar, 6 spatial). ``reading``
+    as :func:`predict` (``kind``: its deprecated name, one release)."""
+    reading = deprecated.old_keyword("cdsm.plant.linearise", "kind", "reading", kind, reading)
     pp = np.ascontiguousarray(as_batch("params", p, size(robot))[0][0])
-    t, d, k = check_commands(robot, theta_cmd, dL, kind)
+    t, d, k = check_commands(robot, theta_cmd, dL, reading)
     fr = [int(i) for i in np.atleast_1d(free)]
     res = robot.core.plant_linearise(pp, fr, t, d, k, as_finite("tol", tol), as_iterations("max_iter", max_iter),
                                      robot.threads)
@@ -416,18 +425,22 @@ def linearise(robot: Robot, p, free, theta_cmd, dL=None, kind="absolute", tol: f
             res.jacobian.reshape(len(t), w, len(fr)))
 
 
-def settle(robot: Robot, p, theta_cmd, dL=None, kind="absolute", tol: float = 1e-12,
-           max_iter: int = 100) -> Tuple[np.ndarray, np.ndarray]:
+def settle(robot: Robot, p, theta_cmd, dL=None, reading="absolute", tol: float = 1e-12,
+           max_iter: int = 100, *, kind=None) -> Tuple[np.ndarray, np.ndarray]:
     """Joint angles (N, n) rad the plant ``p`` (P,) settles at for each row's
     (last) command — every effect of the plant included — and the converged
-    flags (N,); NaN rows where not."""
-    _, conv, theta = _predict_all(robot, p, theta_cmd, dL, kind, tol, max_iter)
+    flags (N,); NaN rows where not. ``reading`` as :func:`predict`
+    (``kind``: its deprecated name, one release)."""
+    reading = deprecated.old_keyword("cdsm.plant.settle", "kind", "reading", kind, reading)
+    _, conv, theta = _predict_all(robot, p, theta_cmd, dL, reading, tol, max_iter)
     return theta, conv
 
 
-def taut_commands(robot: Robot, theta_cmd, dL=None, kind="absolute", min_tension: float = 0.0) -> np.ndarray:
+def taut_commands(robot: Robot, theta_cmd, dL=None, reading="absolute", min_tension: float = 0.0, *,
+                  kind=None) -> np.ndarray:
     """(N,) bool: the commands (``theta_cmd`` (N, n) or (n,) rad, ``dL`` (N, m) m on
-    the position-controlled cables, ``kind`` as :func:`predict`) at which the
+    the position-controlled cables, ``reading`` as :func:`predict`, ``kind``
+    its deprecated name) at which the
     nominal model keeps every position cable taut: the nominal plant settles,
     and its statics (:meth:`Robot.feasible`: the robot file's force-cable
     tensions and gravity) holds the arm with every position-cable tension
@@ -435,8 +448,9 @@ def taut_commands(robot: Robot, theta_cmd, dL=None, kind="absolute", min_tension
     nominal plant settles at for the command's lengths + dL. With
     ``min_tension = 0`` these are the rows the diagnosis can use (it flags
     the others as needing a slack cable)."""
+    reading = deprecated.old_keyword("cdsm.plant.taut_commands", "kind", "reading", kind, reading)
     t, _ = as_batch("theta_cmd", theta_cmd, robot.n)
-    reached, settles = settle(robot, np.zeros(size(robot)), t, dL, kind)
+    reached, settles = settle(robot, np.zeros(size(robot)), t, dL, reading)
     ok = settles & robot.feasible(t, min_tension)
     if settles.any():
         ok[settles] &= robot.feasible(reached[settles], min_tension)
@@ -448,10 +462,17 @@ def taut_commands(robot: Robot, theta_cmd, dL=None, kind="absolute", min_tension
 _MOVED_UP = ("VirtualPrototype", "EXAMPLES_N3")
 
 
+#: Names of cdsm 0.2 renamed in place (cdsm 0.3: a row's measurement is its reading).
+RENAMED = {"KIND_CODES": "READING_CODES", "kind_codes": "reading_codes"}
+
+
 def __getattr__(name: str):
     """``cdsm.plant.VirtualPrototype`` and ``EXAMPLES_N3`` (cdsm 0.1 paths):
-    forwarded to :mod:`cdsm.calibration.plant` with a :class:`DeprecationWarning`
-    (one release)."""
+    forwarded to :mod:`cdsm.calibration.plant`, and the 0.2 names of
+    :data:`RENAMED`, each with a :class:`DeprecationWarning` (one release)."""
+    if name in RENAMED:
+        deprecated.warn_renamed(f"cdsm.plant.{name}", f"cdsm.plant.{RENAMED[name]}")
+        return globals()[RENAMED[name]]
     if name in _MOVED_UP:
         import importlib
 

@@ -57,6 +57,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
+from . import deprecated
 from .accuracy import montecarlo, plant_errors, sampling, scenarios, sensitivity, statics, workspace
 from .calibration import plant
 from .calibration.measurements import commanded_cables
@@ -123,26 +124,28 @@ def configuration_count(robot: Robot, protocols: List[str], configurations: int 
 # ---------------------------------------------------------------------------
 # scenarios
 # ---------------------------------------------------------------------------
+@deprecated.renamed_fields(kind="error")
 @dataclass(frozen=True, repr=False)
 class Scenario(ShortRepr):
     """One single error. key: ``cable3+``, ``disk2-``, ``radial3-``, ...
     dL: error on the position cables' lengths (planar (n,) upper cables;
     spatial (m_pos,)), m. dh: planar (n,) error on each disk's hole height,
     m (None for a cable error and for spatial arms). figure: the paper's figure it reproduces (set
-    by :mod:`cdsm.paper`), or "". kind: ``"cable"``, ``"hole"`` (planar),
+    by :mod:`cdsm.paper`), or "". error: ``"cable"``, ``"hole"`` (planar),
     ``"radial"`` or ``"normal"`` (spatial). cable: the cable's file index
     (0-based; planar hole scenarios: the upper cable of the pair). sign: ±1.
     size: the error's magnitude, m. dholes: spatial (3 H,) error on every
     hole coordinate (the order of ``robot.flat_holes``), m, or None (a
-    cable error, planar arms). The kind says which of the two a hole error
-    is given by (:attr:`cdsm.kinds.Kind.hole_error_arg`)."""
+    cable error, planar arms). The arm's kind says which of the two a hole
+    error is given by (:attr:`cdsm.kinds.Kind.hole_error_arg`). ``kind`` is
+    the deprecated name of ``error`` (cdsm 0.2; one release)."""
 
     key: str
     label: str
     dL: np.ndarray
     dh: Optional[np.ndarray] = None
     figure: str = ""
-    kind: str = "cable"
+    error: str = "cable"
     cable: int = 0
     sign: float = 1.0
     size: float = 0.0
@@ -237,7 +240,7 @@ def scenario_set(robot: Robot, cable_error: float = DEFAULT_DL_TOL,
             dl[i] = sign * cable_error
             out.append(Scenario(f"cable{c + 1}{'+' if sign > 0 else '-'}",
                                 kind.cable_scenario_label.format(size=sign * cable_error * 1e3, cable=c + 1), dl,
-                                kind="cable", cable=c, sign=sign, size=float(cable_error)))
+                                error="cable", cable=c, sign=sign, size=float(cable_error)))
     for error, key, label in kind.hole_scenarios:
         for i, c in enumerate(pos):
             unit = _hole_move(robot, error, i, c)
@@ -245,7 +248,7 @@ def scenario_set(robot: Robot, cable_error: float = DEFAULT_DL_TOL,
             for sign in (-1.0, 1.0):
                 out.append(Scenario(key.format(**words) + ("+" if sign > 0 else "-"),
                                     label.format(size=sign * hole_error * 1e3, **words), np.zeros(len(pos)),
-                                    kind=error, cable=c, sign=sign, size=float(hole_error),
+                                    error=error, cable=c, sign=sign, size=float(hole_error),
                                     **{kind.hole_error_arg: sign * hole_error * unit}))
     return out
 

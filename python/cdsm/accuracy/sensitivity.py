@@ -31,6 +31,7 @@ from typing import Dict, Optional
 
 import numpy as np
 
+from .. import deprecated
 from ..inputs import CdsmInputError, as_batch, as_count, as_tolerances
 from ..plant import commanded_cables, join_columns
 from ..robot import Robot
@@ -314,13 +315,15 @@ def position_matrix(robot: Robot, theta) -> np.ndarray:
     return np.concatenate(_position_blocks(robot, t), axis=2)
 
 
+@deprecated.renamed_fields(kinds="group_types")
 @dataclass(frozen=True)
 class ErrorBudget:
     """The linear tip-position error budget of a set of configurations
     (:func:`error_budget`).
 
     groups: (G,) labels (``"cable 3"``, ``"disk 2's holes"`` or ``"cable 3's
-    holes"``). kinds: (G,) ``"length"`` or ``"holes"``. tolerance: (G,) the
+    holes"``). group_types: (G,) ``"length"`` or ``"holes"`` (``kinds``:
+    its deprecated name, one release). tolerance: (G,) the
     tolerance of each group, m (a hole group: each coordinate's). share: (G,)
     share of the linear variance of the tip position, pooled over the
     configurations (sums to 1). rms: (G,) RMS over the configurations of the
@@ -333,7 +336,7 @@ class ErrorBudget:
     sensitivities). seed, samples: the linear percentile's draws."""
 
     groups: tuple
-    kinds: tuple
+    group_types: tuple
     tolerance: np.ndarray
     share: np.ndarray
     rms: np.ndarray
@@ -390,7 +393,7 @@ def error_budget(robot: Robot, theta, dl_tol, dh_tol, percentile: float = 95.0, 
     dht = as_tolerances("dh_tol", dh_tol, int(sizes.sum()))
     dlt = as_tolerances("dl_tol", dl_tol, mp)
     groups = tuple([f"cable {c + 1}" for c in pos] + hole_groups)
-    kinds = tuple(["length"] * mp + ["holes"] * len(hole_groups))
+    group_types = tuple(["length"] * mp + ["holes"] * len(hole_groups))
     columns = np.concatenate([np.arange(mp), mp + hole_of_col]).astype(np.int64)
     tol = np.concatenate([dlt, dht])
     G = len(groups)
@@ -400,5 +403,5 @@ def error_budget(robot: Robot, theta, dl_tol, dh_tol, percentile: float = 95.0, 
     gtol = np.array([tol[columns == g].max() if (columns == g).any() else 0.0 for g in range(G)])
     share = var / var.sum() if var.sum() > 0 else np.zeros(G)
     lin = linear_percentile(lin_rows, tol, percentile, samples=samples, seed=seed) if len(m) else float("nan")
-    return ErrorBudget(groups, kinds, gtol, share, rms, lin_rows, columns, tol, float(percentile), lin, int(len(m)),
-                       int(seed), int(samples))
+    return ErrorBudget(groups, group_types, gtol, share, rms, lin_rows, columns, tol, float(percentile), lin,
+                       int(len(m)), int(seed), int(samples))

@@ -100,6 +100,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import deprecated
 from ..accuracy.scenarios import rotation_vectors
 from ..accuracy.sensitivity import sensitivity
 from ..accuracy.workspace import paper_ik_seed, singular_values
@@ -108,7 +109,7 @@ from ..progress import Progress
 from ..robot import Robot
 from . import plant, stats
 from .fit import Fit, fit_candidates, free_parameters
-from .measurements import KIND_CODES, Measurements, commanded_cables
+from .measurements import READING_CODES, Measurements, commanded_cables
 from ..display import ShortRepr
 
 __all__ = ["prepare", "Prepared", "diagnose", "Diagnosis", "Candidate", "NoiseEstimate", "Search", "features",
@@ -167,12 +168,14 @@ BOOTSTRAP_DRAWS = 400
 BOOTSTRAP_SEED = 20240601
 
 
+@deprecated.renamed_fields(kinds="reading_codes", kind="reading")
 @dataclass(repr=False)
 class Prepared(ShortRepr):
     """Measurements ready for the plant, in file order.
 
-    theta_cmd (N, n) rad: solved commands; dL (N, n) m; kinds (N,) plant row
-    kinds; measured (N, 3) m, m, rad (NaN where not measured or not usable);
+    theta_cmd (N, n) rad: solved commands; dL (N, n) m; reading_codes (N,)
+    the rows' :data:`~cdsm.plant.READING_CODES` (``kinds``: their deprecated
+    name, one release); measured (N, 3) m, m, rad (NaN where not measured or not usable);
     usable (N,) rows scored; flags {row: reason} for rows left out (never
     silently); order (N,) execution order; registered: the measuring frame is
     fitted; start (P,) the parameters every fit starts from (the Kabsch
@@ -183,7 +186,7 @@ class Prepared(ShortRepr):
     meas: Measurements
     theta_cmd: np.ndarray
     dL: np.ndarray
-    kinds: np.ndarray
+    reading_codes: np.ndarray
     measured: np.ndarray
     usable: np.ndarray
     flags: Dict[int, str]
@@ -206,8 +209,10 @@ class Prepared(ShortRepr):
     group_column: Optional[str] = None
 
     @property
-    def kind(self) -> str:
-        return self.meas.kind
+    def reading(self) -> str:
+        """What the measured rows read: ``"absolute"`` or ``"displacement"``
+        (:attr:`Measurements.reading`; ``kind``: its deprecated name)."""
+        return self.meas.reading
 
     @property
     def rows(self) -> np.ndarray:
@@ -224,7 +229,7 @@ class Prepared(ShortRepr):
     def readings(self) -> float:
         """Noise of a row per axis over the noise of one reading: 1 (absolute)
         or sqrt(2) (displacement: two readings)."""
-        return float(np.sqrt(2.0)) if self.kind == "displacement" else 1.0
+        return float(np.sqrt(2.0)) if self.reading == "displacement" else 1.0
 
 
 def kabsch_frame(predicted: np.ndarray, measured: np.ndarray) -> np.ndarray:
@@ -271,11 +276,11 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "auto") -> Prepared:
         for i in np.flatnonzero(~ok):
             flags[int(i)] = f"commanded pose not reachable by the nominal model (IK residual {sol.residual[i]:.2e})"
         theta[~ok] = 0.0
-    kinds = meas.kind_codes()
+    codes = meas.reading_codes()
     order = meas.order
     nominal = np.zeros(plant.size(robot))
-    obs, conv = plant.predict(robot, nominal, theta[order], meas.dL[order], kinds[order])
-    settled, _ = plant.settle(robot, nominal, theta[order], meas.dL[order], kinds[order])
+    obs, conv = plant.predict(robot, nominal, theta[order], meas.dL[order], codes[order])
+    settled, _ = plant.settle(robot, nominal, theta[order], meas.dL[order], codes[order])
     pred = np.empty_like(obs)
     pred[order] = obs
     settles = np.empty(N, bool)
@@ -319,15 +324,15 @@ def prepare(robot: Robot, meas: Measurements, frame: str = "auto") -> Prepared:
     if usable.sum() >= 2:
         _check_scale(meas, pred[usable, :k], measured[usable, :k])
     offset = float("nan")
-    if meas.kind == "absolute" and usable.any():
+    if meas.reading == "absolute" and usable.any():
         offset = float(np.sqrt(np.mean(np.sum((pred[usable, :k] - measured[usable, :k]) ** 2, axis=1))))
     near = offset <= NEAR_FRACTION * robot.straight_length
-    registered = meas.kind == "absolute" and (frame == "register" or (frame == "auto" and not near))
+    registered = meas.reading == "absolute" and (frame == "register" or (frame == "auto" and not near))
     start = nominal.copy()
     if registered and usable.sum() >= 2:
         start[plant.effect_indices(robot, "frame_misalignment")] = kabsch_frame(pred[usable, :k],
                                                                                 measured[usable, :k])
-    return Prepared(robot, meas, theta, np.asarray(meas.dL, float), kinds, measured, usable, flags, order,
+    return Prepared(robot, meas, theta, np.asarray(meas.dL, float), codes, measured, usable, flags, order,
                     registered, start, frame, offset, copies=copies)
 
 
@@ -345,7 +350,7 @@ def _linearised(prep: Prepared) -> Tuple[np.ndarray, np.ndarray, np.ndarray, Dic
                              if e != "frame_misalignment"])
     start = prep.start if prep.registered else np.zeros(plant.size(robot))
     o, rows, k = prep.order, prep.rows, plant.dims(robot)
-    obs, conv, jac = plant.linearise(robot, start, free, prep.theta_cmd[o], prep.dL[o], prep.kinds[o])
+    obs, conv, jac = plant.linearise(robot, start, free, prep.theta_cmd[o], prep.dL[o], prep.reading_codes[o])
     J, y = np.empty_like(jac), np.empty_like(obs)
     J[o], y[o] = jac, obs
     ok = np.zeros(len(prep.theta_cmd), bool)
@@ -363,12 +368,12 @@ def _too_few_rows(robot: Robot, meas: Measurements, prep: Prepared) -> str:
     reach (millimetres for metres)."""
     why: Dict[str, int] = {}
     for reason in prep.flags.values():
-        kind = reason.split(" (", 1)[0]  # one count per kind of reason, without the row's numbers
-        why[kind] = why.get(kind, 0) + 1
+        cause = reason.split(" (", 1)[0]  # one count per cause, without the row's numbers
+        why[cause] = why.get(cause, 0) + 1
     unmeasured = int((~meas.observed).sum())
     if unmeasured:
         why["a move that was not measured"] = unmeasured
-    parts = [f"{count} row(s): {kind}" for kind, count in sorted(why.items(), key=lambda t: -t[1])]
+    parts = [f"{count} row(s): {cause}" for cause, count in sorted(why.items(), key=lambda t: -t[1])]
     msg = (f"{meas.source or 'measurements'}: only {int(prep.usable.sum())} of {len(meas)} rows are usable; "
            f"the diagnosis needs at least 3" + (" (" + "; ".join(parts) + ")" if parts else ""))
     if meas.pose_cmd is not None:
@@ -381,7 +386,7 @@ def _too_few_rows(robot: Robot, meas: Measurements, prep: Prepared) -> str:
 
 def _check_scale(meas: Measurements, predicted: np.ndarray, measured: np.ndarray) -> None:
     """Refuse data whose spread is about a thousand times the model's (mm for m)."""
-    if meas.kind == "absolute":
+    if meas.reading == "absolute":
         sp = np.sqrt(((predicted - predicted.mean(axis=0)) ** 2).sum(axis=1).mean())
         sm = np.sqrt(((measured - measured.mean(axis=0)) ** 2).sum(axis=1).mean())
     else:
@@ -413,7 +418,7 @@ def repeat_groups(prep: Prepared, decimals: int = 9) -> List[np.ndarray]:
     direction = np.zeros(state.shape[-1])
     keys: Dict[tuple, List[int]] = {}
     for j, i in enumerate(order):
-        first = base[j] if prep.kinds[i] == KIND_CODES["displacement"] else cmd[j]
+        first = base[j] if prep.reading_codes[i] == READING_CODES["displacement"] else cmd[j]
         step = first - state
         direction = np.where(np.abs(step) > 1e-12, np.sign(step), direction)
         if prep.usable[i]:
@@ -471,7 +476,7 @@ def neighbour_noise(prep: Prepared) -> Tuple[float, float, int]:
     robot = prep.robot
     k = plant.dims(robot)
     o = prep.order
-    obs, _ = plant.predict(robot, prep.start, prep.theta_cmd[o], prep.dL[o], prep.kinds[o])
+    obs, _ = plant.predict(robot, prep.start, prep.theta_cmd[o], prep.dL[o], prep.reading_codes[o])
     e = obs[:, :k] - prep.measured[o, :k]
     group = (prep.groups if prep.groups is not None else
              np.asarray(prep.meas.labels[prep.meas.fold_groups], str) if prep.meas.fold_groups else
@@ -924,7 +929,7 @@ class Diagnosis(ShortRepr):
         ne = self.noise_estimate
         prep = self.prep
         reg = None
-        if prep.kind == "absolute":
+        if prep.reading == "absolute":
             reg = dict(rule=prep.frame, fitted=bool(prep.registered), named=self.registration_named,
                        offset_m=prep.offset, near_m=NEAR_FRACTION * robot.straight_length)
         if prep.registered:
@@ -949,7 +954,7 @@ class Diagnosis(ShortRepr):
             verdict_without_outliers=verdict(self.verdict_without_outliers),
             registration=reg,
             search=self.search.to_json() if self.search else None, dropped=self.dropped,
-            kind=self.prep.kind, rows=int(len(self.prep.meas)), rows_used=int(self.prep.usable.sum()),
+            kind=self.prep.reading, rows=int(len(self.prep.meas)), rows_used=int(self.prep.usable.sum()),
             flagged_rows={str(k + 1): v for k, v in self.prep.flags.items()},
             failures={c.name: c.failures for c in [self.baseline] + self.singles + self.steps if c.failures},
             ties=self.ties, correlated_parameters=self.correlated,
@@ -1163,7 +1168,7 @@ class _Judge:
             A = np.zeros((len(rows), k, len(idx)))
             if len(idx):
                 o = prep.order
-                _, _, jac = plant.linearise(robot, c.fit.p, idx, prep.theta_cmd[o], prep.dL[o], prep.kinds[o])
+                _, _, jac = plant.linearise(robot, c.fit.p, idx, prep.theta_cmd[o], prep.dL[o], prep.reading_codes[o])
                 J = np.empty_like(jac)
                 J[o] = jac
                 A = J[rows, :k, :] * scale

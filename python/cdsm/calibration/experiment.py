@@ -66,25 +66,28 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
+from .. import deprecated
 from ..files import write_text
 from ..inputs import CdsmInputError, as_count
 from ..robot import Robot
 from . import plant
 from .diagnosis import Diagnosis, Prepared, prepare
 from .fit import free_parameters
-from .measurements import KIND_CODES, Measurements
+from .measurements import READING_CODES, Measurements
 from ..display import ShortRepr
 
 __all__ = ["suggest", "Suggestion", "candidate_pool", "combine", "discrimination"]
 
 
+@deprecated.renamed_fields(kind="reading")
 @dataclass(repr=False)
 class Suggestion(ShortRepr):
     """K proposed measurements.
 
     theta: (K, n) commanded angles, rad. dL: (K, m) extras on the
-    position-controlled cables (a planar arm's upper cables), m. kind:
-    "absolute" or "displacement" (as the data). criterion: "discrimination"
+    position-controlled cables (a planar arm's upper cables), m. reading:
+    "absolute" or "displacement" (as the data; ``kind``: its deprecated
+    name, attribute and keyword, one release). criterion: "discrimination"
     or "d-optimal". models: candidate names compared. predictions: {model:
     (K, d) predicted observed position, m; d = 2 planar, 3 spatial}. gain:
     (K,) score after each greedy pick (chi-square units for discrimination,
@@ -98,7 +101,7 @@ class Suggestion(ShortRepr):
 
     theta: np.ndarray
     dL: np.ndarray
-    kind: str
+    reading: str
     criterion: str
     models: List[str]
     predictions: Dict[str, np.ndarray]
@@ -138,7 +141,7 @@ class Suggestion(ShortRepr):
         n, m = self.theta.shape[1], self.dL.shape[1]
         d = next(iter(self.predictions.values())).shape[1] if self.predictions else 2
         axes = "xyz"[:d]
-        mcols = ", ".join(axes) if self.kind == "absolute" else ", ".join(f"d{a}" for a in axes)
+        mcols = ", ".join(axes) if self.reading == "absolute" else ", ".join(f"d{a}" for a in axes)
         names = ["x_nom", "y_nom", "phi_nom"] if d == 2 else ["x_nom", "y_nom", "z_nom", "rx_nom", "ry_nom",
                                                               "rz_nom"]
         buf = io.StringIO()
@@ -146,7 +149,7 @@ class Suggestion(ShortRepr):
                   f"models: {', '.join(self.models)})\n")
         buf.write(f"# SI units: theta_i and angles in rad; dL_i and positions in m. {', '.join(names)}: "
                   "nominal tip pose (labels only)\n")
-        buf.write(f"# measurement kind: {self.kind}; run the rows in this order; after measuring add columns "
+        buf.write(f"# reading: {self.reading}; run the rows in this order; after measuring add columns "
                   f"{mcols} (m), empty on 'approach' rows (run, not measured), and run cdsm diagnose on it "
                   "after the earlier data\n")
         w = csv.writer(buf, lineterminator="\n")
@@ -168,7 +171,7 @@ class Suggestion(ShortRepr):
                          "the separation figures below assume the stated noise and overstate how decisive "
                          "the suggestions are — they still say where the candidates differ most")
         if self.criterion == "discrimination":
-            lines.append(f"{len(self)} suggested {self.kind} measurements to tell apart: {', '.join(self.models)}")
+            lines.append(f"{len(self)} suggested {self.reading} measurements to tell apart: {', '.join(self.models)}")
             lines.append(f"chi-square separation (>~10 is decisive; noise {self.noise * 1e6:.3g} µm per axis): "
                          f"{self.score_before:.3g} in the data so far (difference of the fits' chi-square), "
                          f"{self.gain[-1]:.3g} expected from the suggestions")
@@ -176,7 +179,7 @@ class Suggestion(ShortRepr):
                 lines.append(f"  {k}: so far {self.pairs_before[k]:.3g}, expected from the suggestions "
                              f"{self.pairs_after.get(k, float('nan')):.3g}")
         else:
-            lines.append(f"{len(self)} suggested {self.kind} measurements (D-optimal for the parameters of "
+            lines.append(f"{len(self)} suggested {self.reading} measurements (D-optimal for the parameters of "
                          f"{', '.join(self.models) or 'the model'}); "
                          f"log det gain {self.gain[-1] - self.score_before:.3g}")
         lines.append(f"picked from {self.pool_size} feasible candidates (taut cables, within joint limits)")
@@ -188,7 +191,7 @@ class Suggestion(ShortRepr):
             dl = ", ".join(f"{v * 1e3:+.2f}" for v in self.dL[i])
             side = ""
             if self.approach is not None:
-                first = self.dL[i] if self.kind == "absolute" else 0.0
+                first = self.dL[i] if self.reading == "absolute" else 0.0
                 side = ", approached from " + ("above" if (self.approach[i] - first).mean() > 0 else "below")
             pr = "; ".join(f"{m}: (" + ", ".join(f"{v * 1e3:+.3f}" for v in p[i]) + ")"
                            for m, p in self.predictions.items())
@@ -197,13 +200,18 @@ class Suggestion(ShortRepr):
 
 
 # ---------------------------------------------------------------------------
-def candidate_pool(robot: Robot, kind: str, size: int = 400, seed: int = 0, dl: float = 1e-3,
-                   margin: float = 0.9) -> Tuple[np.ndarray, np.ndarray]:
+def candidate_pool(robot: Robot, reading: Optional[str] = None, size: int = 400, seed: int = 0, dl: float = 1e-3,
+                   margin: float = 0.9, *, kind: Optional[str] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Random candidate commands (theta (C, n) rad, dL (C, m) m on the
     position-controlled cables) within ``margin`` x the joint limits around
     their midpoints, each half-width at most 40° (0.698 rad), with taut
-    cables (see module doc). ``size`` draws before the feasibility filter
+    cables (see module doc), for rows that read ``reading`` (``"absolute"``
+    or ``"displacement"``: one cable's dL per row; ``kind``: its deprecated
+    name, one release). ``size`` draws before the feasibility filter
     (C <= size); ``dl`` in m."""
+    reading = deprecated.old_keyword("candidate_pool", "kind", "reading", kind, reading)
+    if reading is None:
+        raise TypeError("candidate_pool() missing the argument 'reading'")
     rng = np.random.default_rng(seed)
     n, m = robot.n, plant.commands(robot)
     lim = robot.joint_limits
@@ -211,7 +219,7 @@ def candidate_pool(robot: Robot, kind: str, size: int = 400, seed: int = 0, dl: 
     half = np.minimum(half, np.radians(40.0))
     theta = mid + rng.uniform(-1.0, 1.0, (size, n)) * half
     d = np.zeros((size, m))
-    if kind == "displacement":
+    if reading == "displacement":
         d[np.arange(size), rng.integers(0, m, size)] = rng.choice([-dl, dl], size)
     else:
         d = rng.uniform(-dl, dl, (size, m))
@@ -238,17 +246,17 @@ def _feasible_mask(robot: Robot, theta: np.ndarray, d: np.ndarray) -> np.ndarray
 
 def combine(robot: Robot, *tables: "Measurements | Prepared") -> Measurements:
     """One measurement table (commands as theta) from several of the same
-    kind run one after the other, e.g. Table 3 (x_cmd rows) plus measured
+    reading run one after the other, e.g. Table 3 (x_cmd rows) plus measured
     suggestions (theta rows). Pose-commanded rows are solved by the nominal
     IK (paper seed); rows that were run but not measured stay (backlash);
     flagged rows are dropped."""
-    th, dl, ms, kind = [], [], [], None
+    th, dl, ms, reading = [], [], [], None
     for t in tables:
         prep = t if isinstance(t, Prepared) else prepare(robot, t)
-        if kind is None:
-            kind = prep.kind
-        elif prep.kind != kind:
-            raise CdsmInputError(f"combine: tables of different kinds ({kind}, {prep.kind})")
+        if reading is None:
+            reading = prep.reading
+        elif prep.reading != reading:
+            raise CdsmInputError(f"combine: tables of different readings ({reading}, {prep.reading})")
         flagged = np.zeros(len(prep.theta_cmd), bool)
         flagged[list(prep.flags)] = True
         runs = prep.usable | (~prep.meas.observed & ~flagged)
@@ -256,9 +264,9 @@ def combine(robot: Robot, *tables: "Measurements | Prepared") -> Measurements:
         th.append(prep.theta_cmd[rows])
         dl.append(prep.dL[rows])
         ms.append(prep.measured[rows, :plant.dims(robot)])
-    if kind is None:
+    if reading is None:
         raise CdsmInputError("combine: no tables")
-    return Measurements(kind, robot.n, np.concatenate(dl), np.concatenate(ms), theta=np.concatenate(th),
+    return Measurements(reading, robot.n, np.concatenate(dl), np.concatenate(ms), theta=np.concatenate(th),
                         source="combined")
 
 
@@ -281,12 +289,12 @@ def _model_set(diag: Diagnosis):
     return out
 
 
-def _pred_and_jac(robot: Robot, effects, p, theta, dl, kind):
+def _pred_and_jac(robot: Robot, effects, p, theta, dl, codes):
     """Predictions (R, d) of the observed position (d = 2 planar, 3 spatial)
     and their exact Jacobian (R, d, k) in scaled parameters (the Rust core's
     linearised plant); NaN rows where the plant does not settle."""
     idx, scale, _ = free_parameters(robot, effects)
-    obs, conv, J = plant.linearise(robot, p, idx, theta, dl, kind)
+    obs, conv, J = plant.linearise(robot, p, idx, theta, dl, codes)
     d = plant.dims(robot)
     y = obs[:, :d].copy()
     J = J[:, :d, :] * scale
@@ -328,15 +336,15 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
 
     candidates: optional pool (theta (C, n) rad, dL (C, m) m), filtered for
     joint limits and taut cables; default a random pool of ``pool`` commands
-    (seed ``seed``) with dL as in the data (±``dl`` m). The measurement kind is
-    the data's. approach: the approach move (m, default ``dl``) when a
+    (seed ``seed``) with dL as in the data (±``dl`` m). The rows read
+    what the data read (:attr:`Prepared.reading`). approach: the approach move (m, default ``dl``) when a
     candidate has backlash. See the module docstring for the criterion.
     """
     k = as_count("k", k, 1)
     prep = diag.prep
-    robot, kind, noise = prep.robot, prep.kind, float(diag.noise * prep.readings)
+    robot, reading, noise = prep.robot, prep.reading, float(diag.noise * prep.readings)
     if candidates is None:
-        cth, cdl = candidate_pool(robot, kind, pool, seed, dl)
+        cth, cdl = candidate_pool(robot, reading, pool, seed, dl)
     else:
         cth = np.atleast_2d(np.asarray(candidates[0], float))
         cdl = np.atleast_2d(np.asarray(candidates[1], float))
@@ -356,7 +364,7 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
         a = float(dl if approach is None else approach)
         if not (np.isfinite(a) and a > 0):
             raise CdsmInputError(f"`approach`: must be a positive length in m, got {approach}")
-        first = cdl if kind == "absolute" else np.zeros_like(cdl)
+        first = cdl if reading == "absolute" else np.zeros_like(cdl)
         units = [(cth, cdl, first + side * a) for side in (1.0, -1.0)]
         keep = [_feasible_mask(robot, t, d) for t, _, d in units]
         cth = np.concatenate([u[0][m] for u, m in zip(units, keep)])
@@ -368,21 +376,21 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
     flagged = np.zeros(len(prep.theta_cmd), bool)
     flagged[list(prep.flags)] = True
     run = prep.order[(prep.usable | (~prep.meas.observed & ~flagged))[prep.order]]
-    codes = [prep.kinds[run]]
+    codes = [prep.reading_codes[run]]
     th_all, dl_all = [prep.theta_cmd[run]], [prep.dL[run]]
     data_rows = np.flatnonzero(prep.usable[run])
     nD = len(run)
     if app is None:
         th_all.append(cth)
         dl_all.append(cdl)
-        codes.append(np.full(len(cth), KIND_CODES[kind], np.uint8))
+        codes.append(np.full(len(cth), READING_CODES[reading], np.uint8))
         cand_rows = nD + np.arange(len(cth))
     else:
         th_all.append(np.repeat(cth, 2, axis=0))
         d = np.empty((2 * len(cth), cdl.shape[1]))
         d[0::2], d[1::2] = app, cdl
         dl_all.append(d)
-        codes.append(np.tile(np.array([KIND_CODES["unmeasured"], KIND_CODES[kind]], np.uint8), len(cth)))
+        codes.append(np.tile(np.array([READING_CODES["unmeasured"], READING_CODES[reading]], np.uint8), len(cth)))
         cand_rows = nD + 1 + 2 * np.arange(len(cth))
     th_all, dl_all, codes = np.concatenate(th_all), np.concatenate(dl_all), np.concatenate(codes)
     Y, JJ = {}, {}
@@ -464,6 +472,6 @@ def suggest(diag: Diagnosis, k: int, candidates: Optional[Tuple[np.ndarray, np.n
     theta, dL = cth[pick], cdl[pick]
     best = diag.final()
     misfit = best.heldout_rms / diag.noise_floor if diag.noise_floor > 0 else float("nan")
-    return Suggestion(theta, dL, kind, criterion, names, {m: Y[m][new] for m in names},
+    return Suggestion(theta, dL, reading, criterion, names, {m: Y[m][new] for m in names},
                       np.array(gains), score0, sym(before), sym(after), noise, robot.fk(theta), len(cand),
                       float(misfit), None if app is None else app[pick])

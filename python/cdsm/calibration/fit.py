@@ -109,7 +109,7 @@ def fit_candidates(prep, candidates: Sequence[Sequence[str]], scored: np.ndarray
     p0 = np.zeros(plant.size(robot)) if start is None else as_array("start", start)
     o = prep.order
     raw = robot.core.plant_fit(np.ascontiguousarray(prep.theta_cmd[o]), np.ascontiguousarray(prep.dL[o]),
-                               prep.kinds[o].tolist(), np.ascontiguousarray(prep.measured[o]),
+                               prep.reading_codes[o].tolist(), np.ascontiguousarray(prep.measured[o]),
                                sc[:, o].reshape(-1).tolist(), [int(i) for f in free for i in f[0]],
                                [float(v) for f in free for v in f[1]], np.ascontiguousarray(p0, float), 1e-12, 100,
                                as_iterations("max_iter", max_iter), robot.threads,

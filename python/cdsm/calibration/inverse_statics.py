@@ -100,8 +100,8 @@ def _sequence(rest: np.ndarray, prev, x: np.ndarray):
     """The plant's rows of one candidate ``x`` (m_c,): after the previous row's
     answer ``prev`` (run, unmeasured) where there is one."""
     rows = np.array([x] if prev is None else [prev, x])
-    kinds = ["absolute"] * len(rows) if prev is None else ["unmeasured", "absolute"]
-    return np.tile(rest, (len(rows), 1)), rows, kinds
+    readings = ["absolute"] * len(rows) if prev is None else ["unmeasured", "absolute"]
+    return np.tile(rest, (len(rows), 1)), rows, readings
 
 
 def _solve_row(robot, pp, target, weights, start, prev, offsets, gain, tol, max_iter):
@@ -173,8 +173,8 @@ def inverse_statics(robot: Robot, targets, p=None, start=None, preload: float = 
             dl, conv[i], iters[i] = _solve_row(robot, pp, arr[i], weights, s0, prev, offsets, gain, tol, max_iter)
             if conv[i]:
                 break
-        th, rows, kinds = _sequence(rest, prev, dl)
-        _, _, jac = plant.linearise(robot, pp, offsets, th, rows, kinds)
+        th, rows, readings = _sequence(rest, prev, dl)
+        _, _, jac = plant.linearise(robot, pp, offsets, th, rows, readings)
         slack[i] = int(np.sum(np.all(jac[-1] == 0.0, axis=0)))
         out_dl[i] = dl
         prev = dl

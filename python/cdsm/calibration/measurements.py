@@ -45,21 +45,25 @@ from typing import Dict, List, Optional
 
 import numpy as np
 
+from .. import deprecated
 from ..files import Table, parse_table, read_table
 from ..inputs import CdsmInputError, did_you_mean
 from ..display import ShortRepr
-from ..plant import KIND_CODES, commanded_cables
+from ..plant import READING_CODES, commanded_cables
 
 __all__ = ["Measurements", "parse_csv", "read_csv", "read_for", "packaged", "packaged_names", "after_reversals",
-           "KIND_CODES", "commanded_cables", "from_recording"]
+           "READING_CODES", "commanded_cables", "from_recording"]
 
 
 
+@deprecated.renamed_fields(kind="reading")
 @dataclass(repr=False)
 class Measurements(ShortRepr):
     """A parsed measurement table; every array has one row per measurement.
 
-    kind: ``"absolute"`` (x, y) or ``"displacement"`` (dx, dy). theta: (N, n)
+    reading: what a measured row reads, ``"absolute"`` (x, y) or
+    ``"displacement"`` (dx, dy); ``kind`` is its deprecated name (attribute
+    and keyword, one release). theta: (N, n)
     commanded angles or None; pose_cmd: (N, 3) commanded poses or None. dL:
     (N, n) m (spatial: (N, m) on the position-controlled cables). measured:
     (N, 2) m (spatial: (N, 3)), NaN on rows that were commanded but not
@@ -68,7 +72,7 @@ class Measurements(ShortRepr):
     order). labels: other columns as strings.
     """
 
-    kind: str
+    reading: str
     n: int
     dL: np.ndarray
     measured: np.ndarray
@@ -102,9 +106,15 @@ class Measurements(ShortRepr):
             return np.arange(len(self))
         return np.argsort(self.sequence, kind="stable")
 
+    def reading_codes(self) -> np.ndarray:
+        """(N,) uint8 the rows' :data:`READING_CODES`: the data's reading,
+        unmeasured rows as such."""
+        return np.where(self.observed, READING_CODES[self.reading], READING_CODES["unmeasured"]).astype(np.uint8)
+
     def kind_codes(self) -> np.ndarray:
-        """(N,) uint8 plant row kinds: the data kind, unmeasured rows as such."""
-        return np.where(self.observed, KIND_CODES[self.kind], KIND_CODES["unmeasured"]).astype(np.uint8)
+        """Deprecated name of :meth:`reading_codes` (one release)."""
+        deprecated.warn_renamed("Measurements.kind_codes()", "Measurements.reading_codes()")
+        return self.reading_codes()
 
     def copy_of(self) -> np.ndarray:
         """(N,) int: for each measured row that copies an earlier measured
@@ -199,9 +209,9 @@ def _measurements(table: Table, n: int, cables: Optional[int]) -> Measurements:
     if {"x", "y"} <= has and {"dx", "dy"} & has:
         raise CdsmInputError(f"{source}: both absolute (x, y) and displacement (dx, dy) columns; give one kind")
     if {"x", "y"} <= has:
-        kind, mcols, pcol = "absolute", ("x", "y"), "phi"
+        reading, mcols, pcol = "absolute", ("x", "y"), "phi"
     elif {"dx", "dy"} <= has:
-        kind, mcols, pcol = "displacement", ("dx", "dy"), "dphi"
+        reading, mcols, pcol = "displacement", ("dx", "dy"), "dphi"
     else:
         raise CdsmInputError(f"{source}: missing measured columns: need x, y (absolute) or dx, dy "
                              f"(displacement); found {', '.join(cols)}")
@@ -216,7 +226,7 @@ def _measurements(table: Table, n: int, cables: Optional[int]) -> Measurements:
     mphi = table.numbers(pcol, allow_empty=True) if pcol in has else None
     seq = _sequence(table) if "sequence" in has else None
     labels = _labels(table, n, None)
-    return Measurements(kind, n, dL, measured, theta, pose, mphi, labels, source, seq)
+    return Measurements(reading, n, dL, measured, theta, pose, mphi, labels, source, seq)
 
 
 def _labels(table: Table, n: int, cables: Optional[int]) -> Dict[str, List[str]]:
@@ -238,9 +248,9 @@ def _parse_spatial(table: Table, n: int, m: int) -> Measurements:
         raise CdsmInputError(f"{source}: columns {extra} do not fit a robot with {m} position-controlled cables")
     dL = np.stack([table.numbers(c) if c in has else np.zeros(rows) for c in dl_cols], 1)
     if {"x", "y", "z"} <= has:
-        kind, mcols, rcols = "absolute", ("x", "y", "z"), ("rx", "ry", "rz")
+        reading, mcols, rcols = "absolute", ("x", "y", "z"), ("rx", "ry", "rz")
     elif {"dx", "dy", "dz"} <= has:
-        kind, mcols, rcols = "displacement", ("dx", "dy", "dz"), ("drx", "dry", "drz")
+        reading, mcols, rcols = "displacement", ("dx", "dy", "dz"), ("drx", "dry", "drz")
     else:
         raise CdsmInputError(f"{source}: missing measured columns: need x, y, z (absolute) or dx, dy, dz "
                              f"(displacement); found {', '.join(cols)}")
@@ -257,7 +267,7 @@ def _parse_spatial(table: Table, n: int, m: int) -> Measurements:
             raise CdsmInputError(f"{source}: give all of {', '.join(rcols)} (a rotation vector, rad) or none")
         rot = np.stack([table.numbers(c, allow_empty=True) for c in rcols], 1)
     seq = _sequence(table) if "sequence" in has else None
-    return Measurements(kind, n, dL, measured, theta, None, None, _labels(table, n, m), source, seq, rot)
+    return Measurements(reading, n, dL, measured, theta, None, None, _labels(table, n, m), source, seq, rot)
 
 
 def read_csv(path: "str | os.PathLike[str]", n: int, cables: Optional[int] = None,
@@ -348,9 +358,9 @@ def after_reversals(meas: Measurements) -> Measurements:
     the base from the far side and the measured move loses the whole dead
     band of any backlash. With file order this bounds what an unknown
     execution order can do (SI units as the input)."""
-    if meas.kind != "displacement":
+    if meas.reading != "displacement":
         raise CdsmInputError("after_reversals: only displacement rows have a move to reverse "
-                             f"(got {meas.kind} rows)")
+                             f"(got {meas.reading} rows)")
     order = meas.order
     rows = np.repeat(order, 2)
     measured = meas.measured[rows].copy()
@@ -372,3 +382,7 @@ def after_reversals(meas: Measurements) -> Measurements:
     return dataclasses.replace(meas, dL=meas.dL[rows].copy(), measured=measured, theta=pick(meas.theta),
                                pose_cmd=pick(meas.pose_cmd), measured_phi=phi, labels=labels,
                                source=f"{meas.source} (after reversals)", sequence=None, measured_rot=rot)
+
+
+#: ``KIND_CODES`` (cdsm 0.2's name of :data:`READING_CODES`) warns for one release.
+__getattr__ = deprecated.module_getattr(__name__, {"KIND_CODES": "READING_CODES"}, globals())

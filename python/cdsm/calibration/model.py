@@ -1,10 +1,12 @@
-"""A fitted model of the real arm (nominal robot + fitted effects) that can be
-saved, loaded and used to compensate cable commands. SI units (m, rad, N).
+"""A fitted model of the real arm, :class:`FittedPlant` (nominal robot +
+fitted effects: the plant with fitted parameters), that can be saved, loaded
+and used to compensate cable commands. SI units (m, rad, N). ``Model`` is
+its deprecated name (cdsm 0.2; one release, with a ``DeprecationWarning``).
 
 The model is what the sim-to-real diagnosis (:mod:`cdsm.calibration.diagnosis`) chose: the
 nominal :class:`~cdsm.robot.Robot` the controller believes in, plus the
 unmodelled effects of :mod:`cdsm.calibration.plant` with their fitted parameters. With it,
-:meth:`Model.compensate` finds the upper-cable length commands that put the
+:meth:`FittedPlant.compensate` finds the upper-cable length commands that put the
 tip of the *fitted* plant on target poses.
 
 Model file format ``cdsm-model/2`` (JSON, UTF-8)
@@ -41,7 +43,8 @@ One JSON object; every number is a JSON float written by Python's ``repr``
       }
     }
 
-``data.sha256`` is the SHA-256 of: the kind and n as ASCII (``"absolute 3\\n"``)
+``data.kind`` is what the rows read (:attr:`Measurements.reading`; the key
+keeps its name: file format). ``data.sha256`` is the SHA-256 of: the reading and n as ASCII (``"absolute 3\\n"``)
 followed by the little-endian float64 bytes of the commanded ``theta`` (N, n)
 or ``pose_cmd`` (N, 3), ``dL`` (N, n), ``measured`` (N, 2) and ``measured_phi``
 (N,) when present, in that order. Non-finite figures are written as ``null``.
@@ -61,6 +64,7 @@ from typing import Dict, List, Mapping, Optional, Sequence
 
 import numpy as np
 
+from .. import deprecated
 from ..files import read_text, sha256_of, write_text
 from ..inputs import CdsmInputError, as_array, as_batch
 from ..robot import Robot
@@ -68,7 +72,7 @@ from . import plant
 from .compensation import Compensation, compensate
 from .measurements import Measurements
 
-__all__ = ["Model", "FORMAT"]
+__all__ = ["FittedPlant", "FORMAT"]
 
 #: Version tag of the model file format (see the module docstring).
 FORMAT = "cdsm-model/2"
@@ -77,7 +81,7 @@ READS = ("cdsm-model/1", FORMAT)
 
 
 def _data_hash(meas: Measurements) -> str:
-    hsh = hashlib.sha256(f"{meas.kind} {meas.n}\n".encode("ascii"))
+    hsh = hashlib.sha256(f"{meas.reading} {meas.n}\n".encode("ascii"))
     cmd = meas.theta if meas.theta is not None else meas.pose_cmd
     for arr in (cmd, meas.dL, meas.measured, meas.measured_phi):
         if arr is not None:
@@ -95,8 +99,8 @@ def _finite_or_none(v):
 # ---------------------------------------------------------------------------
 # the model
 # ---------------------------------------------------------------------------
-class Model:
-    """Nominal robot + fitted effects (see the module docstring for the file).
+class FittedPlant:
+    """The plant with fitted parameters: nominal robot + fitted effects (see the module docstring for the file).
 
     robot: the nominal :class:`Robot`. p: (P,) the full plant parameter vector
     (:func:`cdsm.calibration.plant.layout`), SI. effects: the fitted effects' names.
@@ -120,14 +124,14 @@ class Model:
 
     # ---- construction ---------------------------------------------------
     @classmethod
-    def from_effects(cls, robot: Robot, effects: Mapping[str, Sequence[float]], **kw) -> "Model":
+    def from_effects(cls, robot: Robot, effects: Mapping[str, Sequence[float]], **kw) -> "FittedPlant":
         """A model with given effect values ``{effect: values}`` (SI), e.g. a
         virtual prototype's truth. Every value within its physical domain
         (:func:`cdsm.calibration.plant.check_params`)."""
         return cls(robot, plant.check_params(robot, plant.params(robot, effects), "effects"), list(effects), **kw)
 
     @classmethod
-    def from_diagnosis(cls, diag) -> "Model":
+    def from_diagnosis(cls, diag) -> "FittedPlant":
         """The chosen model of a :class:`cdsm.calibration.diagnosis.Diagnosis` (its final
         fit on all usable rows), with the data provenance and held-out figures."""
         robot = diag.prep.robot
@@ -135,7 +139,7 @@ class Model:
         meas = diag.prep.meas
         src = meas.source or ""
         file_hash = sha256_of(src) if src and os.path.isfile(src) else None
-        data = dict(source=src, kind=meas.kind, rows=int(len(meas)),
+        data = dict(source=src, kind=meas.reading, rows=int(len(meas)),
                     rows_used=int(diag.prep.usable.sum()), sha256=_data_hash(meas),
                     file_sha256=file_hash)
         heldout = dict(baseline_rms_m=_finite_or_none(diag.baseline.heldout_rms),
@@ -180,7 +184,7 @@ class Model:
         write_text(path, json.dumps(self.to_dict(), indent=2, allow_nan=False) + "\n", "model")
 
     @classmethod
-    def from_dict(cls, d: dict, source: str = "<model>") -> "Model":
+    def from_dict(cls, d: dict, source: str = "<model>") -> "FittedPlant":
         """Rebuild a model from :meth:`to_dict` output; checks the version and
         the parameter layout."""
         if not isinstance(d, dict):
@@ -219,7 +223,7 @@ class Model:
             raise CdsmInputError(f"model file {source!r}: {exc}") from None
 
     @classmethod
-    def load(cls, path: "str | os.PathLike[str]") -> "Model":
+    def load(cls, path: "str | os.PathLike[str]") -> "FittedPlant":
         """Read a model file written by :meth:`save` (exact round trip)."""
         src = str(path)
         text = read_text(path, "model")
@@ -230,20 +234,23 @@ class Model:
         return cls.from_dict(d, src)
 
     def __eq__(self, other) -> bool:
-        if not isinstance(other, Model):
+        if not isinstance(other, FittedPlant):
             return NotImplemented
         return json.dumps(self.to_dict(), sort_keys=True) == json.dumps(other.to_dict(), sort_keys=True)
 
     def __repr__(self) -> str:
-        return f"Model({self.name!r}, robot={self.robot.name!r}, n={self.robot.n})"
+        return f"FittedPlant({self.name!r}, robot={self.robot.name!r}, n={self.robot.n})"
 
     # ---- use --------------------------------------------------------------
-    def predict(self, theta_cmd, dL=None, kind: str = "absolute"):
+    def predict(self, theta_cmd, dL=None, reading: str = "absolute", *, kind: Optional[str] = None):
         """The fitted plant's observations for commands ``theta_cmd`` (N, n) rad
-        + ``dL`` (N, n) m: ((N, 3), converged (N,)), see :func:`cdsm.calibration.plant.predict`."""
+        + ``dL`` (N, n) m of rows that read ``reading`` (``kind``: its
+        deprecated name, one release): ((N, 3), converged (N,)), see
+        :func:`cdsm.calibration.plant.predict`."""
+        reading = deprecated.old_keyword("FittedPlant.predict", "kind", "reading", kind, reading)
         t, _ = as_batch("theta_cmd", theta_cmd, self.robot.n)
         d = np.zeros_like(t) if dL is None else dL
-        return plant.predict(self.robot, self.p, t, d, kind)
+        return plant.predict(self.robot, self.p, t, d, reading)
 
     def compensate(self, poses, tol: float = 1e-9, max_iter: int = 40, min_tension: float = 0.0,
                    enforce_limits: bool = False, start=None) -> Compensation:
@@ -307,3 +314,7 @@ def _remap(flat: np.ndarray, file_layout, lay, source: str) -> np.ndarray:
                                  f"{name!r} needs entries {a}..{b - 1}")
         p[sl] = flat[a:b]
     return p
+
+
+#: ``Model`` (cdsm 0.2's name of :class:`FittedPlant`) warns for one release.
+__getattr__ = deprecated.module_getattr(__name__, {"Model": "FittedPlant"}, globals())

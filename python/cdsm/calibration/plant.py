@@ -11,20 +11,22 @@ from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from .. import deprecated
 from ..inputs import CdsmInputError, as_count, as_finite
-from ..plant import (BLOCKS, EFFECT_BLOCKS, EFFECTS, ELASTIC_GEOMETRY, ELASTIC_ON_REQUEST, KIND_CODES, MAX_PARAMETER,
-                     MEMORY_EFFECTS, SPATIAL_EFFECTS, TYPICAL, bounds, check_commands, check_effects, check_params,
-                     command_lengths, commanded_cables, commands, dims, effect_indices, effects_of, kind_codes,
-                     layout, linearise, parameter_blocks, parameter_labels, parameter_names, params, predict, settle,
-                     size, taut_commands, width)
+from ..plant import (BLOCKS, EFFECT_BLOCKS, EFFECTS, ELASTIC_GEOMETRY, ELASTIC_ON_REQUEST, MAX_PARAMETER,
+                     MEMORY_EFFECTS, READING_CODES, SPATIAL_EFFECTS, TYPICAL, bounds, check_commands, check_effects,
+                     check_params, command_lengths, commanded_cables, commands, dims, effect_indices, effects_of,
+                     layout, linearise, parameter_blocks, parameter_labels, parameter_names, params, predict,
+                     reading_codes, settle, size, taut_commands, width)
 from ..robot import Robot
 from .measurements import Measurements
 
 __all__ = ["EFFECTS", "BLOCKS", "MEMORY_EFFECTS", "EFFECT_BLOCKS", "TYPICAL", "EXAMPLES_N3", "layout", "size",
            "params", "check_params", "MAX_PARAMETER", "effect_indices", "parameter_blocks", "parameter_names",
-           "parameter_labels", "bounds", "kind_codes", "predict", "linearise", "settle", "VirtualPrototype",
+           "parameter_labels", "bounds", "reading_codes", "predict", "linearise", "settle", "VirtualPrototype",
            "SPATIAL_EFFECTS", "ELASTIC_GEOMETRY", "ELASTIC_ON_REQUEST", "effects_of", "check_effects", "width",
-           "dims", "commands", "command_lengths", "taut_commands", "commanded_cables", "check_commands", "KIND_CODES"]
+           "dims", "commands", "command_lengths", "taut_commands", "commanded_cables", "check_commands",
+           "READING_CODES"]
 
 # Hidden effects for 3-joint robots, ~1-2x TYPICAL with mixed signs: every
 # effect of the library and a two-effect mixture (SI). The virtual-prototype
@@ -55,35 +57,39 @@ class VirtualPrototype:
     noise: float = 10e-6
     seed: int = 0
 
-    def measure(self, theta_cmd, dL=None, kind="absolute", observe=None) -> Measurements:
+    def measure(self, theta_cmd, dL=None, reading="absolute", observe=None, *, kind=None) -> Measurements:
         """Measure commands ``theta_cmd`` (N, n) rad with upper-cable extras
         ``dL`` (N, n) m (spatial: (N, m) on the position-controlled cables),
-        run in the given order: a :class:`Measurements` of the given kind
-        (x, y — spatial x, y, z —; the attitude not measured). ``observe`` (N,) bool: rows to
-        measure (the others run only and come out unmeasured)."""
+        run in the given order: a :class:`Measurements` of the given reading
+        (``"absolute"``: x, y — spatial x, y, z —; ``"displacement"``: their
+        moves; the attitude not measured). ``observe`` (N,) bool: rows to
+        measure (the others run only and come out unmeasured). ``kind``: the
+        deprecated name of ``reading`` (one release)."""
+        reading = deprecated.old_keyword("VirtualPrototype.measure", "kind", "reading", kind, reading)
         t, d, _ = check_commands(self.robot, theta_cmd, dL, "absolute")
         seen = np.ones(len(t), bool) if observe is None else np.asarray(observe, bool)
-        codes = np.where(seen, KIND_CODES[kind], KIND_CODES["unmeasured"])
+        codes = np.where(seen, READING_CODES[reading], READING_CODES["unmeasured"])
         obs, conv = predict(self.robot, params(self.robot, self.effects), t, d, codes)
         if not conv[seen].all():
             raise CdsmInputError(f"virtual prototype: {int((~conv[seen]).sum())} commands do not settle")
         rng = np.random.default_rng(self.seed)
-        sigma = self.noise * (np.sqrt(2.0) if kind == "displacement" else 1.0)
+        sigma = self.noise * (np.sqrt(2.0) if reading == "displacement" else 1.0)
         k = dims(self.robot)
         meas = obs[:, :k] + rng.normal(0.0, sigma, (len(t), k))
         meas[~seen] = np.nan
-        return Measurements(kind, self.robot.n, d, meas, theta=t, source="virtual prototype")
+        return Measurements(reading, self.robot.n, d, meas, theta=t, source="virtual prototype")
 
     def random_commands(self, rows: int, seed: Optional[int] = None, limit: Optional[float] = None,
-                        dl: float = 1e-3, kind: str = "absolute", taut: bool = False, min_tension: float = 0.0,
-                        max_draws: Optional[int] = None) -> Tuple[np.ndarray, np.ndarray]:
+                        dl: float = 1e-3, reading: str = "absolute", taut: bool = False, min_tension: float = 0.0,
+                        max_draws: Optional[int] = None, *,
+                        kind: Optional[str] = None) -> Tuple[np.ndarray, np.ndarray]:
         """``rows`` random commands: joint angles ``theta`` (rows, n), rad,
         uniform within ±``limit`` rad of the rest angles (default 30°; an
         elastic arm's default 0: its rows are commanded by their cables
         alone, ``theta`` the rest angles, as a recording's), and extras
         ``dL`` (rows, m), m, on the
         m position-controlled cables (a planar arm's upper cables), uniform
-        within ±``dl`` m — for ``kind="displacement"`` one cable per row gets
+        within ±``dl`` m — for ``reading="displacement"`` one cable per row gets
         ±``dl`` exactly and the others 0. Seeded: ``seed``, default the
         prototype's ``seed + 1``; the same seed gives the same commands.
 
@@ -98,7 +104,9 @@ class VirtualPrototype:
         ``max(1000, 100 * rows)``) without ``rows`` taut ones a
         :class:`CdsmInputError` says how many were tried and the acceptance
         rate (narrow ``limit``, lower ``min_tension`` or raise ``max_draws``).
-        ``taut=False`` (default) draws exactly as before, without statics."""
+        ``taut=False`` (default) draws exactly as before, without statics.
+        ``kind``: the deprecated name of ``reading`` (one release)."""
+        reading = deprecated.old_keyword("VirtualPrototype.random_commands", "kind", "reading", kind, reading)
         rows = as_count("rows", rows)
         if limit is None:
             limit = 0.0 if self.robot.is_elastic else np.radians(30.0)
@@ -106,8 +114,8 @@ class VirtualPrototype:
         if limit < 0.0 or dl < 0.0:
             raise CdsmInputError(f"`{'limit' if limit < 0.0 else 'dl'}`: expected a half-width >= 0, got "
                                  f"{limit if limit < 0.0 else dl!r}")
-        if kind not in ("absolute", "displacement"):
-            raise CdsmInputError(f"`kind`: expected 'absolute' or 'displacement', got {kind!r}")
+        if reading not in ("absolute", "displacement"):
+            raise CdsmInputError(f"`reading`: expected 'absolute' or 'displacement', got {reading!r}")
         if not isinstance(taut, (bool, np.bool_)):
             raise CdsmInputError(f"`taut`: expected True or False, got {taut!r}")
         min_tension = as_finite("min_tension", min_tension)
@@ -119,12 +127,12 @@ class VirtualPrototype:
         draws = max(1000, 100 * rows) if max_draws is None else as_count("max_draws", max_draws, 1)
         rng = np.random.default_rng(self.seed + 1 if seed is None else seed)
         if not taut:
-            return _draw_commands(self.robot, rng, rows, limit, dl, kind)
+            return _draw_commands(self.robot, rng, rows, limit, dl, reading)
         kept, tried, found = [(np.zeros((0, self.robot.n)), np.zeros((0, commands(self.robot))))], 0, 0
         while found < rows and tried < draws:
-            theta, d = _draw_commands(self.robot, rng, max(rows, 100), limit, dl, kind)
+            theta, d = _draw_commands(self.robot, rng, max(rows, 100), limit, dl, reading)
             use = min(len(theta), draws - tried)  # the last batch is drawn whole: the same stream whatever max_draws
-            ok = taut_commands(self.robot, theta[:use], d[:use], kind, min_tension)
+            ok = taut_commands(self.robot, theta[:use], d[:use], reading, min_tension)
             kept.append((theta[:use][ok], d[:use][ok]))
             tried, found = tried + use, found + int(ok.sum())
         if found < rows:
@@ -136,14 +144,19 @@ class VirtualPrototype:
 
 
 def _draw_commands(robot: Robot, rng: np.random.Generator, rows: int, limit: float, dl: float,
-                   kind: str) -> Tuple[np.ndarray, np.ndarray]:
+                   reading: str) -> Tuple[np.ndarray, np.ndarray]:
     """``rows`` commands (theta (rows, n) rad, dL (rows, m) m) from ``rng``
     (:meth:`VirtualPrototype.random_commands`)."""
     n, w = robot.n, commands(robot)
     theta = robot.rest_angles + rng.uniform(-limit, limit, (rows, n))
     d = np.zeros((rows, w))
-    if kind == "displacement":
+    if reading == "displacement":
         d[np.arange(rows), rng.integers(0, w, rows)] = rng.choice([-dl, dl], rows)
     else:
         d = rng.uniform(-dl, dl, (rows, w))
     return theta, d
+
+
+#: ``KIND_CODES`` and ``kind_codes`` (cdsm 0.2's names) warn for one release.
+__getattr__ = deprecated.module_getattr(__name__, {"KIND_CODES": "READING_CODES", "kind_codes": "reading_codes"},
+                                        globals())

@@ -84,15 +84,15 @@ def _rms(err: np.ndarray) -> float:
 
 def validate(d: Diagnosis, meas: Measurements) -> Validation:
     """Judge the nominal and the chosen model of ``d`` on the measurements
-    ``meas`` of the same robot (another file: same columns, same reading
-    kind), nothing refitted (module doc). The rows run in the second file's
+    ``meas`` of the same robot (another file: same columns, same
+    :attr:`~Measurements.reading`), nothing refitted (module doc). The rows run in the second file's
     execution order from the plant's start state, as a new sequence."""
     robot = d.prep.robot
     if meas.n != robot.n:
         raise CdsmInputError(f"validation data: measurements for n = {meas.n} joints, the robot has {robot.n}")
-    if meas.kind != d.prep.kind:
-        raise CdsmInputError(f"validation data: {meas.kind} readings, the diagnosed data are {d.prep.kind}: a model "
-                             "is judged on readings of the same kind")
+    if meas.reading != d.prep.reading:
+        raise CdsmInputError(f"validation data: {meas.reading} readings, the diagnosed data are {d.prep.reading}: "
+                             "a model is judged on data of the same reading")
     # the frame rule "base": prepare() fits no frame here; the frame comes
     # with each model's parameters from the first file
     prep = prepare(robot, meas, frame="base")
@@ -104,7 +104,7 @@ def validate(d: Diagnosis, meas: Measurements) -> Validation:
         if c.name not in others and c.name != d.final().name and c is not d.baseline:
             others[c.name] = c.fit.p
     pred, ok = plant.predict(robot, np.stack([fits["nominal"], fits["model"]] + list(others.values())),
-                             prep.theta_cmd[order], prep.dL[order], prep.kinds[order])
+                             prep.theta_cmd[order], prep.dL[order], prep.reading_codes[order])
     obs = np.empty_like(pred)
     obs[:, order] = pred
     conv = np.empty_like(ok)

@@ -31,11 +31,11 @@ def _compensate_args(p: argparse.ArgumentParser) -> None:
 @options(_compensate_args)
 def _compensate_run(args) -> int:
     from ..calibration.compensation import read_targets
-    from ..calibration.model import Model
+    from ..calibration.model import FittedPlant
 
     if not (args.tol > 0 and args.tol < 1):
         raise UserError(f"--tol: expected a positive length in m, got {args.tol}")
-    model = Model.load(args.model)
+    model = FittedPlant.load(args.model)
     poses = read_targets(args.targets, model.robot.kind)
     res = model.compensate(poses, tol=args.tol, enforce_limits=args.enforce_limits)
     res.to_csv(args.out)

@@ -134,9 +134,9 @@ def _diagnose_run(args) -> int:
         if "suggested_csv" in paths:
             print(f"suggested configurations: {paths['suggested_csv']}")
     if args.save_model is not None:
-        from ..calibration.model import Model
+        from ..calibration.model import FittedPlant
 
-        Model.from_diagnosis(d).save(args.save_model)
+        FittedPlant.from_diagnosis(d).save(args.save_model)
         print(f"model: {args.save_model}")
     if show:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)

@@ -36,5 +36,5 @@ def _list_run(args) -> int:
         for name in measurements.packaged_names():
             # a recording is read for its robot (OpenCR's files: FTDCR v4)
             m = measurements.read_for(Robot.load("ftdcr_v4") if name in opencr.RECORDINGS else Robot.paper(), name)
-            print(f"  {name:<36s} {m.kind:<12s} {len(m):4d} rows, {m.n} joints  {m.source}")
+            print(f"  {name:<36s} {m.reading:<12s} {len(m):4d} rows, {m.n} joints  {m.source}")
     return 0

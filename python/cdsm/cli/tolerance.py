@@ -46,8 +46,8 @@ def _tolerance_args(p: argparse.ArgumentParser) -> None:
 
 def _region_file(spec: str):
     """The file a ``--region`` spec reads (``joints:FILE``, ``poses:FILE``), else None."""
-    kind, _, rest = spec.partition(":")
-    return rest if kind in ("joints", "poses") else None
+    region, _, rest = spec.partition(":")
+    return rest if region in ("joints", "poses") else None
 
 
 def _float_list(name: str, text: str) -> List[float]:

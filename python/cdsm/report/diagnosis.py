@@ -350,7 +350,7 @@ def _answer(d: diagnose.Diagnosis, f: _Facts) -> List[str]:
             reg += (f" (The data lie {_um(prep.offset)} RMS from the nominal predictions, beyond 5 % of the arm's "
                     "length: an instrument's own frame.)")
         out.append(reg)
-    elif prep.kind == "absolute" and prep.frame == "auto":
+    elif prep.reading == "absolute" and prep.frame == "auto":
         out.append(f"The data lie {_um(prep.offset)} RMS from the nominal predictions, within 5 % of the "
                    "arm's length: taken in the robot's base frame, with `frame_misalignment` a candidate "
                    "effect like any other.")
@@ -503,7 +503,7 @@ def _identifiability(d: diagnose.Diagnosis) -> List[str]:
     if undetermined:
         out.append("Not determined by these data (no effect on the measured quantity): "
                    + ", ".join(undetermined) + ".")
-    if d.prep.kind == "displacement":
+    if d.prep.reading == "displacement":
         out.append(
             "The data are displacements: a translation of the instrument frame cancels, and a constant cable "
             "offset or tip offset shows only through its small change of the configuration.")
@@ -625,7 +625,7 @@ def summary(d: diagnose.Diagnosis, suggestion=None) -> List[str]:
     lines = [_plain(item) for item in headline_items(d, suggestion)]
     by = (f" over {d.prep.group_count} groups of {d.prep.group_column!r}"
           if d.prep.groups is not None else "")
-    lines.append(f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.kind}), "
+    lines.append(f"rows: {int(d.prep.usable.sum())} of {len(d.prep.meas)} used ({d.prep.reading}), "
                  f"{d.folds}-fold cross-validation{by}")
     if d.prep.flags:
         lines.append(f"flagged rows: {', '.join(str(i + 1) for i in sorted(d.prep.flags))} (see the report)")
@@ -1000,7 +1000,7 @@ def _build(d: diagnose.Diagnosis, pngs: Dict[str, bytes], suggestion=None, valid
     doc.section(HEADLINE, "Headline")
     src = os.path.basename(prep.meas.source) if prep.meas.source else "measurements"
     ne = d.noise_estimate.source
-    doc.p(f"Data: {literal(src)} — {len(prep.meas)} rows of **{prep.kind}** measurements ({int(prep.usable.sum())} "
+    doc.p(f"Data: {literal(src)} — {len(prep.meas)} rows of **{prep.reading}** measurements ({int(prep.usable.sum())} "
           f"usable); robot **{literal(prep.robot.name)}** ({prep.robot.n} joints); measurement noise "
           f"{'assumed ' if ne == 'assumed' else ''}{_um(d.noise)} per axis"
           f"{' (estimated from repeats)' if ne == 'repeats' else ''}; {d.folds}-fold cross-validation"

@@ -143,7 +143,7 @@ _SCENARIO_VALUES = {
     "label": lambda st, r, ws, i: r.scenario.label,
     "figure": lambda st, r, ws, i: r.scenario.figure,
     "protocol": lambda st, r, ws, i: r.protocol,
-    "error": lambda st, r, ws, i: r.scenario.kind,
+    "error": lambda st, r, ws, i: r.scenario.error,
     "cable": lambda st, r, ws, i: r.scenario.cable + 1,
     "sign": lambda st, r, ws, i: int(r.scenario.sign),
     "size": lambda st, r, ws, i: r.scenario.size,
@@ -611,13 +611,13 @@ class StudyReport:
             if "attitude0" in st.workspaces else "")
         self.fig(doc, "workspace", cap)
 
-    def _by_end(self, kind: str) -> Dict[int, float]:
+    def _by_end(self, error: str) -> Dict[int, float]:
         """{disk: RMS |d position| (m) over both signs and the cables ending
-        there} of one scenario kind (main protocol)."""
+        there} of one scenario error (:attr:`cdsm.study.Scenario.error`, main protocol)."""
         st, ends = self.study, self.robot.cable_ends
         out: Dict[int, List[np.ndarray]] = {}
         for r in st.results():
-            if r.scenario.kind == kind:
+            if r.scenario.error == error:
                 out.setdefault(ends[r.scenario.cable], []).append(r.position)
         return {d: finite_rms(np.concatenate(v)) for d, v in sorted(out.items())}
 
@@ -658,8 +658,8 @@ class StudyReport:
         st = self.study
         q = _q(st)
         out = []
-        hole_kind, hole_key, _ = st.kind.hole_scenarios[0]  # the first hole error beside the length's
-        length, holes = self._by_end("cable"), self._by_end(hole_kind)
+        hole_error, hole_key, _ = st.kind.hole_scenarios[0]  # the first hole error beside the length's
+        length, holes = self._by_end("cable"), self._by_end(hole_error)
         if len(length) > 1:
             shrink = all(a >= b for a, b in zip(list(length.values()), list(length.values())[1:]))
             out.append(f"**Toward the tip** ({_pname(st.main)}). RMS {q} of a ±1 mm length error, by the disk its "
@@ -670,7 +670,7 @@ class StudyReport:
                           "A length error does not matter less the nearer the tip its cable ends on this arm."))
         ratios, pairs = [], 0
         for r in st.results():
-            if r.scenario.kind != "cable":
+            if r.scenario.error != "cable":
                 continue
             s = "+" if r.scenario.sign > 0 else "-"
             c = r.scenario.cable

@@ -50,7 +50,7 @@ def _error_columns(kind) -> Tuple[Tuple[str, str], ...]:
     return tuple((e, s) for e in ("cable",) + tuple(h[0] for h in kind.hole_scenarios) for s in "-+")
 
 
-#: Columns of a spatial arm's overview: (scenario kind, sign).
+#: Columns of a spatial arm's overview: (scenario error, sign).
 SCENARIO_COLUMNS = _error_columns(SPATIAL)
 PROTOCOL_SHORT = {"attitude0": "attitude-0", "joint": "joint-space", "sampled": "sampled",
                   "commanded": "sampled commands"}
@@ -338,7 +338,7 @@ def _overview_matrix(study, protocol: str, quantity: str, keys: List[List[str]])
             if np.isfinite(v).any():
                 stats[0, r, c] = np.nanmax(v)
                 stats[1, r, c] = np.sqrt(np.nanmean(v ** 2))
-    labels = [f"{kind} {sign}" for kind, sign in _error_columns(study.kind)]
+    labels = [f"{error} {sign}" for error, sign in _error_columns(study.kind)]
     cables = [str(c + 1) for c in commanded_cables(study.robot)]
     with report_style():
         fig = new_figure(W, min(0.16 * rows + 1.6, 11.0))
