@@ -12,9 +12,10 @@ use cdsm::kinds::{Kind, Se2};
 use cdsm::kinematics::fk;
 use cdsm::model::Model;
 use cdsm::plant::{self, LoadRows};
-use cdsm::solve::{CableMethod, CableSolver, SolveOptions};
+use cdsm::solve::{CableMethod, PlanarSolver, SolveOptions};
 use cdsm::tension::{Balance, Wrench};
 use cdsm::{arm, Robot};
+use std::borrow::Cow;
 use std::hint::black_box;
 
 mod timing;
@@ -164,7 +165,7 @@ fn main() {
             g.lengths(black_box(&th), &mut l)
         });
         for (name, m) in [("auto", CableMethod::Auto), ("newton", CableMethod::Newton)] {
-            let mut solver = CableSolver::new(&r, m, opts);
+            let mut solver = PlanarSolver::new(Cow::Borrowed(&r), m, opts);
             let mut t = th.clone();
             c.run(&format!("cable_solve_{name}/n={n}"), 1, || {
                 for (x, y) in t.iter_mut().zip(&th) {

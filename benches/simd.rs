@@ -60,7 +60,7 @@ fn workload(geom: &CableGeometry) -> (Vec<f64>, Vec<f64>) {
     (target, seed)
 }
 
-/// The scalar path as `CableSolver` runs it: seed cos/sin from libm, then
+/// The scalar path as `PlanarSolver` runs it: seed cos/sin from libm, then
 /// `solve_cables_closed_form`.
 fn scalar_loop(
     geom: &CableGeometry,

@@ -15,9 +15,7 @@ use crate::real::Lane;
 use crate::robot::Robot;
 use crate::rows::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::simd::math::atan2_slice;
-use crate::solve::{
-    cs_difference, CableMethod, CableNewton, CableSolve, CableSolver, SolveOptions,
-};
+use crate::solve::{cs_difference, CableMethod, CableNewton, CableSolver, SolveOptions};
 use crate::tension::{Balance, Wrench};
 use pulp::{Simd, WithSimd};
 use std::ops::Range;
@@ -67,6 +65,9 @@ fn per_pair_refused() -> CdsmError {
     }
 }
 
+/// The planar fast paths' solver is the cable solver's planar evaluator.
+const PLANAR: &str = "an arm with a planar view has the planar evaluator";
+
 /// End deviation after the position cables are set to `L0 + dl` (L0:
 /// nominal lengths at `theta0`, `dl (m_pos,)` m) on an arm whose holes are
 /// `holes` (m, in the kind's layout: planar `(2n, n+1, 2, 2)`, otherwise
@@ -95,13 +96,13 @@ pub fn deviation(
     if let Some(h) = holes {
         robot.with_holes(h)?;
     }
-    let nominal = CableGeometry::new(robot, None);
     let perturbed = CableGeometry::new(robot, holes);
     let parts = split_rows(rows, threads, |r| {
         let mut ds = Vec::with_capacity(r.len() * 3);
         let mut sol = BatchSolution::with_capacity(r.len(), n);
         let (mut cs, mut target, mut th) = (vec![(1.0, 0.0); n], vec![0.0; n], vec![0.0; n]);
-        let mut solver = CableSolver::new(robot, method, *opts);
+        let mut driver = CableSolver::<Se2<f64>>::new(model, model, method, *opts);
+        let (solver, nominal) = driver.planar_mut().expect(PLANAR);
         for i in r {
             let t0 = &theta0[i * n..(i + 1) * n];
             for (c, t) in cs.iter_mut().zip(t0) {
@@ -593,7 +594,8 @@ impl<'a> PlanarLanes<'a> {
         let arch = pulp::Arch::new();
         let mut stats = McStats::with_quantities(r.len(), QUANTITIES);
         let (mut target, mut th) = (vec![0.0; n], vec![0.0; n]);
-        let mut solver = CableSolver::new(robot, method, *opts);
+        let mut driver = CableSolver::<Se2<f64>>::new(model, model, method, *opts);
+        let (solver, _) = driver.planar_mut().expect(PLANAR);
         let mut chain = Chain::<f64, Se2<f64>>::new(model);
         let mut bal = Balance::<f64>::new(model);
         let mut tension = vec![0.0; n];
@@ -794,7 +796,8 @@ impl<'a> GeneralPacks<'a> {
 /// The configurations `rows` of [`monte_carlo`]: packs of [`PACK`]
 /// configurations, each sample's solves of a pack in lanes (sharing the
 /// sample's arm), the lanes that leave the Newton phase through
-/// [`CableSolve`]; every configuration gets its samples in sample order.
+/// the chain's cable solver ([`crate::solve::ChainSolver`]); every
+/// configuration gets its samples in sample order.
 struct McRows<'a> {
     model: &'a Model,
     /// the samples' arms (empty: every sample the nominal one)
@@ -849,7 +852,10 @@ impl WithSimd for McRows<'_> {
         let model_of = |s: usize| models.get(s).unwrap_or(model);
         let mut stats = McStats::with_quantities(r.len(), quantities);
         let mut lanes = CableNewton::<P, Se3<P>>::new(model, *opts);
-        let mut solver = CableSolve::<Se3<f64>>::new(model, *opts);
+        let mut driver = CableSolver::<Se3<f64>>::new(model, model, CableMethod::Auto, *opts);
+        let solver = driver
+            .chain_mut()
+            .expect("an arm without a planar view has the chain evaluator");
         let mut chain = Chain::<f64, Se3<f64>>::new(model);
         let (mut l0, mut end0) = (vec![0.0; PACK * m], [Se3::<f64>::identity(); PACK]);
         let (mut target, mut th) = (vec![0.0; m], vec![0.0; n]);

@@ -15,7 +15,7 @@ use crate::model::Model;
 use crate::qp::min_norm_active;
 use crate::real::pack::Pack;
 use crate::rows::{row_of, rows_of, seeds, shared_or_rows, split_rows, BatchSolution};
-use crate::solve::{CableMethod, CableNewton, CableSolve, SolveOptions};
+use crate::solve::{planar_evaluator, CableMethod, CableNewton, CableSolver, SolveOptions};
 use crate::tension::{Balance, Wrench};
 use pulp::{Simd, WithSimd};
 use std::marker::PhantomData;
@@ -180,8 +180,8 @@ fn solve_cables_by_kind(
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<BatchSolution> {
-    if let Some(r) = model.planar() {
-        return batch::solve_cables(r, lengths, seed, method, opts, threads);
+    if planar_evaluator(model, model) {
+        return batch::solve_cables(model, lengths, seed, method, opts, threads);
     }
     if method == CableMethod::ClosedForm {
         return Err(CdsmError::Option {
@@ -199,10 +199,11 @@ fn solve_cables_by_kind(
 pub const PACK: usize = 4;
 type P = Pack<PACK>;
 
-/// The general cable solve of a batch (any kind): packs of [`PACK`] rows
-/// through the Newton phase on lanes ([`CableNewton`], compiled for the
-/// machine's instruction set by `pulp`'s dispatch), the rows that leave it
-/// through [`CableSolve`] from their seeds.
+/// The general cable solve of a batch (an arm without a planar view):
+/// packs of [`PACK`] rows through the Newton phase on lanes
+/// ([`CableNewton`], compiled for the machine's instruction set by `pulp`'s
+/// dispatch), the rows that leave it through the cable solver
+/// ([`CableSolver`], there the chain's evaluator) from their seeds.
 pub fn solve_cables_general<G: Group>(
     model: &Model,
     lengths: &[f64],
@@ -260,7 +261,7 @@ impl<G: Group> WithSimd for SolveRows<'_, G> {
         let arm = Broadcast::new(model, traverse);
         let mut out = BatchSolution::with_capacity(rows.len(), n);
         let mut lanes = CableNewton::<P, G::Frame<P>>::new(model, *opts);
-        let mut solver = CableSolve::<G::Frame<f64>>::new(model, *opts);
+        let mut solver = CableSolver::<G::Frame<f64>>::new(model, model, CableMethod::Auto, *opts);
         let mut th = vec![0.0; n];
         let limits = model.limits();
         let seed_of = |i: usize, k: usize| seed.map_or(0.0, |s| s[i * n + k]);
@@ -290,7 +291,7 @@ impl<G: Group> WithSimd for SolveRows<'_, G> {
                         for (k, t) in th.iter_mut().enumerate() {
                             *t = seed_of(i, k);
                         }
-                        solver.solve(model, model, &lengths[i * m..(i + 1) * m], &mut th)
+                        solver.solve(&lengths[i * m..(i + 1) * m], &mut th)
                     }
                 };
                 out.push_row(&th, st, limits.contains(&th));

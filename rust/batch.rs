@@ -6,12 +6,14 @@
 
 use crate::cables::CableGeometry;
 use crate::error::Result;
+use crate::kinds::Se2;
 use crate::kinematics;
 use crate::lm::Reason;
+use crate::model::Model;
 use crate::planar::cable_lanes::solve_cables_closed_form_batch_in;
 use crate::robot::Robot;
 use crate::rows::{map_rows, rows_of, seeds, split_rows, BatchSolution};
-use crate::solve::{self, CableMethod, SolveOptions};
+use crate::solve::{CableMethod, CableSolver, SolveOptions};
 
 /// Batched forward kinematics: `(N, n)` -> `(N, 3)`.
 pub fn fk(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
@@ -57,24 +59,29 @@ pub fn cable_jacobian(robot: &Robot, theta: &[f64], threads: usize) -> Result<Ve
     }))
 }
 
-/// Batched cable solve: upper-cable lengths `(N, n)`, `seed (N, n)` or zeros.
+/// Batched cable solve of an arm the cable solver solves by its planar
+/// evaluator ([`crate::solve::planar_evaluator`]): upper-cable lengths
+/// `(N, n)`, `seed (N, n)` or zeros.
 pub fn solve_cables(
-    robot: &Robot,
+    model: &Model,
     upper: &[f64],
     seed: Option<&[f64]>,
     method: CableMethod,
     opts: &SolveOptions,
     threads: usize,
 ) -> Result<BatchSolution> {
-    let n = robot.n();
+    let n = model.n();
     let rows = rows_of("upper", upper, n)?;
     let seed = seeds(seed, rows, n)?;
     opts.check()?;
-    let g = CableGeometry::new(robot, None);
     let arch = pulp::Arch::new();
     let parts = split_rows(rows, threads, |r| {
         let m = r.len();
-        let mut solver = solve::CableSolver::new(robot, method, *opts);
+        let mut driver = CableSolver::<Se2<f64>>::new(model, model, method, *opts);
+        let (solver, g) = driver
+            .planar_mut()
+            .expect("an arm with a planar view has the planar evaluator");
+        let limits = model.limits();
         let zeros;
         let seed = match seed {
             Some(s) => &s[r.start * n..r.end * n],
@@ -90,8 +97,8 @@ pub fn solve_cables(
             out.theta.extend_from_slice(seed);
             for i in 0..m {
                 let th = &mut out.theta[i * n..(i + 1) * n];
-                let st = solver.solve(&g, &upper[i * n..(i + 1) * n], th);
-                let within = robot.limits().contains(th);
+                let st = solver.solve(g, &upper[i * n..(i + 1) * n], th);
+                let within = limits.contains(th);
                 out.push_status(st, within);
             }
             return out;
@@ -103,15 +110,7 @@ pub fn solve_cables(
         let mut theta = vec![0.0; m * n];
         let mut residual = vec![0.0; m];
         let mut ok = vec![false; m];
-        solve_cables_closed_form_batch_in(
-            arch,
-            &g,
-            upper,
-            seed,
-            &mut theta,
-            &mut residual,
-            &mut ok,
-        );
+        solve_cables_closed_form_batch_in(arch, g, upper, seed, &mut theta, &mut residual, &mut ok);
         let mut converged = vec![false; m];
         let mut iterations = vec![0u32; m];
         let mut within_limits = vec![false; m];
@@ -119,17 +118,17 @@ pub fn solve_cables(
         for i in 0..m {
             let rows_i = i * n..(i + 1) * n;
             let th = &mut theta[rows_i.clone()];
-            let within = robot.limits().contains(th);
+            let within = limits.contains(th);
             if ok[i] && solver.accepts(residual[i], within) {
                 (converged[i], within_limits[i]) = (true, within);
                 continue;
             }
             let closed = ok[i].then_some(residual[i]);
-            let st = solver.finish_from(&g, &upper[rows_i.clone()], &seed[rows_i], th, closed);
+            let st = solver.finish_from(g, &upper[rows_i.clone()], &seed[rows_i], th, closed);
             converged[i] = st.converged;
             iterations[i] = st.iterations;
             residual[i] = st.residual;
-            within_limits[i] = robot.limits().contains(th);
+            within_limits[i] = limits.contains(th);
             reason[i] = st.reason as u8;
         }
         BatchSolution {

@@ -16,7 +16,6 @@
 //! Jacobian of the predictions with respect to the parameters follows from
 //! the implicit function theorem at the settled configuration.
 
-use crate::cables::CableGeometry;
 use crate::chain::{straight_length, ArmNumbers, Chain};
 pub use crate::effect::Effect;
 use crate::effect::Size;
@@ -25,13 +24,11 @@ use crate::fit::{FitModel, Predictions};
 use crate::friction::{mobilisation, Holes, Motion, Profile, MU_MAX};
 use crate::kinds::{Frame, Group, Rotation, Vector, Visit};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
-use crate::model::{Mode, Model, PlanarNumbers};
+use crate::model::{Mode, Model};
 use crate::real::{Arith, Jet, Real};
-use crate::robot::Robot;
 use crate::rows::{
     row_of, rows_exactly, rows_of, seeds, shared_or_rows, split_rows, BatchSolution,
 };
-use crate::solve::CableSolve;
 use crate::solve::{CableMethod, CableSolver, SolveOptions};
 use crate::tension::{Balance, Wrench};
 
@@ -1089,13 +1086,6 @@ fn observe_at<S: Real, F: Frame<S>>(
 pub const JET: usize = 8;
 type J = Jet<JET>;
 
-/// The rigid settle: the planar kind's closed form and triangular Newton
-/// (on the moved arm as a planar description), or the general cable solve.
-enum Rigid {
-    Planar(Box<Robot>, CableGeometry),
-    General,
-}
-
 /// One plant (parameters `p`, flat), ready to settle and observe commands.
 pub struct Plant<'a, G: Group> {
     model: &'a Model,
@@ -1105,7 +1095,6 @@ pub struct Plant<'a, G: Group> {
     /// The same parameters as constants in jets (for `dE/dtheta`).
     cprm: Params<J>,
     l_ref: Vec<f64>,
-    rigid: Rigid,
     _kind: std::marker::PhantomData<G>,
 }
 
@@ -1134,23 +1123,6 @@ impl<'a, G: Group> Plant<'a, G> {
         let prm = Params::<f64>::unpack(model, &lay, p, |_, v| v);
         let cprm = Params::<J>::unpack(model, &lay, p, |_, v| J::cst(v));
         let l_ref = commanded_lengths_rows(model, &vec![0.0; model.n()]);
-        // the planar closed form on the moved arm's planar view, where it has one
-        let view = || {
-            model.planar_view(&PlanarNumbers {
-                axis: &prm.arm.axis,
-                offset: &prm.arm.offset,
-                link_after: &prm.arm.link_after,
-                thickness: &prm.arm.thickness,
-                holes: &prm.arm.holes,
-            })
-        };
-        let rigid = match (!model.is_elastic()).then(view).flatten() {
-            Some(r) => {
-                let g = CableGeometry::new(&r, None);
-                Rigid::Planar(Box::new(r), g)
-            }
-            None => Rigid::General,
-        };
         Ok(Plant {
             model,
             p: p.to_vec(),
@@ -1158,7 +1130,6 @@ impl<'a, G: Group> Plant<'a, G> {
             prm,
             cprm,
             l_ref,
-            rigid,
             _kind: std::marker::PhantomData,
         })
     }
@@ -1259,10 +1230,7 @@ impl<'a, G: Group> Plant<'a, G> {
     ) -> crate::solve::Status {
         let (n, m) = (self.model.n(), real.len());
         work.start.copy_from_slice(theta);
-        let rigid = match (&self.rigid, work.planar.as_mut()) {
-            (Rigid::Planar(_, geom), Some(s)) => s.solve(geom, real, theta),
-            _ => work.general.solve(self.model, &self.prm.arm, real, theta),
-        };
+        let rigid = work.rigid.solve(real, theta);
         let clear = self.prm.clear();
         if !self.prm.elastic() && !clear && !self.prm.friction() {
             return rigid;
@@ -1279,15 +1247,12 @@ impl<'a, G: Group> Plant<'a, G> {
         };
         // with as many cables as joints and no stretch, cable i crosses the
         // joints of the disks up to its end: planar dE/dtheta is lower triangular
-        let step = if m == n
-            && !self.prm.elastic()
-            && !self.prm.friction()
-            && matches!(self.rigid, Rigid::Planar(..))
-        {
-            Step::Triangular
-        } else {
-            Step::Normal
-        };
+        let step =
+            if m == n && !self.prm.elastic() && !self.prm.friction() && work.rigid.is_planar() {
+                Step::Triangular
+            } else {
+                Step::Normal
+            };
         let lm = Lm {
             lambda0: work.lambda0,
             ..Lm::equations(step, work.opts.tol, work.opts.max_iter)
@@ -1346,8 +1311,8 @@ pub struct SettleWork<'a, G: Group> {
     /// The initial damping of the elastic / clearance solve (default 0:
     /// Newton first; the batch elastic solve starts damped, `1e-3`).
     pub lambda0: f64,
-    planar: Option<CableSolver<'a>>,
-    general: CableSolve<G::Frame<f64>>,
+    /// The rigid settle: the moved arm's cable solve.
+    rigid: CableSolver<'a, G::Frame<f64>, ArmNumbers<f64>>,
     start: Vec<f64>,
     jet: JetWork<G>,
     ws: Workspace,
@@ -1359,16 +1324,11 @@ pub struct SettleWork<'a, G: Group> {
 impl<'a, G: Group> SettleWork<'a, G> {
     pub fn new(plant: &'a Plant<G>, opts: SolveOptions) -> Self {
         let model = plant.model;
-        let planar = match &plant.rigid {
-            Rigid::Planar(r, _) => Some(CableSolver::new(r, CableMethod::Auto, opts)),
-            Rigid::General => None,
-        };
         SettleWork {
             opts,
             loads: Loads::of(model),
             lambda0: 0.0,
-            planar,
-            general: CableSolve::new(model, opts),
+            rigid: CableSolver::new(model, &plant.prm.arm, CableMethod::Auto, opts),
             start: vec![0.0; model.n()],
             jet: JetWork::new(model),
             ws: Workspace::default(),
@@ -2374,6 +2334,7 @@ fn solve_elastic_k<G: Group>(
 mod tests {
     use super::*;
     use crate::kinds::{Kind, Planar, Spatial};
+    use crate::robot::Robot;
 
     const TWO_UNIVERSAL: &str = include_str!("../python/cdsm/robots/two_universal.toml");
 
@@ -2524,6 +2485,21 @@ mod tests {
 
     fn planar() -> Model {
         Model::from_planar(&Robot::paper())
+    }
+
+    #[test]
+    fn the_rigid_settle_solves_by_the_planar_evaluator_where_the_arm_has_a_planar_view() {
+        // its settle's triangular step rests on the planar evaluator
+        let m = planar();
+        let plant = Plant::<Planar>::new(&m, &vec![0.0; layout(&m).total]).unwrap();
+        assert!(SettleWork::new(&plant, SolveOptions::default())
+            .rigid
+            .is_planar());
+        let s = Model::from_toml(TWO_UNIVERSAL).unwrap();
+        let plant = Plant::<Spatial>::new(&s, &vec![0.0; layout(&s).total]).unwrap();
+        assert!(!SettleWork::new(&plant, SolveOptions::default())
+            .rigid
+            .is_planar());
     }
 
     /// FTDCR v4: three segments of 20 joints (its tendons end at stations

@@ -1,22 +1,25 @@
-//! The cable solve (position-cable lengths -> joint angles): for planar
-//! arms the closed form, joint by joint (fast path and branch census), and
-//! damped Newton through the shared solver ([`crate::lm`]) with its
-//! triangular step; for any arm the general solve on the one model's chain
-//! ([`CableSolve`]). The options and the per-element status shared with the
-//! pose IK ([`crate::ik`]) live here. The algorithms are specified in
+//! The cable solve (position-cable lengths -> joint angles), one driver
+//! ([`CableSolver`]) over two evaluators picked once from the arm: its
+//! planar view present, the planar one ([`PlanarSolver`]: the closed form,
+//! joint by joint (fast path and branch census), and damped Newton through
+//! the shared solver ([`crate::lm`]) with its triangular step); else the
+//! chain's ([`ChainSolver`], any arm, with its Newton phase on lanes
+//! [`CableNewton`]). The options and the per-element status shared with
+//! the pose IK ([`crate::ik`]) live here. The algorithms are specified in
 //! `docs/model.md`.
 
 use crate::cables::CableGeometry;
-use crate::chain::{Broadcast, Chain, Numbers};
+use crate::chain::{ArmNumbers, Broadcast, Chain, Numbers};
 use crate::error::{CdsmError, Result};
 use crate::geometry::ArmGeometry;
 use crate::kinds::Frame;
 use crate::limits::Limits;
 use crate::lm::{self, Blocks, Damping, Lm, Problem, Reason, Step, Workspace};
-use crate::model::Model;
+use crate::model::{Model, PlanarNumbers};
 use crate::real::Lane;
 use crate::robot::Robot;
 use crate::simd::math::cos_sin_short;
+use std::borrow::Cow;
 
 /// Options shared by the solves.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -265,10 +268,14 @@ pub fn newton_lm(opts: &SolveOptions) -> Lm {
     }
 }
 
-/// A cable solver with its buffers, reused across many solves (no allocation
-/// per solve).
-pub struct CableSolver<'a> {
-    robot: &'a Robot,
+/// The planar evaluator's solver (the closed form, then undamped-first
+/// triangular Newton on the PQR coefficients) on a planar view, with its
+/// buffers, reused across many solves (no allocation per solve). Made by
+/// [`CableSolver::new`] for an arm with a planar view; the planar fast
+/// paths reach it there ([`CableSolver::planar_mut`]) to solve against
+/// other cable geometries (perturbed holes) and to finish SIMD closed forms.
+pub struct PlanarSolver<'a> {
+    robot: Cow<'a, Robot>,
     pub method: CableMethod,
     pub opts: SolveOptions,
     lm: Lm,
@@ -282,10 +289,11 @@ pub struct CableSolver<'a> {
     roots: Vec<f64>,
 }
 
-impl<'a> CableSolver<'a> {
-    pub fn new(robot: &'a Robot, method: CableMethod, opts: SolveOptions) -> Self {
+impl<'a> PlanarSolver<'a> {
+    /// The planar solver of the view `robot` (borrowed or owned).
+    pub fn new(robot: Cow<'a, Robot>, method: CableMethod, opts: SolveOptions) -> Self {
         let n = robot.n();
-        CableSolver {
+        PlanarSolver {
             robot,
             method,
             opts,
@@ -301,7 +309,7 @@ impl<'a> CableSolver<'a> {
 
     fn newton(&mut self, geom: &CableGeometry, target: &[f64], theta: &mut [f64]) -> Status {
         fn run<const N: usize>(
-            s: &mut CableSolver,
+            s: &mut PlanarSolver,
             geom: &CableGeometry,
             target: &[f64],
             theta: &mut [f64],
@@ -346,7 +354,7 @@ impl<'a> CableSolver<'a> {
         self.finish(geom, target, None, theta, closed)
     }
 
-    /// The rest of [`CableSolver::solve`] once the closed form has run from
+    /// The rest of [`PlanarSolver::solve`] once the closed form has run from
     /// the seed: `closed` its residual (`None`: no real solution, `theta`
     /// still the seed), `theta` its answer. Accepts it (within tol, and the
     /// limits when enforced), or reports why not (`ClosedForm`), or runs
@@ -422,7 +430,7 @@ impl<'a> CableSolver<'a> {
         residual <= self.opts.tol && (within_limits || !self.opts.enforce_limits)
     }
 
-    /// [`CableSolver::finish`] for a closed form computed elsewhere (SIMD
+    /// [`PlanarSolver::finish`] for a closed form computed elsewhere (SIMD
     /// across rows): `seed` the seed angles it started from.
     pub fn finish_from(
         &mut self,
@@ -455,7 +463,8 @@ impl<'a> CableSolver<'a> {
 }
 
 /// Upper-cable lengths `target` (m) to `theta` (seed on entry): one solve.
-pub fn solve_cables(
+#[cfg(test)]
+pub(crate) fn solve_cables(
     robot: &Robot,
     geom: &CableGeometry,
     target: &[f64],
@@ -463,7 +472,7 @@ pub fn solve_cables(
     method: CableMethod,
     opts: &SolveOptions,
 ) -> Status {
-    CableSolver::new(robot, method, *opts).solve(geom, target, theta)
+    PlanarSolver::new(Cow::Borrowed(robot), method, *opts).solve(geom, target, theta)
 }
 
 /// The position cables' residuals `r = L(x) - target` (m) and their
@@ -600,7 +609,7 @@ fn general_lm(m: usize, n: usize, opts: &SolveOptions) -> Lm {
 /// solves and across arms of the model's structure with other numbers (no
 /// allocation per solve). Batches run the Newton phase on lanes first
 /// ([`CableNewton`]) and come here for the rows that leave it.
-pub struct CableSolve<F: Frame<f64>> {
+pub struct ChainSolver<F: Frame<f64>> {
     cables: Vec<usize>,
     blocks: Option<Blocks>,
     opts: SolveOptions,
@@ -612,10 +621,10 @@ pub struct CableSolve<F: Frame<f64>> {
     pub chain: Chain<f64, F>,
 }
 
-impl<F: Frame<f64>> CableSolve<F> {
+impl<F: Frame<f64>> ChainSolver<F> {
     pub fn new(model: &Model, opts: SolveOptions) -> Self {
         let cables = model.position_cables();
-        CableSolve {
+        ChainSolver {
             blocks: cable_blocks(model, &cables),
             cables,
             opts,
@@ -654,6 +663,119 @@ impl<F: Frame<f64>> CableSolve<F> {
     }
 }
 
+/// The numbers of an arm as the one cable solver ([`CableSolver`]) reads
+/// them: the chain's ([`Numbers`]) and their planar view
+/// ([`Model::planar_view`]), where the structure has one.
+pub trait CableNumbers: Numbers<f64> {
+    /// The planar view of the arm `model` with these numbers (borrowed when
+    /// the model keeps it), `None` when it has none.
+    fn planar_view<'a>(&'a self, model: &'a Model) -> Option<Cow<'a, Robot>>;
+}
+
+/// A model's own numbers: its kept planar view ([`Model::planar`]).
+impl CableNumbers for Model {
+    fn planar_view<'a>(&'a self, _model: &'a Model) -> Option<Cow<'a, Robot>> {
+        self.planar().map(Cow::Borrowed)
+    }
+}
+
+/// A moved arm's numbers (a plant's): the planar view of them.
+impl CableNumbers for ArmNumbers<f64> {
+    fn planar_view<'a>(&'a self, model: &'a Model) -> Option<Cow<'a, Robot>> {
+        model
+            .planar_view(&PlanarNumbers {
+                axis: &self.axis,
+                offset: &self.offset,
+                link_after: &self.link_after,
+                thickness: &self.thickness,
+                holes: &self.holes,
+            })
+            .map(Cow::Owned)
+    }
+}
+
+/// Whether the cable solver of the arm `nums` of `model`'s structure
+/// solves by the planar evaluator ([`CableSolver::new`]'s choice: the arm
+/// has a planar view); batches pick their fast path by it.
+pub fn planar_evaluator<N: CableNumbers>(model: &Model, nums: &N) -> bool {
+    nums.planar_view(model).is_some()
+}
+
+/// The cable solve's evaluator, picked once per solver.
+enum Evaluator<'a, F: Frame<f64>> {
+    /// The planar view's: PQR coefficients, closed form, triangular step.
+    Planar {
+        geom: CableGeometry,
+        solver: PlanarSolver<'a>,
+    },
+    /// The chain's: lengths and rows in one pass, square or normal step.
+    Chain(ChainSolver<F>),
+}
+
+/// The one cable solver (`docs/model.md`, "Solves"): the position-cable
+/// lengths of the arm `nums` (of the model's structure) to its joint
+/// angles, by the evaluator picked once from the arm: its planar view
+/// present, the planar closed form and triangular Newton
+/// ([`PlanarSolver`], by `method`); else the general solve on the chain
+/// ([`ChainSolver`]; `method` is not read: it has no closed form). With
+/// its buffers, reused across solves (no allocation per solve).
+pub struct CableSolver<'a, F: Frame<f64>, N: CableNumbers = Model> {
+    model: &'a Model,
+    nums: &'a N,
+    eval: Evaluator<'a, F>,
+}
+
+impl<'a, F: Frame<f64>, N: CableNumbers> CableSolver<'a, F, N> {
+    /// The solver of the arm `nums` of `model`'s structure.
+    pub fn new(model: &'a Model, nums: &'a N, method: CableMethod, opts: SolveOptions) -> Self {
+        let eval = match nums.planar_view(model) {
+            Some(view) => Evaluator::Planar {
+                geom: CableGeometry::new(&view, None),
+                solver: PlanarSolver::new(view, method, opts),
+            },
+            None => Evaluator::Chain(ChainSolver::new(model, opts)),
+        };
+        CableSolver { model, nums, eval }
+    }
+
+    /// Lengths `target` (m) of the position-controlled cables (file order)
+    /// to `theta` (seed on entry, answer on exit).
+    #[inline]
+    pub fn solve(&mut self, target: &[f64], theta: &mut [f64]) -> Status {
+        match &mut self.eval {
+            Evaluator::Planar { geom, solver } => solver.solve(geom, target, theta),
+            Evaluator::Chain(s) => s.solve(self.model, self.nums, target, theta),
+        }
+    }
+
+    /// Whether the planar evaluator solves (cable `i` crosses the joints up
+    /// to `i`: the lengths are lower triangular in the joints, the step of
+    /// [`Step::Triangular`] applies to what is built on them).
+    #[inline]
+    pub fn is_planar(&self) -> bool {
+        matches!(self.eval, Evaluator::Planar { .. })
+    }
+
+    /// The planar evaluator's solver and its nominal cable geometry (the
+    /// planar fast paths), `None` on the chain's.
+    pub fn planar_mut(&mut self) -> Option<(&mut PlanarSolver<'a>, &CableGeometry)> {
+        match &mut self.eval {
+            Evaluator::Planar { geom, solver } => Some((solver, geom)),
+            Evaluator::Chain(_) => None,
+        }
+    }
+
+    /// The chain evaluator's solver (the Newton phase on lanes leaves its
+    /// rows to it, on arms of the model's structure with other numbers),
+    /// `None` on the planar one.
+    pub fn chain_mut(&mut self) -> Option<&mut ChainSolver<F>> {
+        match &mut self.eval {
+            Evaluator::Planar { .. } => None,
+            Evaluator::Chain(s) => Some(s),
+        }
+    }
+}
+
 /// What the Newton phase of the general cable solve ([`CableNewton::run`])
 /// decided on each lane.
 #[derive(Debug, Clone, Copy)]
@@ -682,7 +804,7 @@ impl<L: Lane> NewtonOutcome<L> {
 }
 
 /// The general cable solve's Newton phase on a lane scalar `L` (a pack of
-/// rows; `f64` for one): the steps [`CableSolve`]'s damped solver takes
+/// rows; `f64` for one): the steps [`ChainSolver`]'s damped solver takes
 /// while it takes no damping — Newton on the square cable Jacobian (LU,
 /// [`lm::lu_solve`]), or with more cables than joints Gauss–Newton on the
 /// normal equations (the damping `0`, then `1e-12`, [`lm::ldlt_solve`]) —
@@ -692,7 +814,7 @@ impl<L: Lane> NewtonOutcome<L> {
 /// damped solver would do something else: a step that does not lower
 /// `|r|^2`, a singular Jacobian or a non-finite step, a residual that is
 /// not finite, the iteration limit, or (least squares) a column of zeros;
-/// [`CableSolve`] then solves that row from its seed (`docs/model.md`,
+/// [`ChainSolver`] then solves that row from its seed (`docs/model.md`,
 /// "Solves": the fast path). Buffers reused across solves.
 pub struct CableNewton<L: Lane, F: Frame<L>> {
     cables: Vec<usize>,
@@ -968,6 +1090,69 @@ mod tests {
             (300..1200).contains(&left),
             "both phases exercised ({left} cases)"
         );
+    }
+
+    #[test]
+    fn the_cable_solver_picks_its_evaluator_from_the_planar_view() {
+        use crate::kinds::{Se2, Se3};
+        let paper = Model::from_planar(&Robot::paper());
+        let spatial =
+            Model::from_toml(include_str!("../python/cdsm/robots/two_universal.toml")).unwrap();
+        assert!(planar_evaluator(&paper, &paper));
+        assert!(!planar_evaluator(&spatial, &spatial));
+        // a moved arm's numbers: planar while they stay in the plane
+        let moved = ArmNumbers::<f64>::of(&paper);
+        assert!(planar_evaluator(&paper, &moved));
+        let mut tilted = moved.clone();
+        tilted.axis[1] = [0.0, 0.1f64.sin(), 0.1f64.cos()];
+        assert!(!planar_evaluator(&paper, &tilted));
+        let opts = SolveOptions::default();
+        assert!(
+            CableSolver::<Se2<f64>, _>::new(&paper, &moved, CableMethod::Auto, opts).is_planar()
+        );
+        let mut off = CableSolver::<Se3<f64>, _>::new(&paper, &tilted, CableMethod::Auto, opts);
+        assert!(!off.is_planar() && off.chain_mut().is_some() && off.planar_mut().is_none());
+
+        // the driver's answers are its evaluator's, bit for bit
+        let view = CableNumbers::planar_view(&paper, &paper).unwrap();
+        let (r, g) = (view.as_ref(), CableGeometry::new(&view, None));
+        let mut l = [0.0; 6];
+        g.lengths(&[0.3, -0.25, 0.1], &mut l);
+        let target = [l[0] + 1e-3, l[2], l[4] - 2e-3];
+        for m in [
+            CableMethod::Auto,
+            CableMethod::Newton,
+            CableMethod::ClosedForm,
+        ] {
+            let (mut a, mut b) = ([0.1; 3], [0.1; 3]);
+            let mut driver = CableSolver::<Se2<f64>>::new(&paper, &paper, m, opts);
+            assert!(driver.is_planar() && driver.chain_mut().is_none());
+            let sa = driver.solve(&target, &mut a);
+            let sb = PlanarSolver::new(Cow::Borrowed(r), m, opts).solve(&g, &target, &mut b);
+            assert!(sa.converged, "{m:?} {sa:?}");
+            assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "{m:?}");
+            assert_eq!(format!("{sa:?}"), format!("{sb:?}"), "{m:?}");
+        }
+        let n = spatial.n();
+        let want: Vec<f64> = (0..n).map(|k| 0.2 - 0.1 * k as f64).collect();
+        let mut chain = Chain::<f64, Se3<f64>>::new(&spatial);
+        chain.at(&spatial, &spatial, &want);
+        let target: Vec<f64> = spatial
+            .position_cables()
+            .iter()
+            .map(|&c| chain.cable_length(&spatial, &spatial, c, None))
+            .collect();
+        let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
+        let mut driver = CableSolver::<Se3<f64>>::new(&spatial, &spatial, CableMethod::Auto, opts);
+        let sa = driver.solve(&target, &mut a);
+        let sb =
+            ChainSolver::<Se3<f64>>::new(&spatial, opts).solve(&spatial, &spatial, &target, &mut b);
+        assert!(sa.converged, "{sa:?}");
+        assert_eq!(
+            a.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            b.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        assert_eq!(format!("{sa:?}"), format!("{sb:?}"));
     }
 
     #[test]

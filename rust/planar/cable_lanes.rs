@@ -393,7 +393,7 @@ mod tests {
         (target, seeds)
     }
 
-    /// The scalar path, row by row, as `CableSolver` runs it.
+    /// The scalar path, row by row, as `PlanarSolver` runs it.
     fn scalar_batch(
         geom: &CableGeometry,
         target: &[f64],
