@@ -534,41 +534,56 @@ impl Elastic {
         if from >= to {
             return;
         }
-        let ch = &w.chain;
         let maxj = w.maxj;
-        let mut at = 0;
-        for (c, cable) in model.cables.iter().enumerate() {
-            let mut l = self.traverse[c];
-            let row = &mut w.grad_l[c * n..(c + 1) * n];
-            for k in 1..=cable.end {
-                if from == 0 {
+        if from == 0 {
+            // the gaps' vectors, then their lengths in a pass of their own
+            // (square roots independent of one another), then the sums
+            let ch = &w.chain;
+            let mut at = 0;
+            for cable in &model.cables {
+                for k in 1..=cable.end {
                     let a = ch.local[k - 1].point(cable.holes[2 * k - 1]);
                     let v = sub3(a, cable.holes[2 * k - 2]);
-                    let lk = norm3(v);
-                    l += lk;
                     w.gap_a[at] = a;
                     w.gap_v[at] = v;
-                    w.gap_l[at] = lk;
+                    w.gap_l[at] = dot3(v, v);
+                    at += 1;
                 }
-                let blk = model.disks[k - 1].joints.clone();
-                let vas = &mut w.gap_va[at * maxj..(at + 1) * maxj];
-                let v = w.gap_v[at];
-                if from <= 1 && to >= 2 {
-                    // `G`: a cable's row is 0 past the joints of its last disk
-                    // (zeros from `work`, never written)
-                    let (a, l) = (w.gap_a[at], w.gap_l[at]);
-                    let inv = if l > 0.0 { 1.0 / l } else { 0.0 };
-                    w.gap_inv[at] = inv;
-                    for (i, j) in blk.clone().enumerate() {
+            }
+            for l in w.gap_l.iter_mut() {
+                *l = l.sqrt();
+            }
+            let mut at = 0;
+            for (c, cable) in model.cables.iter().enumerate() {
+                let mut l = self.traverse[c];
+                for lk in &w.gap_l[at..at + cable.end] {
+                    l += lk;
+                }
+                at += cable.end;
+                w.len[c] = l;
+            }
+        }
+        if from <= 1 && to >= 2 {
+            // `G`: a cable's row is 0 past the joints of its last disk
+            // (zeros from `work`, never written)
+            for (inv, l) in w.gap_inv.iter_mut().zip(&w.gap_l) {
+                *inv = if *l > 0.0 { 1.0 / l } else { 0.0 };
+            }
+            let ch = &w.chain;
+            let mut at = 0;
+            for (c, cable) in model.cables.iter().enumerate() {
+                let row = &mut w.grad_l[c * n..(c + 1) * n];
+                for k in 1..=cable.end {
+                    let blk = model.disks[k - 1].joints.clone();
+                    let vas = &mut w.gap_va[at * maxj..(at + 1) * maxj];
+                    let (a, v, inv) = (w.gap_a[at], w.gap_v[at], w.gap_inv[at]);
+                    for (i, j) in blk.enumerate() {
                         let va = cross(ch.joint_w[j], sub3(a, ch.joint_p[j]));
                         vas[i] = va;
                         row[j] = dot3(v, va) * inv;
                     }
+                    at += 1;
                 }
-                at += 1;
-            }
-            if from == 0 {
-                w.len[c] = l;
             }
         }
         w.level = to;
@@ -608,6 +623,29 @@ impl Elastic {
                 let (v, inv) = (gap_v[at], gap_inv[at]);
                 at += 1;
                 let db = &mut d[k - 1];
+                if s == 2 {
+                    // a pair of joints (every disk of a continuum arm): the
+                    // three entries, as the loop below computes them
+                    let j0 = blk.start;
+                    let (u0, u1) = (row[j0], row[j0 + 1]);
+                    let e = |wa: [f64; 3], va: [f64; 3]| {
+                        [
+                            va[0] + v[1] * wa[2] - v[2] * wa[1],
+                            va[1] + v[2] * wa[0] - v[0] * wa[2],
+                            va[2] + v[0] * wa[1] - v[1] * wa[0],
+                        ]
+                    };
+                    let e0 = e(ch.joint_w[j0], vas[0]);
+                    let e1 = e(ch.joint_w[j0 + 1], vas[1]);
+                    let h00 = tc * ((dot3(e0, vas[0]) - u0 * u0) * inv);
+                    let h01 = tc * ((dot3(e0, vas[1]) - u0 * u1) * inv);
+                    let h11 = tc * ((dot3(e1, vas[1]) - u1 * u1) * inv);
+                    db[0] += h00;
+                    db[1] += h01;
+                    db[2] += h01;
+                    db[3] += h11;
+                    continue;
+                }
                 for ia in 0..s {
                     let wa = ch.joint_w[blk.start + ia];
                     let va = vas[ia];
