@@ -145,7 +145,8 @@ pub struct Equilibrium {
     pub converged: bool,
     pub reason: Reason,
     pub iterations: u32,
-    /// `max_j |g_j|` at the answer (N m).
+    /// `max_j |g_j|` (N m) at the last point evaluated: of a converged row
+    /// the point its last Newton step (at most `xtol`) starts from.
     pub gradient: f64,
     /// The potential at the answer (J).
     pub energy: f64,
@@ -533,41 +534,56 @@ impl Elastic {
         if from >= to {
             return;
         }
-        let ch = &w.chain;
         let maxj = w.maxj;
-        let mut at = 0;
-        for (c, cable) in model.cables.iter().enumerate() {
-            let mut l = self.traverse[c];
-            let row = &mut w.grad_l[c * n..(c + 1) * n];
-            for k in 1..=cable.end {
-                if from == 0 {
+        if from == 0 {
+            // the gaps' vectors, then their lengths in a pass of their own
+            // (square roots independent of one another), then the sums
+            let ch = &w.chain;
+            let mut at = 0;
+            for cable in &model.cables {
+                for k in 1..=cable.end {
                     let a = ch.local[k - 1].point(cable.holes[2 * k - 1]);
                     let v = sub3(a, cable.holes[2 * k - 2]);
-                    let lk = norm3(v);
-                    l += lk;
                     w.gap_a[at] = a;
                     w.gap_v[at] = v;
-                    w.gap_l[at] = lk;
+                    w.gap_l[at] = dot3(v, v);
+                    at += 1;
                 }
-                let blk = model.disks[k - 1].joints.clone();
-                let vas = &mut w.gap_va[at * maxj..(at + 1) * maxj];
-                let v = w.gap_v[at];
-                if from <= 1 && to >= 2 {
-                    // `G`: a cable's row is 0 past the joints of its last disk
-                    // (zeros from `work`, never written)
-                    let (a, l) = (w.gap_a[at], w.gap_l[at]);
-                    let inv = if l > 0.0 { 1.0 / l } else { 0.0 };
-                    w.gap_inv[at] = inv;
-                    for (i, j) in blk.clone().enumerate() {
+            }
+            for l in w.gap_l.iter_mut() {
+                *l = l.sqrt();
+            }
+            let mut at = 0;
+            for (c, cable) in model.cables.iter().enumerate() {
+                let mut l = self.traverse[c];
+                for lk in &w.gap_l[at..at + cable.end] {
+                    l += lk;
+                }
+                at += cable.end;
+                w.len[c] = l;
+            }
+        }
+        if from <= 1 && to >= 2 {
+            // `G`: a cable's row is 0 past the joints of its last disk
+            // (zeros from `work`, never written)
+            for (inv, l) in w.gap_inv.iter_mut().zip(&w.gap_l) {
+                *inv = if *l > 0.0 { 1.0 / l } else { 0.0 };
+            }
+            let ch = &w.chain;
+            let mut at = 0;
+            for (c, cable) in model.cables.iter().enumerate() {
+                let row = &mut w.grad_l[c * n..(c + 1) * n];
+                for k in 1..=cable.end {
+                    let blk = model.disks[k - 1].joints.clone();
+                    let vas = &mut w.gap_va[at * maxj..(at + 1) * maxj];
+                    let (a, v, inv) = (w.gap_a[at], w.gap_v[at], w.gap_inv[at]);
+                    for (i, j) in blk.enumerate() {
                         let va = cross(ch.joint_w[j], sub3(a, ch.joint_p[j]));
                         vas[i] = va;
                         row[j] = dot3(v, va) * inv;
                     }
+                    at += 1;
                 }
-                at += 1;
-            }
-            if from == 0 {
-                w.len[c] = l;
             }
         }
         w.level = to;
@@ -607,6 +623,29 @@ impl Elastic {
                 let (v, inv) = (gap_v[at], gap_inv[at]);
                 at += 1;
                 let db = &mut d[k - 1];
+                if s == 2 {
+                    // a pair of joints (every disk of a continuum arm): the
+                    // three entries, as the loop below computes them
+                    let j0 = blk.start;
+                    let (u0, u1) = (row[j0], row[j0 + 1]);
+                    let e = |wa: [f64; 3], va: [f64; 3]| {
+                        [
+                            va[0] + v[1] * wa[2] - v[2] * wa[1],
+                            va[1] + v[2] * wa[0] - v[0] * wa[2],
+                            va[2] + v[0] * wa[1] - v[1] * wa[0],
+                        ]
+                    };
+                    let e0 = e(ch.joint_w[j0], vas[0]);
+                    let e1 = e(ch.joint_w[j0 + 1], vas[1]);
+                    let h00 = tc * ((dot3(e0, vas[0]) - u0 * u0) * inv);
+                    let h01 = tc * ((dot3(e0, vas[1]) - u0 * u1) * inv);
+                    let h11 = tc * ((dot3(e1, vas[1]) - u1 * u1) * inv);
+                    db[0] += h00;
+                    db[1] += h01;
+                    db[2] += h01;
+                    db[3] += h11;
+                    continue;
+                }
                 for ia in 0..s {
                     let wa = ch.joint_w[blk.start + ia];
                     let va = vas[ia];
@@ -1040,7 +1079,10 @@ impl Elastic {
     }
 
     /// Newton with the Armijo line search from `q` (in place): the reason and
-    /// the iterations.
+    /// the iterations. Converged, `q` is the last point evaluated (`w` holds
+    /// `U`, `g` and the tensions there) and `sc.s` its Newton step (at most
+    /// `xtol`), not taken (`sc.pending`): the answer is `q + s`
+    /// ([`Elastic::answer`]), `w` stays of `q`.
     #[allow(clippy::too_many_arguments)]
     fn newton(
         &self,
@@ -1102,6 +1144,7 @@ impl Elastic {
     ) -> (Reason, u32) {
         let n = self.n;
         let mut it = 0;
+        sc.pending = false;
         // `w` holds U and its derivatives at `q` (a full step's trial
         // evaluated to the second order, then accepted)
         let mut fresh = false;
@@ -1123,9 +1166,7 @@ impl Elastic {
             let big = s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             if big <= xtol {
                 if tau == 0.0 {
-                    for (qj, sj) in q.iter_mut().zip(s.iter()) {
-                        *qj += sj;
-                    }
+                    sc.pending = true;
                     return (Reason::Converged, it + 1);
                 }
                 return (Reason::NotAMinimum, it);
@@ -1172,9 +1213,7 @@ impl Elastic {
             q.copy_from_slice(trial);
             if fresh && chord && it < max_iter {
                 if self.chord_step(laws, w, s, sc, xtol) {
-                    for (qj, sj) in q.iter_mut().zip(s.iter()) {
-                        *qj += sj;
-                    }
+                    sc.pending = true;
                     return (Reason::Converged, it + 1);
                 }
                 self.apply(model, laws, wrench, q, 2, w);
@@ -1183,37 +1222,69 @@ impl Elastic {
         (Reason::IterationLimit, it)
     }
 
-    /// The answer at `q` of a solve that ended for `reason`.
+    /// The answer of a solve from `q` that ended for `reason`: converged,
+    /// `q + s` of the last step pending in `sc`, with `U`, the tensions and
+    /// the slack and capped flags carried from `q` over the step to first
+    /// order (the step is at most `xtol`: its second order is below
+    /// rounding) and the gradient measured at `q`; else `q` itself, `U` and
+    /// its gradient evaluated there. `w` is left of `q` either way.
     #[allow(clippy::too_many_arguments)]
     fn answer(
         &self,
         model: &Model,
         laws: &Laws,
         wrench: &[f64; 6],
-        q: Vec<f64>,
+        q: &[f64],
         reason: Reason,
         iterations: u32,
         w: &mut Work,
+        sc: &Scratch,
     ) -> Equilibrium {
-        self.evaluate(model, laws, wrench, &q, 1, w);
+        let n = self.n;
         let m = model.cables.len();
+        let pending = sc.pending && reason == Reason::Converged;
+        let mut theta = q.to_vec();
+        let mut sigma = w.sigma.clone();
+        let mut tension = w.t.clone();
+        let mut energy = w.u;
+        if pending {
+            let s = &sc.s[..n];
+            for (tj, sj) in theta.iter_mut().zip(s) {
+                *tj += sj;
+            }
+            for c in 0..m {
+                if laws.elastic[c] {
+                    let r = self.reach[c];
+                    let dl = dot(&w.grad_l[c * n..c * n + r], &s[..r]);
+                    sigma[c] += laws.k[c] * dl;
+                    tension[c] = sigma[c].clamp(0.0, laws.cap[c]);
+                }
+            }
+            // the Newton model: U + g.s + s.H s / 2 with H s = -g
+            energy += 0.5 * dot(&w.g, s);
+        } else {
+            self.evaluate(model, laws, wrench, q, 1, w);
+            sigma.copy_from_slice(&w.sigma);
+            tension.copy_from_slice(&w.t);
+            energy = w.u;
+        }
         Equilibrium {
-            tension: w.t.clone(),
+            tension,
             slack: (0..m)
                 .map(|c| {
-                    let pulls = w.sigma[c] > 0.0; // NaN counts as slack
+                    let pulls = sigma[c] > 0.0; // NaN counts as slack
                     laws.elastic[c] && !pulls
                 })
                 .collect(),
             capped: (0..m)
-                .map(|c| laws.elastic[c] && w.sigma[c] >= laws.cap[c])
+                .map(|c| laws.elastic[c] && sigma[c] >= laws.cap[c])
                 .collect(),
             converged: reason == Reason::Converged,
             reason,
             iterations,
             gradient: w.g.iter().fold(0.0f64, |m, v| m.max(v.abs())),
-            energy: w.u,
-            theta: q,
+            energy,
+            theta,
         }
     }
 
@@ -1240,7 +1311,7 @@ impl Elastic {
             &mut w,
             &mut sc,
         );
-        Ok(self.answer(model, &laws, &cmd.wrench, q, reason, it, &mut w))
+        Ok(self.answer(model, &laws, &cmd.wrench, &q, reason, it, &mut w, &sc))
     }
 
     /// `U` (J), `g` (N m, `n`) and the dense `H` (N m/rad, `n x n`
@@ -1301,7 +1372,10 @@ fn dot4(a: &[f64], b: &[f64]) -> f64 {
 /// Buffers of the Newton step.
 #[derive(Debug, Clone, Default)]
 struct Scratch {
+    /// The last Newton step; `pending`: not taken (converged: the answer is
+    /// the last point evaluated plus it).
     s: Vec<f64>,
+    pending: bool,
     trial: Vec<f64>,
     /// Per block of `D`: its inverse, its Cholesky factor; when every block
     /// is a pair of joints, their inverses `[i00, i01, i11]` instead.
@@ -1523,7 +1597,9 @@ pub fn equilibria(
         let mut sc = Scratch::default();
         for (i, wrench) in wr.iter().enumerate() {
             let laws = el.laws(model, &batch.commands(i, mp, md, *wrench))?;
-            // from the second row on, `w` holds the geometry of the previous answer
+            // from the second row on, `q` is the previous row's last point
+            // evaluated (its answer, or within `xtol` of it) and `w` holds its
+            // geometry
             let (reason, it) = el.newton_at(
                 model,
                 &laws,
@@ -1535,7 +1611,7 @@ pub fn equilibria(
                 &mut sc,
                 i > 0,
             );
-            let e = el.answer(model, &laws, wrench, q.clone(), reason, it, &mut w);
+            let e = el.answer(model, &laws, wrench, &q, reason, it, &mut w, &sc);
             out.push(e);
         }
         return Ok(out);
@@ -1553,7 +1629,7 @@ pub fn equilibria(
             let (reason, it) = el.newton(
                 model, &laws, &wr[i], &mut q, xtol, max_iter, &mut w, &mut sc,
             );
-            out.push(el.answer(model, &laws, &wr[i], q, reason, it, &mut w));
+            out.push(el.answer(model, &laws, &wr[i], &q, reason, it, &mut w, &sc));
         }
         out
     });
@@ -1930,19 +2006,25 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_sequence_is_its_rows_each_from_the_previous_answer() {
-        // the sequence starts each row on the previous answer's geometry,
-        // kept, not computed again: the same answers, bit for bit
-        let m = ftdcr();
-        let el = Elastic::new(&m);
-        let rows = 8;
-        let d: Vec<f64> = (0..rows * 9)
+    fn sequence_rows(rows: usize) -> Vec<f64> {
+        (0..rows * 9)
             .map(|k| {
                 let (i, c) = ((k / 9) as f64, (k % 9) as f64);
                 0.004 * ((0.7 * c + 0.4 * i).sin()) - 0.001
             })
-            .collect();
+            .collect()
+    }
+
+    #[test]
+    fn a_sequence_is_its_rows_each_from_the_previous_answer() {
+        // the sequence starts each row at the previous row's last point
+        // evaluated (within `xtol` of its answer), its geometry kept, not
+        // computed again: the answers of the rows each from the previous
+        // answer, to the rounding of a converged minimum
+        let m = ftdcr();
+        let el = Elastic::new(&m);
+        let rows = 8;
+        let d = sequence_rows(rows);
         let batch = Batch {
             lengths: &[],
             displacements: &d,
@@ -1957,13 +2039,62 @@ mod tests {
                 wrench: [0.0; 6],
             };
             let e = el.equilibrium(&m, &cmd, &q, XTOL, 100).unwrap();
-            assert!(e.converged, "{i}: {:?}", e.reason);
-            assert_eq!(e.theta, seq.theta[i * 60..(i + 1) * 60], "{i}");
-            assert_eq!(e.tension, seq.tension[i * 9..(i + 1) * 9], "{i}");
-            assert_eq!(e.iterations, seq.iterations[i], "{i}");
+            assert!(e.converged && seq.converged[i], "{i}: {:?}", e.reason);
+            for (a, b) in e.theta.iter().zip(&seq.theta[i * 60..(i + 1) * 60]) {
+                assert!((a - b).abs() < 1e-14, "{i}: {a} {b}");
+            }
+            for (a, b) in e.tension.iter().zip(&seq.tension[i * 9..(i + 1) * 9]) {
+                assert!((a - b).abs() < 1e-10, "{i}: {a} {b}");
+            }
+            assert_eq!(e.slack, seq.slack[i * 9..(i + 1) * 9], "{i}");
             q = e.theta;
         }
         assert!(seq.slack.iter().any(|s| *s) && seq.slack.iter().any(|s| !*s));
+    }
+
+    #[test]
+    fn a_converged_answer_carries_the_values_at_its_angles() {
+        // the tensions, flags and potential of an answer are carried over
+        // its last step (at most `xtol`), not evaluated again: they are the
+        // values at its angles to rounding
+        let m = ftdcr();
+        let el = Elastic::new(&m);
+        let d = sequence_rows(6);
+        let batch = Batch {
+            lengths: &[],
+            displacements: &d,
+            wrench: &[],
+        };
+        for sequence in [false, true] {
+            let e = equilibria(&m, &batch, None, sequence, XTOL, 100, 1).unwrap();
+            for i in 0..6 {
+                assert!(e.converged[i]);
+                let cmd = Commands {
+                    lengths: &[],
+                    displacements: &d[i * 9..(i + 1) * 9],
+                    wrench: [0.0; 6],
+                };
+                let laws = el.laws(&m, &cmd).unwrap();
+                let mut w = el.work(&m);
+                let theta = &e.theta[i * 60..(i + 1) * 60];
+                el.evaluate(&m, &laws, &cmd.wrench, theta, 1, &mut w);
+                // the rounding levels of `sigma` (64 ulps of `k L`) and `U`
+                let ulps = ROUNDING_ULPS * f64::EPSILON;
+                for c in 0..9 {
+                    let t = e.tension[i * 9 + c];
+                    let tol = ulps * laws.k[c] * w.len[c];
+                    assert!((t - w.t[c]).abs() <= tol, "{i} {c}: {t} {}", w.t[c]);
+                    assert_eq!(e.slack[i * 9 + c], w.sigma[c] <= 0.0, "{i} {c}");
+                }
+                assert!((e.energy[i] - w.u).abs() <= ulps * w.scale, "{i}");
+                let g = w.g.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                assert!(
+                    g < 1e-9 && e.gradient[i] < 1e-9,
+                    "{i}: {g} {}",
+                    e.gradient[i]
+                );
+            }
+        }
     }
 
     #[test]
