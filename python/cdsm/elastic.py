@@ -39,7 +39,7 @@ class Equilibrium(ShortRepr):
     ``reason (N,)`` the words of :data:`ELASTIC_REASONS` (``"converged"``,
     ``"iteration limit"``, ``"line search"``, ``"not finite"``, ``"not a
     minimum"``); ``iterations (N,)``; ``gradient (N,)`` N m, ``max |dU/dq|``
-    at the answer; ``energy (N,)`` J, the potential there.
+    at the last point evaluated (within ``xtol`` of ``theta``); ``energy (N,)`` J, the potential there.
     """
 
     theta: np.ndarray
