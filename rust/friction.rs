@@ -133,44 +133,62 @@ impl<S: Real> Profile<S> {
         mu: S,
         routing: f64,
     ) {
+        for c in 0..model.cables.len() {
+            self.cable(model, nums, chain, holes, z, mu, routing, c);
+        }
+    }
+
+    /// [`Profile::at`] of cable `c` alone (its entries of [`Profile::gap`]
+    /// and [`Profile::mean`]; the other cables' stay).
+    #[allow(clippy::too_many_arguments)]
+    pub fn cable<F: Frame<S>, N: Numbers<S>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        chain: &Chain<S, F>,
+        holes: &Holes,
+        z: &[S],
+        mu: S,
+        routing: f64,
+        c: usize,
+    ) {
         let kd = model.disks.len();
         let z_at = |i: usize| z.get(i).copied().unwrap_or(S::cst(1.0));
         let zero = S::cst(0.0);
-        for (c, cable) in model.cables.iter().enumerate() {
-            let h0 = holes.start[c];
-            let mut cum = zero;
-            let mut sum = zero;
-            let mut len = zero;
-            // the routing reaches the base hole along the base frame's x
-            let mut prev = F::V::of([S::cst(1.0), zero, zero]);
-            for k in 1..=cable.end {
-                // hole 2k - 2 (face b of disk k - 1): from `prev` into the gap
-                let v = chain.gap(nums, c, k);
-                cum += z_at(h0 + 2 * k - 2) * angle(prev, v);
-                let e_gap = (-(mu * cum)).exp();
-                self.gap[c * kd + k - 1] = e_gap;
-                let g = v.norm();
-                sum += g * e_gap;
-                len += g;
-                // hole 2k - 1 (face a of disk k): from the gap into the traversal
-                let t = chain.traversal(nums, c, k);
-                let va = chain.local[k - 1].dir_inv(v);
-                if is_point(t) {
-                    // a via plate's one hole: the turn is hole 2k's, into the next gap
-                    prev = va;
-                    continue;
-                }
-                cum += z_at(h0 + 2 * k - 1) * angle(va, t);
-                let tl = t.norm();
-                sum += tl * (-(mu * cum)).exp();
-                len += tl;
-                prev = t;
+        let cable = &model.cables[c];
+        let h0 = holes.start[c];
+        let mut cum = zero;
+        let mut sum = zero;
+        let mut len = zero;
+        // the routing reaches the base hole along the base frame's x
+        let mut prev = F::V::of([S::cst(1.0), zero, zero]);
+        for k in 1..=cable.end {
+            // hole 2k - 2 (face b of disk k - 1): from `prev` into the gap
+            let v = chain.gap(nums, c, k);
+            cum += z_at(h0 + 2 * k - 2) * angle(prev, v);
+            let e_gap = (-(mu * cum)).exp();
+            self.gap[c * kd + k - 1] = e_gap;
+            let g = v.norm();
+            sum += g * e_gap;
+            len += g;
+            // hole 2k - 1 (face a of disk k): from the gap into the traversal
+            let t = chain.traversal(nums, c, k);
+            let va = chain.local[k - 1].dir_inv(v);
+            if is_point(t) {
+                // a via plate's one hole: the turn is hole 2k's, into the next gap
+                prev = va;
+                continue;
             }
-            for k in cable.end + 1..=kd {
-                self.gap[c * kd + k - 1] = S::cst(1.0);
-            }
-            self.mean[c] = (sum + routing) / (len + routing);
+            cum += z_at(h0 + 2 * k - 1) * angle(va, t);
+            let tl = t.norm();
+            sum += tl * (-(mu * cum)).exp();
+            len += tl;
+            prev = t;
         }
+        for k in cable.end + 1..=kd {
+            self.gap[c * kd + k - 1] = S::cst(1.0);
+        }
+        self.mean[c] = (sum + routing) / (len + routing);
     }
 }
 

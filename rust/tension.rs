@@ -134,7 +134,6 @@ impl<S: Real> Balance<S> {
         force: Option<&[f64]>,
         gap: Option<&[S]>,
     ) {
-        let disks = model.disks.len();
         let loaded = g.iter().any(|v| *v != 0.0)
             || wrench
                 .force
@@ -154,7 +153,6 @@ impl<S: Real> Balance<S> {
         }
         let (mut i, mut f) = (0, 0);
         for (c, cable) in model.cables.iter().enumerate() {
-            self.lengths[c] = chain.cable_length_and_row(model, nums, c, &mut self.row);
             // a position cable's column, or a force cable's set tension
             let entry = match cable.mode {
                 Mode::Position => Ok(i),
@@ -163,17 +161,72 @@ impl<S: Real> Balance<S> {
                 // nothing in the rigid statics
                 Mode::Displacement => Err(S::cst(0.0)),
             };
-            if let Some(gap) = gap {
-                Self::enter(&self.row, &mut self.a0, &mut self.b0, self.m, entry);
-                for (j, r) in self.row.iter_mut().enumerate() {
-                    *r *= gap[c * disks + self.joint_disk[j]];
-                }
-            }
-            Self::enter(&self.row, &mut self.a, &mut self.b, self.m, entry);
+            self.cable(model, nums, chain, c, entry, gap);
             match cable.mode {
                 Mode::Position => i += 1,
                 Mode::Force => f += 1,
                 Mode::Displacement => {}
+            }
+        }
+    }
+
+    /// Cable `c`'s length and moment arms into the balance (`entry` as
+    /// [`Balance::enter`]; `gap` as [`Balance::at_friction`]).
+    fn cable<F: Frame<S>, N: Numbers<S>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        chain: &Chain<S, F>,
+        c: usize,
+        entry: std::result::Result<usize, S>,
+        gap: Option<&[S]>,
+    ) {
+        let disks = model.disks.len();
+        self.lengths[c] = chain.cable_length_and_row(model, nums, c, &mut self.row);
+        if let Some(gap) = gap {
+            Self::enter(&self.row, &mut self.a0, &mut self.b0, self.m, entry);
+            for (j, r) in self.row.iter_mut().enumerate() {
+                *r *= gap[c * disks + self.joint_disk[j]];
+            }
+        }
+        Self::enter(&self.row, &mut self.a, &mut self.b, self.m, entry);
+    }
+
+    /// The balance of the last [`Balance::at_with`] (`gap` `None`) or
+    /// [`Balance::at_friction`] (`gap` its argument) with position cable
+    /// `c`'s length and column made again from `nums` (the same arm but for
+    /// that cable's holes), at the same configuration of `chain`: the
+    /// right-hand sides and the other cables' columns stay.
+    pub fn refill_position<F: Frame<S>, N: Numbers<S>>(
+        &mut self,
+        model: &Model,
+        nums: &N,
+        chain: &Chain<S, F>,
+        c: usize,
+        gap: Option<&[S]>,
+    ) {
+        self.cable(model, nums, chain, c, Ok(column(model, c)), gap);
+    }
+
+    /// `other`'s balance (of the same model) into `self`, without allocating.
+    pub fn copy_from(&mut self, other: &Balance<S>) {
+        self.a.clone_from(&other.a);
+        self.b.clone_from(&other.b);
+        self.lengths.clone_from(&other.lengths);
+        self.a0.clone_from(&other.a0);
+        self.b0.clone_from(&other.b0);
+    }
+
+    /// Position cable `c`'s length and columns as they are in `other` (of
+    /// the same model and kind of fill): undoes a
+    /// [`Balance::refill_position`] of a copy of `other`.
+    pub fn restore_position(&mut self, model: &Model, other: &Balance<S>, c: usize) {
+        let i = column(model, c);
+        self.lengths[c] = other.lengths[c];
+        for j in 0..self.n {
+            self.a[j * self.m + i] = other.a[j * self.m + i];
+            if !self.a0.is_empty() {
+                self.a0[j * self.m + i] = other.a0[j * self.m + i];
             }
         }
     }
@@ -215,6 +268,15 @@ impl<S: Real> Balance<S> {
         out.copy_from_slice(b);
         crate::lm::lu_solve(n, lu, out)
     }
+}
+
+/// The column of position cable `c` (model index) in [`Balance::a`].
+fn column(model: &Model, c: usize) -> usize {
+    debug_assert_eq!(model.cables[c].mode, Mode::Position);
+    model.cables[..c]
+        .iter()
+        .filter(|k| k.mode == Mode::Position)
+        .count()
 }
 
 #[cfg(test)]
