@@ -367,9 +367,7 @@ pub fn axis_class(a: [f64; 3]) -> Option<AxisClass> {
 /// A `[backbone]` table, its errors named under `backbone.`.
 fn backbone_file(t: toml::Table) -> Result<BackboneFile> {
     from_table(t).map_err(|e| match e {
-        CdsmError::Robot { field, problem } if field == "<file>" => {
-            bad("backbone".into(), problem)
-        }
+        CdsmError::Robot { field, problem } if field == "<file>" => bad("backbone".into(), problem),
         CdsmError::Robot { field, problem } => bad(format!("backbone.{field}"), problem),
         other => other,
     })
