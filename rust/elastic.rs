@@ -98,6 +98,8 @@ pub struct Elastic {
     /// Per cable, its reach: the joints before the end of its last disk
     /// (its length depends on `q[..reach]` alone).
     reach: Vec<usize>,
+    /// Per cable, the index of its first gap (the gaps cable after cable).
+    first_gap: Vec<usize>,
     /// Every disk has two joints (the blocks are the pairs `2d, 2d + 1`).
     pairs: bool,
     /// Gravity acts on some mass.
@@ -219,8 +221,10 @@ struct Work {
     /// Per gap: `1 / length` (1/m; 0 at length 0).
     gap_inv: Vec<f64>,
     /// How much of the geometry ([`Elastic::geometry`]) is of the chain's
-    /// configuration: 0 none, 1 the gaps and lengths, 2 with `G`.
+    /// configuration: 0 none, 1 the gaps and lengths, 2 with every row of
+    /// `G`; at 1, `rows[c]`: cable `c`'s row of `G` is made.
     level: u8,
+    rows: Vec<bool>,
     /// `U` (J), its rounding level (J), `g` (N m).
     u: f64,
     scale: f64,
@@ -370,6 +374,15 @@ impl Elastic {
                     e => model.disks[e - 1].joints.end,
                 })
                 .collect(),
+            first_gap: model
+                .cables
+                .iter()
+                .scan(0, |at, c| {
+                    let first = *at;
+                    *at += c.end;
+                    Some(first)
+                })
+                .collect(),
             pairs: model
                 .disks
                 .iter()
@@ -489,6 +502,7 @@ impl Elastic {
             maxj,
             gap_inv: vec![0.0; gaps],
             level: 0,
+            rows: vec![false; m],
             u: 0.0,
             scale: 0.0,
             g: vec![0.0; self.n],
@@ -504,9 +518,25 @@ impl Elastic {
     }
 
     /// `U` at `q` and, with `order >= 1`, `g`, with `order >= 2` the parts
-    /// of `H`, into `w`: the geometry of `q` ([`Elastic::geometry`]), then
-    /// the laws and loads on it ([`Elastic::apply`]).
+    /// of `H`, into `w`: the geometry of `q` ([`Elastic::geometry`], every
+    /// row of `G` with `order >= 1`), then the laws and loads on it
+    /// ([`Elastic::apply`]).
     fn evaluate(
+        &self,
+        model: &Model,
+        laws: &Laws,
+        wrench: &[f64; 6],
+        q: &[f64],
+        order: u8,
+        w: &mut Work,
+    ) {
+        self.evaluate_pulling(model, laws, wrench, q, order, w);
+        self.geometry(model, order.min(1), w);
+    }
+
+    /// [`Elastic::evaluate`] with the rows of `G` of the cables that pull
+    /// alone (the Newton iteration's: a slack cable's row is not used).
+    fn evaluate_pulling(
         &self,
         model: &Model,
         laws: &Laws,
@@ -517,76 +547,92 @@ impl Elastic {
     ) {
         w.chain.at(model, model, q);
         w.level = 0;
-        self.geometry(model, order, w);
+        self.geometry(model, 0, w);
         self.apply(model, laws, wrench, q, order, w);
     }
 
     /// What of `U` and its derivatives depends on the configuration of the
-    /// last [`Chain::at`] alone (not on the laws), up to `order`, from the
-    /// level `w` holds: the cables' gaps and lengths (0), their gradients
-    /// `G` (1, with every gap's moment arms); one pass over the gaps. (The
-    /// gaps' curvature, needed of the cables that pull alone, is
-    /// [`Elastic::curvature`].)
+    /// last [`Chain::at`] alone (not on the laws), up to `order`, from what
+    /// `w` holds: the cables' gaps and lengths (order 0), then every cable's
+    /// gradient row of `G` (order 1, [`Elastic::cable_row`]). (The gaps'
+    /// curvature, needed of the cables that pull alone, is
+    /// [`Elastic::add_curvature`].)
     fn geometry(&self, model: &Model, order: u8, w: &mut Work) {
-        let n = self.n;
-        let from = w.level;
-        let to = order.min(1) + 1;
-        if from >= to {
+        if w.level == 0 {
+            self.lengths(model, w);
+        }
+        if order >= 1 && w.level < 2 {
+            for c in 0..model.cables.len() {
+                self.cable_row(model, c, w);
+            }
+            w.level = 2;
+        }
+    }
+
+    /// The gaps' vectors and lengths and the cables' lengths of the chain's
+    /// configuration (geometry level 1; no row of `G` yet).
+    fn lengths(&self, model: &Model, w: &mut Work) {
+        // the gaps' vectors, then their lengths in a pass of their own
+        // (square roots independent of one another), then the sums
+        let ch = &w.chain;
+        let mut at = 0;
+        for cable in &model.cables {
+            for k in 1..=cable.end {
+                let a = ch.local[k - 1].point(cable.holes[2 * k - 1]);
+                let v = sub3(a, cable.holes[2 * k - 2]);
+                w.gap_a[at] = a;
+                w.gap_v[at] = v;
+                w.gap_l[at] = dot3(v, v);
+                at += 1;
+            }
+        }
+        for l in w.gap_l.iter_mut() {
+            *l = l.sqrt();
+        }
+        let mut at = 0;
+        for (c, cable) in model.cables.iter().enumerate() {
+            let mut l = self.traverse[c];
+            for lk in &w.gap_l[at..at + cable.end] {
+                l += lk;
+            }
+            at += cable.end;
+            w.len[c] = l;
+        }
+        w.rows.fill(false);
+        w.level = 1;
+    }
+
+    /// Cable `c`'s row of `G` (with its gaps' moment arms and inverse
+    /// lengths) from the lengths `w` holds, unless it holds it already: a
+    /// row is 0 past the joints of the cable's last disk (zeros from
+    /// [`Elastic::work`], never written). The rows of the cables that pull
+    /// are made as [`Elastic::apply`] needs them; a slack cable's only for
+    /// the answer ([`Elastic::answer`]) or by [`Elastic::geometry`].
+    fn cable_row(&self, model: &Model, c: usize, w: &mut Work) {
+        if w.rows[c] {
             return;
         }
+        let n = self.n;
         let maxj = w.maxj;
-        if from == 0 {
-            // the gaps' vectors, then their lengths in a pass of their own
-            // (square roots independent of one another), then the sums
-            let ch = &w.chain;
-            let mut at = 0;
-            for cable in &model.cables {
-                for k in 1..=cable.end {
-                    let a = ch.local[k - 1].point(cable.holes[2 * k - 1]);
-                    let v = sub3(a, cable.holes[2 * k - 2]);
-                    w.gap_a[at] = a;
-                    w.gap_v[at] = v;
-                    w.gap_l[at] = dot3(v, v);
-                    at += 1;
-                }
-            }
-            for l in w.gap_l.iter_mut() {
-                *l = l.sqrt();
-            }
-            let mut at = 0;
-            for (c, cable) in model.cables.iter().enumerate() {
-                let mut l = self.traverse[c];
-                for lk in &w.gap_l[at..at + cable.end] {
-                    l += lk;
-                }
-                at += cable.end;
-                w.len[c] = l;
+        let at0 = self.first_gap[c];
+        let cable = &model.cables[c];
+        let ch = &w.chain;
+        let row = &mut w.grad_l[c * n..(c + 1) * n];
+        for k in 1..=cable.end {
+            let at = at0 + k - 1;
+            let l = w.gap_l[at];
+            let inv = if l > 0.0 { 1.0 / l } else { 0.0 };
+            w.gap_inv[at] = inv;
+            let blk = model.disks[k - 1].joints.clone();
+            let vas = &mut w.gap_va[at * maxj..(at + 1) * maxj];
+            let (a, v) = (w.gap_a[at], w.gap_v[at]);
+            for (i, j) in blk.enumerate() {
+                let va = cross(ch.joint_w[j], sub3(a, ch.joint_p[j]));
+                vas[i] = va;
+                row[j] = dot3(v, va) * inv;
             }
         }
-        if from <= 1 && to >= 2 {
-            // `G`: a cable's row is 0 past the joints of its last disk
-            // (zeros from `work`, never written)
-            for (inv, l) in w.gap_inv.iter_mut().zip(&w.gap_l) {
-                *inv = if *l > 0.0 { 1.0 / l } else { 0.0 };
-            }
-            let ch = &w.chain;
-            let mut at = 0;
-            for (c, cable) in model.cables.iter().enumerate() {
-                let row = &mut w.grad_l[c * n..(c + 1) * n];
-                for k in 1..=cable.end {
-                    let blk = model.disks[k - 1].joints.clone();
-                    let vas = &mut w.gap_va[at * maxj..(at + 1) * maxj];
-                    let (a, v, inv) = (w.gap_a[at], w.gap_v[at], w.gap_inv[at]);
-                    for (i, j) in blk.enumerate() {
-                        let va = cross(ch.joint_w[j], sub3(a, ch.joint_p[j]));
-                        vas[i] = va;
-                        row[j] = dot3(v, va) * inv;
-                    }
-                    at += 1;
-                }
-            }
-        }
-        w.level = to;
+        w.rows[c] = true;
     }
 
     /// Adds the cables' curvature to `D` ([`Work::d`] holding the springs):
@@ -669,8 +715,9 @@ impl Elastic {
     }
 
     /// `U` and, up to `order`, `g` and the parts of `H` at `q` (rad) from the
-    /// geometry `w` holds of `q` (at least of `order`, at most 1): the
-    /// springs, the cables' laws, the loads.
+    /// geometry `w` holds of `q` (at least its lengths; the rows of `G` of
+    /// the cables that pull are made here when missing): the springs, the
+    /// cables' laws, the loads.
     fn apply(
         &self,
         model: &Model,
@@ -741,7 +788,12 @@ impl Elastic {
         if order < 1 {
             return;
         }
-        // the gradient
+        // the gradient: the rows of `G` of the cables that pull
+        for c in 0..model.cables.len() {
+            if w.t[c] != 0.0 {
+                self.cable_row(model, c, w);
+            }
+        }
         for (((gj, qj), rj), kj) in w.g.iter_mut().zip(q).zip(&self.rest).zip(&self.k) {
             *gj = kj * (qj - rj);
         }
@@ -1150,11 +1202,11 @@ impl Elastic {
         let mut fresh = false;
         while it < max_iter {
             if placed {
-                self.geometry(model, 1, w);
+                self.geometry(model, 0, w);
                 self.apply(model, laws, wrench, q, 2, w);
                 placed = false;
             } else if !fresh {
-                self.evaluate(model, laws, wrench, q, 2, w);
+                self.evaluate_pulling(model, laws, wrench, q, 2, w);
             }
             fresh = false;
             let Some(tau) = self.step(w, s, sc) else {
@@ -1199,7 +1251,7 @@ impl Elastic {
                     (true, false) => 2,
                     (false, _) => 0,
                 };
-                self.evaluate(model, laws, wrench, trial, order, w);
+                self.evaluate_pulling(model, laws, wrench, trial, order, w);
                 if w.u <= u0 + ARMIJO * t * slope {
                     ok = true;
                     fresh = order >= 1;
@@ -1248,6 +1300,12 @@ impl Elastic {
         let mut tension = w.t.clone();
         let mut energy = w.u;
         if pending {
+            // the rows of `G` of the slack cables too (their `sigma` carried)
+            for c in 0..m {
+                if laws.elastic[c] {
+                    self.cable_row(model, c, w);
+                }
+            }
             let s = &sc.s[..n];
             for (tj, sj) in theta.iter_mut().zip(s) {
                 *tj += sj;
