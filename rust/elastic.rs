@@ -100,6 +100,10 @@ pub struct Elastic {
     reach: Vec<usize>,
     /// Per cable, the index of its first gap (the gaps cable after cable).
     first_gap: Vec<usize>,
+    /// Per cable and joint (`m x n`), a bound of `|dL_c/dq_j|` at every
+    /// configuration (m/rad; [`Elastic::arms`]); per cable their sum.
+    arm: Vec<f64>,
+    arm_sum: Vec<f64>,
     /// Every disk has two joints (the blocks are the pairs `2d, 2d + 1`).
     pairs: bool,
     /// Gravity acts on some mass.
@@ -220,11 +224,15 @@ struct Work {
     maxj: usize,
     /// Per gap: `1 / length` (1/m; 0 at length 0).
     gap_inv: Vec<f64>,
-    /// How much of the geometry ([`Elastic::geometry`]) is of the chain's
-    /// configuration: 0 none, 1 the gaps and lengths, 2 with every row of
-    /// `G`; at 1, `rows[c]`: cable `c`'s row of `G` is made.
-    level: u8,
+    /// The configuration of the chain (rad; empty: none yet), and per
+    /// cable: its length and gaps are made of it (`exact`), else `len_hi`
+    /// bounds its length from above (m, [`Elastic::place`]); its row of `G`
+    /// is made (`rows`). `dq`: scratch of the move.
+    at: Vec<f64>,
+    exact: Vec<bool>,
+    len_hi: Vec<f64>,
     rows: Vec<bool>,
+    dq: Vec<f64>,
     /// `U` (J), its rounding level (J), `g` (N m).
     u: f64,
     scale: f64,
@@ -354,8 +362,12 @@ impl Elastic {
                 }
             })
             .collect();
+        let arm = Elastic::arms(model);
+        let arm_sum = arm.chunks_exact(n.max(1)).map(|r| r.iter().sum()).collect();
         Elastic {
             n,
+            arm,
+            arm_sum,
             k: model.joints.iter().map(|j| j.stiffness).collect(),
             rest,
             l0,
@@ -392,6 +404,34 @@ impl Elastic {
                 && model.disks.iter().any(|d| d.mass > 0.0),
             kind: model.kind.info(),
         }
+    }
+
+    /// Per cable `c` and joint `j` (`m x n`, row-major), a bound of
+    /// `|dL_c/dq_j|` over every configuration (m/rad): `j` of disk `k`
+    /// moves gap `k` alone, `dl_k/dq_j = u . (w_j x (A_k - p_j))` with `u`
+    /// a unit vector, and `A_k - p_j` is, turned, the offsets of the disk's
+    /// joints after `j` plus its link and the hole: `|w_j| (sum |offset| +
+    /// |link_after + a_k|)`, with a relative margin of `1e-9` for rounding.
+    fn arms(model: &Model) -> Vec<f64> {
+        let n = model.n();
+        let mut arm = vec![0.0; model.cables.len() * n];
+        for (c, cable) in model.cables.iter().enumerate() {
+            for k in 1..=cable.end {
+                let disk = &model.disks[k - 1];
+                let hole = cable.holes[2 * k - 1];
+                let tail = [
+                    disk.link_after[0] + hole[0],
+                    disk.link_after[1] + hole[1],
+                    disk.link_after[2] + hole[2],
+                ];
+                let mut r = norm3(tail);
+                for j in disk.joints.clone().rev() {
+                    arm[c * n + j] = norm3(model.joints[j].axis) * r * (1.0 + 1e-9);
+                    r += norm3(model.joints[j].offset);
+                }
+            }
+        }
+        arm
     }
 
     /// Every cable's rest length `L0` (m): its path at the rest angles.
@@ -501,8 +541,11 @@ impl Elastic {
             gap_va: vec![[0.0; 3]; gaps * maxj],
             maxj,
             gap_inv: vec![0.0; gaps],
-            level: 0,
+            at: Vec::new(),
+            exact: vec![false; m],
+            len_hi: vec![f64::INFINITY; m],
             rows: vec![false; m],
+            dq: vec![0.0; self.n],
             u: 0.0,
             scale: 0.0,
             g: vec![0.0; self.n],
@@ -530,12 +573,15 @@ impl Elastic {
         order: u8,
         w: &mut Work,
     ) {
-        self.evaluate_pulling(model, laws, wrench, q, order, w);
+        self.place(model, q, w);
         self.geometry(model, order.min(1), w);
+        self.apply(model, laws, wrench, q, order, w);
     }
 
-    /// [`Elastic::evaluate`] with the rows of `G` of the cables that pull
-    /// alone (the Newton iteration's: a slack cable's row is not used).
+    /// [`Elastic::evaluate`] with the lengths and rows of `G` that `U` and
+    /// its derivatives use (the Newton iteration's): an elastic cable whose
+    /// bound of `sigma` ([`Elastic::place`]) is below 0 is slack, its length
+    /// not computed; a slack cable's row of `G` is not used.
     fn evaluate_pulling(
         &self,
         model: &Model,
@@ -545,65 +591,85 @@ impl Elastic {
         order: u8,
         w: &mut Work,
     ) {
-        w.chain.at(model, model, q);
-        w.level = 0;
-        self.geometry(model, 0, w);
+        self.place(model, q, w);
         self.apply(model, laws, wrench, q, order, w);
     }
 
-    /// What of `U` and its derivatives depends on the configuration of the
-    /// last [`Chain::at`] alone (not on the laws), up to `order`, from what
-    /// `w` holds: the cables' gaps and lengths (order 0), then every cable's
-    /// gradient row of `G` (order 1, [`Elastic::cable_row`]). (The gaps'
-    /// curvature, needed of the cables that pull alone, is
-    /// [`Elastic::add_curvature`].)
-    fn geometry(&self, model: &Model, order: u8, w: &mut Work) {
-        if w.level == 0 {
-            self.lengths(model, w);
+    /// Moves the chain to `q` (rad): no length nor row of `G` of `q` made
+    /// yet; every cable's length bounded from above by its value (or bound)
+    /// at the last point plus [`Elastic::arms`] times the move (`+inf` at
+    /// the first point).
+    fn place(&self, model: &Model, q: &[f64], w: &mut Work) {
+        let n = self.n;
+        w.chain.at(model, model, q);
+        let moved = w.at.len() == n;
+        if moved {
+            for ((d, a), b) in w.dq.iter_mut().zip(&w.at).zip(q) {
+                *d = (b - a).abs();
+            }
         }
-        if order >= 1 && w.level < 2 {
+        for c in 0..model.cables.len() {
+            let base = if w.exact[c] { w.len[c] } else { w.len_hi[c] };
+            w.len_hi[c] = if moved {
+                let r = self.reach[c];
+                base + dot(&self.arm[c * n..c * n + r], &w.dq[..r])
+            } else {
+                f64::INFINITY
+            };
+        }
+        w.exact.fill(false);
+        w.rows.fill(false);
+        w.at.clear();
+        w.at.extend_from_slice(q);
+    }
+
+    /// What of `U` and its derivatives depends on the configuration of the
+    /// last [`Elastic::place`] alone (not on the laws), up to `order`: every
+    /// cable's length (order 0, [`Elastic::cable_length`]), then its row of
+    /// `G` (order 1, [`Elastic::cable_row`]). (The gaps' curvature, needed
+    /// of the cables that pull alone, is [`Elastic::add_curvature`].)
+    fn geometry(&self, model: &Model, order: u8, w: &mut Work) {
+        for c in 0..model.cables.len() {
+            self.cable_length(model, c, w);
+        }
+        if order >= 1 {
             for c in 0..model.cables.len() {
                 self.cable_row(model, c, w);
             }
-            w.level = 2;
         }
     }
 
-    /// The gaps' vectors and lengths and the cables' lengths of the chain's
-    /// configuration (geometry level 1; no row of `G` yet).
-    fn lengths(&self, model: &Model, w: &mut Work) {
-        // the gaps' vectors, then their lengths in a pass of their own
-        // (square roots independent of one another), then the sums
-        let ch = &w.chain;
-        let mut at = 0;
-        for cable in &model.cables {
-            for k in 1..=cable.end {
-                let a = ch.local[k - 1].point(cable.holes[2 * k - 1]);
-                let v = sub3(a, cable.holes[2 * k - 2]);
-                w.gap_a[at] = a;
-                w.gap_v[at] = v;
-                w.gap_l[at] = dot3(v, v);
-                at += 1;
-            }
+    /// Cable `c`'s gaps' vectors and lengths and its length at the chain's
+    /// configuration, unless `w` holds them already.
+    fn cable_length(&self, model: &Model, c: usize, w: &mut Work) {
+        if w.exact[c] {
+            return;
         }
-        for l in w.gap_l.iter_mut() {
+        // the gaps' vectors, then their lengths in a pass of their own
+        // (square roots independent of one another), then the sum
+        let ch = &w.chain;
+        let cable = &model.cables[c];
+        let gaps = self.first_gap[c]..self.first_gap[c] + cable.end;
+        for (k, at) in (1..=cable.end).zip(gaps.clone()) {
+            let a = ch.local[k - 1].point(cable.holes[2 * k - 1]);
+            let v = sub3(a, cable.holes[2 * k - 2]);
+            w.gap_a[at] = a;
+            w.gap_v[at] = v;
+            w.gap_l[at] = dot3(v, v);
+        }
+        for l in w.gap_l[gaps.clone()].iter_mut() {
             *l = l.sqrt();
         }
-        let mut at = 0;
-        for (c, cable) in model.cables.iter().enumerate() {
-            let mut l = self.traverse[c];
-            for lk in &w.gap_l[at..at + cable.end] {
-                l += lk;
-            }
-            at += cable.end;
-            w.len[c] = l;
+        let mut l = self.traverse[c];
+        for lk in &w.gap_l[gaps] {
+            l += lk;
         }
-        w.rows.fill(false);
-        w.level = 1;
+        w.len[c] = l;
+        w.exact[c] = true;
     }
 
     /// Cable `c`'s row of `G` (with its gaps' moment arms and inverse
-    /// lengths) from the lengths `w` holds, unless it holds it already: a
+    /// lengths) from its length `w` holds, unless it holds it already: a
     /// row is 0 past the joints of the cable's last disk (zeros from
     /// [`Elastic::work`], never written). The rows of the cables that pull
     /// are made as [`Elastic::apply`] needs them; a slack cable's only for
@@ -742,8 +808,21 @@ impl Elastic {
             u += 0.5 * kj * dq * dq;
         }
         let mut scale = u;
-        // cables
+        // cables; an elastic cable whose length is not made is slack when its
+        // bound of `sigma` is below 0 (beyond rounding), else its length is made
         for c in 0..model.cables.len() {
+            if !w.exact[c] {
+                if laws.elastic[c] {
+                    let (p, k, l) = (laws.p[c], laws.k[c], laws.l[c]);
+                    let hi = p + k * (w.len_hi[c] - l);
+                    if hi < -1e-9 * (p.abs() + k * (w.len_hi[c].abs() + l.abs())) {
+                        w.sigma[c] = hi;
+                        w.t[c] = 0.0;
+                        continue;
+                    }
+                }
+                self.cable_length(model, c, w);
+            }
             let l = w.len[c];
             let (t, energy, sigma) = if laws.elastic[c] {
                 let s = laws.p[c] + laws.k[c] * (l - laws.l[c]);
@@ -1202,7 +1281,6 @@ impl Elastic {
         let mut fresh = false;
         while it < max_iter {
             if placed {
-                self.geometry(model, 0, w);
                 self.apply(model, laws, wrench, q, 2, w);
                 placed = false;
             } else if !fresh {
@@ -1300,18 +1378,29 @@ impl Elastic {
         let mut tension = w.t.clone();
         let mut energy = w.u;
         if pending {
-            // the rows of `G` of the slack cables too (their `sigma` carried)
-            for c in 0..m {
-                if laws.elastic[c] {
-                    self.cable_row(model, c, w);
-                }
-            }
             let s = &sc.s[..n];
             for (tj, sj) in theta.iter_mut().zip(s) {
                 *tj += sj;
             }
+            let big = s.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             for c in 0..m {
                 if laws.elastic[c] {
+                    let (p, k, l) = (laws.p[c], laws.k[c], laws.l[c]);
+                    if w.t[c] == 0.0 {
+                        // slack at `q` (`sigma` or its bound <= 0): slack over
+                        // the step when even the step's largest change of
+                        // `sigma` leaves it below 0 (its tension 0, as carried)
+                        let hi = sigma[c] + k * self.arm_sum[c] * big;
+                        let len = if w.exact[c] { w.len[c] } else { w.len_hi[c] };
+                        if hi < -1e-9 * (p.abs() + k * (len.abs() + l.abs())) {
+                            continue;
+                        }
+                    }
+                    if !w.exact[c] {
+                        self.cable_length(model, c, w);
+                        sigma[c] = p + k * (w.len[c] - l);
+                    }
+                    self.cable_row(model, c, w);
                     let r = self.reach[c];
                     let dl = dot(&w.grad_l[c * n..c * n + r], &s[..r]);
                     sigma[c] += laws.k[c] * dl;
@@ -1982,6 +2071,73 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn the_arms_bound_every_cable_gradient() {
+        // |dL_c/dq_j| <= arm_cj at configurations far from the rest angles
+        let m = ftdcr();
+        let el = Elastic::new(&m);
+        let laws = el
+            .laws(
+                &m,
+                &Commands {
+                    lengths: &[],
+                    displacements: &[0.0; 9],
+                    wrench: [0.0; 6],
+                },
+            )
+            .unwrap();
+        let mut w = el.work(&m);
+        for r in 0..20 {
+            let q: Vec<f64> = (0..60)
+                .map(|j| 0.6 * ((j * 7 + r * 13) as f64 * 0.37).sin())
+                .collect();
+            el.evaluate(&m, &laws, &[0.0; 6], &q, 1, &mut w);
+            for (g, a) in w.grad_l.iter().zip(&el.arm) {
+                assert!(g.abs() <= *a, "{g} > {a}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_cable_bounded_slack_is_as_evaluated() {
+        // the Newton iteration's evaluation, which skips the lengths of the
+        // cables its bound tells slack, gives U, g, H's parts and the
+        // tensions of the full evaluation, bit for bit
+        let m = ftdcr();
+        let el = Elastic::new(&m);
+        let d = [0.004, -0.003, 0.0, 0.006, 0.0, -0.002, 0.001, 0.0, 0.0];
+        let laws = el
+            .laws(
+                &m,
+                &Commands {
+                    lengths: &[],
+                    displacements: &d,
+                    wrench: [0.0; 6],
+                },
+            )
+            .unwrap();
+        let (mut a, mut b) = (el.work(&m), el.work(&m));
+        let mut skipped = 0;
+        let mut q: Vec<f64> = vec![0.0; 60];
+        for r in 0..6 {
+            el.evaluate_pulling(&m, &laws, &[0.0; 6], &q, 2, &mut a);
+            el.evaluate(&m, &laws, &[0.0; 6], &q, 2, &mut b);
+            skipped += a.exact.iter().filter(|e| !**e).count();
+            assert_eq!(a.u.to_bits(), b.u.to_bits());
+            assert_eq!(a.g, b.g);
+            assert_eq!(a.t, b.t);
+            assert_eq!(a.d, b.d);
+            assert_eq!(a.c, b.c);
+            for (sa, sb) in a.sigma.iter().zip(&b.sigma) {
+                assert!(sa == sb || (*sb < 0.0 && sa >= sb && *sa < 0.0));
+            }
+            for (j, qj) in q.iter_mut().enumerate() {
+                *qj += 1e-3 * ((j + r) as f64 * 0.9).cos();
+            }
+        }
+        assert!(skipped > 0);
     }
 
     #[test]
