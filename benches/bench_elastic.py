@@ -20,13 +20,13 @@ core; the wall-clock rate beside it); the converged rows are counted,
 and the largest difference between the core's and the reference's angles on the rows
 both solved is printed (rad). Targets (issue 35): >= 50 k/s warm, >= 5 k/s cold.
 
-Measured (2026-11-27, the shared 2-core machine under load ~10, ``taskset -c 0``, 1620
-rows, best of 5 per round, six rounds alternating with the build before, both in the
-same session): warm 39.5-41.2 k/s/core (before 29.4-31.2 k), cold 27.8-32.4 k/s/core
-(before 23.8-25.8 k); 4.27 and 4.88 iterations per row, unchanged (a converged row's
-answer is carried over its last step from the point last evaluated: one geometry
-fewer per row; the gaps' square roots in a pass of their own). Against the NumPy
-reference ~1200x warm, ~135x cold.
+Measured (2026-11-27, the shared 2-core machine under load ~12, ``taskset -c 0``, 1620
+rows, best of 5 per round, five rounds alternating with the build before, both in the
+same session): warm 43.4-44.0 k/s/core (before 40.1-41.1 k), cold 32.7-34.7 k/s/core
+(before 31.8-32.7 k); 4.27 and 4.88 iterations per row, the answers bit for bit those
+before (a cable's row of ``G`` made where it pulls, its length only where a bound of
+its moment arms cannot tell it slack). Against the NumPy reference ~1200x warm, ~135x
+cold.
 """
 
 from __future__ import annotations
