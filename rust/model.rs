@@ -89,12 +89,15 @@ pub enum Mode {
 }
 
 /// The actuator of a displacement cable (`docs/model.md`, "Cables: position,
-/// force, displacement"); the other modes hold the defaults.
+/// force, displacement"); a position cable's holds its pretension only
+/// (`docs/model.md`, "Settling"), a force cable's the defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Actuator {
     /// The actuator's stiffness `k_a` (N/m; infinite: rigid).
     pub stiffness: f64,
-    /// The tension at `d = 0` in the rest pose (N).
+    /// The tension at `d = 0` in the rest pose (N); a position cable's: its
+    /// tension at the commanded length (N, its command shortened by
+    /// `P (L + L_r) / (E A)`).
     pub pretension: f64,
     /// The cap of the tension (N; infinite: none).
     pub max_tension: f64,
@@ -738,6 +741,25 @@ impl Model {
         Ok(())
     }
 
+    /// `docs/model.md`, "Settling": a position cable's pretension acts
+    /// through its stretch where the cables, not the statics, fix the
+    /// tensions (more position cables than joints, a rigid arm).
+    fn check_position_pretension(&self) -> Result<()> {
+        if self.position_cables().len() > self.n() && !self.is_elastic() {
+            return Ok(());
+        }
+        match (0..self.cables.len()).find(|&c| {
+            self.cables[c].mode == Mode::Position && self.cables[c].actuator.pretension != 0.0
+        }) {
+            Some(c) => Err(bad(
+                format!("cables[{c}].pretension"),
+                "a position cable's pretension needs more position cables than joints on an \
+                 arm without joint springs or displacement cables (docs/model.md, \"Settling\")",
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// `docs/model.md`, "Enough cables": at least as many position or
     /// displacement cables as joints of stiffness 0 (today's rule, as many
     /// position cables as joints, for an arm without springs and
@@ -1104,7 +1126,12 @@ impl Model {
             line(w, "[[cables]]".into());
             line(w, format!("end = {}", c.end));
             match c.mode {
-                Mode::Position => line(w, "mode = \"position\"".into()),
+                Mode::Position => {
+                    line(w, "mode = \"position\"".into());
+                    if c.actuator.pretension != 0.0 {
+                        line(w, format!("pretension = {}", toml_f(c.actuator.pretension)));
+                    }
+                }
                 Mode::Force => {
                     line(w, "mode = \"force\"".into());
                     line(w, format!("tension = {}", toml_f(c.tension)));
@@ -1307,6 +1334,7 @@ impl Model {
         robot.check_holes()?;
         robot.set_springs(&springs, spring_fields, "stiffness", "rest", f.backbone)?;
         robot.check_enough_cables()?;
+        robot.check_position_pretension()?;
         Ok(robot)
     }
 
@@ -1715,11 +1743,18 @@ fn cable_of(c: usize, cf: &CableFile, disks: usize) -> Result<Cable> {
         coordinates(format!("cables[{c}].holes[{i}]"), *h)?;
     }
     let mut actuator = Actuator::default();
-    for (key, given) in [
-        ("stiffness", cf.stiffness),
-        ("pretension", cf.pretension),
-        ("max_tension", cf.max_tension),
-    ] {
+    if let (Some(_), Mode::Force) = (cf.pretension, mode) {
+        return Err(bad(
+            field("pretension"),
+            "only position and displacement cables have a pretension",
+        ));
+    }
+    if mode == Mode::Position {
+        // the position cable's pretension: its command shortened by
+        // P (L + L_r) / (E A) (`docs/model.md`, "Settling")
+        actuator.pretension = non_negative(field("pretension"), cf.pretension.unwrap_or(0.0), "N")?;
+    }
+    for (key, given) in [("stiffness", cf.stiffness), ("max_tension", cf.max_tension)] {
         if given.is_some() && mode != Mode::Displacement {
             return Err(bad(
                 field(key),

@@ -941,7 +941,8 @@ class Robot:
         """Every cable's ``rest_length (m,)`` m (its path at the rest angles) and
         ``series_stiffness (m,)`` N/m (``1 / (1/k_a + (L0 + L_r)/(E A))``; NaN but
         for displacement cables) and the actuators' ``stiffness`` N/m (inf:
-        rigid), ``pretension`` N and ``max_tension`` N (inf: none)."""
+        rigid), ``pretension`` N (a position cable's too: its tension at its commanded
+        length, ``docs/model.md``, "Settling") and ``max_tension`` N (inf: none)."""
         rest, ks = self.core.elastic_cables()
         k, p, cap = self.core.actuators
         return dict(rest_length=np.asarray(rest), series_stiffness=np.asarray(ks), stiffness=np.asarray(k),

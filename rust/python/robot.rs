@@ -673,7 +673,8 @@ impl CoreRobot {
     }
 
     /// Per cable: actuator stiffness (N/m, inf: rigid), pretension (N), cap
-    /// (N, inf: none); the defaults for cables other than displacement ones.
+    /// (N, inf: none); the defaults for cables other than displacement ones,
+    /// but a position cable's pretension (`docs/model.md`, "Settling").
     #[getter]
     fn actuators<'py>(&self, py: Python<'py>) -> (Array<'py>, Array<'py>, Array<'py>) {
         let a: Vec<_> = self.model.cables.iter().map(|c| c.actuator).collect();

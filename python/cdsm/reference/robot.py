@@ -192,7 +192,9 @@ class Robot:
     ``cable_stiffness`` ``(m,)``          N/m, a displacement cable's actuator (inf:
                                           rigid; inf for the other modes)
     ``pretension``    ``(m,)``            N, a displacement cable's tension at ``d = 0``
-                                          in the rest pose (0 for the other modes)
+                                          in the rest pose; a position cable's at its
+                                          commanded length (``docs/model.md``,
+                                          "Settling"); 0 for force cables
     ``max_tension``   ``(m,)``            N, a displacement cable's cap (inf: none)
     ================  ==================  ===============================================
 
@@ -814,6 +816,12 @@ def _read_general(doc: dict, name: str) -> Robot:
                              f"needed on at least {n})")
         raise ValueError(f"cables: {n_cmd} position or displacement cables for {n_free} joints without stiffness "
                          f"(at least as many commanded cables as free joints are needed)")
+    elastic = np.any(stiffness != 0.0) or np.any(rest != 0.0) or n_cmd > n_pos
+    if n_pos <= n or elastic:
+        for c, cb in enumerate(cables, start=1):
+            if cb["mode"] == "position" and cb["pretension"] != 0.0:
+                raise ValueError(f"cables[{c}].pretension: a position cable's pretension needs more position "
+                                 f"cables than joints on an arm without joint springs or displacement cables")
     K = len(disks)
     return Robot(
         name=name,
@@ -881,7 +889,8 @@ def _general_cables(cables: list, radii: list) -> list:
     """The general form's ``[[cables]]``: end, mode, tension, holes (radius + angle, or
     explicit points within their disks' ``radii``, index 0 the base); a displacement
     cable's actuator ``stiffness`` N/m (default inf: rigid), ``pretension`` N (default 0)
-    and ``max_tension`` N (default inf: no cap)."""
+    and ``max_tension`` N (default inf: no cap); a position cable's ``pretension`` N
+    (default 0)."""
     if not cables:
         raise ValueError("cables: at least one cable is needed")
     K = len(radii) - 1
@@ -903,9 +912,14 @@ def _general_cables(cables: list, radii: list) -> list:
         else:
             tension = float("nan")
         actuator = dict(stiffness=math.inf, pretension=0.0, max_tension=math.inf)
-        for key in actuator:
+        if "pretension" in cb and mode == "force":
+            raise ValueError(f"{f}.pretension: only position and displacement cables have a pretension")
+        for key in ("stiffness", "max_tension"):
             if key in cb and mode != "displacement":
                 raise ValueError(f'{f}.{key}: only displacement cables (mode = "displacement") have a {key}')
+        if mode == "position":
+            # its command shortened by P (L + L_r) / (E A) (docs/model.md, "Settling")
+            actuator["pretension"] = _non_negative(cb.get("pretension", 0.0), f"{f}.pretension")
         if mode == "displacement":
             if "stiffness" in cb:
                 actuator["stiffness"] = _positive(cb["stiffness"], f"{f}.stiffness")
