@@ -14,15 +14,15 @@ use cdsm::model::Model;
 use cdsm::plant::{self, LoadRows};
 use cdsm::solve::{CableMethod, PlanarSolver, SolveOptions};
 use cdsm::tension::{Balance, Wrench};
-use cdsm::{arm, Robot};
+use cdsm::{arm, PlanarView};
 use std::borrow::Cow;
 use std::hint::black_box;
 
 mod timing;
 
-fn robot(n: usize) -> Robot {
+fn robot(n: usize) -> PlanarView {
     if n == 3 {
-        return Robot::paper();
+        return PlanarView::paper();
     }
     let mut text = String::new();
     for i in 0..n {
@@ -31,7 +31,7 @@ fn robot(n: usize) -> Robot {
             0.03 - 0.0005 * i as f64
         );
     }
-    Robot::from_toml(&text).unwrap()
+    PlanarView::from_toml(&text).unwrap()
 }
 
 fn theta(n: usize) -> Vec<f64> {

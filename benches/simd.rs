@@ -8,7 +8,7 @@ use cdsm::cables::CableGeometry;
 use cdsm::planar;
 use cdsm::simd;
 use cdsm::solve::solve_cables_closed_form;
-use cdsm::Robot;
+use cdsm::PlanarView;
 use std::hint::black_box;
 
 mod timing;
@@ -91,7 +91,7 @@ fn scalar_loop(
 
 fn main() {
     let c = timing::Bench::from_args();
-    let robot = Robot::paper();
+    let robot = PlanarView::paper();
     let geom = CableGeometry::new(&robot, None);
     let n = geom.n;
     let (target, seed) = workload(&geom);

@@ -12,7 +12,7 @@ use crate::model::Model;
 use crate::planar::cable_lanes::{closed_form_block, ClosedFormBlock, BLOCK_ROWS};
 use crate::real::pack::Pack;
 use crate::real::Lane;
-use crate::robot::Robot;
+use crate::robot::PlanarView;
 use crate::rows::{rows_exactly, rows_of, split_rows, BatchSolution};
 use crate::simd::math::atan2_slice;
 use crate::solve::{cs_difference, CableMethod, CableNewton, CableSolver, SolveOptions};
@@ -519,7 +519,7 @@ enum Strategy<'a> {
 /// [`CableSolver`]. Slack: the square balance over the nominal holes.
 pub struct PlanarLanes<'a> {
     model: &'a Model,
-    robot: &'a Robot,
+    robot: &'a PlanarView,
     nominal: CableGeometry,
     /// every sample's cable geometry (empty: every sample the nominal one)
     geoms: Vec<CableGeometry>,
@@ -531,7 +531,7 @@ pub struct PlanarLanes<'a> {
 impl<'a> PlanarLanes<'a> {
     fn new(
         model: &'a Model,
-        robot: &'a Robot,
+        robot: &'a PlanarView,
         holes: HoleErrors,
         samples: usize,
         method: CableMethod,
@@ -941,7 +941,7 @@ impl WithSimd for McRows<'_> {
 /// `pulp::Arch::dispatch`, all of it is compiled for the chosen instruction
 /// set (the helpers are inlined into it).
 struct SampleLanes<'a> {
-    robot: &'a Robot,
+    robot: &'a PlanarView,
     geom: &'a CableGeometry,
     block: &'a mut ClosedFormBlock,
     /// nominal upper-cable lengths of the lanes, lane-major `(lanes, n)`, m
@@ -1014,7 +1014,7 @@ impl WithSimd for SampleLanes<'_> {
 /// garbage. The loops run across lanes (vectorised where the caller is).
 #[inline(always)]
 fn block_deviation(
-    robot: &Robot,
+    robot: &PlanarView,
     block: &ClosedFormBlock,
     p0: &[[f64; 3]; BLOCK_ROWS],
     small: f64,
@@ -1159,7 +1159,7 @@ mod tests {
     #[test]
     fn table3_point1_singular_state() {
         // Table 3, point 1: straight pose, upper cable 1 shortened by 1 mm.
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let (ds, sol) = deviation(
             &Model::from_planar(&r),
             &[0.0; 3],
@@ -1177,7 +1177,7 @@ mod tests {
 
     #[test]
     fn monte_carlo_of_one_sample_is_the_deviation() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let th = [0.1, -0.2, 0.3, -0.4, 0.2, 0.1];
         let dl = [5e-4, -3e-4, 2e-4];
         let dh = [1e-4, -2e-4, 3e-4];
@@ -1247,7 +1247,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(err.contains("dh") && err.contains("planar"), "{err}");
-        let planar = Model::from_planar(&Robot::paper());
+        let planar = Model::from_planar(&PlanarView::paper());
         assert!(matches!(
             HoleErrors::of(&planar, Some(&dl), None),
             Ok(HoleErrors::PerPair(_))
@@ -1258,7 +1258,7 @@ mod tests {
     fn monte_carlo_with_enforced_limits_counts_as_the_solver() {
         // a configuration 1 mrad inside joint 1's upper limit: of +-1 mm on
         // cable 1 (about +-33 mrad on joint 1) one sample ends past the limit
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let hi = r.joint_limits[0][1];
         let th = [hi - 1e-3, 0.0, 0.0, 0.0, 0.1, -0.1];
         let dl = [1e-3, 0.0, 0.0, -1e-3, 0.0, 0.0];

@@ -48,9 +48,24 @@ fn map_chain<G: Group>(
 /// End poses: planar `[x, y, phi]`, spatial `[x, y, z, rx, ry, rz]` (m,
 /// rad; `(N, TASK)`).
 pub fn fk(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+    kinematics(model, theta, threads, batch::fk, 6, |c, o| c.end().task(o))
+}
+
+/// One batched kinematic quantity, `width` values per row: by `planar`, the
+/// planar view's angle-addition fast path, where the arm has one; else
+/// by `chain` from every row's chain ([`map_chain`]). The one place the
+/// kinematics choose their fast path.
+fn kinematics(
+    model: &Model,
+    theta: &[f64],
+    threads: usize,
+    planar: fn(&crate::robot::PlanarView, &[f64], usize) -> Result<Vec<f64>>,
+    width: usize,
+    chain: impl Fn(&mut Chain<f64, <Spatial as Group>::Frame<f64>>, &mut [f64]) + Sync,
+) -> Result<Vec<f64>> {
     match model.planar() {
-        Some(r) => batch::fk(r, theta, threads),
-        None => map_chain::<Spatial>(model, theta, 6, threads, |c, o| c.end().task(o)),
+        Some(r) => planar(r, theta, threads),
+        None => map_chain::<Spatial>(model, theta, width, threads, chain),
     }
 }
 
@@ -89,39 +104,38 @@ pub fn disk_frames(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f
 /// geometric Jacobian (velocity of the end frame's origin, then its angular
 /// velocity).
 pub fn fk_jacobian(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
-    match model.planar() {
-        Some(r) => batch::fk_jacobian(r, theta, threads),
-        None => map_chain::<Spatial>(model, theta, 6 * model.n(), threads, |c, o| {
-            c.joints_world(model);
-            c.geometric_jacobian(o)
-        }),
-    }
+    let width = 6 * model.n();
+    kinematics(model, theta, threads, batch::fk_jacobian, width, |c, o| {
+        c.joints_world(model);
+        c.geometric_jacobian(o)
+    })
 }
 
 /// Lengths of every cable, in the model's cable order `(N, cables)` (m).
 pub fn cable_lengths(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
     let m = model.cables.len();
-    match model.planar() {
-        Some(r) => batch::cable_lengths(r, theta, threads),
-        None => map_chain::<Spatial>(model, theta, m, threads, |c, o| {
-            for (k, v) in o.iter_mut().enumerate() {
-                *v = c.cable_length(model, model, k, None);
-            }
-        }),
-    }
+    kinematics(model, theta, threads, batch::cable_lengths, m, |c, o| {
+        for (k, v) in o.iter_mut().enumerate() {
+            *v = c.cable_length(model, model, k, None);
+        }
+    })
 }
 
 /// Cable Jacobians `(N, cables, n)` (m/rad).
 pub fn cable_jacobian(model: &Model, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
     let (m, n) = (model.cables.len(), model.n());
-    match model.planar() {
-        Some(r) => batch::cable_jacobian(r, theta, threads),
-        None => map_chain::<Spatial>(model, theta, m * n, threads, |c, o| {
+    kinematics(
+        model,
+        theta,
+        threads,
+        batch::cable_jacobian,
+        m * n,
+        |c, o| {
             for k in 0..m {
                 c.cable_jacobian_row(model, model, k, &mut o[k * n..(k + 1) * n]);
             }
-        }),
-    }
+        },
+    )
 }
 
 /// Joint-limit checks `(N,)`.
@@ -470,7 +484,7 @@ fn above_floor(bal: &Balance<f64>, floor: f64) -> Option<Vec<f64>> {
 
 /// A planar arm's holes after the paper's per-disk hole-height error `dh
 /// (n,)` m, in the planar layout `(2n, n+1, 2, 2)` flat
-/// ([`crate::robot::Robot::hole_height_error_into`]); an error naming
+/// ([`crate::robot::PlanarView::hole_height_error_into`]); an error naming
 /// `hole_height_error` for another kind.
 pub fn hole_height_error(model: &Model, dh: &[f64]) -> Result<Vec<f64>> {
     let r = model.planar_only("hole_height_error")?;

@@ -11,12 +11,12 @@ use crate::kinematics;
 use crate::lm::Reason;
 use crate::model::Model;
 use crate::planar::cable_lanes::solve_cables_closed_form_batch_in;
-use crate::robot::Robot;
+use crate::robot::PlanarView;
 use crate::rows::{map_rows, rows_of, seeds, split_rows, BatchSolution};
 use crate::solve::{CableMethod, CableSolver, SolveOptions};
 
 /// Batched forward kinematics: `(N, n)` -> `(N, 3)`.
-pub fn fk(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+pub fn fk(robot: &PlanarView, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
     let n = robot.n();
     let rows = rows_of("theta", theta, n)?;
     Ok(map_rows(rows, 3, threads, |i, out| {
@@ -25,7 +25,7 @@ pub fn fk(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
 }
 
 /// Batched pose Jacobian: `(N, n)` -> `(N, 3, n)`.
-pub fn fk_jacobian(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+pub fn fk_jacobian(robot: &PlanarView, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
     let n = robot.n();
     let rows = rows_of("theta", theta, n)?;
     Ok(map_rows(rows, 3 * n, threads, |i, out| {
@@ -40,7 +40,7 @@ pub fn fk_jacobian(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f
 }
 
 /// Batched cable lengths: `(N, n)` -> `(N, 2n)`.
-pub fn cable_lengths(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+pub fn cable_lengths(robot: &PlanarView, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
     let n = robot.n();
     let rows = rows_of("theta", theta, n)?;
     let g = CableGeometry::new(robot, None);
@@ -50,7 +50,7 @@ pub fn cable_lengths(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec
 }
 
 /// Batched cable Jacobian: `(N, n)` -> `(N, 2n, n)`.
-pub fn cable_jacobian(robot: &Robot, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
+pub fn cable_jacobian(robot: &PlanarView, theta: &[f64], threads: usize) -> Result<Vec<f64>> {
     let n = robot.n();
     let rows = rows_of("theta", theta, n)?;
     let g = CableGeometry::new(robot, None);

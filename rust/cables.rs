@@ -7,7 +7,7 @@
 
 pub use crate::geometry::pair;
 use crate::geometry::{ArmGeometry, WithHoles};
-use crate::robot::Robot;
+use crate::robot::PlanarView;
 
 /// Segment coefficients of every cable: the geometry the solves need,
 /// precomputed once per set of hole positions.
@@ -25,7 +25,7 @@ pub struct CableGeometry {
 impl CableGeometry {
     /// Coefficients for `robot` with the hole positions `holes` (flat
     /// `(2n, n+1, 2, 2)`, m); `None` uses the robot's own holes.
-    pub fn new(robot: &Robot, holes: Option<&[f64]>) -> CableGeometry {
+    pub fn new(robot: &PlanarView, holes: Option<&[f64]>) -> CableGeometry {
         match holes {
             Some(h) => Self::of(&WithHoles { robot, holes: h }),
             None => Self::of(robot),
@@ -246,7 +246,7 @@ mod tests {
 
     #[test]
     fn straight_lengths_are_link_sums() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let g = CableGeometry::new(&r, None);
         let mut l = [0.0; 6];
         g.lengths(&[0.0; 3], &mut l);
@@ -258,7 +258,7 @@ mod tests {
 
     #[test]
     fn bending_up_shortens_the_upper_cable() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let g = CableGeometry::new(&r, None);
         let mut l = [0.0; 6];
         g.lengths(&[0.1, 0.0, 0.0], &mut l);
@@ -267,7 +267,7 @@ mod tests {
 
     #[test]
     fn jacobian_matches_central_differences() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let g = CableGeometry::new(&r, None);
         let th = [0.3, -0.2, 0.5];
         let mut jac = [0.0; 18];
@@ -288,7 +288,7 @@ mod tests {
 
     #[test]
     fn closed_form_branches_reproduce_the_segment() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let g = CableGeometry::new(&r, None);
         let t: f64 = 0.4;
         let s = g.segment(0, 0, (t.cos(), t.sin()));

@@ -533,7 +533,7 @@ mod tests {
     use super::*;
     use crate::kinds::Se2;
     use crate::real::Dual;
-    use crate::robot::Robot;
+    use crate::robot::PlanarView;
 
     const TWO_UNIVERSAL: &str = include_str!("../python/cdsm/robots/two_universal.toml");
     const PAPER_SPATIAL: &str = include_str!("../python/cdsm/robots/paper_spatial.toml");
@@ -607,7 +607,7 @@ mod tests {
 
     #[test]
     fn the_planar_chain_is_the_planar_geometry_and_the_spatial_one() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let m = Model::from_planar(&r);
         let s = Model::from_toml(PAPER_SPATIAL).unwrap();
         let geom = crate::cables::CableGeometry::new(&r, None);
@@ -656,7 +656,7 @@ mod tests {
     fn hole_clearance_in_the_plane_is_the_planar_plants_and_in_space_reduces_to_it() {
         // the planar plant's clearance lengths (docs/model.md) from the segment
         // geometry, against the chain's shifted holes, both kinds
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let m = Model::from_planar(&r);
         let s = Model::from_toml(PAPER_SPATIAL).unwrap();
         let (cl, w) = (1.5e-4, 0.02);

@@ -285,11 +285,11 @@ mod tests {
     use super::*;
     use crate::geometry::ArmGeometry;
     use crate::plant::{layout, Effect};
-    use crate::robot::Robot;
+    use crate::robot::PlanarView;
 
     #[test]
     fn compensated_commands_put_the_plant_on_target() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let m = Model::from_planar(&r);
         let lay = layout(&m);
         let at = |e| lay.find(e).unwrap().0;

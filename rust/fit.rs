@@ -546,8 +546,8 @@ mod tests {
     use super::*;
     use crate::kinds::Planar;
     use crate::model::Model;
-    use crate::plant::{layout, predict, Effect, PlantFit, RowKind, Rows, Sequence};
-    use crate::robot::Robot;
+    use crate::plant::{layout, predict, Effect, PlantFit, Reading, Rows, Sequence};
+    use crate::robot::PlanarView;
     use crate::solve::SolveOptions;
 
     #[test]
@@ -564,7 +564,7 @@ mod tests {
 
     #[test]
     fn a_hidden_effect_is_recovered_from_exact_data() {
-        let r = Model::from_planar(&Robot::paper());
+        let r = Model::from_planar(&PlanarView::paper());
         let lay = layout(&r);
         let total = lay.total;
         let (scale, holes) = (
@@ -587,7 +587,7 @@ mod tests {
             ]);
             dl.extend_from_slice(&[1e-3 * (2.1 * a).sin(), 0.0, -5e-4 * a.cos()]);
         }
-        let kind = vec![RowKind::Absolute; 12];
+        let kind = vec![Reading::Absolute; 12];
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,
@@ -628,7 +628,7 @@ mod tests {
     /// The paper arm on 12 absolute rows with two effects hidden: the
     /// model, the rows' sequence and their measurements.
     fn paper_rows() -> (Model, Sequence, Vec<f64>) {
-        let r = Model::from_planar(&Robot::paper());
+        let r = Model::from_planar(&PlanarView::paper());
         let lay = layout(&r);
         let mut truth = vec![0.0; lay.total];
         truth[lay.find(Effect::HoleHeight).unwrap().0] = 2e-4;
@@ -643,7 +643,7 @@ mod tests {
             ]);
             dl.extend_from_slice(&[1e-3 * (2.1 * a).sin(), 0.0, -5e-4 * a.cos()]);
         }
-        let kind = vec![RowKind::Absolute; 12];
+        let kind = vec![Reading::Absolute; 12];
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,

@@ -447,12 +447,12 @@ impl Sliding {
 mod tests {
     use super::*;
     use crate::kinds::{Planar, Se2, Se3};
-    use crate::robot::Robot;
+    use crate::robot::PlanarView;
 
     #[test]
     fn planar_and_spatial_profiles_of_the_paper_arm_agree() {
         // the planar arm and the same arm as a spatial file: the same wraps
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let m = Model::from_planar(&r);
         let s = Model::from_toml(include_str!("../python/cdsm/robots/paper_spatial.toml")).unwrap();
         let holes = Holes::of(&m);

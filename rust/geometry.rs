@@ -11,10 +11,10 @@
 //! `u = q + (link_after[k], 0)`, so `|v|^2 = P + Q cos(theta_k) + R sin(theta_k)`.
 
 use crate::real::Real;
-use crate::robot::{hole_index, Robot};
+use crate::robot::{hole_index, PlanarView};
 
 /// Links, disks and holes of an arm in any scalar (m): implemented by the
-/// robot description ([`Robot`], `f64`) and by [`WithHoles`] (its numbers
+/// robot description ([`PlanarView`], `f64`) and by [`WithHoles`] (its numbers
 /// with other holes). The geometry is written once, in
 /// the provided methods.
 pub trait ArmGeometry<S: Real> {
@@ -123,7 +123,7 @@ pub fn pair(c: usize) -> usize {
 }
 
 /// The robot description in any scalar: its numbers are constants.
-impl<S: Real> ArmGeometry<S> for Robot {
+impl<S: Real> ArmGeometry<S> for PlanarView {
     #[inline]
     fn n(&self) -> usize {
         self.link_before.len()
@@ -150,7 +150,7 @@ impl<S: Real> ArmGeometry<S> for Robot {
 /// A robot's links with other hole positions (flat `(2n, n+1, 2, 2)`, m).
 #[derive(Debug, Clone, Copy)]
 pub struct WithHoles<'a> {
-    pub robot: &'a Robot,
+    pub robot: &'a PlanarView,
     pub holes: &'a [f64],
 }
 
@@ -266,7 +266,7 @@ mod tests {
 
     impl<S: Real> Arm<S> {
         /// The arm of `robot`, with other hole positions `holes` (flat, m) if given.
-        fn of(robot: &Robot, holes: Option<&[f64]>) -> Arm<S> {
+        fn of(robot: &PlanarView, holes: Option<&[f64]>) -> Arm<S> {
             let cv = |v: &[f64]| v.iter().map(|x| S::cst(*x)).collect::<Vec<S>>();
             Arm {
                 link_before: cv(&robot.link_before),
@@ -303,7 +303,7 @@ mod tests {
 
     #[test]
     fn pqr_form_equals_the_vector_length() {
-        let arm = Robot::paper();
+        let arm = PlanarView::paper();
         for c in 0..6 {
             for k in 0..=pair(c) {
                 let seg = arm.segment(c, k, 0.0);
@@ -319,7 +319,7 @@ mod tests {
 
     #[test]
     fn derivative_is_exact_in_dual_numbers() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let arm = Arm::<Dual>::of(&r, None);
         for t in [-0.4f64, 0.0, 0.3] {
             let (s, c) = Dual::var(t).sin_cos();

@@ -18,7 +18,7 @@ use crate::limits::Limits;
 use crate::lm::{self, Lm, Problem, Reason, Step, Workspace};
 use crate::model::Model;
 use crate::planar::ik_lanes::ik_closed_form_batch;
-use crate::robot::Robot;
+use crate::robot::PlanarView;
 use crate::rows::{rows_of, seeds, split_rows, BatchSolution};
 use crate::solve::{SolveOptions, Status};
 use std::f64::consts::{PI, TAU};
@@ -189,14 +189,14 @@ pub trait TaskEval {
 /// A planar arm's end pose `x, y, phi` by angle addition
 /// ([`crate::kinematics::fk_jacobian`]).
 pub struct PlanarTask<'a> {
-    robot: &'a Robot,
+    robot: &'a PlanarView,
     target: [f64; 3],
     p: [f64; 3],
     jac: Vec<[f64; 3]>,
 }
 
 impl<'a> PlanarTask<'a> {
-    pub fn new(robot: &'a Robot) -> Self {
+    pub fn new(robot: &'a PlanarView) -> Self {
         PlanarTask {
             robot,
             target: [0.0; 3],
@@ -609,7 +609,7 @@ fn each_row<S: FnMut(&[f64], &mut [f64]) -> Status>(
 
 /// Whether [`IkMethod::ClosedForm`] applies to `robot` with `mask`; an
 /// error naming the field otherwise.
-pub fn check_closed_form(robot: &Robot, mask: &Mask) -> Result<()> {
+pub fn check_closed_form(robot: &PlanarView, mask: &Mask) -> Result<()> {
     if robot.n() != 3 {
         return Err(CdsmError::Option {
             name: "method".into(),
@@ -647,7 +647,7 @@ fn near(t: f64, seed: f64) -> f64 {
 /// IK"): `theta` holds the seed on entry and the answer on exit (unchanged
 /// when the pose is out of reach). The caller checks [`check_closed_form`].
 pub fn ik_closed_form(
-    robot: &Robot,
+    robot: &PlanarView,
     pose: &[f64; 3],
     theta: &mut [f64],
     opts: &SolveOptions,
@@ -725,7 +725,7 @@ pub fn ik_closed_form(
 /// the rows the lanes leave (out of reach, whole turns from the seed) by the
 /// scalar function.
 fn ik_closed_form_rows(
-    robot: &Robot,
+    robot: &PlanarView,
     pose: &[f64],
     seed: Option<&[f64]>,
     opts: &SolveOptions,
@@ -796,7 +796,7 @@ mod tests {
 
     /// Pose IK of one target (full pose): `theta` holds the seed on entry
     /// and the answer on exit.
-    fn ik(robot: &Robot, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions) -> Status {
+    fn ik(robot: &PlanarView, pose: &[f64; 3], theta: &mut [f64], opts: &SolveOptions) -> Status {
         IkSolver::new(PlanarTask::new(robot), weights([1.0; 3]), *opts).solve(pose, theta)
     }
 
@@ -837,7 +837,7 @@ mod tests {
     #[test]
     fn the_batch_refuses_another_kinds_mask_and_a_spatial_closed_form() {
         let spatial = two_universal();
-        let planar = Model::from_planar(&Robot::paper());
+        let planar = Model::from_planar(&PlanarView::paper());
         let opts = SolveOptions::default();
         let named = Mask::parse(Kind::Spatial, MaskArg::Name("pose")).unwrap();
         let error = |model, mask, method| {
@@ -892,7 +892,7 @@ mod tests {
 
     #[test]
     fn ik_reaches_a_forward_pose() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let want = [0.2, -0.3, 0.45];
         let pose = r.fk(&want);
         let mut th = want.map(|t| t + 0.05);
@@ -905,7 +905,7 @@ mod tests {
 
     #[test]
     fn ik_flags_an_unreachable_pose() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let mut th = [0.0; 3];
         let st = ik(&r, &[0.3, 0.0, 0.0], &mut th, &SolveOptions::default());
         assert!(!st.converged);
@@ -915,7 +915,7 @@ mod tests {
 
     #[test]
     fn position_mask_leaves_the_attitude_free() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let want = [0.3, -0.2, 0.4];
         let p = r.fk(&want);
         let mut th = [0.0, -1e-3, 0.0];

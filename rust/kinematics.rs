@@ -3,12 +3,12 @@
 //! in [`crate::geometry::ArmGeometry::fk`].
 
 use crate::geometry::ArmGeometry;
-use crate::robot::Robot;
+use crate::robot::PlanarView;
 use crate::simd::math::cos_sin_short;
 
 /// End pose `[x, y, phi]` (m, m, rad) for joint angles `theta` (rad, length n).
 #[inline]
-pub fn fk(robot: &Robot, theta: &[f64]) -> [f64; 3] {
+pub fn fk(robot: &PlanarView, theta: &[f64]) -> [f64; 3] {
     robot.fk(theta)
 }
 
@@ -16,7 +16,7 @@ pub fn fk(robot: &Robot, theta: &[f64]) -> [f64; 3] {
 /// The attitudes' cos/sin by angle addition from the joints' (those by the
 /// crate's sin/cos kernel, four joints in lockstep).
 #[inline(always)]
-pub fn fk_jacobian(robot: &Robot, theta: &[f64], jac: &mut [[f64; 3]]) -> [f64; 3] {
+pub fn fk_jacobian(robot: &PlanarView, theta: &[f64], jac: &mut [[f64; 3]]) -> [f64; 3] {
     let n = theta.len();
     let mut stack = [(1.0, 0.0); 8];
     let mut heap;
@@ -53,7 +53,7 @@ mod tests {
 
     #[test]
     fn straight_pose_is_the_straight_length() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let p = fk(&r, &[0.0; 3]);
         assert!(
             (p[0] - 0.228).abs() < 1e-15 && p[1] == 0.0 && p[2] == 0.0,
@@ -63,7 +63,7 @@ mod tests {
 
     #[test]
     fn jacobian_matches_central_differences() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let th = [0.3, -0.2, 0.5];
         let mut jac = [[0.0; 3]; 3];
         fk_jacobian(&r, &th, &mut jac);
@@ -81,7 +81,7 @@ mod tests {
 
     #[test]
     fn angle_addition_pose_equals_the_chain() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let th = [0.3, -0.7, 0.45];
         let cs: Vec<(f64, f64)> = th.iter().map(|t: &f64| (t.cos(), t.sin())).collect();
         let (a, b) = (fk(&r, &th), r.fk_cs(&cs, th.iter().sum()));
@@ -93,7 +93,7 @@ mod tests {
     #[test]
     fn all_zero_joints_lose_x() {
         // Fig. 12: at theta = 0 no joint moves the tip along X.
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let mut jac = [[0.0; 3]; 3];
         fk_jacobian(&r, &[0.0; 3], &mut jac);
         assert!(jac.iter().all(|c| c[0] == 0.0));

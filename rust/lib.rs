@@ -38,4 +38,4 @@ pub mod tension;
 mod python;
 
 pub use error::{CdsmError, Result};
-pub use robot::Robot;
+pub use robot::PlanarView;

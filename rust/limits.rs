@@ -6,7 +6,7 @@
 
 /// The joint-limit box: `[lo, hi]` per joint (rad). `B` holds the bounds,
 /// owned ([`crate::model::Model::limits`]) or borrowed
-/// ([`crate::robot::Robot::limits`]).
+/// ([`crate::robot::PlanarView::limits`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Limits<B = Vec<[f64; 2]>>(pub B);
 

@@ -12,7 +12,7 @@
 use crate::error::{CdsmError, Result};
 use crate::kinds::{HoleGrouping, Kind};
 use crate::limits::Limits;
-use crate::robot::{CableMaterial, Robot};
+use crate::robot::{CableMaterial, PlanarView};
 use crate::robot_file::{
     bad, coordinates, from_table, joint_limits, non_negative, positive, positive_length,
     robot_name, toml_table, Exact, MAX_LENGTH,
@@ -150,7 +150,7 @@ pub struct Model {
 /// numbers change in place after its view was asked must be rebuilt (every
 /// `with_*` returns a new model).
 #[derive(Default)]
-struct ViewCache(std::sync::OnceLock<Option<Box<Robot>>>);
+struct ViewCache(std::sync::OnceLock<Option<Box<PlanarView>>>);
 
 impl Clone for ViewCache {
     fn clone(&self) -> Self {
@@ -370,8 +370,8 @@ pub fn axis_class(a: [f64; 3]) -> Option<AxisClass> {
 /// A `[backbone]` table, its errors named under `backbone.`.
 fn backbone_file(t: toml::Table) -> Result<BackboneFile> {
     from_table(t).map_err(|e| match e {
-        CdsmError::Robot { field, problem } if field == "<file>" => bad("backbone".into(), problem),
-        CdsmError::Robot { field, problem } => bad(format!("backbone.{field}"), problem),
+        CdsmError::PlanarView { field, problem } if field == "<file>" => bad("backbone".into(), problem),
+        CdsmError::PlanarView { field, problem } => bad(format!("backbone.{field}"), problem),
         other => other,
     })
 }
@@ -541,7 +541,7 @@ impl Model {
     /// the planar view it describes: lengths, masses, lower tensions, joint
     /// limits and the holes of each linkage's cable pair (`hole_height`, or
     /// `upper_holes` and `lower_holes`), errors naming the field.
-    fn shorthand(table: toml::Table) -> Result<Robot> {
+    fn shorthand(table: toml::Table) -> Result<PlanarView> {
         let file: ShorthandFile = from_table(table)?;
         let n = file.linkage.len();
         if n == 0 {
@@ -558,7 +558,7 @@ impl Model {
                 ));
             }
         }
-        let mut robot = Robot {
+        let mut robot = PlanarView {
             name: robot_name(file.name)?,
             link_before: Vec::with_capacity(n),
             link_after: Vec::with_capacity(n),
@@ -812,7 +812,7 @@ impl Model {
     /// at `lower_tension[i]`, both ending at disk `i + 1`, their holes
     /// `(x, y, 0)`; gravity `(gx, gy, 0)`. A disk's radius is the largest
     /// `|y|` of its holes (the planar file has none).
-    pub fn from_planar(robot: &Robot) -> Model {
+    pub fn from_planar(robot: &PlanarView) -> Model {
         let n = robot.n();
         let hole = |c: usize, d: usize, f: usize| {
             let k = robot.hole_index(c, d, f);
@@ -910,12 +910,12 @@ impl Model {
     /// hole out of the plane, gravity with a `z`, or cables not in pairs
     /// (cable `2i` position- and `2i + 1` force-controlled, both ending at
     /// disk `i + 1`). The numbers are copied, no arithmetic.
-    pub fn planar_view(&self, nums: &PlanarNumbers) -> Option<Robot> {
+    pub fn planar_view(&self, nums: &PlanarNumbers) -> Option<PlanarView> {
         if self.kind.dim() != 2 || self.planar_misfit(nums).is_some() {
             return None;
         }
         let n = self.n();
-        let mut r = Robot {
+        let mut r = PlanarView {
             name: self.name.clone(),
             link_before: nums.offset.iter().map(|o| o[0]).collect(),
             link_after: nums.link_after.iter().map(|o| o[0]).collect(),
@@ -998,7 +998,7 @@ impl Model {
     }
 
     /// [`Model::planar_view`] of the model's own numbers.
-    fn own_planar_view(&self) -> Option<Robot> {
+    fn own_planar_view(&self) -> Option<PlanarView> {
         self.planar_view(&self.own_numbers().numbers())
     }
 
@@ -1034,7 +1034,7 @@ impl Model {
         };
         line(
             w,
-            "# written by cdsm (Robot.to_toml); SI units: m, kg, N, rad, Pa, m/s^2".into(),
+            "# written by cdsm (PlanarView.to_toml); SI units: m, kg, N, rad, Pa, m/s^2".into(),
         );
         // the form of the file: the planar shorthand (its kind the default)
         // for an arm read from it (its radii are its holes': the shorthand
@@ -1157,7 +1157,7 @@ impl Model {
     /// The planar view of this arm's own numbers (its planar fast paths'
     /// data, [`Model::planar_view`]; made once), `None` when its structure
     /// does not fit them.
-    pub fn planar(&self) -> Option<&Robot> {
+    pub fn planar(&self) -> Option<&PlanarView> {
         self.view
             .0
             .get_or_init(|| self.own_planar_view().map(Box::new))
@@ -1166,7 +1166,7 @@ impl Model {
 
     /// The planar description for `call`, something only a planar arm has
     /// (yet): an error naming `call` for another kind.
-    pub fn planar_only(&self, call: &str) -> Result<&Robot> {
+    pub fn planar_only(&self, call: &str) -> Result<&PlanarView> {
         self.planar().ok_or_else(|| CdsmError::Option {
             name: call.into(),
             problem: format!(
@@ -1202,9 +1202,9 @@ impl Model {
     /// Every hole's `[x, y, z]` flat (as [`Model::flat_holes`], `z = 0`)
     /// from `holes` in the layout `(2n, n+1, 2, 2)` flat of the arm's planar
     /// `view`. A slot no cable crosses is no hole: it is not read (as no
-    /// kernel ever read it; [`Robot::hole_height_error_into`] writes the
+    /// kernel ever read it; [`PlanarView::hole_height_error_into`] writes the
     /// base's face a too), and the view holds 0 there.
-    fn flat_of_pair_holes(&self, view: &Robot, holes: &[f64]) -> Result<Vec<f64>> {
+    fn flat_of_pair_holes(&self, view: &PlanarView, holes: &[f64]) -> Result<Vec<f64>> {
         let n = view.n();
         if holes.len() != view.holes.len() {
             return Err(bad(
@@ -1588,16 +1588,16 @@ impl Model {
 /// The paper's prototype (Table 1), shipped with the Python package.
 pub const PAPER_TOML: &str = include_str!("../python/cdsm/robots/paper.toml");
 
-impl Robot {
+impl PlanarView {
     /// The planar view of the paper's 3-DOF prototype (Table 1; lower
     /// cables 50, 10, 5 g; ±35°).
-    pub fn paper() -> Robot {
-        Robot::from_toml(PAPER_TOML).expect("the shipped paper robot is valid")
+    pub fn paper() -> PlanarView {
+        PlanarView::from_toml(PAPER_TOML).expect("the shipped paper robot is valid")
     }
 
     /// The planar view ([`Model::planar`]) of the arm a robot file
     /// describes; an error naming `kind` for an arm without one.
-    pub fn from_toml(text: &str) -> Result<Robot> {
+    pub fn from_toml(text: &str) -> Result<PlanarView> {
         let model = Model::from_toml(text)?;
         model.own_planar_view().ok_or_else(|| {
             bad(
@@ -1844,7 +1844,7 @@ mod tests {
 
     /// A planar file's description read straight from its TOML table by
     /// this test (no checks): the oracle of the planar view.
-    fn read_by_hand(text: &str) -> Robot {
+    fn read_by_hand(text: &str) -> PlanarView {
         let t: toml::Table = text.parse().unwrap();
         let num = |v: &toml::Value| {
             v.as_float()
@@ -1900,7 +1900,7 @@ mod tests {
         }
         let cable = t.get("cable");
         let of_cable = |k: &str, default: f64| cable.and_then(|c| c.get(k)).map_or(default, num);
-        Robot {
+        PlanarView {
             name: t
                 .get("name")
                 .map_or("unnamed", |v| v.as_str().unwrap())
@@ -1933,7 +1933,7 @@ mod tests {
     #[test]
     fn the_planar_view_is_the_planar_file_read_as_before() {
         // field by field, bit for bit, against the file read by hand (the
-        // planar description of cdsm 0.2, `Robot::from_toml`, was checked
+        // planar description of cdsm 0.2, `PlanarView::from_toml`, was checked
         // equal before its reader became the model's), holes' slots that are
         // no hole included
         let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();

@@ -598,7 +598,7 @@ impl<S: Real> Params<S> {
 /// What a measurement row is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
-pub enum RowKind {
+pub enum Reading {
     /// One command `C + dL`, observed.
     Absolute = 0,
     /// Two commands `C` then `C + dL`; the difference of the observations.
@@ -607,12 +607,12 @@ pub enum RowKind {
     Unmeasured = 2,
 }
 
-impl RowKind {
-    pub fn from_code(code: u8) -> Result<RowKind> {
+impl Reading {
+    pub fn from_code(code: u8) -> Result<Reading> {
         match code {
-            0 => Ok(RowKind::Absolute),
-            1 => Ok(RowKind::Displacement),
-            2 => Ok(RowKind::Unmeasured),
+            0 => Ok(Reading::Absolute),
+            1 => Ok(Reading::Displacement),
+            2 => Ok(Reading::Unmeasured),
             other => Err(CdsmError::Option {
                 name: "kind".into(),
                 problem: format!("row kind must be 0, 1 or 2, got {other}"),
@@ -623,12 +623,12 @@ impl RowKind {
 
 /// A data set's commands in execution order: `theta_cmd (N, n)` rad,
 /// `dl (N, m)` m (the commanded cables, [`commanded_cables`], file order)
-/// and each row's kind.
+/// and each row's reading ([`Reading`]).
 #[derive(Debug, Clone, Copy)]
 pub struct Rows<'a> {
     pub theta_cmd: &'a [f64],
     pub dl: &'a [f64],
-    pub kind: &'a [RowKind],
+    pub kind: &'a [Reading],
 }
 
 /// The command sequence of a data set, built once from the nominal model:
@@ -645,7 +645,7 @@ pub struct Sequence {
     /// First and last command of each row.
     span: Vec<[usize; 2]>,
     /// What each row measured.
-    reading: Vec<RowKind>,
+    reading: Vec<Reading>,
     theta_cmd: Vec<f64>,
     /// The nominal motion the friction's sliding directions follow, made
     /// the first time a plant with friction settles the sequence.
@@ -730,7 +730,7 @@ impl Sequence {
         for i in 0..rows {
             let c = &lengths[i * m..(i + 1) * m];
             let first = seq.row.len();
-            if data.kind[i] == RowKind::Displacement {
+            if data.kind[i] == Reading::Displacement {
                 seq.command.extend_from_slice(c);
                 seq.row.push(i);
             }
@@ -780,7 +780,7 @@ impl Sequence {
                 let row = self.row[j];
                 let seed = &self.theta_cmd[row * n..(row + 1) * n];
                 th.copy_from_slice(seed);
-                let first = self.reading[row] == RowKind::Displacement && self.span[row][0] == j;
+                let first = self.reading[row] == Reading::Displacement && self.span[row][0] == j;
                 if !first
                     && !nominal
                         .rigid_solve(
@@ -1793,9 +1793,9 @@ impl Settled {
             );
             for k in 0..task {
                 let v = match seq.reading[i] {
-                    RowKind::Absolute => ob[k],
-                    RowKind::Displacement => ob[k] - oa[k],
-                    RowKind::Unmeasured => f64::NAN,
+                    Reading::Absolute => ob[k],
+                    Reading::Displacement => ob[k] - oa[k],
+                    Reading::Unmeasured => f64::NAN,
                 };
                 out.observation.push(if conv { v } else { f64::NAN });
             }
@@ -1875,14 +1875,14 @@ impl Settled {
         };
         let mut jac = vec![f64::NAN; seq.rows() * task * kf];
         for (i, [a, b]) in seq.span.iter().enumerate() {
-            if !(ok[*a] && ok[*b]) || seq.reading[i] == RowKind::Unmeasured {
+            if !(ok[*a] && ok[*b]) || seq.reading[i] == Reading::Unmeasured {
                 continue;
             }
             for c in 0..task {
                 for q in 0..kf {
                     let vb = dcmd[(b * task + c) * kf + q];
                     jac[(i * task + c) * kf + q] = match seq.reading[i] {
-                        RowKind::Displacement => vb - dcmd[(a * task + c) * kf + q],
+                        Reading::Displacement => vb - dcmd[(a * task + c) * kf + q],
                         _ => vb,
                     };
                 }
@@ -2596,7 +2596,7 @@ fn solve_elastic_k<G: Group>(
 mod tests {
     use super::*;
     use crate::kinds::{Kind, Planar, Spatial};
-    use crate::robot::Robot;
+    use crate::robot::PlanarView;
 
     const TWO_UNIVERSAL: &str = include_str!("../python/cdsm/robots/two_universal.toml");
 
@@ -2690,7 +2690,7 @@ mod tests {
         }
     }
 
-    fn data(n: usize, m: usize, rows: usize) -> (Vec<f64>, Vec<f64>, Vec<RowKind>) {
+    fn data(n: usize, m: usize, rows: usize) -> (Vec<f64>, Vec<f64>, Vec<Reading>) {
         let mut th = Vec::new();
         let mut dl = Vec::new();
         let mut kind = Vec::new();
@@ -2707,9 +2707,9 @@ mod tests {
                 });
             }
             kind.push(match i % 4 {
-                1 => RowKind::Displacement,
-                3 => RowKind::Unmeasured,
-                _ => RowKind::Absolute,
+                1 => Reading::Displacement,
+                3 => Reading::Unmeasured,
+                _ => Reading::Absolute,
             });
         }
         (th, dl, kind)
@@ -2746,7 +2746,7 @@ mod tests {
     }
 
     fn planar() -> Model {
-        Model::from_planar(&Robot::paper())
+        Model::from_planar(&PlanarView::paper())
     }
 
     #[test]
@@ -2841,10 +2841,10 @@ mod tests {
 
     #[test]
     fn zero_parameters_are_the_nominal_model() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let m = planar();
         let (th, dl, _) = data(3, 3, 2);
-        let kind = [RowKind::Absolute; 2];
+        let kind = [Reading::Absolute; 2];
         let o = SolveOptions::default();
         let rows = Rows {
             theta_cmd: &th,
@@ -2873,7 +2873,7 @@ mod tests {
         let s = Model::from_toml(TWO_UNIVERSAL).unwrap();
         let (th, _, _) = data(4, 4, 3);
         let dl = vec![0.0; 12];
-        let kind = [RowKind::Absolute; 3];
+        let kind = [Reading::Absolute; 3];
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,
@@ -2905,7 +2905,7 @@ mod tests {
             }
             let (th, mut dl, _) = data(m.n(), m.position_cables().len(), 1);
             dl[0] = -1e-3;
-            let kind = [RowKind::Displacement];
+            let kind = [Reading::Displacement];
             let rows = Rows {
                 theta_cmd: &th,
                 dl: &dl,
@@ -2948,7 +2948,7 @@ mod tests {
         let rows = Rows {
             theta_cmd: &th,
             dl: &[0.0; 3],
-            kind: &[RowKind::Absolute],
+            kind: &[Reading::Absolute],
         };
         let pr = predict(&m, &p, &rows, &SolveOptions::default(), 1).unwrap();
         assert!(!pr.converged[0] && pr.observation[0].is_nan());
@@ -2956,7 +2956,7 @@ mod tests {
 
     #[test]
     fn the_elastic_solve_meets_its_equation_and_moves_a_steel_arm_a_little() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let m = planar();
         let th0 = [0.2, -0.3, 0.25];
         let cmd = position_lengths(&m, &th0);
@@ -2990,7 +2990,7 @@ mod tests {
     /// The jets' Jacobian of the predictions against central differences
     /// (one-sided at a lower bound), for the parameters `free` of
     /// [`every_effect`].
-    fn check_jacobian(m: &Model, th: &[f64], dl: &[f64], kind: &[RowKind], free: Vec<usize>) {
+    fn check_jacobian(m: &Model, th: &[f64], dl: &[f64], kind: &[Reading], free: Vec<usize>) {
         check_jacobian_at(m, &every_effect(m), th, dl, kind, free);
     }
 
@@ -3000,7 +3000,7 @@ mod tests {
         p: &[f64],
         th: &[f64],
         dl: &[f64],
-        kind: &[RowKind],
+        kind: &[Reading],
         free: Vec<usize>,
     ) {
         let rows = Rows {
@@ -3026,7 +3026,7 @@ mod tests {
             let pa = predict(m, &a, &rows, &o, 1).unwrap();
             let pb = predict(m, &b, &rows, &o, 1).unwrap();
             for (i, k) in kind.iter().enumerate() {
-                if !lin.predictions.converged[i] || *k == RowKind::Unmeasured {
+                if !lin.predictions.converged[i] || *k == Reading::Unmeasured {
                     continue;
                 }
                 for c in 0..w {

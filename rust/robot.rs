@@ -83,7 +83,7 @@ pub fn hole_index(n: usize, c: usize, d: usize, f: usize) -> usize {
 /// The planar view of a CDSM with `n` joints and `2n` cables (see
 /// `docs/model.md`).
 #[derive(Debug, Clone, PartialEq)]
-pub struct Robot {
+pub struct PlanarView {
     pub name: String,
     /// Link before joint `i` (m), the paper's link_{i-1,J_i}.
     pub link_before: Vec<f64>,
@@ -105,7 +105,7 @@ pub struct Robot {
     pub gravity: [f64; 2],
 }
 
-impl Robot {
+impl PlanarView {
     /// Number of joints.
     pub fn n(&self) -> usize {
         self.link_before.len()
@@ -176,7 +176,7 @@ impl Robot {
     }
 
     /// The same robot with other hole positions (flat `(2n, n+1, 2, 2)`, m).
-    pub fn with_holes(&self, holes: &[f64]) -> Result<Robot> {
+    pub fn with_holes(&self, holes: &[f64]) -> Result<PlanarView> {
         let mut r = self.clone();
         r.holes = holes.to_vec();
         r.validate()?;
@@ -215,7 +215,7 @@ mod tests {
 
     #[test]
     fn paper_robot_matches_table_1() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         assert_eq!(r.n(), 3);
         assert!((r.straight_length() - 0.228).abs() < 1e-15);
         assert_eq!(ArmGeometry::<f64>::hole(&r, 0, 0, 1), [0.0, 0.030]);
@@ -231,22 +231,22 @@ mod tests {
     #[test]
     fn rejects_non_physical_and_unknown() {
         let base = "[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
-        assert!(Robot::from_toml(base).is_ok());
+        assert!(PlanarView::from_toml(base).is_ok());
         let neg = base.replace("link_after = 0.033", "link_after = -0.033");
-        let e = Robot::from_toml(&neg).unwrap_err().to_string();
+        let e = PlanarView::from_toml(&neg).unwrap_err().to_string();
         assert!(e.contains("linkage[0].link_after"), "{e}");
         let unk = format!("{base}colour = 1\n");
-        let e = Robot::from_toml(&unk).unwrap_err().to_string();
+        let e = PlanarView::from_toml(&unk).unwrap_err().to_string();
         assert!(e.contains("colour"), "{e}");
         let g = format!("gravity = [0, nan]\n{base}");
-        let e = Robot::from_toml(&g).unwrap_err().to_string();
+        let e = PlanarView::from_toml(&g).unwrap_err().to_string();
         assert!(e.contains("gravity"), "{e}");
         let g = format!("gravity = [0, -9.81]\n{base}");
-        assert_eq!(Robot::from_toml(&g).unwrap().gravity, [0.0, -9.81]);
+        assert_eq!(PlanarView::from_toml(&g).unwrap().gravity, [0.0, -9.81]);
         let nan = base.replace("0.03\n", "nan\n");
-        let e = Robot::from_toml(&nan).unwrap_err().to_string();
+        let e = PlanarView::from_toml(&nan).unwrap_err().to_string();
         assert!(e.contains("hole_height"), "{e}");
-        let e = Robot::from_toml(&format!("n = 2\n{base}"))
+        let e = PlanarView::from_toml(&format!("n = 2\n{base}"))
             .unwrap_err()
             .to_string();
         assert!(e.contains("`n`"), "{e}");
@@ -255,35 +255,35 @@ mod tests {
     #[test]
     fn stretch_feed_forward_defaults_to_true_and_names_its_field() {
         let base = "[cable]\nyoungs_modulus = 1.8e11\ndiameter = 0.18e-3\n[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
-        let r = Robot::from_toml(base).unwrap();
+        let r = PlanarView::from_toml(base).unwrap();
         assert!(r.cable.stretch_feed_forward);
         assert_eq!(r.cable.fed_forward(), r.cable.compliance());
         let rigid = base.replace(
             "diameter = 0.18e-3\n",
             "diameter = 0.18e-3\nstretch_feed_forward = false\n",
         );
-        let r = Robot::from_toml(&rigid).unwrap();
+        let r = PlanarView::from_toml(&rigid).unwrap();
         assert!(!r.cable.stretch_feed_forward);
         assert_eq!(r.cable.fed_forward(), 0.0);
         let bad = base.replace(
             "diameter = 0.18e-3\n",
             "diameter = 0.18e-3\nstretch_feed_forward = 1\n",
         );
-        let e = Robot::from_toml(&bad).unwrap_err().to_string();
+        let e = PlanarView::from_toml(&bad).unwrap_err().to_string();
         assert!(e.contains("stretch_feed_forward"), "{e}");
     }
 
     #[test]
     fn routing_length_is_optional_and_validated() {
         let base = "[cable]\nyoungs_modulus = 1.8e11\ndiameter = 0.18e-3\n[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
-        assert_eq!(Robot::from_toml(base).unwrap().cable.routing_length, 0.0);
+        assert_eq!(PlanarView::from_toml(base).unwrap().cable.routing_length, 0.0);
         let with = base.replace(
             "diameter = 0.18e-3\n",
             "diameter = 0.18e-3\nrouting_length = 0.5\n",
         );
-        assert_eq!(Robot::from_toml(&with).unwrap().cable.routing_length, 0.5);
+        assert_eq!(PlanarView::from_toml(&with).unwrap().cable.routing_length, 0.5);
         let neg = with.replace("0.5", "-0.5");
-        let e = Robot::from_toml(&neg).unwrap_err().to_string();
+        let e = PlanarView::from_toml(&neg).unwrap_err().to_string();
         assert!(e.contains("cable.routing_length"), "{e}");
     }
 
@@ -291,6 +291,6 @@ mod tests {
     fn explicit_holes_equal_hole_height() {
         let a = "[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
         let b = "[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nupper_holes = [[0, 0.03], [0, 0.03], [0, 0.03]]\nlower_holes = [[0, -0.03], [0, -0.03], [0, -0.03]]\n";
-        assert_eq!(Robot::from_toml(a).unwrap(), Robot::from_toml(b).unwrap());
+        assert_eq!(PlanarView::from_toml(a).unwrap(), PlanarView::from_toml(b).unwrap());
     }
 }

@@ -38,7 +38,7 @@ use crate::geometry::{pair, traversal_vector, ArmGeometry};
 use crate::kinds::{Frame, Group, Vector, Visit};
 use crate::kinematics::fk_jacobian;
 use crate::model::{pair_slot, Model};
-use crate::robot::Robot;
+use crate::robot::PlanarView;
 use crate::rows::{map_rows, rows_of};
 
 /// Sensitivities of a batch of configurations (row-major, flat), the same
@@ -64,7 +64,7 @@ pub struct Sensitivities {
 /// Gradient of the length of cable `c` with respect to every hole coordinate,
 /// written (added) into `grad` (flat hole layout, length H); `cs` are the
 /// `(cos, sin)` of the joint angles.
-pub fn cable_hole_gradient(robot: &Robot, c: usize, cs: &[(f64, f64)], grad: &mut [f64]) {
+pub fn cable_hole_gradient(robot: &PlanarView, c: usize, cs: &[(f64, f64)], grad: &mut [f64]) {
     let z = 0.0;
     for (k, &(ct, st)) in cs.iter().enumerate().take(pair(c) + 1) {
         let ip = robot.hole_index(c, k, 1);
@@ -99,7 +99,7 @@ pub fn cable_hole_gradient(robot: &Robot, c: usize, cs: &[(f64, f64)], grad: &mu
 
 /// Sum of the y-gradients of cable `c` over the holes it uses: the derivative
 /// of its length with respect to a common shift of its hole heights.
-fn height_derivative(robot: &Robot, c: usize, grad: &[f64]) -> f64 {
+fn height_derivative(robot: &PlanarView, c: usize, grad: &[f64]) -> f64 {
     let mut s = grad[robot.hole_index(c, 0, 1) + 1];
     for d in 1..=pair(c) + 1 {
         s += grad[robot.hole_index(c, d, 0) + 1] + grad[robot.hole_index(c, d, 1) + 1];
@@ -111,7 +111,7 @@ fn height_derivative(robot: &Robot, c: usize, grad: &[f64]) -> f64 {
 /// `pair (3, n)` and, when given, `holes (3, H)` (overwritten); returns false
 /// (and NaN everywhere) when the upper-cable Jacobian is singular.
 pub fn config_sensitivity(
-    robot: &Robot,
+    robot: &PlanarView,
     geom: &CableGeometry,
     theta: &[f64],
     cable: &mut [f64],
@@ -189,7 +189,7 @@ pub fn config_sensitivity(
 /// The fast path of an arm, chosen once for the sensitivities and the RMS
 /// amplification: a planar arm's closed forms ([`config_sensitivity`] on
 /// its planar view), `None` for the general sensitivities ([`general`]).
-pub fn closed_forms(model: &Model) -> Option<&Robot> {
+pub fn closed_forms(model: &Model) -> Option<&PlanarView> {
     model.planar()
 }
 
@@ -214,7 +214,7 @@ pub fn sensitivities(
 /// The planar-layout index (`(2n, n+1, 2, 2)` flat) of every coordinate of
 /// [`Model::flat_holes`] of a planar arm; `None` for a `z` (the planar
 /// layout has none).
-fn planar_slots(model: &Model, robot: &Robot) -> Vec<Option<usize>> {
+fn planar_slots(model: &Model, robot: &PlanarView) -> Vec<Option<usize>> {
     let mut slots = Vec::new();
     for (c, cable) in model.cables.iter().enumerate() {
         for i in 0..cable.holes.len() {
@@ -232,7 +232,7 @@ fn planar_slots(model: &Model, robot: &Robot) -> Vec<Option<usize>> {
 /// planar layout (`z` columns 0, NaN on a singular row).
 fn planar(
     model: &Model,
-    robot: &Robot,
+    robot: &PlanarView,
     theta: &[f64],
     coords: bool,
     threads: usize,
@@ -289,7 +289,7 @@ fn planar(
 /// per disk's hole height, m): `sqrt(sum_{i in x, y} sum_j S_ij^2 t_j^2 / 3)`;
 /// infinite where the cable Jacobian is singular.
 fn rms_one(
-    robot: &Robot,
+    robot: &PlanarView,
     geom: &CableGeometry,
     theta: &[f64],
     tol: &[f64],
@@ -658,7 +658,7 @@ mod tests {
 
     /// The planar kernel's output at one configuration: `cable (3, n)`,
     /// `pair (3, n)`, holes `(3, 2n, n+1, 2, 2)` in the planar layout.
-    fn kernel(r: &Robot, th: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>, bool) {
+    fn kernel(r: &PlanarView, th: &[f64]) -> (Vec<f64>, Vec<f64>, Vec<f64>, bool) {
         let n = r.n();
         let geom = CableGeometry::new(r, None);
         let mut cable = vec![0.0; 3 * n];
@@ -673,12 +673,12 @@ mod tests {
         // the hole coordinates of the model (cable by cable: base face b,
         // then faces a and b of disks 1..=end; x, y, z) picked from the
         // planar layout (cable, disk, face, x/y), written out here
-        let mut tilted = Robot::paper();
+        let mut tilted = PlanarView::paper();
         for (k, v) in tilted.holes.iter_mut().enumerate() {
             *v += 1e-3 * ((k * 37 % 11) as f64 - 5.0) / 5.0;
         }
         let cases = [
-            (Robot::paper(), vec![0.3, -0.2, 0.45, -0.5, 0.1, -0.05]),
+            (PlanarView::paper(), vec![0.3, -0.2, 0.45, -0.5, 0.1, -0.05]),
             (tilted, vec![0.2, 0.3, -0.4, 0.0, 0.0, 0.0]),
             (robot8(), vec![0.1, -0.2, 0.3, 0.05, -0.15, 0.25, -0.3, 0.1]),
         ];
@@ -721,7 +721,7 @@ mod tests {
 
     #[test]
     fn general_sensitivities_of_a_planar_arm_are_the_planar_ones() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let m = Model::from_planar(&r);
         let th = [0.3, -0.4, 0.2, -0.1, 0.25, 0.5];
         let a = general(&m, &th, true, 1).unwrap();
@@ -748,7 +748,7 @@ mod tests {
     use crate::accuracy::deviation;
     use crate::solve::{CableMethod, SolveOptions};
 
-    fn dev(r: &Robot, th: &[f64], dl: &[f64], holes: Option<&[f64]>) -> Vec<f64> {
+    fn dev(r: &PlanarView, th: &[f64], dl: &[f64], holes: Option<&[f64]>) -> Vec<f64> {
         let (ds, sol) = deviation(
             &Model::from_planar(r),
             th,
@@ -767,7 +767,7 @@ mod tests {
         ds
     }
 
-    fn robot8() -> Robot {
+    fn robot8() -> PlanarView {
         let mut t = String::from("name = \"t8\"\n");
         for i in 0..8 {
             t += &format!(
@@ -775,10 +775,10 @@ mod tests {
                 0.025 - 0.001 * i as f64
             );
         }
-        Robot::from_toml(&t).unwrap()
+        PlanarView::from_toml(&t).unwrap()
     }
 
-    fn check(r: &Robot, th: &[f64]) {
+    fn check(r: &PlanarView, th: &[f64]) {
         let n = r.n();
         let hl = r.holes.len();
         let (cable, pair, holes, ok) = kernel(r, th);
@@ -837,7 +837,7 @@ mod tests {
 
     #[test]
     fn matches_finite_differences_of_the_deviation_paper() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         check(&r, &[0.3, -0.2, 0.45]);
         check(&r, &[-0.5, 0.1, -0.05]);
     }
@@ -845,7 +845,7 @@ mod tests {
     #[test]
     fn matches_finite_differences_of_the_deviation_tilted_holes() {
         // non-straight holes: perturb every hole so all terms matter
-        let mut r = Robot::paper();
+        let mut r = PlanarView::paper();
         for (k, v) in r.holes.iter_mut().enumerate() {
             *v += 1e-3 * ((k * 37 % 11) as f64 - 5.0) / 5.0;
         }
@@ -861,7 +861,7 @@ mod tests {
     #[test]
     fn straight_arm_has_no_first_order_x() {
         // Fig. 12: at theta = 0 the tip loses X to first order.
-        let s = sensitivities(&Model::from_planar(&Robot::paper()), &[0.0; 3], false, 1).unwrap();
+        let s = sensitivities(&Model::from_planar(&PlanarView::paper()), &[0.0; 3], false, 1).unwrap();
         assert!(s.cable[0..3].iter().all(|v| v.abs() < 1e-15));
         // Table 3, point 1: -1 mm on cable 1 gives dY = 2.43 mm (solve); the
         // linear picture says 2.53 mm: 4 % off at the singular state.

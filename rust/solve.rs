@@ -17,7 +17,7 @@ use crate::limits::Limits;
 use crate::lm::{self, Blocks, Damping, Lm, Problem, Reason, Step, Workspace};
 use crate::model::{Model, PlanarNumbers};
 use crate::real::Lane;
-use crate::robot::Robot;
+use crate::robot::PlanarView;
 use crate::simd::math::cos_sin_short;
 use std::borrow::Cow;
 
@@ -275,7 +275,7 @@ pub fn newton_lm(opts: &SolveOptions) -> Lm {
 /// paths reach it there ([`CableSolver::planar_mut`]) to solve against
 /// other cable geometries (perturbed holes) and to finish SIMD closed forms.
 pub struct PlanarSolver<'a> {
-    robot: Cow<'a, Robot>,
+    robot: Cow<'a, PlanarView>,
     pub method: CableMethod,
     pub opts: SolveOptions,
     lm: Lm,
@@ -291,7 +291,7 @@ pub struct PlanarSolver<'a> {
 
 impl<'a> PlanarSolver<'a> {
     /// The planar solver of the view `robot` (borrowed or owned).
-    pub fn new(robot: Cow<'a, Robot>, method: CableMethod, opts: SolveOptions) -> Self {
+    pub fn new(robot: Cow<'a, PlanarView>, method: CableMethod, opts: SolveOptions) -> Self {
         let n = robot.n();
         PlanarSolver {
             robot,
@@ -465,7 +465,7 @@ impl<'a> PlanarSolver<'a> {
 /// Upper-cable lengths `target` (m) to `theta` (seed on entry): one solve.
 #[cfg(test)]
 pub(crate) fn solve_cables(
-    robot: &Robot,
+    robot: &PlanarView,
     geom: &CableGeometry,
     target: &[f64],
     theta: &mut [f64],
@@ -669,19 +669,19 @@ impl<F: Frame<f64>> ChainSolver<F> {
 pub trait CableNumbers: Numbers<f64> {
     /// The planar view of the arm `model` with these numbers (borrowed when
     /// the model keeps it), `None` when it has none.
-    fn planar_view<'a>(&'a self, model: &'a Model) -> Option<Cow<'a, Robot>>;
+    fn planar_view<'a>(&'a self, model: &'a Model) -> Option<Cow<'a, PlanarView>>;
 }
 
 /// A model's own numbers: its kept planar view ([`Model::planar`]).
 impl CableNumbers for Model {
-    fn planar_view<'a>(&'a self, _model: &'a Model) -> Option<Cow<'a, Robot>> {
+    fn planar_view<'a>(&'a self, _model: &'a Model) -> Option<Cow<'a, PlanarView>> {
         self.planar().map(Cow::Borrowed)
     }
 }
 
 /// A moved arm's numbers (a plant's): the planar view of them.
 impl CableNumbers for ArmNumbers<f64> {
-    fn planar_view<'a>(&'a self, model: &'a Model) -> Option<Cow<'a, Robot>> {
+    fn planar_view<'a>(&'a self, model: &'a Model) -> Option<Cow<'a, PlanarView>> {
         model
             .planar_view(&PlanarNumbers {
                 axis: &self.axis,
@@ -1046,7 +1046,7 @@ mod tests {
     fn undamped_first_is_the_damped_solve_bit_for_bit() {
         // targets near and far from the seeds (far ones leave the undamped
         // phase, fail, or stall): every answer and status equals lm::solve's
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let g = CableGeometry::new(&r, None);
         let lm = newton_lm(&SolveOptions::default());
         let mut ws = (lm::Workspace::default(), lm::Workspace::default());
@@ -1095,7 +1095,7 @@ mod tests {
     #[test]
     fn the_cable_solver_picks_its_evaluator_from_the_planar_view() {
         use crate::kinds::{Se2, Se3};
-        let paper = Model::from_planar(&Robot::paper());
+        let paper = Model::from_planar(&PlanarView::paper());
         let spatial =
             Model::from_toml(include_str!("../python/cdsm/robots/two_universal.toml")).unwrap();
         assert!(planar_evaluator(&paper, &paper));
@@ -1157,7 +1157,7 @@ mod tests {
 
     #[test]
     fn cable_methods_agree() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let g = CableGeometry::new(&r, None);
         let want = [0.3, -0.25, 0.1];
         let mut l = [0.0; 6];
@@ -1179,7 +1179,7 @@ mod tests {
 
     #[test]
     fn closed_form_counts_two_branches() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let g = CableGeometry::new(&r, None);
         let mut th = [0.0; 3];
         let mut cs = [(1.0, 0.0); 3];
@@ -1195,7 +1195,7 @@ mod tests {
 
     #[test]
     fn too_long_a_cable_is_unreachable() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let g = CableGeometry::new(&r, None);
         let mut th = [0.0; 3];
         let st = solve_cables(

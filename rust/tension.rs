@@ -284,13 +284,13 @@ mod tests {
     use super::*;
     use crate::kinds::{Se2, Se3};
     use crate::real::{Arith, Dual};
-    use crate::robot::Robot;
+    use crate::robot::PlanarView;
 
     #[test]
     fn the_straight_paper_arm_holds_its_weights() {
         // Table 1: at theta = 0 in a horizontal plane each upper cable carries
         // its pair's lower weight (50, 10, 5 g)
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let m = Model::from_planar(&r);
         let mut ch = Chain::<f64, Se2<f64>>::new(&m);
         ch.at(&m, &m, &[0.0; 3]);
@@ -317,7 +317,7 @@ mod tests {
     fn the_planar_balance_is_the_virtual_work_of_its_loads() {
         // sum_c T_c dL_c/dtheta_k = tau_k: the tip wrench through the pose
         // Jacobian, gravity through the disks' centres by central differences
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let m = Model::from_planar(&r);
         let th = [0.3, -0.45, 0.2];
         let (w, g) = ([0.3, -0.2, 0.0, 0.01], [1.0, -9.81, 0.0]);

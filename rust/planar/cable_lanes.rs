@@ -294,7 +294,7 @@ pub fn solve_cables_closed_form_batch_in(
 mod tests {
     use super::*;
     use crate::solve::{closed_form_cs, solve_cables_closed_form};
-    use crate::Robot;
+    use crate::PlanarView;
 
     /// Lanes of `v` as a slice.
     #[inline(always)]
@@ -307,7 +307,7 @@ mod tests {
         pulp::bytemuck::cast_slice_mut::<S::f64s, f64>(core::slice::from_mut(v))
     }
 
-    fn robot8() -> Robot {
+    fn robot8() -> PlanarView {
         let mut t = String::from("name = \"t8\"\n");
         for i in 0..8 {
             t += &format!(
@@ -315,21 +315,21 @@ mod tests {
                 0.025 - 0.001 * i as f64
             );
         }
-        Robot::from_toml(&t).unwrap()
+        PlanarView::from_toml(&t).unwrap()
     }
 
     /// The paper robot with every hole coordinate moved by up to 1 mm.
-    fn perturbed() -> Robot {
-        let mut r = Robot::paper();
+    fn perturbed() -> PlanarView {
+        let mut r = PlanarView::paper();
         for (k, v) in r.holes.iter_mut().enumerate() {
             *v += 1e-3 * ((k * 37 % 11) as f64 - 5.0) / 5.0;
         }
         r
     }
 
-    fn robots() -> Vec<(&'static str, Robot)> {
+    fn robots() -> Vec<(&'static str, PlanarView)> {
         vec![
-            ("paper", Robot::paper()),
+            ("paper", PlanarView::paper()),
             ("8 joints", robot8()),
             ("perturbed holes", perturbed()),
         ]
@@ -357,7 +357,7 @@ mod tests {
     /// Random rows `(target, seed)`: mostly reachable targets (+-1 mm noise)
     /// seeded near the answer, plus seeds far from it, targets too long or
     /// too short for some joint, and zero seeds.
-    fn cases(robot: &Robot, geom: &CableGeometry, rows: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    fn cases(robot: &PlanarView, geom: &CableGeometry, rows: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
         let n = geom.n;
         let mut rng = Rng(seed);
         let (mut target, mut seeds) = (Vec::new(), Vec::new());
@@ -609,7 +609,7 @@ mod tests {
 
     #[test]
     fn simd_batch_handles_every_tail_length() {
-        let robot = Robot::paper();
+        let robot = PlanarView::paper();
         let g = CableGeometry::new(&robot, None);
         let (target, seed) = cases(&robot, &g, 20, 5);
         for rows in 0..=20 {
@@ -700,7 +700,7 @@ mod tests {
 
     #[test]
     fn simd_nan_targets_and_seeds_and_flat_segments() {
-        let robot = Robot::paper();
+        let robot = PlanarView::paper();
         let g = CableGeometry::new(&robot, None);
         let t = upper(&g, &[0.1, -0.2, 0.3]);
         let mut target = vec![];

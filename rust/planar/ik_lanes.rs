@@ -9,7 +9,7 @@
 //! kernel does not settle — out of reach, or a branch more than pi from the
 //! seed (whole turns to remove) — are marked for the scalar function.
 
-use crate::robot::Robot;
+use crate::robot::PlanarView;
 use crate::simd::lanes::{Lanes, Mask};
 use crate::simd::math::{acos_lanes, atan2_lanes, sin_cos_lanes};
 use pulp::{Simd, WithSimd};
@@ -25,7 +25,7 @@ const BLOCK: usize = 2;
 /// `robot` must have 3 joints.
 pub fn ik_closed_form_batch(
     arch: pulp::Arch,
-    robot: &Robot,
+    robot: &PlanarView,
     pose: &[f64],
     seed: &[f64],
     theta: &mut [f64],
@@ -47,7 +47,7 @@ pub fn ik_closed_form_batch(
 }
 
 struct IkOp<'a> {
-    robot: &'a Robot,
+    robot: &'a PlanarView,
     pose: &'a [f64],
     seed: &'a [f64],
     theta: &'a mut [f64],
@@ -168,7 +168,7 @@ mod tests {
 
     #[test]
     fn lanes_agree_with_the_scalar_closed_form() {
-        let r = Robot::paper();
+        let r = PlanarView::paper();
         let (mut pose, mut seed) = (Vec::new(), Vec::new());
         for i in 0..203 {
             let a = i as f64 * 0.61;

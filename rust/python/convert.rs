@@ -4,7 +4,7 @@
 
 use crate::error::CdsmError;
 use crate::ik::IkMethod;
-use crate::plant::RowKind;
+use crate::plant::Reading;
 use crate::solve::{CableMethod, SolveOptions};
 use numpy::{PyArray1, PyReadonlyArrayDyn};
 use pyo3::create_exception;
@@ -79,10 +79,10 @@ pub fn ik_method(name: &str) -> PyResult<IkMethod> {
 }
 
 /// Row kinds from their codes (0 absolute, 1 displacement, 2 unmeasured).
-pub fn kinds(codes: &[u8]) -> PyResult<Vec<RowKind>> {
+pub fn kinds(codes: &[u8]) -> PyResult<Vec<Reading>> {
     codes
         .iter()
-        .map(|c| RowKind::from_code(*c).map_err(err))
+        .map(|c| Reading::from_code(*c).map_err(err))
         .collect()
 }
 

@@ -45,7 +45,7 @@ pub fn bounds<'py>(py: Python<'py>, model: &Model) -> (Array<'py>, Array<'py>) {
 pub struct Data<'a> {
     pub theta_cmd: &'a [f64],
     pub dl: &'a [f64],
-    pub kind: Vec<plant::RowKind>,
+    pub kind: Vec<plant::Reading>,
 }
 
 impl<'a> Data<'a> {

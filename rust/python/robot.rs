@@ -20,7 +20,7 @@ use crate::friction::Sliding;
 use crate::ik::{self, Mask};
 use crate::kinds::Kind;
 use crate::model::{Mode, Model};
-use crate::robot::{CableMaterial, Robot};
+use crate::robot::{CableMaterial, PlanarView};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
@@ -100,7 +100,7 @@ impl CoreRobot {
 
     #[staticmethod]
     fn paper() -> Self {
-        CoreRobot::of(Model::from_planar(&Robot::paper()))
+        CoreRobot::of(Model::from_planar(&PlanarView::paper()))
     }
 
     /// A robot file (TOML, SI units) that rebuilds this arm exactly.
