@@ -576,18 +576,7 @@ mod tests {
         truth[off[2]] = 2e-4;
         truth[off[2] + 1] = -1e-4;
         truth[off[0]] = 0.02;
-        let mut th = Vec::new();
-        let mut dl = Vec::new();
-        for i in 0..12 {
-            let a = i as f64 * 0.37;
-            th.extend_from_slice(&[
-                0.4 * a.sin(),
-                0.3 * (1.3 * a).cos(),
-                -0.35 * (0.7 * a).sin(),
-            ]);
-            dl.extend_from_slice(&[1e-3 * (2.1 * a).sin(), 0.0, -5e-4 * a.cos()]);
-        }
-        let kind = vec![Reading::Absolute; 12];
+        let (th, dl, kind) = paper_commands();
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,
@@ -625,14 +614,9 @@ mod tests {
         }
     }
 
-    /// The paper arm on 12 absolute rows with two effects hidden: the
-    /// model, the rows' sequence and their measurements.
-    fn paper_rows() -> (Model, Sequence, Vec<f64>) {
-        let r = Model::from_planar(&PlanarView::paper());
-        let lay = layout(&r);
-        let mut truth = vec![0.0; lay.total];
-        truth[lay.find(Effect::HoleHeight).unwrap().0] = 2e-4;
-        truth[lay.find(Effect::ActuationScale).unwrap().0] = 0.02;
+    /// 12 absolute rows of the paper arm: `theta_cmd (12, 3)` rad and `dl
+    /// (12, 3)` m.
+    fn paper_commands() -> (Vec<f64>, Vec<f64>, Vec<Reading>) {
         let (mut th, mut dl) = (Vec::new(), Vec::new());
         for i in 0..12 {
             let a = i as f64 * 0.37;
@@ -644,6 +628,18 @@ mod tests {
             dl.extend_from_slice(&[1e-3 * (2.1 * a).sin(), 0.0, -5e-4 * a.cos()]);
         }
         let kind = vec![Reading::Absolute; 12];
+        (th, dl, kind)
+    }
+
+    /// The paper arm on 12 absolute rows with two effects hidden: the
+    /// model, the rows' sequence and their measurements.
+    fn paper_rows() -> (Model, Sequence, Vec<f64>) {
+        let r = Model::from_planar(&PlanarView::paper());
+        let lay = layout(&r);
+        let mut truth = vec![0.0; lay.total];
+        truth[lay.find(Effect::HoleHeight).unwrap().0] = 2e-4;
+        truth[lay.find(Effect::ActuationScale).unwrap().0] = 0.02;
+        let (th, dl, kind) = paper_commands();
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,

@@ -276,12 +276,18 @@ mod tests {
     #[test]
     fn routing_length_is_optional_and_validated() {
         let base = "[cable]\nyoungs_modulus = 1.8e11\ndiameter = 0.18e-3\n[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
-        assert_eq!(PlanarView::from_toml(base).unwrap().cable.routing_length, 0.0);
+        assert_eq!(
+            PlanarView::from_toml(base).unwrap().cable.routing_length,
+            0.0
+        );
         let with = base.replace(
             "diameter = 0.18e-3\n",
             "diameter = 0.18e-3\nrouting_length = 0.5\n",
         );
-        assert_eq!(PlanarView::from_toml(&with).unwrap().cable.routing_length, 0.5);
+        assert_eq!(
+            PlanarView::from_toml(&with).unwrap().cable.routing_length,
+            0.5
+        );
         let neg = with.replace("0.5", "-0.5");
         let e = PlanarView::from_toml(&neg).unwrap_err().to_string();
         assert!(e.contains("cable.routing_length"), "{e}");
@@ -291,6 +297,9 @@ mod tests {
     fn explicit_holes_equal_hole_height() {
         let a = "[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nhole_height = 0.03\n";
         let b = "[[linkage]]\nlink_before = 0.033\nlink_after = 0.033\nthickness = 0.01\nupper_holes = [[0, 0.03], [0, 0.03], [0, 0.03]]\nlower_holes = [[0, -0.03], [0, -0.03], [0, -0.03]]\n";
-        assert_eq!(PlanarView::from_toml(a).unwrap(), PlanarView::from_toml(b).unwrap());
+        assert_eq!(
+            PlanarView::from_toml(a).unwrap(),
+            PlanarView::from_toml(b).unwrap()
+        );
     }
 }

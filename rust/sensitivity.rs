@@ -861,7 +861,13 @@ mod tests {
     #[test]
     fn straight_arm_has_no_first_order_x() {
         // Fig. 12: at theta = 0 the tip loses X to first order.
-        let s = sensitivities(&Model::from_planar(&PlanarView::paper()), &[0.0; 3], false, 1).unwrap();
+        let s = sensitivities(
+            &Model::from_planar(&PlanarView::paper()),
+            &[0.0; 3],
+            false,
+            1,
+        )
+        .unwrap();
         assert!(s.cable[0..3].iter().all(|v| v.abs() < 1e-15));
         // Table 3, point 1: -1 mm on cable 1 gives dY = 2.43 mm (solve); the
         // linear picture says 2.53 mm: 4 % off at the singular state.

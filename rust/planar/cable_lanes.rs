@@ -357,7 +357,12 @@ mod tests {
     /// Random rows `(target, seed)`: mostly reachable targets (+-1 mm noise)
     /// seeded near the answer, plus seeds far from it, targets too long or
     /// too short for some joint, and zero seeds.
-    fn cases(robot: &PlanarView, geom: &CableGeometry, rows: usize, seed: u64) -> (Vec<f64>, Vec<f64>) {
+    fn cases(
+        robot: &PlanarView,
+        geom: &CableGeometry,
+        rows: usize,
+        seed: u64,
+    ) -> (Vec<f64>, Vec<f64>) {
         let n = geom.n;
         let mut rng = Rng(seed);
         let (mut target, mut seeds) = (Vec::new(), Vec::new());
