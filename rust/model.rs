@@ -370,7 +370,9 @@ pub fn axis_class(a: [f64; 3]) -> Option<AxisClass> {
 /// A `[backbone]` table, its errors named under `backbone.`.
 fn backbone_file(t: toml::Table) -> Result<BackboneFile> {
     from_table(t).map_err(|e| match e {
-        CdsmError::PlanarView { field, problem } if field == "<file>" => bad("backbone".into(), problem),
+        CdsmError::PlanarView { field, problem } if field == "<file>" => {
+            bad("backbone".into(), problem)
+        }
         CdsmError::PlanarView { field, problem } => bad(format!("backbone.{field}"), problem),
         other => other,
     })
