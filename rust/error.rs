@@ -9,7 +9,7 @@ use thiserror::Error;
 pub enum CdsmError {
     /// A robot description that is not physical or not well formed.
     #[error("robot description: field `{field}`: {problem}")]
-    PlanarView { field: String, problem: String },
+    Robot { field: String, problem: String },
     /// An input array of the wrong size.
     #[error("`{name}`: expected {expected}, got {got}")]
     Shape {

@@ -126,6 +126,28 @@ pub struct Cable {
     pub actuator: Actuator,
 }
 
+/// How the plant settles a rigid arm with more position cables than joints
+/// ([`Model::redundant_settle`], `docs/model.md`, "Settling").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RedundantSettle {
+    /// At the minimum of the potential of its position cables as springs of
+    /// `E A / (L + L_r)` (the stated cable), gravity and force cables.
+    Potential,
+    /// At the unweighted least squares on the cable lengths (the cable not
+    /// stated).
+    LeastSquares,
+}
+
+impl RedundantSettle {
+    /// Its name in Python and the docs.
+    pub fn name(self) -> &'static str {
+        match self {
+            RedundantSettle::Potential => "potential",
+            RedundantSettle::LeastSquares => "least_squares",
+        }
+    }
+}
+
 /// A cable-driven serpentine arm of either kind.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
@@ -265,6 +287,7 @@ fn material(c: Option<MaterialFile>) -> CableMaterial {
         diameter: c.diameter,
         routing_length: c.routing_length,
         stretch_feed_forward: c.stretch_feed_forward,
+        stated: true,
     })
 }
 
@@ -370,10 +393,8 @@ pub fn axis_class(a: [f64; 3]) -> Option<AxisClass> {
 /// A `[backbone]` table, its errors named under `backbone.`.
 fn backbone_file(t: toml::Table) -> Result<BackboneFile> {
     from_table(t).map_err(|e| match e {
-        CdsmError::PlanarView { field, problem } if field == "<file>" => {
-            bad("backbone".into(), problem)
-        }
-        CdsmError::PlanarView { field, problem } => bad(format!("backbone.{field}"), problem),
+        CdsmError::Robot { field, problem } if field == "<file>" => bad("backbone".into(), problem),
+        CdsmError::Robot { field, problem } => bad(format!("backbone.{field}"), problem),
         other => other,
     })
 }
@@ -743,16 +764,43 @@ impl Model {
         Ok(())
     }
 
+    /// `docs/model.md`, "Settling": how the plant settles a rigid arm
+    /// (no joint springs, no displacement cables) with more position cables
+    /// than joints; `None` for any other arm (its settle has one answer, or
+    /// is the elastic statics). At the minimum of the potential of its
+    /// cables as springs where the robot states its cable
+    /// ([`CableMaterial::stated`]: their stiffness is the physics), else in
+    /// least squares on the lengths (cdsm's default cable is a placeholder,
+    /// e.g. for a CASPR import, which gives none).
+    pub fn redundant_settle(&self) -> Option<RedundantSettle> {
+        if self.position_cables().len() <= self.n() || self.is_elastic() {
+            return None;
+        }
+        Some(if self.cable.stated {
+            RedundantSettle::Potential
+        } else {
+            RedundantSettle::LeastSquares
+        })
+    }
+
     /// `docs/model.md`, "Settling": a position cable's pretension acts
     /// through its stretch where the cables, not the statics, fix the
-    /// tensions (more position cables than joints, a rigid arm).
+    /// tensions (more position cables than joints, a rigid arm, its cable
+    /// stated).
     fn check_position_pretension(&self) -> Result<()> {
-        if self.position_cables().len() > self.n() && !self.is_elastic() {
+        let settle = self.redundant_settle();
+        if settle == Some(RedundantSettle::Potential) {
             return Ok(());
         }
         match (0..self.cables.len()).find(|&c| {
             self.cables[c].mode == Mode::Position && self.cables[c].actuator.pretension != 0.0
         }) {
+            Some(c) if settle == Some(RedundantSettle::LeastSquares) => Err(bad(
+                format!("cables[{c}].pretension"),
+                "a position cable's pretension needs the arm's cable stated (a [cable] table: \
+                 its stretch under the pretension); without one the arm settles in least \
+                 squares on the lengths (docs/model.md, \"Settling\")",
+            )),
             Some(c) => Err(bad(
                 format!("cables[{c}].pretension"),
                 "a position cable's pretension needs more position cables than joints on an \
@@ -1015,11 +1063,15 @@ impl Model {
         }
     }
 
-    /// The same arm with another cable material (validated).
+    /// The same arm with another cable material (validated), stated
+    /// ([`CableMaterial::stated`]).
     pub fn with_cable(&self, cable: CableMaterial) -> Result<Model> {
         cable.validate()?;
         let mut m = self.clone();
-        m.cable = cable;
+        m.cable = CableMaterial {
+            stated: true,
+            ..cable
+        };
         Ok(m)
     }
 
@@ -1036,7 +1088,7 @@ impl Model {
         };
         line(
             w,
-            "# written by cdsm (PlanarView.to_toml); SI units: m, kg, N, rad, Pa, m/s^2".into(),
+            "# written by cdsm (Robot.to_toml); SI units: m, kg, N, rad, Pa, m/s^2".into(),
         );
         // the form of the file: the planar shorthand (its kind the default)
         // for an arm read from it (its radii are its holes': the shorthand
@@ -1049,18 +1101,27 @@ impl Model {
         let g = &self.gravity[..self.kind.dim()];
         line(w, format!("gravity = {}", toml_fs(g)));
         line(w, String::new());
-        line(w, "[cable]".into());
-        line(
-            w,
-            format!("youngs_modulus = {}", toml_f(self.cable.youngs_modulus)),
-        );
-        line(w, format!("diameter = {}", toml_f(self.cable.diameter)));
-        line(
-            w,
-            format!("routing_length = {}", toml_f(self.cable.routing_length)),
-        );
-        if !self.cable.stretch_feed_forward {
-            line(w, "stretch_feed_forward = false".into());
+        if self.cable.stated {
+            line(w, "[cable]".into());
+            line(
+                w,
+                format!("youngs_modulus = {}", toml_f(self.cable.youngs_modulus)),
+            );
+            line(w, format!("diameter = {}", toml_f(self.cable.diameter)));
+            line(
+                w,
+                format!("routing_length = {}", toml_f(self.cable.routing_length)),
+            );
+            if !self.cable.stretch_feed_forward {
+                line(w, "stretch_feed_forward = false".into());
+            }
+        } else {
+            // not stated: the default cable, which a `[cable]` table would
+            // state (`docs/model.md`, "Settling")
+            line(
+                w,
+                "# no [cable]: cdsm's default cable (steel, 0.18 mm), not stated".into(),
+            );
         }
         if shorthand {
             line(w, format!("\n# {} linkages", self.n()));
@@ -1927,6 +1988,7 @@ mod tests {
                 stretch_feed_forward: cable
                     .and_then(|c| c.get("stretch_feed_forward"))
                     .is_none_or(|v| v.as_bool().unwrap()),
+                stated: cable.is_some(),
             },
             gravity: t.get("gravity").map_or([0.0, 0.0], pair),
         }

@@ -25,7 +25,7 @@ use crate::fit::{FitModel, Predictions};
 use crate::friction::{mobilisation, Holes, Motion, Profile, MU_MAX};
 use crate::kinds::{Frame, Group, Rotation, Vector, Visit};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
-use crate::model::{Mode, Model};
+use crate::model::{Mode, Model, RedundantSettle};
 use crate::real::{Arith, Jet, Real};
 use crate::rows::{
     row_of, rows_exactly, rows_of, seeds, shared_or_rows, split_rows, BatchSolution,
@@ -437,8 +437,9 @@ struct Params<S> {
     scale: S,
     offset: Vec<S>,
     /// The compliance (1/N) the settle stretches the cables at: the
-    /// parameter `kappa`, plus the robot file's cable's `1 / (E A)` with
-    /// more position cables than joints (`docs/model.md`, "Settling").
+    /// parameter `kappa`, plus the robot file's cable's `1 / (E A)` where
+    /// the arm settles at its cables' potential
+    /// ([`RedundantSettle::Potential`], `docs/model.md`, "Settling").
     kappa: S,
     clearance: S,
     width: S,
@@ -549,9 +550,9 @@ impl<S: Real> Params<S> {
         Params {
             scale: one(Effect::ActuationScale),
             offset: span(Effect::CableOffset),
-            // with more position cables than joints nothing is fed forward:
-            // the arm settles on the file's cables, stretched at kappa + 1/(E A)
-            kappa: if pos.len() > model.n() {
+            // a redundant arm on its stated cable: nothing is fed forward,
+            // it settles on the file's cables, stretched at kappa + 1/(E A)
+            kappa: if model.redundant_settle() == Some(RedundantSettle::Potential) {
                 one(Effect::CableElasticity) + S::cst(model.cable.compliance())
             } else {
                 one(Effect::CableElasticity)
@@ -1165,9 +1166,10 @@ pub struct Plant<'a, G: Group> {
     /// The same parameters as constants in jets (for `dE/dtheta`).
     cprm: Params<J>,
     l_ref: Vec<f64>,
-    /// With more position cables than joints, no clearance and no
-    /// friction: the plant's arm, its cables at the compliance `kappa`,
-    /// and its elastic statics (the settle's minimum of the potential).
+    /// With more position cables than joints on a stated cable
+    /// ([`RedundantSettle::Potential`]), no clearance and no friction: the
+    /// plant's arm, its cables at the compliance `kappa`, and its elastic
+    /// statics (the settle's minimum of the potential).
     statics: Option<Box<Statics>>,
     _kind: std::marker::PhantomData<G>,
 }
@@ -1197,7 +1199,7 @@ impl<'a, G: Group> Plant<'a, G> {
         let prm = Params::<f64>::unpack(model, &lay, p, |_, v| v);
         let cprm = Params::<J>::unpack(model, &lay, p, |_, v| J::cst(v));
         let l_ref = commanded_lengths_rows(model, &vec![0.0; model.n()]);
-        let statics = (model.position_cables().len() > model.n()
+        let statics = (model.redundant_settle() == Some(RedundantSettle::Potential)
             && !prm.clear()
             && !prm.friction())
         .then(|| {
@@ -2518,8 +2520,8 @@ fn solve_elastic_k<G: Group>(
     };
     let lay = layout(model);
     let mut p = vec![0.0; lay.total];
-    if m == n {
-        // with more position cables than joints the plant's settle
+    if model.redundant_settle() != Some(RedundantSettle::Potential) {
+        // a redundant arm on its stated cable: the plant's settle
         // stretches the file's cable itself (`Params::kappa`)
         p[lay
             .find(Effect::CableElasticity)
@@ -3163,7 +3165,15 @@ mod tests {
 
     #[test]
     fn hole_columns_apart_are_the_full_passes_with_more_cables_than_joints() {
-        // on 1 mm steel cables (the packaged 0.18 mm cable lets the snake
+        // the packaged file states no cable: the least-squares settle
+        let sjtu = include_str!("../python/cdsm/robots/sjtu_snake.toml");
+        holes_apart_are_the_full_passes(sjtu);
+    }
+
+    #[test]
+    fn hole_columns_apart_are_the_full_passes_on_a_stated_redundant_cable() {
+        // stated 1 mm steel cables (the settle at the potential; on the
+        // default 0.18 mm cable the snake would fold under its weight) (the packaged 0.18 mm cable lets the snake
         // fold under its weight), without clearance (with it the redundant
         // arm's settle is the damped Newton on the balance, which fails
         // where cables go slack): `docs/model.md`, "Settling"

@@ -15,7 +15,7 @@ pub const MAX_LENGTH: f64 = 1.0e3;
 
 /// A robot-file error on `field`.
 pub(crate) fn bad(field: String, problem: impl Into<String>) -> CdsmError {
-    CdsmError::PlanarView {
+    CdsmError::Robot {
         field,
         problem: problem.into(),
     }
@@ -198,7 +198,7 @@ mod tests {
 
     fn field_of(text: &str) -> (String, String) {
         match parse_toml::<File>(text) {
-            Err(CdsmError::PlanarView { field, problem }) => (field, problem),
+            Err(CdsmError::Robot { field, problem }) => (field, problem),
             other => panic!("expected a robot error, got {other:?}"),
         }
     }
@@ -237,7 +237,7 @@ mod tests {
             ("y\u{FFFF}", "U+FFFF"),
         ] {
             match robot_name(Some(name.into())) {
-                Err(CdsmError::PlanarView { field, problem }) => {
+                Err(CdsmError::Robot { field, problem }) => {
                     assert_eq!(field, "name");
                     assert!(problem.contains(code), "{problem}");
                 }

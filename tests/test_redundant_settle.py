@@ -1,13 +1,16 @@
-"""A rigid arm with more position cables than joints settles on its cables as springs
-(``docs/model.md``, "Settling"): at the minimum of the potential of its position
-cables, each commanded to its realised length and stretched at ``kappa + 1/(E A)``
-(the robot file's cable; nothing fed forward), gravity and force cables in the
+"""A rigid arm with more position cables than joints whose robot states its cable settles
+on its cables as springs (``docs/model.md``, "Settling"): at the minimum of the potential
+of its position cables, each commanded to its realised length and stretched at ``kappa +
+1/(E A)`` (the robot file's cable; nothing fed forward), gravity and force cables in the
 balance, a slack cable carrying nothing -- not at the unweighted least squares on the
 lengths (the settle before issue 35, which put every consistent command exactly where
-it was commanded).
+it was commanded).  One whose cable is not stated (cdsm's default cable, a placeholder:
+the packaged SJTU snake, a CASPR import) keeps the least squares; ``Robot.redundant_settle``
+says which.
 
 The arm: two_universal with its force cables made position cables (8 cables, 4
-joints, gravity); the packaged SJTU snake (36 cables, 24 joints) for parity.
+joints, gravity), its cable stated; the SJTU snake (36 cables, 24 joints) on a stated
+1 mm cable for parity.
 """
 
 from __future__ import annotations
@@ -24,12 +27,16 @@ from cdsm.reference import elastic
 ROBOTS = Path(__file__).resolve().parents[1] / "python" / "cdsm" / "robots"
 
 
-def _eight_text() -> str:
-    """two_universal with its force cables made position cables."""
+# cdsm's default cable (steel, 0.18 mm), stated
+_STATED = "\n[cable]\nyoungs_modulus = 1.8e11\ndiameter = 0.18e-3\n"
+
+
+def _eight_text(stated: bool = True) -> str:
+    """two_universal with its force cables made position cables, its cable stated or not."""
     text = (ROBOTS / "two_universal.toml").read_text(encoding="utf-8")
     out = re.sub(r'mode = "force"\ntension = [0-9.eE+-]+\n', 'mode = "position"\n', text)
     assert out.count('mode = "position"') == 8
-    return out
+    return out + _STATED if stated else out
 
 
 @pytest.fixture(scope="module")
@@ -125,6 +132,45 @@ def test_sjtu_snake_plant_parity(cdsm_core):
     want, ok_ref = reference.plant_predict(ref, p, theta, dL, ["absolute"] * 3)
     assert ok.all() and ok_ref.all()
     np.testing.assert_allclose(obs, want, rtol=0, atol=1e-9)
+
+
+def test_unstated_cable_keeps_the_least_squares_settle(cdsm_core):
+    """The same arm without a ``[cable]`` table (cdsm's default cable, not stated) settles
+    as before issue 35, at the unweighted least squares on the lengths: inconsistent
+    commands (+-1 mm) land where the reference's rigid least-squares cable solve puts
+    them, not where the stated cable's potential does (the same default numbers)."""
+    text = _eight_text(stated=False)
+    robot, ref = cdsm_core.Robot.from_toml_str(text), reference.read_robot(text)
+    theta, L = _commands(ref, 5, 15)
+    dL = np.random.default_rng(15).uniform(-1e-3, 1e-3, L.shape)
+    obs, ok = _settle(cdsm_core, robot, theta, dL)
+    lsq = reference.solve_cables(ref, L + dL, seed=theta)
+    assert ok.all() and np.isfinite(lsq["theta"]).all()
+    np.testing.assert_allclose(obs, reference.fk(ref, lsq["theta"]), rtol=0, atol=1e-8)
+    stated, ok = _settle(cdsm_core, cdsm_core.Robot.from_toml_str(_eight_text()), theta, dL)
+    assert ok.all() and np.abs(stated - obs).max() > 1e-4
+
+
+def test_the_robot_says_how_it_settles(cdsm_core):
+    """``Robot.redundant_settle``: "potential" where a redundant rigid arm's cable is
+    stated (a ``[cable]`` table or ``with_cable``), "least_squares" where it is not (the
+    packaged SJTU snake, a CASPR import); None for other arms.  The file ``to_toml``
+    writes keeps it (no ``[cable]`` table for a cable not stated)."""
+    R = cdsm_core.Robot
+    snake = R.packaged("sjtu_snake")
+    assert not snake.cable_stated and snake.redundant_settle == "least_squares"
+    steel = snake.with_cable(diameter=1e-3)
+    assert steel.cable_stated and steel.redundant_settle == "potential"
+    assert R.from_toml_str(snake.to_toml()).redundant_settle == "least_squares"
+    assert "\n[cable]\n" not in snake.to_toml()
+    assert R.from_toml_str(steel.to_toml()).redundant_settle == "potential"
+    assert R.from_toml_str(_eight_text()).redundant_settle == "potential"
+    assert R.from_toml_str(_eight_text(stated=False)).redundant_settle == "least_squares"
+    assert R.from_toml_str(_hinge_text()).redundant_settle == "potential"
+    assert R.packaged("two_universal").redundant_settle is None  # 4 position cables, 4 joints
+    assert R.packaged("paper").redundant_settle is None
+    assert reference.read_robot(_eight_text()).cable_stated
+    assert not reference.read_robot(_eight_text(stated=False)).cable_stated
 
 
 # One joint about z, two antagonistic position cables: A's base hole 0.3 m behind the
@@ -275,6 +321,20 @@ def test_position_pretension_refused_where_the_statics_fix_the_tensions(cdsm_cor
                                         'mode = "force"\ntension = 1.0\nholes = [[0.0, -0.01')
     with pytest.raises(ValueError, match=r"cables\[1\]\.pretension`?: only position and displacement"):
         cdsm_core.Robot.from_toml_str(force)
+
+
+def test_position_pretension_refused_without_a_stated_cable(cdsm_core):
+    """The hinge without its ``[cable]`` table: it settles in least squares on the
+    lengths, where a pretension would change nothing, so the file is refused naming the
+    field (both readers)."""
+    text = re.sub(r"\[cable\]\nyoungs_modulus = .*\ndiameter = .*\n", "", _hinge_text(pb=5.0))
+    assert "[cable]" not in text
+    with pytest.raises(ValueError, match=r"cables\[1\]\.pretension`?: a position cable's pretension needs the "
+                       r"arm's cable stated"):
+        cdsm_core.Robot.from_toml_str(text)
+    with pytest.raises(ValueError, match=r"cables\[2\]\.pretension: a position cable's pretension needs the "
+                       r"arm's cable stated"):
+        reference.read_robot(text)
 
 
 def test_position_pretension_round_trips_through_the_file(cdsm_core):

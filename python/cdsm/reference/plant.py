@@ -436,11 +436,15 @@ def fed_forward_compliance(robot) -> float:
 
 def redundant_compliance(robot) -> float:
     """The compliance (1/N) a settle adds to the plant's ``kappa``: ``1 / (E A)``, ``A = pi
-    d^2 / 4``, of the robot file's cable when the arm has more position cables than joints
-    (``docs/model.md``, "Settling": nothing is fed forward there, so the arm settles on the
-    file's cables stretched under their tensions, at ``k = kappa + 1/(E A)``), else 0."""
+    d^2 / 4``, of the robot file's cable when the arm is rigid with more position cables
+    than joints and its file states the cable (``docs/model.md``, "Settling": nothing is fed
+    forward there, so the arm settles on the file's cables stretched under their tensions,
+    at ``k = kappa + 1/(E A)``), else 0 (the default cable is a placeholder: the arm
+    settles in least squares on the lengths)."""
     robot = as_robot(robot)
-    if position_cables(robot).size <= robot.n:
+    elastic = (np.any(robot.joint_stiffness != 0.0) or np.any(robot.rest_angle != 0.0)
+               or "displacement" in robot.cable_mode)
+    if position_cables(robot).size <= robot.n or elastic or not robot.cable_stated:
         return 0.0
     return 1.0 / (float(robot.youngs_modulus) * np.pi * float(robot.diameter) ** 2 / 4.0)
 
@@ -719,13 +723,14 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=200, fd_step=1e-6
 
     ``realised``: ``L (R, m)`` m; ``theta_seed (R, n)`` rad (the row's ``theta_cmd``).
     First the rigid cable solve of the plant's arm (:func:`.solve.solve_cables`,
-    no clearance; least squares when ``m > n``) from the seed; with ``m > n`` a descent
-    on its energy without clearance (:func:`_energy_descent`; the cables stretched at
-    ``kappa + 1/(E A)``, :func:`redundant_compliance`);
+    no clearance; least squares when ``m > n``) from the seed; for an elastic arm with
+    ``m > n`` (``kappa > 0``, or the file's cable stated: stretched at ``kappa + 1/(E A)``,
+    :func:`redundant_compliance`) a descent on its energy without clearance
+    (:func:`_energy_descent`);
     then damped Newton
     (:func:`_damped_newton`) on the settled-state equations
-    (:func:`settling_residual`: elasticity, clearance, the redundant arm's elastic
-    equilibrium) from the rigid answer (from the seed where the
+    (:func:`settling_residual`: elasticity, clearance, the redundant arm's least
+    squares or elastic equilibrium) from the rigid answer (from the seed where the
     rigid solve failed), iterated down to round-off (a row within ``max|F| <= tol`` m
     stops at its first trial that does not lower ``|F|^2``).  A command has settled when
     ``max|F| <= tol`` m.  ``z (R, H)``: every

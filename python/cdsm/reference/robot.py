@@ -187,6 +187,10 @@ class Robot:
     ``routing_length`` float              m, every cable's path behind the base disk
     ``stretch_feed_forward`` bool         the controller feeds the cable's frictionless
                                           stretch forward (``docs/model.md``, "Commands")
+    ``cable_stated``  bool                the robot file states its cable (a ``[cable]``
+                                          table; else the default is a placeholder): an
+                                          arm with more position cables than joints
+                                          settles on it (``docs/model.md``, "Settling")
     ``joint_stiffness`` ``(n,)``          N m/rad, the joint's spring (0: a free joint)
     ``rest_angle``    ``(n,)``            rad, the spring's rest angle
     ``cable_stiffness`` ``(m,)``          N/m, a displacement cable's actuator (inf:
@@ -222,6 +226,7 @@ class Robot:
     diameter: float = DEFAULT_DIAMETER
     routing_length: float = 0.0
     stretch_feed_forward: bool = True
+    cable_stated: bool = False
     joint_stiffness: np.ndarray = None
     rest_angle: np.ndarray = None
     cable_stiffness: np.ndarray = None
@@ -817,11 +822,16 @@ def _read_general(doc: dict, name: str) -> Robot:
         raise ValueError(f"cables: {n_cmd} position or displacement cables for {n_free} joints without stiffness "
                          f"(at least as many commanded cables as free joints are needed)")
     elastic = np.any(stiffness != 0.0) or np.any(rest != 0.0) or n_cmd > n_pos
-    if n_pos <= n or elastic:
+    stated = "cable" in doc
+    if n_pos <= n or elastic or not stated:
         for c, cb in enumerate(cables, start=1):
-            if cb["mode"] == "position" and cb["pretension"] != 0.0:
+            if cb["mode"] != "position" or cb["pretension"] == 0.0:
+                continue
+            if n_pos <= n or elastic:
                 raise ValueError(f"cables[{c}].pretension: a position cable's pretension needs more position "
                                  f"cables than joints on an arm without joint springs or displacement cables")
+            raise ValueError(f"cables[{c}].pretension: a position cable's pretension needs the arm's cable "
+                             f"stated (a [cable] table)")
     K = len(disks)
     return Robot(
         name=name,
@@ -842,6 +852,7 @@ def _read_general(doc: dict, name: str) -> Robot:
         cable_tension=np.array([c["tension"] for c in cables], dtype=float),
         holes=tuple(c["holes"] for c in cables),
         **_material(doc),
+        cable_stated=stated,
         joint_stiffness=stiffness,
         rest_angle=rest,
         cable_stiffness=np.array([c["stiffness"] for c in cables], dtype=float),
