@@ -508,6 +508,8 @@ impl Elastic {
             laws.elastic[c] = true;
             laws.l[c] = l;
             laws.k[c] = self.ea / (l + self.lr);
+            // its command shortened by P (L + L_r) / (E A) (0 unless redundant)
+            laws.p[c] = model.cables[c].actuator.pretension;
         }
         for (i, &c) in self.dis.iter().enumerate() {
             let a = &model.cables[c].actuator;

@@ -89,12 +89,15 @@ pub enum Mode {
 }
 
 /// The actuator of a displacement cable (`docs/model.md`, "Cables: position,
-/// force, displacement"); the other modes hold the defaults.
+/// force, displacement"); a position cable's holds its pretension only
+/// (`docs/model.md`, "Settling"), a force cable's the defaults.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Actuator {
     /// The actuator's stiffness `k_a` (N/m; infinite: rigid).
     pub stiffness: f64,
-    /// The tension at `d = 0` in the rest pose (N).
+    /// The tension at `d = 0` in the rest pose (N); a position cable's: its
+    /// tension at the commanded length (N, its command shortened by
+    /// `P (L + L_r) / (E A)`).
     pub pretension: f64,
     /// The cap of the tension (N; infinite: none).
     pub max_tension: f64,
@@ -121,6 +124,28 @@ pub struct Cable {
     pub holes: Vec<[f64; 3]>,
     /// A displacement cable's actuator (the default for the other modes).
     pub actuator: Actuator,
+}
+
+/// How the plant settles a rigid arm with more position cables than joints
+/// ([`Model::redundant_settle`], `docs/model.md`, "Settling").
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RedundantSettle {
+    /// At the minimum of the potential of its position cables as springs of
+    /// `E A / (L + L_r)` (the stated cable), gravity and force cables.
+    Potential,
+    /// At the unweighted least squares on the cable lengths (the cable not
+    /// stated).
+    LeastSquares,
+}
+
+impl RedundantSettle {
+    /// Its name in Python and the docs.
+    pub fn name(self) -> &'static str {
+        match self {
+            RedundantSettle::Potential => "potential",
+            RedundantSettle::LeastSquares => "least_squares",
+        }
+    }
 }
 
 /// A cable-driven serpentine arm of either kind.
@@ -262,6 +287,7 @@ fn material(c: Option<MaterialFile>) -> CableMaterial {
         diameter: c.diameter,
         routing_length: c.routing_length,
         stretch_feed_forward: c.stretch_feed_forward,
+        stated: true,
     })
 }
 
@@ -738,6 +764,52 @@ impl Model {
         Ok(())
     }
 
+    /// `docs/model.md`, "Settling": how the plant settles a rigid arm
+    /// (no joint springs, no displacement cables) with more position cables
+    /// than joints; `None` for any other arm (its settle has one answer, or
+    /// is the elastic statics). At the minimum of the potential of its
+    /// cables as springs where the robot states its cable
+    /// ([`CableMaterial::stated`]: their stiffness is the physics), else in
+    /// least squares on the lengths (cdsm's default cable is a placeholder,
+    /// e.g. for a CASPR import, which gives none).
+    pub fn redundant_settle(&self) -> Option<RedundantSettle> {
+        if self.position_cables().len() <= self.n() || self.is_elastic() {
+            return None;
+        }
+        Some(if self.cable.stated {
+            RedundantSettle::Potential
+        } else {
+            RedundantSettle::LeastSquares
+        })
+    }
+
+    /// `docs/model.md`, "Settling": a position cable's pretension acts
+    /// through its stretch where the cables, not the statics, fix the
+    /// tensions (more position cables than joints, a rigid arm, its cable
+    /// stated).
+    fn check_position_pretension(&self) -> Result<()> {
+        let settle = self.redundant_settle();
+        if settle == Some(RedundantSettle::Potential) {
+            return Ok(());
+        }
+        match (0..self.cables.len()).find(|&c| {
+            self.cables[c].mode == Mode::Position && self.cables[c].actuator.pretension != 0.0
+        }) {
+            Some(c) if settle == Some(RedundantSettle::LeastSquares) => Err(bad(
+                format!("cables[{c}].pretension"),
+                "a position cable's pretension needs the arm's cable stated (a [cable] table: \
+                 its stretch under the pretension); without one the arm settles in least \
+                 squares on the lengths (docs/model.md, \"Settling\")",
+            )),
+            Some(c) => Err(bad(
+                format!("cables[{c}].pretension"),
+                "a position cable's pretension needs more position cables than joints on an \
+                 arm without joint springs or displacement cables (docs/model.md, \"Settling\")",
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// `docs/model.md`, "Enough cables": at least as many position or
     /// displacement cables as joints of stiffness 0 (today's rule, as many
     /// position cables as joints, for an arm without springs and
@@ -991,11 +1063,15 @@ impl Model {
         }
     }
 
-    /// The same arm with another cable material (validated).
+    /// The same arm with another cable material (validated), stated
+    /// ([`CableMaterial::stated`]).
     pub fn with_cable(&self, cable: CableMaterial) -> Result<Model> {
         cable.validate()?;
         let mut m = self.clone();
-        m.cable = cable;
+        m.cable = CableMaterial {
+            stated: true,
+            ..cable
+        };
         Ok(m)
     }
 
@@ -1025,18 +1101,27 @@ impl Model {
         let g = &self.gravity[..self.kind.dim()];
         line(w, format!("gravity = {}", toml_fs(g)));
         line(w, String::new());
-        line(w, "[cable]".into());
-        line(
-            w,
-            format!("youngs_modulus = {}", toml_f(self.cable.youngs_modulus)),
-        );
-        line(w, format!("diameter = {}", toml_f(self.cable.diameter)));
-        line(
-            w,
-            format!("routing_length = {}", toml_f(self.cable.routing_length)),
-        );
-        if !self.cable.stretch_feed_forward {
-            line(w, "stretch_feed_forward = false".into());
+        if self.cable.stated {
+            line(w, "[cable]".into());
+            line(
+                w,
+                format!("youngs_modulus = {}", toml_f(self.cable.youngs_modulus)),
+            );
+            line(w, format!("diameter = {}", toml_f(self.cable.diameter)));
+            line(
+                w,
+                format!("routing_length = {}", toml_f(self.cable.routing_length)),
+            );
+            if !self.cable.stretch_feed_forward {
+                line(w, "stretch_feed_forward = false".into());
+            }
+        } else {
+            // not stated: the default cable, which a `[cable]` table would
+            // state (`docs/model.md`, "Settling")
+            line(
+                w,
+                "# no [cable]: cdsm's default cable (steel, 0.18 mm), not stated".into(),
+            );
         }
         if shorthand {
             line(w, format!("\n# {} linkages", self.n()));
@@ -1104,7 +1189,12 @@ impl Model {
             line(w, "[[cables]]".into());
             line(w, format!("end = {}", c.end));
             match c.mode {
-                Mode::Position => line(w, "mode = \"position\"".into()),
+                Mode::Position => {
+                    line(w, "mode = \"position\"".into());
+                    if c.actuator.pretension != 0.0 {
+                        line(w, format!("pretension = {}", toml_f(c.actuator.pretension)));
+                    }
+                }
                 Mode::Force => {
                     line(w, "mode = \"force\"".into());
                     line(w, format!("tension = {}", toml_f(c.tension)));
@@ -1307,6 +1397,7 @@ impl Model {
         robot.check_holes()?;
         robot.set_springs(&springs, spring_fields, "stiffness", "rest", f.backbone)?;
         robot.check_enough_cables()?;
+        robot.check_position_pretension()?;
         Ok(robot)
     }
 
@@ -1715,11 +1806,18 @@ fn cable_of(c: usize, cf: &CableFile, disks: usize) -> Result<Cable> {
         coordinates(format!("cables[{c}].holes[{i}]"), *h)?;
     }
     let mut actuator = Actuator::default();
-    for (key, given) in [
-        ("stiffness", cf.stiffness),
-        ("pretension", cf.pretension),
-        ("max_tension", cf.max_tension),
-    ] {
+    if let (Some(_), Mode::Force) = (cf.pretension, mode) {
+        return Err(bad(
+            field("pretension"),
+            "only position and displacement cables have a pretension",
+        ));
+    }
+    if mode == Mode::Position {
+        // the position cable's pretension: its command shortened by
+        // P (L + L_r) / (E A) (`docs/model.md`, "Settling")
+        actuator.pretension = non_negative(field("pretension"), cf.pretension.unwrap_or(0.0), "N")?;
+    }
+    for (key, given) in [("stiffness", cf.stiffness), ("max_tension", cf.max_tension)] {
         if given.is_some() && mode != Mode::Displacement {
             return Err(bad(
                 field(key),
@@ -1890,6 +1988,7 @@ mod tests {
                 stretch_feed_forward: cable
                     .and_then(|c| c.get("stretch_feed_forward"))
                     .is_none_or(|v| v.as_bool().unwrap()),
+                stated: cable.is_some(),
             },
             gravity: t.get("gravity").map_or([0.0, 0.0], pair),
         }

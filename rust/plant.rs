@@ -19,12 +19,13 @@
 use crate::chain::{straight_length, ArmNumbers, Chain};
 pub use crate::effect::Effect;
 use crate::effect::Size;
+use crate::elastic::{Commands, Elastic};
 use crate::error::{CdsmError, Result};
 use crate::fit::{FitModel, Predictions};
 use crate::friction::{mobilisation, Holes, Motion, Profile, MU_MAX};
 use crate::kinds::{Frame, Group, Rotation, Vector, Visit};
 use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
-use crate::model::{Mode, Model};
+use crate::model::{Mode, Model, RedundantSettle};
 use crate::real::{Arith, Jet, Real};
 use crate::rows::{
     row_of, rows_exactly, rows_of, seeds, shared_or_rows, split_rows, BatchSolution,
@@ -435,6 +436,10 @@ pub fn tilt_basis(a: [f64; 3]) -> ([f64; 3], [f64; 3]) {
 struct Params<S> {
     scale: S,
     offset: Vec<S>,
+    /// The compliance (1/N) the settle stretches the cables at: the
+    /// parameter `kappa`, plus the robot file's cable's `1 / (E A)` where
+    /// the arm settles at its cables' potential
+    /// ([`RedundantSettle::Potential`], `docs/model.md`, "Settling").
     kappa: S,
     clearance: S,
     width: S,
@@ -545,7 +550,13 @@ impl<S: Real> Params<S> {
         Params {
             scale: one(Effect::ActuationScale),
             offset: span(Effect::CableOffset),
-            kappa: one(Effect::CableElasticity),
+            // a redundant arm on its stated cable: nothing is fed forward,
+            // it settles on the file's cables, stretched at kappa + 1/(E A)
+            kappa: if model.redundant_settle() == Some(RedundantSettle::Potential) {
+                one(Effect::CableElasticity) + S::cst(model.cable.compliance())
+            } else {
+                one(Effect::CableElasticity)
+            },
             clearance: one(Effect::HoleClearance),
             width: one(Effect::ClearanceWidth) + CLEARANCE_WIDTH,
             instrument: span(Effect::FrameMisalignment),
@@ -772,11 +783,13 @@ impl Sequence {
                 th.copy_from_slice(seed);
                 let first = self.reading[row] == Reading::Displacement && self.span[row][0] == j;
                 if !first
-                    && !nominal.settle(
-                        &self.command[j * self.m..(j + 1) * self.m],
-                        &mut th,
-                        &mut work,
-                    )
+                    && !nominal
+                        .rigid_solve(
+                            &self.command[j * self.m..(j + 1) * self.m],
+                            &mut th,
+                            &mut work,
+                        )
+                        .converged
                 {
                     th.copy_from_slice(seed);
                 }
@@ -1048,7 +1061,13 @@ fn settled_equations<S: Real, F: Frame<S>>(
             *o = -(prm.kappa * *bj);
         }
         for (i, l) in b.lengths.iter().enumerate() {
-            let mut f = taut_strain((*l + route) / (real[i] + route) - 1.0);
+            let mut s = (*l + route) / (real[i] + route) - 1.0;
+            let pre = model.cables[b.pos[i]].actuator.pretension;
+            if pre != 0.0 {
+                // the command shortened by P (L_i + L_route) kappa: T = P + s / kappa
+                s += prm.kappa * S::cst(pre);
+            }
+            let mut f = taut_strain(s);
             if friction {
                 f = f / b.profile.mean[b.pos[i]];
             }
@@ -1147,6 +1166,11 @@ pub struct Plant<'a, G: Group> {
     /// The same parameters as constants in jets (for `dE/dtheta`).
     cprm: Params<J>,
     l_ref: Vec<f64>,
+    /// With more position cables than joints on a stated cable
+    /// ([`RedundantSettle::Potential`]), no clearance and no friction: the
+    /// plant's arm, its cables at the compliance `kappa`, and its elastic
+    /// statics (the settle's minimum of the potential).
+    statics: Option<Box<Statics>>,
     _kind: std::marker::PhantomData<G>,
 }
 
@@ -1175,6 +1199,23 @@ impl<'a, G: Group> Plant<'a, G> {
         let prm = Params::<f64>::unpack(model, &lay, p, |_, v| v);
         let cprm = Params::<J>::unpack(model, &lay, p, |_, v| J::cst(v));
         let l_ref = commanded_lengths_rows(model, &vec![0.0; model.n()]);
+        let statics = (model.redundant_settle() == Some(RedundantSettle::Potential)
+            && !prm.clear()
+            && !prm.friction())
+        .then(|| {
+            let mut arm = elastic_settle::moved(model, &prm);
+            // E A = 1 / kappa: the cables of the settle
+            let d = arm.cable.diameter;
+            arm.cable.youngs_modulus = 1.0 / (prm.kappa * std::f64::consts::PI * d * d / 4.0);
+            let el = Elastic::new(&arm);
+            // no load: the potential is >= 0, and 0 where every length is met
+            let unloaded = (model.gravity == [0.0; 3] || model.disks.iter().all(|d| d.mass == 0.0))
+                && model.cables.iter().all(|c| match c.mode {
+                    Mode::Position => c.actuator.pretension == 0.0,
+                    _ => false,
+                });
+            Box::new(Statics { arm, el, unloaded })
+        });
         Ok(Plant {
             model,
             p: p.to_vec(),
@@ -1182,6 +1223,7 @@ impl<'a, G: Group> Plant<'a, G> {
             prm,
             cprm,
             l_ref,
+            statics,
             _kind: std::marker::PhantomData,
         })
     }
@@ -1282,7 +1324,26 @@ impl<'a, G: Group> Plant<'a, G> {
     ) -> crate::solve::Status {
         let (n, m) = (self.model.n(), real.len());
         work.start.copy_from_slice(theta);
-        let rigid = work.rigid.solve(real, theta);
+        let rigid = self.rigid_solve(real, theta, work);
+        if let Some(st) = self.statics.as_deref() {
+            if work.loads == Loads::of(self.model) {
+                // the minimum of the potential from the rigid answer (the
+                // branch), from the seed where the rigid solve failed
+                if !rigid.converged {
+                    theta.copy_from_slice(&work.start);
+                } else if st.unloaded && rigid.residual <= work.opts.tol {
+                    // every length met without a load: the potential's
+                    // global minimum, 0, with every cable at zero stretch
+                    // (a kink the elastic statics cannot call a minimum)
+                    return rigid;
+                }
+                // ten times the settle's budget: a Newton step of the
+                // minimisation is cheap, and where cables go slack on stiff
+                // cables it crosses one kink at a time (`docs/model.md`,
+                // "Settling")
+                return statics_settle(st, real, theta, work.opts.max_iter.saturating_mul(10));
+            }
+        }
         let clear = self.prm.clear();
         if !self.prm.elastic() && !clear && !self.prm.friction() {
             return rigid;
@@ -1310,6 +1371,18 @@ impl<'a, G: Group> Plant<'a, G> {
             ..Lm::equations(step, work.opts.tol, work.opts.max_iter)
         };
         lm::solve(&mut prob, theta, &lm, &mut work.ws)
+    }
+
+    /// The rigid cable solve of the plant's arm for realised lengths `real`
+    /// (m) from the seed in `theta` (the answer on exit; least squares with
+    /// more position cables than joints).
+    fn rigid_solve(
+        &self,
+        real: &[f64],
+        theta: &mut [f64],
+        work: &mut SettleWork<'_, G>,
+    ) -> crate::solve::Status {
+        work.rigid.solve(real, theta)
     }
 
     /// What the instrument sees at `theta` (the task vector, `TASK` values).
@@ -1352,6 +1425,53 @@ impl<'a, G: Group> Plant<'a, G> {
             &mut work.jet,
             jac,
         )
+    }
+}
+
+/// The statics of a redundant arm's settle ([`Plant`]'s `statics`).
+struct Statics {
+    /// The plant's arm, its cables at `E A = 1 / kappa`.
+    arm: Model,
+    el: Elastic,
+    /// No gravity, force cable or pretension: the potential is the cables'
+    /// stretch alone.
+    unloaded: bool,
+}
+
+/// The settle of a redundant arm ([`Plant`]'s `statics`): the minimum of
+/// the potential of its position cables commanded to the realised lengths
+/// `real` (m), from the seed in `theta` (the answer on exit).
+fn statics_settle(
+    st: &Statics,
+    real: &[f64],
+    theta: &mut [f64],
+    max_iter: u32,
+) -> crate::solve::Status {
+    let (arm, el) = (&st.arm, &st.el);
+    let cmd = Commands {
+        lengths: real,
+        displacements: &[],
+        wrench: [0.0; 6],
+    };
+    let (converged, iterations, residual, reason) =
+        match el.equilibrium(arm, &cmd, theta, crate::elastic::XTOL, max_iter) {
+            Ok(eq) => {
+                theta.copy_from_slice(&eq.theta);
+                let reason = match eq.reason {
+                    crate::elastic::Reason::Converged => lm::Reason::Converged,
+                    crate::elastic::Reason::IterationLimit => lm::Reason::IterationLimit,
+                    _ => lm::Reason::Stalled,
+                };
+                (eq.converged, eq.iterations, eq.gradient, reason)
+            }
+            Err(_) => (false, 0, f64::NAN, lm::Reason::Singular),
+        };
+    crate::solve::Status {
+        converged,
+        iterations,
+        residual,
+        cost: residual * residual,
+        reason,
     }
 }
 
@@ -2400,10 +2520,14 @@ fn solve_elastic_k<G: Group>(
     };
     let lay = layout(model);
     let mut p = vec![0.0; lay.total];
-    p[lay
-        .find(Effect::CableElasticity)
-        .expect("every kind has elasticity")
-        .0] = kappa;
+    if model.redundant_settle() != Some(RedundantSettle::Potential) {
+        // a redundant arm on its stated cable: the plant's settle
+        // stretches the file's cable itself (`Params::kappa`)
+        p[lay
+            .find(Effect::CableElasticity)
+            .expect("every kind has elasticity")
+            .0] = kappa;
+    }
     let plant = Plant::<G>::new(model, &p)?;
     let route = model.cable.routing_length;
     let parts = split_rows(rows, threads, |r| {
@@ -3041,8 +3165,31 @@ mod tests {
 
     #[test]
     fn hole_columns_apart_are_the_full_passes_with_more_cables_than_joints() {
+        // the packaged file states no cable: the least-squares settle
         let sjtu = include_str!("../python/cdsm/robots/sjtu_snake.toml");
         holes_apart_are_the_full_passes(sjtu);
+    }
+
+    #[test]
+    fn hole_columns_apart_are_the_full_passes_on_a_stated_redundant_cable() {
+        // stated 1 mm steel cables (the settle at the potential; on the
+        // default 0.18 mm cable the snake would fold under its weight) (the packaged 0.18 mm cable lets the snake
+        // fold under its weight), without clearance (with it the redundant
+        // arm's settle is the damped Newton on the balance, which fails
+        // where cables go slack): `docs/model.md`, "Settling"
+        let sjtu = format!(
+            "{}\n[cable]\nyoungs_modulus = 1.8e11\ndiameter = 1e-3\n",
+            include_str!("../python/cdsm/robots/sjtu_snake.toml")
+        );
+        let m = Model::from_toml(&sjtu).unwrap();
+        let mut p = every_effect(&m);
+        let idle = [
+            Effect::CableElasticity,
+            Effect::CableFriction,
+            Effect::HoleClearance,
+        ];
+        let free = all_free_but(&m, &mut p, &idle);
+        holes_apart_are_the_full_passes_at(&m, &p, &free, 3, 3);
     }
 
     /// The 8-joint spatial arm of `benches/bench_scale.py` (`spatial_toml(4)`):

@@ -25,16 +25,24 @@ pub struct CableMaterial {
     /// commands the rigid model's lengths and `cable_elasticity` is the whole
     /// compliance (`docs/model.md`, "Commands and their order").
     pub stretch_feed_forward: bool,
+    /// The robot states this cable (a robot file's `[cable]` table, or
+    /// [`crate::model::Model::with_cable`]); `false`: cdsm's default cable, a
+    /// placeholder. An arm with more position cables than joints settles on
+    /// a stated cable's stiffness, else in least squares on the lengths
+    /// (`docs/model.md`, "Settling").
+    pub stated: bool,
 }
 
 impl Default for CableMaterial {
-    /// A robot file's material when it gives no `[cable]`: steel, 0.18 mm.
+    /// A robot file's material when it gives no `[cable]`: steel, 0.18 mm
+    /// (not stated).
     fn default() -> Self {
         CableMaterial {
             youngs_modulus: 1.8e11,
             diameter: 0.18e-3,
             routing_length: 0.0,
             stretch_feed_forward: true,
+            stated: false,
         }
     }
 }

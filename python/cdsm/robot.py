@@ -491,6 +491,27 @@ class Robot:
         return self.core.stretch_feed_forward
 
     @property
+    def cable_stated(self) -> bool:
+        """Whether the robot states its cable (a robot file's ``[cable]`` table, or
+        :meth:`with_cable`); False: cdsm's default cable (steel, 0.18 mm) stands in, a
+        placeholder (a CASPR import gives no cable)."""
+        return self.core.cable_stated
+
+    @property
+    def redundant_settle(self) -> Optional[str]:
+        """How the plant (diagnosis, virtual prototype, compensation) settles this rigid arm
+        with more position cables than joints (``docs/model.md``, "Settling"):
+        ``"potential"`` -- its cable stated (:attr:`cable_stated`), at the minimum of the
+        potential of its position cables as springs of ``E A / (L + L_r)`` that cannot push,
+        with gravity, force cables and each cable's ``pretension``; ``"least_squares"`` --
+        its cable not stated, at the unweighted least squares on the cable lengths (the
+        default cable's stiffness is no physics: on the packaged ``sjtu_snake`` it would let
+        the snake fold under its weight).  Opt in by stating the cable (a ``[cable]`` table,
+        or :meth:`with_cable`).  None for any other arm (as many position cables as joints:
+        one answer; joint springs or displacement cables: the elastic statics)."""
+        return self.core.redundant_settle
+
+    @property
     def axial_stiffness(self) -> float:
         """Cable axial stiffness E A, N (A = pi d^2 / 4)."""
         return self.core.axial_stiffness
@@ -854,7 +875,8 @@ class Robot:
                    routing_length: Optional[float] = None,
                    stretch_feed_forward: Optional[bool] = None) -> "Robot":
         """The same robot with another cable material (Pa, m), routing length (m) or
-        controller premise (:attr:`stretch_feed_forward`, True or False)."""
+        controller premise (:attr:`stretch_feed_forward`, True or False); its cable then
+        stated (:attr:`cable_stated`, :attr:`redundant_settle`)."""
         e = self.youngs_modulus if youngs_modulus is None else as_finite("youngs_modulus", youngs_modulus)
         d = self.cable_diameter if diameter is None else as_finite("diameter", diameter)
         r = self.routing_length if routing_length is None else as_finite("routing_length", routing_length)
@@ -941,7 +963,8 @@ class Robot:
         """Every cable's ``rest_length (m,)`` m (its path at the rest angles) and
         ``series_stiffness (m,)`` N/m (``1 / (1/k_a + (L0 + L_r)/(E A))``; NaN but
         for displacement cables) and the actuators' ``stiffness`` N/m (inf:
-        rigid), ``pretension`` N and ``max_tension`` N (inf: none)."""
+        rigid), ``pretension`` N (a position cable's too: its tension at its commanded
+        length, ``docs/model.md``, "Settling") and ``max_tension`` N (inf: none)."""
         rest, ks = self.core.elastic_cables()
         k, p, cap = self.core.actuators
         return dict(rest_length=np.asarray(rest), series_stiffness=np.asarray(ks), stiffness=np.asarray(k),

@@ -28,7 +28,7 @@ use faer::Mat;
 
 /// The nominal model with the plant's numbers (its moved holes, links,
 /// axes, and springs scaled per segment): the arm [`crate::elastic`] settles.
-fn moved(model: &Model, prm: &Params<f64>) -> Model {
+pub(super) fn moved(model: &Model, prm: &Params<f64>) -> Model {
     let mut m = model.clone();
     for (j, joint) in m.joints.iter_mut().enumerate() {
         joint.axis = prm.arm.axis[j];

@@ -300,6 +300,7 @@ impl CoreRobot {
             routing_length,
             stretch_feed_forward: stretch_feed_forward
                 .unwrap_or(self.model.cable.stretch_feed_forward),
+            stated: true,
         };
         Ok(CoreRobot::of(self.model.with_cable(cable).map_err(err)?))
     }
@@ -672,8 +673,24 @@ impl CoreRobot {
             .collect()
     }
 
+    /// How the plant settles this rigid arm with more position cables than
+    /// joints: "potential" (its cable stated), "least_squares" (not); None
+    /// for any other arm (`docs/model.md`, "Settling").
+    #[getter]
+    fn redundant_settle(&self) -> Option<&'static str> {
+        self.model.redundant_settle().map(|s| s.name())
+    }
+
+    /// Whether the robot states its cable (a `[cable]` table or
+    /// `with_cable`), else cdsm's default cable applies.
+    #[getter]
+    fn cable_stated(&self) -> bool {
+        self.model.cable.stated
+    }
+
     /// Per cable: actuator stiffness (N/m, inf: rigid), pretension (N), cap
-    /// (N, inf: none); the defaults for cables other than displacement ones.
+    /// (N, inf: none); the defaults for cables other than displacement ones,
+    /// but a position cable's pretension (`docs/model.md`, "Settling").
     #[getter]
     fn actuators<'py>(&self, py: Python<'py>) -> (Array<'py>, Array<'py>, Array<'py>) {
         let a: Vec<_> = self.model.cables.iter().map(|c| c.actuator).collect();

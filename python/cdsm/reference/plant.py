@@ -86,6 +86,7 @@ __all__ = [
     "realised_lengths",
     "plant_tensions",
     "fed_forward_compliance",
+    "redundant_compliance",
     "friction_factors",
     "settling_equations",
     "settling_residual",
@@ -433,6 +434,28 @@ def fed_forward_compliance(robot) -> float:
     return 1.0 / (float(robot.youngs_modulus) * np.pi * float(robot.diameter) ** 2 / 4.0)
 
 
+def redundant_compliance(robot) -> float:
+    """The compliance (1/N) a settle adds to the plant's ``kappa``: ``1 / (E A)``, ``A = pi
+    d^2 / 4``, of the robot file's cable when the arm is rigid with more position cables
+    than joints and its file states the cable (``docs/model.md``, "Settling": nothing is fed
+    forward there, so the arm settles on the file's cables stretched under their tensions,
+    at ``k = kappa + 1/(E A)``), else 0 (the default cable is a placeholder: the arm
+    settles in least squares on the lengths)."""
+    robot = as_robot(robot)
+    elastic = (np.any(robot.joint_stiffness != 0.0) or np.any(robot.rest_angle != 0.0)
+               or "displacement" in robot.cable_mode)
+    if position_cables(robot).size <= robot.n or elastic or not robot.cable_stated:
+        return 0.0
+    return 1.0 / (float(robot.youngs_modulus) * np.pi * float(robot.diameter) ** 2 / 4.0)
+
+
+def _settle_numbers(robot, p) -> dict:
+    """:func:`plant_params` with ``kappa`` the compliance the settle stretches the cables at
+    (:func:`redundant_compliance` added)."""
+    q = plant_params(robot, p)
+    return dict(q, kappa=q["kappa"] + redundant_compliance(robot))
+
+
 def friction_factors(arm, theta, z, mu: float):
     """The capstan profile of every cable of ``arm`` at ``theta (N, n)`` rad with the
     mobilisations ``z (N, H)`` (every cable's holes, file order, ``2 e_c`` each): the
@@ -477,8 +500,9 @@ def settling_equations(robot, arm, q, L, z=None):
     * ``m = n``: ``L_arm(theta) - (L + L_r)(1 + kappa T(theta)) + L_r`` (m);
     * ``m > n``, ``kappa = 0``: ``J0^T (L_arm - L) / |J0(0)|_F`` (m; ``J0`` the
       Jacobian of the unshifted lengths, the constant scale that of the straight pose);
-    * ``m > n``, ``kappa > 0``: ``J0^T max(0, s) - kappa (tau - J0_f^T T_f)`` (m),
-      ``s = (L_arm + L_r)/(L + L_r) - 1``.
+    * ``m > n``, ``kappa > 0``: ``J0^T max(0, s + kappa P) - kappa (tau - J0_f^T T_f)`` (m),
+      ``s = (L_arm + L_r)/(L + L_r) - 1``, ``P`` the position cables' pretension (N:
+      the tension ``P + s / kappa``, "Settling").
 
     ``F.taut(theta, idx) -> (k, m)`` bool: the cables counted taut at ``theta``
     (``s >= -1e-12``).  Given ``taut``, ``max(0, s)`` is replaced by ``s`` on the
@@ -489,7 +513,7 @@ def settling_equations(robot, arm, q, L, z=None):
 
     ``F.energy(theta, idx) -> (k,)`` (elastic arm with ``m > n`` and ``cl = 0``
     only, else None): the potential whose gradient is ``F``,
-    ``sum_i (L_i + L_r)/2 max(0, s_i)^2 + kappa (V(theta) + sum_f T_f L_f(theta))``,
+    ``sum_i (L_i + L_r)/2 max(0, s_i + kappa P_i)^2 + kappa (V(theta) + sum_f T_f L_f(theta))``,
     ``V = -sum_b mass_b g . c_b`` the gravity potential (J), ``L_f`` the force-cable
     lengths (m): the equilibrium is its stationary point, a minimum for a stable arm.
     """
@@ -500,6 +524,7 @@ def settling_equations(robot, arm, q, L, z=None):
     scale = np.linalg.norm(cable_jacobian(arm, np.zeros((1, arm.n)))[0, pos])
     friction = mu > 0.0 and (square or kappa > 0.0)  # a rigid redundant arm: no stretch to change
     kff = fed_forward_compliance(arm)
+    pre = kappa * np.asarray(arm.pretension, dtype=float)[pos]  # the strain P kappa of the pretension
     if friction:
         z = np.ones((L.shape[0], _friction_holes(arm))) if z is None else np.asarray(z, float)
 
@@ -511,7 +536,7 @@ def settling_equations(robot, arm, q, L, z=None):
 
     def strain(th, idx):
         La = _arm_lengths(arm, chain_frames(arm, th), cl, w)
-        return (La + Lr) / (L[idx] + Lr) - 1.0
+        return (La + Lr) / (L[idx] + Lr) - 1.0 + pre
 
     def F(th, idx, taut=None):
         ch = chain_frames(arm, th)
@@ -535,7 +560,7 @@ def settling_equations(robot, arm, q, L, z=None):
         gap, ebar = factors(th, idx)
         J = J * np.swapaxes(gap, 1, 2)  # each cable's entry of joint j scaled by its gap's factor
         Jp = J[:, pos, :]
-        s = (La + Lr) / (Li + Lr) - 1.0
+        s = (La + Lr) / (Li + Lr) - 1.0 + pre
         pull = np.maximum(0.0, s) if taut is None else np.where(taut, s, 0.0)
         tau = external_moments(arm, th, frames=ch)
         force = np.einsum("kij,i->kj", J[:, frc, :], arm.cable_tension[frc])
@@ -549,7 +574,7 @@ def settling_equations(robot, arm, q, L, z=None):
     def energy(th, idx):
         La = cable_lengths(arm, th)  # unshifted holes: only used with cl = 0
         Li = L[idx]
-        s = (La[:, pos] + Lr) / (Li + Lr) - 1.0
+        s = (La[:, pos] + Lr) / (Li + Lr) - 1.0 + pre
         ch = chain_frames(arm, th)
         V = np.zeros(th.shape[0])
         for b in range(1, arm.disks + 1):
@@ -569,7 +594,7 @@ def settling_residual(robot, p, realised, theta, z=None) -> np.ndarray:
     mobilisations with friction, default +1); zero when settled."""
     robot = as_robot(robot)
     arm = plant_arm(robot, p)
-    q = plant_params(robot, p)
+    q = _settle_numbers(robot, p)
     L = np.asarray(realised, dtype=float)
     th = as_theta(arm, theta)
     return settling_equations(robot, arm, q, L, z)(th, np.arange(th.shape[0]))
@@ -699,7 +724,9 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=200, fd_step=1e-6
     ``realised``: ``L (R, m)`` m; ``theta_seed (R, n)`` rad (the row's ``theta_cmd``).
     First the rigid cable solve of the plant's arm (:func:`.solve.solve_cables`,
     no clearance; least squares when ``m > n``) from the seed; for an elastic arm with
-    ``m > n`` a descent on its energy without clearance (:func:`_energy_descent`);
+    ``m > n`` (``kappa > 0``, or the file's cable stated: stretched at ``kappa + 1/(E A)``,
+    :func:`redundant_compliance`) a descent on its energy without clearance
+    (:func:`_energy_descent`);
     then damped Newton
     (:func:`_damped_newton`) on the settled-state equations
     (:func:`settling_residual`: elasticity, clearance, the redundant arm's least
@@ -713,7 +740,7 @@ def settle(robot, p, realised, theta_seed, tol=1e-12, max_iter=200, fd_step=1e-6
     """
     robot = as_robot(robot)
     arm = plant_arm(robot, p)
-    q = plant_params(robot, p)
+    q = _settle_numbers(robot, p)
     L = np.asarray(realised, dtype=float)
     seed = np.array(theta_seed, dtype=float).reshape(L.shape[0], arm.n)
     rigid = solve_cables(arm, L, seed=seed)
@@ -794,8 +821,10 @@ def friction_motion(robot, commands, seeds, first) -> tuple:
 def mobilisation(robot, p, commands, seeds, first) -> np.ndarray:
     """``z (R, H)``: every hole's mobilisation after each command (:func:`friction_motion`,
     :func:`.friction.mobilisation_scan`, bands ``(kappa + kappa_ff) T_hat d sinh(mu beta)`` of
-    ``p``: the cable's one compliance, :func:`fed_forward_compliance`)."""
-    q = plant_params(robot, p)
+    ``p``: the cable's one compliance, :func:`fed_forward_compliance`, with ``kappa +
+    1/(E A)`` for ``kappa`` where the arm has more position cables than joints,
+    :func:`redundant_compliance`)."""
+    q = _settle_numbers(robot, p)
     d, beta, ten, d0 = friction_motion(robot, commands, seeds, first)
     kf = q["kappa"] + fed_forward_compliance(robot)
     return fr.mobilisation_scan(d, fr.band(kf, q["mu"], ten, d, beta), d0)

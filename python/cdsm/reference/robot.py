@@ -187,12 +187,18 @@ class Robot:
     ``routing_length`` float              m, every cable's path behind the base disk
     ``stretch_feed_forward`` bool         the controller feeds the cable's frictionless
                                           stretch forward (``docs/model.md``, "Commands")
+    ``cable_stated``  bool                the robot file states its cable (a ``[cable]``
+                                          table; else the default is a placeholder): an
+                                          arm with more position cables than joints
+                                          settles on it (``docs/model.md``, "Settling")
     ``joint_stiffness`` ``(n,)``          N m/rad, the joint's spring (0: a free joint)
     ``rest_angle``    ``(n,)``            rad, the spring's rest angle
     ``cable_stiffness`` ``(m,)``          N/m, a displacement cable's actuator (inf:
                                           rigid; inf for the other modes)
     ``pretension``    ``(m,)``            N, a displacement cable's tension at ``d = 0``
-                                          in the rest pose (0 for the other modes)
+                                          in the rest pose; a position cable's at its
+                                          commanded length (``docs/model.md``,
+                                          "Settling"); 0 for force cables
     ``max_tension``   ``(m,)``            N, a displacement cable's cap (inf: none)
     ================  ==================  ===============================================
 
@@ -220,6 +226,7 @@ class Robot:
     diameter: float = DEFAULT_DIAMETER
     routing_length: float = 0.0
     stretch_feed_forward: bool = True
+    cable_stated: bool = False
     joint_stiffness: np.ndarray = None
     rest_angle: np.ndarray = None
     cable_stiffness: np.ndarray = None
@@ -814,6 +821,17 @@ def _read_general(doc: dict, name: str) -> Robot:
                              f"needed on at least {n})")
         raise ValueError(f"cables: {n_cmd} position or displacement cables for {n_free} joints without stiffness "
                          f"(at least as many commanded cables as free joints are needed)")
+    elastic = np.any(stiffness != 0.0) or np.any(rest != 0.0) or n_cmd > n_pos
+    stated = "cable" in doc
+    if n_pos <= n or elastic or not stated:
+        for c, cb in enumerate(cables, start=1):
+            if cb["mode"] != "position" or cb["pretension"] == 0.0:
+                continue
+            if n_pos <= n or elastic:
+                raise ValueError(f"cables[{c}].pretension: a position cable's pretension needs more position "
+                                 f"cables than joints on an arm without joint springs or displacement cables")
+            raise ValueError(f"cables[{c}].pretension: a position cable's pretension needs the arm's cable "
+                             f"stated (a [cable] table)")
     K = len(disks)
     return Robot(
         name=name,
@@ -834,6 +852,7 @@ def _read_general(doc: dict, name: str) -> Robot:
         cable_tension=np.array([c["tension"] for c in cables], dtype=float),
         holes=tuple(c["holes"] for c in cables),
         **_material(doc),
+        cable_stated=stated,
         joint_stiffness=stiffness,
         rest_angle=rest,
         cable_stiffness=np.array([c["stiffness"] for c in cables], dtype=float),
@@ -881,7 +900,8 @@ def _general_cables(cables: list, radii: list) -> list:
     """The general form's ``[[cables]]``: end, mode, tension, holes (radius + angle, or
     explicit points within their disks' ``radii``, index 0 the base); a displacement
     cable's actuator ``stiffness`` N/m (default inf: rigid), ``pretension`` N (default 0)
-    and ``max_tension`` N (default inf: no cap)."""
+    and ``max_tension`` N (default inf: no cap); a position cable's ``pretension`` N
+    (default 0)."""
     if not cables:
         raise ValueError("cables: at least one cable is needed")
     K = len(radii) - 1
@@ -903,9 +923,14 @@ def _general_cables(cables: list, radii: list) -> list:
         else:
             tension = float("nan")
         actuator = dict(stiffness=math.inf, pretension=0.0, max_tension=math.inf)
-        for key in actuator:
+        if "pretension" in cb and mode == "force":
+            raise ValueError(f"{f}.pretension: only position and displacement cables have a pretension")
+        for key in ("stiffness", "max_tension"):
             if key in cb and mode != "displacement":
                 raise ValueError(f'{f}.{key}: only displacement cables (mode = "displacement") have a {key}')
+        if mode == "position":
+            # its command shortened by P (L + L_r) / (E A) (docs/model.md, "Settling")
+            actuator["pretension"] = _non_negative(cb.get("pretension", 0.0), f"{f}.pretension")
         if mode == "displacement":
             if "stiffness" in cb:
                 actuator["stiffness"] = _positive(cb["stiffness"], f"{f}.stiffness")
