@@ -928,6 +928,10 @@ pub fn lu_solve<L: Lane>(n: usize, a: &mut [L], b: &mut [L]) -> L::Mask {
         // without a branch: which rows pivot varies from lane to lane)
         for i in k + 1..n {
             let m = piv.eq(L::cst(i as f64));
+            if !L::any(m) {
+                // no lane pivots on row i: its selects would keep every entry
+                continue;
+            }
             for j in k..n {
                 let (x, y) = (a[k * n + j], a[i * n + j]);
                 a[k * n + j] = L::select(m, y, x);
@@ -1106,20 +1110,33 @@ pub fn solve_spd(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
 /// Solves the general `n x n` system `a x = b` by LU (nalgebra for n <= 6,
 /// faer beyond); false when `a` is singular.
 pub fn solve_general(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+    solve_general_each(n, a, b, x)
+}
+
+/// [`solve_general`] of `a` with each right-hand side `b[k n..(k + 1) n]`
+/// into `x[k n..(k + 1) n]`, `a` factored once (each answer the numbers of
+/// its own [`solve_general`]); false when `a` is singular or an answer is
+/// not finite (the answers after it unspecified).
+pub fn solve_general_each(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
+    debug_assert_eq!(b.len(), x.len());
+    let mut rhs = b.chunks_exact(n.max(1)).zip(x.chunks_exact_mut(n.max(1)));
     macro_rules! fixed {
         ($n:literal) => {{
-            let m = nalgebra::SMatrix::<f64, $n, $n>::from_row_slice(a);
-            let v = nalgebra::SVector::<f64, $n>::from_column_slice(b);
-            match m.lu().solve(&v) {
-                Some(s) => {
-                    x.copy_from_slice(s.as_slice());
-                    true
+            let lu = nalgebra::SMatrix::<f64, $n, $n>::from_row_slice(a).lu();
+            rhs.all(|(bk, xk)| {
+                let v = nalgebra::SVector::<f64, $n>::from_column_slice(bk);
+                match lu.solve(&v) {
+                    Some(s) => {
+                        xk.copy_from_slice(s.as_slice());
+                        xk.iter().all(|v| v.is_finite())
+                    }
+                    None => false,
                 }
-                None => false,
-            }
+            })
         }};
     }
-    let ok = match n {
+    match n {
+        0 => true,
         1 => fixed!(1),
         2 => fixed!(2),
         3 => fixed!(3),
@@ -1127,16 +1144,17 @@ pub fn solve_general(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool {
         5 => fixed!(5),
         6 => fixed!(6),
         _ => {
-            let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
-            let rhs = Mat::<f64>::from_fn(n, 1, |i, _| b[i]);
-            let sol = m.partial_piv_lu().solve(&rhs);
-            for (i, xi) in x.iter_mut().enumerate() {
-                *xi = sol[(i, 0)];
-            }
-            true
+            let lu = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]).partial_piv_lu();
+            rhs.all(|(bk, xk)| {
+                let r = Mat::<f64>::from_fn(n, 1, |i, _| bk[i]);
+                let sol = lu.solve(&r);
+                for (i, xi) in xk.iter_mut().enumerate() {
+                    *xi = sol[(i, 0)];
+                }
+                xk.iter().all(|v| v.is_finite())
+            })
         }
-    };
-    ok && x.iter().all(|v| v.is_finite())
+    }
 }
 
 #[cfg(test)]
@@ -1257,6 +1275,57 @@ mod tests {
             assert!(!solve_spd(n, &bad, &b, &mut x), "n={n}");
             bad[0] = f64::NAN;
             assert!(!solve_spd(n, &bad, &b, &mut x), "n={n}");
+        }
+    }
+
+    #[test]
+    fn one_factorisation_solves_each_right_hand_side_as_its_own_solve() {
+        // solve_general_each: every right-hand side the bits of a solve of
+        // it alone that factors the matrix again (nalgebra up to n = 6,
+        // faer beyond), a singular matrix false
+        let mut seed = 5u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        for n in 1..=10 {
+            let a: Vec<f64> = (0..n * n).map(|_| rnd()).collect();
+            let b: Vec<f64> = (0..6 * n).map(|_| rnd()).collect();
+            let mut x = vec![0.0; 6 * n];
+            assert!(solve_general_each(n, &a, &b, &mut x), "n={n}");
+            for k in 0..6 {
+                // the one-right-hand-side solve, factoring each time
+                let bk = &b[k * n..(k + 1) * n];
+                let want: Vec<f64> = if n <= 6 {
+                    let m = nalgebra::DMatrix::from_row_slice(n, n, &a);
+                    let v = nalgebra::DVector::from_column_slice(bk);
+                    m.lu().solve(&v).unwrap().as_slice().to_vec()
+                } else {
+                    let m = Mat::<f64>::from_fn(n, n, |i, j| a[i * n + j]);
+                    let r = Mat::<f64>::from_fn(n, 1, |i, _| bk[i]);
+                    let sol = m.partial_piv_lu().solve(&r);
+                    (0..n).map(|i| sol[(i, 0)]).collect()
+                };
+                let got = &x[k * n..(k + 1) * n];
+                assert!(
+                    got.iter()
+                        .zip(&want)
+                        .all(|(g, w)| g.to_bits() == w.to_bits()),
+                    "n={n} k={k}"
+                );
+                // and it solves: a x = b
+                for i in 0..n {
+                    let r: f64 = (0..n).map(|j| a[i * n + j] * got[j]).sum();
+                    assert!((r - b[k * n + i]).abs() < 1e-9, "n={n} k={k}");
+                }
+            }
+            let mut singular = a.clone();
+            for j in 0..n {
+                singular[(n - 1) * n + j] = 0.0;
+            }
+            assert!(!solve_general_each(n, &singular, &b, &mut x), "n={n}");
         }
     }
 

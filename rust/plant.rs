@@ -24,7 +24,7 @@ use crate::error::{CdsmError, Result};
 use crate::fit::{FitModel, Predictions};
 use crate::friction::{mobilisation, Holes, Motion, Profile, MU_MAX};
 use crate::kinds::{Frame, Group, Rotation, Vector, Visit};
-use crate::lm::{self, solve_general, Lm, Problem, Step, Workspace};
+use crate::lm::{self, solve_general_each, Lm, Problem, Step, Workspace};
 use crate::model::{Mode, Model, RedundantSettle};
 use crate::real::{Arith, Jet, Real};
 use crate::rows::{
@@ -1582,6 +1582,7 @@ pub struct JetWork<G: Group> {
     /// `(TASK, n)`: `O_theta E_theta^-1`.
     y: Vec<f64>,
     ft: Vec<f64>,
+    /// `(TASK, n)`: the right-hand sides of `y`.
     rhs: Vec<f64>,
     /// [`hole_columns`] with statics: the balance, capstan profile and
     /// lengths of the plant's parameters as constants at the command, and
@@ -1610,7 +1611,7 @@ impl<G: Group> JetWork<G> {
             dobs: Vec::new(),
             y: vec![0.0; task * n],
             ft: vec![0.0; n * n],
-            rhs: vec![0.0; n],
+            rhs: vec![0.0; task * n],
             hole_bal: Balance::new(model),
             hole_profile: Profile::new(model),
             hole_lengths: vec![J::default(); m],
@@ -1679,19 +1680,22 @@ fn implicit_derivatives<'c, G: Group>(
         }
     }
     for k in 0..task {
-        w.rhs.copy_from_slice(&w.dobs[k * total..k * total + n]);
-        let (rhs, y) = (&w.rhs, &mut w.y[k * n..(k + 1) * n]);
-        if !solve_general(n, &w.ft, rhs, y) {
-            return false;
-        }
+        w.rhs[k * n..(k + 1) * n].copy_from_slice(&w.dobs[k * total..k * total + n]);
     }
+    if !solve_general_each(n, &w.ft, &w.rhs, &mut w.y) {
+        return false;
+    }
+    // out[k][q] = dobs[k][n + q] - sum_i y[k][i] df[i][n + q], the terms
+    // taken in order of i (row by row: the same numbers, each row of df read
+    // whole)
     for k in 0..task {
-        for q in 0..dirs {
-            let mut v = w.dobs[k * total + n + q];
-            for i in 0..n {
-                v -= w.y[k * n + i] * w.df[i * total + n + q];
+        let o = &mut out[k * dirs..(k + 1) * dirs];
+        o.copy_from_slice(&w.dobs[k * total + n..(k + 1) * total]);
+        for i in 0..n {
+            let yi = w.y[k * n + i];
+            for (v, d) in o.iter_mut().zip(&w.df[i * total + n..(i + 1) * total]) {
+                *v -= yi * *d;
             }
-            out[k * dirs + q] = v;
         }
     }
     true
@@ -1939,7 +1943,10 @@ fn derive_commands<G: Group>(
         .filter_map(|q| cable_of[*q])
         .collect();
     // chunk c carries directions c*JET.. of theta_0..theta_{n-1}, then the
-    // free parameters in `order` (the holes' chunks after the full ones)
+    // free parameters in `order` (the holes' chunks after the full ones).
+    // No hole moves the realised lengths or the mobilisations: the holes'
+    // chunks share their first one's (a jet's directions are independent,
+    // so each of them would make the same numbers)
     let passes = full.div_ceil(JET);
     let chunks: Vec<(Params<J>, Vec<J>, Vec<J>)> = (0..passes + holes.len().div_ceil(JET))
         .map(|c| {
@@ -1960,6 +1967,9 @@ fn derive_commands<G: Group>(
                 }
                 J::with(v, d)
             });
+            if c > passes {
+                return (prm, Vec::new(), Vec::new());
+            }
             let real = realised(seq, &prm, &plant.l_ref);
             let mobil = if prm.friction() {
                 mobilisation(seq.motion::<G>(model), prm.mu, prm.friction_compliance())
@@ -2050,8 +2060,8 @@ fn hole_cables<G: Group>(plant: &Plant<G>, free: &[usize]) -> Vec<Option<usize>>
 
 /// The columns `full..` of the equations' and observation's derivatives
 /// (`w.df`, `w.dobs`) along hole coordinates (`cables`: each one's cable;
-/// `chunks`: their seeded parameters, realised lengths and mobilisations,
-/// [`JET`] a chunk) at `theta`, command `at.0` (`at.1` mobilisations a
+/// `chunks`: their seeded parameters, [`JET`] a chunk, the first one's
+/// realised lengths and mobilisations those of every one) at `theta`, command `at.0` (`at.1` mobilisations a
 /// command); `base`: the plant's parameters as constants. The holes move
 /// no frame: the observation does not move, and one chain at `theta` serves
 /// every hole coordinate. Without statics only the equations of the
@@ -2093,8 +2103,9 @@ fn hole_columns<G: Group>(
     let b = &mut w.buf;
     let kd = model.disks.len();
     b.chain.at(model, &base.arm, &w.theta);
-    let mobil = |c: usize| chunks[c].2.get(mobil_at.clone()).unwrap_or(&[]);
-    cable_statics(model, base, &w.loads, mobil(0), None, b);
+    let mobil = chunks[0].2.get(mobil_at).unwrap_or(&[]);
+    let real = &chunks[0].1[real_at..real_at + m];
+    cable_statics(model, base, &w.loads, mobil, None, b);
     w.hole_bal.copy_from(&b.bal);
     w.hole_profile.gap.clone_from(&b.profile.gap);
     w.hole_profile.mean.clone_from(&b.profile.mean);
@@ -2108,8 +2119,7 @@ fn hole_columns<G: Group>(
             }
         }
         let prm = &ch.0;
-        cable_statics(model, prm, &w.loads, mobil(c), Some(&w.hole_cables[..]), b);
-        let real = &ch.1[real_at..real_at + m];
+        cable_statics(model, prm, &w.loads, mobil, Some(&w.hole_cables[..]), b);
         settled_equations(model, prm, real, b, &mut w.f);
         let first = full + c * JET;
         for s in 0..slots.len() {
@@ -2154,8 +2164,8 @@ fn rigid_hole_columns<G: Group>(
             *s = f.bend_shift(prm0.clearance, prm0.width);
         }
     }
-    for (c, (prm, real, _)) in chunks.iter().enumerate() {
-        let real = &real[real_at..real_at + m];
+    let real = &chunks[0].1[real_at..real_at + m];
+    for (c, (prm, _, _)) in chunks.iter().enumerate() {
         let slots = &cables[c * JET..cables.len().min((c + 1) * JET)];
         for (s, &cable) in slots.iter().enumerate() {
             // once per cable of the chunk
