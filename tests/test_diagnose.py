@@ -627,3 +627,39 @@ def test_fold_fits_carry_no_uncertainty_and_the_same_fit(mods, robot):
         assert (a.ssr, a.bic, a.iterations) == (b.ssr, b.bic, b.iterations)
     np.testing.assert_array_equal(some[0].std, every[0].std)
     np.testing.assert_array_equal(some[0].corr, every[0].corr)
+
+
+def test_a_candidate_asked_again_is_not_fitted_again(mods, robot, monkeypatch):
+    """Issue 35, item 5: a candidate asked for again with its effects in the
+    same order (a forward-selection trial that backward elimination or the
+    search asks for) is not fitted again: a new candidate, equal bit for bit
+    to the first and to a fit afresh; the same effects in another order are
+    fitted (their fit differs in rounding)."""
+    plant, diagnose = mods["plant"], mods["diagnose"]
+    meas = _data(plant, robot, {"hole_height": _typical(plant, robot, "hole_height", 3)}, 3)
+    prep = diagnose.prepare(robot, meas, "base")
+    calls = []
+    real = diagnose.fit_candidates
+
+    def spy(prep, candidates, *a, **k):
+        calls.append([list(c) for c in candidates])
+        return real(prep, candidates, *a, **k)
+
+    monkeypatch.setattr(diagnose, "fit_candidates", spy)
+    scorer = diagnose._Scorer(prep, prep.rows, FOLDS)
+    scorer.base_error = scorer.evaluate("none", []).heldout
+    first = scorer.evaluate("hole_height+link_length", ["hole_height", "link_length"])
+    again = scorer.evaluate_all([("actuation_scale", ["actuation_scale"]),
+                                 ("hole_height+link_length", ["hole_height", "link_length"])])[1]
+    assert calls[1:] == [[["hole_height", "link_length"]], [["actuation_scale"]]]
+    fresh = diagnose._Scorer(prep, prep.rows, FOLDS, base_error=scorer.base_error).evaluate(
+        "hole_height+link_length", ["hole_height", "link_length"])
+    assert again is not first and again.fit is not first.fit
+    for c in (again, fresh):
+        assert (c.name, c.effects, c.failures, c.fitted) == (first.name, first.effects, first.failures, first.fitted)
+        np.testing.assert_array_equal(c.heldout, first.heldout)
+        np.testing.assert_array_equal(c.fit.p, first.fit.p)
+        np.testing.assert_array_equal(c.fit.std, first.fit.std)
+        np.testing.assert_array_equal(c.fit.prediction, first.fit.prediction)
+    scorer.evaluate("link_length+hole_height", ["link_length", "hole_height"])
+    assert calls[-1] == [["link_length", "hole_height"]]

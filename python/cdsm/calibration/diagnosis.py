@@ -93,6 +93,7 @@ one reading per axis.
 
 from __future__ import annotations
 
+import copy
 import itertools
 import warnings
 from dataclasses import dataclass, field
@@ -578,7 +579,11 @@ def _fitted(prep: Prepared, effects: Sequence[str]) -> List[str]:
 
 class _Scorer:
     """Fits and cross-validates candidates on one set of rows; ``bar``: a
-    progress line counting fold fits."""
+    progress line counting fold fits. A candidate asked for again with its
+    fitted effects in the same order (a forward-selection trial that
+    backward elimination or the search asks for) is not fitted again: its
+    fits would be the same bit for bit (a fit depends on nothing but its
+    effects, rows and start); the answer is a copy of the first."""
 
     def __init__(self, prep: Prepared, rows: np.ndarray, folds: int, base_error: Optional[np.ndarray] = None,
                  bar: Optional[Progress] = None):
@@ -595,6 +600,9 @@ class _Scorer:
             self.scored[f + 1, self.rows] = True
             self.scored[f + 1, t] = False
         self.base_error = base_error
+        # (fitted effects in order, whether there was no base error) -> the
+        # candidate fitted first
+        self.done: Dict[Tuple[Tuple[str, ...], bool], Candidate] = {}
 
     def evaluate(self, name: str, effects: Sequence[str]) -> Candidate:
         """The candidate of ``effects`` (:meth:`evaluate_all` of one)."""
@@ -612,22 +620,35 @@ class _Scorer:
         minimum."""
         prep = self.prep
         fitted = [_fitted(prep, effects) for _, effects in named]
+        key = [(tuple(f), self.base_error is None) for f in fitted]
+        todo = [c for c in range(len(named)) if key[c] not in self.done]
         start = prep.start if prep.registered else np.zeros(plant.size(prep.robot))
         per = len(self.scored)
         # whole candidates per call, as many as the budget of rows allows (one at least)
         step = max(1, FIT_ROWS_AT_ONCE // max(per * len(prep.theta_cmd), 1))
-        out = []
-        for first in range(0, len(named), step):
-            part = range(first, min(first + step, len(named)))
+        out: Dict[int, Candidate] = {c: self._again(named[c][0], named[c][1], self.done[key[c]])
+                                     for c in range(len(named)) if key[c] in self.done}
+        for first in range(0, len(todo), step):
+            part = todo[first:first + step]
             # the folds' fits serve their predictions only: no uncertainty
             fits = fit_candidates(prep, [fitted[c] for c in part], np.tile(self.scored, (len(part), 1)),
                                   np.repeat(np.arange(len(part)), per), start,
                                   uncertainty=np.tile(np.arange(per) == 0, len(part)))
             for j, c in enumerate(part):
-                out.append(self._candidate(named[c][0], list(named[c][1]), fitted[c], fits[j * per:(j + 1) * per]))
+                out[c] = self._candidate(named[c][0], list(named[c][1]), fitted[c], fits[j * per:(j + 1) * per])
+                self.done.setdefault(key[c], out[c])
             if self.bar is not None:
                 self.bar.update(len(fits))
-        return out
+        return [out[c] for c in range(len(named))]
+
+    @staticmethod
+    def _again(name: str, effects: Sequence[str], first: Candidate) -> Candidate:
+        """The candidate ``name`` of ``effects`` from the same fits as
+        ``first`` (a new candidate, as a fit again would give)."""
+        fit_ = copy.copy(first.fit)
+        fit_.effects = list(effects)
+        return Candidate(name, list(effects), fit_, first.heldout.copy(), first.failures,
+                         fitted=list(first.fitted), folds=[t.copy() for t in first.folds])
 
     def _candidate(self, name: str, effects: List[str], fitted: List[str], fits: List[Fit]) -> Candidate:
         """The candidate from its fit on every row and its folds' fits."""
