@@ -11,7 +11,7 @@ folds) and reaches less; this says what the library could give at best
 
     python benches/ftdcr_v4_models.py [--most 3]
 
-About 2 min of CPU at ``--most 3`` (41 fits); one thread per fit.
+About 2 min of CPU at ``--most 3`` (42 fits); one thread per fit.
 """
 
 from __future__ import annotations

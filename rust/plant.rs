@@ -3183,8 +3183,8 @@ mod tests {
     #[test]
     fn hole_columns_apart_are_the_full_passes_on_a_stated_redundant_cable() {
         // stated 1 mm steel cables (the settle at the potential; on the
-        // default 0.18 mm cable the snake would fold under its weight) (the packaged 0.18 mm cable lets the snake
-        // fold under its weight), without clearance (with it the redundant
+        // default 0.18 mm cable the snake would fold under its weight),
+        // without clearance (with it the redundant
         // arm's settle is the damped Newton on the balance, which fails
         // where cables go slack): `docs/model.md`, "Settling"
         let sjtu = format!(

@@ -654,7 +654,7 @@ def test_a_candidate_asked_again_is_not_fitted_again(mods, robot, monkeypatch):
     assert calls[1:] == [[["hole_height", "link_length"]], [["actuation_scale"]]]
     fresh = diagnose._Scorer(prep, prep.rows, FOLDS, base_error=scorer.base_error).evaluate(
         "hole_height+link_length", ["hole_height", "link_length"])
-    assert again is not first and again.fit is not first.fit
+    assert again is not first and again.fit is not first.fit and again.fit.p is not first.fit.p
     for c in (again, fresh):
         assert (c.name, c.effects, c.failures, c.fitted) == (first.name, first.effects, first.failures, first.fitted)
         np.testing.assert_array_equal(c.heldout, first.heldout)
@@ -663,3 +663,7 @@ def test_a_candidate_asked_again_is_not_fitted_again(mods, robot, monkeypatch):
         np.testing.assert_array_equal(c.fit.prediction, first.fit.prediction)
     scorer.evaluate("link_length+hole_height", ["link_length", "hole_height"])
     assert calls[-1] == [["link_length", "hole_height"]]
+    # another base error (the rows a fold cannot predict take it): fitted again
+    scorer.base_error = scorer.base_error.copy()
+    scorer.evaluate("hole_height+link_length", ["hole_height", "link_length"])
+    assert calls[-1] == [["hole_height", "link_length"]]

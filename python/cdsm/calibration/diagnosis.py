@@ -583,7 +583,9 @@ class _Scorer:
     fitted effects in the same order (a forward-selection trial that
     backward elimination or the search asks for) is not fitted again: its
     fits would be the same bit for bit (a fit depends on nothing but its
-    effects, rows and start); the answer is a copy of the first."""
+    effects, rows and start); the answer is a copy of the first, where it
+    was scored against the same base error (a held-out error a fold could
+    not predict is the base model's)."""
 
     def __init__(self, prep: Prepared, rows: np.ndarray, folds: int, base_error: Optional[np.ndarray] = None,
                  bar: Optional[Progress] = None):
@@ -600,9 +602,9 @@ class _Scorer:
             self.scored[f + 1, self.rows] = True
             self.scored[f + 1, t] = False
         self.base_error = base_error
-        # (fitted effects in order, whether there was no base error) -> the
-        # candidate fitted first
-        self.done: Dict[Tuple[Tuple[str, ...], bool], Candidate] = {}
+        # fitted effects in order -> (the base error it was scored with, the
+        # candidate fitted first): a hit needs the same base error object
+        self.done: Dict[Tuple[str, ...], Tuple[Optional[np.ndarray], Candidate]] = {}
 
     def evaluate(self, name: str, effects: Sequence[str]) -> Candidate:
         """The candidate of ``effects`` (:meth:`evaluate_all` of one)."""
@@ -620,14 +622,15 @@ class _Scorer:
         minimum."""
         prep = self.prep
         fitted = [_fitted(prep, effects) for _, effects in named]
-        key = [(tuple(f), self.base_error is None) for f in fitted]
-        todo = [c for c in range(len(named)) if key[c] not in self.done]
+        key = [tuple(f) for f in fitted]
+        hit = [key[c] in self.done and self.done[key[c]][0] is self.base_error for c in range(len(named))]
+        todo = [c for c in range(len(named)) if not hit[c]]
         start = prep.start if prep.registered else np.zeros(plant.size(prep.robot))
         per = len(self.scored)
         # whole candidates per call, as many as the budget of rows allows (one at least)
         step = max(1, FIT_ROWS_AT_ONCE // max(per * len(prep.theta_cmd), 1))
-        out: Dict[int, Candidate] = {c: self._again(named[c][0], named[c][1], self.done[key[c]])
-                                     for c in range(len(named)) if key[c] in self.done}
+        out: Dict[int, Candidate] = {c: self._again(named[c][0], named[c][1], self.done[key[c]][1])
+                                     for c in range(len(named)) if hit[c]}
         for first in range(0, len(todo), step):
             part = todo[first:first + step]
             # the folds' fits serve their predictions only: no uncertainty
@@ -636,7 +639,7 @@ class _Scorer:
                                   uncertainty=np.tile(np.arange(per) == 0, len(part)))
             for j, c in enumerate(part):
                 out[c] = self._candidate(named[c][0], list(named[c][1]), fitted[c], fits[j * per:(j + 1) * per])
-                self.done.setdefault(key[c], out[c])
+                self.done[key[c]] = (self.base_error, out[c])
             if self.bar is not None:
                 self.bar.update(len(fits))
         return [out[c] for c in range(len(named))]
@@ -645,7 +648,7 @@ class _Scorer:
     def _again(name: str, effects: Sequence[str], first: Candidate) -> Candidate:
         """The candidate ``name`` of ``effects`` from the same fits as
         ``first`` (a new candidate, as a fit again would give)."""
-        fit_ = copy.copy(first.fit)
+        fit_ = copy.deepcopy(first.fit)
         fit_.effects = list(effects)
         return Candidate(name, list(effects), fit_, first.heldout.copy(), first.failures,
                          fitted=list(first.fitted), folds=[t.copy() for t in first.folds])
