@@ -233,7 +233,9 @@ def _q_of(d):
     return np.eye(3) + math.sin(angle) * K + (1 - math.cos(angle)) * K @ K
 
 
-DIRECTIONS = [(0, 0, 1), (1, 0, 0), (-1, 0, 0), (0, -1, 0), (0.6, 0.8, 0), (1, -2, 2)]
+# (-1, 1e-160, 0): within 1e-154 of -x, where the rotation's (1 - c) / |v|^2
+# overflowed and the import was NaN
+DIRECTIONS = [(0, 0, 1), (1, 0, 0), (-1, 0, 0), (0, -1, 0), (0.6, 0.8, 0), (1, -2, 2), (-1, 1e-160, 0)]
 
 
 @pytest.mark.parametrize("d", DIRECTIONS, ids=[str(d) for d in DIRECTIONS])

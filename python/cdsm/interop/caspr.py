@@ -375,11 +375,18 @@ def _rotation(links: Sequence[_Link], bodies: _Reader) -> np.ndarray:
                                "their own x axis (one constant rotation from CASPR's frames)")
     ex = np.array([1.0, 0.0, 0.0])
     v, c = np.cross(d, ex), float(d @ ex)
-    s2 = float(v @ v)
-    if s2 == 0.0:
+    n = _unit(v)
+    if n is None:
         return np.eye(3) if c > 0 else np.diag([-1.0, -1.0, 1.0])
-    vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-    return np.eye(3) + vx + vx @ vx * ((1.0 - c) / s2)
+
+    def skew(a: np.ndarray) -> np.ndarray:
+        return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+    # Rodrigues with the unit axis n = v / |v| (sin = |v|, 1 - cos): the
+    # form vx @ vx (1 - c) / |v|^2 overflows to inf * 0 (NaN), or loses
+    # digits in a subnormal |v|^2, where d is within ~1e-154 of -x
+    nx = skew(n)
+    return np.eye(3) + skew(v) + (nx @ nx) * (1.0 - c)
 
 
 def _floats(v) -> List[float]:
