@@ -1161,6 +1161,16 @@ pub fn solve_general_each(n: usize, a: &[f64], b: &[f64], x: &mut [f64]) -> bool
 mod tests {
     use super::*;
 
+    /// A fixed pseudo-random sequence in [-0.5, 0.5) (an LCG from `seed`).
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        }
+    }
+
     /// r(x) = [x0^2 - 2, x0 x1 - 1]: lower triangular Jacobian.
     struct Tri;
     impl Problem for Tri {
@@ -1241,13 +1251,7 @@ mod tests {
     #[test]
     fn small_spd_solve_matches_faer_and_rejects_indefinite_matrices() {
         // a = M M^T + 0.1 I from a fixed pseudo-random M, n = 1..6
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rnd = uniform(7);
         for n in 1..=6 {
             let m: Vec<f64> = (0..n * n).map(|_| rnd()).collect();
             let a: Vec<f64> = (0..n * n)
@@ -1283,13 +1287,7 @@ mod tests {
         // solve_general_each: every right-hand side the bits of a solve of
         // it alone that factors the matrix again (nalgebra up to n = 6,
         // faer beyond), a singular matrix false
-        let mut seed = 5u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rnd = uniform(5);
         for n in 1..=10 {
             let a: Vec<f64> = (0..n * n).map(|_| rnd()).collect();
             let b: Vec<f64> = (0..6 * n).map(|_| rnd()).collect();
@@ -1336,13 +1334,7 @@ mod tests {
         // entry (it must pivot), one singular (its lane comes back false);
         // each lane equals faer's LU (and, SPD, its Cholesky) to 1e-12 and
         // has the bits of the same solve of its own row in f64
-        let mut seed = 11u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rnd = uniform(11);
         let n = 8;
         let mut a = vec![Pack::<4>::splat(0.0); n * n];
         let mut b = vec![Pack::<4>::splat(0.0); n];
