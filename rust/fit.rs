@@ -576,11 +576,11 @@ mod tests {
         truth[off[2]] = 2e-4;
         truth[off[2] + 1] = -1e-4;
         truth[off[0]] = 0.02;
-        let (th, dl, kind) = paper_commands();
+        let (th, dl, reading) = paper_commands();
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,
-            kind: &kind,
+            reading: &reading,
         };
         let o = SolveOptions::default();
         let meas = predict(&r, &truth, &rows, &o, 1).unwrap().observation;
@@ -627,8 +627,8 @@ mod tests {
             ]);
             dl.extend_from_slice(&[1e-3 * (2.1 * a).sin(), 0.0, -5e-4 * a.cos()]);
         }
-        let kind = vec![Reading::Absolute; 12];
-        (th, dl, kind)
+        let reading = vec![Reading::Absolute; 12];
+        (th, dl, reading)
     }
 
     /// The paper arm on 12 absolute rows with two effects hidden: the
@@ -639,11 +639,11 @@ mod tests {
         let mut truth = vec![0.0; lay.total];
         truth[lay.find(Effect::HoleHeight).unwrap().0] = 2e-4;
         truth[lay.find(Effect::ActuationScale).unwrap().0] = 0.02;
-        let (th, dl, kind) = paper_commands();
+        let (th, dl, reading) = paper_commands();
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,
-            kind: &kind,
+            reading: &reading,
         };
         let meas = predict(&r, &truth, &rows, &SolveOptions::default(), 1)
             .unwrap()

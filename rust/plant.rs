@@ -615,8 +615,8 @@ impl Reading {
             1 => Ok(Reading::Displacement),
             2 => Ok(Reading::Unmeasured),
             other => Err(CdsmError::Option {
-                name: "kind".into(),
-                problem: format!("row kind must be 0, 1 or 2, got {other}"),
+                name: "reading".into(),
+                problem: format!("a row's reading code must be 0, 1 or 2, got {other}"),
             }),
         }
     }
@@ -629,7 +629,7 @@ impl Reading {
 pub struct Rows<'a> {
     pub theta_cmd: &'a [f64],
     pub dl: &'a [f64],
-    pub kind: &'a [Reading],
+    pub reading: &'a [Reading],
 }
 
 /// The command sequence of a data set, built once from the nominal model:
@@ -709,11 +709,11 @@ impl Sequence {
         let m = commanded_cables(model).len();
         let rows = rows_of("theta_cmd", data.theta_cmd, n)?;
         rows_exactly("dl", data.dl, m, rows)?;
-        if data.kind.len() != rows {
+        if data.reading.len() != rows {
             return Err(CdsmError::Shape {
-                name: "kind".into(),
+                name: "reading".into(),
                 expected: format!("({rows},)"),
-                got: format!("({},)", data.kind.len()),
+                got: format!("({},)", data.reading.len()),
             });
         }
         let mut seq = Sequence {
@@ -723,7 +723,7 @@ impl Sequence {
             command: Vec::with_capacity(2 * rows * m),
             row: Vec::with_capacity(2 * rows),
             span: Vec::with_capacity(rows),
-            reading: data.kind.to_vec(),
+            reading: data.reading.to_vec(),
             theta_cmd: data.theta_cmd.to_vec(),
             motion: std::sync::OnceLock::new(),
         };
@@ -731,7 +731,7 @@ impl Sequence {
         for i in 0..rows {
             let c = &lengths[i * m..(i + 1) * m];
             let first = seq.row.len();
-            if data.kind[i] == Reading::Displacement {
+            if data.reading[i] == Reading::Displacement {
                 seq.command.extend_from_slice(c);
                 seq.row.push(i);
             }
@@ -2705,7 +2705,7 @@ mod tests {
     fn data(n: usize, m: usize, rows: usize) -> (Vec<f64>, Vec<f64>, Vec<Reading>) {
         let mut th = Vec::new();
         let mut dl = Vec::new();
-        let mut kind = Vec::new();
+        let mut reading = Vec::new();
         for i in 0..rows {
             let a = i as f64 * 0.37;
             for j in 0..n {
@@ -2718,13 +2718,13 @@ mod tests {
                     0.0
                 });
             }
-            kind.push(match i % 4 {
+            reading.push(match i % 4 {
                 1 => Reading::Displacement,
                 3 => Reading::Unmeasured,
                 _ => Reading::Absolute,
             });
         }
-        (th, dl, kind)
+        (th, dl, reading)
     }
 
     /// A parameter vector with every effect of the model's layout at a small size.
@@ -2856,12 +2856,12 @@ mod tests {
         let r = PlanarView::paper();
         let m = planar();
         let (th, dl, _) = data(3, 3, 2);
-        let kind = [Reading::Absolute; 2];
+        let reading = [Reading::Absolute; 2];
         let o = SolveOptions::default();
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,
-            kind: &kind,
+            reading: &reading,
         };
         let pr = predict(&m, &vec![0.0; layout(&m).total], &rows, &o, 1).unwrap();
         assert!(pr.converged.iter().all(|x| *x));
@@ -2885,11 +2885,11 @@ mod tests {
         let s = Model::from_toml(TWO_UNIVERSAL).unwrap();
         let (th, _, _) = data(4, 4, 3);
         let dl = vec![0.0; 12];
-        let kind = [Reading::Absolute; 3];
+        let reading = [Reading::Absolute; 3];
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,
-            kind: &kind,
+            reading: &reading,
         };
         let pr = predict(&s, &vec![0.0; layout(&s).total], &rows, &o, 1).unwrap();
         let want = crate::arm::fk(&s, &th, 1).unwrap();
@@ -2902,8 +2902,8 @@ mod tests {
     fn planar_jet_jacobian_matches_central_differences_of_the_predictions() {
         // every effect at once, on absolute and displacement rows, with backlash
         let m = planar();
-        let (th, dl, kind) = data(3, 3, 8);
-        check_jacobian(&m, &th, &dl, &kind, (0..layout(&m).total).collect());
+        let (th, dl, reading) = data(3, 3, 8);
+        check_jacobian(&m, &th, &dl, &reading, (0..layout(&m).total).collect());
     }
 
     #[test]
@@ -2917,11 +2917,11 @@ mod tests {
             }
             let (th, mut dl, _) = data(m.n(), m.position_cables().len(), 1);
             dl[0] = -1e-3;
-            let kind = [Reading::Displacement];
+            let reading = [Reading::Displacement];
             let rows = Rows {
                 theta_cmd: &th,
                 dl: &dl,
-                kind: &kind,
+                reading: &reading,
             };
             let opts = SolveOptions::default();
             let a = predict(&m, &vec![0.0; lay.total], &rows, &opts, 1).unwrap();
@@ -2960,7 +2960,7 @@ mod tests {
         let rows = Rows {
             theta_cmd: &th,
             dl: &[0.0; 3],
-            kind: &[Reading::Absolute],
+            reading: &[Reading::Absolute],
         };
         let pr = predict(&m, &p, &rows, &SolveOptions::default(), 1).unwrap();
         assert!(!pr.converged[0] && pr.observation[0].is_nan());
@@ -3002,8 +3002,8 @@ mod tests {
     /// The jets' Jacobian of the predictions against central differences
     /// (one-sided at a lower bound), for the parameters `free` of
     /// [`every_effect`].
-    fn check_jacobian(m: &Model, th: &[f64], dl: &[f64], kind: &[Reading], free: Vec<usize>) {
-        check_jacobian_at(m, &every_effect(m), th, dl, kind, free);
+    fn check_jacobian(m: &Model, th: &[f64], dl: &[f64], reading: &[Reading], free: Vec<usize>) {
+        check_jacobian_at(m, &every_effect(m), th, dl, reading, free);
     }
 
     /// [`check_jacobian`] at the parameters `p`.
@@ -3012,13 +3012,13 @@ mod tests {
         p: &[f64],
         th: &[f64],
         dl: &[f64],
-        kind: &[Reading],
+        reading: &[Reading],
         free: Vec<usize>,
     ) {
         let rows = Rows {
             theta_cmd: th,
             dl,
-            kind,
+            reading,
         };
         let o = SolveOptions::default();
         let p = p.to_vec();
@@ -3037,7 +3037,7 @@ mod tests {
             let div = if central { 2.0 * step } else { step };
             let pa = predict(m, &a, &rows, &o, 1).unwrap();
             let pb = predict(m, &b, &rows, &o, 1).unwrap();
-            for (i, k) in kind.iter().enumerate() {
+            for (i, k) in reading.iter().enumerate() {
                 if !lin.predictions.converged[i] || *k == Reading::Unmeasured {
                     continue;
                 }
@@ -3065,13 +3065,13 @@ mod tests {
         let mut p = every_effect(&m);
         let friction = lay.find(Effect::CableFriction).map_or(lay.total, |b| b.0);
         p[friction..].iter_mut().for_each(|v| *v = 0.0);
-        let (_, dl, kind) = data(m.n(), m.cables.len(), 3);
+        let (_, dl, reading) = data(m.n(), m.cables.len(), 3);
         let th = vec![0.0; 3 * m.n()];
         let free = (0..lay.total)
             .filter(|i| *i < friction)
             .step_by(2)
             .collect();
-        check_jacobian_at(&m, &p, &th, &dl, &kind, free);
+        check_jacobian_at(&m, &p, &th, &dl, &reading, free);
     }
 
     /// A rigid plant without statics, with hole errors (and clearance, a
@@ -3099,11 +3099,11 @@ mod tests {
         rows: usize,
         min_ok: usize,
     ) {
-        let (th, dl, kind) = data(m.n(), commanded_cables(m).len(), rows);
+        let (th, dl, reading) = data(m.n(), commanded_cables(m).len(), rows);
         let rows = Rows {
             theta_cmd: &th,
             dl: &dl,
-            kind: &kind,
+            reading: &reading,
         };
         let seq = Sequence::new(m, &rows).unwrap();
         let plant = Plant::<Spatial>::new(m, p).unwrap();
@@ -3315,22 +3315,22 @@ mod tests {
     #[test]
     fn hole_columns_with_statics_match_central_differences_of_the_predictions() {
         let m = Model::from_toml(TWO_UNIVERSAL).unwrap();
-        let (th, dl, kind) = data(4, 4, 6);
+        let (th, dl, reading) = data(4, 4, 6);
         let (o, s) = layout(&m).find(Effect::HolePosition).unwrap();
         for idle in [&[Effect::CableFriction][..], &[]] {
             let mut p = every_effect(&m);
             all_free_but(&m, &mut p, idle);
-            check_jacobian_at(&m, &p, &th, &dl, &kind, (o..o + s).collect());
+            check_jacobian_at(&m, &p, &th, &dl, &reading, (o..o + s).collect());
         }
     }
 
     #[test]
     fn rigid_hole_columns_match_central_differences_of_the_predictions() {
         let m = Model::from_toml(TWO_UNIVERSAL).unwrap();
-        let (th, dl, kind) = data(4, 4, 6);
+        let (th, dl, reading) = data(4, 4, 6);
         let (o, s) = layout(&m).find(Effect::HolePosition).unwrap();
         let p = rigid_with_hole_errors(&m);
-        check_jacobian_at(&m, &p, &th, &dl, &kind, (o..o + s).collect());
+        check_jacobian_at(&m, &p, &th, &dl, &reading, (o..o + s).collect());
     }
 
     #[test]
@@ -3338,12 +3338,12 @@ mod tests {
         // every effect at once (hole clearance and joint axes too), on
         // absolute and displacement rows, with backlash
         let m = Model::from_toml(TWO_UNIVERSAL).unwrap();
-        let (th, dl, kind) = data(4, 4, 6);
+        let (th, dl, reading) = data(4, 4, 6);
         check_jacobian(
             &m,
             &th,
             &dl,
-            &kind,
+            &reading,
             (0..layout(&m).total).step_by(3).collect(),
         );
     }

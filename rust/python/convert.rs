@@ -78,8 +78,8 @@ pub fn ik_method(name: &str) -> PyResult<IkMethod> {
     }
 }
 
-/// Row kinds from their codes (0 absolute, 1 displacement, 2 unmeasured).
-pub fn kinds(codes: &[u8]) -> PyResult<Vec<Reading>> {
+/// Rows' readings from their codes (0 absolute, 1 displacement, 2 unmeasured).
+pub fn readings(codes: &[u8]) -> PyResult<Vec<Reading>> {
     codes
         .iter()
         .map(|c| Reading::from_code(*c).map_err(err))

@@ -2,7 +2,7 @@
 //! the one arm model, for the robot classes of either kind: arrays in, named
 //! results out, the GIL released around the work.
 
-use super::convert::{err, kinds, opt_slice, options, slice, vec1, Arr, Array};
+use super::convert::{err, opt_slice, options, readings, slice, vec1, Arr, Array};
 use super::results::{CompensationResult, PlantFit, PlantPrediction};
 use crate::fit::{self, FitSpec};
 use crate::kinds::{Group, Visit};
@@ -41,19 +41,19 @@ pub fn bounds<'py>(py: Python<'py>, model: &Model) -> (Array<'py>, Array<'py>) {
 }
 
 /// The rows of a data set: commands `theta_cmd (N, n)`, `dl (N, m)` and
-/// the row kinds' codes.
+/// each row's reading (from its code).
 pub struct Data<'a> {
     pub theta_cmd: &'a [f64],
     pub dl: &'a [f64],
-    pub kind: Vec<plant::Reading>,
+    pub reading: Vec<plant::Reading>,
 }
 
 impl<'a> Data<'a> {
-    pub fn of(theta_cmd: &'a Arr<'_>, dl: &'a Arr<'_>, kind: &[u8]) -> PyResult<Self> {
+    pub fn of(theta_cmd: &'a Arr<'_>, dl: &'a Arr<'_>, reading: &[u8]) -> PyResult<Self> {
         Ok(Data {
             theta_cmd: slice("theta_cmd", theta_cmd)?,
             dl: slice("dl", dl)?,
-            kind: kinds(kind)?,
+            reading: readings(reading)?,
         })
     }
 
@@ -61,7 +61,7 @@ impl<'a> Data<'a> {
         Rows {
             theta_cmd: self.theta_cmd,
             dl: self.dl,
-            kind: &self.kind,
+            reading: &self.reading,
         }
     }
 }

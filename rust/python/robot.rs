@@ -790,7 +790,7 @@ impl CoreRobot {
         plant::bounds(py, &self.model)
     }
 
-    #[pyo3(signature = (params, theta_cmd, dl, kind, tol, max_iter, threads))]
+    #[pyo3(signature = (params, theta_cmd, dl, reading, tol, max_iter, threads))]
     #[allow(clippy::too_many_arguments)]
     fn plant_predict(
         &self,
@@ -798,16 +798,16 @@ impl CoreRobot {
         params: Arr<'_>,
         theta_cmd: Arr<'_>,
         dl: Arr<'_>,
-        kind: Vec<u8>,
+        reading: Vec<u8>,
         tol: f64,
         max_iter: u32,
         threads: usize,
     ) -> PyResult<PlantPrediction> {
-        let data = Data::of(&theta_cmd, &dl, &kind)?;
+        let data = Data::of(&theta_cmd, &dl, &reading)?;
         plant::predict(py, &self.model, params, &data, tol, max_iter, threads)
     }
 
-    #[pyo3(signature = (params, free, theta_cmd, dl, kind, tol, max_iter, threads))]
+    #[pyo3(signature = (params, free, theta_cmd, dl, reading, tol, max_iter, threads))]
     #[allow(clippy::too_many_arguments)]
     fn plant_linearise(
         &self,
@@ -816,12 +816,12 @@ impl CoreRobot {
         free: Vec<usize>,
         theta_cmd: Arr<'_>,
         dl: Arr<'_>,
-        kind: Vec<u8>,
+        reading: Vec<u8>,
         tol: f64,
         max_iter: u32,
         threads: usize,
     ) -> PyResult<PlantPrediction> {
-        let data = Data::of(&theta_cmd, &dl, &kind)?;
+        let data = Data::of(&theta_cmd, &dl, &reading)?;
         plant::linearise(
             py,
             &self.model,
@@ -839,14 +839,14 @@ impl CoreRobot {
     /// candidates in one call: `free` holds their free parameters one after
     /// another (`widths`: how many each; default one candidate) and
     /// `candidate (F,)` says which each fold's fit fits (default the first).
-    #[pyo3(signature = (theta_cmd, dl, kind, measured, scored, free, scale, start, tol, max_iter, fit_iter, threads, widths=None, candidate=None))]
+    #[pyo3(signature = (theta_cmd, dl, reading, measured, scored, free, scale, start, tol, max_iter, fit_iter, threads, widths=None, candidate=None))]
     #[allow(clippy::too_many_arguments)]
     fn plant_fit(
         &self,
         py: Python<'_>,
         theta_cmd: Arr<'_>,
         dl: Arr<'_>,
-        kind: Vec<u8>,
+        reading: Vec<u8>,
         measured: Arr<'_>,
         scored: Vec<bool>,
         free: Vec<usize>,
@@ -859,9 +859,9 @@ impl CoreRobot {
         widths: Option<Vec<usize>>,
         candidate: Option<Vec<usize>>,
     ) -> PyResult<Vec<PlantFit>> {
-        let data = Data::of(&theta_cmd, &dl, &kind)?;
+        let data = Data::of(&theta_cmd, &dl, &reading)?;
         let widths = widths.unwrap_or_else(|| vec![free.len()]);
-        let fits = scored.len() / kind.len().max(1);
+        let fits = scored.len() / reading.len().max(1);
         let candidate = candidate.unwrap_or_else(|| vec![0; fits]);
         let args = FitArgs {
             measured: slice("measured", &measured)?,

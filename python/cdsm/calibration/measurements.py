@@ -207,7 +207,8 @@ def _measurements(table: Table, n: int, cables: Optional[int]) -> Measurements:
         raise CdsmInputError(f"{source}: columns {extra} do not fit a robot with {n} joints")
     dL = np.stack([table.numbers(c) if c in has else np.zeros(rows) for c in dl_cols], 1)
     if {"x", "y"} <= has and {"dx", "dy"} & has:
-        raise CdsmInputError(f"{source}: both absolute (x, y) and displacement (dx, dy) columns; give one kind")
+        raise CdsmInputError(f"{source}: both absolute (x, y) and displacement (dx, dy) columns; "
+                             "give one reading (absolute or displacement)")
     if {"x", "y"} <= has:
         reading, mcols, pcol = "absolute", ("x", "y"), "phi"
     elif {"dx", "dy"} <= has:
