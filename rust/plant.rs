@@ -2524,10 +2524,7 @@ fn solve_elastic_k<G: Group>(
     if let Some(g) = loads.gravity {
         crate::error::check_finite("gravity", &g)?;
     }
-    let kappa = {
-        let d = model.cable.diameter;
-        1.0 / (model.cable.youngs_modulus * std::f64::consts::PI * d * d / 4.0)
-    };
+    let kappa = model.cable.compliance();
     let lay = layout(model);
     let mut p = vec![0.0; lay.total];
     if model.redundant_settle() != Some(RedundantSettle::Potential) {
